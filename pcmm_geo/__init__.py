@@ -1,0 +1,54 @@
+"""pcmm_geo: geometric metrology for coordinate measuring machines.
+
+Sub-packages (data flows down, nothing below imports from above):
+
+- :mod:`pcmm_geo.fit` -- Gaussian least-squares fits of geometric elements, skew lines,
+  reference-data generator (pure numpy/scipy).
+- :mod:`pcmm_geo.thermal` -- expansion model, RTD / thermistor conversions, 20 degC correction.
+- :mod:`pcmm_geo.machine` -- kinematics of the parallel-mechanism micro-CMM, calibration,
+  acquisition drivers and simulators.
+- :mod:`pcmm_geo.artefacts` -- gauge blocks, ISO 10360-2/-5/-6 evaluations.
+- :mod:`pcmm_geo.io` -- point, mesh and CSV file formats.
+- :mod:`pcmm_geo.testing` -- helpers for users' own tests.
+
+Units: millimetres and radians inside; degrees only where named ``*_deg``.
+"""
+
+from __future__ import annotations
+
+from pcmm_geo.errors import (
+    CalibrationError,
+    ConvergenceError,
+    DegenerateGeometryError,
+    DeviceError,
+    DeviceProtocolError,
+    DeviceTimeoutError,
+    FileFormatError,
+    IllConditionedWarning,
+    InvalidInputError,
+    LogIntegrityError,
+    NoRealSolutionError,
+    PcmmGeoError,
+    PcmmGeoWarning,
+    TooFewPointsError,
+)
+
+__version__ = "0.1.0"
+
+__all__ = [
+    "__version__",
+    "PcmmGeoError",
+    "PcmmGeoWarning",
+    "InvalidInputError",
+    "TooFewPointsError",
+    "DegenerateGeometryError",
+    "ConvergenceError",
+    "NoRealSolutionError",
+    "FileFormatError",
+    "CalibrationError",
+    "DeviceError",
+    "DeviceTimeoutError",
+    "DeviceProtocolError",
+    "LogIntegrityError",
+    "IllConditionedWarning",
+]

@@ -1,0 +1,68 @@
+"""The ``pcmm`` command: wiring only; the work happens in the library.
+
+Each sub-command lives in its own module of this package and exposes
+``register(subparsers)``; modules must import numpy and heavier libraries inside
+their handlers so that ``pcmm --help`` stays fast.  A handler returns a
+:class:`pcmm_geo.cli._output.Report`; ``main`` prints it as aligned text or, with
+``--json``, as JSON.  Library errors become one line on stderr and exit code 2.
+"""
+
+from __future__ import annotations
+
+import argparse
+import importlib
+import sys
+from collections.abc import Sequence
+
+# sub-command modules, in the order ``pcmm --help`` lists them
+COMMAND_MODULES = (
+    "demo",
+    "fit",
+    "calibrate",
+    "kinematics",
+    "process_log",
+    "numcal",
+    "sensitivity",
+    "gauge_block",
+    "iso10360",
+    "micrometer",
+    "thermal",
+    "acquire",
+    "compare",
+    "convert",
+)
+
+
+def build_parser() -> argparse.ArgumentParser:
+    from pcmm_geo import __version__
+
+    parser = argparse.ArgumentParser(
+        prog="pcmm",
+        description="Geometric metrology for coordinate measuring machines (pcmm_geo).",
+    )
+    parser.add_argument("--version", action="version", version=f"pcmm_geo {__version__}")
+    subparsers = parser.add_subparsers(dest="command", metavar="COMMAND")
+    for name in COMMAND_MODULES:
+        try:
+            module = importlib.import_module(f"pcmm_geo.cli.{name}")
+        except ModuleNotFoundError as exc:
+            if exc.name == f"pcmm_geo.cli.{name}":
+                continue  # sub-command not built yet
+            raise
+        module.register(subparsers)
+    return parser
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    from pcmm_geo.cli._output import run_handler
+
+    parser = build_parser()
+    args = parser.parse_args(argv)
+    if getattr(args, "handler", None) is None:
+        parser.print_help()
+        return 0 if args.command is None else 2
+    return run_handler(args)
+
+
+if __name__ == "__main__":  # pragma: no cover
+    sys.exit(main())

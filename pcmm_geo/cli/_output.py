@@ -1,0 +1,118 @@
+"""Output helpers shared by the sub-commands: reports, tables, JSON, one-line errors."""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import sys
+from dataclasses import dataclass, field
+from typing import Any
+
+EXIT_OK = 0
+EXIT_FAILURE = 1  # the computation ran but the verdict is "fail" (e.g. an ISO test)
+EXIT_USAGE = 2  # bad file, bad input, impossible geometry
+
+
+@dataclass
+class Table:
+    """A titled table: ``columns`` are header strings (put units in them), ``rows`` lists of cells."""
+
+    title: str
+    columns: list[str]
+    rows: list[list[Any]]
+
+
+@dataclass
+class Report:
+    """What a handler returns: JSON-ready ``data`` plus human ``tables`` and free ``lines``."""
+
+    data: dict[str, Any]
+    tables: list[Table] = field(default_factory=list)
+    lines: list[str] = field(default_factory=list)
+    exit_code: int = EXIT_OK
+
+
+def add_json_flag(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("--json", action="store_true", help="print the result as JSON on stdout")
+
+
+def format_cell(value: Any, digits: int = 6) -> str:
+    if isinstance(value, bool) or value is None:
+        return str(value)
+    if isinstance(value, int):
+        return str(value)
+    if isinstance(value, float):
+        if math.isnan(value):
+            return "nan"
+        if value != 0 and (abs(value) < 1e-4 or abs(value) >= 1e7):
+            return f"{value:.{digits}e}"
+        return f"{value:.{digits}f}"
+    return str(value)
+
+
+def render_table(table: Table) -> str:
+    cells = [[format_cell(c) for c in row] for row in table.rows]
+    widths = [len(h) for h in table.columns]
+    for row in cells:
+        for i, cell in enumerate(row):
+            widths[i] = max(widths[i], len(cell))
+    numeric = [
+        all(_looks_numeric(row[i]) for row in cells) if cells else False for i in range(len(table.columns))
+    ]
+
+    def fmt(row: list[str]) -> str:
+        return "  ".join(c.rjust(w) if numeric[i] else c.ljust(w) for i, (c, w) in enumerate(zip(row, widths)))
+
+    out = [table.title, fmt(table.columns), "  ".join("-" * w for w in widths)]
+    out.extend(fmt(r) for r in cells)
+    return "\n".join(out)
+
+
+def _looks_numeric(text: str) -> bool:
+    try:
+        float(text)
+    except ValueError:
+        return False
+    return True
+
+
+def to_jsonable(value: Any) -> Any:
+    """Convert numpy scalars/arrays and dataclass-like objects for ``json.dumps``."""
+    if hasattr(value, "tolist"):
+        return value.tolist()
+    if isinstance(value, dict):
+        return {str(k): to_jsonable(v) for k, v in value.items()}
+    if isinstance(value, (list, tuple)):
+        return [to_jsonable(v) for v in value]
+    if isinstance(value, float) and not math.isfinite(value):
+        return None
+    return value
+
+
+def print_report(report: Report, as_json: bool) -> None:
+    if as_json:
+        json.dump(to_jsonable(report.data), sys.stdout, indent=2, allow_nan=False)
+        sys.stdout.write("\n")
+        return
+    blocks = [render_table(t) for t in report.tables]
+    blocks.extend(report.lines)
+    print("\n\n".join(blocks) if report.tables else "\n".join(report.lines))
+
+
+def run_handler(args: argparse.Namespace) -> int:
+    from pcmm_geo.errors import PcmmGeoError
+
+    try:
+        report = args.handler(args)
+    except PcmmGeoError as exc:
+        print(f"pcmm {args.command}: error: {exc}", file=sys.stderr)
+        return EXIT_USAGE
+    except (OSError, ValueError) as exc:
+        print(f"pcmm {args.command}: error: {exc}", file=sys.stderr)
+        return EXIT_USAGE
+    except KeyboardInterrupt:
+        print(f"pcmm {args.command}: interrupted", file=sys.stderr)
+        return 130
+    print_report(report, bool(getattr(args, "json", False)))
+    return report.exit_code

@@ -1,0 +1,164 @@
+"""Exception and warning classes of pcmm_geo.
+
+Every error the library raises on purpose derives from :class:`PcmmGeoError`
+and *also* from the builtin that describes its nature, so callers can catch
+either ``pcmm_geo.PcmmGeoError`` or, say, ``ValueError``.  Each class carries
+structured fields (``what``, ``expected``, ``got``, ...) next to its message so
+that tools can react without parsing text.
+
+Examples
+--------
+>>> import numpy as np
+>>> from pcmm_geo import fit
+>>> try:
+...     fit.fit_sphere(np.zeros((2, 3)))
+... except PcmmGeoError as exc:
+...     print(type(exc).__name__, exc.needed, exc.got)
+TooFewPointsError 4 2
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+__all__ = [
+    "PcmmGeoError",
+    "InvalidInputError",
+    "TooFewPointsError",
+    "DegenerateGeometryError",
+    "ConvergenceError",
+    "NoRealSolutionError",
+    "FileFormatError",
+    "CalibrationError",
+    "DeviceError",
+    "DeviceTimeoutError",
+    "DeviceProtocolError",
+    "LogIntegrityError",
+    "IllConditionedWarning",
+    "PcmmGeoWarning",
+]
+
+
+class PcmmGeoError(Exception):
+    """Base class of every error raised by pcmm_geo."""
+
+    def __init__(self, message: str, **fields: Any) -> None:
+        super().__init__(message)
+        self.message = message
+        self.fields = dict(fields)
+        for name, value in fields.items():
+            setattr(self, name, value)
+
+
+class InvalidInputError(PcmmGeoError, ValueError):
+    """Input of the wrong shape, type or containing NaN/inf.
+
+    Fields: ``what`` (argument name), ``expected``, ``got``.
+    """
+
+    def __init__(self, what: str, expected: str, got: str) -> None:
+        super().__init__(f"{what}: expected {expected}, got {got}", what=what, expected=expected, got=got)
+
+
+class TooFewPointsError(PcmmGeoError, ValueError):
+    """Fewer points than the element needs. Fields: ``element``, ``needed``, ``got``."""
+
+    def __init__(self, element: str, needed: int, got: int) -> None:
+        super().__init__(
+            f"{element} fit needs at least {needed} points, got {got}",
+            element=element,
+            needed=needed,
+            got=got,
+        )
+
+
+class DegenerateGeometryError(PcmmGeoError, ValueError):
+    """The data cannot determine the element (collinear points for a plane, coplanar for a sphere...).
+
+    Fields: ``element``, ``reason``.
+    """
+
+    def __init__(self, element: str, reason: str) -> None:
+        super().__init__(f"{element}: degenerate data: {reason}", element=element, reason=reason)
+
+
+class ConvergenceError(PcmmGeoError, RuntimeError):
+    """An iterative solver did not converge. Fields: ``element``, ``iterations``, ``reason``."""
+
+    def __init__(self, element: str, iterations: int, reason: str) -> None:
+        super().__init__(
+            f"{element}: no convergence after {iterations} iterations: {reason}",
+            element=element,
+            iterations=iterations,
+            reason=reason,
+        )
+
+
+class NoRealSolutionError(PcmmGeoError, ValueError):
+    """A kinematic or geometric equation has no real solution (negative discriminant).
+
+    Fields: ``what`` and ``discriminant`` (the offending value, in its units; may be an array).
+    """
+
+    def __init__(self, what: str, discriminant: Any = None, detail: str = "") -> None:
+        text = f"{what}: no real solution"
+        if discriminant is not None:
+            text += f" (discriminant {discriminant})"
+        if detail:
+            text += f": {detail}"
+        super().__init__(text, what=what, discriminant=discriminant, detail=detail)
+
+
+class FileFormatError(PcmmGeoError, ValueError):
+    """A file does not follow its documented format. Fields: ``path``, ``line`` (1-based or None), ``reason``."""
+
+    def __init__(self, path: str, reason: str, line: int | None = None) -> None:
+        where = f"{path}:{line}" if line is not None else f"{path}"
+        super().__init__(f"{where}: {reason}", path=path, line=line, reason=reason)
+
+
+class CalibrationError(PcmmGeoError, ValueError):
+    """Calibration data are inconsistent or insufficient. Fields: ``reason``."""
+
+    def __init__(self, reason: str, **fields: Any) -> None:
+        super().__init__(reason, reason=reason, **fields)
+
+
+class DeviceError(PcmmGeoError, OSError):
+    """A serial device reported an error or the link failed. Fields: ``device``, ``reason``, ``code``."""
+
+    def __init__(self, device: str, reason: str, code: int | None = None) -> None:
+        text = f"{device}: {reason}" + (f" (code {code})" if code is not None else "")
+        PcmmGeoError.__init__(self, text, device=device, reason=reason, code=code)
+
+
+class DeviceTimeoutError(DeviceError, TimeoutError):
+    """A device did not answer in time. Fields: ``device``, ``reason``, ``timeout``."""
+
+    def __init__(self, device: str, timeout: float, reason: str = "no reply") -> None:
+        PcmmGeoError.__init__(
+            self, f"{device}: {reason} within {timeout} s", device=device, reason=reason, code=None, timeout=timeout
+        )
+
+
+class DeviceProtocolError(DeviceError):
+    """Bytes from a device that do not follow its protocol (after resynchronisation failed)."""
+
+
+class LogIntegrityError(PcmmGeoError, ValueError):
+    """An acquisition log is damaged (partial row, header mismatch) or would be overwritten.
+
+    Fields: ``path``, ``reason``, ``line``.
+    """
+
+    def __init__(self, path: str, reason: str, line: int | None = None) -> None:
+        where = f"{path}:{line}" if line is not None else f"{path}"
+        super().__init__(f"{where}: {reason}", path=path, reason=reason, line=line)
+
+
+class PcmmGeoWarning(UserWarning):
+    """Base class of pcmm_geo warnings."""
+
+
+class IllConditionedWarning(PcmmGeoWarning):
+    """A fit or calibration is poorly determined by its data (large condition number, tiny arc...)."""

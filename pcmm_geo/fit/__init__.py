@@ -1,0 +1,73 @@
+"""Gaussian (least-squares, orthogonal-distance) fits of geometric elements.
+
+Every ``fit_*`` function takes points of shape ``(N, 3)`` (``(N, 2)`` for the planar
+line and circle), in millimetres, and returns one frozen result dataclass per
+element type that subclasses :class:`FitResult`: element geometry, signed residuals,
+``rms``, ``form``, parameter covariance with names, degrees of freedom and
+convergence information.  Algebraic fits are used only as starting values.
+
+This sub-package knows nothing of machines or files: pure numpy/scipy.
+
+Examples
+--------
+>>> import numpy as np
+>>> from pcmm_geo.fit import fit_sphere
+>>> angles = np.linspace(0, 2 * np.pi, 7, endpoint=False)
+>>> pts = np.c_[10 * np.cos(angles), 10 * np.sin(angles), np.zeros(7)]
+>>> pts = np.vstack([pts, [0, 0, 10], [0, 0, -10]]) + 1000.0
+>>> result = fit_sphere(pts)
+>>> round(result.radius, 9), np.round(result.center, 9).tolist()
+(10.0, [1000.0, 1000.0, 1000.0])
+"""
+
+from __future__ import annotations
+
+import importlib
+from typing import Any
+
+from pcmm_geo.fit._core import TOL, FitResult, Tolerances
+
+# public name -> submodule that defines it; loaded on first access (PEP 562) so that
+# ``import pcmm_geo.fit`` stays fast and independent of scipy until a fit runs.
+_LAZY = {
+    "fit_line": "line",
+    "LineFit": "line",
+    "fit_plane": "plane",
+    "PlaneFit": "plane",
+    "fit_circle": "circle",
+    "CircleFit": "circle",
+    "fit_sphere": "sphere",
+    "SphereFit": "sphere",
+    "fit_cylinder": "cylinder",
+    "CylinderFit": "cylinder",
+    "fit_cone": "cone",
+    "ConeFit": "cone",
+    "fit_torus": "torus",
+    "TorusFit": "torus",
+    "closest_points": "skew",
+    "LinePair": "skew",
+    "nearest_point_to_lines": "skew",
+    "LinesNearestPoint": "skew",
+    "fit_spheres": "batch",
+    "fit_circles": "batch",
+    "fit_planes": "batch",
+    "fit_lines": "batch",
+    "BatchFit": "batch",
+    "reference": "reference",
+}
+
+__all__ = ["FitResult", "Tolerances", "TOL", *sorted(_LAZY)]
+
+
+def __getattr__(name: str) -> Any:
+    module_name = _LAZY.get(name)
+    if module_name is None:
+        raise AttributeError(f"module 'pcmm_geo.fit' has no attribute {name!r}")
+    module = importlib.import_module(f"pcmm_geo.fit.{module_name}")
+    value = module if name == module_name else getattr(module, name)
+    globals()[name] = value
+    return value
+
+
+def __dir__() -> list[str]:
+    return sorted(set(globals()) | set(_LAZY))
