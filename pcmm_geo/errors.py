@@ -34,6 +34,7 @@ __all__ = [
     "DeviceTimeoutError",
     "DeviceProtocolError",
     "LogIntegrityError",
+    "OutputExistsError",
     "IllConditionedWarning",
     "PcmmGeoWarning",
 ]
@@ -154,6 +155,15 @@ class LogIntegrityError(PcmmGeoError, ValueError):
     def __init__(self, path: str, reason: str, line: int | None = None) -> None:
         where = f"{path}:{line}" if line is not None else f"{path}"
         super().__init__(f"{where}: {reason}", path=path, reason=reason, line=line)
+
+
+class OutputExistsError(PcmmGeoError, FileExistsError):
+    """Writing would overwrite an existing file; pass ``overwrite=True`` to allow it. Fields: ``path``."""
+
+    def __init__(self, path: str) -> None:
+        PcmmGeoError.__init__(
+            self, f"{path}: already exists; refusing to overwrite (pass overwrite=True to replace it)", path=path
+        )
 
 
 class PcmmGeoWarning(UserWarning):
