@@ -1,0 +1,151 @@
+"""``pcmm kinematics forward|inverse|trilaterate``: rigid-body kinematics of the micro-CMM."""
+
+from __future__ import annotations
+
+import argparse
+from typing import Any
+
+from pcmm_geo.cli._output import Report, Table, add_json_flag
+
+ARM_NAMES = ("a", "b", "c")
+
+
+def add_machine_argument(parser: argparse.ArgumentParser, *, required: bool = False) -> None:
+    """``--calibration FILE``: machine model JSON or calibration JSON (default: the seed geometry)."""
+    parser.add_argument(
+        "--calibration",
+        required=required,
+        metavar="CAL.json",
+        help="rigid-body model or calibration JSON (default: seed geometry of thesis Table 3.1 / Appendix D)",
+    )
+
+
+def load_machine_file(path: str | None) -> Any:
+    """RigidBodyMachine from a model JSON, a calibration JSON (with or without columns) or the seed default.
+
+    A calibration without a stored machine supplies the tetrahedron; the columns are
+    then the seed's (Appendix D, vertical).
+    """
+    import json
+
+    from pcmm_geo.errors import FileFormatError, InvalidInputError
+    from pcmm_geo.machine.model import MODEL_SCHEMA, RigidBodyMachine
+
+    if path is None:
+        return RigidBodyMachine.from_dpkm()
+    with open(path, encoding="utf-8") as handle:
+        try:
+            document = json.load(handle)
+        except json.JSONDecodeError as exc:
+            raise FileFormatError(path, f"expected JSON, got {exc.msg}", line=exc.lineno) from None
+    if not isinstance(document, dict):
+        raise FileFormatError(path, f"expected a JSON object, got {type(document).__name__}")
+    try:
+        if document.get("schema") == MODEL_SCHEMA:
+            return RigidBodyMachine.from_dict(document)
+        if isinstance(document.get("machine"), dict) and document["machine"].get("schema") == MODEL_SCHEMA:
+            return RigidBodyMachine.from_dict(document["machine"])
+    except InvalidInputError as exc:
+        raise FileFormatError(path, f"machine model: {exc}") from None
+    from pcmm_geo.machine.calibration import load_calibration
+
+    tetrahedron = load_calibration(path).tetrahedron
+    seed = RigidBodyMachine.from_dpkm()
+    provisional = RigidBodyMachine(tetrahedron, seed.columns, seed.reference_lasers, seed.reference_heights)
+    reference = provisional.forward(heights=seed.reference_heights)
+    return RigidBodyMachine(tetrahedron, seed.columns, reference.lasers, seed.reference_heights)
+
+
+def register(subparsers: Any) -> None:
+    parser = subparsers.add_parser(
+        "kinematics",
+        help="rigid-body kinematics: forward (readings -> tip), inverse (tip -> readings), trilaterate",
+        description="Kinematics of the parallel micro-CMM (rigid-body model; the seed DPKM is its special case).",
+    )
+    actions = parser.add_subparsers(dest="action", metavar="ACTION", required=True)
+
+    forward = actions.add_parser("forward", help="laser and/or height readings -> probe-tip centre")
+    forward.add_argument("--lasers", type=float, nargs=3, metavar=("A", "B", "C"), help="laser readings in mm")
+    forward.add_argument("--heights", type=float, nargs=3, metavar=("A", "B", "C"), help="height readings in mm")
+    forward.add_argument("--heights-hint", type=float, nargs=3, metavar=("A", "B", "C"),
+                         help="starting heights when only lasers are given (selects branch and datum)")
+    forward.add_argument("--laser-sigma", type=float, default=1e-3, help="laser standard uncertainty in mm")
+    forward.add_argument("--height-sigma", type=float, default=1e-3, help="height standard uncertainty in mm")
+    add_machine_argument(forward)
+    add_json_flag(forward)
+    forward.set_defaults(handler=_handle_forward)
+
+    inverse = actions.add_parser("inverse", help="probe-tip centre -> height and laser readings")
+    inverse.add_argument("--tip", type=float, nargs=3, required=True, metavar=("X", "Y", "Z"), help="tip in mm")
+    add_machine_argument(inverse)
+    add_json_flag(inverse)
+    inverse.set_defaults(handler=_handle_inverse)
+
+    tri = actions.add_parser("trilaterate", help="probe from three pivots and arm lengths (eqs 2.9-2.21, corrected)")
+    tri.add_argument("--pivots", type=float, nargs=9, required=True, metavar="XYZ",
+                     help="pivot centres a, b, c: xa ya za xb yb zb xc yc zc (mm)")
+    tri.add_argument("--lengths", type=float, nargs=3, required=True, metavar=("LA", "LB", "LC"),
+                     help="pivot-to-tip lengths in mm")
+    add_json_flag(tri)
+    tri.set_defaults(handler=_handle_trilaterate)
+
+
+def _handle_forward(args: argparse.Namespace) -> Report:
+    from pcmm_geo.errors import InvalidInputError
+
+    if args.lasers is None and args.heights is None:
+        raise InvalidInputError("forward", "--lasers and/or --heights", "neither")
+    machine = load_machine_file(args.calibration)
+    sol = machine.forward(
+        lasers=args.lasers, heights=args.heights, laser_sigma=args.laser_sigma, height_sigma=args.height_sigma,
+        heights_hint=args.heights_hint,
+    )
+    data = {
+        "tip": sol.tip.tolist(),
+        "lasers": sol.lasers.tolist(),
+        "heights": sol.heights.tolist(),
+        "rotation": sol.rotation.tolist(),
+        "translation": sol.translation.tolist(),
+        "residuals": sol.residuals.tolist(),
+        "converged": bool(sol.converged),
+        "measured": [name for name, value in (("lasers", args.lasers), ("heights", args.heights)) if value],
+    }
+    rows = [[arm, float(sol.lasers[k]), float(sol.heights[k])] for k, arm in enumerate(ARM_NAMES)]
+    return Report(
+        data=data,
+        tables=[Table("Readings (as solved)", ["arm", "laser [mm]", "height [mm]"], rows)],
+        lines=[f"tip centre: x = {sol.tip[0]:.6f}  y = {sol.tip[1]:.6f}  z = {sol.tip[2]:.6f} mm"
+               f" (max closure residual {abs(sol.residuals).max():.3g} mm)"],
+    )
+
+
+def _handle_inverse(args: argparse.Namespace) -> Report:
+    machine = load_machine_file(args.calibration)
+    sol = machine.inverse(args.tip)
+    data = {
+        "tip": list(args.tip),
+        "lasers": sol.lasers.tolist(),
+        "heights": sol.heights.tolist(),
+        "rotation": sol.rotation.tolist(),
+        "translation": sol.translation.tolist(),
+        "converged": bool(sol.converged),
+    }
+    rows = [[arm, float(sol.lasers[k]), float(sol.heights[k])] for k, arm in enumerate(ARM_NAMES)]
+    return Report(data=data, tables=[Table("Readings for the tip", ["arm", "laser [mm]", "height [mm]"], rows)])
+
+
+def _handle_trilaterate(args: argparse.Namespace) -> Report:
+    import numpy as np
+
+    from pcmm_geo.machine.trilateration import trilaterate
+
+    pivots = np.asarray(args.pivots, dtype=float).reshape(3, 3)
+    result = trilaterate(pivots, args.lengths)
+    data = {
+        "point": result.point.tolist(),
+        "lower": result.lower.tolist(),
+        "upper": result.upper.tolist(),
+        "height_squared": float(result.height_squared),
+    }
+    rows = [["lower (probe hangs below)", *result.lower.tolist()], ["upper", *result.upper.tolist()]]
+    return Report(data=data, tables=[Table("Sphere intersections", ["root", "x [mm]", "y [mm]", "z [mm]"], rows)])
