@@ -168,28 +168,34 @@ def read_log(path: str | Path) -> MeasurementLog:
     name = str(path)
     rows: list[list[float]] = []
     with open(path, newline="", encoding="utf-8") as handle:
-        reader = csv.reader(handle)
-        header = next(reader, None)
-        if header is None or [h.strip().lower() for h in header] != list(LOG_COLUMNS):
-            raise FileFormatError(name, f"expected header {','.join(LOG_COLUMNS)}, got {header}", line=1)
-        for row in reader:
-            line = reader.line_num
-            if not row or all(not cell.strip() for cell in row):
-                continue
-            if len(row) != len(LOG_COLUMNS):
-                raise FileFormatError(name, f"expected {len(LOG_COLUMNS)} fields, got {len(row)}", line=line)
-            try:
-                values = [float(cell) for cell in row]
-            except ValueError:
-                raise FileFormatError(name, f"expected numbers, got {row}", line=line) from None
-            if not all(np.isfinite(values)):
-                raise FileFormatError(name, f"expected finite numbers, got {row}", line=line)
-            flags = values[:4]
-            allowed = ((0, 1), (0, 1), (1, 2, 3), (-1, 0, 1))
-            for column, value, options in zip(LOG_COLUMNS[:4], flags, allowed, strict=True):
-                if value not in options:
-                    raise FileFormatError(name, f"{column}: expected one of {options}, got {value:g}", line=line)
-            rows.append(values)
+        # ``# key: value`` metadata lines (written by pcmm_geo.machine.acqlog) are skipped;
+        # columns after the seven Table 3.2 columns (sequence number, time, raw counts) are ignored.
+        numbered = [(number, text) for number, text in enumerate(handle, start=1) if not text.startswith("#")]
+    reader = csv.reader(text for _, text in numbered)
+    header = next(reader, None)
+    header_line = numbered[0][0] if numbered else 1
+    if header is None or [h.strip().lower() for h in header[: len(LOG_COLUMNS)]] != list(LOG_COLUMNS):
+        raise FileFormatError(name, f"expected header {','.join(LOG_COLUMNS)}, got {header}", line=header_line)
+    n_columns = len(header)
+    for index, row in enumerate(reader, start=1):
+        line = numbered[index][0] if index < len(numbered) else None
+        if not row or all(not cell.strip() for cell in row):
+            continue
+        if len(row) != n_columns:
+            raise FileFormatError(name, f"expected {n_columns} fields, got {len(row)}", line=line)
+        row = row[: len(LOG_COLUMNS)]
+        try:
+            values = [float(cell) for cell in row]
+        except ValueError:
+            raise FileFormatError(name, f"expected numbers, got {row}", line=line) from None
+        if not all(np.isfinite(values)):
+            raise FileFormatError(name, f"expected finite numbers, got {row}", line=line)
+        flags = values[:4]
+        allowed = ((0, 1), (0, 1), (1, 2, 3), (-1, 0, 1))
+        for column, value, options in zip(LOG_COLUMNS[:4], flags, allowed, strict=True):
+            if value not in options:
+                raise FileFormatError(name, f"{column}: expected one of {options}, got {value:g}", line=line)
+        rows.append(values)
     if not rows:
         raise FileFormatError(name, "expected at least one data row, got none")
     data = np.array(rows)

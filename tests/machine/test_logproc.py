@@ -164,3 +164,26 @@ def test_seed_direction_rule_fails_when_pivot_stays_above_its_neighbour() -> Non
     assert wrong[1] == pytest.approx(h0[0] - 55.0, abs=1e-6)
     with pytest.raises(InvalidInputError, match="sign_rule"):
         seed_processing(log, h0, sign_rule="other")
+
+
+def test_read_log_accepts_acquisition_logs_with_metadata_and_extra_columns(tmp_path: Path) -> None:
+    """A durable acquisition log (``# key: value`` header, raw-count columns) reads as Table 3.2."""
+    import subprocess
+    import sys
+
+    out = tmp_path / "run.csv"
+    pcmm = Path(sys.executable).with_name("pcmm")
+    subprocess.run(
+        [str(pcmm), "acquire", "--simulate", "--moves", "4", "--settle", "0", "--seed", "3", "--out", str(out)],
+        check=True,
+        capture_output=True,
+        timeout=120,
+    )
+    text = out.read_text()
+    data_lines = [line for line in text.splitlines()[1:] if line and not line.startswith("#")]
+    log = read_log(out)
+    assert text.startswith("#")
+    assert len(log.lasers) == len(data_lines) - 1  # minus the header row
+    first = data_lines[1].split(",")
+    np.testing.assert_array_equal(log.lasers[0], [float(v) for v in first[4:7]])
+    assert int(log.motor[0]) == int(first[2])
