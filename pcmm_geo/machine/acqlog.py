@@ -42,7 +42,7 @@ from datetime import UTC, datetime
 from pathlib import Path
 from typing import IO, Any
 
-from pcmm_geo.errors import InvalidInputError, LogIntegrityError
+from pcmm_geo.errors import InvalidInputError, LogIntegrityError, OutputExistsError
 
 __all__ = [
     "COLUMN_UNITS",
@@ -292,7 +292,7 @@ class AcquisitionLog:
 
         Raises
         ------
-        LogIntegrityError
+        OutputExistsError
             The file exists and ``overwrite`` is False.
         InvalidInputError
             A metadata key or value containing a line break, or a key with ``:``.
@@ -312,8 +312,7 @@ class AcquisitionLog:
         try:
             handle = open(path, "w" if overwrite else "x", encoding="utf-8", newline="")
         except FileExistsError as exc:
-            reason = "file exists; refusing to overwrite (resume it or pass overwrite)"
-            raise LogIntegrityError(str(path), reason) from exc
+            raise OutputExistsError(str(path)) from exc
         log = cls(path, handle, LogRecovery(str(path), 0, False, 0, ""))
         log._write(header)
         _fsync_directory(path.parent)
@@ -408,8 +407,9 @@ def export_table_3_2(
     Raises
     ------
     LogIntegrityError
-        The source is damaged (partial or bad row) or the destination exists and
-        ``overwrite`` is False.
+        The source is damaged (partial or bad row).
+    OutputExistsError
+        The destination exists and ``overwrite`` is False.
 
     Examples
     --------
@@ -430,7 +430,7 @@ def export_table_3_2(
             handle.flush()
             os.fsync(handle.fileno())
     except FileExistsError as exc:
-        raise LogIntegrityError(str(destination), "file exists; refusing to overwrite") from exc
+        raise OutputExistsError(str(destination)) from exc
     return destination
 
 

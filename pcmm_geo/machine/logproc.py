@@ -52,7 +52,7 @@ from pathlib import Path
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from pcmm_geo.errors import FileFormatError, InvalidInputError, LogIntegrityError
+from pcmm_geo.errors import FileFormatError, InvalidInputError, OutputExistsError
 from pcmm_geo.machine import _pose_solver as solver
 from pcmm_geo.machine.model import ARMS, RigidBodyMachine, as_readings
 
@@ -208,7 +208,7 @@ def write_log(path: str | Path, log: MeasurementLog, *, overwrite: bool = False)
 
     Raises
     ------
-    LogIntegrityError
+    OutputExistsError
         The file exists and ``overwrite`` is False (nothing recorded is lost).
 
     Examples
@@ -221,7 +221,7 @@ def write_log(path: str | Path, log: MeasurementLog, *, overwrite: bool = False)
     """
     target = Path(path)
     if target.exists() and not overwrite:
-        raise LogIntegrityError(str(target), "file exists; pass overwrite=True to replace it")
+        raise OutputExistsError(str(target))
     with open(target, "w", newline="", encoding="utf-8") as handle:
         writer = csv.writer(handle)
         writer.writerow(LOG_COLUMNS)

@@ -39,7 +39,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from pcmm_geo.errors import InvalidInputError
+from pcmm_geo.errors import InvalidInputError, OutputExistsError
 from pcmm_geo.machine.model import RigidBodyMachine, as_readings, as_vector3
 
 __all__ = ["Sensitivity", "plot_sensitivity", "sensitivity_over_cube", "tip_jacobian"]
@@ -271,7 +271,7 @@ def plot_sensitivity(sensitivity: Sensitivity, path: str | Path, *, overwrite: b
 
     target = Path(path)
     if target.exists() and not overwrite:
-        raise FileExistsError(f"{target}: file exists; pass overwrite=True to replace it")
+        raise OutputExistsError(str(target))
     gain = np.log10(np.where(np.isfinite(sensitivity.laser_gain), sensitivity.laser_gain, np.nan))
     fig, (left, right) = plt.subplots(1, 2, figsize=(11, 4.5))
     rel = sensitivity.points - sensitivity.centre

@@ -11,7 +11,7 @@ from pathlib import Path
 
 import pytest
 
-from pcmm_geo.errors import InvalidInputError, LogIntegrityError
+from pcmm_geo.errors import InvalidInputError, LogIntegrityError, OutputExistsError
 from pcmm_geo.machine import acqlog
 from pcmm_geo.machine.acqlog import LOG_COLUMNS, AcquisitionLog, LogRow, read_log
 
@@ -47,7 +47,7 @@ def test_header_metadata_and_round_trip(tmp_path: Path) -> None:
 def test_refuses_to_overwrite(tmp_path: Path) -> None:
     path = tmp_path / "run.csv"
     path.write_text("precious\n")
-    with pytest.raises(LogIntegrityError, match="refusing to overwrite"):
+    with pytest.raises(OutputExistsError, match="refusing to overwrite"):
         AcquisitionLog.create(path)
     assert path.read_text() == "precious\n"
     with AcquisitionLog.create(path, overwrite=True) as log:
@@ -161,5 +161,5 @@ def test_table_3_2_export_reads_with_the_log_processor(tmp_path: Path) -> None:
     assert parsed.motor.tolist() == [1, 2, 3, 1, 2]
     assert parsed.direction.tolist() == [1, 1, -1, -1, 1]
     assert parsed.lasers[:, 0].tolist() == [10.0, 11.0, 12.0, 13.0, 14.0]
-    with pytest.raises(LogIntegrityError, match="refusing to overwrite"):
+    with pytest.raises(OutputExistsError, match="refusing to overwrite"):
         acqlog.export_table_3_2(tmp_path / "run.csv", table)

@@ -7,7 +7,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from pcmm_geo.errors import FileFormatError, InvalidInputError, LogIntegrityError
+from pcmm_geo.errors import FileFormatError, InvalidInputError, OutputExistsError
 from pcmm_geo.machine.logproc import (
     LOG_COLUMNS,
     MeasurementLog,
@@ -97,7 +97,7 @@ def test_csv_round_trip(tmp_path: Path) -> None:
     np.testing.assert_allclose(again.lasers, log.lasers, atol=1e-9)
     out = process_log(machine, again, initial_heights=h0)
     assert np.abs(out.tips - machine.forward(heights=heights).tip).max() < 1e-6
-    with pytest.raises(LogIntegrityError, match="exists"):
+    with pytest.raises(OutputExistsError, match="exists"):
         write_log(path, log)
     write_log(path, log, overwrite=True)
 
