@@ -58,6 +58,10 @@ class Tolerances:
     ill_conditioned : float
         Condition number of the weighted Jacobian above which :class:`IllConditionedWarning`
         is emitted.
+    rounding_floor : float
+        A Gauss-Newton step below ``rounding_floor * (scale + |x|)`` that is no longer at
+        least halving from one iteration to the next is rounding noise: the iteration stops
+        as converged (ill-conditioned data never reach ``step``).
     """
 
     step: float = 1e-14
@@ -65,6 +69,7 @@ class Tolerances:
     identical: float = 1e-12
     degenerate: float = 1e-10
     ill_conditioned: float = 1e10
+    rounding_floor: float = 1e-11
 
 
 TOL = Tolerances()
@@ -189,9 +194,10 @@ def solve_least_squares(
 
     Notes
     -----
-    Convergence is declared when a full Gauss-Newton step (lambda = 0 accepted) is smaller
-    than ``TOL.step * (scale + |x|)``, i.e. the first-order optimality of the exact
-    least-squares problem holds to far below the 1e-9 mm target.
+    Convergence is declared when an undamped Gauss-Newton step is smaller than
+    ``TOL.step * (scale + |x|)``, or when it has reached the rounding floor (below
+    ``TOL.rounding_floor * (scale + |x|)`` and no longer shrinking): the first-order
+    optimality of the exact least-squares problem then holds far below the 1e-9 mm target.
     """
     x = np.array(x0, dtype=float)
 
@@ -209,35 +215,48 @@ def solve_least_squares(
     message = "iteration budget exhausted"
     converged = False
     iteration = 0
-    for iteration in range(1, TOL.max_iterations + 1):
+    previous_step = np.inf
+    for iteration in range(1, TOL.max_iterations + 1):  # noqa: B007 (reported after the loop)
         if not np.all(np.isfinite(jac)) or not np.all(np.isfinite(r)):
             message = "non-finite residuals or Jacobian"
             break
-        col_norm = np.linalg.norm(jac, axis=0)
-        col_norm[col_norm == 0] = 1.0
         if lam > 0:
+            col_norm = np.linalg.norm(jac, axis=0)
+            col_norm[col_norm == 0] = 1.0
             aug = np.vstack([jac, np.diag(np.sqrt(lam) * col_norm)])
             rhs = np.concatenate([-r, np.zeros(n_param)])
         else:
             aug, rhs = jac, -r
         step, *_ = np.linalg.lstsq(aug, rhs, rcond=None)
+        step_norm = float(np.linalg.norm(step))
+        size = scale + float(np.linalg.norm(x))
+        if lam == 0.0 and (
+            step_norm <= TOL.step * size
+            # rounding floor: a tiny Gauss-Newton step that no longer shrinks is noise
+            or (step_norm <= TOL.rounding_floor * size and step_norm >= 0.5 * previous_step)
+        ):
+            x = x + step
+            if normalize is not None:
+                x = normalize(x)
+            r, jac = evaluate(x)
+            converged, message = True, "converged: Gauss-Newton step below tolerance"
+            break
         trial = x + step
         if normalize is not None:
             trial = normalize(trial)
         r_trial, jac_trial = evaluate(trial)
         cost_trial = float(r_trial @ r_trial)
-        small = np.linalg.norm(step) <= TOL.step * (scale + np.linalg.norm(x))
-        if cost_trial <= cost * (1 + 1e-15) or small:
-            x, r, jac = trial, r_trial, jac_trial
-            if small and lam == 0.0:
-                converged, message = True, "converged: Gauss-Newton step below tolerance"
-                break
-            cost = min(cost, cost_trial)
-            lam = 0.0 if lam < 1e-6 else lam / 10.0
+        # undamped steps are accepted within rounding of the cost; damped ones must decrease it
+        accept = cost_trial < cost or (lam == 0.0 and cost_trial <= cost * (1 + 1e-12) + 1e-300)
+        if accept:
+            previous_step = step_norm if lam == 0.0 else np.inf
+            x, r, jac, cost = trial, r_trial, jac_trial, cost_trial
+            lam = 0.0 if lam <= 1e-8 else lam / 10.0
         else:
-            lam = 1e-4 if lam == 0.0 else lam * 10.0
-            if lam > 1e16:
-                message = "damping exhausted without decrease"
+            lam = 1e-6 if lam == 0.0 else lam * 10.0
+            previous_step = np.inf
+            if lam > 1e12:
+                message = "damping exhausted without decrease of the sum of squares"
                 break
     if not converged and raise_on_failure:
         raise ConvergenceError(element, iteration, message)

@@ -1,0 +1,62 @@
+"""Shared pieces of the closed-form (SVD) fits of lines and planes."""
+
+from __future__ import annotations
+
+import numpy as np
+from numpy.typing import NDArray
+
+from pcmm_geo.errors import DegenerateGeometryError
+from pcmm_geo.fit._core import TOL
+
+FloatArray = NDArray[np.float64]
+
+
+def weighted_centroid(points: FloatArray, weights: FloatArray | None) -> FloatArray:
+    """Centroid of ``points`` (``(N, D)``), weighted when ``weights`` is given."""
+    if weights is None:
+        return points.mean(axis=0)
+    return (weights[:, None] * points).sum(axis=0) / weights.sum()
+
+
+def principal_frame(
+    points: FloatArray, weights: FloatArray | None, *, element: str
+) -> tuple[FloatArray, FloatArray, FloatArray]:
+    """Centroid, singular values and right singular vectors (rows, descending) of the centred data.
+
+    Raises :class:`DegenerateGeometryError` when the data have no extent at all.
+    """
+    centroid = weighted_centroid(points, weights)
+    centred = points - centroid
+    if weights is not None:
+        centred = centred * np.sqrt(weights)[:, None]
+    _, singular, vt = np.linalg.svd(centred, full_matrices=False)
+    if singular[0] <= TOL.identical * max(1.0, float(np.abs(points).max())):
+        raise DegenerateGeometryError(element, "all points are identical")
+    return centroid, singular, vt
+
+
+def sign_convention(vector: FloatArray) -> FloatArray:
+    """Flip ``vector`` so that its largest-magnitude component is positive (documented convention)."""
+    return -vector if vector[int(np.argmax(np.abs(vector)))] < 0 else vector
+
+
+def propagate(local_cov: FloatArray, gradient: FloatArray) -> FloatArray:
+    """Covariance of machine-frame parameters ``G @ C @ G.T`` from local ones (``G`` = d machine / d local)."""
+    return gradient @ local_cov @ gradient.T
+
+
+def local_covariance(jacobian: FloatArray, residuals: FloatArray, dof: int) -> tuple[FloatArray, float]:
+    """``s^2 (J^T J)^-1`` and the condition number of ``J`` (both already weighted)."""
+    _, singular, vt = np.linalg.svd(jacobian, full_matrices=False)
+    cond = float(singular[0] / singular[-1]) if singular[-1] > 0 else float("inf")
+    variance = float(residuals @ residuals) / dof if dof > 0 else float("nan")
+    with np.errstate(divide="ignore"):
+        inverse = np.where(singular > 0, 1.0 / singular**2, np.inf)
+    return (vt.T * inverse) @ vt * variance, cond
+
+
+def frozen(array: FloatArray) -> FloatArray:
+    """Return a read-only float copy of ``array``."""
+    out = np.array(array, dtype=float)
+    out.setflags(write=False)
+    return out

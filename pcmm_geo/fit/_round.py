@@ -1,0 +1,101 @@
+"""Gaussian fit of a circle (2-D) or sphere (3-D): the shared n-sphere solver.
+
+Residual of point ``p``: ``|p - c| - r``.  The data are centred (and scaled only in
+the algebraic start) so that a 1000 mm offset costs no accuracy.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numpy.typing import NDArray
+
+from pcmm_geo.errors import DegenerateGeometryError
+from pcmm_geo.fit._core import TOL, SolverOutcome, solve_least_squares
+from pcmm_geo.fit._linear import local_covariance, weighted_centroid
+
+FloatArray = NDArray[np.float64]
+
+
+def algebraic_nsphere(centred: FloatArray, weights: FloatArray | None, *, element: str) -> tuple[FloatArray, float]:
+    """Kasa-type algebraic fit (linear in centre and ``r^2 - |c|^2``) of centred data; a starting value only."""
+    scale = float(np.sqrt(np.mean(np.sum(centred**2, axis=1))))
+    scaled = centred / scale
+    design = np.column_stack([2.0 * scaled, np.ones(len(scaled))])
+    target = np.sum(scaled**2, axis=1)
+    if weights is not None:
+        root = np.sqrt(weights)
+        design, target = design * root[:, None], target * root
+    solution, *_ = np.linalg.lstsq(design, target, rcond=None)
+    singular = np.linalg.svd(design, compute_uv=False)
+    if singular[-1] <= TOL.degenerate * singular[0]:
+        shape = "collinear" if centred.shape[1] == 2 else "coplanar"
+        raise DegenerateGeometryError(element, f"points are {shape}; no unique {element} passes through them")
+    centre = solution[:-1]
+    radius_sq = solution[-1] + centre @ centre
+    radius = float(np.sqrt(radius_sq)) if radius_sq > 0 else float(np.sqrt(np.mean(np.sum(scaled**2, axis=1))))
+    return centre * scale, radius * scale
+
+
+def fit_nsphere(
+    points: FloatArray,
+    weights: FloatArray | None,
+    *,
+    element: str,
+    fixed_radius: float | None = None,
+) -> tuple[FloatArray, float, SolverOutcome, FloatArray, float, FloatArray]:
+    """Solve the Gaussian n-sphere problem.
+
+    Returns
+    -------
+    centre, radius, outcome, residuals (unweighted), condition number,
+    local covariance over ``(centre..., radius)`` (radius row/column zero when fixed).
+    """
+    origin = weighted_centroid(points, weights)
+    centred = points - origin
+    size = float(np.sqrt(np.mean(np.sum(centred**2, axis=1))))
+    if fixed_radius is None:
+        centre0, radius0 = algebraic_nsphere(centred, weights, element=element)
+    else:
+        centre0 = _fixed_radius_start(centred, weights, fixed_radius, element=element)
+        radius0 = fixed_radius
+    dim = points.shape[1]
+
+    def residual_and_jacobian(params: FloatArray) -> tuple[FloatArray, FloatArray]:
+        centre = params[:dim]
+        radius = params[dim] if fixed_radius is None else fixed_radius
+        rel = centred - centre
+        dist = np.sqrt(np.sum(rel**2, axis=1))
+        safe = np.where(dist > 0, dist, 1.0)
+        jac = -rel / safe[:, None]
+        if fixed_radius is None:
+            jac = np.column_stack([jac, -np.ones(len(rel))])
+        return dist - radius, jac
+
+    x0 = np.append(centre0, radius0) if fixed_radius is None else centre0
+    sqrt_w = None if weights is None else np.sqrt(weights)
+    outcome = solve_least_squares(residual_and_jacobian, x0, element=element, scale=size, sqrt_weights=sqrt_w)
+    centre_local = outcome.x[:dim]
+    radius = float(outcome.x[dim]) if fixed_radius is None else float(fixed_radius)
+    if radius < 0:
+        raise DegenerateGeometryError(element, "the least-squares solution has a negative radius")
+    residuals, _ = residual_and_jacobian(outcome.x)
+    dof = len(points) - outcome.x.size
+    cov, cond = local_covariance(outcome.jacobian, outcome.residuals, dof)
+    if fixed_radius is not None:
+        full = np.zeros((dim + 1, dim + 1))
+        full[:dim, :dim] = cov
+        cov = full
+    return centre_local + origin, radius, outcome, residuals, cond, cov
+
+
+def _fixed_radius_start(
+    centred: FloatArray, weights: FloatArray | None, radius: float, *, element: str
+) -> FloatArray:
+    """Start for a fixed-radius fit: the free fit's centre when the data allow it, else the centroid shifted."""
+    try:
+        centre, _ = algebraic_nsphere(centred, weights, element=element)
+        return centre
+    except DegenerateGeometryError:
+        # a few points on a small arc: start on the side of the normal of the best line/plane
+        _, _, vt = np.linalg.svd(centred, full_matrices=False)
+        return vt[-1] * radius

@@ -1,0 +1,277 @@
+"""Gaussian (least-squares) circle in 2-D and 3-D.
+
+2-D: residual ``|p - c| - r``.  3-D, ``method="gaussian"`` (default): the residual of a
+point is its distance to the circle *curve*, with two components, in-plane radial
+``rho - r`` and axial ``h`` (the least-squares problem uses all 2N components).
+3-D, ``method="projected"``: least-squares plane, projection onto it, 2-D Gaussian
+circle in that plane -- the convention of NIST's reference pairs.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Literal
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from pcmm_geo.errors import DegenerateGeometryError, InvalidInputError
+from pcmm_geo.fit._core import FitResult, as_points, as_weights, residual_stats, solve_least_squares
+from pcmm_geo.fit._linear import frozen, local_covariance, sign_convention, weighted_centroid
+from pcmm_geo.fit._round import fit_nsphere
+from pcmm_geo.fit.plane import fit_plane
+
+__all__ = ["CircleFit", "fit_circle"]
+
+FloatArray = NDArray[np.float64]
+_ELEMENT = "circle"
+
+
+@dataclass(frozen=True, kw_only=True, eq=False, repr=False)
+class CircleFit(FitResult):
+    """Result of :func:`fit_circle`.
+
+    Attributes
+    ----------
+    center : ndarray, shape (2,) or (3,)
+        Centre (mm).
+    radius : float
+        Radius (mm).
+    normal : ndarray, shape (3,) or None
+        Unit normal of the circle's plane for 3-D data (largest-magnitude component
+        positive); ``None`` for 2-D data.
+    residual_components : ndarray, shape (N, 2) or (N, 1)
+        3-D: in-plane radial and axial components of each point's offset from the circle;
+        2-D: the radial residuals as a column.
+    """
+
+    center: FloatArray
+    radius: float
+    normal: FloatArray | None
+    residual_components: FloatArray
+
+    @property
+    def diameter(self) -> float:
+        """Fitted diameter (mm)."""
+        return 2.0 * self.radius
+
+
+def fit_circle(
+    points: ArrayLike,
+    *,
+    radius: float | None = None,
+    weights: ArrayLike | None = None,
+    method: Literal["gaussian", "projected"] = "gaussian",
+) -> CircleFit:
+    """Fit a circle minimising the (weighted) sum of squared orthogonal distances.
+
+    Parameters
+    ----------
+    points : array_like, shape (N, 2) or (N, 3)
+        Measured points (mm); N >= 3 (2-D with fixed radius: N >= 2), not collinear.
+    radius : float, optional
+        Fixed radius (mm).
+    weights : array_like, shape (N,), optional
+        Non-negative weights of the squared distances.
+    method : {"gaussian", "projected"}
+        3-D only: distance to the circle curve (default) or plane-then-projected circle.
+
+    Returns
+    -------
+    CircleFit
+        ``center``, ``radius``, ``normal`` (3-D), signed ``residuals`` (3-D gaussian: the
+        distance to the curve with the sign of the radial component; projected: radial
+        residual in the plane), ``rms``, ``form`` (roundness), covariance of the
+        machine-frame parameters.
+
+    Raises
+    ------
+    InvalidInputError
+        Wrong shape, NaN or inf, unknown method, non-positive fixed radius.
+    TooFewPointsError
+        Fewer than 3 points.
+    DegenerateGeometryError
+        Identical or collinear points.
+    ConvergenceError
+        The iteration did not converge.
+
+    Examples
+    --------
+    >>> angles = np.radians([0, 10, 20, 30])
+    >>> pts = np.c_[500 + 5 * np.cos(angles), 500 + 5 * np.sin(angles)]
+    >>> result = fit_circle(pts)
+    >>> np.round(result.center, 9).tolist(), round(result.radius, 9)
+    ([500.0, 500.0], 5.0)
+    """
+    if method not in ("gaussian", "projected"):
+        raise InvalidInputError("method", "'gaussian' or 'projected'", repr(method))
+    if radius is not None and not (np.isfinite(radius) and radius > 0):
+        raise InvalidInputError("radius", "a positive finite radius", repr(radius))
+    pts = as_points(points, element=_ELEMENT, dims=(2, 3), min_points=3)
+    w = as_weights(weights, len(pts), element=_ELEMENT)
+    if pts.shape[1] == 2:
+        return _circle_2d(pts, w, radius)
+    if method == "projected":
+        return _circle_projected(pts, w, radius)
+    return _circle_3d(pts, w, radius)
+
+
+def _circle_2d(pts: FloatArray, w: FloatArray | None, radius: float | None) -> CircleFit:
+    centre, fitted_radius, outcome, residuals, cond, cov = fit_nsphere(pts, w, element=_ELEMENT, fixed_radius=radius)
+    rms, form = residual_stats(residuals)
+    return CircleFit(
+        center=frozen(centre),
+        radius=fitted_radius,
+        normal=None,
+        residual_components=frozen(residuals[:, None]),
+        residuals=frozen(residuals),
+        rms=rms,
+        form=form,
+        n=len(pts),
+        dof=len(pts) - outcome.x.size,
+        parameter_names=("center_x", "center_y", "radius"),
+        parameters=frozen(np.append(centre, fitted_radius)),
+        covariance=frozen(cov),
+        condition_number=cond,
+        converged=outcome.converged,
+        iterations=outcome.iterations,
+        message=outcome.message,
+        method="gaussian" if radius is None else "gaussian-fixed-radius",
+    )
+
+
+def _plane_frame(pts: FloatArray, w: FloatArray | None) -> tuple[FloatArray, FloatArray]:
+    """Centroid and rows ``(e1, e2, normal)`` of the least-squares plane of the data."""
+    try:
+        plane = fit_plane(pts, weights=w)
+    except DegenerateGeometryError:
+        raise DegenerateGeometryError(_ELEMENT, "points are collinear; no unique circle passes through them") from None
+    normal = plane.normal
+    helper = np.zeros(3)
+    helper[int(np.argmin(np.abs(normal)))] = 1.0
+    e1 = np.cross(helper, normal)
+    e1 /= np.linalg.norm(e1)
+    return plane.point, np.vstack([e1, np.cross(normal, e1), normal])
+
+
+def _circle_projected(pts: FloatArray, w: FloatArray | None, radius: float | None) -> CircleFit:
+    origin, frame = _plane_frame(pts, w)
+    in_plane = (pts - origin) @ frame[:2].T
+    centre2, fitted_radius, outcome, residuals, cond, cov2 = fit_nsphere(
+        in_plane, w, element=_ELEMENT, fixed_radius=radius
+    )
+    centre = origin + centre2 @ frame[:2]
+    plane = fit_plane(pts, weights=w)
+    # block-diagonal: circle-in-plane uncertainty mapped to 3-D, normal from the plane fit
+    gradient = np.zeros((7, 3))
+    gradient[:3, 0] = frame[0]
+    gradient[:3, 1] = frame[1]
+    gradient[6, 2] = 1.0
+    cov = gradient @ cov2 @ gradient.T
+    cov[3:6, 3:6] = plane.covariance[3:, 3:]
+    rms, form = residual_stats(residuals)
+    normal = frozen(sign_convention(frame[2]))
+    return CircleFit(
+        center=frozen(centre),
+        radius=fitted_radius,
+        normal=normal,
+        residual_components=frozen(np.column_stack([residuals, (pts - origin) @ frame[2]])),
+        residuals=frozen(residuals),
+        rms=rms,
+        form=form,
+        n=len(pts),
+        dof=len(pts) - outcome.x.size,
+        parameter_names=_NAMES_3D,
+        parameters=frozen(np.concatenate([centre, normal, [fitted_radius]])),
+        covariance=frozen(cov),
+        condition_number=cond,
+        converged=outcome.converged,
+        iterations=outcome.iterations,
+        message=outcome.message,
+        method="projected" if radius is None else "projected-fixed-radius",
+    )
+
+
+_NAMES_3D = ("center_x", "center_y", "center_z", "normal_x", "normal_y", "normal_z", "radius")
+
+
+def _circle_3d(pts: FloatArray, w: FloatArray | None, radius: float | None) -> CircleFit:
+    start = _circle_projected(pts, w, radius)
+    origin = weighted_centroid(pts, w)
+    # standard position: plane of the starting circle is z = 0, its normal +z
+    _, frame = _plane_frame(pts, w)
+    local = (pts - origin) @ frame.T
+    size = float(np.sqrt(np.mean(np.sum(local**2, axis=1))))
+    centre0 = (start.center - origin) @ frame.T
+    x0 = np.concatenate([centre0, [0.0, 0.0]] + ([[start.radius]] if radius is None else []))
+
+    def unit_normal(tilt: FloatArray) -> tuple[FloatArray, FloatArray]:
+        raw = np.array([tilt[0], tilt[1], 1.0])
+        norm = np.linalg.norm(raw)
+        normal = raw / norm
+        # derivatives of normal with respect to tilt_x, tilt_y (columns)
+        d_raw = np.array([[1.0, 0.0], [0.0, 1.0], [0.0, 0.0]])
+        d_normal = d_raw / norm - np.outer(normal, normal @ d_raw) / norm
+        return normal, d_normal
+
+    def residual_and_jacobian(params: FloatArray) -> tuple[FloatArray, FloatArray]:
+        centre, tilt = params[:3], params[3:5]
+        r = params[5] if radius is None else radius
+        normal, d_normal = unit_normal(tilt)
+        rel = local - centre
+        axial = rel @ normal
+        radial_vec = rel - axial[:, None] * normal
+        rho = np.linalg.norm(radial_vec, axis=1)
+        if np.any(rho == 0):
+            raise DegenerateGeometryError(_ELEMENT, "a point lies on the circle's axis; the 3-D residual is undefined")
+        d_axial_d_tilt = rel @ d_normal  # (N, 2)
+        jac_axial = np.column_stack([np.tile(-normal, (len(rel), 1)), d_axial_d_tilt])
+        jac_radial = np.column_stack([-radial_vec / rho[:, None], -(axial / rho)[:, None] * d_axial_d_tilt])
+        if radius is None:
+            jac_radial = np.column_stack([jac_radial, -np.ones(len(rel))])
+            jac_axial = np.column_stack([jac_axial, np.zeros(len(rel))])
+        residual = np.empty(2 * len(rel))
+        residual[0::2], residual[1::2] = rho - r, axial
+        jac = np.empty((2 * len(rel), jac_radial.shape[1]))
+        jac[0::2], jac[1::2] = jac_radial, jac_axial
+        return residual, jac
+
+    sqrt_w = None if w is None else np.repeat(np.sqrt(w), 2)
+    outcome = solve_least_squares(residual_and_jacobian, x0, element=_ELEMENT, scale=size, sqrt_weights=sqrt_w)
+    centre_local, tilt = outcome.x[:3], outcome.x[3:5]
+    fitted_radius = float(outcome.x[5]) if radius is None else float(radius)
+    normal_local, d_normal = unit_normal(tilt)
+    stacked, _ = residual_and_jacobian(outcome.x)
+    components = stacked.reshape(-1, 2)
+    residuals = np.sign(components[:, 0]) * np.hypot(components[:, 0], components[:, 1])
+    residuals = np.where(components[:, 0] == 0, np.abs(components[:, 1]), residuals)
+    dof = 2 * len(pts) - outcome.x.size
+    cov_local, cond = local_covariance(outcome.jacobian, outcome.residuals, dof)
+    normal = normal_local @ frame
+    flip = -1.0 if normal[int(np.argmax(np.abs(normal)))] < 0 else 1.0
+    gradient = np.zeros((7, outcome.x.size))
+    gradient[:3, :3] = frame.T
+    gradient[3:6, 3:5] = flip * (frame.T @ d_normal)
+    if radius is None:
+        gradient[6, 5] = 1.0
+    centre = origin + centre_local @ frame
+    rms, form = residual_stats(residuals)
+    return CircleFit(
+        center=frozen(centre),
+        radius=fitted_radius,
+        normal=frozen(flip * normal),
+        residual_components=frozen(components * np.array([1.0, flip])),
+        residuals=frozen(residuals),
+        rms=rms,
+        form=form,
+        n=len(pts),
+        dof=dof,
+        parameter_names=_NAMES_3D,
+        parameters=frozen(np.concatenate([centre, flip * normal, [fitted_radius]])),
+        covariance=frozen(gradient @ cov_local @ gradient.T),
+        condition_number=cond,
+        converged=outcome.converged,
+        iterations=outcome.iterations,
+        message=outcome.message,
+        method="gaussian" if radius is None else "gaussian-fixed-radius",
+    )

@@ -1,0 +1,116 @@
+"""Gaussian (least-squares) plane.
+
+The orthogonal-distance least-squares plane passes through the (weighted) centroid,
+with the normal along the right singular vector of the smallest singular value of
+the centred data: a closed form, no iteration.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from pcmm_geo.errors import DegenerateGeometryError
+from pcmm_geo.fit._core import TOL, FitResult, as_points, as_weights, residual_stats
+from pcmm_geo.fit._linear import frozen, local_covariance, principal_frame, propagate, sign_convention
+
+__all__ = ["PlaneFit", "fit_plane"]
+
+FloatArray = NDArray[np.float64]
+_ELEMENT = "plane"
+
+
+@dataclass(frozen=True, kw_only=True, eq=False, repr=False)
+class PlaneFit(FitResult):
+    """Result of :func:`fit_plane`.
+
+    Attributes
+    ----------
+    point : ndarray, shape (3,)
+        The (weighted) centroid of the data, which lies on the plane (mm).
+    normal : ndarray, shape (3,)
+        Unit normal; sign chosen so that its largest-magnitude component is positive.
+    """
+
+    point: FloatArray
+    normal: FloatArray
+
+    def distance(self, points: ArrayLike) -> FloatArray:
+        """Signed distances of ``points`` (``(..., 3)``) from the plane, positive along ``normal``."""
+        return (np.asarray(points, dtype=float) - self.point) @ self.normal
+
+    def project(self, points: ArrayLike) -> FloatArray:
+        """Orthogonal projections of ``points`` (``(..., 3)``) onto the plane."""
+        pts = np.asarray(points, dtype=float)
+        return pts - self.distance(pts)[..., None] * self.normal
+
+
+def fit_plane(points: ArrayLike, *, weights: ArrayLike | None = None) -> PlaneFit:
+    """Fit a plane minimising the (weighted) sum of squared orthogonal distances.
+
+    Parameters
+    ----------
+    points : array_like, shape (N, 3)
+        Measured points (mm), N >= 3, not all on one line.
+    weights : array_like, shape (N,), optional
+        Non-negative weights of the squared distances.
+
+    Returns
+    -------
+    PlaneFit
+        ``point``, ``normal``, signed ``residuals`` (positive along the normal), ``rms``,
+        ``form`` (flatness), and the covariance of the machine-frame parameters
+        ``point_x, point_y, point_z, normal_x, normal_y, normal_z`` (rank 3: the point
+        moves only along the normal, the normal only perpendicular to itself).
+
+    Raises
+    ------
+    InvalidInputError
+        Wrong shape, NaN or inf.
+    TooFewPointsError
+        Fewer than 3 points.
+    DegenerateGeometryError
+        Identical or collinear points.
+
+    Examples
+    --------
+    >>> result = fit_plane([[0, 0, 1], [1, 0, 1], [0, 1, 1], [1, 1, 1]])
+    >>> result.normal.tolist(), result.point.tolist(), result.form
+    ([0.0, 0.0, 1.0], [0.5, 0.5, 1.0], 0.0)
+    """
+    pts = as_points(points, element=_ELEMENT, min_points=3)
+    w = as_weights(weights, len(pts), element=_ELEMENT)
+    centroid, singular, vt = principal_frame(pts, w, element=_ELEMENT)
+    if singular[1] <= TOL.degenerate * singular[0]:
+        raise DegenerateGeometryError(_ELEMENT, "points are collinear; a plane needs points spanning two directions")
+    normal = sign_convention(vt[2])
+    e1, e2 = vt[0], vt[1]
+    residuals = (pts - centroid) @ normal
+    # local parameters: offset along the normal, tilts of the normal towards e1 and e2
+    jacobian = np.column_stack([-np.ones(len(pts)), -(pts - centroid) @ e1, -(pts - centroid) @ e2])
+    sqrt_w = np.ones(len(pts)) if w is None else np.sqrt(w)
+    dof = len(pts) - 3
+    cov_local, cond = local_covariance(jacobian * sqrt_w[:, None], residuals * sqrt_w, dof)
+    gradient = np.zeros((6, 3))
+    gradient[:3, 0] = normal
+    gradient[3:, 1] = e1
+    gradient[3:, 2] = e2
+    rms, form = residual_stats(residuals)
+    return PlaneFit(
+        point=frozen(centroid),
+        normal=frozen(normal),
+        residuals=frozen(residuals),
+        rms=rms,
+        form=form,
+        n=len(pts),
+        dof=dof,
+        parameter_names=("point_x", "point_y", "point_z", "normal_x", "normal_y", "normal_z"),
+        parameters=frozen(np.concatenate([centroid, normal])),
+        covariance=frozen(propagate(cov_local, gradient)),
+        condition_number=cond,
+        converged=True,
+        iterations=0,
+        message="closed form (singular value decomposition)",
+    )
