@@ -1,0 +1,319 @@
+"""Vectorised Gaussian fits of many small point sets at once.
+
+For thousands of probings of 5-25 points each (e.g. every joint sphere of a
+calibration), a Python loop over :func:`~pcmm_geo.fit.fit_sphere` is dominated by
+overhead.  These functions take ``(K, N, D)`` stacks and iterate all K problems
+together (batched QR Gauss-Newton, no loop over K); each answer equals the single
+fit's to rounding.  Every set is centred before fitting, so offsets cost no accuracy.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from pcmm_geo.errors import ConvergenceError, DegenerateGeometryError, InvalidInputError, TooFewPointsError
+from pcmm_geo.fit._core import TOL
+from pcmm_geo.fit._linear import frozen
+
+__all__ = [
+    "BatchFit",
+    "CircleBatchFit",
+    "LineBatchFit",
+    "PlaneBatchFit",
+    "SphereBatchFit",
+    "fit_circles",
+    "fit_lines",
+    "fit_planes",
+    "fit_spheres",
+]
+
+FloatArray = NDArray[np.float64]
+
+
+@dataclass(frozen=True, kw_only=True, eq=False)
+class BatchFit:
+    """Fields shared by every batch result (K sets of N points).
+
+    Attributes
+    ----------
+    residuals : ndarray, shape (K, N)
+        Signed orthogonal distances (mm).
+    rms, form : ndarray, shape (K,)
+        Root mean square and range (max - min) of each set's residuals (mm).
+    n : int
+        Points per set.
+    converged : ndarray of bool, shape (K,)
+    iterations : ndarray of int, shape (K,)
+    """
+
+    residuals: FloatArray
+    rms: FloatArray
+    form: FloatArray
+    n: int
+    converged: NDArray[np.bool_]
+    iterations: NDArray[np.int64]
+
+    def __len__(self) -> int:
+        return int(self.residuals.shape[0])
+
+
+@dataclass(frozen=True, kw_only=True, eq=False)
+class SphereBatchFit(BatchFit):
+    """:func:`fit_spheres` result: ``centers`` (K, 3), ``radii`` (K,)."""
+
+    centers: FloatArray
+    radii: FloatArray
+
+
+@dataclass(frozen=True, kw_only=True, eq=False)
+class CircleBatchFit(BatchFit):
+    """:func:`fit_circles` result: ``centers`` (K, D), ``radii`` (K,), ``normals`` (K, 3) or None (2-D)."""
+
+    centers: FloatArray
+    radii: FloatArray
+    normals: FloatArray | None
+
+
+@dataclass(frozen=True, kw_only=True, eq=False)
+class PlaneBatchFit(BatchFit):
+    """:func:`fit_planes` result: ``points`` (K, 3) centroids, unit ``normals`` (K, 3)."""
+
+    points: FloatArray
+    normals: FloatArray
+
+
+@dataclass(frozen=True, kw_only=True, eq=False)
+class LineBatchFit(BatchFit):
+    """:func:`fit_lines` result: ``points`` (K, D) centroids, unit ``directions`` (K, D).
+
+    In 3-D the residuals are the (non-negative) distances to each line.
+    """
+
+    points: FloatArray
+    directions: FloatArray
+
+
+def _as_stack(points: ArrayLike, *, element: str, dims: tuple[int, ...], min_points: int) -> FloatArray:
+    try:
+        arr = np.asarray(points, dtype=float)
+    except (TypeError, ValueError):
+        raise InvalidInputError("points", "an array of numbers", type(points).__name__) from None
+    if arr.ndim != 3 or arr.shape[2] not in dims:
+        shapes = " or ".join(f"(K, N, {d})" for d in dims)
+        raise InvalidInputError("points", f"shape {shapes}", f"shape {arr.shape}")
+    if arr.shape[1] < min_points:
+        raise TooFewPointsError(element, min_points, arr.shape[1])
+    if not np.all(np.isfinite(arr)):
+        bad = int(np.argwhere(~np.isfinite(arr))[0, 0])
+        raise InvalidInputError("points", "finite coordinates", f"NaN or inf in set {bad}")
+    return arr
+
+
+def _sign_rows(vectors: FloatArray) -> FloatArray:
+    index = np.argmax(np.abs(vectors), axis=-1)
+    sign = np.sign(np.take_along_axis(vectors, index[..., None], axis=-1))
+    return vectors * np.where(sign == 0, 1.0, sign)
+
+
+def _stats(residuals: FloatArray) -> tuple[FloatArray, FloatArray]:
+    return np.sqrt(np.mean(residuals**2, axis=1)), residuals.max(axis=1) - residuals.min(axis=1)
+
+
+def _nsphere_batch(points: FloatArray, *, element: str) -> tuple[FloatArray, FloatArray, FloatArray, FloatArray]:
+    """Batched Gauss-Newton n-sphere fit; returns centres, radii, converged, iterations."""
+    k, n, dim = points.shape
+    origin = points.mean(axis=1, keepdims=True)
+    centred = points - origin
+    scale = np.sqrt(np.mean(np.sum(centred**2, axis=2), axis=1))  # (K,)
+    if np.any(scale == 0):
+        raise DegenerateGeometryError(element, f"set {int(np.argmin(scale))}: all points are identical")
+    scaled = centred / scale[:, None, None]
+    # algebraic start, batched least squares via QR
+    design = np.concatenate([2.0 * scaled, np.ones((k, n, 1))], axis=2)
+    target = np.sum(scaled**2, axis=2)
+    q, r = np.linalg.qr(design)
+    diag = np.abs(np.diagonal(r, axis1=1, axis2=2))
+    bad = diag.min(axis=1) <= TOL.degenerate * diag.max(axis=1)
+    if np.any(bad):
+        shape = "collinear" if dim == 2 else "coplanar"
+        raise DegenerateGeometryError(element, f"set {int(np.argmax(bad))}: points are {shape}")
+    solution = np.linalg.solve(r, np.einsum("kni,kn->ki", q, target)[..., None])[..., 0]
+    centre = solution[:, :dim]
+    radius = np.sqrt(np.maximum(solution[:, dim] + np.sum(centre**2, axis=1), 1e-12))
+    params = np.concatenate([centre, radius[:, None]], axis=1)
+    converged = np.zeros(k, dtype=bool)
+    iterations = np.zeros(k, dtype=np.int64)
+    previous = np.full(k, np.inf)
+    active = np.arange(k)
+    for iteration in range(1, TOL.max_iterations + 1):
+        sub = scaled[active]
+        rel = sub - params[active, None, :dim]
+        dist = np.sqrt(np.sum(rel**2, axis=2))
+        resid = dist - params[active, None, dim]
+        jac = np.concatenate([-rel / np.where(dist > 0, dist, 1.0)[..., None], -np.ones((*dist.shape, 1))], axis=2)
+        q, r = np.linalg.qr(jac)
+        step = np.linalg.solve(r, -np.einsum("kni,kn->ki", q, resid)[..., None])[..., 0]
+        params[active] += step
+        iterations[active] = iteration
+        norm = np.linalg.norm(step, axis=1)
+        size = 1.0 + np.linalg.norm(params[active], axis=1)
+        done = (norm <= TOL.step * size) | ((norm <= TOL.rounding_floor * size) & (norm >= 0.5 * previous[active]))
+        previous[active] = norm
+        converged[active[done]] = True
+        active = active[~done]
+        if active.size == 0:
+            break
+    if active.size:
+        raise ConvergenceError(element, TOL.max_iterations, f"{active.size} of {k} sets did not converge")
+    centres = params[:, :dim] * scale[:, None] + origin[:, 0, :]
+    radii = params[:, dim] * scale
+    return centres, radii, converged, iterations
+
+
+def fit_spheres(points: ArrayLike) -> SphereBatchFit:
+    """Gaussian sphere fits of K point sets at once.
+
+    Parameters
+    ----------
+    points : array_like, shape (K, N, 3)
+        K sets of N >= 4 points each (mm).
+
+    Returns
+    -------
+    SphereBatchFit
+
+    Raises
+    ------
+    InvalidInputError, TooFewPointsError, DegenerateGeometryError, ConvergenceError
+        As for :func:`~pcmm_geo.fit.fit_sphere`; messages name the offending set.
+
+    Examples
+    --------
+    >>> unit = np.array([[1, 0, 0], [-1, 0, 0], [0, 1, 0], [0, -1, 0], [0, 0, 1]], dtype=float)
+    >>> batch = fit_spheres(np.stack([5 * unit, 2 * unit + 100]))
+    >>> np.round(batch.radii, 12).tolist(), np.round(batch.centers[1], 12).tolist()
+    ([5.0, 2.0], [100.0, 100.0, 100.0])
+    """
+    stack = _as_stack(points, element="sphere", dims=(3,), min_points=4)
+    centres, radii, converged, iterations = _nsphere_batch(stack, element="sphere")
+    residuals = np.linalg.norm(stack - centres[:, None, :], axis=2) - radii[:, None]
+    rms, form = _stats(residuals)
+    return SphereBatchFit(
+        centers=frozen(centres),
+        radii=frozen(radii),
+        residuals=frozen(residuals),
+        rms=frozen(rms),
+        form=frozen(form),
+        n=stack.shape[1],
+        converged=converged,
+        iterations=iterations,
+    )
+
+
+def _planes(stack: FloatArray) -> tuple[FloatArray, FloatArray]:
+    """Batched SVD: centroids (K, D) and right singular vectors (K, D, D), rows descending."""
+    centroid = stack.mean(axis=1)
+    _, _, vt = np.linalg.svd(stack - centroid[:, None, :], full_matrices=False)
+    return centroid, vt
+
+
+def fit_planes(points: ArrayLike) -> PlaneBatchFit:
+    """Gaussian plane fits of K point sets at once (closed form, batched SVD).
+
+    Parameters
+    ----------
+    points : array_like, shape (K, N, 3)
+        K sets of N >= 3 points.
+
+    Returns
+    -------
+    PlaneBatchFit
+        Normals follow the single fit's sign convention (largest component positive).
+    """
+    stack = _as_stack(points, element="plane", dims=(3,), min_points=3)
+    centroid, vt = _planes(stack)
+    normals = _sign_rows(vt[:, 2, :])
+    residuals = np.einsum("kni,ki->kn", stack - centroid[:, None, :], normals)
+    rms, form = _stats(residuals)
+    return PlaneBatchFit(
+        points=frozen(centroid),
+        normals=frozen(normals),
+        residuals=frozen(residuals),
+        rms=frozen(rms),
+        form=frozen(form),
+        n=stack.shape[1],
+        converged=np.ones(len(stack), dtype=bool),
+        iterations=np.zeros(len(stack), dtype=np.int64),
+    )
+
+
+def fit_lines(points: ArrayLike) -> LineBatchFit:
+    """Gaussian line fits of K point sets at once (closed form, batched SVD).
+
+    Parameters
+    ----------
+    points : array_like, shape (K, N, 2) or (K, N, 3)
+        K sets of N >= 2 points.
+    """
+    stack = _as_stack(points, element="line", dims=(2, 3), min_points=2)
+    centroid, vt = _planes(stack)
+    directions = _sign_rows(vt[:, 0, :])
+    rel = stack - centroid[:, None, :]
+    along = np.einsum("kni,ki->kn", rel, directions)
+    if stack.shape[2] == 2:
+        normals = np.stack([-directions[:, 1], directions[:, 0]], axis=1)
+        residuals = np.einsum("kni,ki->kn", rel, normals)
+    else:
+        residuals = np.linalg.norm(rel - along[..., None] * directions[:, None, :], axis=2)
+    rms, form = _stats(residuals)
+    if stack.shape[2] == 3:
+        form = 2.0 * residuals.max(axis=1)
+    return LineBatchFit(
+        points=frozen(centroid),
+        directions=frozen(directions),
+        residuals=frozen(residuals),
+        rms=frozen(rms),
+        form=frozen(form),
+        n=stack.shape[1],
+        converged=np.ones(len(stack), dtype=bool),
+        iterations=np.zeros(len(stack), dtype=np.int64),
+    )
+
+
+def fit_circles(points: ArrayLike) -> CircleBatchFit:
+    """Gaussian circle fits of K point sets at once.
+
+    Parameters
+    ----------
+    points : array_like, shape (K, N, 2) or (K, N, 3)
+        2-D: Gaussian circles.  3-D: the projected method (least-squares plane, then the
+        2-D Gaussian circle in it), like ``fit_circle(..., method="projected")``.
+    """
+    stack = _as_stack(points, element="circle", dims=(2, 3), min_points=3)
+    if stack.shape[2] == 2:
+        centres, radii, converged, iterations = _nsphere_batch(stack, element="circle")
+        residuals = np.linalg.norm(stack - centres[:, None, :], axis=2) - radii[:, None]
+        normals = None
+    else:
+        centroid, vt = _planes(stack)
+        frame = vt[:, :2, :]  # (K, 2, 3) in-plane axes
+        in_plane = np.einsum("kni,kji->knj", stack - centroid[:, None, :], frame)
+        centres2, radii, converged, iterations = _nsphere_batch(in_plane, element="circle")
+        centres = centroid + np.einsum("kj,kji->ki", centres2, frame)
+        residuals = np.linalg.norm(in_plane - centres2[:, None, :], axis=2) - radii[:, None]
+        normals = frozen(_sign_rows(vt[:, 2, :]))
+    rms, form = _stats(residuals)
+    return CircleBatchFit(
+        centers=frozen(centres),
+        radii=frozen(radii),
+        normals=normals,
+        residuals=frozen(residuals),
+        rms=frozen(rms),
+        form=frozen(form),
+        n=stack.shape[1],
+        converged=converged,
+        iterations=iterations,
+    )
