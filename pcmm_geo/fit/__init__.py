@@ -53,6 +53,10 @@ _LAZY = {
     "fit_planes": "batch",
     "fit_lines": "batch",
     "BatchFit": "batch",
+    "SphereBatchFit": "batch",
+    "CircleBatchFit": "batch",
+    "PlaneBatchFit": "batch",
+    "LineBatchFit": "batch",
     "reference": "reference",
 }
 

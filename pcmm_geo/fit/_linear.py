@@ -56,7 +56,9 @@ def local_covariance(jacobian: FloatArray, residuals: FloatArray, dof: int) -> t
 
 
 def frozen(array: FloatArray) -> FloatArray:
-    """Return a read-only float copy of ``array``."""
-    out = np.array(array, dtype=float)
-    out.setflags(write=False)
-    return out
+    """Return a float copy of ``array`` owned by the result.
+
+    Results are frozen dataclasses (fields cannot be reassigned); the arrays stay
+    writable because scipy (e.g. ``Rotation.apply``) rejects read-only buffers.
+    """
+    return np.array(array, dtype=float)

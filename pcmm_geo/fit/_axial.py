@@ -1,0 +1,571 @@
+"""Shared machinery of the axially symmetric fits (cylinder, cone, torus).
+
+Every axial element is fitted in *standard position*: the data are centred at their
+centroid and rotated so that the current axis estimate is the local +z axis.  The
+axis is described by local parameters that are regular near the solution:
+
+* ``x0, y0`` (and for the torus ``z0``): a point of the axis in the local frame,
+* ``a, b``: the axis direction ``d = (a, b, 1) / |(a, b, 1)|`` (zero at the estimate).
+
+After every accepted Levenberg-Marquardt step the frame is rotated so that the new axis
+is +z again (``a = b = 0``), so the analytic Jacobian is always evaluated in a
+well-centred frame and no axis direction is singular.  Several starting axes are tried
+(principal axes, hints, screened directions) and the converged solution of least cost
+is kept.  This module is private; the public functions live in ``cylinder.py``,
+``cone.py`` and ``torus.py``.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from pcmm_geo.errors import ConvergenceError, DegenerateGeometryError, InvalidInputError
+from pcmm_geo.fit import _core
+from pcmm_geo.fit._core import SolverOutcome, rotation_to_z
+
+FloatArray = NDArray[np.float64]
+
+#: Residual model in standard position: ``model(local_points, params) -> (residuals, jacobian)``.
+LocalModel = Callable[[FloatArray, FloatArray], tuple[FloatArray, FloatArray]]
+#: Starting values for data in standard position: ``start(local_points) -> params or None``.
+StartRule = Callable[[FloatArray], FloatArray | None]
+#: Sum of squared residuals in standard position: ``cost_of(local_points, params) -> float``.
+LocalCost = Callable[[FloatArray, FloatArray], float]
+
+
+@dataclass(frozen=True)
+class AxialTerms:
+    """Axial height and radial distance of local points, with their parameter derivatives.
+
+    Attributes
+    ----------
+    height : ndarray, shape (N,)
+        ``h = (q - p0) . d``, signed distance along the axis (mm).
+    rho : ndarray, shape (N,)
+        Distance of each point from the axis (mm).
+    radial : ndarray, shape (N, 3)
+        ``v = (q - p0) - h d``, the perpendicular from the axis to the point (mm).
+    d_height : ndarray, shape (N, 5)
+        Derivatives of ``h`` w.r.t. ``(x0, y0, z0, a, b)``.
+    d_rho : ndarray, shape (N, 5)
+        Derivatives of ``rho`` w.r.t. ``(x0, y0, z0, a, b)``.
+    """
+
+    height: FloatArray
+    rho: FloatArray
+    radial: FloatArray
+    d_height: FloatArray
+    d_rho: FloatArray
+
+
+def axial_terms(local: FloatArray, origin: FloatArray, a: float, b: float) -> AxialTerms:
+    """Evaluate ``h``, ``rho`` and their analytic derivatives for an axis ``origin + t d``.
+
+    Parameters
+    ----------
+    local : ndarray, shape (N, 3)
+        Points in standard position (mm).
+    origin : ndarray, shape (3,)
+        Point of the axis ``(x0, y0, z0)`` (mm).
+    a, b : float
+        Axis tilt parameters, ``d = (a, b, 1) / sqrt(1 + a^2 + b^2)``.
+
+    Returns
+    -------
+    AxialTerms
+
+    Notes
+    -----
+    With ``n = |(a, b, 1)|`` one has ``dd/da = (e_x - d d_x) / n`` and, because ``v`` is
+    perpendicular to ``d``, ``drho/da = -h v_x / (n rho)``, ``dh/da = v_x / n``;
+    ``drho/dx0 = -v_x / rho`` and ``dh/dx0 = -d_x`` (likewise for ``b``/``y0``/``z0``).
+    ``rho`` is computed from the perpendicular vector, not from ``|u|^2 - h^2``, so that
+    long thin features lose no precision.
+    """
+    norm = float(np.sqrt(1.0 + a * a + b * b))
+    direction = np.array([a, b, 1.0]) / norm
+    offset = local - origin
+    height = offset @ direction
+    radial = offset - height[:, None] * direction
+    rho = np.sqrt(np.einsum("ij,ij->i", radial, radial))
+    safe_rho = np.where(rho > 0, rho, 1.0)
+    d_height = np.empty((local.shape[0], 5))
+    d_height[:, 0:3] = -direction
+    d_height[:, 3] = radial[:, 0] / norm
+    d_height[:, 4] = radial[:, 1] / norm
+    d_rho = np.empty((local.shape[0], 5))
+    d_rho[:, 0:3] = -radial / safe_rho[:, None]
+    d_rho[:, 3] = -height * radial[:, 0] / (norm * safe_rho)
+    d_rho[:, 4] = -height * radial[:, 1] / (norm * safe_rho)
+    return AxialTerms(height=height, rho=rho, radial=radial, d_height=d_height, d_rho=d_rho)
+
+
+def local_direction(a: float, b: float) -> FloatArray:
+    """Unit axis ``(a, b, 1) / |(a, b, 1)|`` in the local frame."""
+    vec = np.array([a, b, 1.0])
+    return vec / np.linalg.norm(vec)
+
+
+def canonical_axis(axis: FloatArray) -> FloatArray:
+    """Return the unit axis with its largest-magnitude component positive (sign convention)."""
+    axis = axis / np.linalg.norm(axis)
+    return axis if axis[int(np.argmax(np.abs(axis)))] > 0 else -axis
+
+
+def principal_axes(centred: FloatArray) -> tuple[FloatArray, FloatArray]:
+    """Singular values (descending) and principal directions (rows) of centred points."""
+    _, sing, vt = np.linalg.svd(centred, full_matrices=False)
+    return sing, vt
+
+
+def check_spread(centred: FloatArray, *, element: str, forbid_coplanar: bool) -> None:
+    """Raise :class:`DegenerateGeometryError` for collinear (or, optionally, coplanar) data."""
+    sing, _ = principal_axes(centred)
+    if sing[1] <= _core.TOL.degenerate * sing[0]:
+        raise DegenerateGeometryError(element, "all points lie on one straight line")
+    if forbid_coplanar and sing[2] <= _core.TOL.degenerate * sing[0]:
+        raise DegenerateGeometryError(element, "all points lie in one plane; the axis tilt is undetermined")
+
+
+def as_axis_hint(axis_hint: ArrayLike | None) -> FloatArray | None:
+    """Validate an optional axis hint (3 finite numbers, non-zero) and return it as a unit vector."""
+    if axis_hint is None:
+        return None
+    try:
+        hint = np.asarray(axis_hint, dtype=float)
+    except (TypeError, ValueError):
+        raise InvalidInputError("axis_hint", "3 numbers", repr(axis_hint)) from None
+    if hint.shape != (3,) or not np.all(np.isfinite(hint)):
+        raise InvalidInputError("axis_hint", "3 finite numbers", f"shape {hint.shape} {hint.tolist()}")
+    length = float(np.linalg.norm(hint))
+    if length == 0.0:
+        raise InvalidInputError("axis_hint", "a non-zero vector", "(0, 0, 0)")
+    return hint / length
+
+
+def candidate_axes(centred: FloatArray, extra: Sequence[FloatArray | None] = ()) -> list[FloatArray]:
+    """Starting axis directions: the given extras first, then the three principal axes.
+
+    Near-duplicates (|cos| > 1 - 1e-9) are dropped.
+    """
+    _, vt = principal_axes(centred)
+    out: list[FloatArray] = []
+    for axis in [*extra, vt[2], vt[0], vt[1]]:
+        if axis is None:
+            continue
+        unit_axis = axis / np.linalg.norm(axis)
+        if all(abs(float(unit_axis @ seen)) < 1 - 1e-9 for seen in out):
+            out.append(unit_axis)
+    return out
+
+
+def hemisphere_directions(count: int) -> FloatArray:
+    """``count`` nearly uniformly spread unit vectors with ``z >= 0`` (a Fibonacci lattice), shape (count, 3)."""
+    index = np.arange(count) + 0.5
+    z = 1.0 - index / count
+    azimuth = np.pi * (3.0 - np.sqrt(5.0)) * index
+    ring = np.sqrt(1.0 - z * z)
+    return np.c_[ring * np.cos(azimuth), ring * np.sin(azimuth), z]
+
+
+def _start_cost(centred: FloatArray, direction: FloatArray, start: StartRule, cost_of: LocalCost) -> float:
+    """Sum of squared residuals of the algebraic starting values around ``direction`` (inf if none)."""
+    local = centred @ rotation_to_z(direction).T
+    params = start(local)
+    if params is None or not np.all(np.isfinite(params)):
+        return float("inf")
+    cost = cost_of(local, params)
+    return cost if np.isfinite(cost) else float("inf")
+
+
+def screened_axes(
+    centred: FloatArray,
+    start: StartRule,
+    cost_of: LocalCost,
+    *,
+    count: int = 64,
+    keep: int = 3,
+    polish: bool = True,
+) -> list[FloatArray]:
+    """Directions whose algebraic starting values fit best: a coarse hemisphere search, then a local polish.
+
+    For each of ``count`` directions the data are put in standard position, ``start`` builds
+    starting values and the sum of squared residuals of that start is evaluated (no
+    iteration).  The ``keep`` best directions are then polished by a short Nelder-Mead search
+    (at most 80 evaluations, 2 mrad) of the same start cost over two tilt angles (a start
+    cost is cheap: a few algebraic fits).
+    """
+    from scipy.optimize import minimize  # heavy import kept out of the module import
+
+    directions = hemisphere_directions(count)
+    costs = np.array([_start_cost(centred, direction, start, cost_of) for direction in directions])
+    order = np.argsort(costs)[:keep]
+    if not polish:
+        return [directions[index] for index in order if np.isfinite(costs[index])]
+    polished: list[FloatArray] = []
+    for index in order:
+        if not np.isfinite(costs[index]):
+            continue
+        frame = rotation_to_z(directions[index])
+
+        def tilted(tilt: FloatArray, frame: FloatArray = frame) -> FloatArray:
+            return frame.T @ local_direction(float(tilt[0]), float(tilt[1]))
+
+        search = minimize(
+            lambda tilt, tilted=tilted: _start_cost(centred, tilted(tilt), start, cost_of),
+            np.zeros(2),
+            method="Nelder-Mead",
+            options={"initial_simplex": [[0, 0], [0.15, 0], [0, 0.15]], "xatol": 2e-3, "fatol": 0, "maxfev": 80},
+        )
+        polished.append(tilted(search.x) if np.isfinite(search.fun) else directions[index])
+    return polished
+
+
+def algebraic_circle(xy: FloatArray) -> tuple[float, float, float]:
+    """Algebraic (Kasa) circle ``x^2 + y^2 = 2 x0 x + 2 y0 y + c``: returns ``(x0, y0, radius)``.
+
+    Only a starting value: it minimises an algebraic, not a geometric, error.
+    """
+    design = np.c_[2 * xy[:, 0], 2 * xy[:, 1], np.ones(len(xy))]
+    target = xy[:, 0] ** 2 + xy[:, 1] ** 2
+    (x0, y0, c), *_ = np.linalg.lstsq(design, target, rcond=None)
+    radius_sq = c + x0 * x0 + y0 * y0
+    return float(x0), float(y0), float(np.sqrt(max(radius_sq, 0.0)))
+
+
+@dataclass(frozen=True)
+class AxialSolution:
+    """Converged fit of an axial element in its final standard position.
+
+    Attributes
+    ----------
+    centroid : ndarray, shape (3,)
+        Data centroid (origin of the local frame), machine frame, mm.
+    rotation : ndarray, shape (3, 3)
+        ``local = rotation @ (machine - centroid)``; its third row is the fitted axis.
+    params : ndarray, shape (P,)
+        Final local parameters (``a = b = 0`` up to rounding).
+    outcome : SolverOutcome
+        Solver result; its (weighted) Jacobian belongs to the final frame.
+    cost : float
+        Weighted sum of squared residuals.
+    """
+
+    centroid: FloatArray
+    rotation: FloatArray
+    params: FloatArray
+    outcome: SolverOutcome
+    cost: float
+
+    @property
+    def iterations(self) -> int:
+        """Iterations of the solver for the chosen start."""
+        return self.outcome.iterations
+
+
+class _StandardPosition:
+    """Data in standard position around a moving axis estimate (mutable solver state)."""
+
+    def __init__(
+        self,
+        centred: FloatArray,
+        axis: FloatArray,
+        model: LocalModel,
+        position_slots: Sequence[int],
+        tilt_slots: tuple[int, int],
+        slide: Callable[[FloatArray, FloatArray, float], FloatArray] | None,
+    ) -> None:
+        self.centred = centred
+        self.slide = slide
+        self.rotation = rotation_to_z(axis)
+        self.local = centred @ self.rotation.T
+        self.model = model
+        self.position_slots = list(position_slots)
+        self.tilt_slots = tilt_slots
+
+    def residuals(self, params: FloatArray) -> tuple[FloatArray, FloatArray]:
+        return self.model(self.local, params)
+
+    def recentre(self, params: FloatArray) -> FloatArray:
+        """Rotate the frame so the axis of ``params`` is +z again; return the same element's new parameters.
+
+        For two position slots (cylinder, cone) the axis point is slid along the axis to the
+        foot of the perpendicular from the local origin (the centroid); for three (torus)
+        the centre is only re-expressed.
+        """
+        a, b = float(params[self.tilt_slots[0]]), float(params[self.tilt_slots[1]])
+        if a == 0.0 and b == 0.0:
+            return params
+        direction_local = local_direction(a, b)
+        origin_local = np.zeros(3)
+        origin_local[: len(self.position_slots)] = params[self.position_slots]
+        shift = float(origin_local @ direction_local) if len(self.position_slots) == 2 else 0.0
+        origin_local = origin_local - shift * direction_local
+        new_rotation = rotation_to_z(self.rotation.T @ direction_local)
+        new_origin = new_rotation @ (self.rotation.T @ origin_local)
+        new_params = np.array(params, dtype=float)
+        new_params[self.position_slots] = new_origin[: len(self.position_slots)]
+        new_params[list(self.tilt_slots)] = 0.0
+        self.rotation = new_rotation
+        self.local = self.centred @ new_rotation.T
+        if self.slide is not None:
+            new_params = self.slide(params, new_params, shift)
+        return new_params
+
+
+def solve_axial(
+    points: FloatArray,
+    centroid: FloatArray,
+    axes: Sequence[FloatArray],
+    *,
+    start: Callable[[FloatArray], FloatArray | None],
+    model: LocalModel,
+    position_slots: Sequence[int],
+    tilt_slots: tuple[int, int],
+    element: str,
+    sqrt_weights: FloatArray | None,
+    slide: Callable[[FloatArray, FloatArray, float], FloatArray] | None = None,
+    max_iterations: int | None = None,
+) -> AxialSolution:
+    """Fit from each candidate axis and keep the converged solution of least cost.
+
+    Parameters
+    ----------
+    points : ndarray, shape (N, 3)
+        Data in the machine frame (mm).
+    centroid : ndarray, shape (3,)
+        Origin of every local frame (the data centroid).
+    axes : sequence of ndarray, shape (3,)
+        Candidate axis directions (machine frame).
+    start : callable
+        ``start(local_points) -> params or None`` builds starting parameters for data in
+        standard position around one candidate axis (``None`` skips the candidate).
+    model : callable
+        ``model(local_points, params) -> (residuals, jacobian)``.
+    position_slots : sequence of int
+        Indices of the local axis-point coordinates in ``params`` (``x0, y0`` [, ``z0``]).
+    tilt_slots : (int, int)
+        Indices of ``a`` and ``b`` in ``params``.
+    element : str
+        Name for error messages.
+    sqrt_weights : ndarray, shape (N,), optional
+        Square roots of the point weights.
+    slide : callable, optional
+        ``slide(old_params, new_params, shift) -> params`` corrects shape parameters when the
+        axis point is slid by ``shift`` along the old axis during re-centring.
+    max_iterations : int, optional
+        Iteration budget per start (default ``TOL.max_iterations``).
+
+    Raises
+    ------
+    ConvergenceError
+        No candidate start converged.
+    """
+    centred = points - centroid
+    scale = float(np.max(np.linalg.norm(centred, axis=1)))
+    best: AxialSolution | None = None
+    failures: list[str] = []
+    # most promising start first (least sum of squares of its starting values), so that the
+    # later ones can be abandoned early when they head for a worse minimum
+    starts: list[tuple[float, int, _StandardPosition, FloatArray]] = []
+    for index, axis in enumerate(axes):
+        frame = _StandardPosition(centred, axis, model, position_slots, tilt_slots, slide)
+        params = start(frame.local)
+        if params is None or not np.all(np.isfinite(params)):
+            continue
+        start_residuals = frame.residuals(params)[0]
+        start_cost = (
+            float(start_residuals @ start_residuals)
+            if sqrt_weights is None
+            else float((start_residuals * sqrt_weights) @ (start_residuals * sqrt_weights))
+        )
+        starts.append((start_cost if np.isfinite(start_cost) else np.inf, index, frame, params))
+    starts.sort(key=lambda item: (item[0], item[1]))
+    for _, _, frame, params in starts:
+        try:
+            outcome = levenberg_marquardt(
+                frame.residuals,
+                params,
+                element=element,
+                scale=scale,
+                sqrt_weights=sqrt_weights,
+                recentre=frame.recentre,
+                abandon_above=None if best is None else best.cost,
+                max_iterations=max_iterations,
+            )
+        except ConvergenceError as exc:
+            failures.append(exc.reason)
+            continue
+        cost = float(outcome.residuals @ outcome.residuals)
+        if best is None or cost < best.cost * (1 - 1e-12):
+            best = AxialSolution(
+                centroid=centroid, rotation=frame.rotation, params=outcome.x, outcome=outcome, cost=cost
+            )
+    if best is None:
+        reason = "; ".join(failures) if failures else "no usable starting value"
+        raise ConvergenceError(element, _core.TOL.max_iterations, reason)
+    return best
+
+
+#: A full Gauss-Newton step below this fraction of the problem size that no longer shrinks
+#: means the iteration has reached the rounding floor.
+_ROUNDING_FLOOR = 1e-13
+#: Undamped steps below this fraction of the problem size are accepted without a cost test.
+_TRUSTED_STEP = 1e-6
+#: A start is abandoned when, over this many iterations and outside the trusted region, the
+#: Gauss-Newton step has not halved and the cost has not dropped by 1e-6 (relative): it
+#: wanders along a flat valley (e.g. a cylinder opening towards a plane).
+_STALL_WINDOW = 20
+#: Iterations a run may spend above the cost of a solution already found before it is abandoned
+#: (a start in the basin of the better solution gets there well within this budget).
+_WORSE_BUDGET = 20
+
+
+def levenberg_marquardt(
+    fun: Callable[[FloatArray], tuple[FloatArray, FloatArray]],
+    x0: FloatArray,
+    *,
+    element: str,
+    scale: float,
+    sqrt_weights: FloatArray | None = None,
+    recentre: Callable[[FloatArray], FloatArray] | None = None,
+    abandon_above: float | None = None,
+    max_iterations: int | None = None,
+) -> SolverOutcome:
+    """Levenberg-Marquardt (least-squares steps, Marquardt column scaling) with re-centring and a rounding-aware stop.
+
+    Parameters
+    ----------
+    fun : callable
+        ``fun(x) -> (r, J)``: residuals ``(M,)`` and analytic Jacobian ``(M, P)``.
+    x0 : ndarray, shape (P,)
+        Starting parameters.
+    element : str
+        Name for error messages.
+    scale : float
+        Size of the data (mm); steps are judged relative to ``scale + |x|``.
+    sqrt_weights : ndarray, shape (M,), optional
+        Square roots of the residual weights.
+    recentre : callable, optional
+        Called after every accepted step with the new parameters; may change the frame
+        ``fun`` works in and returns the same element's parameters in the new frame
+        (here: the data are rotated back to standard position).
+    abandon_above : float, optional
+        Cost of a solution found already: a run that reaches the trusted region (see Notes)
+        with a cost above it, or is still above it after 20 iterations, is heading for a
+        worse local minimum and is abandoned.
+    max_iterations : int, optional
+        Iteration budget, default ``TOL.max_iterations``.
+
+    Returns
+    -------
+    SolverOutcome
+        Weighted residuals and Jacobian at the solution (in the final frame).
+
+    Raises
+    ------
+    ConvergenceError
+        Iteration budget (``TOL.max_iterations``) or damping exhausted, or non-finite values.
+
+    Notes
+    -----
+    The undamped Gauss-Newton step is computed at every iterate.  Convergence is declared
+    when it is below ``TOL.step * (scale + |x|)`` (the test of
+    :func:`pcmm_geo.fit._core.solve_least_squares`) or below ``1e-13 * (scale + |x|)`` while no
+    longer contracting (at least half the previous Gauss-Newton step).  The second test
+    recognises the rounding floor of ill-conditioned problems (a 30 degree arc with 0.1 mm
+    form error), where the strict test alone may never fire.  Undamped steps below
+    ``1e-6 * (scale + |x|)`` are accepted without testing the cost: near the solution
+    the rounding error of the cost exceeds its decrease, while the Gauss-Newton step is
+    still meaningful (local quadratic/linear convergence).
+    """
+    tol = _core.TOL
+
+    def evaluate(params: FloatArray) -> tuple[FloatArray, FloatArray]:
+        res, jac_ = fun(params)
+        if sqrt_weights is not None:
+            res = res * sqrt_weights
+            jac_ = jac_ * sqrt_weights[:, None]
+        return res, jac_
+
+    x = np.array(x0, dtype=float)
+    r, jac = evaluate(x)
+    cost = float(r @ r)
+    lam = 0.0
+    previous_gn_step = np.inf
+    history: list[tuple[float, float]] = []  # (cost, Gauss-Newton step) per iteration
+    previous_step: FloatArray | None = None
+    n_param = x.size
+    budget = tol.max_iterations if max_iterations is None else max_iterations
+    for iteration in range(1, budget + 1):
+        if not (np.all(np.isfinite(r)) and np.all(np.isfinite(jac))):
+            raise ConvergenceError(element, iteration, "non-finite residuals or Jacobian")
+        gauss_newton = np.linalg.lstsq(jac, -r, rcond=None)[0]
+        gn_norm = float(np.linalg.norm(gauss_newton))
+        size = scale + float(np.linalg.norm(x))
+        strict = gn_norm <= tol.step * size
+        floor = gn_norm <= _ROUNDING_FLOOR * size and gn_norm >= 0.5 * previous_gn_step
+        if strict or floor:
+            reason = "Gauss-Newton step below tolerance" if strict else "Gauss-Newton step at rounding level"
+            return SolverOutcome(
+                x=x, residuals=r, jacobian=jac, converged=True, iterations=iteration, message=f"converged: {reason}"
+            )
+        previous_gn_step = gn_norm
+        history.append((cost, gn_norm))
+        worse = abandon_above is not None and cost > abandon_above * (1 + 1e-6)
+        if worse and (gn_norm <= _TRUSTED_STEP * size or iteration > _WORSE_BUDGET):
+            raise ConvergenceError(element, iteration, "heading for a worse local minimum")
+        if len(history) > _STALL_WINDOW and gn_norm > _TRUSTED_STEP * size:
+            old_cost, old_gn = history[-1 - _STALL_WINDOW]
+            if gn_norm > 0.5 * old_gn and old_cost - cost <= 1e-6 * cost:
+                raise ConvergenceError(element, iteration, "stalled in a flat valley (no progress)")
+        if lam > 0:
+            col_norm = np.linalg.norm(jac, axis=0)
+            col_norm[col_norm == 0] = 1.0
+            system = np.vstack([jac, np.diag(np.sqrt(lam) * col_norm)])
+            step = np.linalg.lstsq(system, np.concatenate([-r, np.zeros(n_param)]), rcond=None)[0]
+        else:
+            step = _damp_oscillation(gauss_newton, previous_step)
+        trial = x + step
+        r_trial, jac_trial = evaluate(trial)
+        cost_trial = float(r_trial @ r_trial)
+        # near the solution the cost cannot resolve what Gauss-Newton still resolves (its rounding
+        # error exceeds the decrease), so small undamped steps are taken without the cost test
+        trusted = lam == 0.0 and gn_norm <= _TRUSTED_STEP * size
+        if trusted or cost_trial <= cost:
+            previous_step = step if lam == 0.0 else None
+            x, r, jac = trial, r_trial, jac_trial
+            if recentre is not None:
+                x = recentre(x)
+                r, jac = evaluate(x)
+            cost = float(r @ r)
+            lam = 0.0 if lam < 1e-6 else lam / 10.0
+        else:
+            previous_step = None
+            lam = 1e-4 if lam == 0.0 else lam * 10.0
+            if lam > 1e16:
+                raise ConvergenceError(element, iteration, "damping exhausted without decrease")
+    raise ConvergenceError(element, budget, "iteration budget exhausted")
+
+
+def _damp_oscillation(step: FloatArray, previous_step: FloatArray | None) -> FloatArray:
+    """Shorten a Gauss-Newton step that reverses the previous one (Aitken-style).
+
+    With a large residual the Gauss-Newton iteration may converge linearly with
+    alternating sign, ``e_{k+1} = -q e_k``; each step then overshoots by ``1 + q``.  When
+    the new step points back (cosine below -0.8) and is shorter than the previous one,
+    ``q`` is estimated from their length ratio and the step divided by ``1 + q``.  The
+    convergence test is unaffected (it always uses the full Gauss-Newton step).
+    """
+    if previous_step is None:
+        return step
+    length, previous_length = float(np.linalg.norm(step)), float(np.linalg.norm(previous_step))
+    if length == 0.0 or previous_length == 0.0 or length >= previous_length:
+        return step
+    if float(step @ previous_step) < -0.8 * length * previous_length:
+        return step / (1.0 + length / previous_length)
+    return step

@@ -1,0 +1,246 @@
+"""Gaussian (orthogonal-distance least-squares) cylinder fit.
+
+The residual of a point ``p`` is its distance from the axis minus the radius,
+``e = |(p - a) x d| - r`` (positive outside), and the fit minimises ``sum w e^2``
+over the axis and the radius (or over the axis alone when the radius is fixed).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import ArrayLike
+
+from pcmm_geo.errors import InvalidInputError
+from pcmm_geo.fit._axial import (
+    AxialSolution,
+    FloatArray,
+    LocalModel,
+    StartRule,
+    algebraic_circle,
+    as_axis_hint,
+    axial_terms,
+    candidate_axes,
+    canonical_axis,
+    check_spread,
+    local_direction,
+    solve_axial,
+)
+from pcmm_geo.fit._core import FitResult, as_points, as_weights, covariance_from_jacobian, residual_stats
+from pcmm_geo.fit._linear import frozen
+
+__all__ = ["CylinderFit", "fit_cylinder"]
+
+_ELEMENT = "cylinder"
+
+
+@dataclass(frozen=True, kw_only=True, eq=False)
+class CylinderFit(FitResult):
+    """Least-squares cylinder.
+
+    Attributes
+    ----------
+    point : ndarray, shape (3,)
+        Point of the axis nearest the data centroid (orthogonal projection of the
+        centroid onto the axis), mm.
+    axis : ndarray, shape (3,)
+        Unit axis direction, sign chosen so that its largest-magnitude component is positive.
+    radius : float
+        Radius, mm.
+
+    Notes
+    -----
+    ``parameter_names`` are ``point_x, point_y, point_z, axis_x, axis_y, axis_z, radius``
+    (machine frame).  The covariance of these 7 numbers has rank 5 (4 with a fixed radius):
+    the point can only move across the axis and the axis only tilt.
+    """
+
+    point: FloatArray
+    axis: FloatArray
+    radius: float
+
+    @property
+    def diameter(self) -> float:
+        """Diameter ``2 r`` (mm), the number NIST's reference fits report."""
+        return 2.0 * self.radius
+
+
+def axis_point_jacobian(rotation: FloatArray, origin_local: FloatArray) -> tuple[FloatArray, FloatArray]:
+    """Machine-frame derivatives of the centroid's foot point and of the axis w.r.t. ``(x0, y0, a, b)``.
+
+    At ``a = b = 0`` the foot of the perpendicular from the local origin is
+    ``p = p0 - (p0 . d) d``; differentiating gives ``dp/dx0 = e_x``, ``dp/dy0 = e_y``,
+    ``dp/da = -x0 e_z``, ``dp/db = -y0 e_z`` and ``dd/da = e_x``, ``dd/db = e_y`` (local),
+    rotated back with ``rotation.T``.
+
+    Returns
+    -------
+    d_point : ndarray, shape (3, 4)
+    d_axis : ndarray, shape (3, 4)
+    """
+    x0, y0 = float(origin_local[0]), float(origin_local[1])
+    d_point_local = np.zeros((3, 4))
+    d_point_local[0, 0] = 1.0
+    d_point_local[1, 1] = 1.0
+    d_point_local[2, 2] = -x0
+    d_point_local[2, 3] = -y0
+    d_axis_local = np.zeros((3, 4))
+    d_axis_local[0, 2] = 1.0
+    d_axis_local[1, 3] = 1.0
+    return rotation.T @ d_point_local, rotation.T @ d_axis_local
+
+
+def _cylinder_model(fixed_radius: float | None) -> LocalModel:
+    """Residual model ``rho - r`` in standard position; params ``(x0, y0, a, b[, r])``."""
+
+    def model(local: FloatArray, params: FloatArray) -> tuple[FloatArray, FloatArray]:
+        x0, y0, a, b = params[:4]
+        radius = fixed_radius if fixed_radius is not None else params[4]
+        terms = axial_terms(local, np.array([x0, y0, 0.0]), float(a), float(b))
+        jac = np.empty((local.shape[0], params.size))
+        jac[:, 0:2] = terms.d_rho[:, 0:2]
+        jac[:, 2:4] = terms.d_rho[:, 3:5]
+        if fixed_radius is None:
+            jac[:, 4] = -1.0
+        return terms.rho - radius, jac
+
+    return model
+
+
+def _cylinder_start(fixed_radius: float | None) -> StartRule:
+    """Starting values around the local z axis: an algebraic circle of the projected points."""
+
+    def start(local: FloatArray) -> FloatArray | None:
+        x0, y0, radius = algebraic_circle(local[:, :2])
+        if fixed_radius is not None:
+            return np.array([x0, y0, 0.0, 0.0])
+        if not radius > 0:
+            return None
+        return np.array([x0, y0, 0.0, 0.0, radius])
+
+    return start
+
+
+def fit_cylinder(
+    points: ArrayLike,
+    *,
+    radius: float | None = None,
+    weights: ArrayLike | None = None,
+    axis_hint: ArrayLike | None = None,
+) -> CylinderFit:
+    """Fit a cylinder to 3-D points by orthogonal-distance least squares.
+
+    Gauss-Newton / Levenberg-Marquardt with an analytic Jacobian in standard position
+    (data centred at the centroid, current axis rotated to +z; local parameters are the
+    axis crossing ``x0, y0`` of the local ``z = 0`` plane, two tilts ``a, b`` and the radius).
+    Starting values come from an algebraic circle fit of the data projected along each
+    principal axis (and ``axis_hint``); the converged solution of least cost is returned.
+
+    Parameters
+    ----------
+    points : array_like, shape (N, 3)
+        Measured points (mm); N >= 5 (N >= 4 with a fixed radius).
+    radius : float, optional
+        Fix the radius (mm) and fit the axis only.
+    weights : array_like, shape (N,), optional
+        Non-negative weights of the squared residuals.
+    axis_hint : array_like, shape (3,), optional
+        Approximate axis direction tried first (either sign).
+
+    Returns
+    -------
+    CylinderFit
+        Residuals are ``distance to axis - radius`` (mm, positive outside).
+
+    Raises
+    ------
+    InvalidInputError
+        NaN/inf, wrong shape, a non-positive fixed radius, a bad hint or bad weights.
+    TooFewPointsError
+        Fewer than 5 points (4 with a fixed radius).
+    DegenerateGeometryError
+        All points on a line or in a plane.
+    ConvergenceError
+        No starting value led to a converged solution.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> angle = np.linspace(0, 2 * np.pi, 8, endpoint=False)
+    >>> ring = np.c_[5 * np.cos(angle), 5 * np.sin(angle), np.zeros(8)]
+    >>> pts = np.vstack([ring, ring + [0, 0, 20]]) + [1000.0, 0.0, 0.0]
+    >>> fit = fit_cylinder(pts)
+    >>> round(fit.radius, 12), (np.round(fit.axis, 12) + 0.0).tolist(), (np.round(fit.point, 9) + 0.0).tolist()
+    (5.0, [0.0, 0.0, 1.0], [1000.0, 0.0, 10.0])
+    """
+    if radius is not None:
+        if not np.isfinite(radius) or radius <= 0:
+            raise InvalidInputError("radius", "a positive finite radius in mm", repr(radius))
+        radius = float(radius)
+    data = as_points(points, element=_ELEMENT, min_points=5 if radius is None else 4)
+    weight = as_weights(weights, data.shape[0], element=_ELEMENT)
+    sqrt_weights = None if weight is None else np.sqrt(weight)
+    centroid = data.mean(axis=0)
+    centred = data - centroid
+    check_spread(centred, element=_ELEMENT, forbid_coplanar=True)
+    axes = candidate_axes(centred, [as_axis_hint(axis_hint)])
+    solution = solve_axial(
+        data,
+        centroid,
+        axes,
+        start=_cylinder_start(radius),
+        model=_cylinder_model(radius),
+        position_slots=(0, 1),
+        tilt_slots=(2, 3),
+        element=_ELEMENT,
+        sqrt_weights=sqrt_weights,
+    )
+    return _result(data, solution, radius)
+
+
+def _result(data: FloatArray, solution: AxialSolution, fixed_radius: float | None) -> CylinderFit:
+    params = solution.params
+    rotation = solution.rotation
+    x0, y0, a, b = (float(v) for v in params[:4])
+    radius = fixed_radius if fixed_radius is not None else float(params[4])
+    direction_local = local_direction(a, b)
+    origin_local = np.array([x0, y0, 0.0])
+    foot_local = origin_local - (origin_local @ direction_local) * direction_local
+    axis = rotation.T @ direction_local
+    point = solution.centroid + rotation.T @ foot_local
+    signed_axis = canonical_axis(axis)
+
+    residuals = np.linalg.norm(np.cross(data - point, axis), axis=1) - radius
+    outcome = solution.outcome
+    n_param = params.size
+    dof = data.shape[0] - n_param
+    cov_local, condition = covariance_from_jacobian(outcome.jacobian, outcome.residuals, dof, element=_ELEMENT)
+    d_point, d_axis = axis_point_jacobian(rotation, foot_local)
+    if float(signed_axis @ axis) < 0:
+        d_axis = -d_axis
+    propagate = np.zeros((7, n_param))
+    propagate[0:3, 0:4] = d_point
+    propagate[3:6, 0:4] = d_axis
+    if fixed_radius is None:
+        propagate[6, 4] = 1.0
+    covariance = propagate @ cov_local @ propagate.T
+    rms, form = residual_stats(residuals)
+    return CylinderFit(
+        point=frozen(point),
+        axis=frozen(signed_axis),
+        radius=radius,
+        residuals=frozen(residuals),
+        rms=rms,
+        form=form,
+        n=data.shape[0],
+        dof=dof,
+        parameter_names=("point_x", "point_y", "point_z", "axis_x", "axis_y", "axis_z", "radius"),
+        parameters=frozen([*point, *signed_axis, radius]),
+        covariance=frozen(covariance),
+        condition_number=condition,
+        converged=outcome.converged,
+        iterations=solution.iterations,
+        message=outcome.message,
+        method="gaussian" if fixed_radius is None else "gaussian-fixed-radius",
+    )

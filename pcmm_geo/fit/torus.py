@@ -1,0 +1,289 @@
+"""Gaussian (orthogonal-distance least-squares) torus fit.
+
+A torus is the surface swept by a circle of radius ``r`` (minor radius) whose centre runs
+round a circle of radius ``R`` (major radius) about an axis.  With ``h`` the height of a
+point above the torus' equatorial plane and ``rho`` its distance from the axis, the
+residual is ``e = sqrt((rho - R)^2 + h^2) - r`` (positive outside the tube).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import ArrayLike
+
+from pcmm_geo.fit._axial import (
+    AxialSolution,
+    FloatArray,
+    algebraic_circle,
+    as_axis_hint,
+    axial_terms,
+    candidate_axes,
+    canonical_axis,
+    check_spread,
+    local_direction,
+    screened_axes,
+    solve_axial,
+)
+from pcmm_geo.fit._core import FitResult, as_points, as_weights, covariance_from_jacobian, residual_stats
+from pcmm_geo.fit._linear import frozen
+
+__all__ = ["TorusFit", "fit_torus"]
+
+_ELEMENT = "torus"
+
+
+@dataclass(frozen=True, kw_only=True, eq=False)
+class TorusFit(FitResult):
+    """Least-squares torus.
+
+    Attributes
+    ----------
+    center : ndarray, shape (3,)
+        Centre of the torus (on the axis, in the equatorial plane), mm.
+    axis : ndarray, shape (3,)
+        Unit axis of revolution, largest-magnitude component positive.
+    major_radius : float
+        Radius of the circle traced by the tube centre, mm.
+    minor_radius : float
+        Radius of the tube, mm.
+
+    Notes
+    -----
+    ``parameter_names`` are ``center_x, center_y, center_z, axis_x, axis_y, axis_z,
+    major_radius, minor_radius`` (machine frame; covariance of rank 7).
+    """
+
+    center: FloatArray
+    axis: FloatArray
+    major_radius: float
+    minor_radius: float
+
+
+def _torus_model(local: FloatArray, params: FloatArray) -> tuple[FloatArray, FloatArray]:
+    """Residuals and Jacobian in standard position; params ``(x0, y0, z0, a, b, R, r)``."""
+    x0, y0, z0, a, b, major, minor = (float(v) for v in params)
+    terms = axial_terms(local, np.array([x0, y0, z0]), a, b)
+    radial_gap = terms.rho - major
+    tube_distance = np.hypot(radial_gap, terms.height)
+    safe = np.where(tube_distance > 0, tube_distance, 1.0)
+    jac = np.empty((local.shape[0], 7))
+    jac[:, 0:5] = (radial_gap[:, None] * terms.d_rho + terms.height[:, None] * terms.d_height) / safe[:, None]
+    jac[:, 5] = -radial_gap / safe
+    jac[:, 6] = -1.0
+    return tube_distance - minor, jac
+
+
+def _torus_cost(local: FloatArray, params: FloatArray) -> float:
+    """Sum of squared residuals (no Jacobian), for ranking starting values."""
+    x0, y0, z0, a, b, major, minor = (float(v) for v in params)
+    direction = local_direction(a, b)
+    offset = local - np.array([x0, y0, z0])
+    height = offset @ direction
+    rho = np.linalg.norm(offset - height[:, None] * direction, axis=1)
+    residuals = np.hypot(rho - major, height) - minor
+    return float(residuals @ residuals)
+
+
+def _params_from_centre(local: FloatArray, x0: float, y0: float) -> FloatArray | None:
+    """With the axis at ``(x0, y0)`` the points lie on a circle in the (rho, z) half-plane: fit it algebraically."""
+    rho = np.hypot(local[:, 0] - x0, local[:, 1] - y0)
+    major, z0, minor = algebraic_circle(np.c_[rho, local[:, 2]])
+    if not (minor > 0 and major > 0):
+        return None
+    return np.array([x0, y0, z0, 0.0, 0.0, major, minor])
+
+
+def _torus_start_cheap(local: FloatArray) -> FloatArray | None:
+    """Starting values around the local z axis: axis position from circles, then a circle in (rho, z).
+
+    Every slice ``z = const`` of a torus is one or two circles about its axis, so the axis
+    position ``x0, y0`` is taken from an algebraic circle through the highest (and,
+    separately, the lowest) eighth of the points, or through all projected points (good
+    for a thin ring, biased for a fat partial elbow).  Of the three candidates the one whose
+    residuals are smallest is returned.
+    """
+    order = np.argsort(local[:, 2])
+    slice_size = max(5, local.shape[0] // 8)
+    best: tuple[float, FloatArray] | None = None
+    for subset in (local, local[order[-slice_size:]], local[order[:slice_size]]):
+        x0, y0, _ = algebraic_circle(subset[:, :2])
+        params = _params_from_centre(local, x0, y0)
+        if params is None:
+            continue
+        cost = _torus_cost(local, params)
+        if np.isfinite(cost) and (best is None or cost < best[0]):
+            best = (cost, params)
+    return None if best is None else best[1]
+
+
+def _torus_start(local: FloatArray) -> FloatArray | None:
+    """Best of :func:`_torus_start_cheap` and a 13 x 13 grid of axis positions, polished by Nelder-Mead.
+
+    Grid and search vary ``x0, y0`` only; ``R, z0, r`` follow from the (rho, z) circle
+    (variable projection), and the geometric sum of squares is the objective.
+    """
+    from scipy.optimize import minimize  # heavy import kept out of the module import
+
+    params = _torus_start_cheap(local)
+
+    def cost(centre: FloatArray) -> float:
+        candidate = _params_from_centre(local, float(centre[0]), float(centre[1]))
+        return float("inf") if candidate is None else _torus_cost(local, candidate)
+
+    # coarse grid of axis positions over twice the projected extent of the data: a fat
+    # partial elbow puts the axis far outside the data, where the circles above miss it
+    extent = 1.5 * float(np.max(np.hypot(local[:, 0], local[:, 1])))
+    ticks = np.linspace(-extent, extent, 13)
+    grid = np.array([[gx, gy] for gx in ticks for gy in ticks])
+    grid_costs = np.array([cost(centre) for centre in grid])
+    if np.isfinite(grid_costs.min()):
+        best_grid = grid[int(np.argmin(grid_costs))]
+        if params is None or grid_costs.min() < _torus_cost(local, params):
+            params = _params_from_centre(local, float(best_grid[0]), float(best_grid[1]))
+    if params is None:
+        return None
+
+    step = 0.25 * float(params[5])
+    search = minimize(
+        cost,
+        params[:2],
+        method="Nelder-Mead",
+        options={
+            "initial_simplex": params[:2] + np.array([[0.0, 0.0], [step, 0.0], [0.0, step]]),
+            "xatol": 1e-3 * step,
+            "fatol": 0,
+            "maxfev": 150,
+        },
+    )
+    polished = _params_from_centre(local, float(search.x[0]), float(search.x[1]))
+    return polished if polished is not None and search.fun < _torus_cost(local, params) else params
+
+
+def fit_torus(
+    points: ArrayLike,
+    *,
+    weights: ArrayLike | None = None,
+    axis_hint: ArrayLike | None = None,
+) -> TorusFit:
+    """Fit a torus to 3-D points by orthogonal-distance least squares.
+
+    Levenberg-Marquardt with an analytic Jacobian in standard position (data centred at
+    the centroid, current axis along +z).  Local parameters: the centre ``x0, y0, z0``,
+    two axis tilts, the major and the minor radius.  Starting axes are ``axis_hint``, the
+    three directions of a 64-direction hemisphere search whose starting values fit best
+    (a fat pipe elbow has no principal axis near its torus axis) and the principal axes.
+    For each axis the starting axis position comes from algebraic circles (all projected
+    points, the highest and the lowest eighth) and a 13 x 13 grid, polished by Nelder-Mead;
+    the radii and the height then follow from a circle in the ``(rho, z)`` half-plane.
+    The converged solution of least cost is returned.
+
+    Parameters
+    ----------
+    points : array_like, shape (N, 3)
+        Measured points (mm), N >= 7.
+    weights : array_like, shape (N,), optional
+        Non-negative weights of the squared residuals.
+    axis_hint : array_like, shape (3,), optional
+        Approximate axis direction tried first (either sign).
+
+    Returns
+    -------
+    TorusFit
+        Residuals ``sqrt((rho - R)^2 + h^2) - r`` (mm, positive outside the tube).
+
+    Raises
+    ------
+    InvalidInputError
+        NaN/inf, wrong shape, bad weights or hint.
+    TooFewPointsError
+        Fewer than 7 points.
+    DegenerateGeometryError
+        All points on a line or in a plane.
+    ConvergenceError
+        No starting value led to a converged solution.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> u, v = np.meshgrid(np.linspace(0, 2 * np.pi, 8, endpoint=False), np.linspace(0, 2 * np.pi, 5, endpoint=False))
+    >>> u, v = u.ravel(), v.ravel()
+    >>> pts = np.c_[(20 + 4 * np.cos(v)) * np.cos(u), (20 + 4 * np.cos(v)) * np.sin(u), 4 * np.sin(v)]
+    >>> fit = fit_torus(pts + [0.0, 0.0, 1000.0])
+    >>> round(fit.major_radius, 9), round(fit.minor_radius, 9), (np.round(fit.center, 9) + 0.0).tolist()
+    (20.0, 4.0, [0.0, 0.0, 1000.0])
+    """
+    data = as_points(points, element=_ELEMENT, min_points=7)
+    weight = as_weights(weights, data.shape[0], element=_ELEMENT)
+    sqrt_weights = None if weight is None else np.sqrt(weight)
+    centroid = data.mean(axis=0)
+    centred = data - centroid
+    check_spread(centred, element=_ELEMENT, forbid_coplanar=True)
+    solution = solve_axial(
+        data,
+        centroid,
+        candidate_axes(centred, [as_axis_hint(axis_hint), *screened_axes(centred, _torus_start_cheap, _torus_cost)]),
+        start=_torus_start,
+        model=_torus_model,
+        position_slots=(0, 1, 2),
+        tilt_slots=(3, 4),
+        element=_ELEMENT,
+        sqrt_weights=sqrt_weights,
+    )
+    return _result(data, solution)
+
+
+def _result(data: FloatArray, solution: AxialSolution) -> TorusFit:
+    params = solution.params
+    rotation = solution.rotation
+    x0, y0, z0, a, b, major, minor = (float(v) for v in params)
+    axis = rotation.T @ local_direction(a, b)
+    center = solution.centroid + rotation.T @ np.array([x0, y0, z0])
+    signed_axis = canonical_axis(axis)
+
+    offset = data - center
+    height = offset @ axis
+    rho = np.linalg.norm(offset - height[:, None] * axis, axis=1)
+    residuals = np.hypot(rho - major, height) - minor
+
+    outcome = solution.outcome
+    dof = data.shape[0] - 7
+    cov_local, condition = covariance_from_jacobian(outcome.jacobian, outcome.residuals, dof, element=_ELEMENT)
+    # machine parameters: centre = centroid + R^T (x0, y0, z0); axis = R^T (a, b, 1)/n, at a = b = 0
+    propagate = np.zeros((8, 7))
+    propagate[0:3, 0:3] = rotation.T
+    sign = 1.0 if float(signed_axis @ axis) > 0 else -1.0
+    propagate[3:6, 3] = sign * rotation.T[:, 0]
+    propagate[3:6, 4] = sign * rotation.T[:, 1]
+    propagate[6, 5] = 1.0
+    propagate[7, 6] = 1.0
+    covariance = propagate @ cov_local @ propagate.T
+    rms, form = residual_stats(residuals)
+    return TorusFit(
+        center=frozen(center),
+        axis=frozen(signed_axis),
+        major_radius=major,
+        minor_radius=minor,
+        residuals=frozen(residuals),
+        rms=rms,
+        form=form,
+        n=data.shape[0],
+        dof=dof,
+        parameter_names=(
+            "center_x",
+            "center_y",
+            "center_z",
+            "axis_x",
+            "axis_y",
+            "axis_z",
+            "major_radius",
+            "minor_radius",
+        ),
+        parameters=frozen([*center, *signed_axis, major, minor]),
+        covariance=frozen(covariance),
+        condition_number=condition,
+        converged=outcome.converged,
+        iterations=solution.iterations,
+        message=outcome.message,
+    )
