@@ -114,7 +114,8 @@ def test_line_2d_signed_residuals_and_sign_convention() -> None:
     centred = pts - pts.mean(axis=0)
     scatter = centred.T @ centred
     angle = 0.5 * np.arctan2(2 * scatter[0, 1], scatter[0, 0] - scatter[1, 1])
-    assert abs(np.cross(result.direction, [np.cos(angle), np.sin(angle)])) < 1e-14
+    cross = result.direction[0] * np.sin(angle) - result.direction[1] * np.cos(angle)
+    assert abs(cross) < 1e-14
     assert result.direction[0] > 0  # sign convention: largest component positive
     left_normal = np.array([-result.direction[1], result.direction[0]])
     assert result.distance(result.point + 2.0 * left_normal) == pytest.approx(2.0, abs=1e-12)
