@@ -30,6 +30,9 @@ def principal_frame(
     if weights is not None:
         centred = centred * np.sqrt(weights)[:, None]
     _, singular, vt = np.linalg.svd(centred, full_matrices=False)
+    if vt.shape[0] < vt.shape[1]:  # two points in 3-D: complete the orthonormal basis
+        vt = np.vstack([vt, np.cross(vt[0], vt[1])])
+        singular = np.append(singular, 0.0)
     if singular[0] <= TOL.identical * max(1.0, float(np.abs(points).max())):
         raise DegenerateGeometryError(element, "all points are identical")
     return centroid, singular, vt
