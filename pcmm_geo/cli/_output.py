@@ -96,8 +96,9 @@ def print_report(report: Report, as_json: bool) -> None:
         sys.stdout.write("\n")
         return
     blocks = [render_table(t) for t in report.tables]
-    blocks.extend(report.lines)
-    print("\n\n".join(blocks) if report.tables else "\n".join(report.lines))
+    if report.lines:
+        blocks.append("\n".join(report.lines))
+    print("\n\n".join(blocks))
 
 
 def run_handler(args: argparse.Namespace) -> int:

@@ -215,46 +215,47 @@ def solve_least_squares(
     message = "iteration budget exhausted"
     converged = False
     iteration = 0
-    previous_step = np.inf
+    previous_gn = np.inf
+    stalled = False
     for iteration in range(1, TOL.max_iterations + 1):  # noqa: B007 (reported after the loop)
         if not np.all(np.isfinite(jac)) or not np.all(np.isfinite(r)):
             message = "non-finite residuals or Jacobian"
             break
-        if lam > 0:
-            col_norm = np.linalg.norm(jac, axis=0)
-            col_norm[col_norm == 0] = 1.0
-            aug = np.vstack([jac, np.diag(np.sqrt(lam) * col_norm)])
-            rhs = np.concatenate([-r, np.zeros(n_param)])
-        else:
-            aug, rhs = jac, -r
-        step, *_ = np.linalg.lstsq(aug, rhs, rcond=None)
-        step_norm = float(np.linalg.norm(step))
+        gauss_newton, *_ = np.linalg.lstsq(jac, -r, rcond=None)
+        gn_norm = float(np.linalg.norm(gauss_newton))
         size = scale + float(np.linalg.norm(x))
-        if lam == 0.0 and (
-            step_norm <= TOL.step * size
-            # rounding floor: a tiny Gauss-Newton step that no longer shrinks is noise
-            or (step_norm <= TOL.rounding_floor * size and step_norm >= 0.5 * previous_step)
+        if gn_norm <= TOL.step * size or (
+            # rounding floor: a tiny Gauss-Newton step that no longer shrinks (or that no
+            # damping can turn into a decrease of the cost) is rounding noise
+            gn_norm <= TOL.rounding_floor * size and (gn_norm >= 0.5 * previous_gn or stalled)
         ):
-            x = x + step
+            x = x + gauss_newton
             if normalize is not None:
                 x = normalize(x)
             r, jac = evaluate(x)
             converged, message = True, "converged: Gauss-Newton step below tolerance"
             break
+        previous_gn = gn_norm
+        if lam > 0:
+            col_norm = np.linalg.norm(jac, axis=0)
+            col_norm[col_norm == 0] = 1.0
+            aug = np.vstack([jac, np.diag(np.sqrt(lam) * col_norm)])
+            step, *_ = np.linalg.lstsq(aug, np.concatenate([-r, np.zeros(n_param)]), rcond=None)
+        else:
+            step = gauss_newton
         trial = x + step
         if normalize is not None:
             trial = normalize(trial)
         r_trial, jac_trial = evaluate(trial)
         cost_trial = float(r_trial @ r_trial)
         # undamped steps are accepted within rounding of the cost; damped ones must decrease it
-        accept = cost_trial < cost or (lam == 0.0 and cost_trial <= cost * (1 + 1e-12) + 1e-300)
-        if accept:
-            previous_step = step_norm if lam == 0.0 else np.inf
+        if cost_trial < cost or (lam == 0.0 and cost_trial <= cost * (1 + 1e-12) + 1e-300):
             x, r, jac, cost = trial, r_trial, jac_trial, cost_trial
             lam = 0.0 if lam <= 1e-8 else lam / 10.0
+            stalled = False
         else:
             lam = 1e-6 if lam == 0.0 else lam * 10.0
-            previous_step = np.inf
+            stalled = True
             if lam > 1e12:
                 message = "damping exhausted without decrease of the sum of squares"
                 break
