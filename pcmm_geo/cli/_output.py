@@ -62,7 +62,8 @@ def render_table(table: Table) -> str:
     ]
 
     def fmt(row: list[str]) -> str:
-        return "  ".join(c.rjust(w) if numeric[i] else c.ljust(w) for i, (c, w) in enumerate(zip(row, widths)))
+        cells = zip(row, widths, strict=True)
+        return "  ".join(c.rjust(w) if numeric[i] else c.ljust(w) for i, (c, w) in enumerate(cells))
 
     out = [table.title, fmt(table.columns), "  ".join("-" * w for w in widths)]
     out.extend(fmt(r) for r in cells)
@@ -80,7 +81,7 @@ def _looks_numeric(text: str) -> bool:
 def to_jsonable(value: Any) -> Any:
     """Convert numpy scalars/arrays and dataclass-like objects for ``json.dumps``."""
     if hasattr(value, "tolist"):
-        return value.tolist()
+        return to_jsonable(value.tolist())
     if isinstance(value, dict):
         return {str(k): to_jsonable(v) for k, v in value.items()}
     if isinstance(value, (list, tuple)):
@@ -115,5 +116,11 @@ def run_handler(args: argparse.Namespace) -> int:
     except KeyboardInterrupt:
         print(f"pcmm {args.command}: interrupted", file=sys.stderr)
         return 130
-    print_report(report, bool(getattr(args, "json", False)))
+    try:
+        print_report(report, bool(getattr(args, "json", False)))
+        sys.stdout.flush()
+    except BrokenPipeError:  # e.g. ``pcmm ... | head``: the reader left, not an error of ours
+        import os
+
+        os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
     return report.exit_code

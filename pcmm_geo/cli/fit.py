@@ -1,0 +1,133 @@
+"""``pcmm fit ELEMENT FILE``: Gaussian fit of a point file."""
+
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+from typing import Any
+
+from pcmm_geo.cli._output import Report, Table, add_json_flag
+
+ELEMENTS = ("line", "plane", "circle", "sphere", "cylinder", "cone", "torus")
+_DIRECTIONS = ("direction", "normal", "axis")
+_UNITS = {"radius": "mm", "major_radius": "mm", "minor_radius": "mm", "half_angle": "rad"}
+
+
+def register(subparsers: argparse._SubParsersAction) -> None:
+    parser = subparsers.add_parser(
+        "fit",
+        help="Gaussian (least-squares) fit of a geometric element to a point file",
+        description=(
+            "Fit ELEMENT to the points in FILE (CSV/TXT/XYZ with or without header, NIST .ds, PLY, PCD). "
+            "Reports the element, standard uncertainties, rms, form error and convergence."
+        ),
+    )
+    parser.add_argument("element", choices=ELEMENTS)
+    parser.add_argument("file", type=Path)
+    parser.add_argument(
+        "--method",
+        choices=("gaussian", "projected"),
+        default="gaussian",
+        help="3-D circle: distance to the curve (gaussian) or plane-then-circle (projected, NIST)",
+    )
+    parser.add_argument("--radius", type=float, help="fixed radius in mm (circle, sphere, cylinder)")
+    parser.add_argument("--two-d", action="store_true", help="line/circle: use only the x and y columns")
+    parser.add_argument("--residuals", action="store_true", help="include every residual in the JSON output")
+    parser.add_argument("--plot", type=Path, help="write a residual plot (PNG) to this path")
+    add_json_flag(parser)
+    parser.set_defaults(handler=handle)
+
+
+def handle(args: argparse.Namespace) -> Report:
+    import numpy as np
+
+    from pcmm_geo import fit
+    from pcmm_geo.errors import InvalidInputError
+    from pcmm_geo.io.points import read_points
+
+    points = read_points(args.file)
+    if args.two_d:
+        if args.element not in ("line", "circle"):
+            raise InvalidInputError("--two-d", "element line or circle", args.element)
+        points = points[:, :2]
+    kwargs: dict[str, Any] = {}
+    if args.radius is not None:
+        if args.element not in ("circle", "sphere", "cylinder"):
+            raise InvalidInputError("--radius", "element circle, sphere or cylinder", args.element)
+        kwargs["radius"] = args.radius
+    if args.element == "circle":
+        kwargs["method"] = args.method
+    result = getattr(fit, f"fit_{args.element}")(points, **kwargs)
+
+    data = result.to_dict()
+    if not args.residuals:
+        data.pop("residuals", None)
+        data.get("extra", {}).pop("residual_components", None)
+        data.pop("residual_components", None)
+    data["file"] = str(args.file)
+    geometry = _geometry_rows(result)
+    uncertainty = result.std_errors
+    rows = [
+        [name, value, uncertainty.get(name, float("nan")), "1" if name.split("_")[0] in _DIRECTIONS else "mm"]
+        for name, value in geometry
+    ]
+    for name in ("radius", "major_radius", "minor_radius", "half_angle"):
+        if hasattr(result, name):
+            value = float(getattr(result, name))
+            unit = _UNITS[name]
+            rows.append([name, value, uncertainty.get(name, float("nan")), unit])
+    if hasattr(result, "half_angle"):
+        rows.append(["apex_angle_deg", float(np.degrees(2 * result.half_angle)), float("nan"), "deg"])
+    tables = [
+        Table(
+            f"{args.element} fit of {args.file} (Gaussian least squares)",
+            ["parameter", "value", "u (1 sigma)", "unit"],
+            rows,
+        ),
+        Table(
+            "statistics",
+            ["n", "dof", "rms / mm", "form / mm", "iterations", "converged"],
+            [[result.n, result.dof, result.rms, result.form, result.iterations, result.converged]],
+        ),
+    ]
+    lines = [result.message]
+    if args.plot is not None:
+        lines.append(f"plot: {_plot_residuals(result, args.plot, args.element)}")
+    return Report(data=data, tables=tables, lines=lines)
+
+
+def _geometry_rows(result: Any) -> list[tuple[str, float]]:
+    import numpy as np
+
+    rows: list[tuple[str, float]] = []
+    for name in ("center", "point", "apex", "direction", "normal", "axis"):
+        value = getattr(result, name, None)
+        if value is None:
+            continue
+        vector = np.asarray(value, dtype=float)
+        rows.extend((f"{name}_{axis}", float(v)) for axis, v in zip("xyz", vector, strict=False))
+    return rows
+
+
+def _plot_residuals(result: Any, path: Path, element: str) -> str:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    import numpy as np
+
+    from pcmm_geo.errors import OutputExistsError
+
+    if path.exists():
+        raise OutputExistsError(str(path))
+    residuals = np.asarray(result.residuals) * 1000.0
+    figure, axes = plt.subplots(figsize=(7, 3.5))
+    axes.bar(np.arange(1, len(residuals) + 1), residuals, width=1.0 if len(residuals) > 50 else 0.8)
+    axes.axhline(0.0, color="k", linewidth=0.8)
+    axes.set_xlabel("point")
+    axes.set_ylabel("residual / µm")
+    axes.set_title(f"{element} fit: rms {result.rms * 1000:.3g} µm, form {result.form * 1000:.3g} µm")
+    figure.tight_layout()
+    figure.savefig(path, dpi=110)
+    plt.close(figure)
+    return str(path)

@@ -1,0 +1,33 @@
+"""File formats: point files and point clouds, NIST reference pairs.
+
+Names are loaded on first access so that ``import pcmm_geo.io`` stays light (open3d is
+imported only when a point cloud is read or written).
+"""
+
+from __future__ import annotations
+
+import importlib
+from typing import Any
+
+_LAZY = {
+    "read_points": "points",
+    "write_points": "points",
+    "read_nist_pair": "nist",
+    "iter_nist_pairs": "nist",
+    "NistPair": "nist",
+}
+
+__all__ = sorted(_LAZY)
+
+
+def __getattr__(name: str) -> Any:
+    module_name = _LAZY.get(name)
+    if module_name is None:
+        raise AttributeError(f"module 'pcmm_geo.io' has no attribute {name!r}")
+    value = getattr(importlib.import_module(f"pcmm_geo.io.{module_name}"), name)
+    globals()[name] = value
+    return value
+
+
+def __dir__() -> list[str]:
+    return sorted(set(globals()) | set(_LAZY))

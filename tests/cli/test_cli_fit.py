@@ -1,0 +1,74 @@
+"""``pcmm fit`` in a subprocess, against NIST reference values."""
+
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+
+PCMM = str(Path(sys.executable).with_name("pcmm"))
+NIST = Path(__file__).parents[1] / "data" / "nist"
+
+
+def _run(*args: str) -> subprocess.CompletedProcess[str]:
+    return subprocess.run([PCMM, *args], capture_output=True, text=True, timeout=120)
+
+
+def _reference(path: Path) -> np.ndarray:
+    return np.array([float(v) for v in path.with_suffix(".fit").read_text().split()])
+
+
+def test_fit_sphere_json_matches_nist() -> None:
+    done = _run("fit", "sphere", str(NIST / "Sphere" / "sph20.ds"), "--json")
+    assert done.returncode == 0, done.stderr
+    data = json.loads(done.stdout)
+    reference = _reference(NIST / "Sphere" / "sph20.ds")
+    np.testing.assert_allclose(data["center"], reference[:3], atol=1e-9)
+    assert abs(2 * data["radius"] - reference[3]) < 1e-9
+    assert data["converged"] is True and "residuals" not in data
+
+
+def test_fit_circle_projected_matches_nist_and_human_table(tmp_path: Path) -> None:
+    data_file = NIST / "Circle3d" / "cir7.ds"
+    done = _run("fit", "circle", str(data_file), "--method", "projected", "--json", "--residuals")
+    data = json.loads(done.stdout)
+    reference = _reference(data_file)
+    np.testing.assert_allclose(data["center"], reference[:3], atol=1e-9)
+    assert abs(2 * data["radius"] - reference[6]) < 1e-9
+    assert len(data["residuals"]) == data["n"] == 5
+    plot = tmp_path / "residuals.png"
+    human = _run("fit", "circle", str(data_file), "--method", "projected", "--plot", str(plot))
+    assert human.returncode == 0 and "radius" in human.stdout and "form / mm" in human.stdout
+    import matplotlib.image
+
+    image = matplotlib.image.imread(plot)
+    assert image.shape[0] > 100 and float(np.std(image[..., :3])) > 0.01
+
+
+def test_fit_errors_are_one_line_with_exit_code_2(tmp_path: Path) -> None:
+    bad = tmp_path / "bad.csv"
+    bad.write_text("1,2,3\n4,five,6\n")
+    done = _run("fit", "plane", str(bad))
+    assert done.returncode == 2
+    assert done.stderr.strip().count("\n") == 0 and "bad.csv:2: expected numbers" in done.stderr
+    collinear = tmp_path / "line.csv"
+    collinear.write_text("0,0,0\n1,1,1\n2,2,2\n3,3,3\n")
+    done = _run("fit", "sphere", str(collinear))
+    assert done.returncode == 2 and "degenerate" in done.stderr
+    done = _run("fit", "cone", str(collinear), "--radius", "2")
+    assert done.returncode == 2 and "--radius" in done.stderr
+
+
+def test_help_is_fast_and_lists_commands() -> None:
+    code = "import time, sys; t = time.perf_counter(); import pcmm_geo.cli; sys.exit(0)"
+    done = subprocess.run([sys.executable, "-X", "importtime", "-c", code], capture_output=True, text=True)
+    assert done.returncode == 0
+    heavy = [m for m in ("open3d", "trimesh", "matplotlib", "serial", "scipy") if f" {m}\n" in done.stderr]
+    assert heavy == []  # nothing heavy is imported to build the command line
+    listing = _run("--help")
+    assert listing.returncode == 0
+    for command in ("fit", "demo", "calibrate", "acquire", "gauge-block", "thermal"):
+        assert command in listing.stdout

@@ -1,0 +1,71 @@
+"""Point-file formats: round trips and malformed files."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from pcmm_geo.errors import FileFormatError, OutputExistsError
+from pcmm_geo.io import read_points, write_points
+
+POINTS = np.array([[1.5, -2.25, 3.0], [1000.123456789, 0.0, -7.5e-6], [4.0, 5.0, 6.0]])
+
+
+@pytest.mark.parametrize("suffix", [".csv", ".ply", ".pcd"])
+def test_round_trip(tmp_path: Path, suffix: str) -> None:
+    path = write_points(tmp_path / f"points{suffix}", POINTS)
+    back = read_points(path)
+    if suffix == ".pcd":  # open3d writes PCD in single precision: 2^-24 relative
+        np.testing.assert_allclose(back, POINTS, rtol=2**-24, atol=1e-12)
+    else:  # every digit survives (CSV repr, binary PLY in double precision)
+        np.testing.assert_array_equal(back, POINTS)
+    with pytest.raises(OutputExistsError, match="refusing to overwrite"):
+        write_points(path, POINTS)
+    write_points(path, POINTS[:2], overwrite=True)
+    assert len(read_points(path)) == 2
+
+
+@pytest.mark.parametrize(
+    ("text", "expected"),
+    [
+        ("1 2 3\n4 5 6\n", [[1, 2, 3], [4, 5, 6]]),
+        ("1\t2\t3\n4\t5\t6\n", [[1, 2, 3], [4, 5, 6]]),
+        ("# comment\n1;2;3\n\n4;5;6\n", [[1, 2, 3], [4, 5, 6]]),
+        ("id,z,y,x\n7,3,2,1\n8,6,5,4\n", [[1, 2, 3], [4, 5, 6]]),
+        ("2\n1 2 3\n4 5 6\n", [[1, 2, 3], [4, 5, 6]]),  # NIST .ds: count first
+        ("1,2,3,0.5\n4,5,6,0.5\n", [[1, 2, 3], [4, 5, 6]]),  # extra columns ignored
+    ],
+)
+def test_text_variants(tmp_path: Path, text: str, expected: list[list[float]]) -> None:
+    path = tmp_path / "p.txt"
+    path.write_text(text)
+    np.testing.assert_array_equal(read_points(path), expected)
+
+
+@pytest.mark.parametrize(
+    ("text", "message"),
+    [
+        ("1,2,3\n4,5\n", r"bad.csv:2: expected 3 values, got 2"),
+        ("1,2,3\n1,2,x\n", r"bad.csv:2: expected numbers"),
+        ("1,2,x\n", "header without x, y, z"),
+        ("a,b,c\n1,2,3\n", "header without x, y, z"),
+        ("3\n1 2 3\n", "announces 3 points, found 1"),
+        ("# nothing\n", "no points"),
+        ("1,2\n3,4\n", "at least 3 columns"),
+        ("1,2,nan\n", "non-finite"),
+    ],
+)
+def test_malformed(tmp_path: Path, text: str, message: str) -> None:
+    path = tmp_path / "bad.csv"
+    path.write_text(text)
+    with pytest.raises(FileFormatError, match=message):
+        read_points(path)
+
+
+def test_unknown_suffix_and_missing_file(tmp_path: Path) -> None:
+    with pytest.raises(FileFormatError, match="expected one of"):
+        read_points(tmp_path / "points.docx")
+    with pytest.raises(FileNotFoundError):
+        read_points(tmp_path / "missing.csv")
