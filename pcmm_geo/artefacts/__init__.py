@@ -1,0 +1,77 @@
+"""Artefact evaluations: gauge blocks (ISO 3650 and the seed's method), ISO 10360-2/-5/-6, micrometer stage.
+
+- :mod:`~pcmm_geo.artefacts.gauge_block` -- central length, variation in length, the seed's
+  eqs 5.1-5.3 and an exact projection.
+- :mod:`~pcmm_geo.artefacts.iso10360_2` -- length measurement errors E0, repeatability R0, verdict.
+- :mod:`~pcmm_geo.artefacts.iso10360_5` -- 25-point sphere probing pattern, P_FTU and P_STU.
+- :mod:`~pcmm_geo.artefacts.iso10360_6` -- software test harness against reference data.
+- :mod:`~pcmm_geo.artefacts.micrometer` -- micrometer-stage distances test (thesis Table 8.1).
+
+Names load lazily (PEP 562).
+
+Examples
+--------
+>>> from pcmm_geo import artefacts
+>>> artefacts.sphere_probing_pattern(radius=10.0).shape
+(25, 3)
+"""
+
+from __future__ import annotations
+
+import importlib
+from typing import Any
+
+_LAZY = {
+    "FACE_LABELS": "gauge_block",
+    "GaugeBlockMeasurement": "gauge_block",
+    "SeedGaugeBlockLength": "gauge_block",
+    "measure_gauge_block": "gauge_block",
+    "plane_from_three_points": "gauge_block",
+    "projected_length": "gauge_block",
+    "seed_gauge_block_length": "gauge_block",
+    "read_gauge_block_csv": "gauge_block",
+    "DECISION_RULES": "iso10360_2",
+    "E0Value": "iso10360_2",
+    "LengthMeasurement": "iso10360_2",
+    "LengthMpe": "iso10360_2",
+    "LengthTestResult": "iso10360_2",
+    "R0Value": "iso10360_2",
+    "evaluate_length_test": "iso10360_2",
+    "read_length_test_csv": "iso10360_2",
+    "PATTERN_RINGS": "iso10360_5",
+    "ProbingResult": "iso10360_5",
+    "evaluate_probing": "iso10360_5",
+    "read_points_csv": "iso10360_5",
+    "sphere_probing_pattern": "iso10360_5",
+    "ELEMENTS": "iso10360_6",
+    "CaseDeviation": "iso10360_6",
+    "ElementParameters": "iso10360_6",
+    "HarnessMpe": "iso10360_6",
+    "HarnessReport": "iso10360_6",
+    "ReferenceCase": "iso10360_6",
+    "cases_from_reference_data": "iso10360_6",
+    "compare_results": "iso10360_6",
+    "fit_with_pcmm_geo": "iso10360_6",
+    "load_reference_cases": "iso10360_6_io",
+    "read_element_parameters": "iso10360_6_io",
+    "PairError": "micrometer",
+    "StageTestResult": "micrometer",
+    "evaluate_stage_test": "micrometer",
+    "read_micrometer_csv": "micrometer",
+    "stage_pairs": "micrometer",
+}
+
+__all__ = sorted(_LAZY)
+
+
+def __getattr__(name: str) -> Any:
+    module_name = _LAZY.get(name)
+    if module_name is None:
+        raise AttributeError(f"module 'pcmm_geo.artefacts' has no attribute {name!r}")
+    value = getattr(importlib.import_module(f"pcmm_geo.artefacts.{module_name}"), name)
+    globals()[name] = value
+    return value
+
+
+def __dir__() -> list[str]:
+    return sorted(set(globals()) | set(_LAZY))

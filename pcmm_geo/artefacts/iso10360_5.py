@@ -1,0 +1,224 @@
+"""ISO 10360-5 single-stylus probing test on a calibrated sphere: P_FTU (form) and P_STU (size).
+
+25 points are probed on a test sphere (diameter 10-51 mm in the standard) and a Gaussian
+(least-squares) sphere is fitted to them:
+
+* ``P_FTU`` -- probing form error: range of the radial distances, i.e. the largest minus the
+  smallest signed residual of the Gaussian fit;
+* ``P_STU`` -- probing size error: fitted diameter minus calibrated diameter.
+
+Target pattern (:func:`sphere_probing_pattern`), as the standard lays it out, in the
+sphere's frame with the pole on the stylus side: one point on the pole; four points evenly
+spread in azimuth 22.5° below the pole; eight points 45° below the pole; four points 67.5°
+below the pole; eight points on the equator (90° below the pole).  Each ring after the
+first is turned 22.5° in azimuth relative to the ring before it.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from pcmm_geo.artefacts._table import cell_float, read_rows
+from pcmm_geo.errors import InvalidInputError
+from pcmm_geo.fit._core import as_points
+
+__all__ = ["PATTERN_RINGS", "ProbingResult", "evaluate_probing", "read_points_csv", "sphere_probing_pattern"]
+
+FloatArray = NDArray[np.float64]
+
+#: (polar angle below the pole in degrees, number of points, azimuth turn of the ring in degrees)
+PATTERN_RINGS = ((0.0, 1, 0.0), (22.5, 4, 0.0), (45.0, 8, 22.5), (67.5, 4, 45.0), (90.0, 8, 67.5))
+
+
+def sphere_probing_pattern(
+    centre: ArrayLike = (0.0, 0.0, 0.0),
+    radius: float = 12.5,
+    *,
+    pole: ArrayLike = (0.0, 0.0, 1.0),
+    azimuth: float = 0.0,
+) -> FloatArray:
+    """The 25 target points of the ISO 10360-5 probing test.
+
+    Parameters
+    ----------
+    centre : array_like, shape (3,)
+        Sphere centre (mm).
+    radius : float
+        Sphere radius (mm), > 0.
+    pole : array_like, shape (3,)
+        Direction of the pole from the centre (towards the probe); normalised here.
+    azimuth : float
+        Extra rotation of the whole pattern about the pole axis (rad).  Azimuth 0 lies along the
+        machine x axis projected normal to the pole (along y when the pole is near x).
+
+    Returns
+    -------
+    ndarray, shape (25, 3)
+        Pole first, then the rings in the order of :data:`PATTERN_RINGS`.
+
+    Raises
+    ------
+    InvalidInputError
+        Non-positive radius, zero pole vector.
+
+    Examples
+    --------
+    >>> pts = sphere_probing_pattern(radius=10.0)
+    >>> pts.shape, pts[0].tolist()
+    ((25, 3), [0.0, 0.0, 10.0])
+    """
+    if not (math.isfinite(radius) and radius > 0):
+        raise InvalidInputError("radius", "a positive radius in mm", repr(radius))
+    axis = np.asarray(pole, dtype=float)
+    if axis.shape != (3,) or not np.all(np.isfinite(axis)) or np.linalg.norm(axis) == 0:
+        raise InvalidInputError("pole", "a non-zero 3-vector", f"{axis.tolist()}")
+    c = np.asarray(centre, dtype=float)
+    if c.shape != (3,) or not np.all(np.isfinite(c)):
+        raise InvalidInputError("centre", "a finite 3-vector in mm", f"{c.tolist()}")
+    local = []
+    for polar_deg, count, turn_deg in PATTERN_RINGS:
+        polar = math.radians(polar_deg)
+        for m in range(count):
+            phi = azimuth + math.radians(turn_deg) + 2 * math.pi * m / count
+            local.append([math.sin(polar) * math.cos(phi), math.sin(polar) * math.sin(phi), math.cos(polar)])
+    unit_points = np.asarray(local)
+    # pattern frame: pole d, azimuth 0 along the machine x axis projected normal to d (y when d ~ x)
+    d = axis / np.linalg.norm(axis)
+    reference = np.array([1.0, 0.0, 0.0]) if abs(d[0]) < 0.9 else np.array([0.0, 1.0, 0.0])
+    e1 = reference - (reference @ d) * d
+    e1 /= np.linalg.norm(e1)
+    frame = np.vstack([e1, np.cross(d, e1), d])
+    return c + radius * unit_points @ frame
+
+
+@dataclass(frozen=True)
+class ProbingResult:
+    """ISO 10360-5 probing errors.
+
+    Attributes
+    ----------
+    form_error : float
+        ``P_FTU``, range of the radial residuals (mm).
+    size_error : float
+        ``P_STU``, fitted minus calibrated diameter (mm).
+    fitted_diameter, reference_diameter : float
+        mm.
+    centre : ndarray, shape (3,)
+        Fitted centre (mm).
+    residuals : ndarray, shape (N,)
+        Signed radial residuals (mm).
+    n : int
+        Number of points (25 in the standard).
+    mpe_form, mpe_size : float or None
+        Stated MPEs (mm), if any.
+    form_conforms, size_conforms : bool or None
+        ``P_FTU <= MPE_PFTU``, ``|P_STU| <= MPE_PSTU`` (simple acceptance), None without MPE.
+    """
+
+    form_error: float
+    size_error: float
+    fitted_diameter: float
+    reference_diameter: float
+    centre: FloatArray
+    residuals: FloatArray
+    n: int
+    mpe_form: float | None
+    mpe_size: float | None
+    form_conforms: bool | None
+    size_conforms: bool | None
+
+    @property
+    def passed(self) -> bool | None:
+        """All stated MPEs met (None when none was stated)."""
+        verdicts = [v for v in (self.form_conforms, self.size_conforms) if v is not None]
+        return all(verdicts) if verdicts else None
+
+
+def evaluate_probing(
+    points: ArrayLike,
+    reference_diameter: float,
+    *,
+    mpe_form: float | None = None,
+    mpe_size: float | None = None,
+) -> ProbingResult:
+    """P_FTU and P_STU from points probed on a calibrated sphere (Gaussian sphere fit).
+
+    Parameters
+    ----------
+    points : array_like, shape (N, 3)
+        Probed points (mm); the standard uses 25 (:func:`sphere_probing_pattern`), at least 5.
+    reference_diameter : float
+        Calibrated sphere diameter (mm).
+    mpe_form, mpe_size : float, optional
+        MPE_PFTU and MPE_PSTU (mm).
+
+    Returns
+    -------
+    ProbingResult
+
+    Raises
+    ------
+    InvalidInputError
+        Non-positive diameter or MPE, bad point array.
+    TooFewPointsError, DegenerateGeometryError, ConvergenceError
+        From the sphere fit.
+
+    Examples
+    --------
+    >>> pts = sphere_probing_pattern((10.0, 20.0, 30.0), 12.5)
+    >>> res = evaluate_probing(pts, 25.0)
+    >>> round(res.form_error, 12), round(res.size_error, 12)
+    (0.0, 0.0)
+    """
+    from pcmm_geo.fit import fit_sphere
+
+    if not (isinstance(reference_diameter, (int, float)) and math.isfinite(reference_diameter)
+            and reference_diameter > 0):
+        raise InvalidInputError("reference_diameter", "a positive diameter in mm", repr(reference_diameter))
+    for name, value in (("mpe_form", mpe_form), ("mpe_size", mpe_size)):
+        if value is not None and not (math.isfinite(value) and value > 0):
+            raise InvalidInputError(name, "a positive length in mm or None", repr(value))
+    pts = as_points(points, element="sphere", min_points=5)
+    fit = fit_sphere(pts)
+    residuals = np.asarray(fit.residuals, dtype=float)
+    form = float(residuals.max() - residuals.min())
+    diameter = 2.0 * float(fit.radius)
+    size = diameter - float(reference_diameter)
+    return ProbingResult(
+        form_error=form,
+        size_error=size,
+        fitted_diameter=diameter,
+        reference_diameter=float(reference_diameter),
+        centre=np.asarray(fit.center, dtype=float),
+        residuals=residuals,
+        n=len(pts),
+        mpe_form=mpe_form,
+        mpe_size=mpe_size,
+        form_conforms=None if mpe_form is None else form <= mpe_form,
+        size_conforms=None if mpe_size is None else abs(size) <= mpe_size,
+    )
+
+
+def read_points_csv(path: str | Path) -> FloatArray:
+    """Read an ``x,y,z`` CSV (mm, ``#`` comments allowed) into an ``(N, 3)`` array.
+
+    Raises
+    ------
+    FileFormatError
+        Missing columns or non-numeric cells.
+    OSError
+        Unreadable file.
+
+    Examples
+    --------
+    >>> from importlib.resources import files
+    >>> read_points_csv(files("pcmm_geo") / "data/examples/iso10360_5_sphere.csv").shape
+    (25, 3)
+    """
+    rows = read_rows(path, ("x", "y", "z"))
+    return np.array([[cell_float(path, line, row, axis) for axis in "xyz"] for line, row in rows])
