@@ -36,8 +36,12 @@ def register(subparsers: Any) -> None:
     parser.add_argument("--no-presequence", action="store_true", help="skip the settling pre-sequence")
     parser.add_argument("--defects", action="store_true", help="simulate the seed's dead spot and settling scatter")
     parser.add_argument("--probe-mode", choices=("pin", "text"), default="pin", help="Arduino firmware mode")
-    parser.add_argument("--timeout", type=float, default=0.5, help="device reply timeout, s")
-    parser.add_argument("--move-timeout", type=float, default=60.0, help="timeout of a motion reply, s")
+    parser.add_argument(
+        "--timeout", type=float, default=None, help="device reply timeout, s (default 0.5; simulated 0.1)"
+    )
+    parser.add_argument(
+        "--move-timeout", type=float, default=None, help="timeout of a motion reply, s (default 60; simulated 1)"
+    )
     parser.add_argument("--port-zaber", help="port of the Zaber chain (real hardware; seed COM11)")
     for arm in _ARMS:
         parser.add_argument(f"--port-laser-{arm}", help=f"port of laser {arm}")
@@ -57,6 +61,11 @@ def _open_log(args: argparse.Namespace, metadata: dict[str, Any]) -> Any:
 
 
 def _check_args(args: argparse.Namespace) -> None:
+    # simulated devices answer at once: a lost reply should cost a fraction of a second, not a minute
+    if args.timeout is None:
+        args.timeout = 0.1 if args.simulate else 0.5
+    if args.move_timeout is None:
+        args.move_timeout = 1.0 if args.simulate else 60.0
     from pcmm_geo.errors import InvalidInputError
 
     if args.moves < 0:
