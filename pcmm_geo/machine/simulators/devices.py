@@ -1,6 +1,6 @@
 """Simulated devices of the micro-CMM: Zaber chain, ILD1302 / ILD1420 streams, Arduino probe.
 
-They speak the same bytes as the real devices (``the project's device-protocol notes (shared/protocols.md)`` §1, §2, §6) and
+They speak the same bytes as the real devices (protocol facts: docs/protocols.md) and
 are served on pseudo-terminals by :class:`~pcmm_geo.machine.simulators.pty.PtyServer`.
 Faults come from a seeded :class:`~pcmm_geo.machine.simulators.faults.FaultPlan`.
 """

@@ -1,0 +1,102 @@
+"""``pcmm calibrate PROBINGS.csv LASERS.csv``: tetrahedron calibration from external-CMM probings (thesis ch. 7)."""
+
+from __future__ import annotations
+
+import argparse
+from typing import Any
+
+from pcmm_geo.cli._output import Report, Table, add_json_flag
+
+
+def register(subparsers: Any) -> None:
+    parser = subparsers.add_parser(
+        "calibrate",
+        help="calibrate the tetrahedron from external-CMM probings and laser readings (thesis ch. 7)",
+        description=(
+            "Fit the probed joint and tip spheres, the slider lines and laser scales, and report the seed's "
+            "dead distances d (eq 7.3), arm angles beta (eq 7.4, corrected) and b (eq 7.5). PROBINGS.csv is "
+            "feature,position,x,y,z (feature joint_a|joint_b|joint_c|tip) or the seed's x,y,z,d,r export; "
+            "LASERS.csv is position,laser_a,laser_b,laser_c (mm)."
+        ),
+    )
+    parser.add_argument("probings", help="probings CSV (raw points or element-level export)")
+    parser.add_argument("lasers", help="laser readings CSV position,laser_a,laser_b,laser_c")
+    parser.add_argument("--out", metavar="CAL.json", help="write the versioned calibration file")
+    parser.add_argument("--overwrite", action="store_true", help="replace an existing --out file")
+    parser.add_argument("--sweep", metavar="SWEEP.csv", help="laser sweep (position,laser_a,laser_b,laser_c) for b")
+    parser.add_argument("--start-of-range", type=float, default=60.0, help="laser start of range in mm (default 60)")
+    parser.add_argument("--plot", metavar="FILE.png", help="save a 3-D plot of centres, slider lines and tip")
+    add_json_flag(parser)
+    parser.set_defaults(handler=_handle)
+
+
+def _handle(args: argparse.Namespace) -> Report:
+    from pathlib import Path
+
+    from pcmm_geo.errors import OutputExistsError
+    from pcmm_geo.machine.calibration import PAIRS, calibrate_tetrahedron, save_calibration
+    from pcmm_geo.machine.calibration_io import read_lasers
+
+    if args.out and Path(args.out).exists() and not args.overwrite:
+        raise OutputExistsError(str(args.out))
+    sweep = None if args.sweep is None else read_lasers(args.sweep).readings
+    cal = calibrate_tetrahedron(
+        args.probings, args.lasers, laser_start_of_range=args.start_of_range, laser_sweep=sweep
+    )
+    data: dict[str, Any] = cal.summary()
+    lines: list[str] = []
+    if args.out:
+        written = save_calibration(cal, args.out, overwrite=args.overwrite)
+        data["written"] = str(written)
+        lines.append(f"calibration written to {written}")
+    if args.plot:
+        plot_calibration(cal, args.plot)
+        data["plot"] = args.plot
+        lines.append(f"plot written to {args.plot}")
+    rows = []
+    for arm, pair in zip("abc", PAIRS, strict=True):
+        line = cal.slider_lines[arm]
+        rows.append([arm, cal.dead_distance[arm], pair, cal.beta[pair], cal.b_in[pair], line.laser_scale,
+                     line.laser_offset, line.straightness, line.tip_offset])
+    arms = Table(
+        "Tetrahedron calibration (Table 7.1 layout)",
+        ["arm", "d (mm)", "pair", "beta (deg)", "b (mm)", "laser scale", "laser offset (mm)", "straightness (mm)",
+         "tip offset (mm)"],
+        rows,
+    )
+    geometry = Table(
+        "Geometry",
+        ["quantity", "x (mm)", "y (mm)", "z (mm)"],
+        [["tip centre", *cal.tip_centre.tolist()], ["probe point eq 7.2 (least squares)", *cal.probe_point.tolist()],
+         ["probe point (seed pairwise)", *cal.probe_point_pairwise.tolist()]],
+    )
+    lines.insert(0, "skew distances (mm): " + ", ".join(f"{k} {v:.4f}" for k, v in cal.skew_distances.items()))
+    return Report(data=data, tables=[arms, geometry], lines=lines)
+
+
+def plot_calibration(cal: Any, path: str) -> None:
+    """Save a 3-D view of joint centres, fitted slider lines, tip and eq 7.2 point (matplotlib, Agg)."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    import numpy as np
+
+    figure = plt.figure(figsize=(6, 5))
+    axes = figure.add_subplot(projection="3d")
+    centres = cal.joint_centres
+    for k, arm in enumerate("abc"):
+        line = cal.slider_lines[arm]
+        reach = np.linspace(0.0, float(line.slide.max()) * 1.05, 2)
+        path_points = line.point + reach[:, None] * line.direction
+        axes.plot(*path_points.T, label=f"slider line {arm}")
+        axes.scatter(*centres[:, k].T, s=12)
+    axes.scatter(*cal.tip_centre, color="red", s=30, label="tip centre")
+    axes.scatter(*cal.probe_point, color="black", marker="x", s=30, label="eq 7.2 point")
+    axes.set_xlabel("x (mm)")
+    axes.set_ylabel("y (mm)")
+    axes.set_zlabel("z (mm)")
+    axes.legend(loc="upper left", fontsize=7)
+    figure.tight_layout()
+    figure.savefig(path, dpi=100)
+    plt.close(figure)
