@@ -23,6 +23,7 @@ from pcmm_geo.errors import (
     InvalidInputError,
     TooFewPointsError,
 )
+from pcmm_geo.fit._tall import tall_lstsq, tall_svd
 
 __all__ = [
     "FitResult",
@@ -109,10 +110,13 @@ def as_points(
         raise InvalidInputError(name, f"shape {shape_text}", f"shape {arr.shape}")
     if arr.shape[0] < min_points:
         raise TooFewPointsError(element, min_points, arr.shape[0])
-    bad = ~np.isfinite(arr)
-    if bad.any():
-        row = int(np.argwhere(bad)[0, 0])
-        raise InvalidInputError(name, "finite coordinates", f"{arr[row].tolist()} in row {row}")
+    # one sum is much cheaper than an element-wise mask; it is only non-finite when a value
+    # is (or when finite values overflow, which the mask then tells apart)
+    if not np.isfinite(arr.sum()):
+        bad = ~np.isfinite(arr)
+        if bad.any():
+            row = int(np.argwhere(bad)[0, 0])
+            raise InvalidInputError(name, "finite coordinates", f"{arr[row].tolist()} in row {row}")
     if min_points > 1:
         spread = np.ptp(arr, axis=0).max()
         scale = max(np.abs(arr).max(), 1.0)
@@ -221,7 +225,7 @@ def solve_least_squares(
         if not np.all(np.isfinite(jac)) or not np.all(np.isfinite(r)):
             message = "non-finite residuals or Jacobian"
             break
-        gauss_newton, *_ = np.linalg.lstsq(jac, -r, rcond=None)
+        gauss_newton = tall_lstsq(jac, -r)
         gn_norm = float(np.linalg.norm(gauss_newton))
         size = scale + float(np.linalg.norm(x))
         if gn_norm <= TOL.step * size or (
@@ -240,7 +244,7 @@ def solve_least_squares(
             col_norm = np.linalg.norm(jac, axis=0)
             col_norm[col_norm == 0] = 1.0
             aug = np.vstack([jac, np.diag(np.sqrt(lam) * col_norm)])
-            step, *_ = np.linalg.lstsq(aug, np.concatenate([-r, np.zeros(n_param)]), rcond=None)
+            step = tall_lstsq(aug, np.concatenate([-r, np.zeros(n_param)]))
         else:
             step = gauss_newton
         trial = x + step
@@ -276,7 +280,7 @@ def covariance_from_jacobian(
     Both ``jacobian`` and ``residuals`` are already weighted.  Emits
     :class:`IllConditionedWarning` when the condition number exceeds ``TOL.ill_conditioned``.
     """
-    _, sing, vt = np.linalg.svd(jacobian, full_matrices=False)
+    sing, vt = tall_svd(jacobian)
     if sing.size == 0 or sing[0] == 0:
         raise DegenerateGeometryError(element, "Jacobian is zero")
     cond = float(sing[0] / sing[-1]) if sing[-1] > 0 else float("inf")

@@ -7,6 +7,7 @@ from numpy.typing import NDArray
 
 from pcmm_geo.errors import DegenerateGeometryError
 from pcmm_geo.fit._core import TOL
+from pcmm_geo.fit._tall import tall_svd
 
 FloatArray = NDArray[np.float64]
 
@@ -50,7 +51,7 @@ def propagate(local_cov: FloatArray, gradient: FloatArray) -> FloatArray:
 
 def local_covariance(jacobian: FloatArray, residuals: FloatArray, dof: int) -> tuple[FloatArray, float]:
     """``s^2 (J^T J)^-1`` and the condition number of ``J`` (both already weighted)."""
-    _, singular, vt = np.linalg.svd(jacobian, full_matrices=False)
+    singular, vt = tall_svd(jacobian)
     cond = float(singular[0] / singular[-1]) if singular[-1] > 0 else float("inf")
     variance = float(residuals @ residuals) / dof if dof > 0 else float("nan")
     with np.errstate(divide="ignore"):

@@ -12,27 +12,35 @@ from numpy.typing import NDArray
 from pcmm_geo.errors import DegenerateGeometryError
 from pcmm_geo.fit._core import TOL, SolverOutcome, solve_least_squares
 from pcmm_geo.fit._linear import local_covariance, weighted_centroid
+from pcmm_geo.fit._tall import tall_lstsq, tall_svd
 
 FloatArray = NDArray[np.float64]
 
 
+def _row_norms_squared(rows: FloatArray) -> FloatArray:
+    """``|row|^2`` per row of an (N, D) array (einsum: a reduction over a short axis is slow in numpy)."""
+    return np.einsum("ij,ij->i", rows, rows)
+
+
 def algebraic_nsphere(centred: FloatArray, weights: FloatArray | None, *, element: str) -> tuple[FloatArray, float]:
     """Kasa-type algebraic fit (linear in centre and ``r^2 - |c|^2``) of centred data; a starting value only."""
-    scale = float(np.sqrt(np.mean(np.sum(centred**2, axis=1))))
-    scaled = centred / scale
-    design = np.column_stack([2.0 * scaled, np.ones(len(scaled))])
-    target = np.sum(scaled**2, axis=1)
+    squared_norms = _row_norms_squared(centred)
+    scale = float(np.sqrt(np.mean(squared_norms)))
+    design = np.empty((centred.shape[0], centred.shape[1] + 1))
+    np.multiply(centred, 2.0 / scale, out=design[:, :-1])
+    design[:, -1] = 1.0
+    target = squared_norms / scale**2
     if weights is not None:
         root = np.sqrt(weights)
         design, target = design * root[:, None], target * root
-    solution, *_ = np.linalg.lstsq(design, target, rcond=None)
-    singular = np.linalg.svd(design, compute_uv=False)
+    solution = tall_lstsq(design, target)
+    singular, _ = tall_svd(design)
     if singular[-1] <= TOL.degenerate * singular[0]:
         shape = "collinear" if centred.shape[1] == 2 else "coplanar"
         raise DegenerateGeometryError(element, f"points are {shape}; no unique {element} passes through them")
     centre = solution[:-1]
     radius_sq = solution[-1] + centre @ centre
-    radius = float(np.sqrt(radius_sq)) if radius_sq > 0 else float(np.sqrt(np.mean(np.sum(scaled**2, axis=1))))
+    radius = float(np.sqrt(radius_sq)) if radius_sq > 0 else float(np.sqrt(np.mean(target)))
     return centre * scale, radius * scale
 
 
@@ -52,7 +60,7 @@ def fit_nsphere(
     """
     origin = weighted_centroid(points, weights)
     centred = points - origin
-    size = float(np.sqrt(np.mean(np.sum(centred**2, axis=1))))
+    size = float(np.sqrt(np.mean(_row_norms_squared(centred))))
     if fixed_radius is None:
         centre0, radius0 = algebraic_nsphere(centred, weights, element=element)
     else:
@@ -64,11 +72,12 @@ def fit_nsphere(
         centre = params[:dim]
         radius = params[dim] if fixed_radius is None else fixed_radius
         rel = centred - centre
-        dist = np.sqrt(np.sum(rel**2, axis=1))
+        dist = np.sqrt(_row_norms_squared(rel))
         safe = np.where(dist > 0, dist, 1.0)
-        jac = -rel / safe[:, None]
+        jac = np.empty((rel.shape[0], dim + (fixed_radius is None)))
+        np.divide(rel, -safe[:, None], out=jac[:, :dim])
         if fixed_radius is None:
-            jac = np.column_stack([jac, -np.ones(len(rel))])
+            jac[:, dim] = -1.0
         return dist - radius, jac
 
     x0 = np.append(centre0, radius0) if fixed_radius is None else centre0
@@ -78,7 +87,7 @@ def fit_nsphere(
     radius = float(outcome.x[dim]) if fixed_radius is None else float(fixed_radius)
     if radius < 0:
         raise DegenerateGeometryError(element, "the least-squares solution has a negative radius")
-    residuals, _ = residual_and_jacobian(outcome.x)
+    residuals = outcome.residuals if sqrt_w is None else residual_and_jacobian(outcome.x)[0]
     dof = len(points) - outcome.x.size
     cov, cond = local_covariance(outcome.jacobian, outcome.residuals, dof)
     if fixed_radius is not None:

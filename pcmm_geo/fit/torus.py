@@ -28,10 +28,12 @@ from pcmm_geo.fit._axial import (
 )
 from pcmm_geo.fit._core import FitResult, as_points, as_weights, covariance_from_jacobian, residual_stats
 from pcmm_geo.fit._linear import frozen
+from pcmm_geo.fit._torus_search import best_axis_position, refined_axis
 
 __all__ = ["TorusFit", "fit_torus"]
 
 _ELEMENT = "torus"
+_INVALID_COST = 1e300
 
 
 @dataclass(frozen=True, kw_only=True, eq=False)
@@ -119,33 +121,26 @@ def _torus_start_cheap(local: FloatArray) -> FloatArray | None:
 
 
 def _torus_start(local: FloatArray) -> FloatArray | None:
-    """Best of :func:`_torus_start_cheap` and a 13 x 13 grid of axis positions, polished by Nelder-Mead.
+    """Best of :func:`_torus_start_cheap` and a coarse-to-fine search of the axis position, polished by Nelder-Mead.
 
-    Grid and search vary ``x0, y0`` only; ``R, z0, r`` follow from the (rho, z) circle
+    Search and polish vary ``x0, y0`` only; ``R, z0, r`` follow from the (rho, z) circle
     (variable projection), and the geometric sum of squares is the objective.
     """
     from scipy.optimize import minimize  # heavy import kept out of the module import
 
     params = _torus_start_cheap(local)
-
-    def cost(centre: FloatArray) -> float:
-        candidate = _params_from_centre(local, float(centre[0]), float(centre[1]))
-        return float("inf") if candidate is None else _torus_cost(local, candidate)
-
-    # coarse grid of axis positions over twice the projected extent of the data: a fat
-    # partial elbow puts the axis far outside the data, where the circles above miss it
-    extent = 1.5 * float(np.max(np.hypot(local[:, 0], local[:, 1])))
-    ticks = np.linspace(-extent, extent, 13)
-    grid = np.array([[gx, gy] for gx in ticks for gy in ticks])
-    grid_costs = np.array([cost(centre) for centre in grid])
-    if np.isfinite(grid_costs.min()):
-        best_grid = grid[int(np.argmin(grid_costs))]
-        if params is None or grid_costs.min() < _torus_cost(local, params):
-            params = _params_from_centre(local, float(best_grid[0]), float(best_grid[1]))
+    searched_cost, searched = best_axis_position(local)
+    if np.isfinite(searched_cost) and (params is None or searched_cost < _torus_cost(local, params)):
+        params = searched
     if params is None:
         return None
 
-    step = 0.25 * float(params[5])
+    def cost(centre: FloatArray) -> float:
+        candidate = _params_from_centre(local, float(centre[0]), float(centre[1]))
+        # a finite penalty: Nelder-Mead compares simplex values by subtraction
+        return _INVALID_COST if candidate is None else _torus_cost(local, candidate)
+
+    step = 1e-3 * float(params[5])
     search = minimize(
         cost,
         params[:2],
@@ -161,6 +156,13 @@ def _torus_start(local: FloatArray) -> FloatArray | None:
     return polished if polished is not None and search.fun < _torus_cost(local, params) else params
 
 
+def _hinted_axes(centred: FloatArray, hint: FloatArray | None) -> list[FloatArray]:
+    """The hint and the hint refined by the projected-cost pattern search (sparse data have narrow basins)."""
+    if hint is None:
+        return []
+    return [refined_axis(centred, hint), hint]
+
+
 def fit_torus(
     points: ArrayLike,
     *,
@@ -171,13 +173,22 @@ def fit_torus(
 
     Levenberg-Marquardt with an analytic Jacobian in standard position (data centred at
     the centroid, current axis along +z).  Local parameters: the centre ``x0, y0, z0``,
-    two axis tilts, the major and the minor radius.  Starting axes are ``axis_hint``, the
-    three directions of a 64-direction hemisphere search whose starting values fit best
-    (a fat pipe elbow has no principal axis near its torus axis) and the principal axes.
-    For each axis the starting axis position comes from algebraic circles (all projected
-    points, the highest and the lowest eighth) and a 13 x 13 grid, polished by Nelder-Mead;
-    the radii and the height then follow from a circle in the ``(rho, z)`` half-plane.
-    The converged solution of least cost is returned.
+    two axis tilts, the major and the minor radius.  Starting axes are ``axis_hint`` (as
+    given and refined by a tilt pattern search), the three directions of a 64-direction
+    hemisphere search whose starting values fit best (a fat pipe elbow has no principal
+    axis near its torus axis) and the principal axes.  For each axis the axis position comes
+    from a coarse-to-fine grid search with ``z0, R, r`` projected out (a circle in the
+    ``(rho, z)`` half-plane), polished by Nelder-Mead.  The converged solution of least
+    cost is returned.
+
+    Notes
+    -----
+    Sparse data round a whole torus (seven to about a dozen points) can be fitted to some
+    10 um rms by spurious tori whose axes lie tens of degrees from the true one, while the
+    true minimum's basin is a fraction of a degree wide.  Without ``axis_hint`` the fit may
+    then return such a local minimum (about one case in ten for 8 random points on a
+    30 x 6 mm torus); give the nominal axis for such data.  With 20 or more points, or a
+    partial torus, no hint is needed.
 
     Parameters
     ----------
@@ -186,7 +197,7 @@ def fit_torus(
     weights : array_like, shape (N,), optional
         Non-negative weights of the squared residuals.
     axis_hint : array_like, shape (3,), optional
-        Approximate axis direction tried first (either sign).
+        Approximate (nominal) axis direction tried first (either sign).
 
     Returns
     -------
@@ -223,7 +234,10 @@ def fit_torus(
     solution = solve_axial(
         data,
         centroid,
-        candidate_axes(centred, [as_axis_hint(axis_hint), *screened_axes(centred, _torus_start_cheap, _torus_cost)]),
+        candidate_axes(
+            centred,
+            [*_hinted_axes(centred, as_axis_hint(axis_hint)), *screened_axes(centred, _torus_start_cheap, _torus_cost)],
+        ),
         start=_torus_start,
         model=_torus_model,
         position_slots=(0, 1, 2),

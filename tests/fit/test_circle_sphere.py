@@ -198,3 +198,25 @@ def test_sphere_residuals_orthogonal_to_jacobian_and_motion_invariant(seed: int,
     moved = fit_sphere(rotation.apply(pts) + shift)
     np.testing.assert_allclose(moved.center, rotation.apply(base.center) + shift, atol=1e-9)
     assert moved.radius == pytest.approx(base.radius, abs=1e-9)
+
+
+@pytest.mark.parametrize("cap_deg", [180.0, 40.0])
+def test_tall_sphere_uses_normal_equations_without_losing_accuracy(
+    cap_deg: float, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    # 30,000 points take the normal-equation path (pcmm_geo.fit._tall); the truth is the
+    # generator's; the covariance must equal the one from the orthogonal routines
+    from pcmm_geo.fit import _tall
+    from pcmm_geo.fit.reference import make_reference_data
+
+    data = make_reference_data(
+        "sphere", n_points=30_000, radius=12.5, form=0.02, offset=1000.0, cap=np.radians(cap_deg), rng=7
+    )
+    assert data.n >= _tall.TALL_ROWS
+    tall = fit_sphere(data.points)
+    np.testing.assert_allclose(tall.center, data.parameters["center"], rtol=0, atol=1e-9)
+    assert abs(tall.radius - 12.5) <= 1e-9
+    monkeypatch.setattr(_tall, "TALL_ROWS", 10**9)
+    orthogonal = fit_sphere(data.points)
+    np.testing.assert_allclose(tall.covariance, orthogonal.covariance, rtol=1e-6, atol=0)
+    assert tall.condition_number == pytest.approx(orthogonal.condition_number, rel=1e-6)

@@ -201,3 +201,33 @@ def test_no_convergence_raises(monkeypatch):
     monkeypatch.setattr(core, "TOL", core.Tolerances(max_iterations=1))
     with pytest.raises(ConvergenceError):
         fit_torus(points + rng.normal(scale=0.01, size=points.shape))
+
+
+def test_sparse_torus_with_a_nominal_axis_two_degrees_off():
+    # eight exact points round a whole torus; the nominal axis is 2 degrees from the true one
+    rng = np.random.default_rng(31)
+    points, centre, axis, _ = sample_torus(rng, offset=500.0, major=30.0, minor=6.0, around_deg=360, tube_deg=360, n=8)
+    sideways = np.cross(axis, [0.3, -0.5, 0.8])
+    sideways /= np.linalg.norm(sideways)
+    nominal = np.cos(np.radians(2.0)) * axis + np.sin(np.radians(2.0)) * sideways
+    fit = fit_torus(points, axis_hint=nominal)
+    assert_same_torus(fit, centre, axis, 30.0, 6.0)
+
+
+def test_projected_torus_cost_vanishes_at_the_true_axis_position():
+    from pcmm_geo.fit._axial import rotation_to_z
+    from pcmm_geo.fit._torus_search import best_axis_position, varpro_costs
+
+    rng = np.random.default_rng(5)
+    points, centre, axis, _ = sample_torus(rng, offset=0.0, major=25.0, minor=5.0, around_deg=360, tube_deg=360, n=9)
+    centroid = points.mean(axis=0)
+    frame = rotation_to_z(axis)
+    local = (points - centroid) @ frame.T
+    true_position = (frame @ (centre - centroid))[:2]
+    costs, params = varpro_costs(local, true_position[None, :])
+    assert costs[0] < 1e-18
+    np.testing.assert_allclose(params[0, 5:], [25.0, 5.0], atol=1e-9)
+    # a starting-value search: its last grid is some 10 um fine
+    cost, found = best_axis_position(local)
+    assert cost < 1e-4
+    np.testing.assert_allclose(found[:2], true_position, atol=0.02)
