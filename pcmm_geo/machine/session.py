@@ -227,7 +227,7 @@ class AcquisitionSession:
     def identify(self) -> dict[str, int]:
         """Product id (cmd 50) and maximum position (setting 44) of each stage, for the log header.
 
-        protocols.md §8: the exact stage model fixes the microstep size; record it with the data.
+        protocols.md §5: the exact stage model fixes the microstep size; record it with the data.
         """
         found: dict[str, int] = {}
         for motor in MOTORS:

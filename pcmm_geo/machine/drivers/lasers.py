@@ -1,7 +1,7 @@
 """Micro-Epsilon optoNCDT laser sensors: ILD1302 (lasers a, b) and ILD1420 (laser c) streams.
 
 Both sensors stream binary values continuously; this module decodes the streams with frame
-resynchronisation and converts raw counts to millimetres (docs/protocols.md, lasers):
+resynchronisation and converts raw counts to millimetres (docs/protocols.md §2):
 
 * **ILD1302** (ILD1402-family format, assumed until checked on the rig): 14-bit values in two
   bytes, the first with bit 7 set (``1 D13..D7``), the second with bit 7 clear (``0 D6..D0``);

@@ -5,7 +5,7 @@ a signed 32-bit little-endian integer.  Device 0 addresses all devices and *each
 with its own number; motion commands reply when the motion has finished, with the final
 position in microsteps; an error reply has command 255 and the error code as data.  A packet
 whose bytes stop arriving for more than 10 ms is discarded (Zaber's 10 ms rule), which is how
-this driver regains packet alignment after lost bytes.  Facts: docs/protocols.md, Zaber.
+this driver regains packet alignment after lost bytes.  Facts: docs/protocols.md §1.
 
 Positions are microsteps on the wire; the T-LSR450B moves 0.49609375 µm per microstep at the
 default resolution of 64 (6.35 mm lead / 12800), so the seed's park position of 247 500
