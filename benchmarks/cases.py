@@ -118,8 +118,8 @@ def batch_sphere_case(n_fits: int, repeat: int) -> CaseResult:
     true_centers = np.stack([bases[i].parameters["center"] for i in picks]) + shifts
     timing = best_of(lambda: fit_spheres(points), repeat)
     result = timing.value
-    centers = np.asarray(result.center, dtype=float)
-    radii = np.asarray(result.radius, dtype=float)
+    centers = np.asarray(result.centers, dtype=float)  # SphereBatchFit: centers (K, 3), radii (K,)
+    radii = np.asarray(result.radii, dtype=float)
     deviations = {
         "center": float(np.max(np.linalg.norm(centers - true_centers, axis=1))),
         "radius": float(np.max(np.abs(radii - 1.5))),

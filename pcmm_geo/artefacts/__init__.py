@@ -1,4 +1,4 @@
-"""Artefact evaluations: gauge blocks (ISO 3650 and the seed's method), ISO 10360-2/-5/-6, micrometer stage.
+"""Artefact evaluations: gauge blocks (ISO 3650 and the seed's method), ISO 10360-2/-5/-6, micrometer stage, CAD.
 
 - :mod:`~pcmm_geo.artefacts.gauge_block` -- central length, variation in length, the seed's
   eqs 5.1-5.3 and an exact projection.
@@ -6,6 +6,9 @@
 - :mod:`~pcmm_geo.artefacts.iso10360_5` -- 25-point sphere probing pattern, P_FTU and P_STU.
 - :mod:`~pcmm_geo.artefacts.iso10360_6` -- software test harness against reference data.
 - :mod:`~pcmm_geo.artefacts.micrometer` -- micrometer-stage distances test (thesis Table 8.1).
+- CAD comparison: :mod:`~pcmm_geo.artefacts.cad_segment` (planes and cylinders in a scan),
+  :mod:`~pcmm_geo.artefacts.cad_register` (scan -> nominal mesh), :mod:`~pcmm_geo.artefacts.cad_distance`
+  (exact signed distances from a mesh), :mod:`~pcmm_geo.artefacts.cad_compare` (deviations).
 
 Names load lazily (PEP 562).
 
@@ -59,6 +62,23 @@ _LAZY = {
     "evaluate_stage_test": "micrometer",
     "read_micrometer_csv": "micrometer",
     "stage_pairs": "micrometer",
+    "CadComparison": "cad_compare",
+    "DeviationSummary": "cad_compare",
+    "MeshDeviations": "cad_compare",
+    "compare_to_mesh": "cad_compare",
+    "deviation_summary": "cad_compare",
+    "mesh_deviations": "cad_compare",
+    "Registration": "cad_register",
+    "as_rigid_transform": "cad_register",
+    "centroid_alignment": "cad_register",
+    "register_to_mesh": "cad_register",
+    "SurfaceDistances": "cad_distance",
+    "SurfaceIndex": "cad_distance",
+    "check_closed_mesh": "cad_distance",
+    "surface_distances": "cad_distance",
+    "Segment": "cad_segment",
+    "Segmentation": "cad_segment",
+    "segment_scan": "cad_segment",
 }
 
 __all__ = sorted(_LAZY)

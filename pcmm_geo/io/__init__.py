@@ -1,7 +1,7 @@
-"""File formats: point files and point clouds, NIST reference pairs.
+"""File formats: point files and point clouds, triangle meshes, NIST reference pairs.
 
 Names are loaded on first access so that ``import pcmm_geo.io`` stays light (open3d is
-imported only when a point cloud is read or written).
+imported only when a point cloud is read or written, trimesh only for meshes).
 """
 
 from __future__ import annotations
@@ -15,6 +15,12 @@ _LAZY = {
     "read_nist_pair": "nist",
     "iter_nist_pairs": "nist",
     "NistPair": "nist",
+    "read_mesh": "meshes",
+    "write_mesh": "meshes",
+    "box_mesh": "meshes",
+    "cylinder_mesh": "meshes",
+    "sphere_mesh": "meshes",
+    "nominal_mesh": "meshes",
 }
 
 __all__ = sorted(_LAZY)

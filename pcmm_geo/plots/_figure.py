@@ -1,0 +1,123 @@
+"""Figure creation and saving shared by the plot modules.
+
+Figures are built with :class:`matplotlib.figure.Figure` directly (no ``pyplot``), so no
+global backend is switched and nothing stays open after saving: the file format follows
+the suffix and is rendered by matplotlib's Agg canvas for raster formats.
+"""
+
+from __future__ import annotations
+
+import contextlib
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+from pcmm_geo.errors import InvalidInputError, OutputExistsError
+
+if TYPE_CHECKING:
+    from matplotlib.figure import Figure
+
+#: file suffixes a plot may be written as
+PLOT_SUFFIXES = (".png", ".svg", ".pdf")
+#: resolution of raster plots (dots per inch)
+PLOT_DPI = 110
+#: colours of arms a, b, c in every plot
+ARM_COLOURS = {"a": "tab:blue", "b": "tab:orange", "c": "tab:green"}
+
+
+def check_plot_path(path: str | Path, *, overwrite: bool = False) -> Path:
+    """Validate a plot destination before any work is done.
+
+    Parameters
+    ----------
+    path : str or Path
+        Destination; the suffix (``.png``, ``.svg`` or ``.pdf``) chooses the format.
+    overwrite : bool
+        Allow replacing an existing file.
+
+    Returns
+    -------
+    Path
+
+    Raises
+    ------
+    InvalidInputError
+        Unsupported suffix.
+    OutputExistsError
+        ``path`` exists and ``overwrite`` is False.
+
+    Examples
+    --------
+    >>> check_plot_path("residuals.png").suffix
+    '.png'
+    """
+    target = Path(path)
+    if target.suffix.lower() not in PLOT_SUFFIXES:
+        raise InvalidInputError("plot file", f"a name ending in {', '.join(PLOT_SUFFIXES)}", repr(str(target)))
+    if target.exists() and not overwrite:
+        raise OutputExistsError(str(target))
+    return target
+
+
+def new_figure(width: float, height: float) -> Figure:
+    """A figure of ``width`` x ``height`` inches with constrained layout (imports matplotlib)."""
+    from matplotlib.figure import Figure
+
+    return Figure(figsize=(width, height), layout="constrained")
+
+
+def save_figure(figure: Figure, path: str | Path, *, overwrite: bool = False) -> Path:
+    """Write ``figure`` to ``path``; never replaces a file unless ``overwrite`` is True.
+
+    The file is opened in exclusive-create mode when ``overwrite`` is False, so a file that
+    appears between the check and the write is not clobbered either; a partly written file
+    is removed when rendering fails.
+
+    Returns
+    -------
+    Path
+        The written file.
+
+    Raises
+    ------
+    InvalidInputError
+        Unsupported suffix.
+    OutputExistsError
+        ``path`` exists and ``overwrite`` is False.
+    OSError
+        The folder does not exist or is not writable.
+
+    Examples
+    --------
+    >>> import os, tempfile
+    >>> figure = new_figure(2, 2)
+    >>> _ = figure.add_subplot().plot([0, 1], [1, 0])
+    >>> save_figure(figure, os.path.join(tempfile.mkdtemp(), "line.png")).name
+    'line.png'
+    """
+    target = check_plot_path(path, overwrite=overwrite)
+    try:
+        handle = open(target, "wb" if overwrite else "xb")  # closed by the ``with`` below
+    except FileExistsError:
+        raise OutputExistsError(str(target)) from None
+    try:
+        with handle:
+            figure.savefig(handle, format=target.suffix[1:].lower(), dpi=PLOT_DPI)
+    except BaseException:
+        with contextlib.suppress(OSError):
+            target.unlink()
+        raise
+    return target
+
+
+def equal_3d_limits(axes: Any, points: Any, margin: float = 0.05) -> None:
+    """Give 3-D ``axes`` the same scale on x, y and z around ``points`` (N, 3), mm."""
+    import numpy as np
+
+    cloud = np.asarray(points, dtype=float).reshape(-1, 3)
+    low, high = cloud.min(axis=0), cloud.max(axis=0)
+    middle = 0.5 * (low + high)
+    half = 0.5 * float(np.max(high - low)) * (1.0 + margin) or 1.0
+    axes.set_xlim(middle[0] - half, middle[0] + half)
+    axes.set_ylim(middle[1] - half, middle[1] + half)
+    axes.set_zlim(middle[2] - half, middle[2] + half)
+    axes.set_box_aspect((1.0, 1.0, 1.0))
