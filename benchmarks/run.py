@@ -9,12 +9,13 @@ In one run, on the same reference data (known least-squares solution):
 * a batch of five-point sphere fits with ``fit_spheres`` (target >= 10,000 fits/s);
 
 plus each contender's deviation from the truth.  Timings are the best of N wall-clock runs.
-The table is printed and written to ``docs/benchmarks.md`` (``--output`` to change,
-``--no-write`` to skip).  Never part of the test suite.
+The table is printed; ``--output PATH`` also writes it as Markdown (refusing an existing
+file unless ``--overwrite``).  ``docs/benchmarks.md`` is the written-up record of such runs.
+Never part of the test suite.
 
 Usage::
 
-    .venv/bin/python benchmarks/run.py [--quick] [--repeat N] [--output PATH | --no-write]
+    .venv/bin/python benchmarks/run.py [--quick] [--repeat N] [--output PATH [--overwrite]]
 """
 
 from __future__ import annotations
@@ -112,8 +113,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser.add_argument("--quick", action="store_true", help="small sizes (a smoke run, not for the report)")
     parser.add_argument("--repeat", type=int, default=5, help="best of N runs for pcmm_geo and trimesh (default 5)")
     parser.add_argument("--peer-repeat", type=int, default=2, help="best of N for scikit-spatial (slow; default 2)")
-    parser.add_argument("--output", type=Path, default=ROOT / "docs" / "benchmarks.md", help="markdown report path")
-    parser.add_argument("--no-write", action="store_true", help="print only, do not write the report")
+    parser.add_argument("--output", type=Path, default=None, help="also write the table as Markdown to PATH")
+    parser.add_argument("--overwrite", action="store_true", help="replace an existing --output file")
     args = parser.parse_args(argv)
 
     sphere_points, cylinder_points, batch_fits = (20_000, 500, 2_000) if args.quick else (1_000_000, 5_000, 20_000)
@@ -135,7 +136,9 @@ def main(argv: Sequence[str] | None = None) -> int:
     print("\n".join(table_lines(results)))
     for failure in failures:
         print(f"FAILED {failure}")
-    if not args.no_write and not args.quick:
+    if args.output is not None and args.output.exists() and not args.overwrite:
+        print(f"not written: {args.output} exists (add --overwrite to replace it)", file=sys.stderr)
+    elif args.output is not None:
         command = "python benchmarks/run.py " + " ".join(sys.argv[1:] if argv is None else argv)
         write_report(results, failures, args.output, command.strip(), args.repeat)
         print(f"written {args.output}")

@@ -20,6 +20,7 @@ The chain, every step with the library's own tools:
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -69,6 +70,10 @@ class DemoResult:
     tip_error_rms_nominal: float
     face_form_calibrated: tuple[float, float]
     plots: list[str] = field(default_factory=list)
+    #: the full calibration result (not in ``to_dict``), for plots
+    tetrahedron_calibration: Any = field(default=None, repr=False, compare=False)
+    #: measured minus true tip centres per model, face by face, ``{model: [(N, 3), ...]}`` (mm; not in ``to_dict``)
+    tip_errors: dict[str, list[FloatArray]] = field(default_factory=dict, repr=False, compare=False)
 
     @property
     def length_error_calibrated(self) -> float:
@@ -178,7 +183,7 @@ def run_demo(
     settings: DemoSettings | None = None,
     *,
     out_dir: str | Path | None = None,
-    progress: Any = None,
+    progress: Callable[[int, int, str], None] | None = None,
 ) -> DemoResult:
     """Run the end-to-end demonstration (see the module docstring).
 
@@ -188,11 +193,23 @@ def run_demo(
     out_dir : path, optional
         Folder for the plots (created; must not contain the plot files already).
     progress : callable, optional
-        ``progress(step_text)`` is called before each step.
+        ``progress(steps_done, steps_total, next_step_text)`` is called before each step
+        and ``progress(steps_total, steps_total, "done")`` at the end.
 
     Returns
     -------
     DemoResult
+
+    Raises
+    ------
+    OutputExistsError
+        A plot file already exists in ``out_dir``.
+
+    Examples
+    --------
+    >>> result = run_demo(DemoSettings(seed=1))
+    >>> bool(abs(result.length_error_calibrated) < 0.005 < abs(result.length_error_nominal))
+    True
     """
     from pcmm_geo.artefacts.gauge_block import measure_gauge_block
     from pcmm_geo.machine.calibration import calibrate_tetrahedron
@@ -200,7 +217,13 @@ def run_demo(
 
     settings = settings or DemoSettings()
     rng = np.random.default_rng(settings.seed)
-    say = progress or (lambda _text: None)
+    steps_total = 5 if out_dir is not None else 4
+    steps_done = [0]
+
+    def say(text: str) -> None:
+        if progress is not None:
+            progress(steps_done[0], steps_total, text)
+        steps_done[0] += 1
 
     say("building the simulated micro-CMM")
     machine = true_machine(settings)
@@ -266,6 +289,8 @@ def run_demo(
     if out_dir is not None:
         say("writing plots")
         plots = _write_plots(Path(out_dir), calibration, tip_errors)
+    if progress is not None:
+        progress(steps_total, steps_total, "done")
 
     def rms(errors: list[FloatArray]) -> float:
         stacked = np.concatenate(errors)
@@ -282,55 +307,22 @@ def run_demo(
         tip_error_rms_nominal=rms(tip_errors["nominal"]),
         face_form_calibrated=tuple(float(v) for v in result_cal.face_form),  # type: ignore[arg-type]
         plots=plots,
+        tetrahedron_calibration=calibration,
+        tip_errors=tip_errors,
     )
 
 
 def _write_plots(folder: Path, calibration: Any, tip_errors: dict[str, list[FloatArray]]) -> list[str]:
     """Slider lines, joint centres and tip (thesis fig 7.2) and the tip errors per contact."""
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
     from pcmm_geo.errors import OutputExistsError
+    from pcmm_geo.plots.calibration import plot_calibration
+    from pcmm_geo.plots.demo import plot_tip_errors
 
     folder.mkdir(parents=True, exist_ok=True)
     paths = [folder / "calibration_3d.png", folder / "gauge_block_tip_errors.png"]
     for path in paths:
         if path.exists():
             raise OutputExistsError(str(path))
-
-    figure = plt.figure(figsize=(7, 6))
-    axes = figure.add_subplot(projection="3d")
-    for arm in ARMS:
-        line = calibration.slider_lines[arm]
-        centres = np.array([sphere.centre for sphere in calibration.joint_spheres[arm]])
-        # from the foot of the tip centre to the farthest joint centre
-        ends = (np.vstack([centres, calibration.tip_centre]) - line.point) @ line.direction
-        along = np.array([ends.min(), ends.max()])
-        segment = line.point + along[:, None] * line.direction
-        axes.plot(*segment.T, label=f"slider line {arm}")
-        axes.scatter(*centres.T, s=25)
-    axes.scatter(*np.asarray(calibration.tip_centre), marker="*", s=120, color="k", label="tip centre")
-    axes.scatter(*np.asarray(calibration.probe_point), marker="x", s=80, color="r", label="eq 7.2 probe point")
-    axes.set_xlabel("x / mm")
-    axes.set_ylabel("y / mm")
-    axes.set_zlabel("z / mm")
-    axes.set_title("Calibrated tetrahedron: slider lines, joint centres, tip")
-    axes.legend(loc="upper left", fontsize=8)
-    figure.savefig(paths[0], dpi=110)
-    plt.close(figure)
-
-    figure, axes = plt.subplots(figsize=(7, 4))
-    for label, marker in (("calibrated", "o"), ("nominal", "s")):
-        errors = np.linalg.norm(np.concatenate(tip_errors[label]), axis=1) * 1000.0
-        axes.plot(np.arange(1, len(errors) + 1), errors, marker=marker, label=f"{label} model")
-    axes.set_yscale("log")
-    axes.set_xlabel("contact number (face 1, then face 2)")
-    axes.set_ylabel("tip-centre error / µm")
-    axes.set_title("Gauge-block contacts: tip error of each model")
-    axes.legend()
-    figure.tight_layout()
-    figure.savefig(paths[1], dpi=110)
-    plt.close(figure)
+    plot_calibration(calibration, paths[0])
+    plot_tip_errors(tip_errors, paths[1])
     return [str(p) for p in paths]

@@ -29,6 +29,7 @@ COMMAND_MODULES = (
     "thermal",
     "acquire",
     "compare",
+    "segment",
     "convert",
 )
 
@@ -58,6 +59,7 @@ def main(argv: Sequence[str] | None = None) -> int:
 
     parser = build_parser()
     args = parser.parse_args(argv)
+    args.command_line = ["pcmm", *(sys.argv[1:] if argv is None else argv)]
     if getattr(args, "handler", None) is None:
         parser.print_help()
         return 0 if args.command is None else 2

@@ -25,16 +25,61 @@ class Table:
 
 @dataclass
 class Report:
-    """What a handler returns: JSON-ready ``data`` plus human ``tables`` and free ``lines``."""
+    """What a handler returns: JSON-ready ``data`` plus human ``tables`` and free ``lines``.
+
+    ``plots`` lists the image files the handler wrote; ``--report`` embeds or links them.
+    """
 
     data: dict[str, Any]
     tables: list[Table] = field(default_factory=list)
     lines: list[str] = field(default_factory=list)
     exit_code: int = EXIT_OK
+    plots: list[str] = field(default_factory=list)
 
 
 def add_json_flag(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--json", action="store_true", help="print the result as JSON on stdout")
+
+
+def add_plot_flag(parser: argparse.ArgumentParser, what: str) -> None:
+    """Add ``--plot FILE.png`` (``what`` says what is drawn); the file is checked before any work."""
+    parser.add_argument("--plot", metavar="FILE.png", help=f"write {what} (.png, .svg or .pdf)")
+    parser.set_defaults(shared_plot_flag=True)  # run_handler checks the path before the handler runs
+
+
+def add_report_flag(parser: argparse.ArgumentParser) -> None:
+    """Add ``--report FILE.md|FILE.html``: the tables and lines as Markdown or a self-contained HTML page."""
+    parser.add_argument("--report", metavar="FILE.md|FILE.html",
+                        help="also write the result as Markdown (.md) or a self-contained HTML page (.html)")
+    parser.set_defaults(shared_report_flag=True)  # run_handler writes the report after the handler
+
+
+def add_overwrite_flag(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("--overwrite", action="store_true", help="replace existing --plot/--report files")
+
+
+def check_output_paths(args: argparse.Namespace) -> None:
+    """Refuse, before any work, a ``--plot``/``--report`` path that exists (unless ``--overwrite``).
+
+    Only flags added by :func:`add_plot_flag` / :func:`add_report_flag` are checked, so a
+    sub-command may define its own ``--report`` with another meaning.
+
+    Raises
+    ------
+    OutputExistsError
+        The file exists and ``args.overwrite`` is not set.
+    InvalidInputError
+        A suffix the writer does not know.
+    """
+    overwrite = bool(getattr(args, "overwrite", False))
+    if getattr(args, "shared_plot_flag", False) and getattr(args, "plot", None):
+        from pcmm_geo.plots import check_plot_path
+
+        check_plot_path(args.plot, overwrite=overwrite)
+    if getattr(args, "shared_report_flag", False) and getattr(args, "report", None):
+        from pcmm_geo.cli._report import check_report_path
+
+        check_report_path(args.report, overwrite=overwrite)
 
 
 def format_cell(value: Any, digits: int = 6) -> str:
@@ -103,10 +148,24 @@ def print_report(report: Report, as_json: bool) -> None:
 
 
 def run_handler(args: argparse.Namespace) -> int:
-    from pcmm_geo.errors import PcmmGeoError
+    from pcmm_geo.errors import OutputExistsError, PcmmGeoError
 
     try:
+        check_output_paths(args)
         report = args.handler(args)
+        if getattr(args, "shared_report_flag", False) and getattr(args, "report", None):
+            from pcmm_geo.cli._report import write_report
+
+            written = write_report(report, args.report, title=f"pcmm {args.command}",
+                                   command=getattr(args, "command_line", None),
+                                   overwrite=bool(getattr(args, "overwrite", False)))
+            report.data["report"] = str(written)
+            report.lines.append(f"report written to {written}")
+    except OutputExistsError as exc:
+        how = "use --overwrite to replace it" if hasattr(args, "overwrite") else "choose another name"
+        print(f"pcmm {args.command}: error: {exc.path}: already exists; refusing to overwrite ({how})",
+              file=sys.stderr)
+        return EXIT_USAGE
     except PcmmGeoError as exc:
         print(f"pcmm {args.command}: error: {exc}", file=sys.stderr)
         return EXIT_USAGE

@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import argparse
-import sys
 from typing import Any
 
 from pcmm_geo.cli._output import Report, Table, add_json_flag
@@ -162,12 +161,14 @@ def _run_programme(session: Any, args: argparse.Namespace) -> None:
     """Seeded move programme: approach with motor 1, retreat after contact, random moves otherwise."""
     import numpy as np
 
+    from pcmm_geo.cli._progress import progress_bar, progress_wanted
+
     rng = np.random.default_rng(args.seed)
     step_max = max(2, session.motors.to_microsteps(args.step_mm))
     start, limit = session.config.start_position, session.config.presequence_span
-    progress = _progress(args.moves)
-    try:
-        for _ in range(args.moves):
+
+    with progress_bar("acquiring", enabled=progress_wanted(args), total=args.moves) as update:
+        for done in range(1, args.moves + 1):
             steps = int(rng.integers(step_max // 2, step_max + 1))
             if session.contact_move is not None:
                 motor, direction = session.contact_move[0], -session.contact_move[1]
@@ -179,19 +180,4 @@ def _run_programme(session: Any, args: argparse.Namespace) -> None:
             if session.contact_move is None and abs(offset + direction * steps) > limit:
                 direction = -1 if offset > 0 else 1
             session.move(motor, direction * steps)
-            if progress is not None:
-                progress[0].advance(progress[1])
-    finally:
-        if progress is not None:
-            progress[0].stop()
-
-
-def _progress(total: int) -> Any:
-    if not sys.stderr.isatty():
-        return None
-    from rich.console import Console
-    from rich.progress import Progress
-
-    bar = Progress(console=Console(stderr=True), transient=True)
-    bar.start()
-    return bar, bar.add_task("acquiring", total=total)
+            update(done)

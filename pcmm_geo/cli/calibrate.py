@@ -5,7 +5,7 @@ from __future__ import annotations
 import argparse
 from typing import Any
 
-from pcmm_geo.cli._output import Report, Table, add_json_flag
+from pcmm_geo.cli._output import Report, Table, add_json_flag, add_plot_flag, add_report_flag
 
 
 def register(subparsers: Any) -> None:
@@ -22,10 +22,11 @@ def register(subparsers: Any) -> None:
     parser.add_argument("probings", help="probings CSV (raw points or element-level export)")
     parser.add_argument("lasers", help="laser readings CSV position,laser_a,laser_b,laser_c")
     parser.add_argument("--out", metavar="CAL.json", help="write the versioned calibration file")
-    parser.add_argument("--overwrite", action="store_true", help="replace an existing --out file")
+    parser.add_argument("--overwrite", action="store_true", help="replace existing --out, --plot and --report files")
     parser.add_argument("--sweep", metavar="SWEEP.csv", help="laser sweep (position,laser_a,laser_b,laser_c) for b")
     parser.add_argument("--start-of-range", type=float, default=60.0, help="laser start of range in mm (default 60)")
-    parser.add_argument("--plot", metavar="FILE.png", help="save a 3-D plot of centres, slider lines and tip")
+    add_plot_flag(parser, "a 3-D plot of slider lines, joint centres, tip and probe points (fig 7.2)")
+    add_report_flag(parser)
     add_json_flag(parser)
     parser.set_defaults(handler=_handle)
 
@@ -49,10 +50,14 @@ def _handle(args: argparse.Namespace) -> Report:
         written = save_calibration(cal, args.out, overwrite=args.overwrite)
         data["written"] = str(written)
         lines.append(f"calibration written to {written}")
+    plots = []
     if args.plot:
-        plot_calibration(cal, args.plot)
-        data["plot"] = args.plot
-        lines.append(f"plot written to {args.plot}")
+        from pcmm_geo.plots.calibration import plot_calibration
+
+        written_plot = plot_calibration(cal, args.plot, overwrite=args.overwrite)
+        data["plot"] = str(written_plot)
+        plots.append(str(written_plot))
+        lines.append(f"plot written to {written_plot}")
     rows = []
     for arm, pair in zip("abc", PAIRS, strict=True):
         line = cal.slider_lines[arm]
@@ -71,32 +76,5 @@ def _handle(args: argparse.Namespace) -> Report:
          ["probe point (seed pairwise)", *cal.probe_point_pairwise.tolist()]],
     )
     lines.insert(0, "skew distances (mm): " + ", ".join(f"{k} {v:.4f}" for k, v in cal.skew_distances.items()))
-    return Report(data=data, tables=[arms, geometry], lines=lines)
+    return Report(data=data, tables=[arms, geometry], lines=lines, plots=plots)
 
-
-def plot_calibration(cal: Any, path: str) -> None:
-    """Save a 3-D view of joint centres, fitted slider lines, tip and eq 7.2 point (matplotlib, Agg)."""
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-    import numpy as np
-
-    figure = plt.figure(figsize=(6, 5))
-    axes = figure.add_subplot(projection="3d")
-    centres = cal.joint_centres
-    for k, arm in enumerate("abc"):
-        line = cal.slider_lines[arm]
-        reach = np.linspace(0.0, float(line.slide.max()) * 1.05, 2)
-        path_points = line.point + reach[:, None] * line.direction
-        axes.plot(*path_points.T, label=f"slider line {arm}")
-        axes.scatter(*centres[:, k].T, s=12)
-    axes.scatter(*cal.tip_centre, color="red", s=30, label="tip centre")
-    axes.scatter(*cal.probe_point, color="black", marker="x", s=30, label="eq 7.2 point")
-    axes.set_xlabel("x (mm)")
-    axes.set_ylabel("y (mm)")
-    axes.set_zlabel("z (mm)")
-    axes.legend(loc="upper left", fontsize=7)
-    figure.tight_layout()
-    figure.savefig(path, dpi=100)
-    plt.close(figure)

@@ -3,11 +3,17 @@
 from __future__ import annotations
 
 import argparse
-import sys
 from datetime import UTC, datetime
 from pathlib import Path
 
-from pcmm_geo.cli._output import Report, Table, add_json_flag
+from pcmm_geo.cli._output import (
+    Report,
+    Table,
+    add_json_flag,
+    add_overwrite_flag,
+    add_plot_flag,
+    add_report_flag,
+)
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
@@ -26,13 +32,17 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         default=Path("pcmm-demo-output"),
         help="folder for the plots; each run writes a fresh time-stamped sub-folder (default: %(default)s)",
     )
-    parser.add_argument("--no-plots", action="store_true", help="skip the plots")
+    parser.add_argument("--no-plots", action="store_true", help="skip the plots in the --out folder")
+    add_plot_flag(parser, "one overview figure: the calibration (fig 7.2) and the tip error per contact")
+    add_report_flag(parser)
+    add_overwrite_flag(parser)
     parser.add_argument("--seed", type=int, default=2026, help="random seed (default: %(default)s)")
     add_json_flag(parser)
     parser.set_defaults(handler=handle)
 
 
 def handle(args: argparse.Namespace) -> Report:
+    from pcmm_geo.cli._progress import progress_bar, progress_wanted
     from pcmm_geo.demo import DemoSettings, run_demo
 
     out_dir = None
@@ -40,11 +50,17 @@ def handle(args: argparse.Namespace) -> Report:
         stamp = datetime.now(UTC).strftime("%Y%m%dT%H%M%S%fZ")
         out_dir = args.out / f"run-{stamp}"
 
-    def progress(text: str) -> None:
-        if not args.json and sys.stderr.isatty():
-            print(f"  ... {text}", file=sys.stderr)
+    with progress_bar("demo", enabled=progress_wanted(args)) as update:  # run_demo gives the step count
+        result = run_demo(DemoSettings(seed=args.seed), out_dir=out_dir, progress=update)
+    plots = list(result.plots)
+    data = result.to_dict()
+    if args.plot:
+        from pcmm_geo.plots.demo import plot_demo_overview
 
-    result = run_demo(DemoSettings(seed=args.seed), out_dir=out_dir, progress=progress)
+        written = plot_demo_overview(result.tetrahedron_calibration, result.tip_errors, args.plot,
+                                     overwrite=args.overwrite)
+        data["plot"] = str(written)
+        plots.append(str(written))
     cal = result.calibration
     tables = [
         Table(
@@ -80,5 +96,5 @@ def handle(args: argparse.Namespace) -> Report:
             ],
         ),
     ]
-    lines = [f"plot: {path}" for path in result.plots]
-    return Report(data=result.to_dict(), tables=tables, lines=lines)
+    lines = [f"plot: {path}" for path in plots]
+    return Report(data=data, tables=tables, lines=lines, plots=plots)

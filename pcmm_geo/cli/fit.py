@@ -6,7 +6,14 @@ import argparse
 from pathlib import Path
 from typing import Any
 
-from pcmm_geo.cli._output import Report, Table, add_json_flag
+from pcmm_geo.cli._output import (
+    Report,
+    Table,
+    add_json_flag,
+    add_overwrite_flag,
+    add_plot_flag,
+    add_report_flag,
+)
 
 ELEMENTS = ("line", "plane", "circle", "sphere", "cylinder", "cone", "torus")
 _DIRECTIONS = ("direction", "normal", "axis")
@@ -33,7 +40,9 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     parser.add_argument("--radius", type=float, help="fixed radius in mm (circle, sphere, cylinder)")
     parser.add_argument("--two-d", action="store_true", help="line/circle: use only the x and y columns")
     parser.add_argument("--residuals", action="store_true", help="include every residual in the JSON output")
-    parser.add_argument("--plot", type=Path, help="write a residual plot (PNG) to this path")
+    add_plot_flag(parser, "a residual plot")
+    add_report_flag(parser)
+    add_overwrite_flag(parser)
     add_json_flag(parser)
     parser.set_defaults(handler=handle)
 
@@ -91,9 +100,15 @@ def handle(args: argparse.Namespace) -> Report:
         ),
     ]
     lines = [result.message]
+    plots = []
     if args.plot is not None:
-        lines.append(f"plot: {_plot_residuals(result, args.plot, args.element)}")
-    return Report(data=data, tables=tables, lines=lines)
+        from pcmm_geo.plots.fit_residuals import plot_fit_residuals
+
+        written = plot_fit_residuals(result, args.plot, element=args.element, overwrite=args.overwrite)
+        data["plot"] = str(written)
+        plots.append(str(written))
+        lines.append(f"plot: {written}")
+    return Report(data=data, tables=tables, lines=lines, plots=plots)
 
 
 def _geometry_rows(result: Any) -> list[tuple[str, float]]:
@@ -108,26 +123,3 @@ def _geometry_rows(result: Any) -> list[tuple[str, float]]:
         rows.extend((f"{name}_{axis}", float(v)) for axis, v in zip("xyz", vector, strict=False))
     return rows
 
-
-def _plot_residuals(result: Any, path: Path, element: str) -> str:
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-    import numpy as np
-
-    from pcmm_geo.errors import OutputExistsError
-
-    if path.exists():
-        raise OutputExistsError(str(path))
-    residuals = np.asarray(result.residuals) * 1000.0
-    figure, axes = plt.subplots(figsize=(7, 3.5))
-    axes.bar(np.arange(1, len(residuals) + 1), residuals, width=1.0 if len(residuals) > 50 else 0.8)
-    axes.axhline(0.0, color="k", linewidth=0.8)
-    axes.set_xlabel("point")
-    axes.set_ylabel("residual / µm")
-    axes.set_title(f"{element} fit: rms {result.rms * 1000:.3g} µm, form {result.form * 1000:.3g} µm")
-    figure.tight_layout()
-    figure.savefig(path, dpi=110)
-    plt.close(figure)
-    return str(path)

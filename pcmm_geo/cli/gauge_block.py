@@ -6,7 +6,14 @@ import argparse
 import math
 from typing import Any
 
-from pcmm_geo.cli._output import Report, Table, add_json_flag
+from pcmm_geo.cli._output import (
+    Report,
+    Table,
+    add_json_flag,
+    add_overwrite_flag,
+    add_plot_flag,
+    add_report_flag,
+)
 
 
 def register(subparsers: Any) -> None:
@@ -19,6 +26,9 @@ def register(subparsers: Any) -> None:
         ),
     )
     parser.add_argument("file", help="CSV file face,x,y,z")
+    add_plot_flag(parser, "per-face plane residuals and the lengths of every method")
+    add_report_flag(parser)
+    add_overwrite_flag(parser)
     add_json_flag(parser)
     parser.set_defaults(handler=_handle)
 
@@ -26,7 +36,8 @@ def register(subparsers: Any) -> None:
 def _handle(args: argparse.Namespace) -> Report:
     from pcmm_geo.artefacts.gauge_block import measure_gauge_block, read_gauge_block_csv
 
-    result = measure_gauge_block(read_gauge_block_csv(args.file))
+    points_by_face = read_gauge_block_csv(args.file)
+    result = measure_gauge_block(points_by_face)
     seed = result.seed
     data: dict[str, Any] = {
         "central_length_mm": result.central_length,
@@ -66,4 +77,13 @@ def _handle(args: argparse.Namespace) -> Report:
             f"seed angles: phi = {math.degrees(seed.phi):.4f} deg, theta1 = {math.degrees(seed.theta_top):.4f} deg, "
             f"theta2 = {math.degrees(seed.theta_side):.4f} deg"
         )
-    return Report(data=data, tables=[Table("Gauge block", ["quantity", "value (mm)"], rows)], lines=lines)
+    plots = []
+    if args.plot:
+        from pcmm_geo.plots.gauge_block import plot_gauge_block
+
+        written = plot_gauge_block(points_by_face, result, args.plot, overwrite=args.overwrite)
+        data["plot"] = str(written)
+        plots.append(str(written))
+        lines.append(f"plot written to {written}")
+    table = Table("Gauge block", ["quantity", "value (mm)"], rows)
+    return Report(data=data, tables=[table], lines=lines, plots=plots)

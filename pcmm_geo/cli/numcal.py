@@ -29,12 +29,17 @@ def register(subparsers: Any) -> None:
 
 
 def _handle(args: argparse.Namespace) -> Report:
+    from pcmm_geo.cli._progress import progress_bar, progress_wanted
     from pcmm_geo.machine.numcal import calibrate_numerically, read_numcal_csv
 
     data = read_numcal_csv(args.data)
-    result = calibrate_numerically(
-        data, method=args.method, global_search=None if args.search == "none" else args.search, seed=args.seed
-    )
+    # calibrate_numerically calls progress(done, total) from the global search (generations, starts)
+    with progress_bar(f"numerical calibration ({args.method}, {args.search})",
+                      enabled=progress_wanted(args)) as update:
+        result = calibrate_numerically(
+            data, method=args.method, global_search=None if args.search == "none" else args.search, seed=args.seed,
+            progress=update,
+        )
     params = result.parameters
     rows = [
         [arm, params.d[arm], pair, params.beta_deg[pair], params.b[pair]]

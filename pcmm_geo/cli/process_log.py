@@ -5,7 +5,14 @@ from __future__ import annotations
 import argparse
 from typing import Any
 
-from pcmm_geo.cli._output import Report, Table, add_json_flag
+from pcmm_geo.cli._output import (
+    Report,
+    Table,
+    add_json_flag,
+    add_overwrite_flag,
+    add_plot_flag,
+    add_report_flag,
+)
 
 
 def register(subparsers: Any) -> None:
@@ -21,17 +28,22 @@ def register(subparsers: Any) -> None:
     parser.add_argument("--initial-heights", type=float, nargs=3, metavar=("A", "B", "C"),
                         help="pivot heights of the first row (datum; default: the machine's reference heights)")
     parser.add_argument("--all-rows", action="store_true", help="list every row, not only the probe points")
+    add_plot_flag(parser, "the tip path with probe points, pivot heights and closure residual per row")
+    add_report_flag(parser)
+    add_overwrite_flag(parser)
     add_json_flag(parser)
     parser.set_defaults(handler=_handle)
 
 
 def _handle(args: argparse.Namespace) -> Report:
+    from pcmm_geo.cli._progress import progress_bar, progress_wanted
     from pcmm_geo.cli.kinematics import load_machine_file
     from pcmm_geo.machine.logproc import process_log, read_log
 
     machine = load_machine_file(args.calibration)
     log = read_log(args.file)
-    out = process_log(machine, log, initial_heights=args.initial_heights)
+    with progress_bar("processing log rows", enabled=progress_wanted(args), total=len(log)) as update:
+        out = process_log(machine, log, initial_heights=args.initial_heights, progress=update)
     rows_index = range(len(log)) if args.all_rows else out.probe_rows.tolist()
     rows = [
         [int(k) + 2, int(log.probe[k]), *out.tips[k].tolist(), *out.heights[k].tolist()] for k in rows_index
@@ -57,4 +69,12 @@ def _handle(args: argparse.Namespace) -> Report:
         ["line", "probe", "x [mm]", "y [mm]", "z [mm]", "h_a [mm]", "h_b [mm]", "h_c [mm]"],
         rows,
     )
-    return Report(data=data, tables=[table], lines=lines)
+    plots = []
+    if args.plot:
+        from pcmm_geo.plots.process_log import plot_processed_log
+
+        written = plot_processed_log(out, args.plot, overwrite=args.overwrite)
+        data["plot"] = str(written)
+        plots.append(str(written))
+        lines.append(f"plot written to {written}")
+    return Report(data=data, tables=[table], lines=lines, plots=plots)

@@ -5,7 +5,7 @@ from __future__ import annotations
 import argparse
 from typing import Any
 
-from pcmm_geo.cli._output import Report, Table, add_json_flag
+from pcmm_geo.cli._output import Report, Table, add_json_flag, add_plot_flag, add_report_flag
 
 
 def register(subparsers: Any) -> None:
@@ -22,15 +22,17 @@ def register(subparsers: Any) -> None:
     parser.add_argument("--centre", type=float, nargs=3, metavar=("X", "Y", "Z"),
                         help="cube centre in mm (default: tip at the reference heights)")
     parser.add_argument("--laser-accuracy", type=float, default=0.05, help="laser accuracy in mm (default 0.05)")
-    parser.add_argument("--plot", metavar="FILE.png", help="write a PNG plot")
-    parser.add_argument("--overwrite", action="store_true", help="replace an existing plot file")
+    add_plot_flag(parser, "the sensitivity map (laser gain over the grid, probe/laser ratio per motor)")
+    add_report_flag(parser)
+    parser.add_argument("--overwrite", action="store_true", help="replace existing --plot/--report files")
     add_json_flag(parser)
     parser.set_defaults(handler=_handle)
 
 
 def _handle(args: argparse.Namespace) -> Report:
     from pcmm_geo.cli.kinematics import load_machine_file
-    from pcmm_geo.machine.sensitivity import plot_sensitivity, sensitivity_over_cube
+    from pcmm_geo.machine.sensitivity import sensitivity_over_cube
+    from pcmm_geo.plots import plot_sensitivity
 
     machine = load_machine_file(args.calibration)
     sens = sensitivity_over_cube(
@@ -39,8 +41,10 @@ def _handle(args: argparse.Namespace) -> Report:
     )
     data = sens.summary()
     lines = []
+    plots = []
     if args.plot:
         data["plot"] = str(plot_sensitivity(sens, args.plot, overwrite=args.overwrite))
+        plots.append(data["plot"])
         lines.append(f"plot written to {data['plot']}")
     rows = []
     for name, label in (("laser_gain", "laser gain [mm/mm]"), ("tip_error_mm", "tip error [mm]"),
@@ -54,4 +58,4 @@ def _handle(args: argparse.Namespace) -> Report:
     lines.insert(0, f"probe/laser ratio on {args.size:g} mm paths through the centre -> {paths} (thesis: 20:1)")
     table = Table(f"Sensitivity over {data['points']} grid points", ["quantity", "median", "max (finite)", "infinite"],
                   rows)
-    return Report(data=data, tables=[table], lines=lines)
+    return Report(data=data, tables=[table], lines=lines, plots=plots)

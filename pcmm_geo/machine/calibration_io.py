@@ -268,9 +268,11 @@ def probed_features_from_points(
     --------
     >>> import numpy as np
     >>> ball = np.array([[1, 0, 0], [-1, 0, 0], [0, 1, 0], [0, -1, 0], [0, 0, 1.0]])
-    >>> data = {("joint_a", 1): ball, ("joint_b", 1): ball + 5, ("joint_c", 1): ball - 5, ("tip", None): ball * 2}
-    >>> probed_features_from_points(data).tip.radius
-    2.0
+    >>> data = {(f"joint_{arm}", pos): ball + 10 * pos * k for k, arm in enumerate("abc", 1) for pos in (1, 2)}
+    >>> data[("tip", None)] = ball * 2
+    >>> features = probed_features_from_points(data)
+    >>> features.positions, float(features.tip.radius), features.joints["b"][2].centre.tolist()
+    ((1, 2), 2.0, [40.0, 40.0, 40.0])
     """
     fitted: dict[tuple[str, int | None], FittedSphere] = {}
     arrays: dict[tuple[str, int | None], FloatArray] = {}

@@ -1,13 +1,8 @@
 """Processing of the seed's measurement log (thesis 3.6, Table 3.2; 5.2; Appendix D).
 
-Log format (CSV, header required)::
-
-    start_stop,probe,motor,direction,laser_a,laser_b,laser_c
-
-``start_stop`` is 1 for lasers saved at the start of a motor movement and 0 at its
-end; ``probe`` is 1 while the probe touches; ``motor`` (1, 2, 3 = arms a, b, c) is the
-motor moved; ``direction`` the last joystick direction (+1 up, -1 down, 0 unknown);
-the lasers are raw readings (mm, from the start of the 60 mm range).
+The log rows (``start_stop,probe,motor,direction,laser_a,laser_b,laser_c``), their array
+type :class:`MeasurementLog` and the CSV reader/writer live in
+:mod:`pcmm_geo.machine.logproc_rows` and are re-exported here.
 
 How the seed used the rows (Appendix D, lines 98-257)
 -----------------------------------------------------
@@ -44,16 +39,15 @@ Examples
 
 from __future__ import annotations
 
-import csv
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
-from pathlib import Path
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from pcmm_geo.errors import FileFormatError, InvalidInputError, OutputExistsError
+from pcmm_geo.errors import InvalidInputError
 from pcmm_geo.machine import _pose_solver as solver
+from pcmm_geo.machine.logproc_rows import LOG_COLUMNS, MeasurementLog, read_log, write_log
 from pcmm_geo.machine.model import ARMS, RigidBodyMachine, as_readings
 
 __all__ = [
@@ -69,46 +63,6 @@ __all__ = [
 
 FloatArray = NDArray[np.float64]
 IntArray = NDArray[np.int64]
-
-#: header of the log CSV (seed Table 3.2)
-LOG_COLUMNS: tuple[str, ...] = ("start_stop", "probe", "motor", "direction", "laser_a", "laser_b", "laser_c")
-
-
-@dataclass(frozen=True)
-class MeasurementLog:
-    """Rows of a Table 3.2 log as arrays (``N`` rows).
-
-    Attributes
-    ----------
-    start_stop, probe, motor, direction : ndarray of int, shape (N,)
-        1 start / 0 stop; 1 contact / 0 free; 1, 2, 3 (arm a, b, c); -1, 0, +1.
-    lasers : ndarray, shape (N, 3)
-        Raw laser readings a, b, c (mm).
-    """
-
-    start_stop: IntArray
-    probe: IntArray
-    motor: IntArray
-    direction: IntArray
-    lasers: FloatArray
-
-    def __post_init__(self) -> None:
-        lasers = as_readings(self.lasers, "lasers")
-        if lasers.ndim != 2:
-            raise InvalidInputError("lasers", "shape (N, 3)", f"shape {lasers.shape}")
-        count = lasers.shape[0]
-        allowed = {"start_stop": (0, 1), "probe": (0, 1), "motor": (1, 2, 3), "direction": (-1, 0, 1)}
-        for name, values in allowed.items():
-            arr = np.asarray(getattr(self, name))
-            if arr.shape != (count,):
-                raise InvalidInputError(name, f"shape ({count},)", f"shape {arr.shape}")
-            if not np.all(np.isin(arr, values)):
-                raise InvalidInputError(name, f"values in {values}", f"{sorted(set(arr.tolist()) - set(values))}")
-            object.__setattr__(self, name, arr.astype(np.int64))
-        object.__setattr__(self, "lasers", lasers)
-
-    def __len__(self) -> int:
-        return int(self.lasers.shape[0])
 
 
 @dataclass(frozen=True)
@@ -143,94 +97,6 @@ class ProcessedLog:
     residuals: FloatArray
     direction_consistent: NDArray[np.bool_]
     converged: NDArray[np.bool_]
-
-
-def read_log(path: str | Path) -> MeasurementLog:
-    """Read a Table 3.2 log CSV (header :data:`LOG_COLUMNS` required).
-
-    Raises
-    ------
-    FileFormatError
-        Missing/different header, wrong number of fields, or a value that is not a
-        number of the allowed set; ``line`` is the 1-based line number.
-    OSError
-        The file cannot be read.
-
-    Examples
-    --------
-    >>> import tempfile, os
-    >>> folder = tempfile.mkdtemp()
-    >>> path = os.path.join(folder, "log.csv")
-    >>> _ = open(path, "w").write("start_stop,probe,motor,direction,laser_a,laser_b,laser_c\\n1,0,1,1,50,51,52\\n")
-    >>> read_log(path).lasers.tolist()
-    [[50.0, 51.0, 52.0]]
-    """
-    name = str(path)
-    rows: list[list[float]] = []
-    with open(path, newline="", encoding="utf-8") as handle:
-        # ``# key: value`` metadata lines (written by pcmm_geo.machine.acqlog) are skipped;
-        # columns after the seven Table 3.2 columns (sequence number, time, raw counts) are ignored.
-        numbered = [(number, text) for number, text in enumerate(handle, start=1) if not text.startswith("#")]
-    reader = csv.reader(text for _, text in numbered)
-    header = next(reader, None)
-    header_line = numbered[0][0] if numbered else 1
-    if header is None or [h.strip().lower() for h in header[: len(LOG_COLUMNS)]] != list(LOG_COLUMNS):
-        raise FileFormatError(name, f"expected header {','.join(LOG_COLUMNS)}, got {header}", line=header_line)
-    n_columns = len(header)
-    for index, row in enumerate(reader, start=1):
-        line = numbered[index][0] if index < len(numbered) else None
-        if not row or all(not cell.strip() for cell in row):
-            continue
-        if len(row) != n_columns:
-            raise FileFormatError(name, f"expected {n_columns} fields, got {len(row)}", line=line)
-        row = row[: len(LOG_COLUMNS)]
-        try:
-            values = [float(cell) for cell in row]
-        except ValueError:
-            raise FileFormatError(name, f"expected numbers, got {row}", line=line) from None
-        if not all(np.isfinite(values)):
-            raise FileFormatError(name, f"expected finite numbers, got {row}", line=line)
-        flags = values[:4]
-        allowed = ((0, 1), (0, 1), (1, 2, 3), (-1, 0, 1))
-        for column, value, options in zip(LOG_COLUMNS[:4], flags, allowed, strict=True):
-            if value not in options:
-                raise FileFormatError(name, f"{column}: expected one of {options}, got {value:g}", line=line)
-        rows.append(values)
-    if not rows:
-        raise FileFormatError(name, "expected at least one data row, got none")
-    data = np.array(rows)
-    flags_int = data[:, :4].astype(np.int64)
-    return MeasurementLog(flags_int[:, 0], flags_int[:, 1], flags_int[:, 2], flags_int[:, 3], data[:, 4:])
-
-
-def write_log(path: str | Path, log: MeasurementLog, *, overwrite: bool = False) -> Path:
-    """Write ``log`` as a Table 3.2 CSV with header; lasers with 6 decimals (um/1000).
-
-    Raises
-    ------
-    OutputExistsError
-        The file exists and ``overwrite`` is False (nothing recorded is lost).
-
-    Examples
-    --------
-    >>> import tempfile, os
-    >>> log = MeasurementLog([1], [0], [2], [-1], [[50.0, 51.0, 52.0]])
-    >>> path = write_log(os.path.join(tempfile.mkdtemp(), "log.csv"), log)
-    >>> read_log(path).motor.tolist()
-    [2]
-    """
-    target = Path(path)
-    if target.exists() and not overwrite:
-        raise OutputExistsError(str(target))
-    with open(target, "w", newline="", encoding="utf-8") as handle:
-        writer = csv.writer(handle)
-        writer.writerow(LOG_COLUMNS)
-        for k in range(len(log)):
-            writer.writerow(
-                [int(log.start_stop[k]), int(log.probe[k]), int(log.motor[k]), int(log.direction[k])]
-                + [f"{value:.9f}" for value in log.lasers[k]]
-            )
-    return target
 
 
 def synthesise_log(
@@ -279,6 +145,7 @@ def process_log(
     *,
     initial_heights: ArrayLike | None = None,
     laser_sigma: float = 1e-3,
+    progress: Callable[[int, int], None] | None = None,
 ) -> ProcessedLog:
     """Pivot heights and probe points from a Table 3.2 log (see the module notes).
 
@@ -292,6 +159,8 @@ def process_log(
         common height offset, so this datum carries through the whole log.
     laser_sigma : float
         Standard uncertainty of a laser reading (weights only; mm).
+    progress : callable, optional
+        ``progress(rows_done, rows_total)``, called every 100 rows and at the end.
 
     Returns
     -------
@@ -332,6 +201,8 @@ def process_log(
     converged = np.ones(count, dtype=bool)
     state: solver.PoseState | None = None
     for row in range(count):
+        if progress is not None and row % 100 == 0:
+            progress(row, count)
         lasers = log.lasers[row : row + 1]
         if row == 0:
             first = machine.forward(lasers=lasers[0], heights_hint=datum, laser_sigma=laser_sigma)
@@ -369,6 +240,8 @@ def process_log(
         heights[row] = state.heights[0]
         tips[row] = state.rotation[0] @ geometry.tip_centre + state.translation[0]
         converged[row] = bool(state.converged[0])
+    if progress is not None:
+        progress(count, count)
     probe_rows = np.flatnonzero(log.probe == 1)
     return ProcessedLog(
         heights=heights,

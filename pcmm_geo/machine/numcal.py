@@ -35,6 +35,7 @@ True
 from __future__ import annotations
 
 import warnings
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from typing import Any, Literal
 
@@ -67,10 +68,13 @@ __all__ = [
     "random_search",
     "read_numcal_csv",
     "residuals_and_jacobian",
+    "select_samples",
     "synthesise_numcal_data",
 ]
 
 FloatArray = NDArray[np.float64]
+#: generations of differential evolution per search (scipy's ``maxiter``)
+DE_GENERATIONS = 1000
 
 
 def _pair_arrays(data: NumcalData) -> tuple[NDArray[np.int_], NDArray[np.int_], NDArray[np.int_]]:
@@ -202,7 +206,9 @@ def _solve(
     seed: int,
     starts: int,
     max_evaluations: int = 300,
+    report: Callable[[int], None] | None = None,
 ) -> tuple[FloatArray, int]:
+    """Global search then least squares over the ``free`` parameters; ``report(units_done)`` (see :func:`_units`)."""
     from scipy.optimize import differential_evolution, least_squares
 
     lower, upper = bounds[0][free], bounds[1][free]
@@ -229,10 +235,19 @@ def _solve(
             trials[:, free] = x.T
             return _costs(data, trials)
 
+        generation = [0]
+
+        def callback(intermediate_result: Any) -> None:  # scipy passes an OptimizeResult by this name
+            generation[0] += 1
+            if report is not None:
+                report(min(generation[0], DE_GENERATIONS))
+
         found = differential_evolution(
             population_cost, list(zip(lower, upper, strict=True)), seed=seed, tol=1e-12, polish=False,
-            maxiter=1000, vectorized=True, updating="deferred",
+            maxiter=DE_GENERATIONS, vectorized=True, updating="deferred", callback=callback,
         )
+        if report is not None:
+            report(DE_GENERATIONS)  # converged before maxiter: the search is done
         evaluations += population_size[0]  # individual parameter sets (found.nfev counts calls)
         candidates.append(found.x)
     elif global_search == "multistart":
@@ -245,15 +260,25 @@ def _solve(
     if not candidates:
         candidates.append(0.5 * (lower + upper))
     best_x, best_cost = None, np.inf
-    for x0 in candidates:
+    searched = DE_GENERATIONS if global_search == "differential_evolution" else 0
+    for index, x0 in enumerate(candidates, start=1):
         found = least_squares(fun, x0, jac=jac, bounds=(lower, upper), method="trf", x_scale="jac", xtol=1e-14,
                               ftol=1e-14, gtol=1e-14, max_nfev=max_evaluations)
         evaluations += int(found.nfev)
+        if report is not None:
+            report(searched + index)
         if found.cost < best_cost:
             best_x, best_cost = found.x, float(found.cost)
     if best_x is None or not np.isfinite(best_cost):
         raise ConvergenceError("numerical calibration", evaluations, "no finite solution found")
     return full(best_x), evaluations
+
+
+def _units(global_search: str | None, starts: int, has_start: bool) -> int:
+    """Progress units of one solver stage: DE generations (at most) plus one per least-squares start."""
+    local = starts if global_search == "multistart" else (1 if global_search == "differential_evolution" else 0)
+    local += int(has_start)
+    return (DE_GENERATIONS if global_search == "differential_evolution" else 0) + max(local, 1)
 
 
 def calibrate_numerically(
@@ -265,6 +290,7 @@ def calibrate_numerically(
     bounds: tuple[ArrayLike, ArrayLike] | None = None,
     seed: int = 0,
     starts: int = 20,
+    progress: Callable[[int, int], None] | None = None,
 ) -> NumericalCalibration:
     """Identify d, beta, b per arm from height-gauge data (thesis 6.2).
 
@@ -284,6 +310,12 @@ def calibrate_numerically(
         Seed of the global search.
     starts : int
         Number of seeded starts for ``"multistart"``.
+    progress : callable, optional
+        ``progress(done, total)``, called from the global search's callback after every
+        generation of differential evolution and after every least-squares start.  A stage
+        counts ``1000`` units for the evolution (its generation limit; the count jumps ahead
+        when the population converges earlier) plus one per least-squares start; the
+        sequential method has three stages.  The last call has ``done == total``.
 
     Returns
     -------
@@ -311,20 +343,29 @@ def calibrate_numerically(
     lower, upper = (np.asarray(b, dtype=float) for b in (bounds or SEED_BOUNDS))
     if lower.shape != (9,) or upper.shape != (9,) or np.any(lower >= upper):
         raise InvalidInputError("bounds", "two arrays of shape (9,) with lower < upper", f"{lower} / {upper}")
+    if global_search not in ("differential_evolution", "multistart", None):
+        raise InvalidInputError("global_search", "'differential_evolution', 'multistart' or None", repr(global_search))
     start_vector = None if start is None else start.vector()
     evaluations = 0
+    per_stage = _units(global_search, starts, start is not None)
+
+    def reporter(stage: int, stage_count: int) -> Callable[[int], None] | None:
+        if progress is None:
+            return None
+        return lambda done: progress(stage * per_stage + done, stage_count * per_stage)
+
     if method == "simultaneous":
         vector, evaluations = _solve(data, np.arange(9), np.zeros(9), (lower, upper), start_vector, global_search,
-                                     seed, starts)
+                                     seed, starts, report=reporter(0, 1))
     elif method == "sequential":
         vector = 0.5 * (lower + upper) if start_vector is None else start_vector.copy()
         stages = (("a", [2, 0, 5, 8]), ("b", [1, 3, 6]), ("c", [4, 7]))  # d_c d_a beta_ca b_ca | d_b .. | beta_bc b_bc
-        for arm, free in stages:
+        for index, (arm, free) in enumerate(stages):
             subset = data.subset((arm,))
             if not subset.moved:
                 raise InvalidInputError("data", f"samples with arm {arm} moved (sequential stage {arm})", "none")
             vector, used = _solve(subset, np.array(free), vector, (lower, upper), start_vector, global_search, seed,
-                                  starts)
+                                  starts, report=reporter(index, len(stages)))
             evaluations += used
     else:
         raise InvalidInputError("method", "'simultaneous' or 'sequential'", repr(method))
@@ -387,3 +428,63 @@ def random_search(
             best_cost, best_vector = float(cost[index]), trial[index]
         done += count
     return NumcalParameters.from_vector(best_vector), best_cost
+
+
+def select_samples(
+    data: NumcalData,
+    count: int,
+    *,
+    parameters: NumcalParameters | None = None,
+    initial: Sequence[int] = (),
+    exchange_passes: int = 2,
+) -> tuple[NumcalData, Any]:
+    """Choose the ``count`` samples whose identification Jacobian is best conditioned (Verl et al. 2008).
+
+    Each sample (one height-gauge pose) contributes one row of the Jacobian of
+    :func:`residuals_and_jacobian` at ``parameters``;
+    :func:`pcmm_geo.machine.identifiability.select_poses` adds, one at a time, the sample
+    that lowers the condition number of the column-scaled Jacobian most and then exchanges
+    chosen samples for better ones.  Use it to plan which poses to measure: synthesise
+    candidate poses with the nominal parameters, select, and measure only those.
+
+    Parameters
+    ----------
+    data : NumcalData
+        Candidate samples (M of them).
+    count : int
+        Number of samples to keep (9 or more for all nine parameters).
+    parameters : NumcalParameters, optional
+        Where the Jacobian is evaluated; default Table 7.1's values.
+    initial : sequence of int
+        Samples that must be kept.
+    exchange_passes : int
+        Passes of the exchange step.
+
+    Returns
+    -------
+    subset : NumcalData
+        The chosen samples, in the order they were chosen.
+    selection : PoseSelection
+        Indices into ``data``, condition number after each addition and at the end.
+
+    Raises
+    ------
+    InvalidInputError
+        ``count`` not in 1..M.
+
+    Examples
+    --------
+    >>> data = synthesise_numcal_data(NumcalParameters.from_seed_table())
+    >>> subset, selection = select_samples(data, 12)
+    >>> len(subset.moved), bool(selection.final_condition_number < 1e7)
+    (12, True)
+    """
+    from pcmm_geo.machine.identifiability import select_poses
+
+    at = NumcalParameters.from_seed_table() if parameters is None else parameters
+    _, jacobian = residuals_and_jacobian(data, at.vector())
+    selection = select_poses([jacobian[k : k + 1] for k in range(jacobian.shape[0])], count, initial=initial,
+                             exchange_passes=exchange_passes)
+    chosen = np.array(selection.indices, dtype=int)
+    subset = NumcalData(tuple(data.moved[k] for k in chosen), data.lasers[chosen], data.heights[chosen])
+    return subset, selection

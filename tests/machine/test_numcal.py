@@ -175,3 +175,42 @@ def test_rank_deficient_data_warn_and_name_the_missing_parameters(data):
     assert "d_b" in message and "beta_bc" in message and "b_ab" in message
     assert result.identifiability.rank == 4
     assert result.parameters.d["b"] == pytest.approx(TRUTH.d["b"])  # untouched start value
+
+
+def test_greedy_sample_selection_beats_random_selections_of_the_same_size(data):
+    """Verl et al. 2008: the greedy choice is better conditioned than any of 200 seeded random choices."""
+    from pcmm_geo.machine.numcal import select_samples
+
+    _, jac = residuals_and_jacobian(data, TRUTH.vector())
+    rng = np.random.default_rng(12)
+    for count in (9, 12):
+        subset, selection = select_samples(data, count, parameters=TRUTH)
+        assert len(set(selection.indices)) == count
+        # the subset holds exactly the chosen rows, and its condition number is the one reported
+        np.testing.assert_array_equal(subset.lasers, data.lasers[list(selection.indices)])
+        _, sub_jac = residuals_and_jacobian(subset, TRUTH.vector())
+        assert condition_number(sub_jac) == pytest.approx(selection.final_condition_number, rel=1e-9)
+        random_choices = [condition_number(jac[rng.choice(len(data.moved), count, replace=False)]) for _ in range(200)]
+        assert selection.final_condition_number < min(random_choices)
+    # with 12 well-chosen samples the conditioning is better than with all 45
+    assert selection.final_condition_number < condition_number(jac)
+    with pytest.raises(InvalidInputError):
+        select_samples(data, len(data.moved) + 1)
+
+
+@pytest.mark.parametrize(
+    ("method", "search", "stage_units"),
+    [("simultaneous", "differential_evolution", 1001), ("sequential", "differential_evolution", 1001),
+     ("simultaneous", "multistart", 20), ("sequential", None, 1)],
+)
+def test_progress_is_reported_from_the_global_search(data, method, search, stage_units):
+    calls = []
+    calibrate_numerically(data, method=method, global_search=search, seed=0, start=None if search else TRUTH,
+                          progress=lambda done, total: calls.append((done, total)))
+    stages = 3 if method == "sequential" else 1
+    totals = {total for _, total in calls}
+    assert totals == {stages * stage_units}
+    done = [d for d, _ in calls]
+    assert done == sorted(done) and done[-1] == stages * stage_units and done[0] >= 1
+    if search == "differential_evolution":
+        assert len(calls) > 10 * stages  # one call per generation, not only at the end
