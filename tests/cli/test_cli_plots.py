@@ -16,6 +16,7 @@ import pytest
 from pcmm_geo.machine.calibration_seed import TABLE_7_1, appendix_cd_files
 from pcmm_geo.machine.logproc import synthesise_log, write_log
 from pcmm_geo.machine.model import RigidBodyMachine
+from pcmm_geo.machine.numcal import NumcalParameters, synthesise_numcal_data
 
 PCMM = str(Path(sys.executable).with_name("pcmm"))
 EXAMPLES = Path(__file__).parents[2] / "pcmm_geo" / "data" / "examples"
@@ -163,13 +164,15 @@ def test_fit_sensitivity_and_demo_keep_json_clean(tmp_path: Path) -> None:
     assert_refused(run("fit", "sphere", str(nist), "--plot", str(fit_plot)), fit_plot)
 
     report = tmp_path / "sens.md"
-    done = run("sensitivity", "--points-per-axis", "3", "--plot", str(tmp_path / "sens.png"), "--report",
-               str(report), "--json")
+    done = run(
+        "sensitivity", "--points-per-axis", "3", "--plot", str(tmp_path / "sens.png"), "--report", str(report), "--json"
+    )
     assert done.returncode == 0 and done.stderr == ""
     data = json.loads(done.stdout)
     gain = data["laser_gain"]
     assert f"| laser gain \\[mm/mm\\] | {gain['median']:.6f} | {gain['max_finite']:.6f} | 3 |" in (
-        report.read_text(encoding="utf-8").splitlines())
+        report.read_text(encoding="utf-8").splitlines()
+    )
 
     overview, page = tmp_path / "demo.png", tmp_path / "demo.html"
     done = run("demo", "--out", str(tmp_path / "runs"), "--plot", str(overview), "--report", str(page), "--json")
@@ -209,8 +212,9 @@ def log_heights(start: np.ndarray, moves: list[tuple[int, float, bool]]) -> np.n
 def test_process_log_plot_report_and_progress(long_log: tuple[Path, list[str], np.ndarray], tmp_path: Path) -> None:
     path, heights, truth = long_log
     plot, report = tmp_path / "log.png", tmp_path / "log.md"
-    done = run("process-log", str(path), "--initial-heights", *heights, "--plot", str(plot), "--report",
-               str(report), "--json")
+    done = run(
+        "process-log", str(path), "--initial-heights", *heights, "--plot", str(plot), "--report", str(report), "--json"
+    )
     assert done.returncode == 0 and done.stderr == ""
     data = json.loads(done.stdout)
     np.testing.assert_allclose(data["probe_points"], truth, atol=1e-6)
@@ -233,6 +237,49 @@ def test_demo_and_acquire_progress_on_a_terminal(tmp_path: Path) -> None:
     code, stdout, stderr = run_with_terminal_stderr("demo", "--no-plots")
     assert code == 0 and "calibrated (rigid body)" in stdout and "\x1b" not in stdout
     assert "done" in stderr and "4/4" in stderr  # the last state is always drawn; earlier ones depend on timing
-    code, _, stderr = run_with_terminal_stderr("acquire", "--simulate", "--settle", "0", "--moves", "3", "--timeout",
-                                               "0.06", "--move-timeout", "0.12", "--out", str(tmp_path / "a.csv"))
+    code, _, stderr = run_with_terminal_stderr(
+        "acquire",
+        "--simulate",
+        "--settle",
+        "0",
+        "--moves",
+        "3",
+        "--timeout",
+        "0.06",
+        "--move-timeout",
+        "0.12",
+        "--out",
+        str(tmp_path / "a.csv"),
+    )
     assert code == 0 and "acquiring" in stderr and "3/3" in stderr
+
+
+# numerical calibration (pcmm numcal): the progress bar counts real work
+
+
+@pytest.fixture(scope="module")
+def numcal_csv(tmp_path_factory) -> str:
+    truth = NumcalParameters.from_seed_table()
+    data = synthesise_numcal_data(truth, seed=1)
+    rows = ["moved,laser_a,laser_b,laser_c,height"]
+    rows += [
+        f"{m},{a!r},{b!r},{c!r},{h!r}"
+        for m, (a, b, c), h in zip(data.moved, data.lasers.tolist(), data.heights.tolist(), strict=True)
+    ]
+    path = tmp_path_factory.mktemp("numcal") / "numcal.csv"
+    path.write_text("\n".join(rows) + "\n")
+    return str(path)
+
+
+def test_numcal_progress_on_a_terminal_only(numcal_csv):
+    code, stdout, stderr = run_with_terminal_stderr("numcal", numcal_csv, "--search", "multistart")
+    assert code == 0 and "\x1b" not in stdout and "Numerical calibration" in stdout
+    # 20 seeded starts, one least-squares refinement each: the last state is always drawn
+    assert "numerical calibration (simultaneous, multistart)" in stderr and "20/20" in stderr
+    code, stdout, stderr = run_with_terminal_stderr("numcal", numcal_csv, "--search", "multistart", "--json")
+    assert code == 0 and stderr == ""  # --json: no bar even on a terminal
+    assert json.loads(stdout)["global_search"] == "multistart"
+    piped = subprocess.run(
+        [PCMM, "numcal", numcal_csv, "--search", "none"], capture_output=True, text=True, timeout=120, check=False
+    )
+    assert piped.returncode == 0 and piped.stderr == ""  # stderr not a terminal: no bar
