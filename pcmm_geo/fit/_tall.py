@@ -20,8 +20,8 @@ TALL_ROWS = 20_000  # below this many rows the orthogonal routines are cheap eno
 _GRAM_CONDITION = 1e5
 
 
-def _scaled_gram(matrix: FloatArray) -> tuple[FloatArray, FloatArray] | None:
-    """Column norms and the column-scaled Gram matrix, or None when the matrix is not tall or too ill-conditioned."""
+def _scaled_gram(matrix: FloatArray) -> tuple[FloatArray, FloatArray, FloatArray] | None:
+    """Gram matrix, column norms and column-scaled Gram matrix; None when not tall or too ill-conditioned."""
     if matrix.shape[0] < TALL_ROWS:
         return None
     gram = matrix.T @ matrix
@@ -32,7 +32,7 @@ def _scaled_gram(matrix: FloatArray) -> tuple[FloatArray, FloatArray] | None:
     eigen = np.linalg.eigvalsh(scaled)
     if not eigen[0] > eigen[-1] / _GRAM_CONDITION**2:
         return None
-    return norms, scaled
+    return gram, norms, scaled
 
 
 def tall_lstsq(matrix: FloatArray, rhs: FloatArray) -> FloatArray:
@@ -40,7 +40,7 @@ def tall_lstsq(matrix: FloatArray, rhs: FloatArray) -> FloatArray:
     gram = _scaled_gram(matrix)
     if gram is None:
         return np.linalg.lstsq(matrix, rhs, rcond=None)[0]
-    norms, scaled = gram
+    _, norms, scaled = gram
     return np.linalg.solve(scaled, (matrix.T @ rhs) / norms) / norms
 
 
@@ -50,6 +50,6 @@ def tall_svd(matrix: FloatArray) -> tuple[FloatArray, FloatArray]:
     if gram is None:
         _, singular, vt = np.linalg.svd(matrix, full_matrices=False)
         return singular, vt
-    eigen, vectors = np.linalg.eigh(matrix.T @ matrix)
+    eigen, vectors = np.linalg.eigh(gram[0])
     order = np.argsort(eigen)[::-1]
     return np.sqrt(np.maximum(eigen[order], 0.0)), vectors[:, order].T
