@@ -12,10 +12,16 @@ Sub-packages (data flows down, nothing below imports from above):
 - :mod:`pcmm_geo.testing` -- helpers for users' own tests.
 
 Units: millimetres and radians inside; degrees only where named ``*_deg``.
+
+Install: ``pip install pcmm_geo`` needs numpy and scipy only; extras ``[cad]`` (open3d,
+trimesh), ``[acquire]`` (pyserial), ``[plots]`` (matplotlib), ``[progress]`` (rich),
+``[dask]`` and ``[all]``.  A function that needs a missing extra raises
+:class:`MissingDependencyError` naming it (see :func:`require`).
 """
 
 from __future__ import annotations
 
+from pcmm_geo._optional import require
 from pcmm_geo.errors import (
     CalibrationError,
     ConvergenceError,
@@ -27,6 +33,7 @@ from pcmm_geo.errors import (
     IllConditionedWarning,
     InvalidInputError,
     LogIntegrityError,
+    MissingDependencyError,
     NoRealSolutionError,
     OutputExistsError,
     PcmmGeoError,
@@ -34,7 +41,7 @@ from pcmm_geo.errors import (
     TooFewPointsError,
 )
 
-__version__ = "0.1.0"
+__version__ = "0.2.0.dev0"
 
 __all__ = [
     "__version__",
@@ -46,6 +53,7 @@ __all__ = [
     "ConvergenceError",
     "NoRealSolutionError",
     "OutputExistsError",
+    "MissingDependencyError",
     "FileFormatError",
     "CalibrationError",
     "DeviceError",
@@ -53,4 +61,5 @@ __all__ = [
     "DeviceProtocolError",
     "LogIntegrityError",
     "IllConditionedWarning",
+    "require",
 ]

@@ -8,12 +8,12 @@ The chain, every step with the library's own tools:
 2. An external CMM probes the tetrahedron's joint balls at three slider positions and
    the probe-tip ball (thesis 7.1), with probing noise.
 3. :func:`~pcmm_geo.machine.calibrate_tetrahedron` recovers slider lines, laser
-   scale/offset and tip centre (thesis ch. 7, without the seed's "lines meet at the tip"
+   scale/offset and tip center (thesis ch. 7, without the seed's "lines meet at the tip"
    assumption, erratum 9).
 4. The micro-CMM probes both measuring faces of a 100 mm gauge block: the true machine
    gives the readings (inverse kinematics) plus laser and encoder noise; the calibrated
    model and, for comparison, the uncalibrated nominal design turn the readings into tip
-   centres (forward kinematics), which are compensated for the tip radius.
+   centers (forward kinematics), which are compensated for the tip radius.
 5. :func:`~pcmm_geo.artefacts.gauge_block.measure_gauge_block` evaluates the central length
    (ISO 3650 method) and the length error is reported.
 """
@@ -27,6 +27,8 @@ from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
+
+from pcmm_geo._deprecation import renamed_parameters
 
 FloatArray = NDArray[np.float64]
 
@@ -72,7 +74,7 @@ class DemoResult:
     plots: list[str] = field(default_factory=list)
     #: the full calibration result (not in ``to_dict``), for plots
     tetrahedron_calibration: Any = field(default=None, repr=False, compare=False)
-    #: measured minus true tip centres per model, face by face, ``{model: [(N, 3), ...]}`` (mm; not in ``to_dict``)
+    #: measured minus true tip centers per model, face by face, ``{model: [(N, 3), ...]}`` (mm; not in ``to_dict``)
     tip_errors: dict[str, list[FloatArray]] = field(default_factory=dict, repr=False, compare=False)
 
     @property
@@ -118,7 +120,7 @@ def true_machine(settings: DemoSettings) -> Any:
             laser_scale=scale,
             laser_offset=slider.laser_offset,
         )
-    tetrahedron = Tetrahedron(sliders=sliders, tip_centre=nominal.tetrahedron.tip_centre)
+    tetrahedron = Tetrahedron(sliders=sliders, tip_center=nominal.tetrahedron.tip_center)
     return RigidBodyMachine(
         tetrahedron=tetrahedron,
         columns=nominal.columns,
@@ -127,21 +129,22 @@ def true_machine(settings: DemoSettings) -> Any:
     )
 
 
-def ball_probings(centre: FloatArray, radius: float, count: int, sigma: float, rng: np.random.Generator) -> FloatArray:
+@renamed_parameters(centre="center")
+def ball_probings(center: FloatArray, radius: float, count: int, sigma: float, rng: np.random.Generator) -> FloatArray:
     """Points an external CMM takes on a ball: a spiral over its upper 3/4, plus Gaussian noise."""
     golden_angle = np.pi * (3.0 - np.sqrt(5.0))
     index = np.arange(count)
     height = 1.0 - 1.5 * (index + 0.5) / count
     ring = np.sqrt(1.0 - height**2)
     unit = np.column_stack([ring * np.cos(golden_angle * index), ring * np.sin(golden_angle * index), height])
-    return centre + radius * unit + rng.normal(0.0, sigma, (count, 3))
+    return center + radius * unit + rng.normal(0.0, sigma, (count, 3))
 
 
 def simulate_probings(machine: Any, settings: DemoSettings, rng: np.random.Generator) -> dict[str, Any]:
     """External-CMM probings of the joint balls at :data:`CALIBRATION_LASERS` and of the tip ball."""
     probings: dict[str, Any] = {
         "tip": ball_probings(
-            machine.tetrahedron.tip_centre,
+            machine.tetrahedron.tip_center,
             settings.tip_ball_radius,
             settings.points_per_ball,
             settings.cmm_probing_sigma,
@@ -163,16 +166,17 @@ def simulate_probings(machine: Any, settings: DemoSettings, rng: np.random.Gener
     return probings
 
 
-def gauge_block_contacts(centre: FloatArray, settings: DemoSettings) -> dict[str, tuple[FloatArray, FloatArray]]:
+@renamed_parameters(centre="center")
+def gauge_block_contacts(center: FloatArray, settings: DemoSettings) -> dict[str, tuple[FloatArray, FloatArray]]:
     """Surface points and outward normals on the two measuring faces of a block along x."""
     half = settings.gauge_length / 2.0
-    # a 9 mm x 35 mm measuring face: points on a small cross around the face centre
+    # a 9 mm x 35 mm measuring face: points on a small cross around the face center
     offsets = np.array([[0.0, 0.0], [0.0, 12.0], [0.0, -12.0], [3.0, 0.0], [-3.0, 0.0], [2.0, 8.0], [-2.0, -8.0]])
     offsets = offsets[: settings.points_per_face]
     faces = {}
     for name, sign in (("face_1", -1.0), ("face_2", 1.0)):
         normal = np.array([sign, 0.0, 0.0])
-        surface = centre + np.column_stack(
+        surface = center + np.column_stack(
             [np.full(len(offsets), sign * half), offsets[:, 1], offsets[:, 0]]
         )
         faces[name] = (surface, np.tile(normal, (len(surface), 1)))
@@ -230,7 +234,7 @@ def run_demo(
     nominal = RigidBodyMachine.from_dpkm()
     miss = {
         arm: float(
-            np.linalg.norm(np.cross(machine.tetrahedron.tip_centre - s.point, s.direction))
+            np.linalg.norm(np.cross(machine.tetrahedron.tip_center - s.point, s.direction))
         )
         for arm, s in machine.tetrahedron.sliders.items()
     }
@@ -270,9 +274,9 @@ def run_demo(
     result_nom = measure_gauge_block(measured["nominal"])
     summary = {
         "dead_distance_mm": dict(calibration.dead_distance),
-        "beta_deg": dict(calibration.beta),
+        "beta_deg": calibration.beta_deg,
         "skew_distance_mm": dict(calibration.skew_distances),
-        "tip_centre_mm": np.asarray(calibration.tip_centre).tolist(),
+        "tip_centre_mm": np.asarray(calibration.tip_center).tolist(),
         "tip_radius_mm": tip_radius,
         "laser_scale": {arm: float(line.laser_scale) for arm, line in calibration.slider_lines.items()},
         "slider_line_error_mm": {
@@ -313,7 +317,7 @@ def run_demo(
 
 
 def _write_plots(folder: Path, calibration: Any, tip_errors: dict[str, list[FloatArray]]) -> list[str]:
-    """Slider lines, joint centres and tip (thesis fig 7.2) and the tip errors per contact."""
+    """Slider lines, joint centers and tip (thesis fig 7.2) and the tip errors per contact."""
     from pcmm_geo.errors import OutputExistsError
     from pcmm_geo.plots.calibration import plot_calibration
     from pcmm_geo.plots.demo import plot_tip_errors

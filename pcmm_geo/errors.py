@@ -35,6 +35,7 @@ __all__ = [
     "DeviceProtocolError",
     "LogIntegrityError",
     "OutputExistsError",
+    "MissingDependencyError",
     "IllConditionedWarning",
     "PcmmGeoWarning",
 ]
@@ -163,6 +164,24 @@ class OutputExistsError(PcmmGeoError, FileExistsError):
     def __init__(self, path: str) -> None:
         PcmmGeoError.__init__(
             self, f"{path}: already exists; refusing to overwrite (pass overwrite=True to replace it)", path=path
+        )
+
+
+class MissingDependencyError(PcmmGeoError, ImportError):
+    """An optional dependency is not installed; the message names the extra that provides it.
+
+    Fields: ``package`` (distribution name, e.g. ``"open3d"``), ``extra`` (e.g. ``"cad"``),
+    ``purpose`` (what needed it).  Raised by :func:`pcmm_geo.require`.
+    """
+
+    def __init__(self, package: str, extra: str, purpose: str) -> None:
+        PcmmGeoError.__init__(
+            self,
+            f"{purpose} needs {package}, which is not installed; "
+            f"install the extra with: pip install 'pcmm_geo[{extra}]'",
+            package=package,
+            extra=extra,
+            purpose=purpose,
         )
 
 

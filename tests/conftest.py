@@ -13,3 +13,35 @@ DATA_DIR = Path(__file__).parent / "data"
 def data_dir() -> Path:
     """Folder of the test data bundled with the repository."""
     return DATA_DIR
+
+
+# Tests that need an optional dependency, directly or through the library: test module (relative to
+# tests/) or "module::test function" -> extra.  They get the marker ``extras``; the full run (./dev test)
+# runs every test, the core-only CI run (`pip install .` = numpy + scipy) deselects them with
+# ``-m "not extras"``, so a core test that secretly needs an extra fails there.
+EXTRAS_NEEDED = {
+    "acquisition/test_acq_lasers.py": "acquire",
+    "acquisition/test_acq_probe.py": "acquire",
+    "acquisition/test_acq_session.py": "acquire",
+    "acquisition/test_acq_zaber.py": "acquire",
+    "artefacts/test_cad.py": "cad",
+    "cli/test_cli_compare.py": "cad",
+    "cli/test_cli_plots.py": "plots",
+    "io/test_meshes.py": "cad",
+    "plots/test_plots.py": "plots",
+    "cli/test_cli_demo.py::test_demo_plots_are_real_images_and_runs_never_overwrite": "plots",
+    "cli/test_cli_fit.py::test_fit_circle_projected_matches_nist_and_human_table": "plots",
+    "io/test_points.py::test_round_trip": "cad",
+    "machine/test_sensitivity.py::test_plot_and_errors": "plots",
+    "test_docs.py": "docs",
+}
+
+
+def pytest_collection_modifyitems(config: pytest.Config, items: list[pytest.Item]) -> None:
+    """Mark the tests of :data:`EXTRAS_NEEDED` with ``extras(<extra>)``."""
+    for item in items:
+        module = Path(str(item.path)).relative_to(Path(__file__).parent).as_posix()
+        function = getattr(item, "originalname", item.name)
+        extra = EXTRAS_NEEDED.get(f"{module}::{function}") or EXTRAS_NEEDED.get(module)
+        if extra is not None:
+            item.add_marker(pytest.mark.extras(extra))

@@ -28,13 +28,14 @@ from typing import TYPE_CHECKING
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from pcmm_geo._optional import require
 from pcmm_geo.artefacts.cad_distance import surface_distances
 from pcmm_geo.artefacts.cad_register import DEFAULT_SAMPLE_COUNT, Registration, register_to_mesh
 from pcmm_geo.errors import InvalidInputError
 from pcmm_geo.fit._core import as_points
 
 if TYPE_CHECKING:
-    import trimesh
+    trimesh = require("trimesh")
 
 __all__ = [
     "CadComparison",

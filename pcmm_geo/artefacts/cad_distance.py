@@ -43,11 +43,12 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from pcmm_geo._optional import require
 from pcmm_geo.errors import InvalidInputError
 from pcmm_geo.fit._core import as_points
 
 if TYPE_CHECKING:
-    import trimesh
+    trimesh = require("trimesh")
 
 __all__ = ["SurfaceDistances", "SurfaceIndex", "check_closed_mesh", "surface_distances"]
 
@@ -345,7 +346,7 @@ class SurfaceIndex:
 
     def _pseudo_normals(self, closest: FloatArray, face_index: IntArray) -> tuple[FloatArray, NDArray[np.bool_]]:
         """Pseudo-normals of the features holding the nearest points, and which of these lie inside a face."""
-        import trimesh
+        trimesh = require("trimesh")
 
         barycentric = trimesh.triangles.points_to_barycentric(self.triangles[face_index], closest)
         on_zero = barycentric < _ON_BOUNDARY
@@ -364,7 +365,7 @@ class SurfaceIndex:
 
 def _feature_normals(mesh: trimesh.Trimesh, triangles: FloatArray) -> tuple[FloatArray, FloatArray, FloatArray]:
     """Face normals, edge pseudo-normals (F, 3, 3) and angle-weighted vertex pseudo-normals (F, 3, 3)."""
-    import trimesh
+    trimesh = require("trimesh")
 
     faces = np.asarray(mesh.faces, dtype=np.int64)
     face_normals = np.asarray(mesh.face_normals, dtype=float)
@@ -469,7 +470,7 @@ def _keep_nearest(
     face_index: IntArray,
 ) -> FloatArray:
     """Update the running nearest points (in place) with a chunk of point-triangle pairs; their squared distances."""
-    import trimesh
+    trimesh = require("trimesh")
 
     if len(point_of_pair) == 0:
         return np.empty(0)

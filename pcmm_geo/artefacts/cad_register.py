@@ -32,12 +32,13 @@ from typing import TYPE_CHECKING
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from pcmm_geo._optional import require
 from pcmm_geo.artefacts.cad_distance import SurfaceIndex
 from pcmm_geo.errors import ConvergenceError, IllConditionedWarning, InvalidInputError
 from pcmm_geo.fit._core import as_points
 
 if TYPE_CHECKING:
-    import trimesh
+    trimesh = require("trimesh")
 
 __all__ = [
     "DEFAULT_SAMPLE_COUNT",
@@ -248,8 +249,8 @@ def register_to_mesh(
     >>> np.round(fit.translation, 9).tolist(), round(fit.inlier_rms, 12)
     ([-0.2, 0.0, 0.1], 0.0)
     """
-    import open3d as o3d
-    import trimesh
+    o3d = require("open3d")
+    trimesh = require("trimesh")
 
     data = as_points(points, element="registration", min_points=MIN_REGISTRATION_POINTS)
     start = np.eye(4) if initial_transform is None else as_rigid_transform(initial_transform)

@@ -40,6 +40,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from pcmm_geo._optional import require
 from pcmm_geo.errors import InvalidInputError, PcmmGeoError
 from pcmm_geo.fit._core import as_points
 
@@ -139,7 +140,7 @@ def estimate_normals(points: ArrayLike, *, neighbours: int = 16) -> FloatArray:
     >>> np.abs(estimate_normals(grid, neighbours=8)[:, 2]).min()
     np.float64(1.0)
     """
-    import open3d as o3d
+    o3d = require("open3d")
 
     data = as_points(points, element="normals", min_points=3)
     if int(neighbours) < 3:
@@ -208,7 +209,7 @@ def segment_scan(
     --------
     See the module docstring.
     """
-    import open3d as o3d
+    o3d = require("open3d")
 
     data = as_points(points, element="segmentation", min_points=3)
     if not np.isfinite(distance_threshold) or distance_threshold <= 0:
@@ -262,7 +263,7 @@ def segment_scan(
 def _plane_candidate(
     data: FloatArray, normals: FloatArray, remaining: IntArray, threshold: float, cos_limit: float, iterations: int
 ) -> _Candidate | None:
-    import open3d as o3d
+    o3d = require("open3d")
 
     if len(remaining) < 3:
         return None

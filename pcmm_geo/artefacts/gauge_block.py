@@ -48,6 +48,7 @@ from pathlib import Path
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from pcmm_geo._deprecation import renamed_fields
 from pcmm_geo.artefacts._table import cell_float, cell_text, read_rows
 from pcmm_geo.errors import DegenerateGeometryError, FileFormatError, InvalidInputError
 from pcmm_geo.fit._core import as_points
@@ -92,6 +93,7 @@ class SeedGaugeBlockLength:
     vector_length: float
 
 
+@renamed_fields(face_centres="face_centers")
 @dataclass(frozen=True)
 class GaugeBlockMeasurement:
     """Gauge block evaluation by the ISO 3650 method, with the seed's and the projection method.
@@ -111,7 +113,7 @@ class GaugeBlockMeasurement:
         Flatness (max − min residual) of the fitted planes of face 1 and face 2 (mm).
     axis : ndarray, shape (3,)
         Unit direction face 1 → face 2 (mean of the measuring-face normals).
-    face_centres : ndarray, shape (2, 3)
+    face_centers : ndarray, shape (2, 3)
         Centre points used for faces 1 and 2 (mm).
     seed : SeedGaugeBlockLength or None
         The seed's method, when top and side faces have 3 points or more.
@@ -129,7 +131,7 @@ class GaugeBlockMeasurement:
     parallelism: float
     face_form: tuple[float, float]
     axis: FloatArray
-    face_centres: FloatArray
+    face_centers: FloatArray
     seed: SeedGaugeBlockLength | None
     projected_length: float
     n_points: dict[str, int]
@@ -353,7 +355,7 @@ def measure_gauge_block(points_by_face: Mapping[str, ArrayLike]) -> GaugeBlockMe
         parallelism=float(math.atan2(np.linalg.norm(np.cross(normal1, normal2)), float(normal1 @ normal2))),
         face_form=(float(np.ptp(resid1)), float(np.ptp(resid2))),
         axis=axis,
-        face_centres=np.vstack([centre1, centre2]),
+        face_centers=np.vstack([centre1, centre2]),
         seed=seed,
         projected_length=projection,
         n_points={label: len(pts) for label, pts in faces.items()},

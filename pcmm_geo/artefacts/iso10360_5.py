@@ -23,6 +23,7 @@ from pathlib import Path
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from pcmm_geo._deprecation import renamed_fields, renamed_parameters
 from pcmm_geo.artefacts._table import cell_float, read_rows
 from pcmm_geo.errors import InvalidInputError
 from pcmm_geo.fit._core import as_points
@@ -35,8 +36,9 @@ FloatArray = NDArray[np.float64]
 PATTERN_RINGS = ((0.0, 1, 0.0), (22.5, 4, 0.0), (45.0, 8, 22.5), (67.5, 4, 45.0), (90.0, 8, 67.5))
 
 
+@renamed_parameters(centre="center")
 def sphere_probing_pattern(
-    centre: ArrayLike = (0.0, 0.0, 0.0),
+    center: ArrayLike = (0.0, 0.0, 0.0),
     radius: float = 12.5,
     *,
     pole: ArrayLike = (0.0, 0.0, 1.0),
@@ -46,12 +48,12 @@ def sphere_probing_pattern(
 
     Parameters
     ----------
-    centre : array_like, shape (3,)
-        Sphere centre (mm).
+    center : array_like, shape (3,)
+        Sphere center (mm).
     radius : float
         Sphere radius (mm), > 0.
     pole : array_like, shape (3,)
-        Direction of the pole from the centre (towards the probe); normalised here.
+        Direction of the pole from the center (towards the probe); normalised here.
     azimuth : float
         Extra rotation of the whole pattern about the pole axis (rad).  Azimuth 0 lies along the
         machine x axis projected normal to the pole (along y when the pole is near x).
@@ -77,9 +79,9 @@ def sphere_probing_pattern(
     axis = np.asarray(pole, dtype=float)
     if axis.shape != (3,) or not np.all(np.isfinite(axis)) or np.linalg.norm(axis) == 0:
         raise InvalidInputError("pole", "a non-zero 3-vector", f"{axis.tolist()}")
-    c = np.asarray(centre, dtype=float)
+    c = np.asarray(center, dtype=float)
     if c.shape != (3,) or not np.all(np.isfinite(c)):
-        raise InvalidInputError("centre", "a finite 3-vector in mm", f"{c.tolist()}")
+        raise InvalidInputError("center", "a finite 3-vector in mm", f"{c.tolist()}")
     local = []
     for polar_deg, count, turn_deg in PATTERN_RINGS:
         polar = math.radians(polar_deg)
@@ -96,6 +98,7 @@ def sphere_probing_pattern(
     return c + radius * unit_points @ frame
 
 
+@renamed_fields(centre="center")
 @dataclass(frozen=True)
 class ProbingResult:
     """ISO 10360-5 probing errors.
@@ -108,8 +111,8 @@ class ProbingResult:
         ``P_STU``, fitted minus calibrated diameter (mm).
     fitted_diameter, reference_diameter : float
         mm.
-    centre : ndarray, shape (3,)
-        Fitted centre (mm).
+    center : ndarray, shape (3,)
+        Fitted center (mm).
     residuals : ndarray, shape (N,)
         Signed radial residuals (mm).
     n : int
@@ -124,7 +127,7 @@ class ProbingResult:
     size_error: float
     fitted_diameter: float
     reference_diameter: float
-    centre: FloatArray
+    center: FloatArray
     residuals: FloatArray
     n: int
     mpe_form: float | None
@@ -194,7 +197,7 @@ def evaluate_probing(
         size_error=size,
         fitted_diameter=diameter,
         reference_diameter=float(reference_diameter),
-        centre=np.asarray(fit.center, dtype=float),
+        center=np.asarray(fit.center, dtype=float),
         residuals=residuals,
         n=len(pts),
         mpe_form=mpe_form,

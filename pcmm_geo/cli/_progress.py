@@ -1,4 +1,4 @@
-"""Progress bars on stderr for long sub-commands (rich, imported only when a bar is shown).
+"""Progress bars on stderr for long sub-commands (rich, extra ``[progress]``, imported only when a bar is shown).
 
 Library functions take a plain callback (``progress(done, total)``, some also a step text);
 the CLI supplies :func:`progress_bar`'s callback.  A bar is shown only when stderr is a
@@ -12,13 +12,18 @@ import contextlib
 import sys
 from collections.abc import Callable, Iterator
 
+from pcmm_geo._optional import available, require
+
 #: ``update(done, total=None, text=None)``: total and text are optional (None = unchanged)
 ProgressUpdate = Callable[..., None]
 
 
 def progress_wanted(args: argparse.Namespace) -> bool:
-    """True when a bar may be drawn: stderr is a terminal and ``--json`` is not given."""
-    return not getattr(args, "json", False) and sys.stderr.isatty()
+    """True when a bar may be drawn: stderr is a terminal, ``--json`` is not given and rich is installed.
+
+    The bar is decoration (extra ``[progress]``): without rich the command runs the same, silently.
+    """
+    return not getattr(args, "json", False) and sys.stderr.isatty() and available("rich")
 
 
 def _ignore(done: int, total: int | None = None, text: str | None = None) -> None:
@@ -45,20 +50,12 @@ def progress_bar(
     if not enabled:
         yield _ignore
         return
-    from rich.console import Console
-    from rich.progress import (
-        BarColumn,
-        MofNCompleteColumn,
-        Progress,
-        SpinnerColumn,
-        TextColumn,
-        TimeElapsedColumn,
-    )
-
-    columns = [SpinnerColumn(), TextColumn("{task.description}"), BarColumn(), TimeElapsedColumn()]
+    console = require("rich.console", purpose="progress bars")
+    rich = require("rich.progress", purpose="progress bars")
+    columns = [rich.SpinnerColumn(), rich.TextColumn("{task.description}"), rich.BarColumn(), rich.TimeElapsedColumn()]
     if counted:
-        columns.insert(3, MofNCompleteColumn())
-    with Progress(*columns, console=Console(stderr=True), transient=True) as bar:
+        columns.insert(3, rich.MofNCompleteColumn())
+    with rich.Progress(*columns, console=console.Console(stderr=True), transient=True) as bar:
         task = bar.add_task(description, total=total)
 
         def update(done: int, total: int | None = None, text: str | None = None) -> None:

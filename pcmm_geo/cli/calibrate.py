@@ -61,7 +61,7 @@ def _handle(args: argparse.Namespace) -> Report:
     rows = []
     for arm, pair in zip("abc", PAIRS, strict=True):
         line = cal.slider_lines[arm]
-        rows.append([arm, cal.dead_distance[arm], pair, cal.beta[pair], cal.b_in[pair], line.laser_scale,
+        rows.append([arm, cal.dead_distance[arm], pair, cal.beta_deg[pair], cal.b_in[pair], line.laser_scale,
                      line.laser_offset, line.straightness, line.tip_offset])
     arms = Table(
         "Tetrahedron calibration (Table 7.1 layout)",
@@ -72,7 +72,7 @@ def _handle(args: argparse.Namespace) -> Report:
     geometry = Table(
         "Geometry",
         ["quantity", "x (mm)", "y (mm)", "z (mm)"],
-        [["tip centre", *cal.tip_centre.tolist()], ["probe point eq 7.2 (least squares)", *cal.probe_point.tolist()],
+        [["tip centre", *cal.tip_center.tolist()], ["probe point eq 7.2 (least squares)", *cal.probe_point.tolist()],
          ["probe point (seed pairwise)", *cal.probe_point_pairwise.tolist()]],
     )
     lines.insert(0, "skew distances (mm): " + ", ".join(f"{k} {v:.4f}" for k, v in cal.skew_distances.items()))

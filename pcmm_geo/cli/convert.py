@@ -6,6 +6,7 @@ import argparse
 from pathlib import Path
 from typing import Any
 
+from pcmm_geo._optional import require
 from pcmm_geo.cli._output import Report, Table, add_json_flag
 
 _MESH_ONLY = (".stl", ".obj")  # .ply holds either a mesh or a point cloud
@@ -59,7 +60,7 @@ def handle(args: argparse.Namespace) -> Report:
                                     str(target))
         if mesh is not None:
             if args.sample is not None:
-                import trimesh
+                trimesh = require("trimesh")
 
                 if args.sample < 1:
                     raise InvalidInputError("--sample", "a positive number of points", repr(args.sample))
@@ -100,7 +101,7 @@ def _read_any(path: Path) -> tuple[Any, Any, str]:
         features = read_probings(path)
         import numpy as np
 
-        centres = np.vstack([features.centres().reshape(-1, 3), features.tip.centre[None, :]])
+        centres = np.vstack([features.centers().reshape(-1, 3), features.tip.center[None, :]])
         return None, centres, f"element export ({len(features.positions)} positions x 3 joints + tip)"
     try:
         return None, read_points(path), "points"

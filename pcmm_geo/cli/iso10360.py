@@ -137,7 +137,7 @@ def _handle_5(args: argparse.Namespace) -> Report:
         "p_stu_um": result.size_error * 1000,
         "fitted_diameter_mm": result.fitted_diameter,
         "reference_diameter_mm": result.reference_diameter,
-        "centre_mm": result.centre,
+        "centre_mm": result.center,
         "n_points": result.n,
         "form_conforms": result.form_conforms,
         "size_conforms": result.size_conforms,

@@ -36,7 +36,7 @@ def _handle(args: argparse.Namespace) -> Report:
 
     machine = load_machine_file(args.calibration)
     sens = sensitivity_over_cube(
-        machine, centre=args.centre, size=args.size, points_per_axis=args.points_per_axis,
+        machine, centre=args.center, size=args.size, points_per_axis=args.points_per_axis,
         laser_accuracy=args.laser_accuracy,
     )
     data = sens.summary()

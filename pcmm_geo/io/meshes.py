@@ -41,10 +41,11 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from pcmm_geo._optional import require
 from pcmm_geo.errors import FileFormatError, InvalidInputError, OutputExistsError
 
 if TYPE_CHECKING:
-    import trimesh
+    trimesh = require("trimesh")
 
 __all__ = [
     "MESH_SUFFIXES",
@@ -108,7 +109,7 @@ def read_mesh(path: str | Path) -> trimesh.Trimesh:
     >>> mesh.vertices.shape, mesh.faces.tolist()
     ((3, 3), [[0, 1, 2]])
     """
-    import trimesh
+    trimesh = require("trimesh")
 
     file = Path(path)
     suffix = _suffix(file, "mesh file")
@@ -200,13 +201,13 @@ def write_mesh(path: str | Path, mesh: trimesh.Trimesh, *, overwrite: bool = Fal
     if suffix == ".ply":
         content = _ply_bytes(vertices, faces)
     elif suffix == ".obj":
-        import trimesh
+        trimesh = require("trimesh")
 
         text = trimesh.exchange.obj.export_obj(mesh, include_normals=False, include_color=False,
                                                include_texture=False, digits=_OBJ_DECIMALS, header=None)
         content = text.encode("utf-8")
     else:
-        import trimesh
+        trimesh = require("trimesh")
 
         content = trimesh.exchange.stl.export_stl(mesh)
     try:
@@ -262,7 +263,7 @@ def box_mesh(length: float, width: float, height: float) -> trimesh.Trimesh:
     >>> float(block.volume), block.is_watertight
     (31500.0, True)
     """
-    import trimesh
+    trimesh = require("trimesh")
 
     extents = [_positive("length", length), _positive("width", width), _positive("height", height)]
     return trimesh.creation.box(extents=extents)
@@ -318,7 +319,7 @@ def cylinder_mesh(radius: float, height: float, *, chord_tolerance: float = 0.00
     >>> len(pin.faces), pin.is_watertight
     (892, True)
     """
-    import trimesh
+    trimesh = require("trimesh")
 
     sections = cylinder_sections(radius, chord_tolerance)
     return trimesh.creation.cylinder(radius=float(radius), height=_positive("height", height), sections=sections)
@@ -351,7 +352,7 @@ def sphere_mesh(radius: float, *, chord_tolerance: float = 0.001) -> trimesh.Tri
     >>> len(ball.faces)
     20480
     """
-    import trimesh
+    trimesh = require("trimesh")
 
     r = _positive("radius", radius)
     tolerance = _positive("chord_tolerance", chord_tolerance)

@@ -19,6 +19,7 @@ from pathlib import Path
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from pcmm_geo._optional import require
 from pcmm_geo.errors import FileFormatError, InvalidInputError, OutputExistsError
 
 __all__ = ["read_points", "write_points", "POINT_CLOUD_SUFFIXES", "TEXT_SUFFIXES"]
@@ -116,7 +117,7 @@ def _read_text(file: Path) -> FloatArray:
 
 
 def _read_cloud(file: Path) -> FloatArray:
-    import open3d as o3d
+    o3d = require("open3d")
 
     if not file.exists():
         raise FileNotFoundError(str(file))
@@ -151,7 +152,7 @@ def write_points(path: str | Path, points: ArrayLike, *, overwrite: bool = False
         raise OutputExistsError(str(file))
     suffix = file.suffix.lower()
     if suffix in POINT_CLOUD_SUFFIXES:
-        import open3d as o3d
+        o3d = require("open3d")
 
         cloud = o3d.geometry.PointCloud(o3d.utility.Vector3dVector(pts))
         # binary keeps full double precision (open3d's ASCII writer rounds to 6 digits)

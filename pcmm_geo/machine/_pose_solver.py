@@ -47,7 +47,7 @@ class Geometry:
     slider_directions: FloatArray  # (3, 3) w_i
     laser_scale: FloatArray  # (3,)
     laser_offset: FloatArray  # (3,)
-    tip_centre: FloatArray  # (3,)
+    tip_center: FloatArray  # (3,)
     column_points: FloatArray  # (3, 3) c_i
     column_directions: FloatArray  # (3, 3) v_i
     encoder_scale: FloatArray  # (3,)
@@ -157,7 +157,7 @@ def solve_pose(
             hard[:, rows, 6 + arm] = geometry.laser_scale[arm] * (rotation @ geometry.slider_directions[arm])
             hard[:, rows, 9 + arm] = -geometry.encoder_scale[arm] * geometry.column_directions[arm]
         if tip_target is not None:
-            tip_now = rotation @ geometry.tip_centre
+            tip_now = rotation @ geometry.tip_center
             value[:, 9:] = tip_now + translation - tip_target
             hard[:, 9:, 0:3] = -skew(tip_now)
             hard[:, 9:, 3:6] = eye

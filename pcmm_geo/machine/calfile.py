@@ -63,7 +63,7 @@ def _finite_or_none(value: float) -> float | None:
 
 def _sphere_dict(sphere: FittedSphere) -> dict[str, Any]:
     return {
-        "centre": sphere.centre.tolist(),
+        "centre": sphere.center.tolist(),
         "radius": _finite_or_none(sphere.radius),
         "form": _finite_or_none(sphere.form),
         "n_points": int(sphere.n_points),
@@ -74,7 +74,7 @@ def _sphere_from(data: Mapping[str, Any]) -> FittedSphere:
     radius = data.get("radius")
     form = data.get("form")
     return FittedSphere(
-        centre=np.array(data["centre"], dtype=float).reshape(3),
+        center=np.array(data["centre"], dtype=float).reshape(3),
         radius=math.nan if radius is None else float(radius),
         form=math.nan if form is None else float(form),
         n_points=int(data.get("n_points", 0)),
@@ -182,7 +182,7 @@ def save_calibration(
 
 def _tetrahedron_dict(tetrahedron: Any) -> dict[str, Any]:
     return {
-        "tip_centre": tetrahedron.tip_centre.tolist(),
+        "tip_centre": tetrahedron.tip_center.tolist(),
         "sliders": {
             arm: {
                 "point": s.point.tolist(),
@@ -260,7 +260,7 @@ def load_calibration(path: str | Path) -> TetrahedronCalibration:
             datum,
         )
         stored = document["results"]
-        for key, values in (("dead_distance", cal.dead_distance), ("beta_deg", cal.beta), ("b_in", cal.b_in)):
+        for key, values in (("dead_distance", cal.dead_distance), ("beta_deg", cal.beta_deg), ("b_in", cal.b_in)):
             for name, value in values.items():
                 if abs(float(stored[key][name]) - value) > _AGREEMENT * max(1.0, abs(value)):
                     raise FileFormatError(
@@ -292,7 +292,7 @@ def load_machine(path: str | Path) -> RigidBodyMachine:
     >>> columns = RigidBodyMachine.from_dpkm().columns
     >>> path = save_calibration(cal, pathlib.Path(tempfile.mkdtemp()) / "cal.json", columns=columns)
     >>> machine = load_machine(path)
-    >>> bool(np.allclose(machine.tetrahedron.tip_centre, cal.tip_centre))
+    >>> bool(np.allclose(machine.tetrahedron.tip_center, cal.tip_center))
     True
     """
     from pcmm_geo.machine.model import RigidBodyMachine

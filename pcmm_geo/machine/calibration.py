@@ -32,7 +32,7 @@ Examples
 >>> cal = calibrate_tetrahedron(probings, lasers)
 >>> {arm: round(d, 2) for arm, d in cal.dead_distance.items()}
 {'a': 314.48, 'b': 312.74, 'c': 309.42}
->>> {pair: round(b, 2) for pair, b in cal.beta.items()}
+>>> {pair: round(b, 2) for pair, b in cal.beta_deg.items()}
 {'ab': 68.25, 'bc': 69.03, 'ca': 68.7}
 """
 
@@ -47,9 +47,9 @@ from numpy.typing import ArrayLike, NDArray
 
 from pcmm_geo.errors import CalibrationError, InvalidInputError
 from pcmm_geo.machine.calibration_geometry import (
-    angle_between_deg,
+    angle_between,
     closest_points_of_lines,
-    fit_centre_line,
+    fit_center_line,
     nearest_point_to_lines,
     pairwise_average_point,
     seed_printed_angle_deg,
@@ -191,13 +191,13 @@ def _linear(x: FloatArray, y: FloatArray) -> tuple[float, float]:
 
 
 def _slider_line(
-    arm: str, centres: FloatArray, readings: FloatArray, tip_centre: FloatArray, fixed_scale: float | None
+    arm: str, centres: FloatArray, readings: FloatArray, tip_center: FloatArray, fixed_scale: float | None
 ) -> SliderLineCalibration:
-    fitted = fit_centre_line(centres, what=arm)
+    fitted = fit_center_line(centres, what=arm)
     direction = fitted.direction
-    if (centres.mean(axis=0) - tip_centre) @ direction < 0:
+    if (centres.mean(axis=0) - tip_center) @ direction < 0:
         direction = -direction
-    foot = fitted.point + ((tip_centre - fitted.point) @ direction) * direction
+    foot = fitted.point + ((tip_center - fitted.point) @ direction) * direction
     slide = (centres - foot) @ direction
     if fixed_scale is not None:
         scale = float(fixed_scale)
@@ -219,19 +219,19 @@ def _slider_line(
         laser_offset=float(offset),
         slide=slide,
         laser_residuals=residuals,
-        tip_offset=float(np.linalg.norm(tip_centre - foot)),
+        tip_offset=float(np.linalg.norm(tip_center - foot)),
     )
 
 
 def _seed_values(
     centres: FloatArray, origin: FloatArray, readings: FloatArray, start: float
 ) -> tuple[dict[str, FloatArray], dict[str, FloatArray]]:
-    """Per-position dead distances (eq 7.3) and angles (eq 7.4 corrected) seen from ``origin``."""
+    """Per-position dead distances (eq 7.3, mm) and angles (eq 7.4 corrected, rad) seen from ``origin``."""
     arms_from_origin = centres - origin  # (K, 3, 3)
     lengths = np.linalg.norm(arms_from_origin, axis=-1)
     dead = {arm: lengths[:, k] - readings[:, k] - start for k, arm in enumerate(ARMS)}
     beta = {
-        pair: angle_between_deg(arms_from_origin[:, k], arms_from_origin[:, (k + 1) % 3])
+        pair: angle_between(arms_from_origin[:, k], arms_from_origin[:, (k + 1) % 3])
         for k, pair in enumerate(PAIRS)
     }
     return dead, beta
@@ -306,7 +306,7 @@ def calibrate_tetrahedron(
     if datum_plane is not None and datum_hole is not None:
         from pcmm_geo.machine.calibration_datum import datum_frame
 
-        reference = np.mean([features.joints["a"][pos].centre for pos in positions], axis=0)
+        reference = np.mean([features.joints["a"][pos].center for pos in positions], axis=0)
         datum = datum_frame(datum_plane, datum_hole, x_towards=reference)
         features = datum.transform_features(features)
     sweep = readings if laser_sweep is None else _check_readings(laser_sweep, None, "laser_sweep")
@@ -322,10 +322,10 @@ def _calibrate(
     datum: DatumFrame | None,
 ) -> TetrahedronCalibration:
     positions = features.positions
-    centres = features.centres()  # (K, 3, 3)
-    tip_centre = np.asarray(features.tip.centre, dtype=float)
+    centres = features.centers()  # (K, 3, 3)
+    tip_center = np.asarray(features.tip.center, dtype=float)
     lines = {
-        arm: _slider_line(arm, centres[:, k], readings[:, k], tip_centre, fixed_scale) for k, arm in enumerate(ARMS)
+        arm: _slider_line(arm, centres[:, k], readings[:, k], tip_center, fixed_scale) for k, arm in enumerate(ARMS)
     }
     line_points = [lines[arm].point for arm in ARMS]
     line_dirs = [lines[arm].direction for arm in ARMS]
@@ -336,17 +336,18 @@ def _calibrate(
         .distance
         for k, pair in enumerate(PAIRS)
     }
-    dead_k, beta_k = _seed_values(centres, tip_centre, readings, start)
+    dead_k, beta_k = _seed_values(centres, tip_center, readings, start)
     dead_t, beta_t = _seed_values(centres, probe_pairwise, readings, start)
     dead = {arm: float(np.mean(values)) for arm, values in dead_k.items()}
     beta = {pair: float(np.mean(values)) for pair, values in beta_k.items()}
-    b_in, b_index = b_in_from_lasers(sweep, dead, beta, laser_start_of_range=start)
+    beta_deg = {pair: float(np.degrees(value)) for pair, value in beta.items()}
+    b_in, b_index = b_in_from_lasers(sweep, dead, beta_deg, laser_start_of_range=start)
     return TetrahedronCalibration(
         positions=positions,
         lasers=readings,
         joint_spheres={arm: tuple(features.joints[arm][pos] for pos in positions) for arm in ARMS},
         tip=features.tip,
-        tip_centre=tip_centre,
+        tip_center=tip_center,
         slider_lines=lines,
         probe_point=probe_point,
         probe_point_pairwise=probe_pairwise,

@@ -1,22 +1,22 @@
 """Column-line calibration from pivot probings at several heights (thesis eqs 2.19-2.20).
 
-Each pivot (spherical joint on its lead-screw bracket) is probed, or its centre measured,
+Each pivot (spherical joint on its lead-screw bracket) is probed, or its center measured,
 at K >= 2 bracket heights.  Per column the seed's "vertical error" model
 
     ``x_i = g_i + h_i z_i``   (eq 2.19)        ``y_i = m_i + n_i z_i``   (eq 2.20)
 
-is fitted by least squares of the centres' x and y on their z coordinate (intercepts
+is fitted by least squares of the centers' x and y on their z coordinate (intercepts
 ``g, m`` in mm, slopes ``h, n`` unitless).  The same line becomes the rigid-body
 model's :class:`~pcmm_geo.machine.model.ColumnLine`: direction ``(h, n, 1)/|(h, n, 1)|``,
 and ``encoder_scale`` / point from regressing the distance along the line on the height
-reading, so that ``ColumnLine.pivot(reading)`` returns the measured centres.
+reading, so that ``ColumnLine.pivot(reading)`` returns the measured centers.
 
 Examples
 --------
 >>> import numpy as np
 >>> heights = np.array([0.0, 50.0, 100.0])
->>> centres = {arm: np.c_[10 + 0.01 * heights, 5 - 0.02 * heights, 400 + heights] for arm in "abc"}
->>> columns = calibrate_columns(centres, {arm: heights for arm in "abc"})
+>>> centers = {arm: np.c_[10 + 0.01 * heights, 5 - 0.02 * heights, 400 + heights] for arm in "abc"}
+>>> columns = calibrate_columns(centers, {arm: heights for arm in "abc"})
 >>> round(columns.intercepts["a"][0], 9), round(columns.slopes["a"][1], 9)
 (6.0, -0.02)
 """
@@ -30,6 +30,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 from numpy.typing import NDArray
 
+from pcmm_geo._deprecation import renamed_fields
 from pcmm_geo.errors import CalibrationError, InvalidInputError
 from pcmm_geo.machine.calibration_geometry import fit_probed_sphere
 
@@ -42,6 +43,7 @@ FloatArray = NDArray[np.float64]
 ARMS = ("a", "b", "c")
 
 
+@renamed_fields(centres="centers")
 @dataclass(frozen=True)
 class ColumnCalibration:
     """Result of :func:`calibrate_columns` (machine frame, mm).
@@ -55,11 +57,11 @@ class ColumnCalibration:
     encoder_scale, encoder_offset : dict
         ``{arm: value}``: distance along the column = scale * reading + offset (mm).
     straightness : dict
-        ``{arm: value}``: diameter of the cylinder about the line holding all centres (mm).
+        ``{arm: value}``: diameter of the cylinder about the line holding all centers (mm).
     residuals : dict
-        ``{arm: (K,)}`` orthogonal distance of each centre from its line (mm).
-    centres : dict
-        ``{arm: (K, 3)}`` pivot centres used.
+        ``{arm: (K,)}`` orthogonal distance of each center from its line (mm).
+    centers : dict
+        ``{arm: (K, 3)}`` pivot centers used.
     heights : dict
         ``{arm: (K,)}`` height readings used.
     """
@@ -70,7 +72,7 @@ class ColumnCalibration:
     encoder_offset: Mapping[str, float]
     straightness: Mapping[str, float]
     residuals: Mapping[str, FloatArray]
-    centres: Mapping[str, FloatArray]
+    centers: Mapping[str, FloatArray]
     heights: Mapping[str, FloatArray]
 
     def base_point(self, arm: str) -> FloatArray:
@@ -105,7 +107,7 @@ def _centres(arm: str, value: Any) -> FloatArray:
     if arr is not None and arr.ndim == 2 and arr.shape[1] == 3:
         return arr
     # sequence of probed point sets, one per height
-    return np.array([fit_probed_sphere(points, what=f"pivot {arm} height {k}").centre for k, points in
+    return np.array([fit_probed_sphere(points, what=f"pivot {arm} height {k}").center for k, points in
                      enumerate(value)])
 
 
@@ -115,7 +117,7 @@ def calibrate_columns(pivots: Mapping[str, Any], heights: Any) -> ColumnCalibrat
     Parameters
     ----------
     pivots : mapping
-        ``{arm: (K, 3) centres}`` or ``{arm: [(N, 3) probed points per height]}`` (mm,
+        ``{arm: (K, 3) centers}`` or ``{arm: [(N, 3) probed points per height]}`` (mm,
         machine frame).
     heights : mapping or array_like
         ``{arm: (K,)}`` height readings, or an array (K, 3) in arm order a, b, c.
@@ -145,25 +147,25 @@ def calibrate_columns(pivots: Mapping[str, Any], heights: Any) -> ColumnCalibrat
             raise InvalidInputError("heights", "shape (K, 3) or a mapping per arm", f"shape {table.shape}")
         readings = {arm: table[:, k] for k, arm in enumerate(ARMS)}
     fields: dict[str, dict[str, Any]] = {key: {} for key in
-                                         ("intercepts", "slopes", "scale", "offset", "straight", "res", "centres")}
+                                         ("intercepts", "slopes", "scale", "offset", "straight", "res", "centers")}
     for arm in ARMS:
-        centres = _centres(arm, pivots[arm])
+        centers = _centres(arm, pivots[arm])
         reading = readings[arm]
-        if centres.shape[0] != reading.shape[0]:
-            raise InvalidInputError(f"heights[{arm!r}]", f"{centres.shape[0]} readings (one per pivot centre)",
+        if centers.shape[0] != reading.shape[0]:
+            raise InvalidInputError(f"heights[{arm!r}]", f"{centers.shape[0]} readings (one per pivot center)",
                                     f"{reading.shape[0]}")
-        if not (np.all(np.isfinite(centres)) and np.all(np.isfinite(reading))):
-            raise InvalidInputError(f"pivots[{arm!r}]", "finite centres and heights", "NaN or inf")
-        if centres.shape[0] < 2 or np.ptp(centres[:, 2]) == 0 or np.ptp(reading) == 0:
+        if not (np.all(np.isfinite(centers)) and np.all(np.isfinite(reading))):
+            raise InvalidInputError(f"pivots[{arm!r}]", "finite centers and heights", "NaN or inf")
+        if centers.shape[0] < 2 or np.ptp(centers[:, 2]) == 0 or np.ptp(reading) == 0:
             raise CalibrationError(
-                f"column {arm}: expected >= 2 pivot centres at different heights, got z = {centres[:, 2].tolist()} "
+                f"column {arm}: expected >= 2 pivot centers at different heights, got z = {centers[:, 2].tolist()} "
                 f"and readings {reading.tolist()}"
             )
-        design = np.c_[np.ones(centres.shape[0]), centres[:, 2]]
-        (g, h), *_ = np.linalg.lstsq(design, centres[:, 0], rcond=None)
-        (m, n), *_ = np.linalg.lstsq(design, centres[:, 1], rcond=None)
+        design = np.c_[np.ones(centers.shape[0]), centers[:, 2]]
+        (g, h), *_ = np.linalg.lstsq(design, centers[:, 0], rcond=None)
+        (m, n), *_ = np.linalg.lstsq(design, centers[:, 1], rcond=None)
         direction = np.array([h, n, 1.0]) / np.linalg.norm([h, n, 1.0])
-        offsets = centres - np.array([g, m, 0.0])
+        offsets = centers - np.array([g, m, 0.0])
         along = offsets @ direction
         distances = np.linalg.norm(offsets - along[:, None] * direction, axis=1)
         scale, offset = np.polyfit(reading, along, 1)
@@ -171,9 +173,9 @@ def calibrate_columns(pivots: Mapping[str, Any], heights: Any) -> ColumnCalibrat
         fields["slopes"][arm] = (float(h), float(n))
         fields["scale"][arm] = float(scale)
         fields["offset"][arm] = float(offset)
-        fields["straight"][arm] = 0.0 if centres.shape[0] == 2 else float(2 * distances.max())
+        fields["straight"][arm] = 0.0 if centers.shape[0] == 2 else float(2 * distances.max())
         fields["res"][arm] = distances
-        fields["centres"][arm] = centres
+        fields["centers"][arm] = centers
     return ColumnCalibration(
         intercepts=fields["intercepts"],
         slopes=fields["slopes"],
@@ -181,6 +183,6 @@ def calibrate_columns(pivots: Mapping[str, Any], heights: Any) -> ColumnCalibrat
         encoder_offset=fields["offset"],
         straightness=fields["straight"],
         residuals=fields["res"],
-        centres=fields["centres"],
+        centers=fields["centers"],
         heights=readings,
     )

@@ -70,7 +70,7 @@ class DatumFrame:
         """The same probed spheres (centres and raw points) expressed in the datum frame."""
 
         def moved(sphere: FittedSphere) -> FittedSphere:
-            return FittedSphere(self.apply(sphere.centre), sphere.radius, sphere.form, sphere.n_points)
+            return FittedSphere(self.apply(sphere.center), sphere.radius, sphere.form, sphere.n_points)
 
         joints = {arm: {pos: moved(s) for pos, s in spheres.items()} for arm, spheres in features.joints.items()}
         points = {key: self.apply(value) for key, value in features.points.items()}

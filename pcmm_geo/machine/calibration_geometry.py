@@ -1,6 +1,6 @@
 """Small geometric kernels of the tetrahedron calibration (thesis ch. 7).
 
-Sphere fits of the probed joints and tip, least-squares lines through joint centres
+Sphere fits of the probed joints and tip, least-squares lines through joint centers
 (eq 7.1 generalised to more than two slider positions), closest points of skew lines
 and the point nearest to several lines (eq 7.2), and the angle between two arms
 (eq 7.4 as corrected by erratum 6).
@@ -25,15 +25,17 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from pcmm_geo._deprecation import module_aliases, renamed_fields, renamed_parameters
 from pcmm_geo.errors import DegenerateGeometryError, InvalidInputError, TooFewPointsError
 
 __all__ = [
     "FittedLine",
     "FittedSphere",
     "LinePairPoints",
+    "angle_between",
     "angle_between_deg",
     "closest_points_of_lines",
-    "fit_centre_line",
+    "fit_center_line",
     "fit_probed_sphere",
     "nearest_point_to_lines",
     "pairwise_average_point",
@@ -43,23 +45,24 @@ __all__ = [
 FloatArray = NDArray[np.float64]
 
 
+@renamed_fields(centre="center")
 @dataclass(frozen=True)
 class FittedSphere:
     """A probed sphere (joint or tip) as the external CMM reports it.
 
     Attributes
     ----------
-    centre : ndarray, shape (3,)
-        Sphere centre (mm).
+    center : ndarray, shape (3,)
+        Sphere center (mm).
     radius : float
-        Radius (mm); NaN when only the centre is known (element-level export without size).
+        Radius (mm); NaN when only the center is known (element-level export without size).
     form : float
         Form error (max - min radial residual, mm; the export's roundness); NaN when unknown.
     n_points : int
-        Number of probed points (0 when the centre came from an element-level export).
+        Number of probed points (0 when the center came from an element-level export).
     """
 
-    centre: FloatArray
+    center: FloatArray
     radius: float
     form: float
     n_points: int
@@ -67,18 +70,18 @@ class FittedSphere:
 
 @dataclass(frozen=True)
 class FittedLine:
-    """Least-squares 3-D line through sphere centres.
+    """Least-squares 3-D line through sphere centers.
 
     Attributes
     ----------
     point : ndarray, shape (3,)
-        Centroid of the centres (mm), on the line.
+        Centroid of the centers (mm), on the line.
     direction : ndarray, shape (3,)
         Unit direction (sign chosen by the caller).
     straightness : float
-        Max - min orthogonal distance of the centres from the line (mm); 0 for two centres.
+        Max - min orthogonal distance of the centers from the line (mm); 0 for two centers.
     residuals : ndarray, shape (K,)
-        Orthogonal distance of each centre from the line (mm).
+        Orthogonal distance of each center from the line (mm).
     """
 
     point: FloatArray
@@ -125,58 +128,59 @@ def fit_probed_sphere(points: ArrayLike, *, what: str) -> FittedSphere:
     >>> import numpy as np
     >>> pts = np.array([[1, 0, 0], [-1, 0, 0], [0, 1, 0], [0, -1, 0], [0, 0, 1.0]]) * 5 + 7
     >>> sphere = fit_probed_sphere(pts, what="tip")
-    >>> round(sphere.radius, 9), np.round(sphere.centre, 9).tolist()
+    >>> round(sphere.radius, 9), np.round(sphere.center, 9).tolist()
     (5.0, [7.0, 7.0, 7.0])
     """
     from pcmm_geo.fit import fit_sphere
 
     result = fit_sphere(points)
     return FittedSphere(
-        centre=np.asarray(result.center, dtype=float),
+        center=np.asarray(result.center, dtype=float),
         radius=float(result.radius),
         form=float(result.form),
         n_points=int(result.n),
     )
 
 
-def fit_centre_line(centres: ArrayLike, *, what: str) -> FittedLine:
-    """Least-squares line through two or more sphere centres (eq 7.1 for K = 2).
+@renamed_parameters(centres="centers")
+def fit_center_line(centers: ArrayLike, *, what: str) -> FittedLine:
+    """Least-squares line through two or more sphere centers (eq 7.1 for K = 2).
 
     Parameters
     ----------
-    centres : array_like, shape (K, 3)
-        Joint centres at the slider positions (mm), K >= 2, not all equal.
+    centers : array_like, shape (K, 3)
+        Joint centers at the slider positions (mm), K >= 2, not all equal.
     what : str
         Name for error messages.
 
     Returns
     -------
     FittedLine
-        Direction oriented from the first centre towards the last one.
+        Direction oriented from the first center towards the last one.
 
     Raises
     ------
     TooFewPointsError
-        Fewer than two centres.
+        Fewer than two centers.
     DegenerateGeometryError
-        All centres coincide.
+        All centers coincide.
 
     Examples
     --------
     >>> import numpy as np
-    >>> line = fit_centre_line([[0, 0, 0], [0, 0, 1], [0, 0, 2.0]], what="a")
+    >>> line = fit_center_line([[0, 0, 0], [0, 0, 1], [0, 0, 2.0]], what="a")
     >>> bool(np.allclose(line.direction, [0, 0, 1])), round(line.straightness, 12)
     (True, 0.0)
     """
-    arr = np.asarray(centres, dtype=float)
+    arr = np.asarray(centers, dtype=float)
     if arr.ndim != 2 or arr.shape[1] != 3:
-        raise InvalidInputError(what, "centres of shape (K, 3)", f"shape {arr.shape}")
+        raise InvalidInputError(what, "centers of shape (K, 3)", f"shape {arr.shape}")
     if arr.shape[0] < 2:
         raise TooFewPointsError(f"slider line {what}", 2, arr.shape[0])
     centroid = arr.mean(axis=0)
     _, sing, vt = np.linalg.svd(arr - centroid, full_matrices=False)
     if sing[0] <= 1e-12 * max(1.0, float(np.abs(arr).max())):
-        raise DegenerateGeometryError(f"slider line {what}", "all joint centres coincide")
+        raise DegenerateGeometryError(f"slider line {what}", "all joint centers coincide")
     direction = vt[0]
     if direction @ (arr[-1] - arr[0]) < 0:
         direction = -direction
@@ -184,7 +188,7 @@ def fit_centre_line(centres: ArrayLike, *, what: str) -> FittedLine:
     along = offsets @ direction
     perpendicular = offsets - along[:, None] * direction
     distances = np.linalg.norm(perpendicular, axis=1)
-    # straightness: diameter of the cylinder about the fitted line that holds every centre
+    # straightness: diameter of the cylinder about the fitted line that holds every center
     straightness = 0.0 if arr.shape[0] == 2 else float(2.0 * distances.max())
     return FittedLine(point=centroid, direction=direction, straightness=straightness, residuals=distances)
 
@@ -276,6 +280,19 @@ def pairwise_average_point(points: Sequence[ArrayLike], directions: Sequence[Arr
     return np.mean(midpoints, axis=0)
 
 
+def angle_between(vector_1: ArrayLike, vector_2: ArrayLike) -> FloatArray:
+    """Angle between vectors in radians, eq 7.4 corrected (erratum 6): ``acos(P_i.P_in / (|P_i| |P_in|))``.
+
+    Vectorised over leading dimensions ``(..., 3)``; computed as ``atan2(|a x b|, a.b)``.
+
+    Examples
+    --------
+    >>> round(float(angle_between([1, 0, 0], [0, 1, 0])), 12)
+    1.570796326795
+    """
+    return np.radians(angle_between_deg(vector_1, vector_2))
+
+
 def angle_between_deg(vector_1: ArrayLike, vector_2: ArrayLike) -> FloatArray:
     """Angle between vectors in degrees, eq 7.4 corrected (erratum 6): ``acos(P_i.P_in / (|P_i| |P_in|))``.
 
@@ -311,3 +328,6 @@ def seed_printed_angle_deg(vector_1: ArrayLike, vector_2: ArrayLike) -> FloatArr
     quotient = np.einsum("...i,...i->...", a, b) / np.linalg.norm(a - b, axis=-1)
     with np.errstate(invalid="ignore"):
         return np.degrees(np.arccos(np.where(np.abs(quotient) <= 1.0, quotient, np.nan)))
+
+
+__getattr__ = module_aliases(__name__, globals(), fit_centre_line="fit_center_line")

@@ -7,7 +7,7 @@ Three CSV formats:
   position index (empty for ``tip``); ``x, y, z`` in mm.  One row per probed point;
   every (feature, position) group is fitted with a Gaussian sphere.
 * **element-level export** (what the seed's CMM₁ returned, Appendix C ``CMM.csv``) --
-  five numbers per row ``x,y,z,d,r`` (centre, diameter, roundness, mm), with or
+  five numbers per row ``x,y,z,d,r`` (center, diameter, roundness, mm), with or
   without that header line.  Rows are assigned as in Appendix C: rows ``3k+1, 3k+2,
   3k+3`` are the joints ``a, b, c`` at slider position ``k+1`` and the **last** row is
   the probe tip, so a file holds ``3K + 1`` rows for K positions.  ``d`` and ``r`` may be
@@ -38,6 +38,7 @@ from pathlib import Path
 import numpy as np
 from numpy.typing import NDArray
 
+from pcmm_geo._deprecation import renamed_fields, renamed_parameters
 from pcmm_geo.errors import FileFormatError, PcmmGeoError
 from pcmm_geo.machine.calibration_geometry import FittedSphere, fit_probed_sphere
 
@@ -61,6 +62,7 @@ LASER_HEADER = ("position", "laser_a", "laser_b", "laser_c")
 FEATURES = ("joint_a", "joint_b", "joint_c", "tip")
 
 
+@renamed_fields(centres="centers")
 @dataclass(frozen=True)
 class ProbedFeatures:
     """Spheres measured by the external CMM: joints per arm and slider position, and the tip.
@@ -89,9 +91,9 @@ class ProbedFeatures:
         """Sorted slider position indices."""
         return tuple(sorted(self.joints["a"]))
 
-    def centres(self) -> FloatArray:
-        """Joint centres, shape (K, 3, 3): position, arm (a, b, c), xyz (mm)."""
-        return np.array([[self.joints[arm][pos].centre for arm in ARMS] for pos in self.positions])
+    def centers(self) -> FloatArray:
+        """Joint centers, shape (K, 3, 3): position, arm (a, b, c), xyz (mm)."""
+        return np.array([[self.joints[arm][pos].center for arm in ARMS] for pos in self.positions])
 
 
 @dataclass(frozen=True)
@@ -180,7 +182,7 @@ def read_probings(path: str | Path) -> ProbedFeatures:
     >>> rows = ["0,0,10,6,0.001", "10,0,10,6,0", "0,10,10,6,0", "0,0,0,6,0", "9,1,0,6,0", "1,9,0,6,0", "3,3,-400,2,0"]
     >>> _ = file.write_text("x,y,z,d,r\\n" + "\\n".join(rows) + "\\n")
     >>> features = read_probings(file)
-    >>> features.positions, features.tip.centre.tolist(), features.joints["a"][1].radius
+    >>> features.positions, features.tip.center.tolist(), features.joints["a"][1].radius
     ((1, 2), [3.0, 3.0, -400.0], 3.0)
     """
     file = Path(path)
@@ -271,7 +273,7 @@ def probed_features_from_points(
     >>> data = {(f"joint_{arm}", pos): ball + 10 * pos * k for k, arm in enumerate("abc", 1) for pos in (1, 2)}
     >>> data[("tip", None)] = ball * 2
     >>> features = probed_features_from_points(data)
-    >>> features.positions, float(features.tip.radius), features.joints["b"][2].centre.tolist()
+    >>> features.positions, float(features.tip.radius), features.joints["b"][2].center.tolist()
     ((1, 2), 2.0, [40.0, 40.0, 40.0])
     """
     fitted: dict[tuple[str, int | None], FittedSphere] = {}
@@ -409,11 +411,12 @@ def write_probings_csv(
     return file
 
 
+@renamed_parameters(centres="centers")
 def write_element_export(
-    path: str | Path, centres: object, tip: object, *, diameters: object = None, roundness: object = None,
+    path: str | Path, centers: object, tip: object, *, diameters: object = None, roundness: object = None,
     overwrite: bool = False, header: bool = True,
 ) -> Path:
-    """Write the seed's element-level export: joint centres (K, 3, 3) position-major, then the tip.
+    """Write the seed's element-level export: joint centers (K, 3, 3) position-major, then the tip.
 
     Raises
     ------
@@ -421,7 +424,7 @@ def write_element_export(
         ``path`` exists and ``overwrite`` is false.
     """
     file = _open_new(path, overwrite)
-    rows = np.vstack([np.asarray(centres, dtype=float).reshape(-1, 3), np.asarray(tip, dtype=float).reshape(1, 3)])
+    rows = np.vstack([np.asarray(centers, dtype=float).reshape(-1, 3), np.asarray(tip, dtype=float).reshape(1, 3)])
     count = rows.shape[0]
     diam = np.full(count, np.nan) if diameters is None else np.broadcast_to(np.asarray(diameters, float), (count,))
     rnd = np.full(count, np.nan) if roundness is None else np.broadcast_to(np.asarray(roundness, float), (count,))

@@ -9,7 +9,7 @@ ball, each coordinate with independent Gaussian noise of standard deviation ``si
 (mm).  :func:`~pcmm_geo.machine.calibration.calibrate_tetrahedron` then recovers the
 geometry, and the errors are measured against the known truth:
 
-* ``tip_centre`` -- distance of the fitted tip centre from the true one (mm);
+* ``tip_center`` -- distance of the fitted tip centre from the true one (mm);
 * ``slider_direction`` -- angle between fitted and true slider direction (rad);
 * ``slider_point`` -- distance of the fitted foot point from the true foot of the
   perpendicular from the tip onto the line (mm);
@@ -24,21 +24,23 @@ of ``docs/machine.md``.
 Examples
 --------
 >>> study = noise_growth_study([0.0, 1e-3], seeds=2)
->>> bool(study.rows[0].tip_centre < 1e-9), bool(study.rows[1].tip_centre > 1e-5)
+>>> bool(study.rows[0].tip_center < 1e-9), bool(study.rows[1].tip_center > 1e-5)
 (True, True)
 """
 
 from __future__ import annotations
 
 import argparse
+import math
 from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from pcmm_geo._deprecation import renamed_fields
 from pcmm_geo.errors import InvalidInputError
-from pcmm_geo.machine.calibration_geometry import angle_between_deg
+from pcmm_geo.machine.calibration_geometry import angle_between
 from pcmm_geo.machine.calibration_io import ARMS
 from pcmm_geo.machine.calibration_result import PAIRS, TetrahedronCalibration
 from pcmm_geo.machine.model_parts import SliderLine, Tetrahedron
@@ -91,7 +93,7 @@ def skewed_tetrahedron(
     Examples
     --------
     >>> t = skewed_tetrahedron()
-    >>> round(float(np.linalg.norm(t.sliders["a"].point - t.tip_centre)), 6)
+    >>> round(float(np.linalg.norm(t.sliders["a"].point - t.tip_center)), 6)
     15.0
     """
     from pcmm_geo.machine.dpkm import seed_machine
@@ -102,9 +104,9 @@ def skewed_tetrahedron(
         line = nominal.sliders[arm]
         shift = np.asarray(sideways[k], dtype=float).reshape(3)
         shift = shift - (shift @ line.direction) * line.direction
-        foot = nominal.tip_centre + ((line.point - nominal.tip_centre) @ line.direction) * line.direction
+        foot = nominal.tip_center + ((line.point - nominal.tip_center) @ line.direction) * line.direction
         sliders[arm] = SliderLine(foot + shift, line.direction, float(laser_scales[k]), line.laser_offset)
-    return Tetrahedron(sliders, nominal.tip_centre)
+    return Tetrahedron(sliders, nominal.tip_center)
 
 
 def _ball(centre: FloatArray, radius: float, count: int, sigma: float, rng: np.random.Generator) -> FloatArray:
@@ -168,7 +170,7 @@ def synthesise_probings(
     if points_per_ball < 4:
         raise InvalidInputError("points_per_ball", "at least 4 points per ball", str(points_per_ball))
     rng = np.random.default_rng(seed)
-    probings: dict[str, object] = {"tip": _ball(tetrahedron.tip_centre, tip_radius, points_per_ball, sigma, rng)}
+    probings: dict[str, object] = {"tip": _ball(tetrahedron.tip_center, tip_radius, points_per_ball, sigma, rng)}
     for k, arm in enumerate(ARMS):
         joints = tetrahedron.sliders[arm].joint(readings[:, k])
         probings[f"joint_{arm}"] = {
@@ -181,7 +183,7 @@ def synthesise_probings(
 def true_seed_parameters(
     tetrahedron: Tetrahedron, lasers: ArrayLike = CALIBRATION_LASERS, *, start_of_range: float = 60.0
 ) -> tuple[dict[str, float], dict[str, float]]:
-    """Eq 7.3 dead distances (mm) and eq 7.4 (corrected) angles (degrees) of the true joints, mean over positions.
+    """Eq 7.3 dead distances (mm) and eq 7.4 (corrected) angles (rad) of the true joints, mean over positions.
 
     Examples
     --------
@@ -191,10 +193,10 @@ def true_seed_parameters(
     """
     readings = np.asarray(lasers, dtype=float)
     arms = np.stack([tetrahedron.sliders[arm].joint(readings[:, k]) for k, arm in enumerate(ARMS)], axis=1)
-    arms = arms - tetrahedron.tip_centre  # (K, 3 arms, 3)
+    arms = arms - tetrahedron.tip_center  # (K, 3 arms, 3)
     lengths = np.linalg.norm(arms, axis=-1)
     dead = {arm: float(np.mean(lengths[:, k] - readings[:, k] - start_of_range)) for k, arm in enumerate(ARMS)}
-    beta = {pair: float(np.mean(angle_between_deg(arms[:, k], arms[:, (k + 1) % 3]))) for k, pair in
+    beta = {pair: float(np.mean(angle_between(arms[:, k], arms[:, (k + 1) % 3]))) for k, pair in
             enumerate(PAIRS)}
     return dead, beta
 
@@ -207,7 +209,7 @@ def calibration_errors(
     Returns
     -------
     dict
-        ``tip_centre``, ``slider_point``, ``laser_offset``, ``dead_distance`` (mm),
+        ``tip_center``, ``slider_point``, ``laser_offset``, ``dead_distance`` (mm),
         ``slider_direction`` (rad), ``laser_scale`` (unitless), ``beta_deg`` (degrees).
 
     Examples
@@ -219,7 +221,7 @@ def calibration_errors(
     True
     """
     dead, beta = true_seed_parameters(tetrahedron, lasers, start_of_range=cal.laser_start_of_range)
-    tip = tetrahedron.tip_centre
+    tip = tetrahedron.tip_center
     direction, point, scale, offset = [], [], [], []
     for arm in ARMS:
         true_line, found = tetrahedron.sliders[arm], cal.slider_lines[arm]
@@ -232,22 +234,23 @@ def calibration_errors(
         scale.append(abs(found.laser_scale - true_line.laser_scale))
         offset.append(abs(found.laser_offset - true_offset))
     return {
-        "tip_centre": float(np.linalg.norm(cal.tip_centre - tip)),
+        "tip_center": float(np.linalg.norm(cal.tip_center - tip)),
         "slider_direction": max(direction),
         "slider_point": max(point),
         "laser_scale": max(scale),
         "laser_offset": max(offset),
         "dead_distance": max(abs(cal.dead_distance[arm] - dead[arm]) for arm in ARMS),
-        "beta_deg": max(abs(cal.beta[pair] - beta[pair]) for pair in PAIRS),
+        "beta_deg": math.degrees(max(abs(cal.beta[pair] - beta[pair]) for pair in PAIRS)),
     }
 
 
+@renamed_fields(tip_centre="tip_center")
 @dataclass(frozen=True)
 class NoiseGrowthRow:
     """Median errors over seeds at one probing noise level (units as :func:`calibration_errors`)."""
 
     sigma: float
-    tip_centre: float
+    tip_center: float
     slider_direction: float
     slider_point: float
     laser_scale: float
@@ -284,7 +287,7 @@ class NoiseGrowth:
             "|---|---|---|---|---|---|---|---|",
         ]
         for row in self.rows:
-            values = (row.tip_centre * 1e3, row.slider_direction * 1e6, row.slider_point * 1e3, row.laser_scale * 1e6,
+            values = (row.tip_center * 1e3, row.slider_direction * 1e6, row.slider_point * 1e3, row.laser_scale * 1e6,
                       row.laser_offset * 1e3, row.dead_distance * 1e3, row.beta_deg * 1e3)
             lines.append(f"| {row.sigma * 1e3:g} | " + " | ".join(f"{v:.3g}" for v in values) + " |")
         return "\n".join(lines)

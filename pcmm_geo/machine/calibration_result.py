@@ -13,6 +13,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from pcmm_geo._deprecation import renamed_fields, warn_deprecated
 from pcmm_geo.machine.calibration_geometry import FittedSphere
 from pcmm_geo.machine.calibration_io import ARMS
 
@@ -73,9 +74,10 @@ class SliderLineCalibration:
         return SliderLine(self.point, self.direction, float(self.laser_scale), float(self.laser_offset))
 
 
+@renamed_fields(tip_centre="tip_center", joint_centres="joint_centers")
 @dataclass(frozen=True)
 class TetrahedronCalibration:
-    """Result of :func:`calibrate_tetrahedron` (all lengths mm, angles in degrees where named so).
+    """Result of :func:`calibrate_tetrahedron` (lengths mm, angles rad; degrees only where a name ends in ``_deg``).
 
     Attributes
     ----------
@@ -86,8 +88,8 @@ class TetrahedronCalibration:
     joint_spheres : dict
         ``{arm: (FittedSphere, ...)}`` per position.
     tip : FittedSphere
-        Probe-tip sphere; ``tip_centre`` is its centre.
-    tip_centre : ndarray, shape (3,)
+        Probe-tip sphere; ``tip_center`` is its centre.
+    tip_center : ndarray, shape (3,)
     slider_lines : dict
         ``{arm: SliderLineCalibration}``.
     probe_point : ndarray, shape (3,)
@@ -106,15 +108,16 @@ class TetrahedronCalibration:
         "variable dead distance", least squares; slope unitless, intercept mm).
     beta : dict
         ``{'ab', 'bc', 'ca'}``: eq 7.4 (corrected) between arms i and in, seen from the tip
-        centre, mean over positions, **degrees** (the API contract).
+        centre, mean over positions, **radians** (the API contract; :attr:`beta_deg` in degrees).
     beta_per_position : dict
-        ``{pair: (K,)}`` degrees.
+        ``{pair: (K,)}`` radians.
     beta_linear : dict
-        ``{pair: (slope, intercept)}`` of ``beta = slope * laser_i + intercept`` (degrees,
-        Appendix C regresses beta_ca on laser a, beta_ab on laser b, beta_bc on laser c).
+        ``{pair: (slope, intercept)}`` of ``beta = slope * laser_i + intercept`` (slope rad/mm,
+        intercept rad; Appendix C regresses beta_ca on laser a, beta_ab on laser b, beta_bc on
+        laser c).
     dead_distance_from_probe_point, beta_from_probe_point : dict
         The same per-position values computed from :attr:`probe_point_pairwise` (the seed's
-        theoretical probe, Appendix D's ``D2`` and Beta rows 4-5), ``{key: (K,)}``.
+        theoretical probe, Appendix D's ``D2`` and Beta rows 4-5), ``{key: (K,)}`` (mm, rad).
     b_in : dict
         ``{'ab', 'bc', 'ca'}``: eq 7.5, minimum over the laser sweep (mm).
     b_in_sweep_index : dict
@@ -132,7 +135,7 @@ class TetrahedronCalibration:
     lasers: FloatArray
     joint_spheres: Mapping[str, tuple[FittedSphere, ...]]
     tip: FittedSphere
-    tip_centre: FloatArray
+    tip_center: FloatArray
     slider_lines: Mapping[str, SliderLineCalibration]
     probe_point: FloatArray
     probe_point_pairwise: FloatArray
@@ -155,13 +158,14 @@ class TetrahedronCalibration:
 
     @property
     def beta_deg(self) -> dict[str, float]:
-        """Same values as :attr:`beta` (degrees); the name says the unit."""
-        return dict(self.beta)
+        """:attr:`beta` in degrees, as Table 7.1 prints it ``{'ab', 'bc', 'ca'}``."""
+        return {pair: float(np.degrees(value)) for pair, value in self.beta.items()}
 
     @property
     def beta_rad(self) -> dict[str, float]:
-        """:attr:`beta` in radians."""
-        return {pair: float(np.radians(value)) for pair, value in self.beta.items()}
+        """Deprecated since 0.2.0: :attr:`beta` is in radians now; use it."""
+        warn_deprecated("TetrahedronCalibration.beta_rad", "TetrahedronCalibration.beta")
+        return dict(self.beta)
 
     @property
     def sphere_forms(self) -> dict[str, FloatArray]:
@@ -171,16 +175,16 @@ class TetrahedronCalibration:
         return forms
 
     @property
-    def joint_centres(self) -> FloatArray:
+    def joint_centers(self) -> FloatArray:
         """Joint centres, shape (K, 3, 3): position, arm, xyz (mm)."""
-        return np.array([[self.joint_spheres[arm][k].centre for arm in ARMS] for k in range(len(self.positions))])
+        return np.array([[self.joint_spheres[arm][k].center for arm in ARMS] for k in range(len(self.positions))])
 
     @property
     def tetrahedron(self) -> Tetrahedron:
         """The rigid-body model's :class:`~pcmm_geo.machine.model.Tetrahedron` (slider lines + tip)."""
         from pcmm_geo.machine.model import Tetrahedron
 
-        return Tetrahedron({arm: self.slider_lines[arm].to_model() for arm in ARMS}, self.tip_centre)
+        return Tetrahedron({arm: self.slider_lines[arm].to_model() for arm in ARMS}, self.tip_center)
 
     def seed_parameters(self) -> dict[str, dict[str, float]]:
         """The three per-arm numbers of Table 7.1: ``{'a': {'d': .., 'beta_deg': .., 'b': ..}, ...}``.
@@ -188,7 +192,7 @@ class TetrahedronCalibration:
         Arm ``i``'s ``beta`` and ``b`` are those of the pair ``(i, in)`` (a-b, b-c, c-a).
         """
         return {
-            arm: {"d": self.dead_distance[arm], "beta_deg": self.beta[pair], "b": self.b_in[pair]}
+            arm: {"d": self.dead_distance[arm], "beta_deg": self.beta_deg[pair], "b": self.b_in[pair]}
             for arm, pair in zip(ARMS, PAIRS, strict=True)
         }
 
@@ -197,9 +201,9 @@ class TetrahedronCalibration:
         return {
             "positions": list(self.positions),
             "dead_distance": dict(self.dead_distance),
-            "beta_deg": dict(self.beta),
+            "beta_deg": self.beta_deg,
             "b_in": dict(self.b_in),
-            "tip_centre": self.tip_centre.tolist(),
+            "tip_centre": self.tip_center.tolist(),
             "probe_point": self.probe_point.tolist(),
             "probe_point_pairwise": self.probe_point_pairwise.tolist(),
             "skew_distances": dict(self.skew_distances),
@@ -215,7 +219,7 @@ class TetrahedronCalibration:
                 for arm, line in self.slider_lines.items()
             },
             "dead_distance_per_position": {k: v.tolist() for k, v in self.dead_distance_per_position.items()},
-            "beta_deg_per_position": {k: v.tolist() for k, v in self.beta_per_position.items()},
+            "beta_deg_per_position": {k: np.degrees(v).tolist() for k, v in self.beta_per_position.items()},
             "sphere_forms": {k: v.tolist() for k, v in self.sphere_forms.items()},
             "laser_start_of_range": self.laser_start_of_range,
         }

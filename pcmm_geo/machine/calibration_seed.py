@@ -1,7 +1,7 @@
 """The seed's external-CMM calibration rebuilt from the numbers printed in Appendices C and D.
 
 The thesis does not print its CMM₁ file (``CMM.csv``), only numbers derived from it.
-This module rebuilds sphere centres that are consistent with every printed number, so
+This module rebuilds sphere centers that are consistent with every printed number, so
 that :func:`~pcmm_geo.machine.calibration.calibrate_tetrahedron` can be checked against
 Table 7.1.  The derived files ship in ``pcmm_geo/data/appendix_cd/`` and
 :func:`build_appendix_cd` regenerates them.
@@ -20,7 +20,7 @@ Printed inputs (all in :data:`APPENDIX_C` / :data:`APPENDIX_D`):
 * Appendix D ``D2`` and ``Beta`` rows 4-5: dead distances and angles seen from the
   theoretical probe point (eq 7.2).
 
-Construction (frame of Appendix C: the probe-tip centre at the origin):
+Construction (frame of Appendix C: the probe-tip center at the origin):
 
 1. joint ``i`` at position ``k`` lies at distance ``L_ik = l_ik + 60 + d_ik`` from the tip;
 2. position 1: the three unit vectors with the exact printed angles, rotated onto
@@ -54,6 +54,8 @@ from pathlib import Path
 
 import numpy as np
 from numpy.typing import NDArray
+
+from pcmm_geo._deprecation import renamed_fields
 
 __all__ = [
     "APPENDIX_C",
@@ -115,16 +117,17 @@ TABLE_6_2 = {
 }
 
 
+@renamed_fields(centres="centers")
 @dataclass(frozen=True)
 class AppendixReconstruction:
-    """Sphere centres rebuilt from Appendices C and D (tip at the origin, mm).
+    """Sphere centers rebuilt from Appendices C and D (tip at the origin, mm).
 
     Attributes
     ----------
-    centres : ndarray, shape (2, 3, 3)
-        Joint centres: position (1, 2), arm (a, b, c), xyz.
+    centers : ndarray, shape (2, 3, 3)
+        Joint centers: position (1, 2), arm (a, b, c), xyz.
     tip : ndarray, shape (3,)
-        Probe-tip centre (the origin).
+        Probe-tip center (the origin).
     lasers : ndarray, shape (2, 3)
         Printed laser readings.
     dead_distance, beta_deg : ndarray, shape (2, 3)
@@ -137,7 +140,7 @@ class AppendixReconstruction:
         Distance between ``q`` and the seed's eq 7.2 construction on the rebuilt lines (mm).
     """
 
-    centres: FloatArray
+    centers: FloatArray
     tip: FloatArray
     lasers: FloatArray
     dead_distance: FloatArray
@@ -167,7 +170,7 @@ def _rotate_onto(rows: FloatArray, target: FloatArray) -> FloatArray:
 
 
 def reconstruct_appendix_cd(seed: int = 0) -> AppendixReconstruction:
-    """Rebuild joint centres consistent with every number printed in Appendices C and D.
+    """Rebuild joint centers consistent with every number printed in Appendices C and D.
 
     Parameters
     ----------
@@ -182,7 +185,7 @@ def reconstruct_appendix_cd(seed: int = 0) -> AppendixReconstruction:
     Examples
     --------
     >>> rebuilt = reconstruct_appendix_cd()
-    >>> np.round(np.linalg.norm(rebuilt.centres[0, 0]), 4)  # 50.793 + 60 + d_a1
+    >>> np.round(np.linalg.norm(rebuilt.centers[0, 0]), 4)  # 50.793 + 60 + d_a1
     np.float64(425.7809)
     """
     from scipy.optimize import least_squares
@@ -208,8 +211,8 @@ def reconstruct_appendix_cd(seed: int = 0) -> AppendixReconstruction:
     def printed_residuals(params: FloatArray) -> FloatArray:
         centres_2, probe = unpack(params)
         out = []
-        for k, centres in enumerate((centres_1, centres_2)):
-            rel = centres - probe
+        for k, centers in enumerate((centres_1, centres_2)):
+            rel = centers - probe
             out.append(np.linalg.norm(rel, axis=1) - lasers[k] - APPENDIX_C["start_of_range"] - d2[k])
             out.append(angle_between_deg(rel, rel[[1, 2, 0]]) - beta_t[k])
         return np.concatenate(out)
@@ -232,7 +235,7 @@ def reconstruct_appendix_cd(seed: int = 0) -> AppendixReconstruction:
     assert best is not None
     centres_2, probe = unpack(best.x)
     return AppendixReconstruction(
-        centres=np.stack([centres_1, centres_2]),
+        centers=np.stack([centres_1, centres_2]),
         tip=np.zeros(3),
         lasers=lasers.copy(),
         dead_distance=dead,
@@ -268,6 +271,6 @@ def build_appendix_cd(folder: str | Path, *, overwrite: bool = False) -> tuple[P
     rebuilt = reconstruct_appendix_cd()
     target = Path(folder)
     target.mkdir(parents=True, exist_ok=True)
-    export = write_element_export(target / "cmm_export.csv", rebuilt.centres, rebuilt.tip, overwrite=overwrite)
+    export = write_element_export(target / "cmm_export.csv", rebuilt.centers, rebuilt.tip, overwrite=overwrite)
     lasers = write_lasers_csv(target / "lasers.csv", (1, 2), rebuilt.lasers, overwrite=overwrite)
     return export, lasers

@@ -238,7 +238,7 @@ def process_log(
             change = state.heights[0, arm] - previous[arm]
             consistent[row] = direction == 0 or abs(change) <= 1e-3 or np.sign(change) == direction
         heights[row] = state.heights[0]
-        tips[row] = state.rotation[0] @ geometry.tip_centre + state.translation[0]
+        tips[row] = state.rotation[0] @ geometry.tip_center + state.translation[0]
         converged[row] = bool(state.converged[0])
     if progress is not None:
         progress(count, count)

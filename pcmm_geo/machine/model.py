@@ -161,7 +161,7 @@ class RigidBodyMachine:
             slider_directions=np.array([s.direction for s in sliders]),
             laser_scale=np.array([s.laser_scale for s in sliders]),
             laser_offset=np.array([s.laser_offset for s in sliders]),
-            tip_centre=self.tetrahedron.tip_centre,
+            tip_center=self.tetrahedron.tip_center,
             column_points=np.array([c.point for c in columns]),
             column_directions=np.array([c.direction for c in columns]),
             encoder_scale=np.array([c.encoder_scale for c in columns]),
@@ -286,7 +286,7 @@ class RigidBodyMachine:
             state.iterations,
         )
         residuals = solver.closure(geometry, reported)
-        tip = np.einsum("kij,j->ki", state.rotation, geometry.tip_centre) + state.translation
+        tip = np.einsum("kij,j->ki", state.rotation, geometry.tip_center) + state.translation
         return ForwardSolution(
             tip=tip.reshape(*lead, 3),
             rotation=state.rotation.reshape(*lead, 3, 3),
@@ -337,7 +337,7 @@ class RigidBodyMachine:
             ref.heights if heights_hint is None else as_readings(heights_hint, "heights_hint"), (*lead, 3)
         ).reshape(count, 3)
         rotation = np.broadcast_to(ref.rotation, (count, 3, 3)).copy()
-        translation = flat_target - rotation @ geometry.tip_centre
+        translation = flat_target - rotation @ geometry.tip_center
         # readings nearest to the shifted reference pose: joint line vs column line closest points
         lasers, heights = _closest_readings(geometry, rotation, translation, hint)
         start = solver.PoseState(rotation, translation, lasers, heights, np.zeros(count, bool), 0)
@@ -386,7 +386,7 @@ class RigidBodyMachine:
             "schema": MODEL_SCHEMA,
             "units": "mm",
             "tetrahedron": {
-                "tip_centre": self.tetrahedron.tip_centre.tolist(),
+                "tip_centre": self.tetrahedron.tip_center.tolist(),
                 "sliders": {
                     arm: {
                         "point": s.point.tolist(),

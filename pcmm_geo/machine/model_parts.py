@@ -18,6 +18,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from pcmm_geo._deprecation import renamed_fields
 from pcmm_geo.errors import InvalidInputError
 
 __all__ = ["ARMS", "ColumnLine", "SliderLine", "Tetrahedron", "as_readings", "as_vector3", "check_arm_keys"]
@@ -115,17 +116,18 @@ class SliderLine:
         return self.point + slide[..., None] * self.direction
 
 
+@renamed_fields(tip_centre="tip_center")
 @dataclass(frozen=True)
 class Tetrahedron:
     """The rigid tetrahedron: three slider lines and the probe-tip centre (tetrahedron frame)."""
 
     sliders: Mapping[str, SliderLine]
-    tip_centre: FloatArray
+    tip_center: FloatArray
 
     def __post_init__(self) -> None:
         check_arm_keys(self.sliders, "tetrahedron.sliders")
         object.__setattr__(self, "sliders", {arm: self.sliders[arm] for arm in ARMS})
-        object.__setattr__(self, "tip_centre", as_vector3(self.tip_centre, "tetrahedron.tip_centre"))
+        object.__setattr__(self, "tip_center", as_vector3(self.tip_center, "tetrahedron.tip_center"))
 
     def dead_distance(self, lasers: ArrayLike) -> FloatArray:
         """Tip-to-joint distances ``(..., 3)`` (mm) for laser readings ``(..., 3)``.
@@ -135,7 +137,7 @@ class Tetrahedron:
         """
         readings = as_readings(lasers, "lasers")
         joints = np.stack([self.sliders[arm].joint(readings[..., k]) for k, arm in enumerate(ARMS)], axis=-2)
-        return np.linalg.norm(joints - self.tip_centre, axis=-1)
+        return np.linalg.norm(joints - self.tip_center, axis=-1)
 
 
 @dataclass(frozen=True)

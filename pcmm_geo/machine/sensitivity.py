@@ -14,7 +14,7 @@ with heights only) give:
 * ``motor_ratio[i] = |dX/dh_i| / |dL/dh_i|``: probe movement per laser movement when
   only motor ``i`` moves -- the quantity behind the thesis' "20:1" (6.x: 100 mm of probe
   travel showed 5 mm on the laser, turning 0.05 mm laser accuracy into 1 mm);
-* ``path_ratio``: 100 mm (``size``) straight probe paths through the cube centre along
+* ``path_ratio``: 100 mm (``size``) straight probe paths through the cube center along
   x, y and z divided by the largest laser change along them.
 
 Two structural facts show up (seed geometry, vertical columns): a vertical translation
@@ -39,6 +39,8 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from pcmm_geo._deprecation import renamed_fields, renamed_parameters
+from pcmm_geo._optional import require
 from pcmm_geo.errors import InvalidInputError, OutputExistsError
 from pcmm_geo.machine.model import RigidBodyMachine, as_readings, as_vector3
 
@@ -52,6 +54,7 @@ SEED_LASER_ACCURACY = 0.05
 BLIND = 1e-6
 
 
+@renamed_fields(centre="center")
 @dataclass(frozen=True)
 class Sensitivity:
     """Sensitivities on a grid of ``N`` tip positions.
@@ -73,8 +76,8 @@ class Sensitivity:
     motor_ratio : ndarray, shape (N, 3)
         ``|dX/dh_i| / |dL/dh_i|`` per motor (inf where blind).
     path_ratio : ndarray, shape (3,)
-        ``size`` / largest laser change for straight probe paths along x, y, z through the centre.
-    centre : ndarray, shape (3,)
+        ``size`` / largest laser change for straight probe paths along x, y, z through the center.
+    center : ndarray, shape (3,)
     size : float
         Edge of the cube (mm).
     laser_accuracy : float
@@ -91,7 +94,7 @@ class Sensitivity:
     height_gain: FloatArray
     motor_ratio: FloatArray
     path_ratio: FloatArray
-    centre: FloatArray
+    center: FloatArray
     size: float
     laser_accuracy: float
 
@@ -112,7 +115,7 @@ class Sensitivity:
             }
 
         return {
-            "centre": self.centre.tolist(),
+            "center": self.center.tolist(),
             "size_mm": self.size,
             "points": int(self.points.shape[0]),
             "laser_accuracy_mm": self.laser_accuracy,
@@ -154,16 +157,17 @@ def tip_jacobian(
         offsets[2 * arm, arm] = step
         offsets[2 * arm + 1, arm] = -step
     perturbed = machine.forward(heights=base[:, None, :] + offsets)
-    centre = machine.forward(heights=base)
+    center = machine.forward(heights=base)
     tip_per_height = np.swapaxes(perturbed.tip[:, 0::2] - perturbed.tip[:, 1::2], 1, 2) / (2 * step)
     laser_per_height = np.swapaxes(perturbed.lasers[:, 0::2] - perturbed.lasers[:, 1::2], 1, 2) / (2 * step)
-    return tip_per_height, laser_per_height, centre.tip, centre.lasers
+    return tip_per_height, laser_per_height, center.tip, center.lasers
 
 
+@renamed_parameters(centre="center")
 def sensitivity_over_cube(
     machine: RigidBodyMachine | None = None,
     *,
-    centre: ArrayLike | None = None,
+    center: ArrayLike | None = None,
     size: float = 100.0,
     points_per_axis: int = 5,
     step: float = 1e-3,
@@ -175,8 +179,8 @@ def sensitivity_over_cube(
     ----------
     machine : RigidBodyMachine, optional
         Default: :meth:`RigidBodyMachine.from_dpkm` (thesis Table 3.1 geometry).
-    centre : array_like, shape (3,), optional
-        Cube centre (default: the tip at the machine's reference heights).
+    center : array_like, shape (3,), optional
+        Cube center (default: the tip at the machine's reference heights).
     size : float
         Cube edge, 100 mm (thesis 2.6.3).
     points_per_axis : int
@@ -209,7 +213,7 @@ def sensitivity_over_cube(
     if int(points_per_axis) < 2:
         raise InvalidInputError("points_per_axis", "at least 2", str(points_per_axis))
     middle = (
-        machine.forward(heights=machine.reference_heights).tip if centre is None else as_vector3(centre, "centre")
+        machine.forward(heights=machine.reference_heights).tip if center is None else as_vector3(center, "center")
     )
     axis = np.linspace(-size / 2, size / 2, int(points_per_axis))
     grid = np.stack(np.meshgrid(axis, axis, axis, indexing="ij"), axis=-1).reshape(-1, 3) + middle
@@ -243,7 +247,7 @@ def sensitivity_over_cube(
         height_gain=height_gain,
         motor_ratio=motor_ratio,
         path_ratio=path_ratio,
-        centre=middle,
+        center=middle,
         size=float(size),
         laser_accuracy=float(laser_accuracy),
     )
@@ -264,23 +268,23 @@ def plot_sensitivity(sensitivity: Sensitivity, path: str | Path, *, overwrite: b
     >>> out.suffix
     '.png'
     """
-    import matplotlib
+    matplotlib = require("matplotlib")
 
     matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
+    plt = require("matplotlib.pyplot")
 
     target = Path(path)
     if target.exists() and not overwrite:
         raise OutputExistsError(str(target))
     gain = np.log10(np.where(np.isfinite(sensitivity.laser_gain), sensitivity.laser_gain, np.nan))
     fig, (left, right) = plt.subplots(1, 2, figsize=(11, 4.5))
-    rel = sensitivity.points - sensitivity.centre
+    rel = sensitivity.points - sensitivity.center
     scatter = left.scatter(rel[:, 0], rel[:, 1], c=gain, s=20 + 4 * (rel[:, 2] - rel[:, 2].min()), cmap="viridis")
     blind = ~np.isfinite(sensitivity.laser_gain)
     left.scatter(rel[blind, 0], rel[blind, 1], marker="x", color="red", label="lasers blind (level pivots)")
     fig.colorbar(scatter, ax=left, label="log10 laser gain (mm tip / mm laser)")
-    left.set_xlabel("x - centre [mm]")
-    left.set_ylabel("y - centre [mm]")
+    left.set_xlabel("x - center [mm]")
+    left.set_ylabel("y - center [mm]")
     left.set_title("Laser-to-tip amplification (marker size: z)")
     if blind.any():
         left.legend(loc="upper right", fontsize=8)

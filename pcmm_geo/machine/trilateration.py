@@ -2,12 +2,12 @@
 
 This is the geometric core of the seed DPKM (thesis eqs 2.9-2.18: the probe is the
 point at distance ``L_i`` from the three pivots) written in a form that has no special
-cases: a local frame is erected on the three centres, so the result does not depend on
+cases: a local frame is erected on the three centers, so the result does not depend on
 pivot heights being different from each other or measured from pivot a (errata 1-4).
 
 Root selection
 --------------
-Three spheres meet in two points mirrored in the plane of the centres.  On the
+Three spheres meet in two points mirrored in the plane of the centers.  On the
 micro-CMM the probe hangs *below* the pivots (the tetrahedron apex points down), so
 ``root="lower"`` (the default) returns the intersection with the smaller machine ``z``.
 ``"upper"`` returns the other one; both are always available in
@@ -16,10 +16,10 @@ micro-CMM the probe hangs *below* the pivots (the tetrahedron apex points down),
 Examples
 --------
 >>> import numpy as np
->>> centres = np.array([[0.0, 0.0, 0.0], [10.0, 0.0, 0.0], [0.0, 10.0, 0.0]])
+>>> centers = np.array([[0.0, 0.0, 0.0], [10.0, 0.0, 0.0], [0.0, 10.0, 0.0]])
 >>> tip = np.array([2.0, 3.0, -4.0])
->>> radii = np.linalg.norm(centres - tip, axis=1)
->>> np.round(trilaterate(centres, radii).point, 12).tolist()
+>>> radii = np.linalg.norm(centers - tip, axis=1)
+>>> np.round(trilaterate(centers, radii).point, 12).tolist()
 [2.0, 3.0, -4.0]
 """
 
@@ -31,6 +31,7 @@ from typing import Literal
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from pcmm_geo._deprecation import renamed_parameters
 from pcmm_geo.errors import DegenerateGeometryError, InvalidInputError, NoRealSolutionError
 
 __all__ = ["Trilateration", "trilaterate"]
@@ -49,7 +50,7 @@ class Trilateration:
     lower, upper : ndarray, shape (..., 3)
         Root with the smaller / larger machine ``z``.
     height_squared : ndarray, shape (...)
-        Squared distance of the roots from the plane of the centres (mm^2); the
+        Squared distance of the roots from the plane of the centers (mm^2); the
         discriminant of the problem (negative means no real intersection).
     """
 
@@ -59,8 +60,9 @@ class Trilateration:
     height_squared: FloatArray
 
 
+@renamed_parameters(centres="centers")
 def trilaterate(
-    centres: ArrayLike,
+    centers: ArrayLike,
     radii: ArrayLike,
     *,
     root: Literal["lower", "upper"] = "lower",
@@ -70,8 +72,8 @@ def trilaterate(
 
     Parameters
     ----------
-    centres : array_like, shape (..., 3, 3)
-        Sphere centres (mm), rows a, b, c.
+    centers : array_like, shape (..., 3, 3)
+        Sphere centers (mm), rows a, b, c.
     radii : array_like, shape (..., 3)
         Sphere radii (mm).
     root : {"lower", "upper"}
@@ -89,7 +91,7 @@ def trilaterate(
     InvalidInputError
         Wrong shapes, non-finite or negative radii, unknown ``root``.
     DegenerateGeometryError
-        Two centres coincide or the three centres are collinear.
+        Two centers coincide or the three centers are collinear.
     NoRealSolutionError
         The spheres do not meet; ``discriminant`` holds ``height_squared`` (mm^2).
 
@@ -103,14 +105,14 @@ def trilaterate(
     """
     if root not in ("lower", "upper"):
         raise InvalidInputError("root", "'lower' or 'upper'", repr(root))
-    centre_arr = np.asarray(centres, dtype=float)
+    centre_arr = np.asarray(centers, dtype=float)
     radius_arr = np.asarray(radii, dtype=float)
     if centre_arr.ndim < 2 or centre_arr.shape[-2:] != (3, 3):
-        raise InvalidInputError("centres", "shape (..., 3, 3)", f"shape {centre_arr.shape}")
+        raise InvalidInputError("centers", "shape (..., 3, 3)", f"shape {centre_arr.shape}")
     if radius_arr.shape != centre_arr.shape[:-1]:
         raise InvalidInputError("radii", f"shape {centre_arr.shape[:-1]}", f"shape {radius_arr.shape}")
     if not (np.all(np.isfinite(centre_arr)) and np.all(np.isfinite(radius_arr))):
-        raise InvalidInputError("centres/radii", "finite values", "NaN or inf")
+        raise InvalidInputError("centers/radii", "finite values", "NaN or inf")
     if np.any(radius_arr < 0):
         raise InvalidInputError("radii", "non-negative lengths", f"{radius_arr.min()}")
     first, second, third = centre_arr[..., 0, :], centre_arr[..., 1, :], centre_arr[..., 2, :]
@@ -118,14 +120,14 @@ def trilaterate(
     base = np.linalg.norm(to_second, axis=-1)
     scale = np.maximum(np.abs(centre_arr).max(axis=(-1, -2)), 1.0)
     if np.any(base <= 1e-12 * scale):
-        raise DegenerateGeometryError("trilateration", "two sphere centres coincide")
+        raise DegenerateGeometryError("trilateration", "two sphere centers coincide")
     e_x = to_second / base[..., None]
     to_third = third - first
     along = np.einsum("...i,...i->...", e_x, to_third)
     perpendicular = to_third - along[..., None] * e_x
     offset = np.linalg.norm(perpendicular, axis=-1)
     if np.any(offset <= 1e-12 * scale):
-        raise DegenerateGeometryError("trilateration", "the three sphere centres are collinear")
+        raise DegenerateGeometryError("trilateration", "the three sphere centers are collinear")
     e_y = perpendicular / offset[..., None]
     e_z = np.cross(e_x, e_y)
     r1, r2, r3 = radius_arr[..., 0], radius_arr[..., 1], radius_arr[..., 2]

@@ -11,10 +11,11 @@ import contextlib
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
+from pcmm_geo._optional import require
 from pcmm_geo.errors import InvalidInputError, OutputExistsError
 
 if TYPE_CHECKING:
-    from matplotlib.figure import Figure
+    Figure = require("matplotlib.figure").Figure
 
 #: file suffixes a plot may be written as
 PLOT_SUFFIXES = (".png", ".svg", ".pdf")
@@ -60,7 +61,7 @@ def check_plot_path(path: str | Path, *, overwrite: bool = False) -> Path:
 
 def new_figure(width: float, height: float) -> Figure:
     """A figure of ``width`` x ``height`` inches with constrained layout (imports matplotlib)."""
-    from matplotlib.figure import Figure
+    Figure = require("matplotlib.figure").Figure
 
     return Figure(figsize=(width, height), layout="constrained")
 

@@ -8,6 +8,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from pcmm_geo._optional import require
 from pcmm_geo.plots._figure import check_plot_path, new_figure, save_figure
 
 if TYPE_CHECKING:
@@ -62,7 +63,7 @@ def plot_deviations(
     >>> plot_deviations(found, os.path.join(tempfile.mkdtemp(), "dev.png")).name
     'dev.png'
     """
-    from matplotlib.colors import TwoSlopeNorm
+    TwoSlopeNorm = require("matplotlib.colors").TwoSlopeNorm
 
     check_plot_path(path, overwrite=overwrite)
     points = np.asarray(deviations.points, dtype=float)
@@ -133,7 +134,7 @@ def plot_segments(
     >>> plot_segments(floor, result, os.path.join(tempfile.mkdtemp(), "seg.png")).name
     'seg.png'
     """
-    from matplotlib import colormaps
+    colormaps = require("matplotlib").colormaps
 
     check_plot_path(path, overwrite=overwrite)
     cloud = np.asarray(points, dtype=float)
@@ -169,7 +170,7 @@ def _true_proportions(axes: Any, points: FloatArray, margin: float = 0.04) -> No
     axes.set_ylim(low[1], high[1])
     axes.set_zlim(low[2], high[2])
     axes.set_box_aspect(tuple(float(v) for v in (high - low)))
-    from matplotlib.ticker import MaxNLocator
+    MaxNLocator = require("matplotlib.ticker").MaxNLocator
 
     for axis, extent in zip((axes.xaxis, axes.yaxis, axes.zaxis), high - low, strict=True):
         axis.set_major_locator(MaxNLocator(max(2, min(6, round(6 * extent / float(np.max(high - low)) + 1)))))

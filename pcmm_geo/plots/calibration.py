@@ -31,8 +31,8 @@ PAIRS = ("ab", "bc", "ca")
 def _line_extent(calibration: TetrahedronCalibration, arm: str) -> np.ndarray:
     """End points (2, 3) of arm's slider line from the tip's foot to beyond the farthest joint (mm)."""
     line = calibration.slider_lines[arm]
-    centres = np.array([sphere.centre for sphere in calibration.joint_spheres[arm]])
-    along = (np.vstack([centres, calibration.tip_centre]) - line.point) @ line.direction
+    centres = np.array([sphere.center for sphere in calibration.joint_spheres[arm]])
+    along = (np.vstack([centres, calibration.tip_center]) - line.point) @ line.direction
     span = float(along.max() - along.min())
     reach = np.array([along.min() - 0.03 * span, along.max() + 0.03 * span])
     return line.point + reach[:, None] * line.direction
@@ -58,11 +58,11 @@ def draw_calibration_3d(axes: Any, calibration: TetrahedronCalibration) -> None:
     """
     from pcmm_geo.fit import closest_points
 
-    plotted = [np.asarray(calibration.tip_centre, dtype=float)[None]]
+    plotted = [np.asarray(calibration.tip_center, dtype=float)[None]]
     for arm in ARMS:
         colour = ARM_COLOURS[arm]
         segment = _line_extent(calibration, arm)
-        centres = np.array([sphere.centre for sphere in calibration.joint_spheres[arm]])
+        centres = np.array([sphere.center for sphere in calibration.joint_spheres[arm]])
         axes.plot(*segment.T, color=colour, linewidth=1.5, label=f"arm {arm}: slider line, joint centres")
         axes.scatter(*centres.T, color=colour, s=28, depthshade=False)
         plotted += [segment, centres]
@@ -72,7 +72,7 @@ def draw_calibration_3d(axes: Any, calibration: TetrahedronCalibration) -> None:
         ends = np.vstack([closest.point_a, closest.point_b])
         axes.plot(*ends.T, color="grey", linestyle=":", linewidth=1.0)
     axes.plot([], [], color="grey", linestyle=":", label="common perpendiculars")
-    axes.scatter(*np.asarray(calibration.tip_centre), marker="*", s=140, color="black", depthshade=False,
+    axes.scatter(*np.asarray(calibration.tip_center), marker="*", s=140, color="black", depthshade=False,
                  label="tip centre")
     axes.scatter(*np.asarray(calibration.probe_point), marker="x", s=70, color="red", depthshade=False,
                  label="probe point eq 7.2")
@@ -98,7 +98,7 @@ def draw_miss_distances(axes: Any, calibration: TetrahedronCalibration) -> None:
     --------
     See :func:`plot_calibration`.
     """
-    tip = np.asarray(calibration.tip_centre, dtype=float)
+    tip = np.asarray(calibration.tip_center, dtype=float)
     labels, values, colours = [], [], []
     for arm in ARMS:
         labels.append(f"line {arm} to tip centre")

@@ -106,7 +106,7 @@ def expand_rigid_body_machine(
         columns = [machine.columns[arm] for arm in _ARMS]
         tetrahedron = machine.tetrahedron
         sliders = [tetrahedron.sliders[arm] for arm in _ARMS]
-        tip = np.asarray(tetrahedron.tip_centre, dtype=float)
+        tip = np.asarray(tetrahedron.tip_center, dtype=float)
     except (AttributeError, KeyError, TypeError):
         raise InvalidInputError(
             "machine", "a RigidBodyMachine (columns a, b, c and a tetrahedron)", type(machine).__name__

@@ -21,6 +21,7 @@ from dataclasses import dataclass, field
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from pcmm_geo._deprecation import renamed_fields
 from pcmm_geo.errors import InvalidInputError
 from pcmm_geo.thermal.expansion import ALPHA_ALUMINIUM, REFERENCE_TEMPERATURE
 from pcmm_geo.thermal.probe_error import fixed_shape_array, trilaterate
@@ -41,6 +42,7 @@ FloatArray = NDArray[np.float64]
 MEMBERS = ("frame_ab", "frame_ac", "frame_bc", "column_a", "column_b", "column_c", "arm_a", "arm_b", "arm_c")
 
 
+@renamed_fields(working_volume_centre="working_volume_center")
 @dataclass(frozen=True)
 class ThermalMachineGeometry:
     """Nominal (20 °C) geometry of the micro-CMM for the physical thermal model.
@@ -59,7 +61,7 @@ class ThermalMachineGeometry:
     pivot_drop : float
         Height of the pivots above the tip used by :func:`thermal_sensitivity_table` (mm);
         314 mm gives arms of about 411 mm (the seed's laser lengths).
-    working_volume_centre : ndarray, shape (3,)
+    working_volume_center : ndarray, shape (3,)
         Centre of the 100 mm working cube (mm).
 
     Notes
@@ -77,7 +79,7 @@ class ThermalMachineGeometry:
     alpha_column: float = ALPHA_ALUMINIUM
     alpha_arm: float = ALPHA_ALUMINIUM
     pivot_drop: float = 314.0
-    working_volume_centre: FloatArray = field(default_factory=lambda: np.array([0.0, 0.0, 86.0]))
+    working_volume_center: FloatArray = field(default_factory=lambda: np.array([0.0, 0.0, 86.0]))
 
     def frame_anchor(self) -> tuple[FloatArray, float]:
         """Fixed coordinates of the frame: A ``(2,)`` and ``b_y`` (mm), Table 4.1 layout for side AB."""
@@ -242,7 +244,7 @@ def thermal_sensitivity_table(
 
     Each member of :data:`MEMBERS` in turn is warmed by ``delta_t`` while the others stay at
     20 °C; for every tip position of a ``points_per_axis³`` grid spanning a cube of edge
-    ``size`` around ``geometry.working_volume_centre`` the pivots sit ``pivot_drop`` above
+    ``size`` around ``geometry.working_volume_center`` the pivots sit ``pivot_drop`` above
     the tip, and :func:`physical_tip_displacement` gives the error.
 
     Parameters
@@ -279,7 +281,7 @@ def thermal_sensitivity_table(
     if not (math.isfinite(delta_t) and delta_t != 0):
         raise InvalidInputError("delta_t", "a non-zero temperature step in K", repr(delta_t))
     offsets = np.linspace(-size / 2, size / 2, points_per_axis) if points_per_axis > 1 else np.zeros(1)
-    grid = np.array([[x, y, z] for x in offsets for y in offsets for z in offsets]) + geo.working_volume_centre
+    grid = np.array([[x, y, z] for x in offsets for y in offsets for z in offsets]) + geo.working_volume_center
     t_ref = REFERENCE_TEMPERATURE
     out = np.zeros((len(MEMBERS), len(grid), 3))
     for m, member in enumerate(MEMBERS):

@@ -40,6 +40,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from pcmm_geo._deprecation import renamed_parameters
 from pcmm_geo.errors import DegenerateGeometryError, InvalidInputError, NoRealSolutionError
 from pcmm_geo.thermal.expansion import ALPHA_ALUMINIUM, REFERENCE_TEMPERATURE
 
@@ -174,13 +175,14 @@ def seed_probe_error(
     )
 
 
-def trilaterate(centres: ArrayLike, radii: ArrayLike, near: ArrayLike) -> FloatArray:
+@renamed_parameters(centres="centers")
+def trilaterate(centers: ArrayLike, radii: ArrayLike, near: ArrayLike) -> FloatArray:
     """Intersection of three spheres: the one of the two solutions nearest ``near``.
 
     Parameters
     ----------
-    centres : array_like, shape (3, 3)
-        Sphere centres (mm).
+    centers : array_like, shape (3, 3)
+        Sphere centers (mm).
     radii : array_like, shape (3,)
         Radii (mm).
     near : array_like, shape (3,)
@@ -193,7 +195,7 @@ def trilaterate(centres: ArrayLike, radii: ArrayLike, near: ArrayLike) -> FloatA
     Raises
     ------
     DegenerateGeometryError
-        Collinear centres.
+        Collinear centers.
     NoRealSolutionError
         The spheres do not meet (negative discriminant); never returns a real part.
 
@@ -203,20 +205,20 @@ def trilaterate(centres: ArrayLike, radii: ArrayLike, near: ArrayLike) -> FloatA
     >>> trilaterate(c, [np.sqrt(75.0)] * 3, [5.0, 5.0, -1.0]).round(12).tolist()
     [5.0, 5.0, -5.0]
     """
-    cen = fixed_shape_array(centres, "centres", (3, 3))
+    cen = fixed_shape_array(centers, "centers", (3, 3))
     rad = fixed_shape_array(radii, "radii", (3,))
     ref = fixed_shape_array(near, "near", (3,))
     base = cen[1] - cen[0]
     dist = float(np.linalg.norm(base))
     if dist == 0:
-        raise DegenerateGeometryError("trilateration", "two sphere centres coincide")
+        raise DegenerateGeometryError("trilateration", "two sphere centers coincide")
     ex = base / dist
     other = cen[2] - cen[0]
     i = float(ex @ other)
     perp = other - i * ex
     j = float(np.linalg.norm(perp))
     if j <= 1e-12 * max(dist, 1.0):
-        raise DegenerateGeometryError("trilateration", "the three sphere centres are collinear")
+        raise DegenerateGeometryError("trilateration", "the three sphere centers are collinear")
     ey = perp / j
     ez = np.cross(ex, ey)
     x = (rad[0] ** 2 - rad[1] ** 2 + dist**2) / (2.0 * dist)

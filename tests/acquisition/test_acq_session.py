@@ -52,7 +52,7 @@ def _expected_lasers(rig: SimulatedRig, positions: tuple[int, int, int]) -> np.n
 
 
 def _clearance(block, tip: np.ndarray) -> float:
-    return float(np.max(np.abs(tip - block.centre) - block.size / 2))
+    return float(np.max(np.abs(tip - block.center) - block.size / 2))
 
 
 def test_prepare_homes_and_runs_the_presequence(tmp_path: Path) -> None:

@@ -53,7 +53,7 @@ def test_form_and_size_errors_against_known_solution() -> None:
     # the least-squares sphere is exactly (centre, radius): residuals are the deviations
     assert result.form_error == pytest.approx(float(np.ptp(deviations)), abs=1e-11)
     assert result.size_error == pytest.approx(2 * radius - 25.0, abs=1e-11)
-    np.testing.assert_allclose(result.centre, centre, atol=1e-10)
+    np.testing.assert_allclose(result.center, centre, atol=1e-10)
     assert result.form_conforms and result.size_conforms and result.passed
     strict = evaluate_probing(points, 25.0, mpe_form=1e-3, mpe_size=0.3e-3)
     assert strict.form_conforms is False or strict.form_error <= 1e-3

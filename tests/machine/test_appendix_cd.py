@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 import pytest
 
@@ -35,15 +37,15 @@ def test_reconstruction_matches_every_printed_number(rebuilt):
     # the seed's eq 7.2 construction on the rebuilt lines lands on the same theoretical point
     assert rebuilt.eq_7_2_gap < 0.01
     # position-1 directions agree with Appendix D's v1 (4 decimals)
-    units = rebuilt.centres[0] / np.linalg.norm(rebuilt.centres[0], axis=1, keepdims=True)
+    units = rebuilt.centers[0] / np.linalg.norm(rebuilt.centers[0], axis=1, keepdims=True)
     np.testing.assert_allclose(units, APPENDIX_D["v1"], atol=1e-4)
 
 
 def test_shipped_files_are_the_reconstruction(rebuilt, tmp_path):
     export, lasers = appendix_cd_files()
     features = read_probings(export)
-    np.testing.assert_allclose(features.centres(), rebuilt.centres, atol=1e-9)
-    np.testing.assert_allclose(features.tip.centre, [0.0, 0.0, 0.0], atol=0)
+    np.testing.assert_allclose(features.centers(), rebuilt.centers, atol=1e-9)
+    np.testing.assert_allclose(features.tip.center, [0.0, 0.0, 0.0], atol=0)
     np.testing.assert_array_equal(read_lasers(lasers).readings, APPENDIX_C["lasers"])
     fresh_export, _ = build_appendix_cd(tmp_path)
     assert fresh_export.read_text() == export.read_text()
@@ -53,8 +55,9 @@ def test_table_7_1_dead_distance_and_beta(seed_cal):
     for arm, pair in zip("abc", ("ab", "bc", "ca"), strict=True):
         d_table, beta_table, _ = TABLE_7_1[arm]
         assert seed_cal.dead_distance[arm] == pytest.approx(d_table, abs=0.01)
-        assert seed_cal.beta[pair] == pytest.approx(beta_table, abs=0.01)
-        assert seed_cal.beta_deg[pair] == seed_cal.beta[pair]
+        assert seed_cal.beta_deg[pair] == pytest.approx(beta_table, abs=0.01)
+        assert seed_cal.beta[pair] == pytest.approx(math.radians(beta_table), abs=math.radians(0.01))  # radians
+        assert seed_cal.beta[pair] == pytest.approx(math.radians(seed_cal.beta_deg[pair]), rel=1e-14)
         params = seed_cal.seed_parameters()[arm]
         assert params["d"] == pytest.approx(d_table, abs=0.01)
         assert params["beta_deg"] == pytest.approx(beta_table, abs=0.01)
@@ -63,7 +66,7 @@ def test_table_7_1_dead_distance_and_beta(seed_cal):
 def test_per_position_values_match_appendix_d(seed_cal):
     d1 = np.array([seed_cal.dead_distance_per_position[arm] for arm in "abc"]).T
     np.testing.assert_allclose(d1, APPENDIX_D["D1"], atol=6e-5)
-    beta = np.array([seed_cal.beta_per_position[pair] for pair in ("ab", "bc", "ca")]).T
+    beta = np.degrees(np.array([seed_cal.beta_per_position[pair] for pair in ("ab", "bc", "ca")]).T)
     np.testing.assert_allclose(beta, APPENDIX_D["Beta"][:2], atol=6e-5)
     np.testing.assert_allclose(beta.mean(axis=0), APPENDIX_D["Beta"][2], atol=6e-5)
 
@@ -74,7 +77,7 @@ def test_variable_dead_distance_and_beta_lines_match_appendix_c(seed_cal):
         assert slope == pytest.approx(APPENDIX_C["dead_slope"][k], rel=1e-9)
         assert intercept == pytest.approx(APPENDIX_C["dead_intercept"][k], rel=1e-12)
     for k, pair in enumerate(("ab", "bc", "ca")):
-        slope, intercept = seed_cal.beta_linear[pair]
+        slope, intercept = np.degrees(seed_cal.beta_linear[pair])  # rad/mm and rad; the appendix prints degrees
         assert slope == pytest.approx(APPENDIX_C["beta_slope"][k], rel=1e-8)
         assert intercept == pytest.approx(APPENDIX_C["beta_intercept"][k], rel=1e-12)
 
@@ -82,7 +85,7 @@ def test_variable_dead_distance_and_beta_lines_match_appendix_c(seed_cal):
 def test_values_from_the_theoretical_probe_match_d2_and_beta_rows_4_5(seed_cal):
     d2 = np.array([seed_cal.dead_distance_from_probe_point[arm] for arm in "abc"]).T
     np.testing.assert_allclose(d2, APPENDIX_D["D2"], atol=5e-3)
-    beta = np.array([seed_cal.beta_from_probe_point[pair] for pair in ("ab", "bc", "ca")]).T
+    beta = np.degrees(np.array([seed_cal.beta_from_probe_point[pair] for pair in ("ab", "bc", "ca")]).T)
     np.testing.assert_allclose(beta, APPENDIX_D["Beta"][3:5], atol=5e-3)
 
 
@@ -118,7 +121,7 @@ def test_erratum_8_table_6_2_header_swaps_units():
 
 def test_laser_scale_and_line_geometry_of_the_seed(seed_cal):
     # joint travel between the two positions versus laser travel (independent of our fits):
-    travel = np.linalg.norm(seed_cal.joint_centres[0] - seed_cal.joint_centres[1], axis=1)
+    travel = np.linalg.norm(seed_cal.joint_centers[0] - seed_cal.joint_centers[1], axis=1)
     laser_travel = APPENDIX_C["lasers"][0] - APPENDIX_C["lasers"][1]
     scales = np.array([seed_cal.slider_lines[arm].laser_scale for arm in "abc"])
     np.testing.assert_allclose(scales, travel / laser_travel, rtol=1e-12)
@@ -128,4 +131,4 @@ def test_laser_scale_and_line_geometry_of_the_seed(seed_cal):
     # the rigid-body tetrahedron puts the joints back where CMM1 measured them
     joints = np.stack([seed_cal.tetrahedron.sliders[arm].joint(seed_cal.lasers[:, k]) for k, arm in enumerate("abc")],
                       axis=1)
-    np.testing.assert_allclose(joints, seed_cal.joint_centres, atol=1e-9)
+    np.testing.assert_allclose(joints, seed_cal.joint_centers, atol=1e-9)

@@ -64,7 +64,7 @@ def skewed():
 
 def test_noise_free_round_trip_recovers_lines_scales_and_tip(skewed):
     geometry, cal = skewed
-    np.testing.assert_allclose(cal.tip_centre, TIP, atol=1e-6)
+    np.testing.assert_allclose(cal.tip_center, TIP, atol=1e-6)
     assert cal.tip.radius == pytest.approx(RADIUS, abs=1e-6)
     for k, arm in enumerate(ARMS):
         line = cal.slider_lines[arm]
@@ -80,7 +80,7 @@ def test_noise_free_round_trip_recovers_lines_scales_and_tip(skewed):
     tetra = cal.tetrahedron
     for k, arm in enumerate(ARMS):
         np.testing.assert_allclose(tetra.sliders[arm].joint(LASERS[:, k]), geometry["joints"][:, k], atol=1e-6)
-    np.testing.assert_allclose(tetra.tip_centre, TIP, atol=1e-6)
+    np.testing.assert_allclose(tetra.tip_center, TIP, atol=1e-6)
 
 
 def test_seed_parameters_from_the_true_geometry(skewed):
@@ -94,9 +94,10 @@ def test_seed_parameters_from_the_true_geometry(skewed):
         u = joints[:, k] - TIP
         v = joints[:, (k + 1) % 3] - TIP
         cosine = np.einsum("ij,ij->i", u, v) / (np.linalg.norm(u, axis=1) * np.linalg.norm(v, axis=1))
-        expected = np.degrees(np.arccos(cosine))
-        np.testing.assert_allclose(cal.beta_per_position[pair], expected, atol=1e-6)
-        assert cal.beta[pair] == pytest.approx(expected.mean(), abs=1e-6)
+        expected = np.arccos(cosine)  # radians
+        np.testing.assert_allclose(cal.beta_per_position[pair], expected, atol=1e-8)
+        assert cal.beta[pair] == pytest.approx(expected.mean(), abs=1e-8)
+        assert cal.beta_deg[pair] == pytest.approx(np.degrees(expected.mean()), abs=1e-6)
 
 
 def test_skew_distances_closed_form(skewed):
@@ -165,7 +166,7 @@ def test_error_grows_with_probing_noise(sigma):
     """
     geometry = truth(skewed=True)
     cal = calibrate_tetrahedron(probings(geometry, sigma=sigma, seed=11), LASERS)
-    assert np.linalg.norm(cal.tip_centre - TIP) < 5 * sigma
+    assert np.linalg.norm(cal.tip_center - TIP) < 5 * sigma
     for k, arm in enumerate(ARMS):
         line = cal.slider_lines[arm]
         assert np.linalg.norm(line.direction - geometry["directions"][k]) < 0.5 * sigma
@@ -177,7 +178,7 @@ def test_error_grows_with_probing_noise(sigma):
     for arm in ARMS:
         assert abs(cal.dead_distance[arm] - exact.dead_distance[arm]) < 10 * sigma
     for pair in PAIRS:
-        assert abs(cal.beta[pair] - exact.beta[pair]) < 2 * sigma
+        assert abs(cal.beta_deg[pair] - exact.beta_deg[pair]) < 2 * sigma
 
 
 def test_csv_round_trip_gives_the_same_calibration(tmp_path, skewed):

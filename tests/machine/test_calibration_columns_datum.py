@@ -49,7 +49,7 @@ def test_tilted_column_lines_and_encoder_scales_from_pivot_probings():
         assert cal.encoder_scale[arm] == pytest.approx(scale, abs=1e-9)
         assert cal.straightness[arm] < 1e-6
         np.testing.assert_allclose(cal.direction(arm), slope / np.linalg.norm(slope), atol=1e-9)
-        np.testing.assert_allclose(cal.centres[arm], true_pivots[arm], atol=1e-6)
+        np.testing.assert_allclose(cal.centers[arm], true_pivots[arm], atol=1e-6)
         # the rigid-body column line puts the pivot where it truly is, also between and beyond the probed heights
         other = np.array([-20.0, 12.5, 47.0, 140.0])
         direction = slope / np.linalg.norm(slope)

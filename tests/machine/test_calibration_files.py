@@ -121,9 +121,9 @@ def test_element_export_without_header_assigns_rows_like_appendix_c(tmp_path):
     features = read_probings(headerless)
     assert features.positions == (1, 2)
     values = np.array([[float(v) for v in row.split(",")[:3]] for row in rows])
-    np.testing.assert_array_equal(features.joints["b"][1].centre, values[1])  # row 2 = joint b, position 1
-    np.testing.assert_array_equal(features.joints["a"][2].centre, values[3])  # row 4 = joint a, position 2
-    np.testing.assert_array_equal(features.tip.centre, values[6])  # row 7 = the tip
+    np.testing.assert_array_equal(features.joints["b"][1].center, values[1])  # row 2 = joint b, position 1
+    np.testing.assert_array_equal(features.joints["a"][2].center, values[3])  # row 4 = joint a, position 2
+    np.testing.assert_array_equal(features.tip.center, values[6])  # row 7 = the tip
     assert np.isnan(features.tip.radius)
 
 
@@ -179,15 +179,15 @@ def test_calibration_in_the_datum_frame(tmp_path, seed_cal):
     cal = calibrate_tetrahedron(export, lasers, datum_plane=plane, datum_hole=hole)
     assert cal.datum is not None
     np.testing.assert_allclose(cal.datum.origin, [10.0, 20.0, 5.0], atol=1e-7)
-    np.testing.assert_allclose(cal.tip_centre, cal.datum.apply(seed_cal.tip_centre), atol=1e-9)
+    np.testing.assert_allclose(cal.tip_center, cal.datum.apply(seed_cal.tip_center), atol=1e-9)
     # distances and angles do not depend on the frame
     for arm in "abc":
         assert cal.dead_distance[arm] == pytest.approx(seed_cal.dead_distance[arm], abs=1e-9)
     for pair in ("ab", "bc", "ca"):
         assert cal.beta[pair] == pytest.approx(seed_cal.beta[pair], abs=1e-9)
     # joint a lies on the +x side of the datum frame with y = 0 (x axis through its mean centre)
-    mean_a = cal.joint_centres[:, 0].mean(axis=0)
+    mean_a = cal.joint_centers[:, 0].mean(axis=0)
     assert mean_a[0] > 0 and abs(mean_a[1]) < 1e-9
     back = load_calibration(save_calibration(cal, tmp_path / "datum.json"))
     np.testing.assert_array_equal(back.datum.rotation, cal.datum.rotation)
-    np.testing.assert_allclose(back.tip_centre, cal.tip_centre, atol=0)
+    np.testing.assert_allclose(back.tip_center, cal.tip_center, atol=0)

@@ -16,7 +16,7 @@ from pcmm_geo.machine.calibration_noise import (
     synthesise_probings,
 )
 
-FIELDS = ("tip_centre", "slider_direction", "slider_point", "laser_scale", "laser_offset", "dead_distance", "beta_deg")
+FIELDS = ("tip_center", "slider_direction", "slider_point", "laser_scale", "laser_offset", "dead_distance", "beta_deg")
 
 
 @pytest.fixture(scope="module")
@@ -32,7 +32,7 @@ def test_synthetic_machine_really_has_skewed_lines_and_scaled_lasers():
         normal = np.cross(first.direction, second.direction)
         skew = abs((second.point - first.point) @ normal) / np.linalg.norm(normal)
         assert skew > 5.0  # mm: the lines do not meet
-        assert np.linalg.norm(first.point - truth.tip_centre) > 9.0  # nor pass through the tip
+        assert np.linalg.norm(first.point - truth.tip_center) > 9.0  # nor pass through the tip
     assert [line.laser_scale for line in lines] == [1.02, 0.97, 1.01]
 
 
@@ -64,7 +64,7 @@ def test_tip_centre_error_matches_first_order_sphere_fit_propagation(study):
     draws = np.random.default_rng(0).multivariate_normal(np.zeros(3), covariance, 200_000)
     expected = np.median(np.linalg.norm(draws, axis=1))  # 0.83 sigma for 12 points on 3/4 of a ball
     row = study.rows[SIGMAS.index(1e-3)]
-    assert row.tip_centre / 1e-3 == pytest.approx(expected, rel=0.25)  # median of 20 seeds
+    assert row.tip_center / 1e-3 == pytest.approx(expected, rel=0.25)  # median of 20 seeds
 
 
 def test_markdown_table_and_errors_of_a_single_run():
@@ -72,7 +72,7 @@ def test_markdown_table_and_errors_of_a_single_run():
     cal = calibrate_tetrahedron(synthesise_probings(truth, sigma=1e-3, seed=3), CALIBRATION_LASERS)
     errors = calibration_errors(cal, truth)
     assert set(errors) == set(FIELDS)
-    assert 1e-5 < errors["tip_centre"] < 5e-3
+    assert 1e-5 < errors["tip_center"] < 5e-3
     table = noise_growth_study([0.0, 1e-3], seeds=2).to_markdown().splitlines()
     assert len(table) == 4 and table[0].startswith("| probe noise σ (µm) |") and table[3].startswith("| 1 |")
     with pytest.raises(InvalidInputError):

@@ -80,7 +80,7 @@ def skewed_seed(offset_mm: float) -> RigidBodyMachine:
         sideways = np.cross(s.direction, np.eye(3)[k])
         sideways /= np.linalg.norm(sideways)
         sliders[arm] = SliderLine(s.point + offset_mm * sideways, s.direction, s.laser_scale, s.laser_offset)
-    return RigidBodyMachine(Tetrahedron(sliders, seed.tetrahedron.tip_centre), seed.columns,
+    return RigidBodyMachine(Tetrahedron(sliders, seed.tetrahedron.tip_center), seed.columns,
                             seed.reference_lasers, seed.reference_heights)
 
 
@@ -106,7 +106,7 @@ def test_erratum_6_angle_between_arms() -> None:
     # arm vectors P_i = joint_i - tip of the seed geometry at mid-range lasers
     machine = RigidBodyMachine.from_dpkm()
     joints = machine.joints([100.0, 100.0, 100.0])
-    arms = joints - machine.tetrahedron.tip_centre
+    arms = joints - machine.tetrahedron.tip_center
     p_a, p_b = arms[0], arms[1]
     correct = np.degrees(np.arccos(p_a @ p_b / (np.linalg.norm(p_a) * np.linalg.norm(p_b))))
     assert correct == pytest.approx(68.51, abs=1e-9)  # Table 3.1 beta_ab

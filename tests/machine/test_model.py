@@ -44,7 +44,7 @@ def constructed_case(seed: int = 3, count: int = 20):
     lasers = rng.uniform(40, 90, (count, 3))
     joints = base.joints(lasers)  # (count, 3, 3) tetrahedron frame
     pivots = np.einsum("kij,kaj->kai", rotations, joints) + translations[:, None, :]
-    tips = rotations @ base.tetrahedron.tip_centre + translations
+    tips = rotations @ base.tetrahedron.tip_center + translations
     return base, rotations, translations, lasers, pivots, tips
 
 
@@ -106,7 +106,7 @@ def test_inverse_satisfies_closure_equations_over_working_cube() -> None:
     joints = machine.joints(inv.lasers)
     moved = np.einsum("kij,kaj->kai", inv.rotation, joints) + inv.translation[:, None, :]
     assert np.abs(moved - machine.pivots(inv.heights)).max() < 1e-9
-    tip = inv.rotation @ machine.tetrahedron.tip_centre + inv.translation
+    tip = inv.rotation @ machine.tetrahedron.tip_center + inv.translation
     assert np.abs(tip - grid).max() < 1e-9
     np.testing.assert_allclose(np.linalg.det(inv.rotation), 1.0, atol=1e-12)
 
@@ -153,7 +153,7 @@ def test_noise_propagation_matches_first_order_jacobian() -> None:
     sigma = 2e-3
     rng = np.random.default_rng(5)
     noise = rng.normal(0.0, sigma, (4000, 3))
-    errors = machine.forward(heights=heights + noise).tip - inv.rotation @ machine.tetrahedron.tip_centre - (
+    errors = machine.forward(heights=heights + noise).tip - inv.rotation @ machine.tetrahedron.tip_center - (
         inv.translation
     )
     empirical = np.cov(errors.T)
@@ -189,7 +189,7 @@ def test_serialisation_round_trip() -> None:
     data = json.loads(text)
     assert data["schema"] == MODEL_SCHEMA
     again = RigidBodyMachine.from_dict(data)
-    np.testing.assert_array_equal(again.tetrahedron.tip_centre, machine.tetrahedron.tip_centre)
+    np.testing.assert_array_equal(again.tetrahedron.tip_center, machine.tetrahedron.tip_center)
     for arm in ARMS:
         np.testing.assert_array_equal(again.columns[arm].point, machine.columns[arm].point)
         assert again.tetrahedron.sliders[arm].laser_scale == machine.tetrahedron.sliders[arm].laser_scale

@@ -28,7 +28,7 @@ def test_vertical_translation_closed_form(seed_sensitivity) -> None:
 def test_level_pivots_are_a_laser_singularity(seed_sensitivity) -> None:
     # the cube centre is the reference pose with level pivots: pivot distances change only to
     # second order, so dL/dh = 0 there and along the vertical through it
-    central = np.linalg.norm(seed_sensitivity.points[:, :2] - seed_sensitivity.centre[:2], axis=1) < 1e-6
+    central = np.linalg.norm(seed_sensitivity.points[:, :2] - seed_sensitivity.center[:2], axis=1) < 1e-6
     assert central.sum() == 3
     assert np.abs(seed_sensitivity.laser_per_height[central]).max() < 1e-6
     assert np.all(np.isinf(seed_sensitivity.laser_gain[central]))

@@ -30,7 +30,7 @@ def machine_for(geometry: ThermalMachineGeometry, tip: np.ndarray, heights: np.n
     columns = {arm: ColumnLine(point=[*geometry.column_xy[k], 0.0], direction=[0.0, 0.0, 1.0])
                for k, arm in enumerate("abc")}
     return RigidBodyMachine(
-        tetrahedron=Tetrahedron(sliders=sliders, tip_centre=tip),
+        tetrahedron=Tetrahedron(sliders=sliders, tip_center=tip),
         columns=columns,
         reference_lasers=lengths,
         reference_heights=heights,

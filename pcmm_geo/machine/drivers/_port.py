@@ -13,6 +13,7 @@ import time
 from dataclasses import dataclass
 from typing import Protocol
 
+from pcmm_geo._optional import require
 from pcmm_geo.errors import DeviceError, DeviceProtocolError, DeviceTimeoutError, InvalidInputError
 
 __all__ = ["LinkCounters", "LinkStatistics", "SerialLike", "is_transient", "open_port"]
@@ -120,7 +121,7 @@ def open_port(port: str | SerialLike, *, device: str, baudrate: int, timeout: fl
     if not (timeout > 0):
         raise InvalidInputError("timeout", "a positive number of seconds", repr(timeout))
     if isinstance(port, str):
-        import serial
+        serial = require("serial")
 
         try:
             link = serial.serial_for_url(

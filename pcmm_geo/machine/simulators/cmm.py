@@ -3,7 +3,7 @@
 :class:`SimulatedMicroCMM` turns Zaber motor positions into pivot heights
 (``height_i = reference_height_i + (usteps_i - start_position) * microstep``), solves the
 rigid-body forward kinematics (:meth:`pcmm_geo.machine.model.RigidBodyMachine.forward` with
-heights only) for the laser readings and the probe-tip centre, and reports probe contact when
+heights only) for the laser readings and the probe-tip center, and reports probe contact when
 the 2 mm ball tip (radius 1 mm, thesis 3.1) touches a simulated gauge block.  A move that would
 push the tip into the block stops at the first contact microstep, as the machine's controller
 stops the stages when the probe triggers.
@@ -29,6 +29,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from pcmm_geo._deprecation import renamed_fields, renamed_parameters
 from pcmm_geo.errors import InvalidInputError
 from pcmm_geo.machine.drivers.zaber import T_LSR450B_MICROSTEP_MM
 from pcmm_geo.machine.simulators.devices import LaserStreamSim, ProbeSim, ZaberChainSim
@@ -43,30 +44,32 @@ TIP_RADIUS_MM = 1.0  # 2 mm ball tip (thesis 3.1)
 _PATH_STEP_USTEPS = 200  # sampling of a move's path for contact, ~0.1 mm of pivot travel
 
 
+@renamed_fields(centre="center")
 @dataclass(frozen=True)
 class GaugeBlock:
-    """A rectangular block: ``centre`` (3,) mm, ``size`` (3,) mm along its own axes, ``axes`` (3, 3) rows.
+    """A rectangular block: ``center`` (3,) mm, ``size`` (3,) mm along its own axes, ``axes`` (3, 3) rows.
 
     Contact test: the tip sphere touches the block when ``max_f (x - p_f) . n_f <= radius`` over
     the six faces (exact opposite a face; slightly generous near edges and corners).
     """
 
-    centre: NDArray[np.float64]
+    center: NDArray[np.float64]
     size: NDArray[np.float64]
     axes: NDArray[np.float64]
 
     @classmethod
-    def aligned(cls, centre: ArrayLike, size: ArrayLike = (9.0, 100.0, 35.0)) -> GaugeBlock:
+    @renamed_parameters(centre="center")
+    def aligned(cls, center: ArrayLike, size: ArrayLike = (9.0, 100.0, 35.0)) -> GaugeBlock:
         """Block with its edges along the machine axes (default 100 mm gauge block, 35 x 9 mm section)."""
-        centre_arr = np.asarray(centre, dtype=float)
+        centre_arr = np.asarray(center, dtype=float)
         size_arr = np.asarray(size, dtype=float)
         if centre_arr.shape != (3,) or size_arr.shape != (3,) or not np.all(size_arr > 0):
-            raise InvalidInputError("gauge block", "centre (3,) and positive size (3,) in mm", f"{centre}, {size}")
+            raise InvalidInputError("gauge block", "center (3,) and positive size (3,) in mm", f"{center}, {size}")
         return cls(centre_arr, size_arr, np.eye(3))
 
     def clearance(self, points: ArrayLike) -> NDArray[np.float64]:
         """Largest signed face distance of points ``(..., 3)`` (<= 0 inside the block), mm."""
-        local = (np.asarray(points, dtype=float) - self.centre) @ self.axes.T
+        local = (np.asarray(points, dtype=float) - self.center) @ self.axes.T
         return np.max(np.abs(local) - self.size / 2.0, axis=-1)
 
 
@@ -129,7 +132,7 @@ class SimulatedMicroCMM:
 
     @property
     def tip(self) -> NDArray[np.float64]:
-        """Current probe-tip centre, machine frame, mm."""
+        """Current probe-tip center, machine frame, mm."""
         return self._tip.copy()
 
     @property
@@ -157,9 +160,9 @@ class SimulatedMicroCMM:
     def block_next_to_tip(self, gap: float = 3.0, axis: int = 0, side: float = -1.0) -> GaugeBlock:
         """A 100 mm gauge block whose face is ``gap`` mm (ball surface to face) from the tip along ``axis``."""
         size = np.array([9.0, 100.0, 35.0])
-        centre = self._tip.copy()
-        centre[axis] += side * (TIP_RADIUS_MM + gap + size[axis] / 2.0)
-        return GaugeBlock.aligned(centre, size)
+        center = self._tip.copy()
+        center[axis] += side * (TIP_RADIUS_MM + gap + size[axis] / 2.0)
+        return GaugeBlock.aligned(center, size)
 
     # ------------------------------------------------------------------ motion
     def _solve(self, heights: NDArray[np.float64]) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[Any]]:
