@@ -57,7 +57,7 @@ class _Alias:
 
     def __init__(self, owner: str, old: str, new: str) -> None:
         self.owner, self.old, self.new = owner, old, new
-        self.__doc__ = f"Deprecated alias of :attr:`{new}` (removed in {_REMOVED_IN})."
+        self.__doc__ = f"Deprecated alias of ``{new}`` (removed in {_REMOVED_IN})."
 
     def __get__(self, obj: Any, objtype: type | None = None) -> Any:
         if obj is None:

@@ -20,19 +20,23 @@ def data_dir() -> Path:
 # runs every test, the core-only CI run (`pip install .` = numpy + scipy) deselects them with
 # ``-m "not extras"``, so a core test that secretly needs an extra fails there.
 EXTRAS_NEEDED = {
+    "acquisition/test_acq_cli.py": "acquire",
     "acquisition/test_acq_lasers.py": "acquire",
     "acquisition/test_acq_probe.py": "acquire",
     "acquisition/test_acq_session.py": "acquire",
     "acquisition/test_acq_zaber.py": "acquire",
     "artefacts/test_cad.py": "cad",
     "cli/test_cli_compare.py": "cad",
+    "cli/test_cli_demo.py": "plots",  # the demo draws its figures
     "cli/test_cli_plots.py": "plots",
     "io/test_meshes.py": "cad",
     "plots/test_plots.py": "plots",
-    "cli/test_cli_demo.py::test_demo_plots_are_real_images_and_runs_never_overwrite": "plots",
+    "cli/test_cli_calibrate.py::test_calibrate_text_output_and_files": "plots",
+    "cli/test_cli_kinematics.py::test_sensitivity_plot": "plots",
     "cli/test_cli_fit.py::test_fit_circle_projected_matches_nist_and_human_table": "plots",
     "io/test_points.py::test_round_trip": "cad",
     "machine/test_sensitivity.py::test_plot_and_errors": "plots",
+    "machine/test_logproc.py::test_read_log_accepts_acquisition_logs_with_metadata_and_extra_columns": "acquire",
     "test_docs.py": "docs",
 }
 

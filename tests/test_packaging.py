@@ -125,3 +125,22 @@ def test_python_dash_m_runs_the_pcmm_command() -> None:
     failed = subprocess.run([sys.executable, "-m", "pcmm_geo", "fit", "sphere", str(ROOT / "no-such-file.csv")],
                             capture_output=True, text=True, cwd=ROOT)
     assert failed.returncode == 2 and "no-such-file.csv" in failed.stderr
+
+
+def test_extras_table_names_real_tests() -> None:
+    """Every entry of conftest.EXTRAS_NEEDED names an existing test module (and function): a stale entry
+    would silently stop marking a test."""
+    import ast
+
+    from conftest import EXTRAS_NEEDED
+
+    extras = set(_pyproject()["project"]["optional-dependencies"])
+    for key, extra in EXTRAS_NEEDED.items():
+        assert extra in extras, key
+        module, _, function = key.partition("::")
+        path = ROOT / "tests" / module
+        assert path.is_file(), key
+        if function:
+            names = {node.name for node in ast.walk(ast.parse(path.read_text(encoding="utf-8")))
+                     if isinstance(node, ast.FunctionDef)}
+            assert function in names, key

@@ -2,7 +2,7 @@
 
 The cone is parameterised by a point ``a`` of its axis, the unit axis ``d``, the radius
 ``r`` of the cone at ``a`` and the half angle ``alpha``.  The residual of a point ``p``
-is (NIST's convention, positive outside)
+is (NIST's convention, positive outside)::
 
     h = (p - a) . d,   rho = |(p - a) - h d|,   e = (rho - r - h tan(alpha)) cos(alpha).
 

@@ -215,7 +215,7 @@ class ThermalSensitivityTable:
     delta_t: float
 
     def summary(self) -> list[dict[str, float | str]]:
-        """Per member: max and mean |d|, and max |dx|, |dy|, |dz| over the grid (µm/K)."""
+        """Per member: max and mean ``|d|``, and max ``|dx|``, ``|dy|``, ``|dz|`` over the grid (µm/K)."""
         rows: list[dict[str, float | str]] = []
         for m, name in enumerate(self.members):
             d = self.displacement_um_per_k[m]

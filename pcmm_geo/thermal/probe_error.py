@@ -1,7 +1,7 @@
 """Thermal probe error of the micro-CMM: the seed's simple model (eqs 4.10-4.17) and a physical model.
 
 Seed model (thesis section 4.1.2-4.1.3, implemented by :func:`seed_probe_error`)
--------------------------------------------------------------------------------
+--------------------------------------------------------------------------------
 Assumptions stated by the thesis: members expand linearly and do not bend; joints are
 pins; the base is fixed in z; the vertical error comes only from the columns and the
 planar error only from the arms; the probe moves by the *average* of what the three

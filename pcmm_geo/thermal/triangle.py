@@ -84,7 +84,7 @@ class FrameTriangle:
         return np.vstack([self.a, self.b, self.c])
 
     def side_lengths(self) -> FloatArray:
-        """Lengths |AB|, |AC|, |BC| recomputed from the corners (mm), shape (3,)."""
+        """Lengths ``|AB|``, ``|AC|``, ``|BC|`` recomputed from the corners (mm), shape (3,)."""
         return np.array(
             [np.linalg.norm(self.b - self.a), np.linalg.norm(self.c - self.a), np.linalg.norm(self.c - self.b)]
         )
