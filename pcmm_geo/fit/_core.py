@@ -382,6 +382,8 @@ _BASE_FIELDS = {f.name for f in dataclasses.fields(FitResult)}
 
 def _short(value: Any) -> str:
     if isinstance(value, np.ndarray):
+        if value.size > 3:  # per-point arrays (residual components...): the shape, not N numbers
+            return f"<{value.shape}>"
         return np.array2string(value, precision=9, separator=", ")
     if isinstance(value, float):
         return f"{value:.12g}"

@@ -9,12 +9,13 @@ fit's to rounding.  Every set is centred before fitting, so offsets cost no accu
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, fields
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from pcmm_geo.errors import ConvergenceError, DegenerateGeometryError, InvalidInputError, TooFewPointsError
+from pcmm_geo.fit._batch_cov import line_covariance, nsphere_covariance, plane_covariance, projected_circle_covariance
 from pcmm_geo.fit._core import TOL
 from pcmm_geo.fit._linear import frozen
 
@@ -47,6 +48,15 @@ class BatchFit:
         Points per set.
     converged : ndarray of bool, shape (K,)
     iterations : ndarray of int, shape (K,)
+    dof : int
+        Degrees of freedom of each fit (as the single fit's).
+    parameter_names : tuple of str
+        Names of the columns of ``parameters`` and rows/columns of each ``covariance[k]``
+        (the single fit's names).
+    parameters : ndarray, shape (K, P)
+        Fitted parameters of every set (machine frame, mm).
+    covariance : ndarray, shape (K, P, P)
+        Per-set covariance ``s^2 (J^T J)^-1`` mapped to ``parameters``, as the single fit's.
     """
 
     residuals: FloatArray
@@ -55,12 +65,47 @@ class BatchFit:
     n: int
     converged: NDArray[np.bool_]
     iterations: NDArray[np.int64]
+    dof: int
+    parameter_names: tuple[str, ...]
+    parameters: FloatArray
+    covariance: FloatArray
 
     def __len__(self) -> int:
         return int(self.residuals.shape[0])
 
+    @property
+    def std_errors(self) -> dict[str, FloatArray]:
+        """Standard uncertainty of each parameter for every set, ``{name: (K,)}``."""
+        diagonal = np.sqrt(np.clip(np.diagonal(self.covariance, axis1=1, axis2=2), 0.0, None))
+        return {name: diagonal[:, j] for j, name in enumerate(self.parameter_names)}
 
-@dataclass(frozen=True, kw_only=True, eq=False)
+    def __repr__(self) -> str:
+        """Short: the count, the shapes of the geometry and the ranges of the statistics (not K x N numbers)."""
+        geometry = ", ".join(
+            f"{f.name}={_describe(getattr(self, f.name))}" for f in fields(self) if f.name not in _BATCH_FIELDS
+        )
+        return (
+            f"{type(self).__name__}(K={len(self)}, n={self.n}, {geometry}, rms<={_top(self.rms)}, "
+            f"form<={_top(self.form)}, converged={int(np.sum(self.converged))}/{len(self)})"
+        )
+
+
+def _top(values: FloatArray) -> str:
+    return f"{float(np.max(values)):.3g}" if np.size(values) else "nan"
+
+
+def _describe(value: object) -> str:
+    if isinstance(value, np.ndarray):
+        if value.ndim == 1 and value.size:
+            return f"[{float(np.min(value)):.6g}..{float(np.max(value)):.6g}]"
+        return f"<{value.shape}>"
+    return repr(value)
+
+
+_BATCH_FIELDS = {f.name for f in fields(BatchFit)}
+
+
+@dataclass(frozen=True, kw_only=True, eq=False, repr=False)
 class SphereBatchFit(BatchFit):
     """:func:`fit_spheres` result: ``centers`` (K, 3), ``radii`` (K,)."""
 
@@ -68,7 +113,7 @@ class SphereBatchFit(BatchFit):
     radii: FloatArray
 
 
-@dataclass(frozen=True, kw_only=True, eq=False)
+@dataclass(frozen=True, kw_only=True, eq=False, repr=False)
 class CircleBatchFit(BatchFit):
     """:func:`fit_circles` result: ``centers`` (K, D), ``radii`` (K,), ``normals`` (K, 3) or None (2-D)."""
 
@@ -77,7 +122,7 @@ class CircleBatchFit(BatchFit):
     normals: FloatArray | None
 
 
-@dataclass(frozen=True, kw_only=True, eq=False)
+@dataclass(frozen=True, kw_only=True, eq=False, repr=False)
 class PlaneBatchFit(BatchFit):
     """:func:`fit_planes` result: ``points`` (K, 3) centroids, unit ``normals`` (K, 3)."""
 
@@ -85,7 +130,7 @@ class PlaneBatchFit(BatchFit):
     normals: FloatArray
 
 
-@dataclass(frozen=True, kw_only=True, eq=False)
+@dataclass(frozen=True, kw_only=True, eq=False, repr=False)
 class LineBatchFit(BatchFit):
     """:func:`fit_lines` result: ``points`` (K, D) centroids, unit ``directions`` (K, D).
 
@@ -96,7 +141,27 @@ class LineBatchFit(BatchFit):
     directions: FloatArray
 
 
+def _ragged_sizes(points: object) -> list[int] | None:
+    """Set sizes of a list of sets whose sizes differ (None when not such a list)."""
+    if isinstance(points, np.ndarray) or not isinstance(points, list | tuple):
+        return None
+    try:
+        sizes = [len(member) for member in points]  # type: ignore[arg-type]
+    except TypeError:
+        return None
+    return sizes if len(set(sizes)) > 1 else None
+
+
 def _as_stack(points: ArrayLike, *, element: str, dims: tuple[int, ...], min_points: int) -> FloatArray:
+    sizes = _ragged_sizes(points)
+    if sizes is not None:
+        counts = ", ".join(str(s) for s in sorted(set(sizes)))
+        raise InvalidInputError(
+            "points",
+            "K sets of equal size (ragged: fits need the same number of points in every set; "
+            "fit each group of equal size, or use the single fit per set)",
+            f"{len(sizes)} sets of {counts} points",
+        )
     try:
         arr = np.asarray(points, dtype=float)
     except (TypeError, ValueError):
@@ -210,6 +275,10 @@ def fit_spheres(points: ArrayLike) -> SphereBatchFit:
         n=stack.shape[1],
         converged=converged,
         iterations=iterations,
+        dof=stack.shape[1] - 4,
+        parameter_names=("center_x", "center_y", "center_z", "radius"),
+        parameters=frozen(np.column_stack([centres, radii])),
+        covariance=frozen(nsphere_covariance(stack, centres, radii)),
     )
 
 
@@ -236,7 +305,8 @@ def fit_planes(points: ArrayLike) -> PlaneBatchFit:
     stack = _as_stack(points, element="plane", dims=(3,), min_points=3)
     centroid, vt = _planes(stack)
     normals = _sign_rows(vt[:, 2, :])
-    residuals = np.einsum("kni,ki->kn", stack - centroid[:, None, :], normals)
+    rel = stack - centroid[:, None, :]
+    residuals = np.einsum("kni,ki->kn", rel, normals)
     rms, form = _stats(residuals)
     return PlaneBatchFit(
         points=frozen(centroid),
@@ -247,6 +317,10 @@ def fit_planes(points: ArrayLike) -> PlaneBatchFit:
         n=stack.shape[1],
         converged=np.ones(len(stack), dtype=bool),
         iterations=np.zeros(len(stack), dtype=np.int64),
+        dof=stack.shape[1] - 3,
+        parameter_names=("point_x", "point_y", "point_z", "normal_x", "normal_y", "normal_z"),
+        parameters=frozen(np.column_stack([centroid, normals])),
+        covariance=frozen(plane_covariance(rel, vt, normals, residuals)),
     )
 
 
@@ -271,6 +345,7 @@ def fit_lines(points: ArrayLike) -> LineBatchFit:
     rms, form = _stats(residuals)
     if stack.shape[2] == 3:
         form = 2.0 * residuals.max(axis=1)
+    dim = stack.shape[2]
     return LineBatchFit(
         points=frozen(centroid),
         directions=frozen(directions),
@@ -280,6 +355,10 @@ def fit_lines(points: ArrayLike) -> LineBatchFit:
         n=stack.shape[1],
         converged=np.ones(len(stack), dtype=bool),
         iterations=np.zeros(len(stack), dtype=np.int64),
+        dof=stack.shape[1] - 2 if dim == 2 else 2 * stack.shape[1] - 4,
+        parameter_names=tuple(f"point_{c}" for c in "xyz"[:dim]) + tuple(f"direction_{c}" for c in "xyz"[:dim]),
+        parameters=frozen(np.column_stack([centroid, directions])),
+        covariance=frozen(line_covariance(rel, vt, directions)),
     )
 
 
@@ -297,6 +376,9 @@ def fit_circles(points: ArrayLike) -> CircleBatchFit:
         centres, radii, converged, iterations = _nsphere_batch(stack, element="circle")
         residuals = np.linalg.norm(stack - centres[:, None, :], axis=2) - radii[:, None]
         normals = None
+        names: tuple[str, ...] = ("center_x", "center_y", "radius")
+        parameters = np.column_stack([centres, radii])
+        covariance = nsphere_covariance(stack, centres, radii)
     else:
         centroid, vt = _planes(stack)
         frame = vt[:, :2, :]  # (K, 2, 3) in-plane axes
@@ -305,6 +387,11 @@ def fit_circles(points: ArrayLike) -> CircleBatchFit:
         centres = centroid + np.einsum("kj,kji->ki", centres2, frame)
         residuals = np.linalg.norm(in_plane - centres2[:, None, :], axis=2) - radii[:, None]
         normals = frozen(_sign_rows(vt[:, 2, :]))
+        rel = stack - centroid[:, None, :]
+        plane_cov = plane_covariance(rel, vt, normals, np.einsum("kni,ki->kn", rel, normals))
+        names = ("center_x", "center_y", "center_z", "normal_x", "normal_y", "normal_z", "radius")
+        parameters = np.column_stack([centres, normals, radii])
+        covariance = projected_circle_covariance(in_plane, centres2, radii, frame, plane_cov)
     rms, form = _stats(residuals)
     return CircleBatchFit(
         centers=frozen(centres),
@@ -316,4 +403,8 @@ def fit_circles(points: ArrayLike) -> CircleBatchFit:
         n=stack.shape[1],
         converged=converged,
         iterations=iterations,
+        dof=stack.shape[1] - 3,  # centre (2 in the plane) and radius, as the single fits
+        parameter_names=names,
+        parameters=frozen(parameters),
+        covariance=frozen(covariance),
     )

@@ -18,6 +18,7 @@ from numpy.typing import ArrayLike, NDArray
 from pcmm_geo.errors import DegenerateGeometryError, InvalidInputError
 from pcmm_geo.fit._core import FitResult, as_points, as_weights, residual_stats, solve_least_squares
 from pcmm_geo.fit._linear import frozen, local_covariance, sign_convention, weighted_centroid
+from pcmm_geo.fit._measure import circle_distance, circle_project, query_points
 from pcmm_geo.fit._round import fit_nsphere
 from pcmm_geo.fit.plane import fit_plane
 
@@ -54,6 +55,36 @@ class CircleFit(FitResult):
     def diameter(self) -> float:
         """Fitted diameter (mm)."""
         return 2.0 * self.radius
+
+    def distance(self, points: ArrayLike) -> FloatArray:
+        """Signed distances ``(...)`` of ``points`` (``(..., 2)`` or ``(..., 3)``) from the circle, mm.
+
+        As the fit's residuals: positive outside; 3-D: to the circle curve, signed by the
+        in-plane radial offset (the projected fit: the in-plane radial offset itself).
+
+        Examples
+        --------
+        >>> import numpy as np
+        >>> t = np.linspace(0, 2 * np.pi, 8, endpoint=False)
+        >>> fit = fit_circle(np.c_[5 * np.cos(t), 5 * np.sin(t), np.zeros(8)] + [1, 2, 3])
+        >>> np.round(fit.distance([[1, 10, 3], [9, 2, 7]]), 9).tolist()
+        [3.0, 5.0]
+        >>> (np.round(fit.project([[1, 10, 3], [9, 2, 7]]), 9) + 0.0).tolist()
+        [[1.0, 7.0, 3.0], [6.0, 2.0, 3.0]]
+        """
+        pts = query_points(points, self.center.size)
+        return circle_distance(pts, self.center, self.radius, self.normal,
+                               in_plane_only=self.method.startswith("projected"))
+
+    def project(self, points: ArrayLike) -> FloatArray:
+        """Nearest points on the circle (curve) to ``points`` (``(..., D)``), mm.
+
+        Raises
+        ------
+        DegenerateGeometryError
+            A point on the circle's axis (every point of the circle is nearest).
+        """
+        return circle_project(query_points(points, self.center.size), self.center, self.radius, self.normal)
 
 
 def fit_circle(

@@ -31,6 +31,7 @@ from pcmm_geo.fit._axial import (
 )
 from pcmm_geo.fit._core import FitResult, as_points, as_weights, covariance_from_jacobian, residual_stats
 from pcmm_geo.fit._linear import frozen
+from pcmm_geo.fit._measure import cone_frame, query_points, radial_unit
 from pcmm_geo.fit.cylinder import _cylinder_model, _cylinder_start, axis_point_jacobian
 
 __all__ = ["ConeFit", "fit_cone"]
@@ -40,7 +41,7 @@ _ELEMENT = "cone"
 _CYLINDER_START_BUDGET = 40
 
 
-@dataclass(frozen=True, kw_only=True, eq=False)
+@dataclass(frozen=True, kw_only=True, eq=False, repr=False)
 class ConeFit(FitResult):
     """Least-squares cone.
 
@@ -79,6 +80,41 @@ class ConeFit(FitResult):
     def surface_distance(self) -> float:
         """Perpendicular distance from ``point`` to the cone surface, ``r cos(alpha)`` (NIST's 7th number), mm."""
         return float(self.radius_at_point * np.cos(self.half_angle))
+
+    def distance(self, points: ArrayLike) -> FloatArray:
+        """Signed distances ``(...)`` of ``points`` (``(..., 3)``) from the cone, positive outside (mm).
+
+        The fit's residual ``(rho - r) cos(alpha) - h sin(alpha)``: the distance to the
+        generator line in the point's axial half-plane (exact for points on the apex's
+        opening side of the normal through the apex).
+
+        Examples
+        --------
+        >>> import numpy as np
+        >>> t = np.linspace(0, 2 * np.pi, 6, endpoint=False)
+        >>> ring = np.c_[np.cos(t), np.sin(t), np.zeros(6)]
+        >>> fit = fit_cone(np.vstack([ring, 2 * ring + [0, 0, 1], 3 * ring + [0, 0, 2]]))  # 45 degrees
+        >>> np.round(fit.distance([[4, 0, 0]]) * np.sqrt(2), 9).tolist()
+        [3.0]
+        >>> (np.round(fit.project([[4, 0, 0]]), 9) + 0.0).tolist()
+        [[2.5, 0.0, 1.5]]
+        """
+        return cone_frame(query_points(points, 3), self.point, self.axis, self.radius_at_point, self.half_angle)[3]
+
+    def project(self, points: ArrayLike) -> FloatArray:
+        """Feet ``(..., 3)`` of the perpendiculars from ``points`` to the cone's generator lines (mm).
+
+        Raises
+        ------
+        DegenerateGeometryError
+            A point on the axis (no unique generator line).
+        """
+        pts = query_points(points, 3)
+        height, radial, rho, distance = cone_frame(pts, self.point, self.axis, self.radius_at_point, self.half_angle)
+        unit = radial_unit(radial, rho, _ELEMENT)
+        foot_height = height + distance * np.sin(self.half_angle)
+        foot_rho = rho - distance * np.cos(self.half_angle)
+        return self.point + foot_height[..., None] * self.axis + foot_rho[..., None] * unit
 
 
 def _cone_model(local: FloatArray, params: FloatArray) -> tuple[FloatArray, FloatArray]:

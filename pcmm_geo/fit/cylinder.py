@@ -29,13 +29,14 @@ from pcmm_geo.fit._axial import (
 )
 from pcmm_geo.fit._core import FitResult, as_points, as_weights, covariance_from_jacobian, residual_stats
 from pcmm_geo.fit._linear import frozen
+from pcmm_geo.fit._measure import axial_parts, query_points, radial_unit
 
 __all__ = ["CylinderFit", "fit_cylinder"]
 
 _ELEMENT = "cylinder"
 
 
-@dataclass(frozen=True, kw_only=True, eq=False)
+@dataclass(frozen=True, kw_only=True, eq=False, repr=False)
 class CylinderFit(FitResult):
     """Least-squares cylinder.
 
@@ -64,6 +65,36 @@ class CylinderFit(FitResult):
     def diameter(self) -> float:
         """Diameter ``2 r`` (mm), the number NIST's reference fits report."""
         return 2.0 * self.radius
+
+    def distance(self, points: ArrayLike) -> FloatArray:
+        """Signed distances ``(...)`` of ``points`` (``(..., 3)``) from the surface, positive outside (mm).
+
+        Examples
+        --------
+        >>> import numpy as np
+        >>> t = np.linspace(0, 2 * np.pi, 6, endpoint=False)
+        >>> ring = np.c_[2 * np.cos(t), 2 * np.sin(t), np.zeros(6)]
+        >>> fit = fit_cylinder(np.vstack([ring, ring + [0, 0, 5]]))
+        >>> np.round(fit.distance([[5, 0, 1], [0, 1, 9]]), 9).tolist()
+        [3.0, -1.0]
+        >>> (np.round(fit.project([[5, 0, 1]]), 9) + 0.0).tolist()
+        [[2.0, 0.0, 1.0]]
+        """
+        _, _, rho = axial_parts(query_points(points, 3), self.point, self.axis)
+        return rho - self.radius
+
+    def project(self, points: ArrayLike) -> FloatArray:
+        """Nearest points ``(..., 3)`` on the cylinder surface (mm).
+
+        Raises
+        ------
+        DegenerateGeometryError
+            A point on the axis (a whole circle of surface points is nearest).
+        """
+        pts = query_points(points, 3)
+        height, radial, rho = axial_parts(pts, self.point, self.axis)
+        unit = radial_unit(radial, rho, _ELEMENT)
+        return self.point + height[..., None] * self.axis + self.radius * unit
 
 
 def axis_point_jacobian(rotation: FloatArray, origin_local: FloatArray) -> tuple[FloatArray, FloatArray]:

@@ -10,6 +10,7 @@ from numpy.typing import ArrayLike, NDArray
 from pcmm_geo.errors import InvalidInputError
 from pcmm_geo.fit._core import FitResult, as_points, as_weights, residual_stats
 from pcmm_geo.fit._linear import frozen
+from pcmm_geo.fit._measure import query_points, radial_unit
 from pcmm_geo.fit._round import fit_nsphere
 
 __all__ = ["SphereFit", "fit_sphere"]
@@ -41,6 +42,18 @@ class SphereFit(FitResult):
     def distance(self, points: ArrayLike) -> FloatArray:
         """Signed distances of ``points`` (``(..., 3)``) from the sphere, positive outside."""
         return np.linalg.norm(np.asarray(points, dtype=float) - self.center, axis=-1) - self.radius
+
+    def project(self, points: ArrayLike) -> FloatArray:
+        """Nearest points ``(..., 3)`` on the sphere to ``points`` (``(..., 3)``), mm.
+
+        Raises
+        ------
+        DegenerateGeometryError
+            A point at the centre (every surface point is nearest).
+        """
+        pts = query_points(points, 3)
+        rel = pts - self.center
+        return self.center + self.radius * radial_unit(rel, np.linalg.norm(rel, axis=-1), _ELEMENT)
 
 
 def fit_sphere(

@@ -28,6 +28,7 @@ from pcmm_geo.fit._axial import (
 )
 from pcmm_geo.fit._core import FitResult, as_points, as_weights, covariance_from_jacobian, residual_stats
 from pcmm_geo.fit._linear import frozen
+from pcmm_geo.fit._measure import axial_parts, query_points, torus_project
 from pcmm_geo.fit._torus_search import best_axis_position, refined_axis
 
 __all__ = ["TorusFit", "fit_torus"]
@@ -36,7 +37,7 @@ _ELEMENT = "torus"
 _INVALID_COST = 1e300
 
 
-@dataclass(frozen=True, kw_only=True, eq=False)
+@dataclass(frozen=True, kw_only=True, eq=False, repr=False)
 class TorusFit(FitResult):
     """Least-squares torus.
 
@@ -61,6 +62,34 @@ class TorusFit(FitResult):
     axis: FloatArray
     major_radius: float
     minor_radius: float
+
+    def distance(self, points: ArrayLike) -> FloatArray:
+        """Signed distances ``(...)`` of ``points`` (``(..., 3)``) from the torus, positive outside the tube (mm).
+
+        Examples
+        --------
+        >>> import numpy as np
+        >>> u, v = np.meshgrid(np.linspace(0, 2 * np.pi, 7)[:-1], np.linspace(0, 2 * np.pi, 5)[:-1])
+        >>> tube = np.c_[((10 + 2 * np.cos(v)) * np.cos(u)).ravel(), ((10 + 2 * np.cos(v)) * np.sin(u)).ravel(),
+        ...              (2 * np.sin(v)).ravel()]
+        >>> fit = fit_torus(tube)
+        >>> np.round(fit.distance([[15, 0, 0], [10, 0, 1]]), 6).tolist()
+        [3.0, -1.0]
+        >>> (np.round(fit.project([[15, 0, 0]]), 6) + 0.0).tolist()
+        [[12.0, 0.0, 0.0]]
+        """
+        height, _, rho = axial_parts(query_points(points, 3), self.center, self.axis)
+        return np.hypot(rho - self.major_radius, height) - self.minor_radius
+
+    def project(self, points: ArrayLike) -> FloatArray:
+        """Nearest points ``(..., 3)`` on the torus (mm).
+
+        Raises
+        ------
+        DegenerateGeometryError
+            A point on the axis or on the tube's centre circle (no unique nearest point).
+        """
+        return torus_project(query_points(points, 3), self.center, self.axis, self.major_radius, self.minor_radius)
 
 
 def _torus_model(local: FloatArray, params: FloatArray) -> tuple[FloatArray, FloatArray]:
