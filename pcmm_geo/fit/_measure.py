@@ -36,9 +36,13 @@ def axial_parts(points: FloatArray, origin: FloatArray, axis: FloatArray) -> tup
     return height, radial, np.linalg.norm(radial, axis=-1)
 
 
-def radial_unit(radial: FloatArray, rho: FloatArray, element: str) -> FloatArray:
-    """Unit radial directions; a point on the axis has none, so its projection is undefined."""
-    if np.any(rho == 0.0):
+#: a point nearer than this fraction of the element's size to an axis (or centre) has no direction
+_ON_AXIS = 1e-12
+
+
+def radial_unit(radial: FloatArray, rho: FloatArray, element: str, size: float = 1.0) -> FloatArray:
+    """Unit radial directions; a point on the axis (within ``1e-12 * max(1, size)``) has none."""
+    if np.any(rho <= _ON_AXIS * max(1.0, abs(size))):
         raise DegenerateGeometryError(element, "a point lies on the axis: its nearest surface point is not unique")
     return radial / rho[..., None]
 
@@ -65,9 +69,9 @@ def circle_project(points: FloatArray, center: FloatArray, radius: float, normal
     if normal is None:
         rel = points - center
         rho = np.linalg.norm(rel, axis=-1)
-        return center + radius * radial_unit(rel, rho, "circle")
+        return center + radius * radial_unit(rel, rho, "circle", radius)
     _, radial, rho = axial_parts(points, center, normal)
-    return center + radius * radial_unit(radial, rho, "circle")
+    return center + radius * radial_unit(radial, rho, "circle", radius)
 
 
 def cone_frame(
@@ -84,9 +88,9 @@ def torus_project(
 ) -> FloatArray:
     """Nearest points on the torus: from the nearest point of the tube's centre circle, ``minor`` toward the point."""
     _, radial, rho = axial_parts(points, center, axis)
-    tube_center = center + major * radial_unit(radial, rho, "torus")
+    tube_center = center + major * radial_unit(radial, rho, "torus", major)
     offset = points - tube_center
     length = np.linalg.norm(offset, axis=-1)
-    if np.any(length == 0.0):
+    if np.any(length <= _ON_AXIS * max(1.0, major)):
         raise DegenerateGeometryError("torus", "a point lies on the tube's centre circle: no unique nearest point")
     return tube_center + minor * offset / length[..., None]

@@ -111,7 +111,7 @@ class ConeFit(FitResult):
         """
         pts = query_points(points, 3)
         height, radial, rho, distance = cone_frame(pts, self.point, self.axis, self.radius_at_point, self.half_angle)
-        unit = radial_unit(radial, rho, _ELEMENT)
+        unit = radial_unit(radial, rho, _ELEMENT, self.radius_at_point)
         foot_height = height + distance * np.sin(self.half_angle)
         foot_rho = rho - distance * np.cos(self.half_angle)
         return self.point + foot_height[..., None] * self.axis + foot_rho[..., None] * unit

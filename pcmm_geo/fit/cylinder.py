@@ -93,7 +93,7 @@ class CylinderFit(FitResult):
         """
         pts = query_points(points, 3)
         height, radial, rho = axial_parts(pts, self.point, self.axis)
-        unit = radial_unit(radial, rho, _ELEMENT)
+        unit = radial_unit(radial, rho, _ELEMENT, self.radius)
         return self.point + height[..., None] * self.axis + self.radius * unit
 
 

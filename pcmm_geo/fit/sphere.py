@@ -53,7 +53,7 @@ class SphereFit(FitResult):
         """
         pts = query_points(points, 3)
         rel = pts - self.center
-        return self.center + self.radius * radial_unit(rel, np.linalg.norm(rel, axis=-1), _ELEMENT)
+        return self.center + self.radius * radial_unit(rel, np.linalg.norm(rel, axis=-1), _ELEMENT, self.radius)
 
 
 def fit_sphere(
