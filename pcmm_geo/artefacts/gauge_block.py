@@ -49,7 +49,6 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from pcmm_geo._deprecation import renamed_fields
-from pcmm_geo.artefacts._table import cell_float, cell_text, read_rows
 from pcmm_geo.errors import DegenerateGeometryError, FileFormatError, InvalidInputError
 from pcmm_geo.fit._core import as_points
 
@@ -364,7 +363,9 @@ def measure_gauge_block(points_by_face: Mapping[str, ArrayLike]) -> GaugeBlockMe
 
 
 def read_gauge_block_csv(path: str | Path) -> dict[str, FloatArray]:
-    """Read a ``face,x,y,z`` CSV (mm; ``face`` one of :data:`FACE_LABELS`) into points by face.
+    """Read a labelled ``face,x,y,z`` file (mm; ``face`` one of :data:`FACE_LABELS`) into points by face.
+
+    Built on :func:`pcmm_geo.io.read_labelled_points`.
 
     Raises
     ------
@@ -380,10 +381,11 @@ def read_gauge_block_csv(path: str | Path) -> dict[str, FloatArray]:
     >>> sorted(faces)
     ['face_1', 'face_2', 'side', 'top']
     """
-    grouped: dict[str, list[list[float]]] = {}
-    for line, row in read_rows(path, ("face", "x", "y", "z")):
-        face = cell_text(path, line, row, "face").lower()
-        if face not in FACE_LABELS:
-            raise FileFormatError(str(path), f"face: expected one of {', '.join(FACE_LABELS)}, got {face!r}", line)
-        grouped.setdefault(face, []).append([cell_float(path, line, row, axis) for axis in "xyz"])
-    return {face: np.asarray(points, dtype=float) for face, points in grouped.items()}
+    from pcmm_geo.io.labelled import read_labelled_points
+
+    found = read_labelled_points(path)
+    for label, line in zip(found.labels, found.lines, strict=True):
+        if label.lower() not in FACE_LABELS:
+            raise FileFormatError(str(path), f"face: expected one of {', '.join(FACE_LABELS)}, got {label!r}", line)
+    faces = np.array([label.lower() for label in found.labels])
+    return {face: found.points[faces == face] for face in dict.fromkeys(faces.tolist())}

@@ -23,8 +23,7 @@ from pathlib import Path
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from pcmm_geo._deprecation import renamed_fields, renamed_parameters
-from pcmm_geo.artefacts._table import cell_float, read_rows
+from pcmm_geo._deprecation import renamed_fields, renamed_parameters, warn_deprecated
 from pcmm_geo.errors import InvalidInputError
 from pcmm_geo.fit._core import as_points
 
@@ -208,20 +207,18 @@ def evaluate_probing(
 
 
 def read_points_csv(path: str | Path) -> FloatArray:
-    """Read an ``x,y,z`` CSV (mm, ``#`` comments allowed) into an ``(N, 3)`` array.
-
-    Raises
-    ------
-    FileFormatError
-        Missing columns or non-numeric cells.
-    OSError
-        Unreadable file.
+    """Deprecated since 0.2.0 (removed in 0.3.0): use :func:`pcmm_geo.io.read_points`, the one point-file reader.
 
     Examples
     --------
+    >>> import warnings
     >>> from importlib.resources import files
-    >>> read_points_csv(files("pcmm_geo") / "data/examples/iso10360_5_sphere.csv").shape
+    >>> with warnings.catch_warnings():
+    ...     warnings.simplefilter("ignore", DeprecationWarning)
+    ...     read_points_csv(files("pcmm_geo") / "data/examples/iso10360_5_sphere.csv").shape
     (25, 3)
     """
-    rows = read_rows(path, ("x", "y", "z"))
-    return np.array([[cell_float(path, line, row, axis) for axis in "xyz"] for line, row in rows])
+    from pcmm_geo.io.points import read_points
+
+    warn_deprecated("pcmm_geo.artefacts.read_points_csv", "pcmm_geo.io.read_points", stacklevel=3)
+    return read_points(path)

@@ -122,12 +122,13 @@ def _handle_2(args: argparse.Namespace) -> Report:
 
 
 def _handle_5(args: argparse.Namespace) -> Report:
-    from pcmm_geo.artefacts.iso10360_5 import evaluate_probing, read_points_csv
+    from pcmm_geo.artefacts.iso10360_5 import evaluate_probing
+    from pcmm_geo.io.points import read_points
 
     _positive("--mpe-form", args.mpe_form)
     _positive("--mpe-size", args.mpe_size)
     result = evaluate_probing(
-        read_points_csv(args.file),
+        read_points(args.file),
         args.reference_diameter,
         mpe_form=None if args.mpe_form is None else args.mpe_form / 1000,
         mpe_size=None if args.mpe_size is None else args.mpe_size / 1000,

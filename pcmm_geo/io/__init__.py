@@ -1,4 +1,8 @@
-"""File formats: point files and point clouds, triangle meshes, NIST reference pairs.
+"""File formats: point files and point clouds, labelled point files, triangle meshes, NIST reference pairs.
+
+:func:`read_points` is the one reader of plain point files (``(N, 3)`` from CSV/TXT/XYZ,
+NIST ``.ds``, PLY, PCD); :func:`read_labelled_points` reads ``name,x,y,z`` files keeping the
+labels (:class:`LabelledPoints`).
 
 Names are loaded on first access so that ``import pcmm_geo.io`` stays light (open3d is
 imported only when a point cloud is read or written, trimesh only for meshes).
@@ -12,6 +16,8 @@ from typing import Any
 _LAZY = {
     "read_points": "points",
     "write_points": "points",
+    "read_labelled_points": "labelled",
+    "LabelledPoints": "labelled",
     "read_nist_pair": "nist",
     "iter_nist_pairs": "nist",
     "NistPair": "nist",
