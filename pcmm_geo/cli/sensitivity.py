@@ -19,7 +19,7 @@ def register(subparsers: Any) -> None:
     add_machine_argument(parser)
     parser.add_argument("--size", type=float, default=100.0, help="edge of the working cube in mm (default 100)")
     parser.add_argument("--points-per-axis", type=int, default=5, help="grid points per axis (default 5)")
-    parser.add_argument("--centre", type=float, nargs=3, metavar=("X", "Y", "Z"),
+    parser.add_argument("--center", "--centre", dest="center", type=float, nargs=3, metavar=("X", "Y", "Z"),
                         help="cube centre in mm (default: tip at the reference heights)")
     parser.add_argument("--laser-accuracy", type=float, default=0.05, help="laser accuracy in mm (default 0.05)")
     add_plot_flag(parser, "the sensitivity map (laser gain over the grid, probe/laser ratio per motor)")
@@ -36,7 +36,7 @@ def _handle(args: argparse.Namespace) -> Report:
 
     machine = load_machine_file(args.calibration)
     sens = sensitivity_over_cube(
-        machine, centre=args.center, size=args.size, points_per_axis=args.points_per_axis,
+        machine, center=args.center, size=args.size, points_per_axis=args.points_per_axis,
         laser_accuracy=args.laser_accuracy,
     )
     data = sens.summary()
