@@ -93,8 +93,12 @@ def _is_number(text: str) -> bool:
 
 def _header_columns(file: Path, names: list[str], line: int) -> tuple[int, tuple[int, int, int]]:
     lowered = [n.lower() for n in names]
-    if not {"x", "y", "z"} <= set(lowered):
-        raise FileFormatError(str(file), f"expected a header with x, y, z and a label column, got {names}", line)
+    missing = [axis for axis in ("x", "y", "z") if axis not in lowered]
+    if missing:
+        raise FileFormatError(
+            str(file), f"expected a header with x, y, z and a label column, got {names} (missing {', '.join(missing)})",
+            line,
+        )
     others = [k for k, n in enumerate(lowered) if n not in ("x", "y", "z")]
     named = [k for k in others if lowered[k] in LABEL_COLUMNS]
     if len(named) == 1:

@@ -7,7 +7,9 @@ A file holds
   (fitted joint and tip spheres, laser readings, sweep, options, datum frame), so loading
   recomputes the calibration exactly;
 * ``results`` -- the calibrated values for people and other programs
-  (:meth:`TetrahedronCalibration.summary`: ``dead_distance``, ``beta_deg``, ``b_in``, ...);
+  (:meth:`TetrahedronCalibration.summary`: ``dead_distance``, ``beta_deg``, ``b_in``, ...;
+  angles in degrees under keys ending in ``_deg``, although ``TetrahedronCalibration.beta``
+  is in radians since 0.2.0 -- the file format is unchanged);
   on loading they must agree with the recomputation, which catches edited or damaged files;
 * ``tetrahedron`` -- the rigid-body tetrahedron in the layout of
   :meth:`RigidBodyMachine.to_dict` ``["tetrahedron"]``;
