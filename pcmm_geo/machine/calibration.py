@@ -377,6 +377,7 @@ def save_calibration(
     overwrite: bool = False,
     columns: Mapping[str, Any] | None = None,
     extra: Mapping[str, Any] | None = None,
+    covariance: Any = None,
 ) -> Path:
     """Write ``cal`` as versioned calibration JSON; see :func:`pcmm_geo.machine.calfile.save_calibration`.
 
@@ -396,7 +397,7 @@ def save_calibration(
     """
     from pcmm_geo.machine.calfile import save_calibration as _save
 
-    return _save(cal, path, overwrite=overwrite, columns=columns, extra=extra)
+    return _save(cal, path, overwrite=overwrite, columns=columns, extra=extra, covariance=covariance)
 
 
 def load_calibration(path: str | Path) -> TetrahedronCalibration:
