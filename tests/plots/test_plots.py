@@ -113,7 +113,7 @@ def test_calibration_demo_and_log_plots(tmp_path: Path) -> None:
 
     steps: list[tuple[int, int, str]] = []
     result = run_demo(progress=lambda done, total, text: steps.append((done, total, text)))
-    assert [(done, total) for done, total, _ in steps] == [(k, 4) for k in range(5)]
+    assert [(done, total) for done, total, _ in steps] == [(k, 5) for k in range(6)]  # 5 steps: + uncertainty
     assert steps[-1][2] == "done"
     _assert_real_picture(plot_calibration(result.tetrahedron_calibration, tmp_path / "cal.png"), 12.0, 6.5)
     _assert_real_picture(plot_tip_errors(result.tip_errors, tmp_path / "tips.png"), 7.0, 4.0)
