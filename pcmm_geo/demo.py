@@ -356,6 +356,39 @@ def run_demo(
     )
 
 
+def demo_calibrated_machine(settings: DemoSettings | None = None) -> tuple[Any, float, Any, FloatArray]:
+    """The demo's calibrated micro-CMM with its calibration covariance (for ``pcmm uncertainty``).
+
+    Returns
+    -------
+    machine : RigidBodyMachine
+        Calibrated tetrahedron on the true (nominal) columns.
+    tip_radius : float
+        Calibrated tip radius (mm).
+    covariance : CalibrationCovariance
+        From the demo's probing and laser noise.
+    reference_tip : ndarray, shape (3,)
+        Tip centre in the middle of the working volume (mm).
+    """
+    from pcmm_geo.machine.calibration import calibrate_tetrahedron
+    from pcmm_geo.machine.model import RigidBodyMachine
+    from pcmm_geo.uncertainty.calibration import calibration_covariance
+
+    settings = settings or DemoSettings()
+    rng = np.random.default_rng(settings.seed)
+    machine = true_machine(settings)
+    probings = simulate_probings(machine, settings, rng)
+    lasers = CALIBRATION_LASERS + rng.normal(0.0, settings.laser_sigma, CALIBRATION_LASERS.shape)
+    calibration = calibrate_tetrahedron(probings, lasers)
+    covariance = calibration_covariance(
+        probings, lasers, probing_sigma=settings.cmm_probing_sigma, laser_sigma=settings.laser_sigma
+    )
+    calibrated = RigidBodyMachine(calibration.tetrahedron, machine.columns, machine.reference_lasers,
+                                  machine.reference_heights)
+    reference_tip = machine.forward(heights=machine.reference_heights, lasers_hint=machine.reference_lasers).tip
+    return calibrated, float(calibration.tip.radius), covariance, np.asarray(reference_tip)
+
+
 def _length_uncertainty(
     settings: DemoSettings, probings: Any, lasers: FloatArray, calibrated: Any, tip_radius: float,
     center: FloatArray, rng: np.random.Generator,

@@ -12,6 +12,7 @@ without ``pyplot``, so no global matplotlib backend is switched.
 - :func:`plot_fit_residuals` -- residuals of a Gaussian fit.
 - :func:`plot_processed_log` -- tip path, pivot heights and closure residuals of a log.
 - :func:`plot_tip_errors`, :func:`plot_demo_overview` -- the end-to-end demo.
+- :func:`plot_monte_carlo` -- a Monte Carlo uncertainty evaluation (histogram, interval, budget).
 
 Examples
 --------
@@ -37,6 +38,7 @@ _LAZY = {
     "plot_fit_residuals": "pcmm_geo.plots.fit_residuals",
     "plot_processed_log": "pcmm_geo.plots.process_log",
     "plot_tip_errors": "pcmm_geo.plots.demo",
+    "plot_monte_carlo": "pcmm_geo.plots.uncertainty",
     "plot_demo_overview": "pcmm_geo.plots.demo",
     "check_plot_path": "pcmm_geo.plots._figure",
 }

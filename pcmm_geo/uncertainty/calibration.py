@@ -141,6 +141,7 @@ class CalibrationCovariance:
     def standard_uncertainties(self) -> dict[str, float]:
         """``{name: u}`` (square roots of the diagonal)."""
         diag = np.sqrt(np.clip(np.diag(self.covariance), 0.0, None))
+        diag = np.where(np.isfinite(self.values), diag, np.nan)  # e.g. no tip radius in element-level data
         return {name: float(u) for name, u in zip(self.names, diag, strict=True)}
 
     def units(self) -> dict[str, str]:
@@ -184,7 +185,7 @@ class CalibrationCovariance:
         """
         try:
             names = tuple(str(n) for n in data["names"])
-            values = np.asarray(data["values"], dtype=float)
+            values = np.array([math.nan if v is None else v for v in data["values"]], dtype=float)
             matrix = np.asarray(data["matrix"], dtype=float)
             out = cls(names, values, matrix, str(data["method"]), float(data["probing_sigma_mm"]),
                       float(data["laser_sigma_mm"]), int(data.get("n_trials", 0)))
@@ -312,6 +313,8 @@ def calibration_covariance(
     u_x = np.sqrt(np.diag(cov_x))
     steps = np.where(u_x > 0, u_x / 10.0, 1e-6 * np.maximum(1.0, np.abs(x0)))
     values, jac = jacobian(model, x0, steps)
+    # a parameter the data do not give (the tip radius of element-level data) stays NaN with no covariance
+    jac = np.where(np.isfinite(values)[:, None], np.nan_to_num(jac, nan=0.0), 0.0)
     covariance = jac @ cov_x @ jac.T
     return CalibrationCovariance(
         names=PARAMETER_NAMES,

@@ -401,7 +401,8 @@ class VirtualCMM:
             **monte_carlo_options,
         )
         gum = self.gum(task) if with_gum else None
-        validation = validate_gum(gum, result) if gum is not None else {}
+        digits = int(monte_carlo_options.get("significant_digits", 2))
+        validation = validate_gum(gum, result, significant_digits=digits) if gum is not None else {}
         th = self.thermal
         inputs = {
             "laser_sigma_mm": self.laser_sigma,
