@@ -115,11 +115,12 @@ def _handle_2(args: argparse.Namespace) -> Report:
     }
     rows = [[f"{e.length_id}/{e.position}/{e.repetition}", e.calibrated_length, e.error * 1000, e.mpe * 1000]
             for e in bad]
-    tables = [Table("Nonconforming E0 values", ["length/position/rep", "L (mm)", "E0 (um)", "MPE (um)"], rows)] \
-        if rows else []
+    title = "E0 values not proven to conform" if result.errors[0].verdict else "Nonconforming E0 values"
+    tables = [Table(title, ["length/position/rep", "L (mm)", "E0 (um)", "MPE (um)"], rows)] if rows else []
     lines = [
-        f"ISO 10360-2: {result.verdict} ({len(result.errors)} values, "
-        f"{result.n_nonconforming} nonconforming)",
+        f"ISO 10360-2: {result.verdict} ({len(result.errors)} values, " + (
+            ", ".join(f"{sum(e.verdict == v for e in result.errors)} {v}" for v in ("PASS", "NOT PROVEN", "FAIL"))
+            if result.errors[0].verdict else f"{result.n_nonconforming} nonconforming") + ")",
         f"max |E0| = {result.max_abs_error * 1000:.3f} um ({result.max_error_ratio:.2f} of MPE), "
         f"max R0 = {result.max_range * 1000:.3f} um",
         f"decision rule: {result.decision_rule}",
