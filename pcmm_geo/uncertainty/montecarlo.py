@@ -174,7 +174,7 @@ def adaptive_monte_carlo(
         Trials per group (default: those of the main run, at most 10^5).
     quantity, unit : str
     progress : callable, optional
-        ``progress(trials_done, max_trials, text)``.
+        ``progress(trials_done, total_or_None, text)`` (no total while the adaptive run goes on).
     keep_values : bool
         Keep the output values in ``result.values`` (for histograms).
 
@@ -218,8 +218,8 @@ def adaptive_monte_carlo(
     converged = False
     delta = math.nan
     while True:
-        if progress is not None:
-            progress(len(batches) * size, max_trials, f"Monte Carlo: {len(batches) * size} trials")
+        if progress is not None:  # the adaptive run's length is not known in advance: no total
+            progress(len(batches) * size, trials, f"Monte Carlo: {len(batches) * size} trials")
         batch = _simulate(simulate, rng, size)
         batches.append(batch)
         if trials is not None:  # one fixed run: judge stability on its two halves
@@ -241,7 +241,8 @@ def adaptive_monte_carlo(
         spreads = {}
         for done, (name, group_sim) in enumerate(groups.items()):
             if progress is not None:
-                progress(len(everything), max_trials, f"budget {done + 1}/{len(groups)}: {name}")
+                progress(len(everything) + done * n_group, len(everything) + len(groups) * n_group,
+                         f"budget {done + 1}/{len(groups)}: {name}")
             spreads[name] = float(_simulate(group_sim, rng, n_group).std(ddof=1))
         total = sum(s**2 for s in spreads.values())
         budget = tuple(
