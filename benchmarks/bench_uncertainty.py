@@ -1,4 +1,4 @@
-"""Benchmark of the virtual micro-CMM (issue 13): 1e5 Monte Carlo trials of the gauge-block task, and the demo's coverage.
+"""Benchmark of the virtual micro-CMM (issue 13): 1e5 gauge-block Monte Carlo trials, and the demo's coverage.
 
 1. Wall time of ``--trials`` (default 1e5) trials of the 100 mm gauge-block task with every
    input group active (calibration covariance, laser and encoder noise, probing scatter,
@@ -23,13 +23,13 @@ import os
 
 os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 
-import argparse  # noqa: E402
-import dataclasses  # noqa: E402
-import time  # noqa: E402
+import argparse
+import dataclasses
+import time
 
-import numpy as np  # noqa: E402
+import numpy as np
 
-from benchmarks._timing import best_of  # noqa: E402
+from benchmarks._timing import best_of
 
 
 def _vcmm() -> tuple[object, object]:
