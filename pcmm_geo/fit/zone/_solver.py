@@ -145,7 +145,8 @@ def _slp(
     x = np.array(x0, dtype=float)
     d, jac = model(points, x)
     phi = _objective(d, mode)
-    width = max(float(d.max() - d.min()), 1e-12 * max(1.0, float(np.abs(d).max())))
+    # scale of the residuals; exact data (zero width) still need a finite step scale
+    width = max(float(d.max() - d.min()), 1e-9 * max(1.0, float(np.abs(d).max())))
     col_scale = width / np.maximum(np.abs(jac).max(axis=0), 1e-300)
     working = _extremes(d, mode, _WORKING_BLOCK)
     radius = 1.0
@@ -175,6 +176,11 @@ def _slp(
             x, d, jac, phi = trial, d_trial, jac_trial, phi_trial
             if ratio > 0.75 and np.abs(step_scaled).max() >= 0.99 * radius:
                 radius *= 2.0
+            if d.max() - d.min() > 2.0 * width:  # keep the LP well scaled as the zone grows
+                new_width = float(d.max() - d.min())
+                radius *= width / new_width
+                col_scale *= new_width / width
+                width = new_width
             working = np.union1d(working, _extremes(d, mode, _WORKING_BLOCK))
             if diverged is not None and diverged(x):
                 status = "diverged"
