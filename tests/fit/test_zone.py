@@ -291,3 +291,14 @@ def test_reference_generator_input_errors() -> None:
         make_minimax_reference("circle", "mcc", arc=np.pi / 2)
     with pytest.raises(TooFewPointsError):
         make_minimax_reference("cylinder", "chebyshev", n_points=5)
+
+
+def test_mcc_with_two_diametral_contacts_uses_curvature() -> None:
+    """Not a vertex of the linearised problem: the Newton step needs the curvature terms."""
+    points = np.array([[10.0, 0.0], [-10.0, 0.0], [0.0, 5.0], [1.0, -6.0], [3.0, 3.0]]) + np.array([250.0, -40.0])
+    fit = fit_circle(points, criterion="mcc")
+    assert fit.converged, fit.message
+    assert fit.contacts.tolist() == [0, 1]
+    assert np.linalg.norm(fit.center - [250.0, -40.0]) <= 1e-12
+    assert fit.radius == pytest.approx(10.0, abs=1e-12)
+    assert fit.certificate.multipliers == pytest.approx([0.5, 0.5], abs=1e-12)

@@ -201,7 +201,13 @@ def _slp(
 
 
 def _kkt_newton(
-    points: FloatArray, x: FloatArray, contacts: dict[int, float], model: Model, mode: Mode, size: float
+    points: FloatArray,
+    x: FloatArray,
+    contacts: dict[int, float],
+    model: Model,
+    mode: Mode,
+    size: float,
+    norms: FloatArray,
 ) -> tuple[FloatArray, FloatArray, FloatArray, bool]:
     """Newton on the KKT system of a fixed contact set; returns x, levels, lambdas, converged."""
     use_lower, use_upper = _levels(mode)
@@ -213,7 +219,7 @@ def _kkt_newton(
     m, p = len(index), x.size
     d, jac = model(sub, x)
     levels = np.array(([d[sign < 0].mean()] if use_lower else []) + ([d[sign > 0].mean()] if use_upper else []))
-    lam = _nnls_multipliers(jac, sign, level_slot, n_lev)[0]
+    lam = _nnls_multipliers(jac, sign, level_slot, n_lev, norms)[0]
     one_hot = np.zeros((m, n_lev))
     one_hot[np.arange(m), level_slot] = 1.0
     converged = False
@@ -221,7 +227,7 @@ def _kkt_newton(
     previous = np.inf
     for _ in range(50):
         d, jac = model(sub, x)
-        steps = 1e-6 * size / np.maximum(np.abs(jac).max(axis=0), 1e-300)
+        steps = 1e-6 * size / norms
         hessian = np.zeros((p, p))
         weighted = sign * lam
         for j in range(p):
@@ -239,12 +245,12 @@ def _kkt_newton(
         system[m : m + p, p + n_lev :] = (jac * sign[:, None]).T
         system[m + p :, p + n_lev :] = one_hot.T
         delta = np.linalg.lstsq(system, -residual, rcond=None)[0]
-        if np.abs(delta[:p] * np.abs(jac).max(axis=0)).max() > 10.0 * width + 1e-9 * size:
+        if np.abs(delta[:p] * norms).max() > 10.0 * width + 1e-9 * size:
             break  # running away: the contact set is wrong
         x = x + delta[:p]
         levels = levels + delta[p : p + n_lev]
         lam = lam + delta[p + n_lev :]
-        moved = float(np.abs(delta[:p] * np.abs(jac).max(axis=0)).max())
+        moved = float(np.abs(delta[:p] * norms).max())
         # converged: a step at rounding level, or a small step that no longer shrinks
         if moved <= 1e-14 * size or (moved <= 1e-10 * size and moved >= 0.5 * previous):
             converged = True
@@ -253,13 +259,57 @@ def _kkt_newton(
     return x, levels, lam, converged
 
 
+def _reduced_curvature(
+    sub: FloatArray,
+    x: FloatArray,
+    jac: FloatArray,
+    sign: FloatArray,
+    lam: FloatArray,
+    level_slot: IndexArray,
+    model: Model,
+    mode: Mode,
+    size: float,
+    norms: FloatArray,
+) -> float:
+    """Smallest eigenvalue of the Lagrangian's Hessian on the tangent space of the contacts (second-order test).
+
+    At a vertex (as many independent contacts as unknowns) the tangent space is empty and
+    the first-order conditions alone prove a strict minimum: returns +inf.  Otherwise the
+    Hessian ``sum_k s_k lambda_k H_k`` (central differences of the gradients), reduced to
+    the directions ``(dx, dlevels)`` that keep every contact on its level, must be
+    positive semi-definite; the value is made dimensionless with the gradient scale.
+    """
+    use_lower, use_upper = _levels(mode)
+    n_lev = use_lower + use_upper
+    m, p = jac.shape
+    one_hot = np.zeros((m, n_lev))
+    one_hot[np.arange(m), level_slot] = 1.0
+    # work in parameters scaled to move the distances by about the data size
+    scaling = np.concatenate([size / norms, np.ones(n_lev)])
+    constraint = np.hstack([jac, -one_hot]) * scaling
+    _, singular, vt = np.linalg.svd(constraint)
+    rank = int(np.sum(singular > 1e-10 * max(singular[0], 1e-300))) if singular.size else 0
+    tangent = vt[rank:].T
+    if tangent.shape[1] == 0:
+        return float("inf")
+    steps = 1e-6 * size / norms
+    hessian = np.zeros((p + n_lev, p + n_lev))
+    weighted = sign * lam
+    for j in range(p):
+        shift = np.zeros(p)
+        shift[j] = steps[j]
+        hessian[:p, j] = weighted @ (model(sub, x + shift)[1] - model(sub, x - shift)[1]) / (2 * steps[j])
+    hessian = 0.5 * (hessian + hessian.T)
+    reduced = tangent.T @ (hessian * np.outer(scaling, scaling)) @ tangent / size
+    return float(np.linalg.eigvalsh(0.5 * (reduced + reduced.T)).min())
+
+
 def _nnls_multipliers(
-    jac: FloatArray, sign: FloatArray, level_slot: IndexArray, n_lev: int
+    jac: FloatArray, sign: FloatArray, level_slot: IndexArray, n_lev: int, norms: FloatArray
 ) -> tuple[FloatArray, float]:
     """Non-negative multipliers of the stationarity equations and the relative residual."""
     from scipy.optimize import nnls
 
-    norms = np.maximum(np.abs(jac).max(axis=0), 1e-300)
     rows = (jac / norms * sign[:, None]).T
     groups = np.zeros((n_lev, len(sign)))
     groups[level_slot, np.arange(len(sign))] = 1.0
@@ -284,6 +334,9 @@ def solve_minimax(
     run-away (unbounded) problem, reported as ``message == "diverged"``.
     """
     use_lower, use_upper = _levels(mode)
+    # gradient scale of each parameter over all points (contacts alone may have a zero column)
+    norms = np.abs(model(points, x0)[1]).max(axis=0)
+    norms = np.maximum(norms, 1e-12 * max(float(norms.max()), 1e-300))
     x, contacts, iterations, status = _slp(points, x0, model, mode, diverged)
     if status == "diverged":
         d = model(points, x)[0]
@@ -298,7 +351,7 @@ def solve_minimax(
             contacts = {int(np.argmax(d)): 1.0} if use_upper else {}
             if use_lower:
                 contacts[int(np.argmin(d))] = -1.0
-        x_new, levels, lam, converged = _kkt_newton(points, x, contacts, model, mode, size)
+        x_new, levels, lam, converged = _kkt_newton(points, x, contacts, model, mode, size, norms)
         if not converged:
             # exchange: add the point nearest to a boundary that is not yet a contact
             d = model(points, x)[0]
@@ -342,17 +395,22 @@ def solve_minimax(
     index = np.array(sorted(contacts), dtype=np.intp)
     sign = np.array([contacts[i] for i in index])
     level_slot = np.where(sign > 0, int(use_lower), 0)
-    lam, kkt_residual = _nnls_multipliers(jac[index], sign, level_slot, use_lower + use_upper)
+    lam, kkt_residual = _nnls_multipliers(jac[index], sign, level_slot, use_lower + use_upper, norms)
     feasibility = float(max(0.0, (d - upper).max() if use_upper else 0.0, (lower - d).max() if use_lower else 0.0))
-    certified = bool(converged and kkt_residual <= KKT_TOLERANCE and feasibility <= feasibility_tol)
+    curvature = _reduced_curvature(points[index], x, jac[index], sign, lam, level_slot, model, mode, size, norms)
+    certified = bool(
+        converged and kkt_residual <= KKT_TOLERANCE and feasibility <= feasibility_tol and curvature >= -KKT_TOLERANCE
+    )
     if certified:
         message = "certified: KKT conditions hold on the contact set, every point inside the zone"
     elif not converged:
         message = f"not certified: Newton iteration on the contact set did not converge ({message})"
     elif kkt_residual > KKT_TOLERANCE:
         message = f"not certified: KKT stationarity residual {kkt_residual:.3g} (no non-negative multipliers)"
-    else:
+    elif feasibility > feasibility_tol:
         message = f"not certified: a point lies {feasibility:.3g} mm outside the zone"
+    else:
+        message = f"not certified: a saddle point (curvature {curvature:.3g} along the contact set), not a minimum"
     return ZoneSolution(
         x=x,
         lower=lower,
