@@ -302,3 +302,23 @@ def test_mcc_with_two_diametral_contacts_uses_curvature() -> None:
     assert np.linalg.norm(fit.center - [250.0, -40.0]) <= 1e-12
     assert fit.radius == pytest.approx(10.0, abs=1e-12)
     assert fit.certificate.multipliers == pytest.approx([0.5, 0.5], abs=1e-12)
+
+
+def test_roundness_profiles_batch() -> None:
+    from pcmm_geo.fit.zone import roundness_profiles
+
+    sets = [
+        make_minimax_reference("circle", "chebyshev", n_points=40, size=3.0, form=form, offset=50.0, rng=k)
+        for k, form in enumerate([1e-4, 1e-3, 0.01, 0.05])
+    ]
+    stack = np.stack([data.points for data in sets])
+    stack = np.concatenate([stack, np.full((1, 40, 2), np.nan)])  # a broken profile
+    batch = roundness_profiles(stack)
+    assert batch.converged.tolist() == [True, True, True, True, False]
+    for k, data in enumerate(sets):
+        assert np.linalg.norm(batch.center[k] - data.parameters["center"]) <= ACCURACY
+        assert abs(batch.form[k] - data.parameters["form"]) <= ACCURACY
+        assert set(data.contacts.tolist()) <= set(batch.contacts[k].tolist())
+    assert np.isnan(batch.form[4]) and "finite" in batch.messages[4]
+    with pytest.raises(InvalidInputError, match="shape"):
+        roundness_profiles(np.zeros((3, 2)))
