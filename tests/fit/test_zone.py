@@ -78,6 +78,7 @@ CASES = [
     ("circle", "mic"),
     ("circle3d", "chebyshev"),
     ("circle3d", "mcc"),
+    ("circle3d", "mic"),
     ("sphere", "chebyshev"),
     ("sphere", "mcc"),
     ("sphere", "mic"),
