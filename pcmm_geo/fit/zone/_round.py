@@ -79,33 +79,42 @@ def _radii(solution: ZoneSolution, criterion: str) -> tuple[float, float, float,
     return radius, r_in, r_out, r_out - r_in
 
 
+def circle_from_solution(origin: FloatArray, solution: ZoneSolution, criterion: str) -> CircleFit:
+    """The 2-D :class:`CircleFit` of a solved minimax problem in coordinates centred at ``origin``."""
+    from pcmm_geo.fit.circle import CircleFit
+
+    centre = origin + solution.x
+    radius, r_in, r_out, form = _radii(solution, criterion)
+    residuals = solution.distances - radius
+    fields = shared_fields(
+        residuals,
+        solution,
+        criterion=criterion,
+        parameter_names=("center_x", "center_y", "radius"),
+        parameters=np.append(centre, radius),
+        form=form,
+        n_free=4 if criterion == "chebyshev" else 3,
+    )
+    return CircleFit(
+        center=frozen(centre),
+        radius=radius,
+        normal=None,
+        residual_components=frozen(residuals[:, None]),
+        r_in=r_in,
+        r_out=r_out,
+        **fields,
+    )
+
+
 def circle_minimax(points: FloatArray, criterion: str) -> CircleFit:
     """Chebyshev / MCC / MIC circle of validated ``(N, 2)`` or ``(N, 3)`` points."""
     from pcmm_geo.fit.circle import CircleFit
     from pcmm_geo.fit.plane import fit_plane
 
     if points.shape[1] == 2:
-        centre, solution = solve_round(points, criterion, element="circle")
-        radius, r_in, r_out, form = _radii(solution, criterion)
-        residuals = solution.distances - radius
-        fields = shared_fields(
-            residuals,
-            solution,
-            criterion=criterion,
-            parameter_names=("center_x", "center_y", "radius"),
-            parameters=np.append(centre, radius),
-            form=form,
-            n_free=4 if criterion == "chebyshev" else 3,
-        )
-        return CircleFit(
-            center=frozen(centre),
-            radius=radius,
-            normal=None,
-            residual_components=frozen(residuals[:, None]),
-            r_in=r_in,
-            r_out=r_out,
-            **fields,
-        )
+        origin = points.mean(axis=0)
+        _, solution = solve_round(points, criterion, element="circle")
+        return circle_from_solution(origin, solution, criterion)
     try:
         plane = fit_plane(points)
     except DegenerateGeometryError:

@@ -327,17 +327,20 @@ def solve_minimax(
     *,
     size: float,
     diverged: Callable[[FloatArray], bool] | None = None,
+    start: tuple[FloatArray, dict[int, float], int, str] | None = None,
 ) -> ZoneSolution:
     """Solve a zone / MCC / MIC problem for ``model(points, x) -> (d (N,), dd/dx (N, P))``.
 
     ``size`` is the extent of the data (mm) for the tolerances; ``diverged(x)`` flags a
-    run-away (unbounded) problem, reported as ``message == "diverged"``.
+    run-away (unbounded) problem, reported as ``message == "diverged"``.  ``start``
+    (x, contacts {index: +1 upper / -1 lower}, iterations, status) replaces the
+    sequential-LP stage, e.g. by one solved for many problems at once.
     """
     use_lower, use_upper = _levels(mode)
     # gradient scale of each parameter over all points (contacts alone may have a zero column)
     norms = np.abs(model(points, x0)[1]).max(axis=0)
     norms = np.maximum(norms, 1e-12 * max(float(norms.max()), 1e-300))
-    x, contacts, iterations, status = _slp(points, x0, model, mode, diverged)
+    x, contacts, iterations, status = _slp(points, x0, model, mode, diverged) if start is None else start
     if status == "diverged":
         d = model(points, x)[0]
         return _failed(x, d, iterations, "diverged")
