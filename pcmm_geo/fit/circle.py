@@ -90,6 +90,9 @@ def fit_circle(
     criterion : {"gaussian", "chebyshev", "mcc", "mic"}
         ``"gaussian"`` (least squares, default) or the minimax criteria of
         :mod:`pcmm_geo.fit.zone` (contacts and optimality certificate on the result).
+        For 3-D points these are evaluated in the least-squares plane of the points: the
+        points are projected onto it and the 2-D minimax circle of the projections is
+        returned (``residual_components[:, 1]`` keeps the out-of-plane offsets).
 
     Returns
     -------
