@@ -323,3 +323,17 @@ def test_roundness_profiles_batch() -> None:
     assert np.isnan(batch.form[4]) and "finite" in batch.messages[4]
     with pytest.raises(InvalidInputError, match="shape"):
         roundness_profiles(np.zeros((3, 2)))
+
+
+def test_line_zone_is_global_over_hull_edges() -> None:
+    """An obtuse triangle: three hull edges, three local minima of the width over the direction."""
+    rng = np.random.default_rng(8)
+    weights = rng.dirichlet(np.ones(3), 400)
+    corners = np.array([[0.0, 0.0], [10.0, 0.0], [12.0, 3.0]])
+    points = np.vstack([corners, weights @ corners]) + 250.0
+    fit = fit_line(points, criterion="chebyshev")
+    assert fit.converged
+    # narrowest strip: along the side (0,0)-(12,3), width 2 * area / |side| = 30 / sqrt(153)
+    assert fit.form == pytest.approx(30.0 / np.sqrt(153.0), abs=1e-12)
+    assert _angle2(fit.direction, np.array([12.0, 3.0]) / np.sqrt(153.0)) <= ACCURACY
+    assert fit.form == pytest.approx(_strip_width_brute_force(points), abs=1e-12)

@@ -2,11 +2,16 @@
 
 For a fixed normal the minimum zone of a line or plane is a linear program (its width is
 ``max - min`` of the signed offsets); the normal is found by sequential linear programs
-(HiGHS) on the tilt of the normal from the least-squares one, finished by the KKT system
-on the contact set.  The optimum of a strip or slab is attained with contacts on both
-boundaries whose projections interleave (an antipodal pair of the convex hull: edge-vertex
-in 2-D, facet-vertex or edge-edge in 3-D).  A 3-D line's minimum zone is the smallest
-cylinder enclosing the points; ``form`` is its diameter.
+(HiGHS) on the tilt of the normal, finished by the KKT system on the contact set.  The
+optimum of a strip or slab has contacts on both boundaries whose projections interleave:
+an antipodal pair of the convex hull, edge-vertex in 2-D, facet-vertex or edge-edge in 3-D.
+
+Start (global search over the hull): in 2-D every hull edge is a candidate direction and the
+narrowest edge strip *is* the global minimum zone, so the 2-D result is global; for a plane
+the start is the narrower of the least-squares normal and the best hull-facet normal
+(facet-vertex candidates), which the local solve then refines (an edge-edge optimum lies next
+to it).  A 3-D line's minimum zone is the smallest cylinder enclosing the points (started
+from the least-squares axis); ``form`` is its diameter.
 """
 
 from __future__ import annotations
@@ -30,12 +35,29 @@ def _size(local: FloatArray) -> float:
     return max(float(np.sqrt(np.mean(np.einsum("ij,ij->i", local, local)))), 1e-300)
 
 
+def _hull_start(centred: FloatArray, fallback: FloatArray) -> FloatArray:
+    """Unit normal of the narrowest hull-edge (2-D) / hull-facet (3-D) zone, or ``fallback`` when narrower."""
+    from scipy.spatial import ConvexHull, QhullError
+
+    try:
+        hull = ConvexHull(centred)
+    except (QhullError, ValueError):  # flat data: zero width along the least-squares normal
+        return fallback
+    vertices = centred[hull.vertices]
+    normals = hull.equations[:, :-1]
+    widths = np.ptp(vertices @ normals.T, axis=0)
+    best = int(np.argmin(widths))
+    if widths[best] < float(np.ptp(vertices @ fallback)):
+        return normals[best] / np.linalg.norm(normals[best])
+    return fallback
+
+
 def plane_minimax(points: FloatArray, criterion: str) -> PlaneFit:
     """Minimum-zone plane (narrowest slab) of validated ``(N, 3)`` points."""
     from pcmm_geo.fit.plane import PlaneFit, fit_plane
 
     gauss = fit_plane(points)
-    frame = rotation_to_z(gauss.normal)
+    frame = rotation_to_z(_hull_start(points - gauss.point, gauss.normal))
     local = (points - gauss.point) @ frame.T
     solution = solve_minimax(local, np.zeros(2), plane_offset, "zone", size=_size(local))
     a, b = solution.x
@@ -63,8 +85,9 @@ def line_minimax(points: FloatArray, criterion: str) -> LineFit:
 
     gauss = fit_line(points)
     if points.shape[1] == 2:
-        direction0 = gauss.direction
-        frame = np.array([direction0, [-direction0[1], direction0[0]]])
+        normal0 = np.array([-gauss.direction[1], gauss.direction[0]])
+        normal0 = _hull_start(points - gauss.point, normal0)
+        frame = np.array([[normal0[1], -normal0[0]], normal0])
         local = (points - gauss.point) @ frame.T
         solution = solve_minimax(local, np.zeros(1), line2d_offset, "zone", size=_size(local))
         a = float(solution.x[0])
