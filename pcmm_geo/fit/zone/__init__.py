@@ -11,11 +11,14 @@ every point lies in the zone and every multiplier is non-negative.  The certific
 the multipliers and the stationarity residual; a result that cannot be certified has
 ``converged=False`` and says why in ``message``.
 
-What the certificate proves: the first-order optimality conditions of the minimax
-problem.  For the minimum circumscribed circle / sphere (a convex problem) and for the
-line and plane zones at a fixed normal (a linear program) this is global optimality;
-for the other zones (non-convex problems) it proves a strict local optimum near the
-least-squares element, which is the ISO minimum zone for form errors small against the
+What the certificate proves: the first-order (KKT) optimality conditions of the minimax
+problem, plus a second-order test (the Lagrangian's Hessian on the tangent space of the
+contacts) when there are fewer contacts than unknowns.  For the minimum circumscribed
+circle / sphere (a convex problem) this is global optimality, and the 2-D line zone is
+started from the narrowest hull-edge strip, which is the global optimum.  For the other
+zones and the MIC (non-convex problems) it proves a strict local optimum near the
+least-squares element (for planes: near the better of the least-squares and the best
+hull-facet normal), which is the ISO minimum zone for form errors small against the
 element size.
 
 Also here: :func:`evaluate_form` (ISO straightness, flatness, roundness, sphericity,
