@@ -337,3 +337,25 @@ def test_line_zone_is_global_over_hull_edges() -> None:
     assert fit.form == pytest.approx(30.0 / np.sqrt(153.0), abs=1e-12)
     assert _angle2(fit.direction, np.array([12.0, 3.0]) / np.sqrt(153.0)) <= ACCURACY
     assert fit.form == pytest.approx(_strip_width_brute_force(points), abs=1e-12)
+
+
+@pytest.mark.parametrize("seed", range(4))
+def test_random_measured_like_data_is_certified(seed: int) -> None:
+    """Lobed, noisy partial features far from the origin: every criterion certifies, and is consistent."""
+    rng = np.random.default_rng(100 + seed)
+    n_points = int(rng.integers(10, 300))
+    noise = 10 ** rng.uniform(-4, -1.5)
+    angles = rng.uniform(0, rng.uniform(np.pi / 2, 2 * np.pi), n_points)
+    radii = 10 + noise * np.cos(int(rng.integers(2, 8)) * angles) + rng.normal(0, noise / 3, n_points)
+    heights = rng.uniform(0, 30, n_points)
+    ring = np.c_[radii * np.cos(angles), radii * np.sin(angles)] + rng.uniform(-1000, 1000, 2)
+    tube = np.c_[radii * np.cos(angles), radii * np.sin(angles), heights] + rng.uniform(-1000, 1000, 3)
+    for fit_function, points in ((fit_circle, ring), (fit_cylinder, tube)):
+        gauss = fit_function(points)
+        zone = fit_function(points, criterion="chebyshev")
+        mcc = fit_function(points, criterion="mcc")
+        assert zone.converged and mcc.converged, (zone.message, mcc.message)
+        assert zone.form <= gauss.form + 1e-12  # the minimum zone is never wider than the Gaussian zone
+        assert np.ptp(zone.residuals) == pytest.approx(zone.form, abs=1e-12)  # every point inside
+        assert np.max(mcc.residuals) <= 1e-12  # the circumscribed element encloses every point
+        assert mcc.radius <= gauss.radius + np.max(gauss.residuals) + 1e-12  # no larger than the Gaussian's
