@@ -30,7 +30,7 @@ def register(subparsers: Any) -> None:
     parser.add_argument("--points", type=int, default=None,
                         help="probings per gauge-block face (5) or on the sphere (25)")
     parser.add_argument("--center", type=float, nargs=3, metavar=("X", "Y", "Z"),
-                        help="artefact centre in the machine frame, mm (default: middle of the working volume)")
+                        help="artefact center in the machine frame, mm (default: middle of the working volume)")
     parser.add_argument("--laser-u", type=float, default=0.0005, help="laser reading u in mm (0.0005)")
     parser.add_argument("--encoder-u", type=float, default=0.0002, help="encoder reading u in mm (0.0002)")
     parser.add_argument("--probing-u", type=float, default=0.0, help="probing scatter u along the normal, mm (0)")

@@ -2,16 +2,16 @@
 
 Inputs ``x`` and their covariance ``U_x``:
 
-* every probed ball centre (joints at each slider position, and the tip) with the
+* every probed ball center (joints at each slider position, and the tip) with the
   covariance of its Gaussian sphere fit for the stated probing uncertainty ``sigma_p`` of
   the external CMM: ``sigma_p^2 (J^T J)^-1`` with the fit's Jacobian ``J`` (rows
   ``(-n_j, -1)``, ``n_j`` the unit normal at point j), which depends on how the points
-  cover the ball (a 3/4 cap gives a worse vertical than horizontal centre);  the tip ball's
-  radius comes with its centre (it is used for probe-radius compensation);
+  cover the ball (a 3/4 cap gives a worse vertical than horizontal center);  the tip ball's
+  radius comes with its center (it is used for probe-radius compensation);
 * the laser readings at the slider positions, ``u = sigma_L`` each, independent.
 
 Outputs ``theta``: per arm the slider line (point, direction), laser scale and offset; the
-tip centre and radius; the seed's dead distances and arm angles ``beta`` (radians).  The
+tip center and radius; the seed's dead distances and arm angles ``beta`` (radians).  The
 covariance ``U_theta = J U_x J^T`` uses the Jacobian of the *whole* calibration
 (:func:`~pcmm_geo.machine.calibration.calibrate_tetrahedron`, line fits, regressions, the
 foot-point construction) by central differences with steps of a tenth of each input's
@@ -61,6 +61,20 @@ PARAMETER_NAMES: tuple[str, ...] = (
 )
 
 
+def _center_field(sphere: Any) -> str:
+    """Name of a fitted sphere's center field: ``center``, or the British spelling before issue 15a's rename."""
+    names = {f.name for f in dataclasses.fields(sphere)}
+    return "center" if "center" in names else "centre"
+
+
+def _center_of(sphere: Any) -> FloatArray:
+    return np.asarray(getattr(sphere, _center_field(sphere)), dtype=float)
+
+
+def _with_center(sphere: Any, center: FloatArray) -> Any:
+    return dataclasses.replace(sphere, **{_center_field(sphere): center})
+
+
 def _unit(name: str) -> str:
     if name.startswith("beta_"):
         return "rad"
@@ -76,7 +90,7 @@ def calibration_parameters(cal: Any) -> FloatArray:
         line = cal.slider_lines[arm]
         values += [*np.asarray(line.point, float), *np.asarray(line.direction, float)]
         values += [float(line.laser_scale), float(line.laser_offset)]
-    values += [*np.asarray(cal.tip_centre, float), float(cal.tip.radius)]
+    values += [*np.asarray(_center_of(cal.tip), float), float(cal.tip.radius)]
     values += [float(cal.dead_distance[arm]) for arm in _ARMS]
     values += [math.radians(float(cal.beta_deg[pair])) for pair in _PAIRS]
     return np.array(values)
@@ -200,7 +214,7 @@ class CalibrationCovariance:
 def _inputs(features: Any, lasers: FloatArray, probing_sigma: float, laser_sigma: float) -> tuple[
     FloatArray, FloatArray, list[str]
 ]:
-    """Input vector (ball centres, tip radius, lasers), its covariance and names."""
+    """Input vector (ball centers, tip radius, lasers), its covariance and names."""
     positions = features.positions
     values: list[float] = []
     names: list[str] = []
@@ -211,11 +225,11 @@ def _inputs(features: Any, lasers: FloatArray, probing_sigma: float, laser_sigma
     for label, key, sphere in spheres:
         points = features.points.get(key)
         if points is not None and len(points) >= 4:
-            cov = sphere_fit_covariance(points, sphere.centre, probing_sigma)
-        else:  # element-level data: the centre is known to the probing uncertainty
+            cov = sphere_fit_covariance(points, _center_of(sphere), probing_sigma)
+        else:  # element-level data: the center is known to the probing uncertainty
             cov = np.diag([probing_sigma**2] * 3 + [probing_sigma**2])
         take = 4 if label == "tip" else 3
-        values += [*np.asarray(sphere.centre, float)] + ([float(sphere.radius)] if take == 4 else [])
+        values += [*np.asarray(_center_of(sphere), float)] + ([float(sphere.radius)] if take == 4 else [])
         names += [f"{label}.x", f"{label}.y", f"{label}.z"] + ([f"{label}.radius"] if take == 4 else [])
         blocks.append(cov[:take, :take])
     values += lasers.ravel().tolist()
@@ -239,9 +253,9 @@ def _rebuild(features: Any, x: FloatArray) -> tuple[Any, FloatArray]:
     for arm in _ARMS:
         joints[arm] = {}
         for pos in positions:
-            joints[arm][pos] = dataclasses.replace(features.joints[arm][pos], centre=x[at:at + 3].copy())
+            joints[arm][pos] = _with_center(features.joints[arm][pos], x[at:at + 3].copy())
             at += 3
-    tip = dataclasses.replace(features.tip, centre=x[at:at + 3].copy(), radius=float(x[at + 3]))
+    tip = dataclasses.replace(_with_center(features.tip, x[at:at + 3].copy()), radius=float(x[at + 3]))
     at += 4
     lasers = x[at:].reshape(len(positions), 3)
     return ProbedFeatures(joints=joints, tip=tip, points={}, source=features.source), lasers
@@ -275,8 +289,8 @@ def calibration_covariance(
     ----------
     probings, lasers
         As for :func:`~pcmm_geo.machine.calibration.calibrate_tetrahedron` (raw probed points
-        are needed for the ball-centre covariances; element-level data get ``probing_sigma``
-        per centre coordinate).
+        are needed for the ball-center covariances; element-level data get ``probing_sigma``
+        per center coordinate).
     probing_sigma : float
         Standard uncertainty of one external-CMM probing, per point (mm).
     laser_sigma : float

@@ -66,7 +66,8 @@ class BatchGeometry:
 
         return cls(
             rep(g.slider_points), rep(g.slider_directions), rep(g.laser_scale), rep(g.laser_offset),
-            rep(g.tip_centre), rep(g.column_points), rep(g.column_directions), rep(g.encoder_scale),
+            rep(g.tip_center if hasattr(g, "tip_center") else g.tip_centre), rep(g.column_points),
+            rep(g.column_directions), rep(g.encoder_scale),
         )
 
 
@@ -159,7 +160,7 @@ def forward_batch(
     tolerance: float = 1e-10,
     max_iterations: int = 10,
 ) -> BatchForward:
-    """Probe-tip centres for ``T`` trials x ``P`` contacts, each trial with its own geometry.
+    """Probe-tip centers for ``T`` trials x ``P`` contacts, each trial with its own geometry.
 
     Parameters
     ----------

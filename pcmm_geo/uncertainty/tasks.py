@@ -1,13 +1,13 @@
 """Measurement tasks of the virtual micro-CMM: where the probe touches and how the result is evaluated.
 
 A task is a set of ``P`` nominal contact points on an artefact with their outward surface
-normals (the probe approaches against the normal, so the tip centre at contact is
+normals (the probe approaches against the normal, so the tip center at contact is
 ``contact + r normal``) and a vectorised evaluation ``(T, P, 3) -> (T,)`` of the measured
 points -- the same computation the library uses for one measurement, batched:
 
 * :func:`gauge_block_task` -- central length by the ISO 3650 method
   (:func:`~pcmm_geo.artefacts.gauge_block.measure_gauge_block`: least-squares plane per
-  measuring face, centre points, mean of the two one-way lengths) with batched plane fits;
+  measuring face, center points, mean of the two one-way lengths) with batched plane fits;
 * :func:`sphere_task` -- diameter of a Gaussian sphere fit (batched);
 * :func:`distance_task` -- distance between two single probings on opposite faces.
 
@@ -34,7 +34,7 @@ __all__ = [
 ]
 
 FloatArray = NDArray[np.float64]
-#: (z, y) offsets (mm) of the probings on a 9 mm x 35 mm measuring face: a cross around its centre
+#: (z, y) offsets (mm) of the probings on a 9 mm x 35 mm measuring face: a cross around its center
 GAUGE_FACE_OFFSETS = np.array(
     [[0.0, 0.0], [0.0, 12.0], [0.0, -12.0], [3.0, 0.0], [-3.0, 0.0], [2.0, 8.0], [-2.0, -8.0]]
 )
@@ -86,7 +86,7 @@ def gauge_block_central_lengths(face_1: FloatArray, face_2: FloatArray) -> Float
     Returns
     -------
     ndarray, shape (T,)
-        Mean of the distances from each face's centre point to the other face's plane.
+        Mean of the distances from each face's center point to the other face's plane.
 
     Examples
     --------
@@ -98,7 +98,7 @@ def gauge_block_central_lengths(face_1: FloatArray, face_2: FloatArray) -> Float
     from pcmm_geo.fit.batch import fit_planes
 
     plane_1, plane_2 = fit_planes(face_1), fit_planes(face_2)
-    c1, c2 = np.asarray(plane_1.points), np.asarray(plane_2.points)  # centroids = centre points
+    c1, c2 = np.asarray(plane_1.points), np.asarray(plane_2.points)  # centroids = center points
     towards = c2 - c1
     n1 = np.asarray(plane_1.normals) * np.sign(np.sum(np.asarray(plane_1.normals) * towards, axis=1))[:, None]
     n2 = np.asarray(plane_2.normals) * np.sign(np.sum(np.asarray(plane_2.normals) * towards, axis=1))[:, None]
@@ -113,9 +113,9 @@ def gauge_block_task(length: float, center: ArrayLike, *, points_per_face: int =
     length : float
         Nominal length (mm).
     center : array_like, shape (3,)
-        Block centre in the machine frame (mm).
+        Block center in the machine frame (mm).
     points_per_face : int
-        3 to 7 probings per face on a cross about the face centre (:data:`GAUGE_FACE_OFFSETS`).
+        3 to 7 probings per face on a cross about the face center (:data:`GAUGE_FACE_OFFSETS`).
 
     Examples
     --------

@@ -28,7 +28,7 @@ Input groups (each drawn as independent standard normals ``z``, scaled here):
     artefact follows the true ones.
 
 Readings are those of the calibrated model at the nominal contacts (its inverse
-kinematics); in each trial the perturbed machine turns them into tip centres
+kinematics); in each trial the perturbed machine turns them into tip centers
 (:func:`~pcmm_geo.uncertainty.kinematics.forward_batch`), which are compensated for the
 (perturbed) tip radius along the approach direction.  The simulated values scatter about
 the nominal; :meth:`TaskUncertainty.interval_about` places the interval about a real
@@ -41,6 +41,7 @@ The budget runs the simulation with one group varied at a time.  The GUM alterna
 
 from __future__ import annotations
 
+import functools
 import math
 from collections.abc import Callable
 from dataclasses import dataclass, field, replace
@@ -194,7 +195,9 @@ class VirtualCMM:
                 raise InvalidInputError("calibration_covariance", "a finite (28, 28) covariance", f"shape {cov.shape}")
 
     # ------------------------------------------------------------------------------- set-up
+    @functools.cached_property
     def _calibration_root(self) -> FloatArray:
+        """``L`` with ``L L^T`` = the calibration covariance (eigen-decomposition, PSD-safe), computed once."""
         cov = np.asarray(self.calibration_covariance, dtype=float)
         values, vectors = np.linalg.eigh(0.5 * (cov + cov.T))
         return vectors * np.sqrt(np.clip(values, 0.0, None))  # (28, 28): delta = root @ z
@@ -226,8 +229,6 @@ class VirtualCMM:
                        readings: tuple[FloatArray, FloatArray] | None = None) -> FloatArray:
         """Measured values ``(T,)`` for standard-normal draws ``{group: (T, n_group)}`` (missing = 0)."""
         nominal_l, nominal_h = readings if readings is not None else self.nominal_readings(task)
-        if "calibration" in draws and "_root" not in self.__dict__:
-            object.__setattr__(self, "_root", self._calibration_root())
         trials = next(iter(draws.values())).shape[0] if draws else 1
         points = len(task.contacts)
         out = np.empty(trials)
@@ -242,7 +243,7 @@ class VirtualCMM:
         geometry = BatchGeometry.repeat(self.machine, trials)
         radius = np.full(trials, float(self.tip_radius))
         if "calibration" in draws:
-            delta = draws["calibration"] @ self.__dict__["_root"].T  # (T, 28)
+            delta = draws["calibration"] @ self._calibration_root.T  # (T, 28)
             per_arm = delta[:, :24].reshape(trials, 3, 8)
             geometry = replace(
                 geometry,

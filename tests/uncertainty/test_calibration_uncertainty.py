@@ -30,7 +30,7 @@ def test_sphere_fit_covariance_matches_monte_carlo() -> None:
 
     rng = np.random.default_rng(0)
     unit = rng.normal(size=(15, 3))
-    unit[:, 2] = np.abs(unit[:, 2])  # upper half: the vertical centre coordinate is worse
+    unit[:, 2] = np.abs(unit[:, 2])  # upper half: the vertical center coordinate is worse
     unit /= np.linalg.norm(unit, axis=1, keepdims=True)
     points = 6.35 * unit
     cov = sphere_fit_covariance(points, np.zeros(3), 0.001)

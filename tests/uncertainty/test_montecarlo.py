@@ -82,7 +82,7 @@ def test_gum_and_monte_carlo_agree_on_a_sphere_fit_radius() -> None:
 
 
 def test_non_linear_position_deviation_needs_monte_carlo() -> None:
-    """|centre - nominal| of a fitted sphere centre: zero sensitivity at the estimate, Rayleigh-like spread."""
+    """|center - nominal| of a fitted sphere center: zero sensitivity at the estimate, Rayleigh-like spread."""
     from pcmm_geo.fit import fit_sphere
     from pcmm_geo.fit.batch import fit_spheres
 
