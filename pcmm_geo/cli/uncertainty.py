@@ -17,7 +17,7 @@ def register(subparsers: Any) -> None:
         description=(
             "Simulates the measurement task many times with the calibrated model perturbed within its "
             "covariance, laser/encoder noise, probing scatter and thermal state (JCGM 101 Monte Carlo, "
-            "adaptive unless --trials), reports the expanded uncertainty (95 %% coverage), the budget (one "
+            "adaptive unless --trials), reports the expanded uncertainty (95 % coverage), the budget (one "
             "input group at a time) and the GUM linear result for comparison. Without --calibration the "
             "demo's simulated calibration is used."
         ),
