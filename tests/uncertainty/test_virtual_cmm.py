@@ -110,3 +110,21 @@ def test_bad_settings(machine: RigidBodyMachine) -> None:
         VirtualCMM(machine, 1.0, np.eye(3))
     with pytest.raises(InvalidInputError, match="workpiece_temperature_u"):
         ThermalInputs(workpiece_temperature_u=-1.0)
+
+
+def test_machine_thermal_draws_match_the_thermal_package(machine: RigidBodyMachine, center: np.ndarray) -> None:
+    """One deterministic thermal draw equals pcmm_geo.thermal.expand_rigid_body_machine + forward kinematics."""
+    from pcmm_geo.thermal import expand_rigid_body_machine
+
+    thermal = ThermalInputs(arm_temperature_u=1.0, column_temperature_u=1.0)
+    vcmm = VirtualCMM(machine, 1.0, None, laser_sigma=5e-4, encoder_sigma=2e-4, thermal=thermal)
+    task = distance_task(60.0, center)
+    z = np.array([[0.8, -0.5, 0.3, 1.2, -0.7, 0.4, 0.0]])  # arm a, b, c; column a, b, c; common alpha term
+    value = vcmm.evaluate_draws(task, {"thermal_machine": z})[0]
+    warm = expand_rigid_body_machine(machine, arm_temperatures=20.0 + z[0, 0:3], column_temperatures=20.0 + z[0, 3:6])
+    lasers, heights = vcmm.nominal_readings(task)
+    tips = warm.forward(lasers, heights, laser_sigma=5e-4, height_sigma=2e-4).tip
+    expected = task.evaluate((tips - 1.0 * task.normals)[None])[0]
+    # 1 K on 400 mm aluminium moves the joints by ~9 um: the chord method's second-order difference is ~4e-8 mm
+    assert value == pytest.approx(expected, abs=1e-7)
+    assert abs(value - 60.0) > 1e-4  # a real thermal effect, not a no-op
