@@ -78,3 +78,20 @@ def test_demo_json_states_the_expanded_uncertainty() -> None:
     assert low < data["measured_length_calibrated_mm"] < high
     text = run("demo", "--no-plots", "--seed", "5")
     assert "calibrated length L = " in text.stdout and "(U, k = " in text.stdout
+
+
+def test_iso10360_commands_apply_the_iso14253_rule() -> None:
+    examples = Path(__file__).resolve().parents[2] / "pcmm_geo" / "data" / "examples"
+    lengths = str(examples / "iso10360_2_lengths.csv")
+    done = run("iso10360-2", lengths, "--mpe-a", "1.5", "--mpe-k", "333", "--uncertainty", "0.6", "--json")
+    assert done.returncode == 1  # NOT PROVEN is not a pass
+    data = json.loads(done.stdout)
+    assert data["verdict"] == "NOT PROVEN" and data["test_uncertainty_um"] == pytest.approx(0.6)
+    assert {e["verdict"] for e in data["errors"]} == {"PASS", "NOT PROVEN"}
+    sphere = str(examples / "iso10360_5_sphere.csv")
+    done = run("iso10360-5", sphere, "--reference-diameter", "25", "--mpe-form", "1.5", "--mpe-size", "1.5",
+               "--uncertainty", "0.3", "0.4", "--json")
+    assert done.returncode == 0
+    data = json.loads(done.stdout)
+    assert (data["form_verdict"], data["size_verdict"]) == ("PASS", "PASS")
+    assert "ISO 14253-1" in data["decision_rule"]

@@ -111,3 +111,14 @@ def test_monte_carlo_propagate_budget_matches_linear_shares() -> None:
     shares = {entry.name: entry.share for entry in result.budget}
     assert shares["a"] == pytest.approx(0.2, abs=0.01)
     assert result.standard_uncertainty == pytest.approx(math.sqrt(0.45), rel=0.01)
+
+
+def test_sample_normal_handles_a_singular_covariance() -> None:
+    from pcmm_geo.uncertainty import sample_normal
+
+    # a unit direction's covariance: rank 2 (no spread along the direction itself)
+    direction = np.array([0.6, 0.0, 0.8])
+    cov = 1e-6 * (np.eye(3) - np.outer(direction, direction))
+    draws = sample_normal(np.random.default_rng(0), direction, cov, 50_000)
+    assert np.abs((draws - direction) @ direction).max() < 1e-12
+    np.testing.assert_allclose(np.cov(draws, rowvar=False), cov, atol=3e-8)
