@@ -52,7 +52,7 @@ def register(subparsers: Any) -> None:
 def _open_log(args: argparse.Namespace, metadata: dict[str, Any]) -> Any:
     from pathlib import Path
 
-    from pcmm_geo.machine.acqlog import AcquisitionLog
+    from pcmm_geo.acquisition.acqlog import AcquisitionLog
 
     if args.resume and Path(args.out).exists():
         return AcquisitionLog.resume(args.out, repair=args.repair)
@@ -90,7 +90,7 @@ def _handle(args: argparse.Namespace) -> Report:
     with contextlib.ExitStack() as stack:
         rig = None
         if args.simulate:
-            from pcmm_geo.machine.simulators.cmm import SimulatedMicroCMM, SimulatedRig
+            from pcmm_geo.acquisition.simulators.cmm import SimulatedMicroCMM, SimulatedRig
 
             cmm = SimulatedMicroCMM(
                 laser_noise=0.002 if args.defects else 0.0, dead_spot=4.0 if args.defects else 0.0,
@@ -123,7 +123,7 @@ def _handle(args: argparse.Namespace) -> Report:
         summary = session.summary()
     data: dict[str, Any] = {"out": str(args.out), **summary.as_dict()}
     if args.table_3_2:
-        from pcmm_geo.machine.acqlog import export_table_3_2
+        from pcmm_geo.acquisition.acqlog import export_table_3_2
 
         data["table_3_2"] = str(export_table_3_2(args.out, args.table_3_2, overwrite=args.overwrite))
     data["resumed"] = bool(args.resume and log.recovery.rows)
@@ -140,10 +140,10 @@ def _handle(args: argparse.Namespace) -> Report:
 
 
 def _open_session(args: argparse.Namespace, ports: dict[str, str], stack: Any) -> Any:
-    from pcmm_geo.machine.drivers.lasers import LaserSensor
-    from pcmm_geo.machine.drivers.probe import ProbeReader
-    from pcmm_geo.machine.drivers.zaber import ZaberChain
-    from pcmm_geo.machine.session import AcquisitionSession, SessionConfig
+    from pcmm_geo.acquisition.drivers.lasers import LaserSensor
+    from pcmm_geo.acquisition.drivers.probe import ProbeReader
+    from pcmm_geo.acquisition.drivers.zaber import ZaberChain
+    from pcmm_geo.acquisition.session import AcquisitionSession, SessionConfig
 
     motors = stack.enter_context(ZaberChain(ports["zaber"], timeout=args.timeout, move_timeout=args.move_timeout))
     lasers = [
