@@ -65,7 +65,7 @@ _LAZY = {
     "sphere_constants": "kinematics.dpkm",
     "dpkm_probe": "kinematics.dpkm",
     "seed_probe_roots_as_printed": "kinematics.seed_forms",
-    "seed_machine": "kinematics.dpkm",
+    "seed_machine": "kinematics.model",
     "tetrahedron_directions": "kinematics.dpkm",
     # trilateration
     "Trilateration": "kinematics.trilateration",

@@ -61,22 +61,11 @@ MOVED: dict[str, str] = {
 }
 
 #: names an old module offered that now live in another new module: old path -> {name: new module}
-EXTRA_NAMES: dict[str, dict[str, str]] = {}
+EXTRA_NAMES: dict[str, dict[str, str]] = {
+    "pcmm_geo.machine.dpkm": {"seed_machine": "pcmm_geo.machine.kinematics.model"},
+}
 
 _PACKAGES = frozenset({"pcmm_geo.machine.drivers", "pcmm_geo.machine.simulators"})
-
-
-_HERE = __file__
-
-
-def _caller_stacklevel() -> int:
-    """Stack level of the first frame outside the import machinery and this module."""
-    frame = sys._getframe(1)
-    level = 1
-    while frame is not None and (frame.f_code.co_filename.startswith("<frozen") or frame.f_code.co_filename == _HERE):
-        frame = frame.f_back
-        level += 1
-    return level
 
 
 class _AliasLoader(importlib.abc.Loader):
@@ -91,7 +80,7 @@ class _AliasLoader(importlib.abc.Loader):
         warnings.warn(
             f"{old_name} is deprecated and will be removed in pcmm_geo 0.3; import {self.new_name} instead",
             DeprecationWarning,
-            stacklevel=_caller_stacklevel(),
+            stacklevel=2,  # the importing line: warnings skips the frames of importlib._bootstrap
         )
         new = importlib.import_module(self.new_name)
         names = {key: value for key, value in vars(new).items() if not key.startswith("__")}

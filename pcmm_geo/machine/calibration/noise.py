@@ -94,7 +94,7 @@ def skewed_tetrahedron(
     >>> round(float(np.linalg.norm(t.sliders["a"].point - t.tip_centre)), 6)
     15.0
     """
-    from pcmm_geo.machine.kinematics.dpkm import seed_machine
+    from pcmm_geo.machine.kinematics.model import seed_machine
 
     nominal = seed_machine().tetrahedron
     sliders = {}

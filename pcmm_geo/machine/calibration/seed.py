@@ -188,7 +188,8 @@ def reconstruct_appendix_cd(seed: int = 0) -> AppendixReconstruction:
     from scipy.optimize import least_squares
     from scipy.spatial.transform import Rotation
 
-    from pcmm_geo.machine.calibration.geometry import angle_between_deg, pairwise_average_point
+    from pcmm_geo.fit.skew import mean_pairwise_midpoint
+    from pcmm_geo.machine.calibration.geometry import angle_between_deg
 
     lasers = APPENDIX_C["lasers"]
     dead = APPENDIX_C["dead_slope"] * lasers + APPENDIX_C["dead_intercept"]
@@ -217,7 +218,7 @@ def reconstruct_appendix_cd(seed: int = 0) -> AppendixReconstruction:
     def eq_7_2_gap(params: FloatArray) -> FloatArray:
         centres_2, probe = unpack(params)
         directions = centres_1 - centres_2
-        return pairwise_average_point(list(centres_1), list(directions)) - probe
+        return mean_pairwise_midpoint(centres_1, directions, pairs=((0, 1), (1, 2), (2, 0))) - probe
 
     def residuals(params: FloatArray) -> FloatArray:
         return np.concatenate([printed_residuals(params), 1e-3 * eq_7_2_gap(params)])

@@ -46,14 +46,8 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from pcmm_geo.errors import CalibrationError, InvalidInputError
-from pcmm_geo.machine.calibration.geometry import (
-    angle_between_deg,
-    closest_points_of_lines,
-    fit_centre_line,
-    nearest_point_to_lines,
-    pairwise_average_point,
-    seed_printed_angle_deg,
-)
+from pcmm_geo.fit.skew import mean_pairwise_midpoint, nearest_point_to_lines, pairwise_closest_points
+from pcmm_geo.machine.calibration.geometry import angle_between_deg, fit_centre_line, seed_printed_angle_deg
 from pcmm_geo.machine.calibration.probings import (
     ARMS,
     LaserTable,
@@ -67,14 +61,15 @@ from pcmm_geo.machine.calibration.result import PAIRS, SliderLineCalibration, Te
 if TYPE_CHECKING:
     from pcmm_geo.machine.calibration.datum import DatumFrame
 
+#: the slider-line pairs a-b, b-c, c-a (:data:`PAIRS`) as indices into :data:`ARMS`
+_PAIR_INDICES = ((0, 1), (1, 2), (2, 0))
+
 __all__ = [
     "PAIRS",
     "SliderLineCalibration",
     "TetrahedronCalibration",
     "b_in_from_lasers",
     "calibrate_tetrahedron",
-    "load_calibration",
-    "save_calibration",
     "seed_printed_angle_deg",
 ]
 
@@ -329,13 +324,10 @@ def _calibrate(
     }
     line_points = [lines[arm].point for arm in ARMS]
     line_dirs = [lines[arm].direction for arm in ARMS]
-    probe_point = nearest_point_to_lines(line_points, line_dirs)
-    probe_pairwise = pairwise_average_point(line_points, line_dirs)
-    skew = {
-        pair: closest_points_of_lines(line_points[k], line_dirs[k], line_points[(k + 1) % 3], line_dirs[(k + 1) % 3])
-        .distance
-        for k, pair in enumerate(PAIRS)
-    }
+    probe_point = np.array(nearest_point_to_lines(line_points, line_dirs).point)
+    probe_pairwise = mean_pairwise_midpoint(line_points, line_dirs, pairs=_PAIR_INDICES)
+    line_pairs = pairwise_closest_points(line_points, line_dirs, pairs=_PAIR_INDICES)
+    skew = {pair: float(line_pairs.distance[k]) for k, pair in enumerate(PAIRS)}
     dead_k, beta_k = _seed_values(centres, tip_centre, readings, start)
     dead_t, beta_t = _seed_values(centres, probe_pairwise, readings, start)
     dead = {arm: float(np.mean(values)) for arm, values in dead_k.items()}
@@ -368,49 +360,3 @@ def _calibrate(
         source=features.source,
         fixed_laser_scale=fixed_scale,
     )
-
-
-def save_calibration(
-    cal: TetrahedronCalibration,
-    path: str | Path,
-    *,
-    overwrite: bool = False,
-    columns: Mapping[str, Any] | None = None,
-    extra: Mapping[str, Any] | None = None,
-) -> Path:
-    """Write ``cal`` as versioned calibration JSON; see :func:`pcmm_geo.machine.calibration.calfile.save_calibration`.
-
-    Raises
-    ------
-    OutputExistsError
-        ``path`` exists and ``overwrite`` is false.
-
-    Examples
-    --------
-    >>> import tempfile, pathlib
-    >>> from pcmm_geo.machine.calibration.seed import appendix_cd_files
-    >>> cal = calibrate_tetrahedron(*appendix_cd_files())
-    >>> path = save_calibration(cal, pathlib.Path(tempfile.mkdtemp()) / "cal.json")
-    >>> load_calibration(path).beta == cal.beta
-    True
-    """
-    from pcmm_geo.machine.calibration.calfile import save_calibration as _save
-
-    return _save(cal, path, overwrite=overwrite, columns=columns, extra=extra)
-
-
-def load_calibration(path: str | Path) -> TetrahedronCalibration:
-    """Read a calibration JSON file; see :func:`pcmm_geo.machine.calibration.calfile.load_calibration`.
-
-    Raises
-    ------
-    FileFormatError
-        Not a calibration file of a known schema version, or damaged.
-
-    Examples
-    --------
-    See :func:`save_calibration`.
-    """
-    from pcmm_geo.machine.calibration.calfile import load_calibration as _load
-
-    return _load(path)

@@ -41,14 +41,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from pcmm_geo.errors import DegenerateGeometryError, InvalidInputError, NoRealSolutionError
-from pcmm_geo.machine.kinematics.model import (
-    ARMS,
-    ColumnLine,
-    RigidBodyMachine,
-    SliderLine,
-    Tetrahedron,
-    as_readings,
-)
+from pcmm_geo.machine.kinematics.model_parts import ARMS, as_readings
 
 __all__ = [
     "APPENDIX_D_COLUMN_POINTS",
@@ -65,7 +58,6 @@ __all__ = [
     "height_difference",
     "pivot_distance",
     "relative_pivot_heights",
-    "seed_machine",
     "sphere_constants",
     "tetrahedron_directions",
 ]
@@ -404,80 +396,3 @@ def tetrahedron_directions(beta_deg: Mapping[str, float]) -> FloatArray:
     e_x /= np.linalg.norm(e_x)
     e_y = np.cross(axis, e_x)
     return directions @ np.array([e_x, e_y, axis]).T
-
-
-def seed_machine(
-    *,
-    dead_distance: Mapping[str, float] | None = None,
-    beta_deg: Mapping[str, float] | None = None,
-    column_points: Mapping[str, ArrayLike] | None = None,
-    column_slopes: Mapping[str, ArrayLike] | None = None,
-    start_of_range: float = START_OF_RANGE,
-    reference_lasers: ArrayLike | None = None,
-    reference_height: float = 400.0,
-) -> RigidBodyMachine:
-    """Rigid-body machine with the seed's geometry: slider lines meeting at the tip.
-
-    Parameters
-    ----------
-    dead_distance : mapping arm -> mm, optional
-        ``d_i`` (Table 3.1 by default); the slider offset is ``start_of_range + d_i``.
-    beta_deg : mapping "ab", "bc", "ca" -> degrees, optional
-        Angles between arms (Table 3.1 by default).
-    column_points : mapping arm -> (x, y) or (x, y, z), optional
-        Column intercepts ``(g_i, m_i)`` (Appendix D's pivot x, y by default).
-    column_slopes : mapping arm -> (h, n), optional
-        Column slopes of eqs 2.19-2.20 (vertical by default).  The encoder scale is set
-        so that the height reading equals the pivot's machine ``z``.
-    start_of_range : float
-        Laser start of range (60 mm).
-    reference_lasers : array_like, shape (3,), optional
-        Laser readings of the reference configuration.  Default: the configuration with
-        all three pivots level at ``reference_height`` (the middle of the working volume).
-    reference_height : float
-        Pivot height of the reference configuration (mm); with explicit
-        ``reference_lasers`` it is the starting height only.
-
-    Returns
-    -------
-    RigidBodyMachine
-
-    Examples
-    --------
-    >>> m = seed_machine()
-    >>> sorted(m.columns), round(float(m.reference_heights.mean()), 6)
-    (['a', 'b', 'c'], 400.0)
-    """
-    dead = dict(TABLE_3_1_DEAD_DISTANCE if dead_distance is None else dead_distance)
-    beta = dict(TABLE_3_1_BETA_DEG if beta_deg is None else beta_deg)
-    points = dict(APPENDIX_D_COLUMN_POINTS if column_points is None else column_points)
-    slopes = {arm: (0.0, 0.0) for arm in ARMS} if column_slopes is None else dict(column_slopes)
-    directions = tetrahedron_directions(beta)
-    tip = np.zeros(3)
-    sliders = {
-        arm: SliderLine(tip, directions[k], 1.0, start_of_range + float(dead[arm])) for k, arm in enumerate(ARMS)
-    }
-    columns = {}
-    for arm in ARMS:
-        xyz = np.zeros(3)
-        given = np.asarray(points[arm], dtype=float)
-        xyz[: given.size] = given
-        slope = np.asarray(slopes[arm], dtype=float)
-        along = np.array([slope[0], slope[1], 1.0])
-        columns[arm] = ColumnLine(xyz, along, float(np.linalg.norm(along)))
-    base = [np.linalg.norm(columns[i].point[:2] - columns[j].point[:2]) for i, j in ("ab", "bc", "ca")]
-    chord = [2.0 * np.sin(np.radians(beta[pair]) / 2.0) for pair in PAIRS]
-    level_length = float(np.mean(base) / np.mean(chord))
-    guess = np.array([level_length - sliders[arm].laser_offset for arm in ARMS])
-    provisional = RigidBodyMachine(
-        Tetrahedron(sliders, tip), columns, reference_lasers=guess, reference_heights=np.full(3, reference_height)
-    )
-    if reference_lasers is None:  # level pivots at reference_height
-        solved = provisional.forward(heights=np.full(3, reference_height))
-    else:
-        solved = provisional.forward(
-            lasers=np.asarray(reference_lasers, dtype=float), heights_hint=np.full(3, reference_height)
-        )
-    return RigidBodyMachine(
-        provisional.tetrahedron, columns, reference_lasers=solved.lasers, reference_heights=solved.heights
-    )

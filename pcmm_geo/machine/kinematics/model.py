@@ -42,9 +42,19 @@ from numpy.typing import ArrayLike, NDArray
 
 from pcmm_geo.errors import InvalidInputError
 from pcmm_geo.machine.kinematics import _pose_solver as solver
+from pcmm_geo.machine.kinematics.dpkm import (
+    APPENDIX_D_COLUMN_POINTS,
+    PAIRS,
+    START_OF_RANGE,
+    TABLE_3_1_BETA_DEG,
+    TABLE_3_1_DEAD_DISTANCE,
+    tetrahedron_directions,
+)
 from pcmm_geo.machine.kinematics.model_parts import (
     ARMS,
     ColumnLine,
+    ForwardSolution,
+    InverseSolution,
     SliderLine,
     Tetrahedron,
     as_readings,
@@ -63,66 +73,13 @@ __all__ = [
     "Tetrahedron",
     "as_readings",
     "as_vector3",
+    "seed_machine",
 ]
 
 FloatArray = NDArray[np.float64]
 
 #: schema identifier written by :meth:`RigidBodyMachine.to_dict`
 MODEL_SCHEMA = "pcmm_geo.machine.rigid_body/1"
-
-
-@dataclass(frozen=True)
-class ForwardSolution:
-    """Result of :meth:`RigidBodyMachine.forward` (leading shape ``...`` of the input).
-
-    Attributes
-    ----------
-    tip : ndarray, shape (..., 3)
-        Probe-tip centre in the machine frame (mm).
-    rotation : ndarray, shape (..., 3, 3)
-        Pose rotation, tetrahedron frame -> machine frame.
-    translation : ndarray, shape (..., 3)
-        Pose translation (mm).
-    lasers, heights : ndarray, shape (..., 3)
-        Readings as solved (equal to the measured ones when the data are consistent).
-    residuals : ndarray, shape (..., 9)
-        Loop closure ``T(q_i + s_i w_i) - (c_i + z_i v_i)`` for arms a, b, c (x, y, z each, mm)
-        evaluated with the *measured* readings where given and the solved ones otherwise.
-        Zero when only one kind of reading is given; shows inconsistency when both are.
-    converged : ndarray of bool, shape (...)
-    iterations : int
-        Gauss-Newton iterations used for the batch.
-    """
-
-    tip: FloatArray
-    rotation: FloatArray
-    translation: FloatArray
-    lasers: FloatArray
-    heights: FloatArray
-    residuals: FloatArray
-    converged: NDArray[np.bool_]
-    iterations: int
-
-
-@dataclass(frozen=True)
-class InverseSolution:
-    """Result of :meth:`RigidBodyMachine.inverse`: readings that put the tip at the target.
-
-    Attributes
-    ----------
-    heights, lasers : ndarray, shape (..., 3)
-    rotation : ndarray, shape (..., 3, 3)
-    translation : ndarray, shape (..., 3)
-    converged : ndarray of bool, shape (...)
-    iterations : int
-    """
-
-    heights: FloatArray
-    lasers: FloatArray
-    rotation: FloatArray
-    translation: FloatArray
-    converged: NDArray[np.bool_]
-    iterations: int
 
 
 @dataclass(frozen=True)
@@ -364,9 +321,9 @@ class RigidBodyMachine:
     # ------------------------------------------------------------------ construction / serialisation
     @classmethod
     def from_dpkm(cls, **seed_parameters: Any) -> RigidBodyMachine:
-        """The seed geometry: slider lines meeting at the tip (see :func:`~pcmm_geo.machine.kinematics.seed_machine`).
+        """The seed geometry: slider lines meeting at the tip (see :func:`seed_machine`).
 
-        Keyword arguments are passed to :func:`pcmm_geo.machine.kinematics.dpkm.seed_machine`
+        Keyword arguments are passed to :func:`seed_machine`
         (``dead_distance``, ``beta_deg``, ``column_points``, ``column_slopes``,
         ``start_of_range``); all default to the thesis' Table 3.1 / Appendix D values.
 
@@ -376,8 +333,6 @@ class RigidBodyMachine:
         >>> round(float(m.tetrahedron.sliders["a"].laser_offset), 2)
         354.02
         """
-        from pcmm_geo.machine.kinematics.dpkm import seed_machine
-
         return seed_machine(**seed_parameters)
 
     def to_dict(self) -> dict[str, Any]:
@@ -457,3 +412,80 @@ def _closest_readings(
         lasers[:, arm] = (s_val - geometry.laser_offset[arm]) / geometry.laser_scale[arm]
         heights[:, arm] = z_val / geometry.encoder_scale[arm]
     return lasers, heights
+
+
+def seed_machine(
+    *,
+    dead_distance: Mapping[str, float] | None = None,
+    beta_deg: Mapping[str, float] | None = None,
+    column_points: Mapping[str, ArrayLike] | None = None,
+    column_slopes: Mapping[str, ArrayLike] | None = None,
+    start_of_range: float = START_OF_RANGE,
+    reference_lasers: ArrayLike | None = None,
+    reference_height: float = 400.0,
+) -> RigidBodyMachine:
+    """Rigid-body machine with the seed's geometry: slider lines meeting at the tip.
+
+    Parameters
+    ----------
+    dead_distance : mapping arm -> mm, optional
+        ``d_i`` (Table 3.1 by default); the slider offset is ``start_of_range + d_i``.
+    beta_deg : mapping "ab", "bc", "ca" -> degrees, optional
+        Angles between arms (Table 3.1 by default).
+    column_points : mapping arm -> (x, y) or (x, y, z), optional
+        Column intercepts ``(g_i, m_i)`` (Appendix D's pivot x, y by default).
+    column_slopes : mapping arm -> (h, n), optional
+        Column slopes of eqs 2.19-2.20 (vertical by default).  The encoder scale is set
+        so that the height reading equals the pivot's machine ``z``.
+    start_of_range : float
+        Laser start of range (60 mm).
+    reference_lasers : array_like, shape (3,), optional
+        Laser readings of the reference configuration.  Default: the configuration with
+        all three pivots level at ``reference_height`` (the middle of the working volume).
+    reference_height : float
+        Pivot height of the reference configuration (mm); with explicit
+        ``reference_lasers`` it is the starting height only.
+
+    Returns
+    -------
+    RigidBodyMachine
+
+    Examples
+    --------
+    >>> m = seed_machine()
+    >>> sorted(m.columns), round(float(m.reference_heights.mean()), 6)
+    (['a', 'b', 'c'], 400.0)
+    """
+    dead = dict(TABLE_3_1_DEAD_DISTANCE if dead_distance is None else dead_distance)
+    beta = dict(TABLE_3_1_BETA_DEG if beta_deg is None else beta_deg)
+    points = dict(APPENDIX_D_COLUMN_POINTS if column_points is None else column_points)
+    slopes = {arm: (0.0, 0.0) for arm in ARMS} if column_slopes is None else dict(column_slopes)
+    directions = tetrahedron_directions(beta)
+    tip = np.zeros(3)
+    sliders = {
+        arm: SliderLine(tip, directions[k], 1.0, start_of_range + float(dead[arm])) for k, arm in enumerate(ARMS)
+    }
+    columns = {}
+    for arm in ARMS:
+        xyz = np.zeros(3)
+        given = np.asarray(points[arm], dtype=float)
+        xyz[: given.size] = given
+        slope = np.asarray(slopes[arm], dtype=float)
+        along = np.array([slope[0], slope[1], 1.0])
+        columns[arm] = ColumnLine(xyz, along, float(np.linalg.norm(along)))
+    base = [np.linalg.norm(columns[i].point[:2] - columns[j].point[:2]) for i, j in ("ab", "bc", "ca")]
+    chord = [2.0 * np.sin(np.radians(beta[pair]) / 2.0) for pair in PAIRS]
+    level_length = float(np.mean(base) / np.mean(chord))
+    guess = np.array([level_length - sliders[arm].laser_offset for arm in ARMS])
+    provisional = RigidBodyMachine(
+        Tetrahedron(sliders, tip), columns, reference_lasers=guess, reference_heights=np.full(3, reference_height)
+    )
+    if reference_lasers is None:  # level pivots at reference_height
+        solved = provisional.forward(heights=np.full(3, reference_height))
+    else:
+        solved = provisional.forward(
+            lasers=np.asarray(reference_lasers, dtype=float), heights_hint=np.full(3, reference_height)
+        )
+    return RigidBodyMachine(
+        provisional.tetrahedron, columns, reference_lasers=solved.lasers, reference_heights=solved.heights
+    )

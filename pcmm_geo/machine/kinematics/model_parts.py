@@ -20,7 +20,17 @@ from numpy.typing import ArrayLike, NDArray
 
 from pcmm_geo.errors import InvalidInputError
 
-__all__ = ["ARMS", "ColumnLine", "SliderLine", "Tetrahedron", "as_readings", "as_vector3", "check_arm_keys"]
+__all__ = [
+    "ARMS",
+    "ColumnLine",
+    "ForwardSolution",
+    "InverseSolution",
+    "SliderLine",
+    "Tetrahedron",
+    "as_readings",
+    "as_vector3",
+    "check_arm_keys",
+]
 
 FloatArray = NDArray[np.float64]
 
@@ -172,3 +182,57 @@ class ColumnLine:
         """
         along = self.encoder_scale * np.asarray(height, dtype=float)
         return self.point + along[..., None] * self.direction
+
+
+@dataclass(frozen=True)
+class ForwardSolution:
+    """Result of :meth:`RigidBodyMachine.forward` (leading shape ``...`` of the input).
+
+    Attributes
+    ----------
+    tip : ndarray, shape (..., 3)
+        Probe-tip centre in the machine frame (mm).
+    rotation : ndarray, shape (..., 3, 3)
+        Pose rotation, tetrahedron frame -> machine frame.
+    translation : ndarray, shape (..., 3)
+        Pose translation (mm).
+    lasers, heights : ndarray, shape (..., 3)
+        Readings as solved (equal to the measured ones when the data are consistent).
+    residuals : ndarray, shape (..., 9)
+        Loop closure ``T(q_i + s_i w_i) - (c_i + z_i v_i)`` for arms a, b, c (x, y, z each, mm)
+        evaluated with the *measured* readings where given and the solved ones otherwise.
+        Zero when only one kind of reading is given; shows inconsistency when both are.
+    converged : ndarray of bool, shape (...)
+    iterations : int
+        Gauss-Newton iterations used for the batch.
+    """
+
+    tip: FloatArray
+    rotation: FloatArray
+    translation: FloatArray
+    lasers: FloatArray
+    heights: FloatArray
+    residuals: FloatArray
+    converged: NDArray[np.bool_]
+    iterations: int
+
+
+@dataclass(frozen=True)
+class InverseSolution:
+    """Result of :meth:`RigidBodyMachine.inverse`: readings that put the tip at the target.
+
+    Attributes
+    ----------
+    heights, lasers : ndarray, shape (..., 3)
+    rotation : ndarray, shape (..., 3, 3)
+    translation : ndarray, shape (..., 3)
+    converged : ndarray of bool, shape (...)
+    iterations : int
+    """
+
+    heights: FloatArray
+    lasers: FloatArray
+    rotation: FloatArray
+    translation: FloatArray
+    converged: NDArray[np.bool_]
+    iterations: int
