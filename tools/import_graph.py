@@ -68,7 +68,9 @@ def draw(output: Path) -> Path:
     width = max(len(row) for row in rows.values())
     for rank, row in rows.items():
         for k, layer in enumerate(row):
-            position[layer] = ((k - (len(row) - 1) / 2) * 2.5, rank * 1.0)
+            # lone boxes zigzag so that arrows between far ranks pass beside the boxes in between
+            zigzag = (0.9 if rank % 2 else -0.9) if len(row) == 1 else 0.0
+            position[layer] = ((k - (len(row) - 1) / 2) * 2.5 + zigzag, rank * 1.0)
     fig, ax = plt.subplots(figsize=(11, 12))
     box_w, box_h = 1.9, 0.42
     drawn = {edge: count for edge, count in edges.items() if edge[1] not in _NOT_DRAWN}

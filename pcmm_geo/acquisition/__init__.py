@@ -9,7 +9,9 @@ What lives here:
 - :mod:`~pcmm_geo.acquisition.session` -- an acquisition session: homing, the settling
   pre-sequence, moves with start/stop rows (thesis 3.5-3.6), retries of transient faults;
 - :mod:`~pcmm_geo.acquisition.acqlog` -- the durable (fsync'ed, checksummed) acquisition log and
-  its export to the seed's Table 3.2 view.
+  its export to the seed's Table 3.2 view;
+- :mod:`~pcmm_geo.acquisition.programme` -- the library side of ``pcmm acquire``: the five
+  devices opened as one session, the seeded move programme.
 
 May import: :mod:`pcmm_geo.errors`, the lower layers (:mod:`pcmm_geo.fit`, :mod:`pcmm_geo.io`,
 :mod:`pcmm_geo.thermal`) and the machine model it simulates,
