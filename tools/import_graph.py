@@ -96,7 +96,7 @@ def draw(output: Path) -> Path:
     ax.set_ylim(-0.6, max(rows) + 0.6)
     ax.axis("off")
     ax.set_title("pcmm_geo: layers and imports (arrow A -> B: A imports B; label: number of importing modules)\n"
-                 "every layer also imports errors (not drawn); no arrow points up, no cycles", fontsize=10)
+                 "every layer also imports errors (not drawn); no arrow points up or sideways", fontsize=10)
     for (source, target), count in sorted(drawn.items()):
         (x0, y0), (x1, y1) = position[source], position[target]
         ax.text(x0 + 0.3 * (x1 - x0), y0 - box_h / 2 - 0.3 * (y0 - y1 - box_h), str(count), fontsize=6,
