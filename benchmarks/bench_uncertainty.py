@@ -48,7 +48,7 @@ def _vcmm() -> tuple[object, object]:
 
 def loop_peer(vcmm: object, task: object, trials: int) -> float:
     """The unvectorised way: a perturbed machine and a forward solve per trial (calibration + reading noise)."""
-    from pcmm_geo.machine.model import RigidBodyMachine, SliderLine, Tetrahedron
+    from pcmm_geo.machine.kinematics.model import RigidBodyMachine, SliderLine, Tetrahedron
 
     rng = np.random.default_rng(1)
     lasers0, heights0 = vcmm.nominal_readings(task)

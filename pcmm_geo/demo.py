@@ -143,7 +143,7 @@ class DemoResult:
 
 def true_machine(settings: DemoSettings) -> Any:
     """The simulated machine: the thesis design with skewed slider lines and laser scale errors."""
-    from pcmm_geo.machine.model import RigidBodyMachine, SliderLine, Tetrahedron
+    from pcmm_geo.machine.kinematics.model import RigidBodyMachine, SliderLine, Tetrahedron
 
     nominal = RigidBodyMachine.from_dpkm()
     sliders = {}
@@ -252,7 +252,7 @@ def run_demo(
     """
     from pcmm_geo.artefacts.gauge_block import measure_gauge_block
     from pcmm_geo.machine.calibration import calibrate_tetrahedron
-    from pcmm_geo.machine.model import RigidBodyMachine
+    from pcmm_geo.machine.kinematics.model import RigidBodyMachine
 
     settings = settings or DemoSettings()
     rng = np.random.default_rng(settings.seed)
@@ -371,7 +371,7 @@ def demo_calibrated_machine(settings: DemoSettings | None = None) -> tuple[Any, 
         Tip centre in the middle of the working volume (mm).
     """
     from pcmm_geo.machine.calibration import calibrate_tetrahedron
-    from pcmm_geo.machine.model import RigidBodyMachine
+    from pcmm_geo.machine.kinematics.model import RigidBodyMachine
     from pcmm_geo.uncertainty.calibration import calibration_covariance
 
     settings = settings or DemoSettings()

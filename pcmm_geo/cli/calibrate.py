@@ -41,7 +41,7 @@ def _handle(args: argparse.Namespace) -> Report:
 
     from pcmm_geo.errors import OutputExistsError
     from pcmm_geo.machine.calibration import PAIRS, calibrate_tetrahedron, save_calibration
-    from pcmm_geo.machine.calibration_io import read_lasers
+    from pcmm_geo.machine.calibration.probings import read_lasers
 
     if args.out and Path(args.out).exists() and not args.overwrite:
         raise OutputExistsError(str(args.out))

@@ -61,8 +61,8 @@ def _machine(args: argparse.Namespace) -> tuple[Any, float, Any, Any, str]:
         machine, radius, covariance, center = demo_calibrated_machine()
         return machine, radius, covariance.model_covariance()[1], center, "demo's simulated calibration"
     from pcmm_geo.errors import FileFormatError
-    from pcmm_geo.machine.calfile import load_calibration, load_covariance
-    from pcmm_geo.machine.model import RigidBodyMachine
+    from pcmm_geo.machine.calibration.calfile import load_calibration, load_covariance
+    from pcmm_geo.machine.kinematics.model import RigidBodyMachine
     from pcmm_geo.uncertainty.calibration import CalibrationCovariance
 
     cal = load_calibration(args.calibration)
@@ -73,7 +73,7 @@ def _machine(args: argparse.Namespace) -> tuple[Any, float, Any, Any, str]:
         raise FileFormatError(str(args.calibration), "expected a 'covariance' entry (pcmm calibrate --probing-u "
                               "U --laser-u U --out FILE), got none")
     try:
-        from pcmm_geo.machine.calfile import load_machine
+        from pcmm_geo.machine.calibration.calfile import load_machine
 
         machine = load_machine(args.calibration)
         source = f"{args.calibration}"

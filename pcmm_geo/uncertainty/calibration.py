@@ -245,7 +245,7 @@ def _inputs(features: Any, lasers: FloatArray, probing_sigma: float, laser_sigma
 
 
 def _rebuild(features: Any, x: FloatArray) -> tuple[Any, FloatArray]:
-    from pcmm_geo.machine.calibration_io import ProbedFeatures
+    from pcmm_geo.machine.calibration.probings import ProbedFeatures
 
     positions = features.positions
     at = 0
@@ -262,7 +262,7 @@ def _rebuild(features: Any, x: FloatArray) -> tuple[Any, FloatArray]:
 
 
 def _prepare(probings: Any, lasers: Any) -> tuple[Any, FloatArray]:
-    from pcmm_geo.machine.calibration import _as_features, _as_lasers
+    from pcmm_geo.machine.calibration.tetrahedron import _as_features, _as_lasers
 
     features = _as_features(probings)
     table = _as_lasers(lasers, features.positions)
@@ -366,8 +366,8 @@ def calibration_covariance_monte_carlo(
     """
     from pcmm_geo.fit.batch import fit_spheres
     from pcmm_geo.machine.calibration import calibrate_tetrahedron
-    from pcmm_geo.machine.calibration_geometry import FittedSphere
-    from pcmm_geo.machine.calibration_io import ProbedFeatures
+    from pcmm_geo.machine.calibration.geometry import FittedSphere
+    from pcmm_geo.machine.calibration.probings import ProbedFeatures
 
     _check_sigmas(probing_sigma, laser_sigma)
     if trials < 10:

@@ -3,7 +3,7 @@
 The virtual CMM evaluates the same few probe contacts (``P``) under ``T`` perturbed machine
 geometries and reading sets, ``T x P`` pose problems per batch.  They all lie within
 micrometres of one nominal solution per contact, which this solver exploits: it runs the
-Gauss-Newton iteration of :meth:`~pcmm_geo.machine.model.RigidBodyMachine.forward` (the same
+Gauss-Newton iteration of :meth:`~pcmm_geo.machine.kinematics.model.RigidBodyMachine.forward` (the same
 closure equations and weighted least-squares objective over lasers and heights) as a
 *chord method*: residuals are evaluated exactly with every trial's geometry and readings,
 while the step uses the Jacobian of the nominal solution of each contact, factorised once
@@ -58,7 +58,7 @@ class BatchGeometry:
 
     @classmethod
     def repeat(cls, machine: object, trials: int) -> BatchGeometry:
-        """``trials`` copies of a :class:`~pcmm_geo.machine.model.RigidBodyMachine`'s geometry."""
+        """``trials`` copies of a :class:`~pcmm_geo.machine.kinematics.model.RigidBodyMachine`'s geometry."""
         g = machine.geometry  # type: ignore[attr-defined]
 
         def rep(a: FloatArray) -> FloatArray:
@@ -172,7 +172,7 @@ def forward_batch(
         Measured readings (mm).
     laser_sigma, height_sigma : float
         Standard uncertainties of the readings: the weights of
-        :meth:`~pcmm_geo.machine.model.RigidBodyMachine.forward`.
+        :meth:`~pcmm_geo.machine.kinematics.model.RigidBodyMachine.forward`.
     nominal_lasers, nominal_heights : ndarray, shape (P, 3)
         Consistent readings of ``machine`` at the contacts (its inverse kinematics).
     tolerance : float

@@ -13,10 +13,10 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from pcmm_geo.machine.calibration_seed import TABLE_7_1, appendix_cd_files
-from pcmm_geo.machine.logproc import synthesise_log, write_log
-from pcmm_geo.machine.model import RigidBodyMachine
-from pcmm_geo.machine.numcal import NumcalParameters, synthesise_numcal_data
+from pcmm_geo.machine.analysis.logproc import synthesise_log, write_log
+from pcmm_geo.machine.calibration.numcal import NumcalParameters, synthesise_numcal_data
+from pcmm_geo.machine.calibration.seed import TABLE_7_1, appendix_cd_files
+from pcmm_geo.machine.kinematics.model import RigidBodyMachine
 
 PCMM = str(Path(sys.executable).with_name("pcmm"))
 EXAMPLES = Path(__file__).parents[2] / "pcmm_geo" / "data" / "examples"

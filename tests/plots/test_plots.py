@@ -107,8 +107,8 @@ def test_gauge_block_plot_is_a_picture_and_is_never_overwritten(tmp_path: Path) 
 
 def test_calibration_demo_and_log_plots(tmp_path: Path) -> None:
     from pcmm_geo.demo import run_demo
-    from pcmm_geo.machine.logproc import process_log, synthesise_log
-    from pcmm_geo.machine.model import RigidBodyMachine
+    from pcmm_geo.machine.analysis.logproc import process_log, synthesise_log
+    from pcmm_geo.machine.kinematics.model import RigidBodyMachine
     from pcmm_geo.plots import plot_calibration, plot_demo_overview, plot_processed_log, plot_tip_errors
 
     steps: list[tuple[int, int, str]] = []

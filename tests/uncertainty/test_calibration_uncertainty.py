@@ -70,8 +70,8 @@ def test_uncertainty_grows_linearly_with_the_inputs(probings: dict) -> None:
 
 
 def test_covariance_round_trips_through_the_calibration_file(probings: dict, tmp_path) -> None:
-    from pcmm_geo.machine.calfile import load_covariance
     from pcmm_geo.machine.calibration import calibrate_tetrahedron, load_calibration, save_calibration
+    from pcmm_geo.machine.calibration.calfile import load_covariance
 
     cal = calibrate_tetrahedron(probings, CALIBRATION_LASERS)
     cov = calibration_covariance(probings, CALIBRATION_LASERS, probing_sigma=0.0005, laser_sigma=0.0005)

@@ -20,7 +20,7 @@ def run(*args: str) -> subprocess.CompletedProcess[str]:
 @pytest.fixture(scope="module")
 def raw_files(tmp_path_factory: pytest.TempPathFactory) -> tuple[str, str]:
     from pcmm_geo.demo import CALIBRATION_LASERS, DemoSettings, simulate_probings, true_machine
-    from pcmm_geo.machine.calibration_io import write_lasers_csv, write_probings_csv
+    from pcmm_geo.machine.calibration.probings import write_lasers_csv, write_probings_csv
 
     folder = tmp_path_factory.mktemp("raw")
     settings = DemoSettings(seed=7)

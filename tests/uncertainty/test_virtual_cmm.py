@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from pcmm_geo.errors import InvalidInputError
-from pcmm_geo.machine.model import ColumnLine, RigidBodyMachine, SliderLine, Tetrahedron
+from pcmm_geo.machine.kinematics.model import ColumnLine, RigidBodyMachine, SliderLine, Tetrahedron
 from pcmm_geo.uncertainty.kinematics import BatchGeometry, forward_batch
 from pcmm_geo.uncertainty.tasks import distance_task, gauge_block_task, sphere_task
 from pcmm_geo.uncertainty.virtual_cmm import ThermalInputs, VirtualCMM
