@@ -134,8 +134,8 @@ def test_deprecated_alias_warns(owner: str, old: str) -> None:
 
 
 def _calibration():  # type: ignore[no-untyped-def]
-    from pcmm_geo.machine.calibration import calibrate_tetrahedron
-    from pcmm_geo.machine.calibration_seed import appendix_cd_files
+    from pcmm_geo.machine.calibration.seed import appendix_cd_files
+    from pcmm_geo.machine.calibration.tetrahedron import calibrate_tetrahedron
 
     return calibrate_tetrahedron(*appendix_cd_files())
 
@@ -148,7 +148,7 @@ def test_old_names_give_the_new_values_on_real_objects() -> None:
         np.testing.assert_array_equal(cal.joint_centres, cal.joint_centers)
     with pytest.warns(DeprecationWarning, match="tip_centre"):
         np.testing.assert_array_equal(cal.tetrahedron.tip_centre, cal.tetrahedron.tip_center)
-    from pcmm_geo.machine.model_parts import Tetrahedron
+    from pcmm_geo.machine.kinematics.model_parts import Tetrahedron
 
     with pytest.warns(DeprecationWarning, match=r"Tetrahedron\(tip_centre=...\)"):
         rebuilt = Tetrahedron(sliders=cal.tetrahedron.sliders, tip_centre=[1.0, 2.0, 3.0])

@@ -81,7 +81,7 @@ def test_docs_build_with_warnings_as_errors_and_nitpicky_references(tmp_path: Pa
     done = _sphinx(source, tmp_path / "build")
     assert done.returncode == 0, done.stderr[-6000:]
     html = tmp_path / "build" / "html"
-    calibration = (html / "api" / "generated" / "pcmm_geo.machine.calibration_result.html").read_text(encoding="utf-8")
+    calibration = (html / "api" / "generated" / "pcmm_geo.machine.calibration.result.html").read_text(encoding="utf-8")
     assert "beta_deg" in calibration and "TetrahedronCalibration" in calibration
     guide = (html / "guide" / "calibrate_from_cmm_files.html").read_text(encoding="utf-8")
     assert "calibrate_tetrahedron" in guide and "314.476" in guide

@@ -83,9 +83,9 @@ def test_missing_extra_is_a_typed_error_naming_the_extra(
 
 
 def test_library_functions_name_the_extra(monkeypatch: pytest.MonkeyPatch, tmp_path: Path) -> None:
+    from pcmm_geo.acquisition.drivers._port import open_port
     from pcmm_geo.io.meshes import nominal_mesh
     from pcmm_geo.io.points import write_points
-    from pcmm_geo.machine.drivers._port import open_port
 
     monkeypatch.setitem(sys.modules, "trimesh", None)
     monkeypatch.setitem(sys.modules, "open3d", None)

@@ -30,6 +30,7 @@ from pcmm_geo.fit._core import FitResult, as_points, as_weights, covariance_from
 from pcmm_geo.fit._linear import frozen
 from pcmm_geo.fit._measure import axial_parts, query_points, torus_project
 from pcmm_geo.fit._torus_search import best_axis_position, refined_axis
+from pcmm_geo.fit.zone._common import check_criterion
 
 __all__ = ["TorusFit", "fit_torus"]
 
@@ -197,6 +198,7 @@ def fit_torus(
     *,
     weights: ArrayLike | None = None,
     axis_hint: ArrayLike | None = None,
+    criterion: str = "gaussian",
 ) -> TorusFit:
     """Fit a torus to 3-D points by orthogonal-distance least squares.
 
@@ -228,6 +230,9 @@ def fit_torus(
     axis_hint : array_like, shape (3,), optional
         Approximate (nominal) axis direction tried first (either sign).
 
+    criterion : {"gaussian"}
+        Only the least-squares criterion is defined for a torus (an explicit error otherwise).
+
     Returns
     -------
     TorusFit
@@ -254,6 +259,7 @@ def fit_torus(
     >>> round(fit.major_radius, 9), round(fit.minor_radius, 9), (np.round(fit.center, 9) + 0.0).tolist()
     (20.0, 4.0, [0.0, 0.0, 1000.0])
     """
+    check_criterion(criterion, _ELEMENT)
     data = as_points(points, element=_ELEMENT, min_points=7)
     weight = as_weights(weights, data.shape[0], element=_ELEMENT)
     sqrt_weights = None if weight is None else np.sqrt(weight)

@@ -10,7 +10,7 @@ from pathlib import Path
 import pytest
 
 from pcmm_geo.machine.calibration import calibrate_tetrahedron, load_calibration, save_calibration
-from pcmm_geo.machine.calibration_seed import appendix_cd_files
+from pcmm_geo.machine.calibration.seed import appendix_cd_files
 
 TABLE_7_1_BETA_DEG = {"ab": 68.25, "bc": 69.03, "ca": 68.70}  # printed to 0.01 degree
 

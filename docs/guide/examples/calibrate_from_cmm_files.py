@@ -10,7 +10,7 @@ from importlib.resources import files
 from pathlib import Path
 
 from pcmm_geo.machine.calibration import calibrate_tetrahedron, load_calibration, save_calibration
-from pcmm_geo.machine.calibration_io import read_lasers, read_probings
+from pcmm_geo.machine.calibration.probings import read_lasers, read_probings
 
 data = files("pcmm_geo") / "data" / "appendix_cd"
 probings = read_probings(data / "cmm_export.csv")  # element export: x,y,z,d,r per sphere
