@@ -21,6 +21,7 @@ def data_dir() -> Path:
 # ``-m "not extras"``, so a core test that secretly needs an extra fails there.
 EXTRAS_NEEDED = {
     "acquisition/test_acq_cli.py": "acquire",
+    "acquisition/test_acq_programme.py": "acquire",
     "acquisition/test_acq_lasers.py": "acquire",
     "acquisition/test_acq_probe.py": "acquire",
     "acquisition/test_acq_session.py": "acquire",
@@ -34,6 +35,8 @@ EXTRAS_NEEDED = {
     "cli/test_cli_calibrate.py::test_calibrate_text_output_and_files": "plots",
     "cli/test_cli_kinematics.py::test_sensitivity_plot": "plots",
     "cli/test_cli_fit.py::test_fit_circle_projected_matches_nist_and_human_table": "plots",
+    "cli/test_cli_form.py::test_form_roundness_pass_and_fail_with_plot": "plots",
+    "uncertainty/test_cli_uncertainty.py::test_uncertainty_command_from_a_calibration_file": "plots",
     "io/test_points.py::test_round_trip": "cad",
     "machine/test_sensitivity.py::test_plot_and_errors": "plots",
     "machine/test_logproc.py::test_read_log_accepts_acquisition_logs_with_metadata_and_extra_columns": "acquire",
