@@ -29,6 +29,7 @@ from pcmm_geo.fit._axial import (
 )
 from pcmm_geo.fit._core import FitResult, as_points, as_weights, covariance_from_jacobian, residual_stats
 from pcmm_geo.fit._linear import frozen
+from pcmm_geo.fit.scale import is_dask_array
 
 __all__ = ["CylinderFit", "fit_cylinder"]
 
@@ -178,6 +179,10 @@ def fit_cylinder(
         if not np.isfinite(radius) or radius <= 0:
             raise InvalidInputError("radius", "a positive finite radius in mm", repr(radius))
         radius = float(radius)
+    if is_dask_array(points):
+        from pcmm_geo.fit.scale.dask import fit_cylinder_dask
+
+        return fit_cylinder_dask(points, radius=radius, weights=weights, axis_hint=axis_hint)
     data = as_points(points, element=_ELEMENT, min_points=5 if radius is None else 4)
     weight = as_weights(weights, data.shape[0], element=_ELEMENT)
     sqrt_weights = None if weight is None else np.sqrt(weight)

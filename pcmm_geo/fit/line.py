@@ -14,6 +14,7 @@ from numpy.typing import ArrayLike, NDArray
 from pcmm_geo.errors import DegenerateGeometryError
 from pcmm_geo.fit._core import FitResult, as_points, as_weights, residual_stats
 from pcmm_geo.fit._linear import frozen, local_covariance, principal_frame, propagate, sign_convention
+from pcmm_geo.fit.scale import is_dask_array
 
 __all__ = ["LineFit", "fit_line"]
 
@@ -88,6 +89,10 @@ def fit_line(points: ArrayLike, *, weights: ArrayLike | None = None) -> LineFit:
     >>> np.round(result.direction * np.sqrt(3), 12).tolist(), result.point.tolist()
     ([1.0, 1.0, 1.0], [1.0, 1.0, 1.0])
     """
+    if is_dask_array(points):
+        from pcmm_geo.fit.scale.dask import fit_line_dask
+
+        return fit_line_dask(points, weights=weights)
     pts = as_points(points, element=_ELEMENT, dims=(2, 3), min_points=2)
     w = as_weights(weights, len(pts), element=_ELEMENT)
     centroid, singular, vt = principal_frame(pts, w, element=_ELEMENT)

@@ -15,6 +15,7 @@ from numpy.typing import ArrayLike, NDArray
 from pcmm_geo.errors import DegenerateGeometryError
 from pcmm_geo.fit._core import TOL, FitResult, as_points, as_weights, residual_stats
 from pcmm_geo.fit._linear import frozen, local_covariance, principal_frame, propagate, sign_convention
+from pcmm_geo.fit.scale import is_dask_array
 
 __all__ = ["PlaneFit", "fit_plane"]
 
@@ -80,6 +81,10 @@ def fit_plane(points: ArrayLike, *, weights: ArrayLike | None = None) -> PlaneFi
     >>> result.normal.tolist(), result.point.tolist(), result.form
     ([0.0, 0.0, 1.0], [0.5, 0.5, 1.0], 0.0)
     """
+    if is_dask_array(points):
+        from pcmm_geo.fit.scale.dask import fit_plane_dask
+
+        return fit_plane_dask(points, weights=weights)
     pts = as_points(points, element=_ELEMENT, min_points=3)
     w = as_weights(weights, len(pts), element=_ELEMENT)
     centroid, singular, vt = principal_frame(pts, w, element=_ELEMENT)
