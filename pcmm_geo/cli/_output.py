@@ -144,7 +144,8 @@ def print_report(report: Report, as_json: bool) -> None:
     blocks = [render_table(t) for t in report.tables]
     if report.lines:
         blocks.append("\n".join(report.lines))
-    print("\n\n".join(blocks))
+    if blocks:  # a command that printed its own output (pcmm batch) returns an empty report
+        print("\n\n".join(blocks))
 
 
 def run_handler(args: argparse.Namespace) -> int:
