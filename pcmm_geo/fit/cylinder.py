@@ -13,6 +13,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from pcmm_geo.errors import InvalidInputError
+from pcmm_geo.fit import _tall
 from pcmm_geo.fit._axial import (
     AxialSolution,
     FloatArray,
@@ -135,13 +136,17 @@ def fit_cylinder(
     Gauss-Newton / Levenberg-Marquardt with an analytic Jacobian in standard position
     (data centred at the centroid, current axis rotated to +z; local parameters are the
     axis crossing ``x0, y0`` of the local ``z = 0`` plane, two tilts ``a, b`` and the radius).
+    From ``pcmm_geo.fit._tall.TALL_ROWS`` unweighted points on, and for a dask array, the fit
+    of a strided subsample starts Gauss-Newton passes whose normal equations are accumulated
+    in chunks (:mod:`pcmm_geo.fit.scale.fits`).
     Starting values come from an algebraic circle fit of the data projected along each
     principal axis (and ``axis_hint``); the converged solution of least cost is returned.
 
     Parameters
     ----------
-    points : array_like, shape (N, 3)
-        Measured points (mm); N >= 5 (N >= 4 with a fixed radius).
+    points : array_like or dask.array.Array, shape (N, 3)
+        Measured points (mm); N >= 5 (N >= 4 with a fixed radius).  A dask array is fitted
+        block by block (no weights); ``residuals`` are then lazy.
     radius : float, optional
         Fix the radius (mm) and fit the axis only.
     weights : array_like, shape (N,), optional
@@ -185,6 +190,14 @@ def fit_cylinder(
         return fit_cylinder_dask(points, radius=radius, weights=weights, axis_hint=axis_hint)
     data = as_points(points, element=_ELEMENT, min_points=5 if radius is None else 4)
     weight = as_weights(weights, data.shape[0], element=_ELEMENT)
+    if weight is None and len(data) >= _tall.TALL_ROWS:
+        from pcmm_geo.fit.scale.chunked import IllConditionedSteps
+        from pcmm_geo.fit.scale.fits import fit_cylinder_scaled, numpy_source
+
+        try:
+            return fit_cylinder_scaled(numpy_source(data), radius, axis_hint)
+        except IllConditionedSteps:
+            pass  # nearly coplanar: the solver below decides
     sqrt_weights = None if weight is None else np.sqrt(weight)
     centroid = data.mean(axis=0)
     centred = data - centroid

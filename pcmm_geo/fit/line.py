@@ -12,6 +12,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from pcmm_geo.errors import DegenerateGeometryError
+from pcmm_geo.fit import _tall
 from pcmm_geo.fit._core import FitResult, as_points, as_weights, residual_stats
 from pcmm_geo.fit._linear import frozen, local_covariance, principal_frame, propagate, sign_convention
 from pcmm_geo.fit.scale import is_dask_array
@@ -61,8 +62,11 @@ def fit_line(points: ArrayLike, *, weights: ArrayLike | None = None) -> LineFit:
 
     Parameters
     ----------
-    points : array_like, shape (N, 2) or (N, 3)
-        Measured points (mm), N >= 2, not all identical.
+    points : array_like, shape (N, 2) or (N, 3), or dask.array.Array, shape (N, 3)
+        Measured points (mm), N >= 2, not all identical.  From ``pcmm_geo.fit._tall.TALL_ROWS``
+        unweighted 3-D points on, the moments are accumulated in chunks
+        (:mod:`pcmm_geo.fit.scale.fits`); a dask array is fitted so, block by block (no
+        weights), with lazy ``residuals``.
     weights : array_like, shape (N,), optional
         Non-negative weights of the squared distances.
 
@@ -95,6 +99,10 @@ def fit_line(points: ArrayLike, *, weights: ArrayLike | None = None) -> LineFit:
         return fit_line_dask(points, weights=weights)
     pts = as_points(points, element=_ELEMENT, dims=(2, 3), min_points=2)
     w = as_weights(weights, len(pts), element=_ELEMENT)
+    if w is None and pts.shape[1] == 3 and len(pts) >= _tall.TALL_ROWS:
+        from pcmm_geo.fit.scale.fits import fit_line_scaled, numpy_source
+
+        return fit_line_scaled(numpy_source(pts))
     centroid, singular, vt = principal_frame(pts, w, element=_ELEMENT)
     if len(singular) > 1 and singular[1] >= (1 - 1e-12) * singular[0] and len(pts) > 2:
         raise DegenerateGeometryError(_ELEMENT, "points have no preferred direction (isotropic spread)")

@@ -83,6 +83,27 @@ def test_chunked_sphere_with_fixed_radius_and_its_covariance(monkeypatch: pytest
     np.testing.assert_allclose(chunked_fit.residuals, orthogonal.residuals, rtol=0, atol=1e-9)
 
 
+@pytest.mark.parametrize("element", ["line3d", "plane", "cylinder"])
+def test_chunked_line_plane_cylinder_equal_the_truth_and_the_orthogonal_path(
+    monkeypatch: pytest.MonkeyPatch, element: str
+) -> None:
+    sizes = {"line3d": {"length": 120.0}, "plane": {"length": 60.0}, "cylinder": {"radius": 15.0, "length": 40.0}}
+    function = {"line3d": fit_line, "plane": fit_plane, "cylinder": fit_cylinder}[element]
+    data = make_reference_data(element, n_points=_tall.TALL_ROWS + 5000, form=0.02, offset=1000.0, rng=17,
+                               **sizes[element])
+    monkeypatch.setattr(chunked, "CHUNK_ROWS", 4096)
+    fast = function(data.points)
+    assert "chunks" in fast.message or "Gauss-Newton" in fast.message
+    assert_fit_close(fast, data)
+    monkeypatch.setattr(_tall, "TALL_ROWS", 10**9)
+    orthogonal = function(data.points)
+    assert "chunks" not in orthogonal.message
+    np.testing.assert_allclose(fast.residuals, orthogonal.residuals, rtol=0, atol=1e-9)
+    assert fast.rms == pytest.approx(orthogonal.rms, rel=1e-9) and fast.form == pytest.approx(orthogonal.form, abs=1e-9)
+    np.testing.assert_allclose(fast.covariance, orthogonal.covariance, rtol=1e-6,
+                               atol=1e-9 * np.abs(orthogonal.covariance).max())
+
+
 # ---------------------------------------------------------------------- dask
 
 
@@ -130,8 +151,8 @@ def test_dask_fit_of_a_generated_array_never_materialised() -> None:
 def test_dask_fits_on_a_distributed_cluster() -> None:
     distributed = pytest.importorskip("distributed")
     data = make_reference_data("sphere", n_points=3000, radius=10.0, form=0.01, offset=100.0, rng=4)
-    with distributed.LocalCluster(n_workers=1, threads_per_worker=2, processes=False, dashboard_address=None) as cluster, \
-            distributed.Client(cluster):
+    cluster = distributed.LocalCluster(n_workers=1, threads_per_worker=2, processes=False, dashboard_address=None)
+    with cluster, distributed.Client(cluster):
         fitted = fit_sphere(_lazy(data.points, 500))
         upper = data.points[data.points[:, 2] > np.median(data.points[:, 2])]
         plane = fit_plane(_lazy(upper, 500))
