@@ -92,7 +92,7 @@ def dask_sphere_case(n_points: int, compare_points: int, chunk: int) -> CaseResu
                   "radius vs in-memory": equal["in_memory_radius_difference_mm"]}
     contenders = [
         Contender(f"fit_sphere(dask), {compare_points:,} points", equal["seconds"], deviations,
-                  f"peak RSS {equal['peak_rss_mb']:.0f} MB incl. the in-memory copy"),
+                  f"peak RSS of the lazy fit {equal['peak_rss_mb']:.0f} MB"),
         Contender(f"fit_sphere(dask), {n_points:,} points", big["seconds"],
                   {"radius - 25": abs(big["radius"] - 25.0)},
                   f"peak RSS {big['peak_rss_mb']:.0f} MB; {big['points_per_second']:,.0f} points/s; "

@@ -249,8 +249,8 @@ class SurfaceIndex:
         --------
         >>> from pcmm_geo.io.meshes import box_mesh
         >>> index = SurfaceIndex.build(box_mesh(100, 35, 9))
-        >>> len(index.triangles), [len(group.members) for group in index.size_classes]
-        (12, [12])
+        >>> len(index.triangles), [len(group.members) for group in index.size_classes]  # long faces, end faces
+        (12, [8, 4])
         """
         faces = np.asarray(mesh.faces, dtype=np.int64)
         if faces.ndim != 2 or len(faces) == 0:
