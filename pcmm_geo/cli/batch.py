@@ -4,7 +4,8 @@ Each file is evaluated by the sub-command that evaluates one file (``pcmm fit EL
 ``pcmm gauge-block``, ``pcmm compare``), run on a worker of a ``dask.distributed`` cluster:
 the one at ``--scheduler ADDRESS``, or a local cluster of ``--workers`` processes (one
 thread each) started for the batch and closed after it.  As files finish, one JSON object
-per line is printed on stdout (in completion order)::
+per line is printed on stdout (in completion order; file names as given, which with
+``--scheduler`` must name the files on the workers)::
 
     {"file": "a.csv", "task": "fit-sphere", "ok": true, "seconds": 0.12, "result": {...}}
     {"file": "b.csv", "task": "fit-sphere", "ok": false, "error": {"type": "DegenerateGeometryError", ...}}
@@ -113,9 +114,11 @@ def handle(args: argparse.Namespace) -> Report:
         raise InvalidInputError("--workers", "at least one worker process", repr(args.workers))
     from distributed import Client, LocalCluster, as_completed
 
-    options = {"radius": args.radius, "mesh": None if args.mesh is None else str(args.mesh.resolve()),
+    # paths go to the workers as given: a local cluster's workers share this working directory;
+    # with --scheduler the files must be reachable under these names on the workers
+    options = {"radius": args.radius, "mesh": None if args.mesh is None else str(args.mesh),
                "nominal": args.nominal, "tolerance": args.tolerance}
-    files = [str(path.resolve()) for path in args.files]
+    files = [str(path) for path in args.files]
     cluster = None
     if args.scheduler is None:
         cluster = LocalCluster(n_workers=args.workers, threads_per_worker=1, processes=True,
@@ -132,6 +135,7 @@ def handle(args: argparse.Namespace) -> Report:
                 except Exception as exc:  # the worker itself died: still one line for the file
                     record = {"file": owner[future.key], "task": args.task, "ok": False,
                               "error": {"type": type(exc).__name__, "message": str(exc)}}
+                record["file"] = owner[future.key]  # as given on the command line
                 failed += not record["ok"]
                 print(json.dumps(record, allow_nan=False, default=str), flush=True)
                 update(done, len(files))
