@@ -18,6 +18,7 @@ from collections.abc import Sequence
 COMMAND_MODULES = (
     "demo",
     "fit",
+    "form",
     "calibrate",
     "kinematics",
     "process_log",
@@ -31,6 +32,7 @@ COMMAND_MODULES = (
     "compare",
     "segment",
     "convert",
+    "uncertainty",
     "batch",
 )
 
@@ -56,7 +58,7 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 def main(argv: Sequence[str] | None = None) -> int:
-    from pcmm_geo.cli._output import run_handler
+    from pcmm_geo.cli._run import run_handler
 
     parser = build_parser()
     args = parser.parse_args(argv)

@@ -11,11 +11,12 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from pcmm_geo.errors import DegenerateGeometryError
+from pcmm_geo.errors import DegenerateGeometryError, InvalidInputError
 from pcmm_geo.fit import _tall
 from pcmm_geo.fit._core import FitResult, as_points, as_weights, residual_stats
 from pcmm_geo.fit._linear import frozen, local_covariance, principal_frame, propagate, sign_convention
 from pcmm_geo.fit.scale import is_dask_array
+from pcmm_geo.fit.zone._common import check_criterion
 
 __all__ = ["LineFit", "fit_line"]
 
@@ -57,7 +58,7 @@ class LineFit(FitResult):
         return self.point + (rel @ self.direction)[..., None] * self.direction
 
 
-def fit_line(points: ArrayLike, *, weights: ArrayLike | None = None) -> LineFit:
+def fit_line(points: ArrayLike, *, weights: ArrayLike | None = None, criterion: str = "gaussian") -> LineFit:
     """Fit a straight line minimising the (weighted) sum of squared orthogonal distances.
 
     Parameters
@@ -69,6 +70,10 @@ def fit_line(points: ArrayLike, *, weights: ArrayLike | None = None) -> LineFit:
         weights), with lazy ``residuals``.
     weights : array_like, shape (N,), optional
         Non-negative weights of the squared distances.
+
+    criterion : {"gaussian", "chebyshev"}
+        ``"gaussian"`` (least squares, default) or the minimax criteria of
+        :mod:`pcmm_geo.fit.zone` (contacts and optimality certificate on the result).
 
     Returns
     -------
@@ -93,11 +98,18 @@ def fit_line(points: ArrayLike, *, weights: ArrayLike | None = None) -> LineFit:
     >>> np.round(result.direction * np.sqrt(3), 12).tolist(), result.point.tolist()
     ([1.0, 1.0, 1.0], [1.0, 1.0, 1.0])
     """
+    check_criterion(criterion, _ELEMENT, weights=weights)
     if is_dask_array(points):
+        if criterion != "gaussian":
+            raise InvalidInputError("criterion", "'gaussian' for a dask array of points", repr(criterion))
         from pcmm_geo.fit.scale.dask import fit_line_dask
 
         return fit_line_dask(points, weights=weights)
     pts = as_points(points, element=_ELEMENT, dims=(2, 3), min_points=2)
+    if criterion != "gaussian":
+        from pcmm_geo.fit.zone._linear import line_minimax
+
+        return line_minimax(pts, criterion)
     w = as_weights(weights, len(pts), element=_ELEMENT)
     if w is None and pts.shape[1] == 3 and len(pts) >= _tall.TALL_ROWS:
         from pcmm_geo.fit.scale.fits import fit_line_scaled, numpy_source
