@@ -298,9 +298,7 @@ class SurfaceIndex:
             No points.
         """
         if is_dask_array(points):
-            from pcmm_geo.fit.scale.dask import lazy_surface_distances
-
-            return lazy_surface_distances(self, points)
+            return self._lazy_distances(points)
         query = as_points(points, element="mesh distance", min_points=1)
         parts = [self._distances(query[start:start + _POINTS_PER_BLOCK])
                  for start in range(0, len(query), _POINTS_PER_BLOCK)]
@@ -308,6 +306,15 @@ class SurfaceIndex:
             return parts[0]
         return SurfaceDistances(*(np.concatenate([getattr(part, name) for part in parts])
                                   for name in ("closest", "signed_distance", "face_index", "direction")))
+
+    def _lazy_distances(self, points: Any) -> SurfaceDistances:
+        """Block-wise distances of a dask array of points; every field a lazy dask array."""
+        from pcmm_geo.fit.scale.dask import as_dask_points, lazy_rows
+
+        checked = as_dask_points(points, element="mesh distance", min_points=1)
+        packed = lazy_rows(checked, _packed_distances, self, columns=8)
+        return SurfaceDistances(closest=packed[:, 0:3], signed_distance=packed[:, 3],
+                                face_index=packed[:, 4].astype(np.int64), direction=packed[:, 5:8])
 
     def _distances(self, query: FloatArray) -> SurfaceDistances:
         closest, squared, face_index, barycentric = self._nearest(query)
@@ -391,6 +398,13 @@ class SurfaceIndex:
         normals[at_vertex] = self.corner_normals[face_index[at_vertex], corner]
         length = np.linalg.norm(normals, axis=1, keepdims=True)
         return normals / np.where(length > 0.0, length, 1.0), zero_count == 0
+
+
+def _packed_distances(block: FloatArray, index: SurfaceIndex) -> FloatArray:
+    """Distances of one block packed as columns: closest (3), signed distance, face index, direction (3)."""
+    found = index.distances(np.asarray(block, dtype=np.float64))
+    return np.column_stack([found.closest, found.signed_distance, found.face_index.astype(np.float64),
+                            found.direction])
 
 
 def _feature_normals(mesh: trimesh.Trimesh, triangles: FloatArray) -> tuple[FloatArray, FloatArray, FloatArray]:

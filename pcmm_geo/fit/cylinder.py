@@ -203,7 +203,8 @@ def fit_cylinder(
             raise InvalidInputError("criterion", "'gaussian' for a dask array of points", repr(criterion))
         from pcmm_geo.fit.scale.dask import fit_cylinder_dask
 
-        return fit_cylinder_dask(points, radius=radius, weights=weights, axis_hint=axis_hint)
+        return CylinderFit(**fit_cylinder_dask(points, radius=radius, weights=weights, axis_hint=axis_hint,
+                                               **_scale_parts()))
     data = as_points(points, element=_ELEMENT, min_points=5 if radius is None else 4)
     if criterion != "gaussian":
         from pcmm_geo.fit.zone._axial import cylinder_minimax
@@ -215,7 +216,7 @@ def fit_cylinder(
         from pcmm_geo.fit.scale.fits import fit_cylinder_scaled, numpy_source
 
         try:
-            return fit_cylinder_scaled(numpy_source(data), radius, axis_hint)
+            return CylinderFit(**fit_cylinder_scaled(numpy_source(data), radius, axis_hint, **_scale_parts()))
         except IllConditionedSteps:
             pass  # nearly coplanar: the solver below decides
     sqrt_weights = None if weight is None else np.sqrt(weight)
@@ -235,6 +236,11 @@ def fit_cylinder(
         sqrt_weights=sqrt_weights,
     )
     return _result(data, solution, radius)
+
+
+def _scale_parts() -> dict[str, object]:
+    """What :mod:`pcmm_geo.fit.scale.fits` needs of this module (passed in: it must not import us)."""
+    return {"fit_cylinder": fit_cylinder, "model": _cylinder_model, "axis_point_jacobian": axis_point_jacobian}
 
 
 def _result(data: FloatArray, solution: AxialSolution, fixed_radius: float | None) -> CylinderFit:

@@ -104,7 +104,7 @@ def fit_line(points: ArrayLike, *, weights: ArrayLike | None = None, criterion: 
             raise InvalidInputError("criterion", "'gaussian' for a dask array of points", repr(criterion))
         from pcmm_geo.fit.scale.dask import fit_line_dask
 
-        return fit_line_dask(points, weights=weights)
+        return LineFit(**fit_line_dask(points, weights=weights))
     pts = as_points(points, element=_ELEMENT, dims=(2, 3), min_points=2)
     if criterion != "gaussian":
         from pcmm_geo.fit.zone._linear import line_minimax
@@ -114,7 +114,7 @@ def fit_line(points: ArrayLike, *, weights: ArrayLike | None = None, criterion: 
     if w is None and pts.shape[1] == 3 and len(pts) >= _tall.TALL_ROWS:
         from pcmm_geo.fit.scale.fits import fit_line_scaled, numpy_source
 
-        return fit_line_scaled(numpy_source(pts))
+        return LineFit(**fit_line_scaled(numpy_source(pts)))
     centroid, singular, vt = principal_frame(pts, w, element=_ELEMENT)
     if len(singular) > 1 and singular[1] >= (1 - 1e-12) * singular[0] and len(pts) > 2:
         raise DegenerateGeometryError(_ELEMENT, "points have no preferred direction (isotropic spread)")

@@ -96,7 +96,7 @@ def fit_plane(points: ArrayLike, *, weights: ArrayLike | None = None, criterion:
             raise InvalidInputError("criterion", "'gaussian' for a dask array of points", repr(criterion))
         from pcmm_geo.fit.scale.dask import fit_plane_dask
 
-        return fit_plane_dask(points, weights=weights)
+        return PlaneFit(**fit_plane_dask(points, weights=weights))
     pts = as_points(points, element=_ELEMENT, min_points=3)
     if criterion != "gaussian":
         from pcmm_geo.fit.zone._linear import plane_minimax
@@ -108,7 +108,7 @@ def fit_plane(points: ArrayLike, *, weights: ArrayLike | None = None, criterion:
         from pcmm_geo.fit.scale.fits import fit_plane_scaled, numpy_source
 
         try:
-            return fit_plane_scaled(numpy_source(pts))
+            return PlaneFit(**fit_plane_scaled(numpy_source(pts)))
         except IllConditionedSteps:
             pass  # nearly collinear: the singular value decomposition below decides
     centroid, singular, vt = principal_frame(pts, w, element=_ELEMENT)

@@ -118,7 +118,8 @@ def fit_sphere(
             raise InvalidInputError("criterion", "'gaussian' for a dask array of points", repr(criterion))
         from pcmm_geo.fit.scale.dask import fit_sphere_dask
 
-        return fit_sphere_dask(points, radius=radius, weights=weights)
+        found, residuals = fit_sphere_dask(points, radius=radius, weights=weights)
+        return _from_solution(found, residuals, radius)
     pts = as_points(points, element=_ELEMENT, min_points=4 if radius is None else 3)
     if criterion != "gaussian":
         from pcmm_geo.fit.zone._round import sphere_minimax
@@ -147,6 +148,11 @@ def _fit_chunked(pts: FloatArray, radius: float | None) -> SphereFit | None:
                                     out=residuals)
     except IllConditionedSteps:
         return None
+    return _from_solution(found, residuals, radius)
+
+
+def _from_solution(found: Any, residuals: Any, radius: float | None) -> SphereFit:
+    """A :class:`SphereFit` from a :class:`~pcmm_geo.fit.scale.sphere.SphereSolution`."""
     return sphere_result(found.center, found.radius, residuals, rms=found.rms, form=found.form, n=found.count,
                          parameter_count=found.parameter_count, covariance=found.covariance,
                          condition=found.condition, converged=found.converged, iterations=found.iterations,

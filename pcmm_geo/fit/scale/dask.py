@@ -11,14 +11,15 @@ Passes per fit (:mod:`pcmm_geo.fit.scale.fits`): line and plane 2 (moments, resi
 statistics); sphere 1 + the Gauss-Newton passes (typically 2-3); cylinder 1 + a fit of a
 strided subsample (the start) + the Gauss-Newton passes.  ``residuals`` of the
 results stay lazy dask arrays; ``rms`` and ``form`` are computed in the last pass.
-Weights are not supported for dask input.
+Weights are not supported for dask input.  Like :mod:`~pcmm_geo.fit.scale.fits`, the
+functions return the fields of the result (the element modules build the result object).
 """
 
 from __future__ import annotations
 
 import math
 import uuid
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
@@ -32,13 +33,6 @@ from pcmm_geo.fit.scale.fits import (
     fit_plane_scaled,
     fit_sphere_scaled,
 )
-
-if TYPE_CHECKING:
-    from pcmm_geo.artefacts.cad_distance import SurfaceDistances, SurfaceIndex
-    from pcmm_geo.fit.cylinder import CylinderFit
-    from pcmm_geo.fit.line import LineFit
-    from pcmm_geo.fit.plane import PlaneFit
-    from pcmm_geo.fit.sphere import SphereFit
 
 FloatArray = NDArray[np.float64]
 
@@ -97,7 +91,7 @@ def _no_weights(weights: Any) -> None:
         raise InvalidInputError("weights", "no weights with a dask array of points (not supported)", "weights")
 
 
-def _lazy_rows(points: Any, function: Any, *args: Any, columns: int | None = None) -> Any:
+def lazy_rows(points: Any, function: Any, *args: Any, columns: int | None = None) -> Any:
     """``function(block, *args)`` per block: (rows,) or (rows, columns) results, lazily."""
     name = f"pcmm-{function.__name__.strip('_')}-{uuid.uuid4().hex}"
     if columns is None:
@@ -118,7 +112,7 @@ def dask_source(points: Any) -> Source:
         return np.asarray(points[::stride].compute(), dtype=np.float64)
 
     def rows(function: Any, *args: Any, columns: int | None = None) -> Any:
-        return _lazy_rows(points, function, *args, columns=columns)
+        return lazy_rows(points, function, *args, columns=columns)
 
     return Source(reduce=dask_reducer(points), first_row=first_row, every=every, rows=rows, lazy=True)
 
@@ -127,7 +121,7 @@ def _degenerate(element: str, what: str) -> DegenerateGeometryError:
     return DegenerateGeometryError(element, f"points are (nearly) {what}; no unique {element} fits them")
 
 
-def fit_plane_dask(points: Any, *, weights: Any = None) -> PlaneFit:
+def fit_plane_dask(points: Any, *, weights: Any = None) -> dict[str, Any]:
     """:func:`pcmm_geo.fit.fit_plane` of a dask array (two passes; lazy residuals)."""
     _no_weights(weights)
     try:
@@ -136,13 +130,13 @@ def fit_plane_dask(points: Any, *, weights: Any = None) -> PlaneFit:
         raise _degenerate("plane", "collinear") from None
 
 
-def fit_line_dask(points: Any, *, weights: Any = None) -> LineFit:
+def fit_line_dask(points: Any, *, weights: Any = None) -> dict[str, Any]:
     """:func:`pcmm_geo.fit.fit_line` of a dask array of 3-D points (two passes; lazy residuals)."""
     _no_weights(weights)
     return fit_line_scaled(dask_source(as_dask_points(points, element="line", min_points=2)))
 
 
-def fit_sphere_dask(points: Any, *, radius: float | None = None, weights: Any = None) -> SphereFit:
+def fit_sphere_dask(points: Any, *, radius: float | None = None, weights: Any = None) -> tuple[Any, Any]:
     """:func:`pcmm_geo.fit.fit_sphere` of a dask array (moments, then Gauss-Newton passes; lazy residuals)."""
     _no_weights(weights)
     pts = as_dask_points(points, element="sphere", min_points=4 if radius is None else 3)
@@ -152,31 +146,12 @@ def fit_sphere_dask(points: Any, *, radius: float | None = None, weights: Any = 
         raise _degenerate("sphere", "coplanar") from None
 
 
-def fit_cylinder_dask(points: Any, *, radius: float | None = None, weights: Any = None,
-                      axis_hint: Any = None) -> CylinderFit:
+def fit_cylinder_dask(points: Any, *, radius: float | None = None, weights: Any = None, axis_hint: Any = None,
+                      **passed: Any) -> dict[str, Any]:
     """:func:`pcmm_geo.fit.fit_cylinder` of a dask array (subsample start, Gauss-Newton passes; lazy residuals)."""
     _no_weights(weights)
     pts = as_dask_points(points, element="cylinder", min_points=5 if radius is None else 4)
     try:
-        return fit_cylinder_scaled(dask_source(pts), radius, axis_hint)
+        return fit_cylinder_scaled(dask_source(pts), radius, axis_hint, **passed)
     except IllConditionedSteps:
         raise _degenerate("cylinder", "coplanar") from None
-
-
-# ---------------------------------------------------------------------- surface distances
-
-
-def _packed_distances(block: FloatArray, index: SurfaceIndex) -> FloatArray:
-    found = index.distances(np.asarray(block, dtype=np.float64))
-    return np.column_stack([found.closest, found.signed_distance, found.face_index.astype(np.float64),
-                            found.direction])
-
-
-def lazy_surface_distances(index: SurfaceIndex, points: Any) -> SurfaceDistances:
-    """Signed distances of a dask array of points, block by block; every field a lazy dask array."""
-    from pcmm_geo.artefacts.cad_distance import SurfaceDistances
-
-    pts = as_dask_points(points, element="mesh distance", min_points=1)
-    packed = _lazy_rows(pts, _packed_distances, index, columns=8)
-    return SurfaceDistances(closest=packed[:, 0:3], signed_distance=packed[:, 3],
-                            face_index=packed[:, 4].astype(np.int64), direction=packed[:, 5:8])

@@ -11,9 +11,10 @@ dask array block by block (:func:`pcmm_geo.fit.scale.dask.dask_source`):
   points (multi-start, robust, cheap) starts Gauss-Newton passes over all points whose
   normal equations are accumulated chunk by chunk.
 
-Near-degenerate data raise :class:`~pcmm_geo.fit.scale.chunked.IllConditionedSteps`: the
-in-memory callers then use their orthogonal-decomposition path, the dask callers report
-degenerate geometry.
+The functions return the fields of the element's result class (the element modules, which
+import this one, build it: no import goes back up).  Near-degenerate data raise
+:class:`~pcmm_geo.fit.scale.chunked.IllConditionedSteps`: the in-memory callers then use
+their orthogonal-decomposition path, the dask callers report degenerate geometry.
 """
 
 from __future__ import annotations
@@ -21,7 +22,7 @@ from __future__ import annotations
 import math
 from collections.abc import Callable
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
@@ -40,12 +41,7 @@ from pcmm_geo.fit.scale.chunked import (
     moments,
     pack_normal_equations,
 )
-
-if TYPE_CHECKING:
-    from pcmm_geo.fit.cylinder import CylinderFit
-    from pcmm_geo.fit.line import LineFit
-    from pcmm_geo.fit.plane import PlaneFit
-    from pcmm_geo.fit.sphere import SphereFit
+from pcmm_geo.fit.scale.sphere import SphereSolution, fit_nsphere_chunked
 
 FloatArray = NDArray[np.float64]
 
@@ -142,10 +138,9 @@ def line_distances(points: FloatArray, point: FloatArray, e1: FloatArray, e2: Fl
     return np.linalg.norm(line_components(points, point, e1, e2), axis=1)
 
 
-def fit_plane_scaled(source: Source) -> PlaneFit:
-    """:func:`pcmm_geo.fit.fit_plane` from a moment pass (unweighted)."""
+def fit_plane_scaled(source: Source) -> dict[str, Any]:
+    """Fields of :func:`pcmm_geo.fit.fit_plane`'s result from a moment pass (unweighted)."""
     from pcmm_geo.fit._linear import propagate, sign_convention
-    from pcmm_geo.fit.plane import PlaneFit
 
     data, _ = checked_moments(source, "plane")
     eigen, vectors = _principal(data)
@@ -161,7 +156,7 @@ def fit_plane_scaled(source: Source) -> PlaneFit:
     gradient[:3, 0] = normal
     gradient[3:, 1] = e1
     gradient[3:, 2] = e2
-    return PlaneFit(
+    return dict(
         point=data.centroid.copy(), normal=normal.copy(), residuals=residuals,
         rms=float(np.sqrt(cost / count)), form=high - low, n=count, dof=count - 3,
         parameter_names=("point_x", "point_y", "point_z", "normal_x", "normal_y", "normal_z"),
@@ -171,10 +166,9 @@ def fit_plane_scaled(source: Source) -> PlaneFit:
     )
 
 
-def fit_line_scaled(source: Source) -> LineFit:
-    """:func:`pcmm_geo.fit.fit_line` of 3-D points from a moment pass (unweighted)."""
+def fit_line_scaled(source: Source) -> dict[str, Any]:
+    """Fields of :func:`pcmm_geo.fit.fit_line`'s result for 3-D points from a moment pass (unweighted)."""
     from pcmm_geo.fit._linear import propagate, sign_convention
-    from pcmm_geo.fit.line import LineFit
 
     data, _ = checked_moments(source, "line")
     eigen, vectors = _principal(data)
@@ -192,7 +186,7 @@ def fit_line_scaled(source: Source) -> LineFit:
     gradient[:3, 1] = e2
     gradient[3:, 2] = e1
     gradient[3:, 3] = e2
-    return LineFit(
+    return dict(
         point=data.centroid.copy(), direction=direction.copy(), residuals=residuals,
         rms=float(np.sqrt(cost / count)), form=2.0 * high, n=count, dof=2 * count - 4,
         parameter_names=("point_x", "point_y", "point_z", "direction_x", "direction_y", "direction_z"),
@@ -210,28 +204,20 @@ def sphere_residuals(points: FloatArray, center: FloatArray, radius: float) -> F
     return np.linalg.norm(np.asarray(points, dtype=np.float64) - center, axis=1) - radius
 
 
-def fit_sphere_scaled(source: Source, radius: float | None) -> SphereFit:
-    """:func:`pcmm_geo.fit.fit_sphere` from passes (for dask input; in memory see ``fit_sphere``)."""
-    from pcmm_geo.fit.scale.sphere import fit_nsphere_chunked
-    from pcmm_geo.fit.sphere import sphere_result
-
+def fit_sphere_scaled(source: Source, radius: float | None) -> tuple[SphereSolution, Any]:
+    """The sphere of :func:`pcmm_geo.fit.fit_sphere` from passes, and its residuals (lazy for dask input)."""
     data, shift = checked_moments(source, "sphere")
     found = fit_nsphere_chunked(source.reduce, shift, element="sphere", fixed_radius=radius, data=data)
-    return sphere_result(found.center, found.radius, source.rows(sphere_residuals, found.center, found.radius),
-                         rms=found.rms, form=found.form, n=found.count, parameter_count=found.parameter_count,
-                         covariance=found.covariance, condition=found.condition, converged=found.converged,
-                         iterations=found.iterations, message=found.message, fixed=radius is not None)
+    return found, source.rows(sphere_residuals, found.center, found.radius)
 
 
 # ---------------------------------------------------------------------- cylinder
 
 
 def _cylinder_kernel(chunk: FloatArray, centroid: FloatArray, rotation: FloatArray, params: FloatArray,
-                     fixed_radius: float | None, *, out: FloatArray | None = None) -> Sums:
-    from pcmm_geo.fit.cylinder import _cylinder_model
-
+                     fixed_radius: float | None, model: Callable[..., Any], *, out: FloatArray | None = None) -> Sums:
     local = (chunk - centroid) @ rotation.T
-    residuals, jacobian = _cylinder_model(fixed_radius)(local, params)
+    residuals, jacobian = model(fixed_radius)(local, params)
     if out is not None:
         out[:] = residuals
     return pack_normal_equations(-jacobian.T, residuals)
@@ -241,10 +227,16 @@ def cylinder_residuals(points: FloatArray, point: FloatArray, axis: FloatArray, 
     return np.linalg.norm(np.cross(np.asarray(points, dtype=np.float64) - point, axis), axis=1) - radius
 
 
-def fit_cylinder_scaled(source: Source, radius: float | None, axis_hint: Any = None) -> CylinderFit:
-    """:func:`pcmm_geo.fit.fit_cylinder` from a subsample start and Gauss-Newton passes (unweighted)."""
+def fit_cylinder_scaled(source: Source, radius: float | None, axis_hint: Any = None, *,
+                        fit_cylinder: Callable[..., Any], model: Callable[..., Any],
+                        axis_point_jacobian: Callable[..., Any]) -> dict[str, Any]:
+    """Fields of :func:`pcmm_geo.fit.fit_cylinder`'s result from a subsample start and Gauss-Newton passes.
+
+    ``fit_cylinder`` (the in-memory fit, for the start), ``model`` (residual model factory of
+    the fixed radius) and ``axis_point_jacobian`` come from :mod:`pcmm_geo.fit.cylinder`,
+    which passes them in (it imports this module).  Unweighted.
+    """
     from pcmm_geo.fit._axial import canonical_axis, local_direction
-    from pcmm_geo.fit.cylinder import CylinderFit, axis_point_jacobian, fit_cylinder
 
     data, _ = checked_moments(source, "cylinder")
     eigen, _ = _principal(data)
@@ -259,7 +251,7 @@ def fit_cylinder_scaled(source: Source, radius: float | None, axis_hint: Any = N
     size = len(x0)
 
     def evaluate(params: FloatArray, frame: FloatArray = rotation) -> NormalEquations:
-        sums = source.reduce(_cylinder_kernel, (data.centroid, frame, params, radius), None)
+        sums = source.reduce(_cylinder_kernel, (data.centroid, frame, params, radius, model), None)
         return NormalEquations.from_sums(sums, size)
 
     outcome = gauss_newton(evaluate, x0, element="cylinder", scale=float(np.sqrt(data.second / data.count)))
@@ -286,7 +278,7 @@ def fit_cylinder_scaled(source: Source, radius: float | None, axis_hint: Any = N
     if radius is None:
         gradient[6, 4] = 1.0
     residuals = source.rows(cylinder_residuals, point, signed_axis, fitted_radius)
-    return CylinderFit(
+    return dict(
         point=point, axis=signed_axis.copy(), radius=fitted_radius, residuals=residuals,
         rms=float(np.sqrt(equations.cost / data.count)), form=equations.high - equations.low, n=data.count,
         dof=data.count - size,
