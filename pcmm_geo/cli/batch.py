@@ -38,9 +38,10 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         help="evaluate many files (fits, gauge blocks, CAD comparison) over a Dask cluster, JSON lines out",
         description=(
             "Evaluate every FILE with the TASK's sub-command (fit-ELEMENT: pcmm fit ELEMENT; gauge-block; "
-            "compare: pcmm compare FILE MESH) on a dask.distributed cluster, and print one JSON line per file "
-            "as it finishes: {file, task, ok, seconds, result} or {file, task, ok: false, error}.  A failed file "
-            "does not stop the batch.  Exit code 0 when all files were evaluated, 1 when any failed."
+            "compare: pcmm compare FILE with --mesh MESH or --nominal SPEC) on a dask.distributed cluster, "
+            "and print one JSON line per file as it finishes: {file, task, ok, seconds, result} or "
+            "{file, task, ok: false, error}.  A failed file does not stop the batch.  Exit code 0 when all "
+            "files were evaluated, 1 when any failed."
         ),
     )
     parser.add_argument("task", choices=TASKS, help="what to evaluate in each file")
@@ -112,7 +113,11 @@ def handle(args: argparse.Namespace) -> Report:
                                 "both" if args.mesh is not None else "neither")
     if args.workers < 1:
         raise InvalidInputError("--workers", "at least one worker process", repr(args.workers))
-    from distributed import Client, LocalCluster, as_completed
+    try:
+        from distributed import Client, LocalCluster, as_completed
+    except ImportError:
+        raise InvalidInputError("pcmm batch", "the dask extra installed (pip install 'pcmm_geo[dask]')",
+                                "no module 'distributed'") from None
 
     # paths go to the workers as given: a local cluster's workers share this working directory;
     # with --scheduler the files must be reachable under these names on the workers
