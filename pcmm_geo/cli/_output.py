@@ -9,6 +9,8 @@ import sys
 from dataclasses import dataclass, field
 from typing import Any
 
+from pcmm_geo.cli._record import CovarianceBlock, Provenance, UncertaintyEntry, Verdict
+
 EXIT_OK = 0
 EXIT_FAILURE = 1  # the computation ran but the verdict is "fail" (e.g. an ISO test)
 EXIT_USAGE = 2  # bad file, bad input, impossible geometry
@@ -28,6 +30,8 @@ class Report:
     """What a handler returns: JSON-ready ``data`` plus human ``tables`` and free ``lines``.
 
     ``plots`` lists the image files the handler wrote; ``--report`` embeds or links them.
+    ``verdict``, ``uncertainties`` and ``covariances`` are the slots a ``--report`` renders as
+    its verdict and uncertainty sections; ``provenance`` is filled by :func:`run_handler`.
     """
 
     data: dict[str, Any]
@@ -35,6 +39,10 @@ class Report:
     lines: list[str] = field(default_factory=list)
     exit_code: int = EXIT_OK
     plots: list[str] = field(default_factory=list)
+    verdict: Verdict | None = None
+    uncertainties: list[UncertaintyEntry] = field(default_factory=list)
+    covariances: list[CovarianceBlock] = field(default_factory=list)
+    provenance: Provenance | None = None
 
 
 def add_json_flag(parser: argparse.ArgumentParser) -> None:
@@ -147,16 +155,31 @@ def print_report(report: Report, as_json: bool) -> None:
     print("\n\n".join(blocks))
 
 
+def report_title(args: argparse.Namespace) -> str:
+    """``"pcmm COMMAND [ACTION]"``, e.g. ``"pcmm thermal correct-length"``."""
+    action = getattr(args, "action", None)
+    return f"pcmm {args.command}" + (f" {action}" if isinstance(action, str) else "")
+
+
 def run_handler(args: argparse.Namespace) -> int:
     from pcmm_geo.errors import OutputExistsError, PcmmGeoError
 
+    wants_report = bool(getattr(args, "shared_report_flag", False) and getattr(args, "report", None))
     try:
         check_output_paths(args)
+        if wants_report:  # inputs are hashed before the handler reads them, outputs do not exist yet
+            from pcmm_geo.cli._record import input_paths, start_provenance
+
+            provenance = start_provenance(getattr(args, "command_line", None) or ["pcmm", args.command],
+                                          input_paths(args))
         report = args.handler(args)
-        if getattr(args, "shared_report_flag", False) and getattr(args, "report", None):
+        if wants_report:
+            from pcmm_geo.cli._record import software_versions
             from pcmm_geo.cli._report import write_report
 
-            written = write_report(report, args.report, title=f"pcmm {args.command}",
+            provenance.versions = software_versions()
+            report.provenance = provenance
+            written = write_report(report, args.report, title=report_title(args),
                                    command=getattr(args, "command_line", None),
                                    overwrite=bool(getattr(args, "overwrite", False)))
             report.data["report"] = str(written)

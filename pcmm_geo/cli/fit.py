@@ -14,6 +14,7 @@ from pcmm_geo.cli._output import (
     add_plot_flag,
     add_report_flag,
 )
+from pcmm_geo.cli._record import CovarianceBlock
 
 ELEMENTS = ("line", "plane", "circle", "sphere", "cylinder", "cone", "torus")
 _DIRECTIONS = ("direction", "normal", "axis")
@@ -104,11 +105,13 @@ def handle(args: argparse.Namespace) -> Report:
     if args.plot is not None:
         from pcmm_geo.plots.fit_residuals import plot_fit_residuals
 
-        written = plot_fit_residuals(result, args.plot, element=args.element, overwrite=args.overwrite)
+        written = plot_fit_residuals(result, args.plot, points=points, element=args.element,
+                                     overwrite=args.overwrite)
         data["plot"] = str(written)
         plots.append(str(written))
         lines.append(f"plot: {written}")
-    return Report(data=data, tables=tables, lines=lines, plots=plots)
+    return Report(data=data, tables=tables, lines=lines, plots=plots, covariances=[
+        CovarianceBlock(f"{args.element} fit parameters", tuple(result.parameter_names), result.covariance)])
 
 
 def _geometry_rows(result: Any) -> list[tuple[str, float]]:

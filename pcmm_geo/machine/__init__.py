@@ -63,7 +63,6 @@ _LAZY = {
     "Sensitivity": "sensitivity",
     "tip_jacobian": "sensitivity",
     "sensitivity_over_cube": "sensitivity",
-    "plot_sensitivity": "sensitivity",
     # calibration (written by the calibration engineer)
     "calibrate_tetrahedron": "calibration",
     "TetrahedronCalibration": "calibration",

@@ -8,8 +8,8 @@ without ``pyplot``, so no global matplotlib backend is switched.
 
 - :func:`plot_calibration` -- tetrahedron calibration in 3-D (thesis fig 7.2) and miss distances.
 - :func:`plot_gauge_block` -- per-face plane residuals and the lengths of every method.
-- :func:`plot_sensitivity` -- workspace sensitivity map (defined in :mod:`pcmm_geo.machine.sensitivity`).
-- :func:`plot_fit_residuals` -- residuals of a Gaussian fit.
+- :func:`plot_sensitivity` -- workspace sensitivity map, one panel per z level, singular points counted.
+- :func:`plot_fit_residuals` -- residuals of a fit where the points lie (angle, height, in-plane maps).
 - :func:`plot_processed_log` -- tip path, pivot heights and closure residuals of a log.
 - :func:`plot_tip_errors`, :func:`plot_demo_overview` -- the end-to-end demo.
 
@@ -19,8 +19,8 @@ Examples
 >>> import numpy as np
 >>> from pcmm_geo import plots
 >>> from pcmm_geo.fit import fit_plane
->>> plane = fit_plane(np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0], [1, 1, 0.001]]))
->>> plots.plot_fit_residuals(plane, os.path.join(tempfile.mkdtemp(), "p.png"), element="plane").suffix
+>>> points = np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0], [1, 1, 0.001]])
+>>> plots.plot_fit_residuals(fit_plane(points), os.path.join(tempfile.mkdtemp(), "p.png"), points=points).suffix
 '.png'
 """
 
@@ -33,7 +33,7 @@ from typing import Any
 _LAZY = {
     "plot_calibration": "pcmm_geo.plots.calibration",
     "plot_gauge_block": "pcmm_geo.plots.gauge_block",
-    "plot_sensitivity": "pcmm_geo.machine.sensitivity",
+    "plot_sensitivity": "pcmm_geo.plots.sensitivity",
     "plot_fit_residuals": "pcmm_geo.plots.fit_residuals",
     "plot_processed_log": "pcmm_geo.plots.process_log",
     "plot_tip_errors": "pcmm_geo.plots.demo",

@@ -121,3 +121,43 @@ def equal_3d_limits(axes: Any, points: Any, margin: float = 0.05) -> None:
     axes.set_ylim(middle[1] - half, middle[1] + half)
     axes.set_zlim(middle[2] - half, middle[2] + half)
     axes.set_box_aspect((1.0, 1.0, 1.0))
+
+
+def length_unit(values_mm: Any) -> tuple[float, str]:
+    """Scale factor and unit name to show lengths given in mm: ``mm``, ``µm`` or ``nm``.
+
+    The unit follows the largest magnitude among the finite values: 1 mm and above stays in
+    mm, from 1 µm up to 1 mm is shown in µm, below 1 µm in nm (all-zero or empty: µm), so
+    that tick labels carry at most three digits before the decimal point.
+
+    Parameters
+    ----------
+    values_mm : array_like
+        Lengths in mm (any shape; NaN and inf are ignored).
+
+    Returns
+    -------
+    factor : float
+        Multiply mm by this to get the unit (1, 1e3 or 1e6).
+    unit : str
+        ``"mm"``, ``"µm"`` or ``"nm"``.
+
+    Examples
+    --------
+    >>> length_unit([0.0021, -0.004])
+    (1000.0, 'µm')
+    >>> length_unit([2.5, 0.1])
+    (1.0, 'mm')
+    >>> length_unit([3e-7])
+    (1000000.0, 'nm')
+    """
+    import numpy as np
+
+    values = np.abs(np.asarray(values_mm, dtype=float)).ravel()
+    values = values[np.isfinite(values)]
+    largest = float(values.max()) if values.size else 0.0
+    if largest >= 1.0:
+        return 1.0, "mm"
+    if largest >= 1e-3 or largest == 0.0:
+        return 1000.0, "µm"
+    return 1e6, "nm"

@@ -160,7 +160,7 @@ def test_fit_sensitivity_and_demo_keep_json_clean(tmp_path: Path) -> None:
     done = run("fit", "sphere", str(nist), "--plot", str(fit_plot), "--json")
     assert done.returncode == 0 and done.stderr == ""
     assert json.loads(done.stdout)["plot"] == str(fit_plot)
-    assert_picture(fit_plot, 7.0, 3.5)
+    assert_picture(fit_plot, 8.0, 4.8)
     assert_refused(run("fit", "sphere", str(nist), "--plot", str(fit_plot)), fit_plot)
 
     report = tmp_path / "sens.md"

@@ -135,8 +135,8 @@ def test_fit_residual_plot(tmp_path: Path) -> None:
 
     rng = np.random.default_rng(5)
     points = np.c_[rng.uniform(-5, 5, (40, 2)), rng.normal(0.0, 0.001, 40)]
-    path = plot_fit_residuals(fit_plane(points), tmp_path / "res.png", element="plane")
-    _assert_real_picture(path, 7.0, 3.5)
+    path = plot_fit_residuals(fit_plane(points), tmp_path / "res.png", points=points)
+    _assert_real_picture(path, 8.0, 4.8)
 
 
 class _Cells(HTMLParser):
