@@ -15,6 +15,7 @@ from __future__ import annotations
 import base64
 import html
 import os
+import re
 from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
@@ -23,13 +24,15 @@ from pcmm_geo.cli._output import Report, Table, _looks_numeric, format_cell
 
 REPORT_SUFFIXES = (".md", ".html", ".htm")
 _MARKDOWN_SPECIAL = "\\`*_[]<|"
+_HEX_DIGEST = re.compile(r"[0-9a-f]{64}")  # SHA-256 cells: monospace, one line
 _EMBEDDED_TYPES = {".png": "image/png", ".svg": "image/svg+xml"}
 _STYLE = (
     "body{font-family:sans-serif;margin:2em;max-width:70em}"
     "table{border-collapse:collapse;margin:0.5em 0 1.5em}"
     "th,td{border:1px solid #bbb;padding:0.25em 0.6em}th{background:#eee}"
     "td.num{text-align:right;font-family:monospace}code{background:#f4f4f4}img{max-width:100%}"
-    "td{overflow-wrap:anywhere}.verdict{font-size:1.4em;font-weight:bold;padding:0.3em 0.6em;display:inline-block}"
+    "td{overflow-wrap:anywhere}td.hash{font-family:monospace;font-size:0.8em;overflow-wrap:normal;white-space:nowrap}"
+    ".verdict{font-size:1.4em;font-weight:bold;padding:0.3em 0.6em;display:inline-block}"
     ".pass{background:#d8f0d8;color:#145214}.fail{background:#f6d5d5;color:#7a1010}.none{background:#eee}"
 )
 
@@ -185,12 +188,12 @@ def _html_table(table: Table) -> str:
     cells = [[format_cell(value) for value in values] for values in table.rows]
     numeric = [bool(cells) and all(_looks_numeric(r[i]) for r in cells) for i in range(len(table.columns))]
     head = "".join(f"<th>{html.escape(c)}</th>" for c in table.columns)
+    def cell(text: str, is_number: bool) -> str:
+        kind = "num" if is_number else ("hash" if _HEX_DIGEST.fullmatch(text) else "")
+        return f'<td class="{kind}">{html.escape(text)}</td>' if kind else f"<td>{html.escape(text)}</td>"
+
     body = "".join(
-        "<tr>" + "".join(
-            f'<td class="num">{html.escape(c)}</td>' if numeric[i] else f"<td>{html.escape(c)}</td>"
-            for i, c in enumerate(values)
-        ) + "</tr>\n"
-        for values in cells
+        "<tr>" + "".join(cell(c, numeric[i]) for i, c in enumerate(values)) + "</tr>\n" for values in cells
     )
     return (f"<h2>{html.escape(table.title)}</h2>\n<table>\n<thead><tr>{head}</tr></thead>\n"
             f"<tbody>\n{body}</tbody>\n</table>\n")

@@ -9,7 +9,17 @@ import argparse
 import math
 from typing import Any
 
-from pcmm_geo.cli._output import EXIT_FAILURE, EXIT_OK, Report, Table, add_json_flag
+from pcmm_geo.cli._output import (
+    EXIT_FAILURE,
+    EXIT_OK,
+    Report,
+    Table,
+    add_json_flag,
+    add_overwrite_flag,
+    add_plot_flag,
+    add_report_flag,
+)
+from pcmm_geo.cli._record import Verdict
 
 
 def register(subparsers: Any) -> None:
@@ -29,6 +39,9 @@ def register(subparsers: Any) -> None:
                     help="decision rule: simple acceptance or guarded by --uncertainty (default simple)")
     p2.add_argument("--uncertainty", type=float, default=0.0, help="expanded test uncertainty U in micrometres")
     p2.add_argument("--mpl-r0", type=float, default=None, help="limit of the repeatability range R0 in micrometres")
+    add_plot_flag(p2, "every E0 against its length with the MPE curve, and R0 per length")
+    add_report_flag(p2)
+    add_overwrite_flag(p2)
     add_json_flag(p2)
     p2.set_defaults(handler=_handle_2)
 
@@ -41,6 +54,9 @@ def register(subparsers: Any) -> None:
     p5.add_argument("--reference-diameter", type=float, required=True, help="calibrated diameter in mm")
     p5.add_argument("--mpe-form", type=float, default=None, help="MPE of P_FTU in micrometres")
     p5.add_argument("--mpe-size", type=float, default=None, help="MPE of P_STU in micrometres")
+    add_plot_flag(p5, "the residuals on the sphere (azimuth x elevation) and sorted")
+    add_report_flag(p5)
+    add_overwrite_flag(p5)
     add_json_flag(p5)
     p5.set_defaults(handler=_handle_5)
 
@@ -59,7 +75,11 @@ def register(subparsers: Any) -> None:
     p6.add_argument("--mpe-orientation", type=float, default=1e-9, help="rad (default 1e-9)")
     p6.add_argument("--mpe-size", type=float, default=1e-9, help="mm (default 1e-9)")
     p6.add_argument("--mpe-angle", type=float, default=1e-9, help="rad (default 1e-9)")
-    p6.add_argument("--markdown", action="store_true", help="print the Markdown report")
+    p6.add_argument("--markdown", action="store_true",
+                    help="deprecated (removed in the next release): use --report FILE.md")
+    add_plot_flag(p6, "each case's deviations as fractions of their MPE")
+    add_report_flag(p6)
+    add_overwrite_flag(p6)
     add_json_flag(p6)
     p6.set_defaults(handler=_handle_6)
 
@@ -111,14 +131,37 @@ def _handle_2(args: argparse.Namespace) -> Report:
             for e in bad]
     tables = [Table("Nonconforming E0 values", ["length/position/rep", "L (mm)", "E0 (um)", "MPE (um)"], rows)] \
         if rows else []
+    statement = (f"ISO 10360-2: {'PASS' if result.passed else 'FAIL'} ({len(result.errors)} values, "
+                 f"{result.n_nonconforming} nonconforming)")
     lines = [
-        f"ISO 10360-2: {'PASS' if result.passed else 'FAIL'} ({len(result.errors)} values, "
-        f"{result.n_nonconforming} nonconforming)",
-        f"max |E0| = {result.max_abs_error * 1000:.3f} um ({result.max_error_ratio:.2f} of MPE), "
-        f"max R0 = {result.max_range * 1000:.3f} um",
+        statement,
+        f"max |E0| = {result.max_abs_error * 1000:.3f} µm ({result.max_error_ratio:.2f} of MPE), "
+        f"max R0 = {result.max_range * 1000:.3f} µm",
         f"decision rule: {result.decision_rule}",
     ]
-    return Report(data=data, tables=tables, lines=lines, exit_code=EXIT_OK if result.passed else EXIT_FAILURE)
+    rule = f"{result.decision_rule}, MPE_E0 = {_mpe_text(mpe)}"
+    if args.rule == "guarded":
+        rule += f", U = {args.uncertainty:g} µm"
+    if args.mpl_r0 is not None:
+        rule += f"; R0 <= {args.mpl_r0:g} µm"
+    plots = _plot(args, "plot_length_test", result)
+    return Report(data=data, tables=tables, lines=lines, exit_code=EXIT_OK if result.passed else EXIT_FAILURE,
+                  plots=plots, verdict=Verdict(result.passed, statement, rule))
+
+
+def _mpe_text(mpe: object) -> str:
+    text = f"{mpe.a_um:g} µm + L / {mpe.k:g}"  # type: ignore[attr-defined]
+    cap = mpe.b_um  # type: ignore[attr-defined]
+    return text if cap is None else f"min({text}, {cap:g} µm)"
+
+
+def _plot(args: argparse.Namespace, function: str, *inputs: object) -> list[str]:
+    """Draw ``pcmm_geo.plots.verification.<function>(*inputs, args.plot)`` when --plot was given."""
+    if not args.plot:
+        return []
+    from pcmm_geo.plots import verification
+
+    return [str(getattr(verification, function)(*inputs, args.plot, overwrite=args.overwrite))]
 
 
 def _handle_5(args: argparse.Namespace) -> Report:
@@ -126,8 +169,9 @@ def _handle_5(args: argparse.Namespace) -> Report:
 
     _positive("--mpe-form", args.mpe_form)
     _positive("--mpe-size", args.mpe_size)
+    points = read_points_csv(args.file)
     result = evaluate_probing(
-        read_points_csv(args.file),
+        points,
         args.reference_diameter,
         mpe_form=None if args.mpe_form is None else args.mpe_form / 1000,
         mpe_size=None if args.mpe_size is None else args.mpe_size / 1000,
@@ -150,7 +194,12 @@ def _handle_5(args: argparse.Namespace) -> Report:
          ["fitted diameter (mm)", result.fitted_diameter], ["points", result.n]],
     )
     verdict = "no MPE stated" if result.passed is None else ("PASS" if result.passed else "FAIL")
-    return Report(data=data, tables=[table], lines=[f"verdict: {verdict}"],
+    limits = [f"P_FTU <= {args.mpe_form:g} µm" if args.mpe_form is not None else "",
+              f"|P_STU| <= {args.mpe_size:g} µm" if args.mpe_size is not None else ""]
+    rule = ("simple acceptance: " + " and ".join(t for t in limits if t)) if any(limits) else "none (no MPE stated)"
+    plots = _plot(args, "plot_probing_test", result, points)
+    return Report(data=data, tables=[table], lines=[f"verdict: {verdict}"], plots=plots,
+                  verdict=Verdict(result.passed, f"ISO 10360-5: {verdict}", rule),
                   exit_code=EXIT_FAILURE if result.passed is False else EXIT_OK)
 
 
@@ -182,8 +231,18 @@ def _handle_6(args: argparse.Namespace) -> Report:
         ],
         "markdown": report.to_markdown(),
     }
+    plots = _plot(args, "plot_software_test", report, mpe)
+    statement = (f"ISO 10360-6: {'PASS' if report.passed else 'FAIL'} "
+                 f"({len(report.cases) - report.n_failed}/{len(report.cases)} cases within MPE)")
+    verdict = Verdict(report.passed, statement,
+                      f"every deviation <= its MPE: position {mpe.position:g} mm, orientation {mpe.orientation:g} rad, "
+                      f"size {mpe.size:g} mm, angle {mpe.angle:g} rad")
     if args.markdown:
-        return Report(data=data, lines=[report.to_markdown().rstrip("\n")],
+        import sys
+
+        print("pcmm iso10360-6: warning: --markdown is deprecated and will be removed in the next release; "
+              "use --report FILE.md", file=sys.stderr)
+        return Report(data=data, lines=[report.to_markdown().rstrip("\n")], plots=plots, verdict=verdict,
                       exit_code=EXIT_OK if report.passed else EXIT_FAILURE)
     table = Table(
         "ISO 10360-6 software test",
@@ -192,6 +251,5 @@ def _handle_6(args: argparse.Namespace) -> Report:
           "pass" if c.passed else f"FAIL {c.note}".strip()]
          for c in report.cases],
     )
-    lines = [f"ISO 10360-6: {'PASS' if report.passed else 'FAIL'} "
-             f"({len(report.cases) - report.n_failed}/{len(report.cases)} cases within MPE)"]
-    return Report(data=data, tables=[table], lines=lines, exit_code=EXIT_OK if report.passed else EXIT_FAILURE)
+    return Report(data=data, tables=[table], lines=[statement], plots=plots, verdict=verdict,
+                  exit_code=EXIT_OK if report.passed else EXIT_FAILURE)

@@ -27,7 +27,7 @@ from pcmm_geo.plots._figure import check_plot_path, length_unit, new_figure, sav
 if TYPE_CHECKING:
     from pcmm_geo.fit import FitResult
 
-__all__ = ["plot_fit_residuals"]
+__all__ = ["draw_sphere_map", "plot_fit_residuals"]
 
 _ELEMENTS = {"LineFit": "line", "PlaneFit": "plane", "CircleFit": "circle", "SphereFit": "sphere",
              "CylinderFit": "cylinder", "ConeFit": "cone", "TorusFit": "torus"}
@@ -64,6 +64,22 @@ def _map(figure: Any, axes: Any, x: np.ndarray, y: np.ndarray, shown: np.ndarray
     dots = axes.scatter(x, y, c=shown, cmap="RdBu_r", vmin=-limit, vmax=limit, s=max(8.0, 60.0 - 0.05 * len(x)),
                         edgecolors="0.3", linewidths=0.3)
     figure.colorbar(dots, ax=axes, label=f"residual / {unit}")
+
+
+def draw_sphere_map(figure: Any, axes: Any, points: np.ndarray, center: np.ndarray, shown: np.ndarray,
+                    unit: str) -> None:
+    """Residuals ``shown`` (already in ``unit``) of ``points`` (N, 3) on an azimuth x elevation map about ``center``."""
+    rel = points - center
+    azimuth = np.degrees(np.arctan2(rel[:, 1], rel[:, 0])) % 360.0
+    elevation = np.degrees(np.arcsin(np.clip(rel[:, 2] / np.linalg.norm(rel, axis=1), -1.0, 1.0)))
+    _map(figure, axes, azimuth, elevation, shown, unit)
+    axes.set_xlim(0.0, 360.0)
+    axes.set_ylim(-90.0, 90.0)
+    axes.set_xticks(np.arange(0, 361, 45))
+    axes.set_yticks(np.arange(-90, 91, 30))
+    axes.set_xlabel("azimuth (from +x round +z) / deg")
+    axes.set_ylabel("elevation / deg")
+    axes.grid(alpha=0.3)
 
 
 def _draw_circle(figure: Any, result: Any, points: np.ndarray, shown: np.ndarray, unit: str) -> None:
@@ -169,18 +185,7 @@ def plot_fit_residuals(
         axes.set_xlabel("in-plane u / mm")
         axes.set_ylabel("in-plane v / mm")
     elif kind == "sphere":
-        rel = cloud3 - _vector3(result.center)
-        azimuth = np.degrees(np.arctan2(rel[:, 1], rel[:, 0])) % 360.0
-        elevation = np.degrees(np.arcsin(np.clip(rel[:, 2] / np.linalg.norm(rel, axis=1), -1.0, 1.0)))
-        axes = figure.add_subplot()
-        _map(figure, axes, azimuth, elevation, shown, unit)
-        axes.set_xlim(0.0, 360.0)
-        axes.set_ylim(-90.0, 90.0)
-        axes.set_xticks(np.arange(0, 361, 45))
-        axes.set_yticks(np.arange(-90, 91, 30))
-        axes.set_xlabel("azimuth (from +x round +z) / deg")
-        axes.set_ylabel("elevation / deg")
-        axes.grid(alpha=0.3)
+        draw_sphere_map(figure, figure.add_subplot(), cloud3, _vector3(result.center), shown, unit)
     elif kind in ("cylinder", "cone", "torus"):
         origin = _vector3(result.apex if kind == "cone" else (result.center if kind == "torus" else result.point))
         axis = _vector3(result.axis)
