@@ -134,7 +134,8 @@ def record_sections(report: Report, command: Sequence[str] | None = None) -> dic
     for block in report.covariances:
         names = list(block.names)
         uncertainty.append(Table(f"{block.title}: correlation coefficients", ["", *names],
-                                 [[name, *row] for name, row in zip(names, block.correlation(), strict=True)]))
+                                 [[name, *(f"{value:.3f}" for value in row)]
+                                  for name, row in zip(names, block.correlation(), strict=True)]))
     return {"record": record, "verdict": verdict, "results": list(report.tables),
             "uncertainty": uncertainty, "software": software}
 

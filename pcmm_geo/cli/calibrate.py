@@ -65,16 +65,16 @@ def _handle(args: argparse.Namespace) -> Report:
                      line.laser_offset, line.straightness, line.tip_offset])
     arms = Table(
         "Tetrahedron calibration (Table 7.1 layout)",
-        ["arm", "d (mm)", "pair", "beta (deg)", "b (mm)", "laser scale", "laser offset (mm)", "straightness (mm)",
-         "tip offset (mm)"],
+        ["arm", "d / mm", "pair", "beta / deg", "b / mm", "laser scale", "laser offset / mm", "straightness / mm",
+         "tip offset / mm"],
         rows,
     )
     geometry = Table(
         "Geometry",
-        ["quantity", "x (mm)", "y (mm)", "z (mm)"],
+        ["quantity", "x / mm", "y / mm", "z / mm"],
         [["tip centre", *cal.tip_centre.tolist()], ["probe point eq 7.2 (least squares)", *cal.probe_point.tolist()],
          ["probe point (seed pairwise)", *cal.probe_point_pairwise.tolist()]],
     )
-    lines.insert(0, "skew distances (mm): " + ", ".join(f"{k} {v:.4f}" for k, v in cal.skew_distances.items()))
+    lines.insert(0, "skew distances / mm: " + ", ".join(f"{k} {v:.4f}" for k, v in cal.skew_distances.items()))
     return Report(data=data, tables=[arms, geometry], lines=lines, plots=plots)
 

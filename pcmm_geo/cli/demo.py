@@ -79,7 +79,7 @@ def handle(args: argparse.Namespace) -> Report:
         ),
         Table(
             f"{result.gauge_length:g} mm gauge block, ISO 3650 central length",
-            ["model", "measured / mm", "error / um", "tip error rms / um"],
+            ["model", "measured / mm", "error / µm", "tip error rms / µm"],
             [
                 [
                     "calibrated (rigid body)",

@@ -91,7 +91,7 @@ def handle(args: argparse.Namespace) -> Report:
     tables = [
         Table(
             f"{args.element} fit of {args.file} (Gaussian least squares)",
-            ["parameter", "value", "u (1 sigma)", "unit"],
+            ["parameter", "value", "u (k = 1)", "unit"],
             rows,
         ),
         Table(

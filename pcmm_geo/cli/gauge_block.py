@@ -85,5 +85,5 @@ def _handle(args: argparse.Namespace) -> Report:
         data["plot"] = str(written)
         plots.append(str(written))
         lines.append(f"plot written to {written}")
-    table = Table("Gauge block", ["quantity", "value (mm)"], rows)
+    table = Table("Gauge block", ["quantity", "value / mm"], rows)
     return Report(data=data, tables=[table], lines=lines, plots=plots)

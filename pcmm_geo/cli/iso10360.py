@@ -129,7 +129,7 @@ def _handle_2(args: argparse.Namespace) -> Report:
     }
     rows = [[f"{e.length_id}/{e.position}/{e.repetition}", e.calibrated_length, e.error * 1000, e.mpe * 1000]
             for e in bad]
-    tables = [Table("Nonconforming E0 values", ["length/position/rep", "L (mm)", "E0 (um)", "MPE (um)"], rows)] \
+    tables = [Table("Nonconforming E0 values", ["length/position/rep", "L / mm", "E0 / µm", "MPE / µm"], rows)] \
         if rows else []
     statement = (f"ISO 10360-2: {'PASS' if result.passed else 'FAIL'} ({len(result.errors)} values, "
                  f"{result.n_nonconforming} nonconforming)")
@@ -189,9 +189,10 @@ def _handle_5(args: argparse.Namespace) -> Report:
     }
     table = Table(
         "ISO 10360-5 probing test",
-        ["quantity", "value"],
-        [["P_FTU (um)", result.form_error * 1000], ["P_STU (um)", result.size_error * 1000],
-         ["fitted diameter (mm)", result.fitted_diameter], ["points", result.n]],
+        ["quantity", "value", "unit"],
+        [["P_FTU", result.form_error * 1000, "µm"], ["P_STU", result.size_error * 1000, "µm"],
+         ["fitted diameter", result.fitted_diameter, "mm"], ["reference diameter", result.reference_diameter, "mm"],
+         ["points", result.n, "1"]],
     )
     verdict = "no MPE stated" if result.passed is None else ("PASS" if result.passed else "FAIL")
     limits = [f"P_FTU <= {args.mpe_form:g} µm" if args.mpe_form is not None else "",
@@ -246,7 +247,7 @@ def _handle_6(args: argparse.Namespace) -> Report:
                       exit_code=EXIT_OK if report.passed else EXIT_FAILURE)
     table = Table(
         "ISO 10360-6 software test",
-        ["case", "element", "position (mm)", "orientation (rad)", "size (mm)", "angle (rad)", "result"],
+        ["case", "element", "position / mm", "orientation / rad", "size / mm", "angle / rad", "result"],
         [[c.name, c.element, *(("-" if math.isnan(v) else v) for v in (c.position, c.orientation, c.size, c.angle)),
           "pass" if c.passed else f"FAIL {c.note}".strip()]
          for c in report.cases],

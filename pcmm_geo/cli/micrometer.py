@@ -45,7 +45,7 @@ def _handle(args: argparse.Namespace) -> Report:
     data = {"pairs": pairs, "max_abs_error_mm": result.max_abs_error, "rms_error_mm": result.rms_error}
     table = Table(
         "Micrometer-stage test",
-        ["pair", "stage (mm)", "CMM (mm)", "error (mm)"],
+        ["pair", "stage / mm", "CMM / mm", "error / mm"],
         [[p["pair"], p["stage_mm"], p["cmm_mm"], p["error_mm"]] for p in pairs],
     )
     plots = []

@@ -55,7 +55,7 @@ def _handle(args: argparse.Namespace) -> Report:
         [arm, params.d[arm], pair, params.beta_deg[pair], params.b[pair]]
         for arm, pair in zip("abc", ("ab", "bc", "ca"), strict=True)
     ]
-    table = Table("Numerical calibration", ["arm", "d (mm)", "pair", "beta (deg)", "b (mm)"], rows)
+    table = Table("Numerical calibration", ["arm", "d / mm", "pair", "beta / deg", "b / mm"], rows)
     ident = result.identifiability
     lines = [
         f"rms distance residual: {result.rms:.6g} mm over {len(data.moved)} samples ({result.evaluations} evaluations)",

@@ -66,7 +66,7 @@ def _handle(args: argparse.Namespace) -> Report:
         lines.append(f"warning: direction flag contradicts the solved height change on lines {bad}")
     table = Table(
         "Probe points" if not args.all_rows else "Rows",
-        ["line", "probe", "x [mm]", "y [mm]", "z [mm]", "h_a [mm]", "h_b [mm]", "h_c [mm]"],
+        ["line", "probe", "x / mm", "y / mm", "z / mm", "h_a / mm", "h_b / mm", "h_c / mm"],
         rows,
     )
     plots = []

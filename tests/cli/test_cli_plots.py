@@ -170,7 +170,7 @@ def test_fit_sensitivity_and_demo_keep_json_clean(tmp_path: Path) -> None:
     assert done.returncode == 0 and done.stderr == ""
     data = json.loads(done.stdout)
     gain = data["laser_gain"]
-    assert f"| laser gain \\[mm/mm\\] | {gain['median']:.6f} | {gain['max_finite']:.6f} | 3 |" in (
+    assert f"| laser gain / (mm/mm) | {gain['median']:.6f} | {gain['max_finite']:.6f} | 3 |" in (
         report.read_text(encoding="utf-8").splitlines()
     )
 
