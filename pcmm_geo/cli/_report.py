@@ -291,7 +291,7 @@ def write_report(
     OutputExistsError
         ``path`` exists and ``overwrite`` is False.
     OSError
-        The folder does not exist, or a plot cannot be read.
+        The folder cannot be created, or a plot cannot be read.
 
     Examples
     --------
@@ -306,6 +306,7 @@ def write_report(
     target = check_report_path(path, overwrite=overwrite)
     render = render_markdown if target.suffix.lower() == ".md" else render_html
     text = render(report, title, command=command, base_dir=target.parent)
+    target.parent.mkdir(parents=True, exist_ok=True)
     try:
         with open(target, "w" if overwrite else "x", encoding="utf-8", newline="\n") as handle:
             handle.write(text)

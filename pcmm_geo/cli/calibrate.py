@@ -13,9 +13,9 @@ def register(subparsers: Any) -> None:
         "calibrate",
         help="calibrate the tetrahedron from external-CMM probings and laser readings (thesis ch. 7)",
         description=(
-            "Fit the probed joint and tip spheres, the slider lines and laser scales, and report the seed's "
+            "Fit the probed joint and tip spheres, the slider lines and laser scales, and report the thesis' "
             "dead distances d (eq 7.3), arm angles beta (eq 7.4, corrected) and b (eq 7.5). PROBINGS.csv is "
-            "feature,position,x,y,z (feature joint_a|joint_b|joint_c|tip) or the seed's x,y,z,d,r export; "
+            "feature,position,x,y,z (feature joint_a|joint_b|joint_c|tip) or the thesis' x,y,z,d,r export; "
             "LASERS.csv is position,laser_a,laser_b,laser_c (mm)."
         ),
     )
@@ -73,7 +73,7 @@ def _handle(args: argparse.Namespace) -> Report:
         "Geometry",
         ["quantity", "x / mm", "y / mm", "z / mm"],
         [["tip centre", *cal.tip_centre.tolist()], ["probe point eq 7.2 (least squares)", *cal.probe_point.tolist()],
-         ["probe point (seed pairwise)", *cal.probe_point_pairwise.tolist()]],
+         ["probe point (thesis pairwise)", *cal.probe_point_pairwise.tolist()]],
     )
     lines.insert(0, "skew distances / mm: " + ", ".join(f"{k} {v:.4f}" for k, v in cal.skew_distances.items()))
     return Report(data=data, tables=[arms, geometry], lines=lines, plots=plots)

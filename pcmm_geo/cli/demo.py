@@ -29,7 +29,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     parser.add_argument(
         "--out",
         type=Path,
-        default=Path("pcmm-demo-output"),
+        default=Path("out") / "demo",
         help="folder for the plots; each run writes a fresh time-stamped sub-folder (default: %(default)s)",
     )
     parser.add_argument("--no-plots", action="store_true", help="skip the plots in the --out folder")

@@ -18,20 +18,20 @@ ARM_NAMES = ("a", "b", "c")
 
 
 def add_machine_argument(parser: argparse.ArgumentParser, *, required: bool = False) -> None:
-    """``--calibration FILE``: machine model JSON or calibration JSON (default: the seed geometry)."""
+    """``--calibration FILE``: machine model JSON or calibration JSON (default: the thesis geometry)."""
     parser.add_argument(
         "--calibration",
         required=required,
         metavar="CAL.json",
-        help="rigid-body model or calibration JSON (default: seed geometry of thesis Table 3.1 / Appendix D)",
+        help="rigid-body model or calibration JSON (default: thesis geometry of thesis Table 3.1 / Appendix D)",
     )
 
 
 def load_machine_file(path: str | None) -> Any:
-    """RigidBodyMachine from a model JSON, a calibration JSON (with or without columns) or the seed default.
+    """RigidBodyMachine from a model JSON, a calibration JSON (with or without columns) or the thesis default.
 
     A calibration without a stored machine supplies the tetrahedron; the columns are
-    then the seed's (Appendix D, vertical).
+    then the thesis' (Appendix D, vertical).
     """
     import json
 
@@ -67,7 +67,7 @@ def register(subparsers: Any) -> None:
     parser = subparsers.add_parser(
         "kinematics",
         help="rigid-body kinematics: forward (readings -> tip), inverse (tip -> readings), trilaterate",
-        description="Kinematics of the parallel micro-CMM (rigid-body model; the seed DPKM is its special case).",
+        description="Kinematics of the parallel micro-CMM (rigid-body model; the thesis DPKM is its special case).",
     )
     actions = parser.add_subparsers(dest="action", metavar="ACTION", required=True)
 

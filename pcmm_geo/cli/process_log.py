@@ -1,4 +1,4 @@
-"""``pcmm process-log FILE``: pivot heights and probe points from a seed Table 3.2 log."""
+"""``pcmm process-log FILE``: pivot heights and probe points from a thesis Table 3.2 log."""
 
 from __future__ import annotations
 

@@ -14,7 +14,7 @@ def register(subparsers: Any) -> None:
     parser = subparsers.add_parser(
         "sensitivity",
         help="laser/encoder-to-tip amplification over the 100 mm working cube",
-        description="Jacobians of the probe tip w.r.t. the readings; the seed's probe-to-laser ratio (20:1).",
+        description="Jacobians of the probe tip w.r.t. the readings; the thesis' probe-to-laser ratio (20:1).",
     )
     add_machine_argument(parser)
     parser.add_argument("--size", type=float, default=100.0, help="edge of the working cube in mm (default 100)")

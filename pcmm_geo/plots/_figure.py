@@ -68,6 +68,8 @@ def new_figure(width: float, height: float) -> Figure:
 def save_figure(figure: Figure, path: str | Path, *, overwrite: bool = False) -> Path:
     """Write ``figure`` to ``path``; never replaces a file unless ``overwrite`` is True.
 
+    Missing folders of ``path`` are created (``--plot out/run1/fit.png`` works in a fresh tree).
+
     The file is opened in exclusive-create mode when ``overwrite`` is False, so a file that
     appears between the check and the write is not clobbered either; a partly written file
     is removed when rendering fails.
@@ -84,7 +86,7 @@ def save_figure(figure: Figure, path: str | Path, *, overwrite: bool = False) ->
     OutputExistsError
         ``path`` exists and ``overwrite`` is False.
     OSError
-        The folder does not exist or is not writable.
+        The folder cannot be created or is not writable.
 
     Examples
     --------
@@ -95,6 +97,7 @@ def save_figure(figure: Figure, path: str | Path, *, overwrite: bool = False) ->
     'line.png'
     """
     target = check_plot_path(path, overwrite=overwrite)
+    target.parent.mkdir(parents=True, exist_ok=True)
     try:
         handle = open(target, "wb" if overwrite else "xb")  # closed by the ``with`` below
     except FileExistsError:

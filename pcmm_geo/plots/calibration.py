@@ -3,7 +3,7 @@
 The left panel is the 3-D view of thesis fig 7.2: each arm's fitted slider line over the
 range its joint travelled, the probed joint-ball centres at every slider position, the
 probe-tip centre, the least-squares point nearest to the three lines (eq 7.2) and the
-seed's pairwise variant, with the common perpendicular of each pair of lines.  At the
+thesis' pairwise variant, with the common perpendicular of each pair of lines.  At the
 scale of the machine the few millimetres by which the lines miss each other and the tip
 are hard to see, so the right panel gives them as numbers: each line's distance from the
 tip centre, the skew distance of each pair and how far the two theoretical probe points

@@ -140,7 +140,7 @@ def test_gauge_block_plot_and_html_report(tmp_path: Path) -> None:
     parsed = parse_html(page)
     rows = {row[0].strip(): row[1] for row in parsed.rows[1:]}
     assert rows["ISO 3650 central length (mean)"] == f"{data['central_length_mm']:.6f}"
-    assert rows["seed eqs 5.1-5.3 length"] == f"{data['seed']['length_mm']:.6f}"
+    assert rows["thesis eqs 5.1-5.3 length"] == f"{data['seed']['length_mm']:.6f}"
     assert rows["two-point distance"] == f"{data['seed']['two_point_distance_mm']:.6f}"
     assert len(parsed.images) == 1 and parsed.images[0].startswith("data:image/png;base64,")
 
