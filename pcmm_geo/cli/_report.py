@@ -134,7 +134,7 @@ def record_sections(report: Report, command: Sequence[str] | None = None) -> dic
     for block in report.covariances:
         names = list(block.names)
         uncertainty.append(Table(f"{block.title}: correlation coefficients", ["", *names],
-                                 [[name, *(f"{value:.3f}" for value in row)]
+                                 [[name, *(f"{round(value, 3) + 0.0:.3f}" for value in row)]
                                   for name, row in zip(names, block.correlation(), strict=True)]))
     return {"record": record, "verdict": verdict, "results": list(report.tables),
             "uncertainty": uncertainty, "software": software}

@@ -164,3 +164,15 @@ def length_unit(values_mm: Any) -> tuple[float, str]:
     if largest >= 1e-3 or largest == 0.0:
         return 1000.0, "µm"
     return 1e6, "nm"
+
+
+def three_digits(value: float, *, sign: bool = False) -> str:
+    """``value`` with three significant digits, trailing zeros kept, no dangling point.
+
+    Examples
+    --------
+    >>> three_digits(2.0), three_digits(193.159), three_digits(0.0575), three_digits(-1.5, sign=True)
+    ('2.00', '193', '0.0575', '-1.50')
+    """
+    text = format(value, "+#.3g" if sign else "#.3g")
+    return text.rstrip(".") if "e" not in text else text

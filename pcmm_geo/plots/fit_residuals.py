@@ -22,7 +22,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from pcmm_geo.plots._figure import check_plot_path, length_unit, new_figure, save_figure
+from pcmm_geo.plots._figure import check_plot_path, length_unit, new_figure, save_figure, three_digits
 
 if TYPE_CHECKING:
     from pcmm_geo.fit import FitResult
@@ -207,6 +207,6 @@ def plot_fit_residuals(
         axes.grid(alpha=0.3)
     else:
         raise InvalidInputError("element", "line, plane, circle, sphere, cylinder, cone or torus", repr(kind))
-    figure.suptitle(f"{kind} fit residuals: n {result.n}, rms {factor * result.rms:#.3g} {unit}, "
-                    f"form {factor * result.form:#.3g} {unit}")
+    figure.suptitle(f"{kind} fit residuals: n {result.n}, rms {three_digits(factor * result.rms)} {unit}, "
+                    f"form {three_digits(factor * result.form)} {unit}")
     return save_figure(figure, path, overwrite=overwrite)

@@ -14,7 +14,15 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from pcmm_geo.plots._figure import ARM_COLOURS, check_plot_path, equal_3d_limits, length_unit, new_figure, save_figure
+from pcmm_geo.plots._figure import (
+    ARM_COLOURS,
+    check_plot_path,
+    equal_3d_limits,
+    length_unit,
+    new_figure,
+    save_figure,
+    three_digits,
+)
 
 if TYPE_CHECKING:
     from pcmm_geo.machine.model import RigidBodyMachine
@@ -88,7 +96,7 @@ def plot_numerical_calibration(
                     f"condition number {ident.condition_number:.3g}", fontsize=9)
     right.grid(alpha=0.3, axis="y")
     figure.suptitle(f"Numerical calibration ({result.method}): {len(residuals)} samples, "
-                    f"rms {factor * result.rms:#.3g} {unit}")
+                    f"rms {three_digits(factor * result.rms)} {unit}")
     return save_figure(figure, path, overwrite=overwrite)
 
 

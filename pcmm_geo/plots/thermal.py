@@ -8,7 +8,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from pcmm_geo.plots._figure import check_plot_path, length_unit, new_figure, save_figure
+from pcmm_geo.plots._figure import check_plot_path, length_unit, new_figure, save_figure, three_digits
 
 if TYPE_CHECKING:
     from pcmm_geo.thermal.correction import LengthCorrection
@@ -86,7 +86,7 @@ def plot_sensor_curve(
         side.plot(temps, residual_mk, marker="o", color="tab:blue")
         side.set_xlabel("calibration temperature / °C")
         side.set_ylabel("model - given / mK")
-        side.set_title(f"fit residuals, rms {float(np.sqrt(np.mean(residual_mk**2))):#.3g} mK", fontsize=9)
+        side.set_title(f"fit residuals, rms {three_digits(float(np.sqrt(np.mean(residual_mk**2))))} mK", fontsize=9)
         side.grid(alpha=0.3)
     figure.suptitle(title)
     return save_figure(figure, path, overwrite=overwrite)
@@ -118,12 +118,13 @@ def plot_length_correction(result: LengthCorrection, path: str | Path, *, overwr
     values = np.r_[factor * contributions, factor * result.standard_uncertainty]
     axes.barh(rows, values, color=["tab:blue"] * len(names) + ["black"])
     for row, value in zip(rows, values, strict=True):
-        axes.text(value, row, f" {value:#.3g}", va="center", fontsize=8)
+        axes.text(value, row, f" {three_digits(value)}", va="center", fontsize=8)
     axes.set_yticks(rows, [*names, "combined u"], fontsize=8)
     axes.set_xlim(0.0, 1.25 * max(float(values.max()), 1e-12))
     axes.set_xlabel(f"|c| u / {unit}")
-    axes.set_title(f"L(20 °C) = {result.value:.6f} mm, correction {factor * result.correction:+#.3g} {unit}, "
-                   f"U(k = 2) = {factor * result.expanded_uncertainty():#.3g} {unit}", fontsize=9)
+    correction = three_digits(factor * result.correction, sign=True)
+    axes.set_title(f"L(20 °C) = {result.value:.6f} mm, correction {correction} {unit}, "
+                   f"U(k = 2) = {three_digits(factor * result.expanded_uncertainty())} {unit}", fontsize=9)
     return save_figure(figure, path, overwrite=overwrite)
 
 
@@ -163,7 +164,8 @@ def plot_frame_triangle(
     for name, start, step in zip("ABC", before, moved, strict=True):
         axes.annotate("", xy=start + magnify * step, xytext=start,
                       arrowprops={"arrowstyle": "->", "color": "tab:red"})
-        axes.annotate(f"{name}: dx {factor * step[0]:+#.3g}, dy {factor * step[1]:+#.3g} {unit}", start,
+        moved_x, moved_y = (three_digits(factor * value, sign=True) for value in step)
+        axes.annotate(f"{name}: dx {moved_x}, dy {moved_y} {unit}", start,
                       textcoords="offset points", xytext=(6, -14), fontsize=8)
     axes.set_aspect("equal", adjustable="datalim")
     axes.margins(0.15)

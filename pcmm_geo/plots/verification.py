@@ -13,7 +13,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from pcmm_geo.plots._figure import check_plot_path, length_unit, new_figure, save_figure
+from pcmm_geo.plots._figure import check_plot_path, length_unit, new_figure, save_figure, three_digits
 
 if TYPE_CHECKING:
     from pcmm_geo.artefacts.iso10360_2 import LengthTestResult
@@ -162,8 +162,8 @@ def plot_probing_test(
         right.legend(fontsize=7, loc="lower right")
     right.set_yticks([])
     right.set_xlabel(f"residual / {unit} (sorted)")
-    right.set_title(f"P_FTU = {factor * result.form_error:#.3g} {unit}, "
-                    f"P_STU = {factor * result.size_error:+#.3g} {unit}", fontsize=9)
+    right.set_title(f"P_FTU = {three_digits(factor * result.form_error)} {unit}, "
+                    f"P_STU = {three_digits(factor * result.size_error, sign=True)} {unit}", fontsize=9)
     verdict = "no MPE stated" if result.passed is None else ("PASS" if result.passed else "FAIL")
     figure.suptitle(f"ISO 10360-5 probing test on a {result.reference_diameter:g} mm sphere: {result.n} points, "
                     f"{verdict}")
