@@ -12,6 +12,13 @@ without ``pyplot``, so no global matplotlib backend is switched.
 - :func:`plot_fit_residuals` -- residuals of a fit where the points lie (angle, height, in-plane maps).
 - :func:`plot_processed_log` -- tip path, pivot heights and closure residuals of a log.
 - :func:`plot_tip_errors`, :func:`plot_demo_overview` -- the end-to-end demo.
+- :func:`plot_length_test`, :func:`plot_probing_test`, :func:`plot_software_test`,
+  :func:`plot_stage_test` -- ISO 10360-2, -5, -6 and the micrometer-stage test.
+- :func:`plot_numerical_calibration`, :func:`plot_pose`, :func:`plot_trilateration` -- the machine.
+- :func:`plot_sensor_curve`, :func:`plot_length_correction`, :func:`plot_frame_triangle`,
+  :func:`plot_thermal_table` -- the thermal tools.
+
+Lengths that may be nm, µm or mm are shown in the unit :func:`length_unit` picks from the data.
 
 Examples
 --------
@@ -39,6 +46,18 @@ _LAZY = {
     "plot_tip_errors": "pcmm_geo.plots.demo",
     "plot_demo_overview": "pcmm_geo.plots.demo",
     "check_plot_path": "pcmm_geo.plots._figure",
+    "length_unit": "pcmm_geo.plots._figure",
+    "plot_length_test": "pcmm_geo.plots.verification",
+    "plot_probing_test": "pcmm_geo.plots.verification",
+    "plot_software_test": "pcmm_geo.plots.verification",
+    "plot_stage_test": "pcmm_geo.plots.verification",
+    "plot_numerical_calibration": "pcmm_geo.plots.machine_state",
+    "plot_pose": "pcmm_geo.plots.machine_state",
+    "plot_trilateration": "pcmm_geo.plots.machine_state",
+    "plot_sensor_curve": "pcmm_geo.plots.thermal",
+    "plot_length_correction": "pcmm_geo.plots.thermal",
+    "plot_frame_triangle": "pcmm_geo.plots.thermal",
+    "plot_thermal_table": "pcmm_geo.plots.thermal",
 }
 
 __all__ = sorted(_LAZY)
