@@ -56,6 +56,8 @@ def command_lines(numcal: Path) -> dict[str, list[str]]:
         "thermal-triangle": ["thermal", "triangle", "--temperatures", "21", "20.5", "20"],
         "thermal-table": ["thermal", "table", "--points-per-axis", "2"],
         "fit": ["fit", "sphere", str(NIST_SPHERE)],
+        "form": ["form", str(EXAMPLES / "roundness_ring.csv"), "--element", "circle", "--two-d",
+                 "--tolerance", "0.010"],
     }
 
 
