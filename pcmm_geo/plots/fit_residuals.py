@@ -73,8 +73,8 @@ def draw_sphere_map(figure: Any, axes: Any, points: np.ndarray, center: np.ndarr
     azimuth = np.degrees(np.arctan2(rel[:, 1], rel[:, 0])) % 360.0
     elevation = np.degrees(np.arcsin(np.clip(rel[:, 2] / np.linalg.norm(rel, axis=1), -1.0, 1.0)))
     _map(figure, axes, azimuth, elevation, shown, unit)
-    axes.set_xlim(0.0, 360.0)
-    axes.set_ylim(-90.0, 90.0)
+    axes.set_xlim(-6.0, 366.0)  # a little beyond the range: points at 0/360 deg and the poles stay whole
+    axes.set_ylim(-96.0, 96.0)
     axes.set_xticks(np.arange(0, 361, 45))
     axes.set_yticks(np.arange(-90, 91, 30))
     axes.set_xlabel("azimuth (from +x round +z) / deg")
@@ -195,13 +195,13 @@ def plot_fit_residuals(
             radial = np.linalg.norm(cloud3 - origin - np.outer(height, axis / np.linalg.norm(axis)), axis=1)
             tube = np.degrees(np.arctan2(height, radial - float(result.major_radius))) % 360.0
             _map(figure, axes, angle, tube, shown, unit)
-            axes.set_ylim(0.0, 360.0)
+            axes.set_ylim(-6.0, 366.0)
             axes.set_ylabel("angle round the tube / deg")
         else:
             _map(figure, axes, angle, height, shown, unit)
             axes.set_ylabel("height along the axis from the " + ("apex" if kind == "cone" else "axis point")
                             + " / mm")
-        axes.set_xlim(0.0, 360.0)
+        axes.set_xlim(-6.0, 366.0)
         axes.set_xticks(np.arange(0, 361, 45))
         axes.set_xlabel("angle round the axis / deg")
         axes.grid(alpha=0.3)
