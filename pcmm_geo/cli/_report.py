@@ -18,11 +18,9 @@ import os
 import re
 from collections.abc import Sequence
 from pathlib import Path
-from typing import Any
 
-from pcmm_geo.cli._output import Report, Table, _looks_numeric, format_cell
+from pcmm_geo.cli._output import Report, Table, _looks_numeric, check_report_path, format_cell, uncertainty_tables
 
-REPORT_SUFFIXES = (".md", ".html", ".htm")
 _MARKDOWN_SPECIAL = "\\`*_[]<|"
 _HEX_DIGEST = re.compile(r"[0-9a-f]{64}")  # SHA-256 cells: monospace, one line
 _EMBEDDED_TYPES = {".png": "image/png", ".svg": "image/svg+xml"}
@@ -35,31 +33,6 @@ _STYLE = (
     ".verdict{font-size:1.4em;font-weight:bold;padding:0.3em 0.6em;display:inline-block}"
     ".pass{background:#d8f0d8;color:#145214}.fail{background:#f6d5d5;color:#7a1010}.none{background:#eee}"
 )
-
-
-def check_report_path(path: str | Path, *, overwrite: bool = False) -> Path:
-    """Validate a report destination (suffix, existing file) before any work is done.
-
-    Raises
-    ------
-    InvalidInputError
-        The suffix is not ``.md``, ``.html`` or ``.htm``.
-    OutputExistsError
-        ``path`` exists and ``overwrite`` is False.
-
-    Examples
-    --------
-    >>> check_report_path("summary.html").suffix
-    '.html'
-    """
-    from pcmm_geo.errors import InvalidInputError, OutputExistsError
-
-    target = Path(path)
-    if target.suffix.lower() not in REPORT_SUFFIXES:
-        raise InvalidInputError("report file", "a name ending in .md or .html", repr(str(target)))
-    if target.exists() and not overwrite:
-        raise OutputExistsError(str(target))
-    return target
 
 
 def markdown_text(text: str) -> str:
@@ -84,10 +57,6 @@ def _unique_plots(plots: Sequence[str]) -> list[str]:
             seen.add(key)
             out.append(plot)
     return out
-
-
-def _optional(value: float | None) -> Any:
-    return "-" if value is None else value
 
 
 def record_sections(report: Report, command: Sequence[str] | None = None) -> dict[str, list[Table]]:
@@ -125,17 +94,7 @@ def record_sections(report: Report, command: Sequence[str] | None = None) -> dic
     if report.verdict is not None:
         verdict.append(Table("Verdict", ["item", "value"],
                              [["result", report.verdict.statement], ["decision rule", report.verdict.decision_rule]]))
-    uncertainty = []
-    if report.uncertainties:
-        uncertainty.append(Table(
-            "Uncertainties", ["quantity", "value", "u", "unit", "k", "U = k u", "method"],
-            [[e.quantity, e.value, e.standard_uncertainty, e.unit, _optional(e.coverage_factor),
-              _optional(e.expanded_uncertainty), e.method] for e in report.uncertainties]))
-    for block in report.covariances:
-        names = list(block.names)
-        uncertainty.append(Table(f"{block.title}: correlation coefficients", ["", *names],
-                                 [[name, *(f"{round(value, 3) + 0.0:.3f}" for value in row)]
-                                  for name, row in zip(names, block.correlation(), strict=True)]))
+    uncertainty = uncertainty_tables(report)
     return {"record": record, "verdict": verdict, "results": list(report.tables),
             "uncertainty": uncertainty, "software": software}
 

@@ -19,6 +19,7 @@ without ``pyplot``, so no global matplotlib backend is switched.
   :func:`plot_thermal_table` -- the thermal tools.
 
 Lengths that may be nm, µm or mm are shown in the unit :func:`length_unit` picks from the data.
+- :func:`plot_monte_carlo` -- a Monte Carlo uncertainty evaluation (histogram, interval, budget).
 
 Examples
 --------
@@ -44,6 +45,7 @@ _LAZY = {
     "plot_fit_residuals": "pcmm_geo.plots.fit_residuals",
     "plot_processed_log": "pcmm_geo.plots.process_log",
     "plot_tip_errors": "pcmm_geo.plots.demo",
+    "plot_monte_carlo": "pcmm_geo.plots.uncertainty",
     "plot_demo_overview": "pcmm_geo.plots.demo",
     "check_plot_path": "pcmm_geo.plots._figure",
     "length_unit": "pcmm_geo.plots._figure",

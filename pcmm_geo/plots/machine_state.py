@@ -25,9 +25,9 @@ from pcmm_geo.plots._figure import (
 )
 
 if TYPE_CHECKING:
-    from pcmm_geo.machine.model import RigidBodyMachine
-    from pcmm_geo.machine.numcal import NumericalCalibration
-    from pcmm_geo.machine.numcal_data import NumcalData
+    from pcmm_geo.machine.calibration.numcal import NumericalCalibration
+    from pcmm_geo.machine.calibration.numcal_data import NumcalData
+    from pcmm_geo.machine.kinematics.model import RigidBodyMachine
 
 __all__ = ["plot_numerical_calibration", "plot_pose", "plot_trilateration"]
 
@@ -62,7 +62,7 @@ def plot_numerical_calibration(
     Examples
     --------
     >>> import os, tempfile
-    >>> from pcmm_geo.machine.numcal import NumcalParameters, calibrate_numerically, synthesise_numcal_data
+    >>> from pcmm_geo.machine.calibration.numcal import NumcalParameters, calibrate_numerically, synthesise_numcal_data
     >>> truth = NumcalParameters.from_seed_table()
     >>> data = synthesise_numcal_data(truth, samples_per_arm=6, laser_sigma=1e-3, seed=1)
     >>> result = calibrate_numerically(data, global_search=None, start=truth)
@@ -140,7 +140,7 @@ def plot_pose(
     Examples
     --------
     >>> import os, tempfile
-    >>> from pcmm_geo.machine.model import RigidBodyMachine
+    >>> from pcmm_geo.machine.kinematics.model import RigidBodyMachine
     >>> machine = RigidBodyMachine.from_dpkm()
     >>> pose = machine.forward(heights=machine.reference_heights)
     >>> plot_pose(machine, pose.heights, pose.tip, os.path.join(tempfile.mkdtemp(), "k.png")).suffix

@@ -18,7 +18,7 @@ import numpy as np
 from pcmm_geo.plots._figure import ARM_COLOURS, check_plot_path, new_figure, save_figure
 
 if TYPE_CHECKING:
-    from pcmm_geo.machine.sensitivity import Sensitivity
+    from pcmm_geo.machine.analysis.sensitivity import Sensitivity
 
 __all__ = ["plot_sensitivity", "z_levels"]
 
@@ -42,7 +42,7 @@ def plot_sensitivity(sensitivity: Sensitivity, path: str | Path, *, overwrite: b
     Parameters
     ----------
     sensitivity : Sensitivity
-        Result of :func:`pcmm_geo.machine.sensitivity.sensitivity_over_cube` (mm).
+        Result of :func:`pcmm_geo.machine.analysis.sensitivity.sensitivity_over_cube` (mm).
     path : str or Path
         Destination, ``.png``, ``.svg`` or ``.pdf``.
     overwrite : bool
@@ -65,7 +65,7 @@ def plot_sensitivity(sensitivity: Sensitivity, path: str | Path, *, overwrite: b
     Examples
     --------
     >>> import os, tempfile
-    >>> from pcmm_geo.machine.sensitivity import sensitivity_over_cube
+    >>> from pcmm_geo.machine.analysis.sensitivity import sensitivity_over_cube
     >>> sens = sensitivity_over_cube(points_per_axis=2)
     >>> plot_sensitivity(sens, os.path.join(tempfile.mkdtemp(), "s.png")).suffix
     '.png'

@@ -17,7 +17,7 @@ import numpy as np
 import pytest
 
 from pcmm_geo.cli import main
-from pcmm_geo.machine.numcal import NumcalParameters, synthesise_numcal_data
+from pcmm_geo.machine.calibration.numcal import NumcalParameters, synthesise_numcal_data
 
 EXAMPLES = Path(__file__).parents[2] / "pcmm_geo" / "data" / "examples"
 NIST_SPHERE = Path(__file__).parents[1] / "data" / "nist" / "Sphere" / "sph20.ds"
@@ -198,7 +198,7 @@ def printed_headers(text: str) -> list[str]:
 def test_text_output_writes_units_one_way(numcal_file: Path, capsys: pytest.CaptureFixture[str]) -> None:
     extra = {
         "calibrate": ["calibrate", *(str(p) for p in __import__(
-            "pcmm_geo.machine.calibration_seed", fromlist=["x"]).appendix_cd_files())],
+            "pcmm_geo.machine.calibration.seed", fromlist=["x"]).appendix_cd_files())],
         "gauge-block": ["gauge-block", str(EXAMPLES / "gauge_block.csv")],
         "sensitivity": ["sensitivity", "--points-per-axis", "2"],
         "failing iso10360-2": ["iso10360-2", str(EXAMPLES / "iso10360_2_lengths.csv"), "--mpe-a", "0.5", "--mpe-k",

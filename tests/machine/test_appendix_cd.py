@@ -6,9 +6,9 @@ import numpy as np
 import pytest
 
 from pcmm_geo.machine.calibration import calibrate_tetrahedron
-from pcmm_geo.machine.calibration_geometry import angle_between_deg, seed_printed_angle_deg
-from pcmm_geo.machine.calibration_io import read_lasers, read_probings
-from pcmm_geo.machine.calibration_seed import (
+from pcmm_geo.machine.calibration.geometry import angle_between_deg, seed_printed_angle_deg
+from pcmm_geo.machine.calibration.probings import read_lasers, read_probings
+from pcmm_geo.machine.calibration.seed import (
     APPENDIX_C,
     APPENDIX_D,
     TABLE_6_2,
@@ -46,7 +46,15 @@ def test_shipped_files_are_the_reconstruction(rebuilt, tmp_path):
     np.testing.assert_allclose(features.tip.centre, [0.0, 0.0, 0.0], atol=0)
     np.testing.assert_array_equal(read_lasers(lasers).readings, APPENDIX_C["lasers"])
     fresh_export, _ = build_appendix_cd(tmp_path)
-    assert fresh_export.read_text() == export.read_text()
+    # the reconstruction is a least-squares solution: equal to the shipped one within its
+    # convergence (about 1e-9 mm), not to the last bit (BLAS kernels and the eq 7.2 kernel's
+    # rounding differ between machines and releases)
+    fresh_lines, shipped_lines = fresh_export.read_text().splitlines(), export.read_text().splitlines()
+    assert fresh_lines[0] == shipped_lines[0]
+    assert len(fresh_lines) == len(shipped_lines)
+    fresh = np.array([[float(v) for v in line.split(",")] for line in fresh_lines[1:]])
+    shipped = np.array([[float(v) for v in line.split(",")] for line in shipped_lines[1:]])
+    np.testing.assert_allclose(fresh, shipped, rtol=0, atol=1e-8, equal_nan=True)
 
 
 def test_table_7_1_dead_distance_and_beta(seed_cal):
