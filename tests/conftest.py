@@ -29,7 +29,12 @@ EXTRAS_NEEDED = {
     "artefacts/test_cad.py": "cad",
     "cli/test_cli_compare.py": "cad",
     "cli/test_cli_demo.py": "plots",  # the demo draws its figures
+    "cli/test_cli_batch.py": "dask",
     "cli/test_cli_plots.py": "plots",
+    "cli/test_cli_records.py": "plots",  # every command's --plot / --report
+    "fit/test_scale.py": "dask",
+    "fit/test_zone.py::test_mcc_matches_trimesh_minimum_nsphere": "cad",
+    "plots/test_fit_residual_maps.py": "plots",
     "io/test_meshes.py": "cad",
     "plots/test_plots.py": "plots",
     "cli/test_cli_calibrate.py::test_calibrate_text_output_and_files": "plots",
