@@ -57,3 +57,15 @@ def pytest_collection_modifyitems(config: pytest.Config, items: list[pytest.Item
         extra = EXTRAS_NEEDED.get(f"{module}::{function}") or EXTRAS_NEEDED.get(module)
         if extra is not None:
             item.add_marker(pytest.mark.extras(extra))
+
+
+def pytest_ignore_collect(collection_path: Path, config: pytest.Config) -> bool | None:
+    """In the core-only run (``-m "not extras"``) whole modules that need an extra are not even imported
+    (a module-level ``importorskip`` would otherwise report a skip for a module that is deselected anyway)."""
+    if "not extras" not in (config.getoption("markexpr", "") or ""):
+        return None
+    try:
+        module = collection_path.relative_to(Path(__file__).parent).as_posix()
+    except ValueError:
+        return None
+    return True if module in EXTRAS_NEEDED else None
