@@ -93,7 +93,7 @@ def plot_sensor_curve(
 
 
 def plot_length_correction(result: LengthCorrection, path: str | Path, *, overwrite: bool = False) -> Path:
-    """The uncertainty budget of a length corrected to 20 °C: each |c| u and the combined u.
+    """The uncertainty budget of a length corrected to 20 °C: each ``|c| u`` and the combined u.
 
     Raises
     ------

@@ -48,7 +48,7 @@ FloatArray = NDArray[np.float64]
 
 #: laser accuracy of the seed's microEpsilon lasers (thesis 3.1), mm
 SEED_LASER_ACCURACY = 0.05
-#: |dL/dh| below this (mm/mm) counts as "lasers blind" (finite-difference noise is ~1e-9)
+#: ``|dL/dh|`` below this (mm/mm) counts as "lasers blind" (finite-difference noise is ~1e-9)
 BLIND = 1e-6
 
 
