@@ -170,7 +170,7 @@ def mesh_deviations(points: ArrayLike, mesh: trimesh.Trimesh, *, tolerance: floa
     --------
     >>> from pcmm_geo.io.meshes import box_mesh
     >>> result = mesh_deviations([[0, 0, 4.51], [50.0, 0, 0], [0, 17.49, 0]], box_mesh(100, 35, 9))
-    >>> np.round(result.signed_distance, 12).tolist()
+    >>> (np.round(result.signed_distance, 12) + 0.0).tolist()
     [0.01, 0.0, -0.01]
     """
     data = as_points(points, element="deviations", min_points=1)

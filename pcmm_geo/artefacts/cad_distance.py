@@ -179,7 +179,7 @@ def surface_distances(points: ArrayLike, mesh: trimesh.Trimesh, *, require_close
     --------
     >>> from pcmm_geo.io.meshes import box_mesh
     >>> near = surface_distances([[50.002, 0.0, 0.0]], box_mesh(100, 35, 9))
-    >>> round(float(near.signed_distance[0]), 12), near.closest[0].tolist()
+    >>> round(float(near.signed_distance[0]), 12), (np.round(near.closest[0], 12) + 0.0).tolist()
     (0.002, [50.0, 0.0, 0.0])
     """
     query = as_points(points, element="mesh distance", min_points=1)

@@ -172,7 +172,7 @@ def evaluate_probing(
     --------
     >>> pts = sphere_probing_pattern((10.0, 20.0, 30.0), 12.5)
     >>> res = evaluate_probing(pts, 25.0)
-    >>> round(res.form_error, 12), round(res.size_error, 12)
+    >>> round(res.form_error, 12) + 0.0, round(res.size_error, 12) + 0.0
     (0.0, 0.0)
     """
     from pcmm_geo.fit import fit_sphere

@@ -312,7 +312,7 @@ def make_reference_data(
     >>> data.parameters["radius"], data.points.shape
     (5.0, (30, 3))
     >>> circle = make_reference_data("circle2d", n_points=3, rotate=False)
-    >>> np.round(circle.points, 12).tolist()[0]
+    >>> (np.round(circle.points, 12) + 0.0).tolist()[0]
     [10.0, 0.0]
     """
     if element not in MIN_POINTS:

@@ -165,7 +165,7 @@ def fit_centre_line(centres: ArrayLike, *, what: str) -> FittedLine:
     --------
     >>> import numpy as np
     >>> line = fit_centre_line([[0, 0, 0], [0, 0, 1], [0, 0, 2.0]], what="a")
-    >>> bool(np.allclose(line.direction, [0, 0, 1])), round(line.straightness, 12)
+    >>> bool(np.allclose(line.direction, [0, 0, 1])), round(line.straightness, 12) + 0.0
     (True, 0.0)
     """
     arr = np.asarray(centres, dtype=float)
@@ -265,7 +265,8 @@ def pairwise_average_point(points: Sequence[ArrayLike], directions: Sequence[Arr
 
     Examples
     --------
-    >>> pairwise_average_point([[0, 0, 1], [0, 0, -1], [5, 0, 0]], [[1, 0, 0], [0, 1, 0], [0, 0, 1]]).round(6).tolist()
+    >>> point = pairwise_average_point([[0, 0, 1], [0, 0, -1], [5, 0, 0]], [[1, 0, 0], [0, 1, 0], [0, 0, 1]])
+    >>> (point.round(6) + 0.0).tolist()
     [2.5, 0.0, 0.0]
     """
     count = len(points)

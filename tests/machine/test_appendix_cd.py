@@ -45,8 +45,22 @@ def test_shipped_files_are_the_reconstruction(rebuilt, tmp_path):
     np.testing.assert_allclose(features.centres(), rebuilt.centres, atol=1e-9)
     np.testing.assert_allclose(features.tip.centre, [0.0, 0.0, 0.0], atol=0)
     np.testing.assert_array_equal(read_lasers(lasers).readings, APPENDIX_C["lasers"])
-    fresh_export, _ = build_appendix_cd(tmp_path)
-    assert fresh_export.read_text() == export.read_text()
+    # the shipped file is the source of truth; a rebuild on another machine (other BLAS kernels)
+    # may differ in the last digits, so compare its parsed numbers with a stated tolerance
+    fresh_export, fresh_lasers = build_appendix_cd(tmp_path)
+    _assert_same_table(fresh_export, export, atol=1e-9)
+    _assert_same_table(fresh_lasers, lasers, atol=1e-12)
+
+
+def _assert_same_table(fresh, shipped, atol: float) -> None:
+    """Same header, same layout and the same numbers within ``atol`` (mm), NaN where NaN."""
+    fresh_lines = fresh.read_text().splitlines()
+    shipped_lines = shipped.read_text().splitlines()
+    assert fresh_lines[0] == shipped_lines[0]
+    assert len(fresh_lines) == len(shipped_lines)
+    fresh_values = np.array([[float(v) for v in line.split(",")] for line in fresh_lines[1:]])
+    shipped_values = np.array([[float(v) for v in line.split(",")] for line in shipped_lines[1:]])
+    np.testing.assert_allclose(fresh_values, shipped_values, rtol=0, atol=atol, equal_nan=True)
 
 
 def test_table_7_1_dead_distance_and_beta(seed_cal):
