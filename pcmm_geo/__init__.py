@@ -25,6 +25,7 @@ from pcmm_geo.errors import (
     DeviceTimeoutError,
     FileFormatError,
     IllConditionedWarning,
+    IncompleteTestError,
     InvalidInputError,
     LogIntegrityError,
     NoRealSolutionError,
@@ -52,5 +53,6 @@ __all__ = [
     "DeviceTimeoutError",
     "DeviceProtocolError",
     "LogIntegrityError",
+    "IncompleteTestError",
     "IllConditionedWarning",
 ]

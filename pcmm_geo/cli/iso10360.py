@@ -9,7 +9,10 @@ import argparse
 import math
 from typing import Any
 
-from pcmm_geo.cli._output import EXIT_FAILURE, EXIT_OK, Report, Table, add_json_flag
+from pcmm_geo.cli._output import EXIT_FAILURE, EXIT_OK, Report, Table, add_decimal_flag, add_json_flag
+
+_INCOMPLETE_HELP = ("evaluate a data set that is not the standard's (verdict INCOMPLETE, never PASS); "
+                    "without it such a file is refused")
 
 
 def register(subparsers: Any) -> None:
@@ -29,6 +32,7 @@ def register(subparsers: Any) -> None:
                     help="decision rule: simple acceptance or guarded by --uncertainty (default simple)")
     p2.add_argument("--uncertainty", type=float, default=0.0, help="expanded test uncertainty U in micrometres")
     p2.add_argument("--mpl-r0", type=float, default=None, help="limit of the repeatability range R0 in micrometres")
+    p2.add_argument("--allow-incomplete", action="store_true", help=_INCOMPLETE_HELP + " (5 lengths x 7 positions x 3)")
     add_json_flag(p2)
     p2.set_defaults(handler=_handle_2)
 
@@ -38,9 +42,12 @@ def register(subparsers: Any) -> None:
         description="CSV header x,y,z (mm): the points probed on the test sphere (25 in the standard).",
     )
     p5.add_argument("file", help="CSV of probed points")
-    p5.add_argument("--reference-diameter", type=float, required=True, help="calibrated diameter in mm")
+    p5.add_argument("--reference-diameter", type=float, default=None,
+                    help="calibrated diameter in mm (default: the file's '# reference_diameter_mm: D' line)")
     p5.add_argument("--mpe-form", type=float, default=None, help="MPE of P_FTU in micrometres")
     p5.add_argument("--mpe-size", type=float, default=None, help="MPE of P_STU in micrometres")
+    p5.add_argument("--allow-incomplete", action="store_true", help=_INCOMPLETE_HELP + " (25 points)")
+    add_decimal_flag(p5)
     add_json_flag(p5)
     p5.set_defaults(handler=_handle_5)
 
@@ -85,10 +92,13 @@ def _handle_2(args: argparse.Namespace) -> Report:
         decision_rule=args.rule,
         test_uncertainty=args.uncertainty / 1000.0,
         mpl_r0=None if args.mpl_r0 is None else args.mpl_r0 / 1000.0,
+        allow_incomplete=args.allow_incomplete,
     )
     bad = [e for e in result.errors if not e.conforms]
     data = {
+        "verdict": result.verdict,
         "passed": result.passed,
+        "complete": result.complete,
         "decision_rule": result.decision_rule,
         "mpe": {"a_um": mpe.a_um, "k": mpe.k, "b_um": mpe.b_um},
         "max_abs_error_um": result.max_abs_error * 1000,
@@ -112,25 +122,38 @@ def _handle_2(args: argparse.Namespace) -> Report:
     tables = [Table("Nonconforming E0 values", ["length/position/rep", "L (mm)", "E0 (um)", "MPE (um)"], rows)] \
         if rows else []
     lines = [
-        f"ISO 10360-2: {'PASS' if result.passed else 'FAIL'} ({len(result.errors)} values, "
+        f"ISO 10360-2: {result.verdict} ({len(result.errors)} values, "
         f"{result.n_nonconforming} nonconforming)",
         f"max |E0| = {result.max_abs_error * 1000:.3f} um ({result.max_error_ratio:.2f} of MPE), "
         f"max R0 = {result.max_range * 1000:.3f} um",
         f"decision rule: {result.decision_rule}",
     ]
-    return Report(data=data, tables=tables, lines=lines, exit_code=EXIT_OK if result.passed else EXIT_FAILURE)
+    return Report(data=data, tables=tables, lines=lines,
+                  exit_code=EXIT_FAILURE if result.passed is False else EXIT_OK)
 
 
 def _handle_5(args: argparse.Namespace) -> Report:
-    from pcmm_geo.artefacts.iso10360_5 import evaluate_probing, read_points_csv
+    from pcmm_geo.artefacts.iso10360_5 import evaluate_probing, read_reference_diameter
+    from pcmm_geo.errors import InvalidInputError
+    from pcmm_geo.io.points import read_points
 
     _positive("--mpe-form", args.mpe_form)
     _positive("--mpe-size", args.mpe_size)
+    points = read_points(args.file, decimal=args.decimal)
+    stated = read_reference_diameter(args.file)
+    diameter = args.reference_diameter if args.reference_diameter is not None else stated
+    if diameter is None:
+        raise InvalidInputError("--reference-diameter", "the sphere's calibrated diameter in mm "
+                                f"(or a '# reference_diameter_mm: D' line in {args.file})", "neither")
+    if stated is not None and args.reference_diameter is not None and stated != args.reference_diameter:
+        raise InvalidInputError("--reference-diameter", f"the {stated} mm that {args.file} states",
+                                f"{args.reference_diameter} mm")
     result = evaluate_probing(
-        read_points_csv(args.file),
-        args.reference_diameter,
+        points,
+        diameter,
         mpe_form=None if args.mpe_form is None else args.mpe_form / 1000,
         mpe_size=None if args.mpe_size is None else args.mpe_size / 1000,
+        allow_incomplete=args.allow_incomplete,
     )
     data = {
         "p_ftu_um": result.form_error * 1000,
@@ -142,6 +165,8 @@ def _handle_5(args: argparse.Namespace) -> Report:
         "form_conforms": result.form_conforms,
         "size_conforms": result.size_conforms,
         "passed": result.passed,
+        "complete": result.complete,
+        "verdict": result.verdict,
     }
     table = Table(
         "ISO 10360-5 probing test",
@@ -149,8 +174,7 @@ def _handle_5(args: argparse.Namespace) -> Report:
         [["P_FTU (um)", result.form_error * 1000], ["P_STU (um)", result.size_error * 1000],
          ["fitted diameter (mm)", result.fitted_diameter], ["points", result.n]],
     )
-    verdict = "no MPE stated" if result.passed is None else ("PASS" if result.passed else "FAIL")
-    return Report(data=data, tables=[table], lines=[f"verdict: {verdict}"],
+    return Report(data=data, tables=[table], lines=[f"verdict: {result.verdict}"],
                   exit_code=EXIT_FAILURE if result.passed is False else EXIT_OK)
 
 
