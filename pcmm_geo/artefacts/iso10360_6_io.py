@@ -118,7 +118,9 @@ def read_element_parameters(path: str | Path) -> dict[str, ElementParameters]:
     out: dict[str, ElementParameters] = {}
     if file.suffix.lower() == ".json":
         try:
-            data = json.loads(file.read_text(encoding="utf-8"))
+            from pcmm_geo.io._text import read_text_file
+
+            data = json.loads(read_text_file(file))
         except json.JSONDecodeError as exc:
             raise FileFormatError(str(file), f"invalid JSON: {exc.msg}", line=exc.lineno) from None
         items = data.get("cases") if isinstance(data, dict) else data

@@ -170,7 +170,9 @@ def read_transform(path: Path) -> Any:
     from pcmm_geo.errors import FileFormatError, InvalidInputError
 
     numbers: list[float] = []
-    for line_number, line in enumerate(path.read_text(encoding="utf-8").splitlines(), start=1):
+    from pcmm_geo.io._text import read_text_lines
+
+    for line_number, line in read_text_lines(path):
         text = line.split("#", 1)[0].replace(",", " ").split()
         try:
             numbers.extend(float(field) for field in text)

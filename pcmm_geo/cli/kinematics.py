@@ -33,11 +33,12 @@ def load_machine_file(path: str | None) -> Any:
 
     if path is None:
         return RigidBodyMachine.from_dpkm()
-    with open(path, encoding="utf-8") as handle:
-        try:
-            document = json.load(handle)
-        except json.JSONDecodeError as exc:
-            raise FileFormatError(path, f"expected JSON, got {exc.msg}", line=exc.lineno) from None
+    from pcmm_geo.io._text import read_text_file
+
+    try:
+        document = json.loads(read_text_file(path))
+    except json.JSONDecodeError as exc:
+        raise FileFormatError(path, f"expected JSON, got {exc.msg}", line=exc.lineno) from None
     if not isinstance(document, dict):
         raise FileFormatError(path, f"expected a JSON object, got {type(document).__name__}")
     try:

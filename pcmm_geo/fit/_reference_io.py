@@ -30,6 +30,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from pcmm_geo.errors import FileFormatError, InvalidInputError
+from pcmm_geo.io._atomic import write_atomic
 
 if TYPE_CHECKING:
     from pcmm_geo.fit.reference import ReferenceDataSet
@@ -95,7 +96,7 @@ def write_reference_data(dataset: ReferenceDataSet, path: str | Path, *, overwri
     residual_columns = dataset.residuals.reshape(len(dataset.points), -1)
     for point, residual in zip(dataset.points, residual_columns, strict=True):
         lines.append(" ".join(f"{value:.17g}" for value in (*point, *residual)))
-    path.write_text("\n".join(lines) + "\n", encoding="utf-8")
+    write_atomic(path, "\n".join(lines) + "\n", overwrite=overwrite)
     return path
 
 
@@ -235,6 +236,6 @@ def write_nist_pair(
     folder.mkdir(parents=True, exist_ok=True)
     rows = [str(len(dataset.points))]
     rows += ["\t".join(f"{v:.17g}" for v in _as3(point)) for point in dataset.points]
-    data_path.write_text("\n".join(rows) + "\n", encoding="utf-8")
+    write_atomic(data_path, "\n".join(rows) + "\n", overwrite=overwrite)
     fit_path.write_text("\n".join(f"{float(v):.17g}" for v in values) + "\n", encoding="utf-8")
     return data_path, fit_path

@@ -11,7 +11,7 @@ from pathlib import Path
 
 from pcmm_geo.errors import FileFormatError
 
-__all__ = ["read_text_lines"]
+__all__ = ["read_text_file", "read_text_lines"]
 
 
 def read_text_lines(path: str | Path) -> list[tuple[int, str]]:
@@ -61,3 +61,16 @@ def read_text_lines(path: str | Path) -> list[tuple[int, str]]:
     if lines and lines[-1][1] == "":
         lines.pop()  # the newline that ends the last line
     return lines
+
+
+def read_text_file(path: str | Path) -> str:
+    """The whole text of a UTF-8 file (BOM dropped, ``\\r\\n`` as ``\\n``), checked as :func:`read_text_lines` does.
+
+    Raises
+    ------
+    FileFormatError
+        Directory, binary data or non-UTF-8 bytes (the message names the line).
+    FileNotFoundError
+        The file does not exist.
+    """
+    return "".join(text + "\n" for _, text in read_text_lines(path))

@@ -240,6 +240,8 @@ def write_points(path: str | Path, points: ArrayLike, *, overwrite: bool = False
         raise InvalidInputError("points", "shape (N, 3)", f"shape {pts.shape}")
     if not np.all(np.isfinite(pts)):
         raise InvalidInputError("points", "finite coordinates", "NaN or inf")
+    from pcmm_geo.io._atomic import atomic_output, write_atomic
+
     if file.exists() and not overwrite:
         raise OutputExistsError(str(file))
     suffix = file.suffix.lower()
@@ -247,12 +249,10 @@ def write_points(path: str | Path, points: ArrayLike, *, overwrite: bool = False
         import open3d as o3d
 
         cloud = o3d.geometry.PointCloud(o3d.utility.Vector3dVector(pts))
-        # binary keeps full double precision (open3d's ASCII writer rounds to 6 digits)
-        if not o3d.io.write_point_cloud(str(file), cloud, write_ascii=False):
-            raise OSError(f"{file}: open3d could not write the point cloud")
+        with atomic_output(file, overwrite=overwrite) as temporary:
+            # binary keeps full double precision (open3d's ASCII writer rounds to 6 digits)
+            if not o3d.io.write_point_cloud(str(temporary), cloud, write_ascii=False):
+                raise OSError(f"{file}: open3d could not write the point cloud")
         return file
-    with open(file, "w", encoding="utf-8") as handle:
-        handle.write("x,y,z\n")
-        for x, y, z in pts:
-            handle.write(f"{float(x)!r},{float(y)!r},{float(z)!r}\n")
-    return file
+    text = "x,y,z\n" + "".join(f"{float(x)!r},{float(y)!r},{float(z)!r}\n" for x, y, z in pts)
+    return write_atomic(file, text, overwrite=overwrite)

@@ -424,14 +424,9 @@ def export_table_3_2(
     contents = read_log(source)
     destination = Path(destination)
     lines = [",".join(TABLE_3_2_COLUMNS)] + [",".join(row.cells()[: len(TABLE_3_2_COLUMNS)]) for row in contents.rows]
-    try:
-        with open(destination, "w" if overwrite else "x", encoding="utf-8", newline="") as handle:
-            handle.write("\n".join(lines) + "\n")
-            handle.flush()
-            os.fsync(handle.fileno())
-    except FileExistsError as exc:
-        raise OutputExistsError(str(destination)) from exc
-    return destination
+    from pcmm_geo.io._atomic import write_atomic
+
+    return write_atomic(destination, "\n".join(lines) + "\n", overwrite=overwrite)
 
 
 def _fsync_directory(directory: Path) -> None:

@@ -197,10 +197,9 @@ def _tetrahedron_dict(tetrahedron: Any) -> dict[str, Any]:
 
 def _read_document(path: str | Path) -> tuple[Path, dict[str, Any]]:
     file = Path(path)
-    try:
-        text = file.read_text(encoding="utf-8")
-    except UnicodeDecodeError:
-        raise FileFormatError(str(file), "expected UTF-8 JSON text, got undecodable bytes") from None
+    from pcmm_geo.io._text import read_text_file
+
+    text = read_text_file(file)
     try:
         document = json.loads(text)
     except json.JSONDecodeError as exc:

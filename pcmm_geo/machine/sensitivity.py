@@ -294,6 +294,11 @@ def plot_sensitivity(sensitivity: Sensitivity, path: str | Path, *, overwrite: b
     right.legend(fontsize=8)
     right.set_title("Probe-to-laser ratio per motor")
     fig.tight_layout()
-    fig.savefig(target, dpi=100)
-    plt.close(fig)
+    from pcmm_geo.io._atomic import write_atomic
+
+    try:
+        write_atomic(target, lambda stream: fig.savefig(stream, format=target.suffix[1:].lower() or "png", dpi=100),
+                     overwrite=overwrite)
+    finally:
+        plt.close(fig)
     return target

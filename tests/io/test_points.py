@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import os
 from pathlib import Path
 
 import numpy as np
@@ -126,3 +127,26 @@ def test_garbage_bytes_name_file_and_line(tmp_path: Path, data: bytes, message: 
         read_points(path)
     with pytest.raises(FileFormatError, match="is a directory"):
         read_points(tmp_path)
+
+
+def test_outputs_are_written_whole_or_not_at_all(tmp_path: Path) -> None:
+    from pcmm_geo.io._atomic import write_atomic
+
+    target = tmp_path / "result.csv"
+    target.write_text("earlier result\n")
+    with pytest.raises(OutputExistsError):
+        write_atomic(target, "new\n")
+
+    def half_then_fail(stream) -> None:
+        stream.write(b"x,y,z\n1,2,")
+        raise OSError("disk full")
+
+    with pytest.raises(OSError, match="disk full"):
+        write_atomic(target, half_then_fail, overwrite=True)
+    assert target.read_text() == "earlier result\n"  # the old content survives a failed replacement
+    assert [p.name for p in tmp_path.iterdir()] == ["result.csv"]  # no temporary file left behind
+    write_atomic(target, "x,y,z\n1,2,3\n", overwrite=True)
+    np.testing.assert_array_equal(read_points(target), [[1.0, 2.0, 3.0]])
+    mask = os.umask(0o022)
+    os.umask(mask)
+    assert target.stat().st_mode & 0o777 == 0o666 & ~mask  # the usual permissions, not mkstemp's 0600
