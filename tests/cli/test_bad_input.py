@@ -138,3 +138,51 @@ def test_failed_run_leaves_an_existing_output_untouched(tmp_path: Path, capsys: 
     for path, content in kept.items():
         assert path.read_bytes() == content
     assert sorted(p.name for p in tmp_path.iterdir() if p.name.startswith(".")) == []  # no temporary files left
+
+
+ACQLOG_HEADER = ("# pcmm_geo acquisition log\n# schema: pcmm_geo.acqlog/1\nstart_stop,probe,motor,direction,laser_a,"
+                 "laser_b,laser_c,seq,t_utc,pos_a_usteps,pos_b_usteps,pos_c_usteps,laser_a_raw,laser_b_raw,laser_c_raw")
+ACQLOG_ROW = "1,0,1,1,50,60,70,0,2026-01-01T00:00:00.000Z,1,2,3,4,5,6"
+
+
+@pytest.mark.parametrize("case", ["empty", "binary", "non-utf8", "decimal-comma", "wrong-columns", "nan-inf",
+                                  "directory"])
+def test_acquire_resume_refuses_a_damaged_log_untouched(tmp_path: Path, capsys: pytest.CaptureFixture[str],
+                                                         case: str) -> None:
+    bad = tmp_path / f"bad_{case}.csv"
+    content = _corpus(ACQLOG_HEADER, ACQLOG_ROW)[case]
+    if case == "directory":
+        bad.mkdir()
+    else:
+        bad.write_bytes(content or b"")
+    code = main(["acquire", "--simulate", "--settle", "0", "--moves", "1", "--resume", "--out", str(bad)])
+    lines = capsys.readouterr().err.strip().splitlines()
+    assert code == 2 and len(lines) == 1 and bad.name in lines[0], lines
+    if case != "directory":
+        assert bad.read_bytes() == (content or b"")  # nothing appended, nothing cut
+
+
+def test_decimal_comma_files_are_read_not_misread(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    import json
+
+    import numpy as np
+
+    from pcmm_geo.artefacts import sphere_probing_pattern
+
+    points = sphere_probing_pattern((12.5, 3.25, 7.75), 5.0)
+    semicolons = tmp_path / "european.csv"
+    semicolons.write_text("x;y;z\n" + "".join(";".join(f"{v:.12f}".replace(".", ",") for v in p) + "\n"
+                                                for p in points))
+    spaces = tmp_path / "european.txt"
+    spaces.write_text("".join(" ".join(f"{v:.12f}".replace(".", ",") for v in p) + "\n" for p in points))
+    for path, extra in ((semicolons, []), (spaces, []), (semicolons, ["--decimal", ","])):
+        assert main(["fit", "sphere", str(path), "--json", *extra]) == 0
+        fitted = json.loads(capsys.readouterr().out)
+        np.testing.assert_allclose(fitted["center"], [12.5, 3.25, 7.75], rtol=0, atol=1e-9)
+        assert fitted["radius"] == pytest.approx(5.0, abs=1e-9)
+    # told the decimal mark is '.', the same file is refused, never read as other numbers
+    assert main(["fit", "sphere", str(semicolons), "--decimal", "."]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and f"{semicolons}:2: decimal comma in" in err[0]
+    assert main(["iso10360-5", str(semicolons), "--reference-diameter", "10", "--json"]) == 0
+    assert json.loads(capsys.readouterr().out)["p_stu_um"] == pytest.approx(0.0, abs=1e-6)

@@ -39,16 +39,22 @@ def test_reconstruction_matches_every_printed_number(rebuilt):
     np.testing.assert_allclose(units, APPENDIX_D["v1"], atol=1e-4)
 
 
+# The reconstruction is an iterative least-squares solve: other BLAS kernels (OPENBLAS_CORETYPE=Haswell,
+# Sandybridge, Nehalem, Prescott on the same machine) move its result by up to 7e-9 mm.  1e-7 mm is far
+# below the 6e-5 mm resolution of the printed numbers it reproduces, and far above that rounding noise.
+REBUILD_TOLERANCE_MM = 1e-7
+
+
 def test_shipped_files_are_the_reconstruction(rebuilt, tmp_path):
     export, lasers = appendix_cd_files()
     features = read_probings(export)
-    np.testing.assert_allclose(features.centres(), rebuilt.centres, atol=1e-9)
+    np.testing.assert_allclose(features.centres(), rebuilt.centres, rtol=0, atol=REBUILD_TOLERANCE_MM)
     np.testing.assert_allclose(features.tip.centre, [0.0, 0.0, 0.0], atol=0)
     np.testing.assert_array_equal(read_lasers(lasers).readings, APPENDIX_C["lasers"])
     # the shipped file is the source of truth; a rebuild on another machine (other BLAS kernels)
     # may differ in the last digits, so compare its parsed numbers with a stated tolerance
     fresh_export, fresh_lasers = build_appendix_cd(tmp_path)
-    _assert_same_table(fresh_export, export, atol=1e-9)
+    _assert_same_table(fresh_export, export, atol=REBUILD_TOLERANCE_MM)
     _assert_same_table(fresh_lasers, lasers, atol=1e-12)
 
 
