@@ -18,6 +18,7 @@ from collections.abc import Sequence
 COMMAND_MODULES = (
     "demo",
     "fit",
+    "form",
     "calibrate",
     "kinematics",
     "process_log",

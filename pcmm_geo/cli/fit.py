@@ -1,4 +1,4 @@
-"""``pcmm fit ELEMENT FILE``: Gaussian fit of a point file."""
+"""``pcmm fit ELEMENT FILE``: Gaussian, minimum-zone, MCC or MIC fit of a point file."""
 
 from __future__ import annotations
 
@@ -16,15 +16,21 @@ from pcmm_geo.cli._output import (
     add_report_flag,
 )
 
+_CRITERION_TITLES = {
+    "gaussian": "Gaussian least squares",
+    "chebyshev": "minimum zone",
+    "mcc": "minimum circumscribed",
+    "mic": "maximum inscribed",
+}
 ELEMENTS = ("line", "plane", "circle", "sphere", "cylinder", "cone", "torus")
 _DIRECTIONS = ("direction", "normal", "axis")
-_UNITS = {"radius": "mm", "major_radius": "mm", "minor_radius": "mm", "half_angle": "rad"}
+_UNITS = {"radius": "mm", "r_in": "mm", "r_out": "mm", "major_radius": "mm", "minor_radius": "mm", "half_angle": "rad"}
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
     parser = subparsers.add_parser(
         "fit",
-        help="Gaussian (least-squares) fit of a geometric element to a point file",
+        help="fit a geometric element to a point file (Gaussian, minimum zone, MCC, MIC)",
         description=(
             "Fit ELEMENT to the points in FILE (CSV/TXT/XYZ with or without header, NIST .ds, PLY, PCD). "
             "Reports the element, standard uncertainties, rms, form error and convergence."
@@ -37,6 +43,12 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         choices=("gaussian", "projected"),
         default="gaussian",
         help="3-D circle: distance to the curve (gaussian) or plane-then-circle (projected, NIST)",
+    )
+    parser.add_argument(
+        "--criterion",
+        choices=("gaussian", "chebyshev", "mcc", "mic"),
+        default="gaussian",
+        help="least squares (default), minimum zone, minimum circumscribed or maximum inscribed",
     )
     parser.add_argument("--radius", type=float, help="fixed radius in mm (circle, sphere, cylinder)")
     parser.add_argument("--two-d", action="store_true", help="line/circle: use only the x and y columns")
@@ -66,8 +78,10 @@ def handle(args: argparse.Namespace) -> Report:
         if args.element not in ("circle", "sphere", "cylinder"):
             raise InvalidInputError("--radius", "element circle, sphere or cylinder", args.element)
         kwargs["radius"] = args.radius
-    if args.element == "circle":
+    if args.element == "circle" and args.criterion == "gaussian":
         kwargs["method"] = args.method
+    if args.criterion != "gaussian":
+        kwargs["criterion"] = args.criterion
     result = getattr(fit, f"fit_{args.element}")(points, **kwargs)
 
     data = result.to_dict()
@@ -82,16 +96,18 @@ def handle(args: argparse.Namespace) -> Report:
         [name, value, uncertainty.get(name, float("nan")), "1" if name.split("_")[0] in _DIRECTIONS else "mm"]
         for name, value in geometry
     ]
-    for name in ("radius", "major_radius", "minor_radius", "half_angle"):
+    for name in ("radius", "r_in", "r_out", "major_radius", "minor_radius", "half_angle"):
         if hasattr(result, name):
             value = float(getattr(result, name))
+            if name in ("r_in", "r_out") and value != value:  # NaN: Gaussian fits have no zone radii
+                continue
             unit = _UNITS[name]
             rows.append([name, value, uncertainty.get(name, float("nan")), unit])
     if hasattr(result, "half_angle"):
         rows.append(["apex_angle_deg", float(np.degrees(2 * result.half_angle)), float("nan"), "deg"])
     tables = [
         Table(
-            f"{args.element} fit of {args.file} (Gaussian least squares)",
+            f"{args.element} fit of {args.file} ({_CRITERION_TITLES[args.criterion]})",
             ["parameter", "value", "u (1 sigma)", "unit"],
             rows,
         ),
@@ -102,6 +118,11 @@ def handle(args: argparse.Namespace) -> Report:
         ),
     ]
     lines = [result.message]
+    if result.certificate is not None:
+        lines.append(
+            f"contacts {result.contacts.tolist()}, KKT residual {result.certificate.kkt_residual:.3g}, "
+            f"certified {result.certificate.certified}"
+        )
     plots = []
     if args.plot is not None:
         from pcmm_geo.plots.fit_residuals import plot_fit_residuals

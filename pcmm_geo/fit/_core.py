@@ -26,6 +26,7 @@ from pcmm_geo.errors import (
 from pcmm_geo.fit._tall import tall_lstsq, tall_svd
 
 __all__ = [
+    "Certificate",
     "FitResult",
     "Tolerances",
     "TOL",
@@ -297,6 +298,36 @@ def covariance_from_jacobian(
     return cov, cond
 
 
+@dataclass(frozen=True, eq=False)
+class Certificate:
+    """Optimality certificate of a minimum-zone, minimum-circumscribed or maximum-inscribed fit.
+
+    The fits minimise a max-type objective over the element parameters ``x``; at the
+    optimum the contact (support) points satisfy the Karush-Kuhn-Tucker conditions
+    ``sum_k s_k lambda_k grad d_k(x) = 0`` with ``lambda_k >= 0`` (``s_k = +1`` on the
+    outer level, ``-1`` on the inner one) and the multipliers of each level summing to 1.
+
+    Attributes
+    ----------
+    multipliers : ndarray, shape (M,)
+        KKT multipliers of the contacts (same order as the result's ``contacts``).
+    kkt_residual : float
+        Norm of the stationarity residual relative to the gradient scale (dimensionless).
+    feasibility : float
+        Largest distance by which any point lies outside the reported zone (mm; 0 when inside).
+    certified : bool
+        Multipliers non-negative, ``kkt_residual`` and ``feasibility`` within tolerance.
+    method : str
+        How the optimum was found (e.g. ``"slp+kkt-newton"``).
+    """
+
+    multipliers: FloatArray
+    kkt_residual: float
+    feasibility: float
+    certified: bool
+    method: str
+
+
 @dataclass(frozen=True, kw_only=True, eq=False)
 class FitResult:
     """Fields shared by every fit result (element parameters are added by subclasses).
@@ -328,6 +359,13 @@ class FitResult:
     message : str
     method : str
         ``"gaussian"`` (orthogonal-distance least squares) or a named variant.
+    criterion : str
+        ``"gaussian"`` (least squares, default), ``"chebyshev"`` (minimum zone), ``"mcc"``
+        (minimum circumscribed) or ``"mic"`` (maximum inscribed).
+    contacts : ndarray of int, shape (M,)
+        Indices of the support points of a non-Gaussian fit (empty for Gaussian fits).
+    certificate : Certificate or None
+        Optimality certificate of a non-Gaussian fit (``None`` for Gaussian fits).
     """
 
     residuals: FloatArray
@@ -344,6 +382,9 @@ class FitResult:
     message: str
     method: str = "gaussian"
     extra: dict[str, Any] = field(default_factory=dict)
+    criterion: str = "gaussian"
+    contacts: NDArray[np.intp] = field(default_factory=lambda: np.zeros(0, dtype=np.intp))
+    certificate: Certificate | None = None
 
     @property
     def std_errors(self) -> dict[str, float]:
@@ -389,6 +430,8 @@ def _short(value: Any) -> str:
 
 
 def _jsonable(value: Any) -> Any:
+    if isinstance(value, Certificate):
+        return {f.name: _jsonable(getattr(value, f.name)) for f in dataclasses.fields(value)}
     if isinstance(value, np.ndarray):
         return value.tolist()
     if isinstance(value, np.generic):

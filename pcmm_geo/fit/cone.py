@@ -32,6 +32,7 @@ from pcmm_geo.fit._axial import (
 from pcmm_geo.fit._core import FitResult, as_points, as_weights, covariance_from_jacobian, residual_stats
 from pcmm_geo.fit._linear import frozen
 from pcmm_geo.fit.cylinder import _cylinder_model, _cylinder_start, axis_point_jacobian
+from pcmm_geo.fit.zone._common import check_criterion
 
 __all__ = ["ConeFit", "fit_cone"]
 
@@ -137,6 +138,7 @@ def fit_cone(
     *,
     weights: ArrayLike | None = None,
     axis_hint: ArrayLike | None = None,
+    criterion: str = "gaussian",
 ) -> ConeFit:
     """Fit a cone to 3-D points by orthogonal-distance least squares.
 
@@ -157,6 +159,10 @@ def fit_cone(
         Non-negative weights of the squared residuals.
     axis_hint : array_like, shape (3,), optional
         Approximate axis direction tried first (either sign).
+
+    criterion : {"gaussian", "chebyshev"}
+        ``"gaussian"`` (least squares, default) or the minimax criteria of
+        :mod:`pcmm_geo.fit.zone` (contacts and optimality certificate on the result).
 
     Returns
     -------
@@ -184,7 +190,12 @@ def fit_cone(
     >>> round(fit.apex_angle_deg / 2, 9), np.round(fit.apex, 9).tolist()
     (45.0, [500.0, 500.0, 498.0])
     """
+    check_criterion(criterion, _ELEMENT, weights=weights, axis_hint=axis_hint)
     data = as_points(points, element=_ELEMENT, min_points=6)
+    if criterion != "gaussian":
+        from pcmm_geo.fit.zone._axial import cone_minimax
+
+        return cone_minimax(data, criterion)
     weight = as_weights(weights, data.shape[0], element=_ELEMENT)
     sqrt_weights = None if weight is None else np.sqrt(weight)
     centroid = data.mean(axis=0)

@@ -29,6 +29,7 @@ from pcmm_geo.fit._axial import (
 )
 from pcmm_geo.fit._core import FitResult, as_points, as_weights, covariance_from_jacobian, residual_stats
 from pcmm_geo.fit._linear import frozen
+from pcmm_geo.fit.zone._common import check_criterion
 
 __all__ = ["CylinderFit", "fit_cylinder"]
 
@@ -54,11 +55,18 @@ class CylinderFit(FitResult):
     ``parameter_names`` are ``point_x, point_y, point_z, axis_x, axis_y, axis_z, radius``
     (machine frame).  The covariance of these 7 numbers has rank 5 (4 with a fixed radius):
     the point can only move across the axis and the axis only tilt.
+
+    With a non-Gaussian ``criterion`` the reported ``radius`` is the mid-zone radius
+    (``"chebyshev"``), the circumscribed (``"mcc"``) or the inscribed (``"mic"``) radius;
+    ``r_in`` / ``r_out`` are the smallest / largest point distances from the axis (NaN for
+    Gaussian fits).
     """
 
     point: FloatArray
     axis: FloatArray
     radius: float
+    r_in: float = float("nan")
+    r_out: float = float("nan")
 
     @property
     def diameter(self) -> float:
@@ -128,6 +136,7 @@ def fit_cylinder(
     radius: float | None = None,
     weights: ArrayLike | None = None,
     axis_hint: ArrayLike | None = None,
+    criterion: str = "gaussian",
 ) -> CylinderFit:
     """Fit a cylinder to 3-D points by orthogonal-distance least squares.
 
@@ -147,6 +156,10 @@ def fit_cylinder(
         Non-negative weights of the squared residuals.
     axis_hint : array_like, shape (3,), optional
         Approximate axis direction tried first (either sign).
+
+    criterion : {"gaussian", "chebyshev", "mcc", "mic"}
+        ``"gaussian"`` (least squares, default) or the minimax criteria of
+        :mod:`pcmm_geo.fit.zone` (contacts and optimality certificate on the result).
 
     Returns
     -------
@@ -178,7 +191,12 @@ def fit_cylinder(
         if not np.isfinite(radius) or radius <= 0:
             raise InvalidInputError("radius", "a positive finite radius in mm", repr(radius))
         radius = float(radius)
+    check_criterion(criterion, _ELEMENT, weights=weights, radius=radius, axis_hint=axis_hint)
     data = as_points(points, element=_ELEMENT, min_points=5 if radius is None else 4)
+    if criterion != "gaussian":
+        from pcmm_geo.fit.zone._axial import cylinder_minimax
+
+        return cylinder_minimax(data, criterion)
     weight = as_weights(weights, data.shape[0], element=_ELEMENT)
     sqrt_weights = None if weight is None else np.sqrt(weight)
     centroid = data.mean(axis=0)

@@ -14,6 +14,7 @@ from numpy.typing import ArrayLike, NDArray
 from pcmm_geo.errors import DegenerateGeometryError
 from pcmm_geo.fit._core import FitResult, as_points, as_weights, residual_stats
 from pcmm_geo.fit._linear import frozen, local_covariance, principal_frame, propagate, sign_convention
+from pcmm_geo.fit.zone._common import check_criterion
 
 __all__ = ["LineFit", "fit_line"]
 
@@ -55,7 +56,7 @@ class LineFit(FitResult):
         return self.point + (rel @ self.direction)[..., None] * self.direction
 
 
-def fit_line(points: ArrayLike, *, weights: ArrayLike | None = None) -> LineFit:
+def fit_line(points: ArrayLike, *, weights: ArrayLike | None = None, criterion: str = "gaussian") -> LineFit:
     """Fit a straight line minimising the (weighted) sum of squared orthogonal distances.
 
     Parameters
@@ -64,6 +65,10 @@ def fit_line(points: ArrayLike, *, weights: ArrayLike | None = None) -> LineFit:
         Measured points (mm), N >= 2, not all identical.
     weights : array_like, shape (N,), optional
         Non-negative weights of the squared distances.
+
+    criterion : {"gaussian", "chebyshev"}
+        ``"gaussian"`` (least squares, default) or the minimax criteria of
+        :mod:`pcmm_geo.fit.zone` (contacts and optimality certificate on the result).
 
     Returns
     -------
@@ -88,7 +93,12 @@ def fit_line(points: ArrayLike, *, weights: ArrayLike | None = None) -> LineFit:
     >>> np.round(result.direction * np.sqrt(3), 12).tolist(), result.point.tolist()
     ([1.0, 1.0, 1.0], [1.0, 1.0, 1.0])
     """
+    check_criterion(criterion, _ELEMENT, weights=weights)
     pts = as_points(points, element=_ELEMENT, dims=(2, 3), min_points=2)
+    if criterion != "gaussian":
+        from pcmm_geo.fit.zone._linear import line_minimax
+
+        return line_minimax(pts, criterion)
     w = as_weights(weights, len(pts), element=_ELEMENT)
     centroid, singular, vt = principal_frame(pts, w, element=_ELEMENT)
     if len(singular) > 1 and singular[1] >= (1 - 1e-12) * singular[0] and len(pts) > 2:

@@ -15,6 +15,7 @@ from numpy.typing import ArrayLike, NDArray
 from pcmm_geo.errors import DegenerateGeometryError
 from pcmm_geo.fit._core import TOL, FitResult, as_points, as_weights, residual_stats
 from pcmm_geo.fit._linear import frozen, local_covariance, principal_frame, propagate, sign_convention
+from pcmm_geo.fit.zone._common import check_criterion
 
 __all__ = ["PlaneFit", "fit_plane"]
 
@@ -47,7 +48,7 @@ class PlaneFit(FitResult):
         return pts - self.distance(pts)[..., None] * self.normal
 
 
-def fit_plane(points: ArrayLike, *, weights: ArrayLike | None = None) -> PlaneFit:
+def fit_plane(points: ArrayLike, *, weights: ArrayLike | None = None, criterion: str = "gaussian") -> PlaneFit:
     """Fit a plane minimising the (weighted) sum of squared orthogonal distances.
 
     Parameters
@@ -56,6 +57,10 @@ def fit_plane(points: ArrayLike, *, weights: ArrayLike | None = None) -> PlaneFi
         Measured points (mm), N >= 3, not all on one line.
     weights : array_like, shape (N,), optional
         Non-negative weights of the squared distances.
+
+    criterion : {"gaussian", "chebyshev"}
+        ``"gaussian"`` (least squares, default) or the minimax criteria of
+        :mod:`pcmm_geo.fit.zone` (contacts and optimality certificate on the result).
 
     Returns
     -------
@@ -80,7 +85,12 @@ def fit_plane(points: ArrayLike, *, weights: ArrayLike | None = None) -> PlaneFi
     >>> result.normal.tolist(), result.point.tolist(), result.form
     ([0.0, 0.0, 1.0], [0.5, 0.5, 1.0], 0.0)
     """
+    check_criterion(criterion, _ELEMENT, weights=weights)
     pts = as_points(points, element=_ELEMENT, min_points=3)
+    if criterion != "gaussian":
+        from pcmm_geo.fit.zone._linear import plane_minimax
+
+        return plane_minimax(pts, criterion)
     w = as_weights(weights, len(pts), element=_ELEMENT)
     centroid, singular, vt = principal_frame(pts, w, element=_ELEMENT)
     if singular[1] <= TOL.degenerate * singular[0]:

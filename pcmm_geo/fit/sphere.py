@@ -11,6 +11,7 @@ from pcmm_geo.errors import InvalidInputError
 from pcmm_geo.fit._core import FitResult, as_points, as_weights, residual_stats
 from pcmm_geo.fit._linear import frozen
 from pcmm_geo.fit._round import fit_nsphere
+from pcmm_geo.fit.zone._common import check_criterion
 
 __all__ = ["SphereFit", "fit_sphere"]
 
@@ -28,10 +29,19 @@ class SphereFit(FitResult):
         Centre (mm).
     radius : float
         Radius (mm); ``diameter`` is twice it.
+    r_in : float
+        Radius of the inner boundary of the zone: the smallest distance of a point from the
+        centre (mm) for the ``"chebyshev"``, ``"mcc"`` and ``"mic"`` criteria; NaN for
+        Gaussian fits.
+    r_out : float
+        Radius of the outer boundary (largest distance of a point from the centre), mm;
+        NaN for Gaussian fits.
     """
 
     center: FloatArray
     radius: float
+    r_in: float = float("nan")
+    r_out: float = float("nan")
 
     @property
     def diameter(self) -> float:
@@ -48,6 +58,7 @@ def fit_sphere(
     *,
     radius: float | None = None,
     weights: ArrayLike | None = None,
+    criterion: str = "gaussian",
 ) -> SphereFit:
     """Fit a sphere minimising the (weighted) sum of squared orthogonal distances.
 
@@ -62,6 +73,10 @@ def fit_sphere(
         Fixed radius (mm): only the centre is fitted (e.g. a calibrated reference sphere).
     weights : array_like, shape (N,), optional
         Non-negative weights of the squared distances.
+
+    criterion : {"gaussian", "chebyshev", "mcc", "mic"}
+        ``"gaussian"`` (least squares, default) or the minimax criteria of
+        :mod:`pcmm_geo.fit.zone` (contacts and optimality certificate on the result).
 
     Returns
     -------
@@ -89,7 +104,12 @@ def fit_sphere(
     """
     if radius is not None and not (np.isfinite(radius) and radius > 0):
         raise InvalidInputError("radius", "a positive finite radius", repr(radius))
+    check_criterion(criterion, _ELEMENT, weights=weights, radius=radius)
     pts = as_points(points, element=_ELEMENT, min_points=4 if radius is None else 3)
+    if criterion != "gaussian":
+        from pcmm_geo.fit.zone._round import sphere_minimax
+
+        return sphere_minimax(pts, criterion)
     w = as_weights(weights, len(pts), element=_ELEMENT)
     centre, fitted_radius, outcome, residuals, cond, cov = fit_nsphere(pts, w, element=_ELEMENT, fixed_radius=radius)
     rms, form = residual_stats(residuals)

@@ -29,6 +29,7 @@ from pcmm_geo.fit._axial import (
 from pcmm_geo.fit._core import FitResult, as_points, as_weights, covariance_from_jacobian, residual_stats
 from pcmm_geo.fit._linear import frozen
 from pcmm_geo.fit._torus_search import best_axis_position, refined_axis
+from pcmm_geo.fit.zone._common import check_criterion
 
 __all__ = ["TorusFit", "fit_torus"]
 
@@ -168,6 +169,7 @@ def fit_torus(
     *,
     weights: ArrayLike | None = None,
     axis_hint: ArrayLike | None = None,
+    criterion: str = "gaussian",
 ) -> TorusFit:
     """Fit a torus to 3-D points by orthogonal-distance least squares.
 
@@ -199,6 +201,9 @@ def fit_torus(
     axis_hint : array_like, shape (3,), optional
         Approximate (nominal) axis direction tried first (either sign).
 
+    criterion : {"gaussian"}
+        Only the least-squares criterion is defined for a torus (an explicit error otherwise).
+
     Returns
     -------
     TorusFit
@@ -225,6 +230,7 @@ def fit_torus(
     >>> round(fit.major_radius, 9), round(fit.minor_radius, 9), (np.round(fit.center, 9) + 0.0).tolist()
     (20.0, 4.0, [0.0, 0.0, 1000.0])
     """
+    check_criterion(criterion, _ELEMENT)
     data = as_points(points, element=_ELEMENT, min_points=7)
     weight = as_weights(weights, data.shape[0], element=_ELEMENT)
     sqrt_weights = None if weight is None else np.sqrt(weight)
