@@ -25,6 +25,7 @@ STL = DATA / "examples" / "gauge_block_nominal.stl"
 Argv = Callable[[str, Path], list[str]]
 COMMANDS: dict[str, tuple[Argv, str, str, str]] = {
     "fit": (lambda f, tmp: ["fit", "sphere", f], "x,y,z", "1,2,3", ".csv"),
+    "form": (lambda f, tmp: ["form", f, "--element", "plane", "--tolerance", "0.01"], "x,y,z", "1,2,3", ".csv"),
     "calibrate probings": (lambda f, tmp: ["calibrate", f, str(LASERS)], "x,y,z,d,r", "1,2,3,nan,nan", ".csv"),
     "calibrate lasers": (lambda f, tmp: ["calibrate", str(EXPORT), f], "position,laser_a,laser_b,laser_c",
                          "1,50,60,70", ".csv"),
