@@ -186,3 +186,15 @@ def test_sigkill_at_random_moments_then_resume_repair(tmp_path: Path) -> None:
     rows = read_log(out).rows  # strict again
     assert len(rows) == rows_before + 4 and [r.seq for r in rows] == list(range(len(rows)))
     assert kills == 4
+
+
+def test_pty_transport_still_runs_over_real_pseudo_terminals(tmp_path: Path) -> None:
+    out = tmp_path / "pty.csv"
+    done = subprocess.run([PCMM, "acquire", "--simulate", "--transport", "pty", "--settle", "0", "--timeout", "0.06",
+                           "--move-timeout", "0.12", "--moves", "4", "--fault-rate", "0.2", "--seed", "12",
+                           "--out", str(out), "--json"], capture_output=True, text=True, timeout=120, check=False)
+    assert done.returncode == 0, done.stderr
+    report = json.loads(done.stdout)
+    contents = read_log(out)
+    assert report["rows"] == len(contents.rows) == 8 and contents.metadata["transport"] == "pty"
+    assert contents.metadata["ports"].count("/dev/") == 5
