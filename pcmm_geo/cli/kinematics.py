@@ -26,19 +26,15 @@ def load_machine_file(path: str | None) -> Any:
     A calibration without a stored machine supplies the tetrahedron; the columns are
     then the seed's (Appendix D, vertical).
     """
-    import json
 
     from pcmm_geo.errors import FileFormatError, InvalidInputError
     from pcmm_geo.machine.model import MODEL_SCHEMA, RigidBodyMachine
 
     if path is None:
         return RigidBodyMachine.from_dpkm()
-    from pcmm_geo.io._text import read_text_file
+    from pcmm_geo.io._text import read_json_file
 
-    try:
-        document = json.loads(read_text_file(path))
-    except json.JSONDecodeError as exc:
-        raise FileFormatError(path, f"expected JSON, got {exc.msg}", line=exc.lineno) from None
+    document = read_json_file(path)
     if not isinstance(document, dict):
         raise FileFormatError(path, f"expected a JSON object, got {type(document).__name__}")
     try:

@@ -11,7 +11,7 @@ from pathlib import Path
 
 from pcmm_geo.errors import FileFormatError
 
-__all__ = ["read_text_file", "read_text_lines"]
+__all__ = ["read_json_file", "read_text_file", "read_text_lines"]
 
 
 def read_text_lines(path: str | Path) -> list[tuple[int, str]]:
@@ -74,3 +74,39 @@ def read_text_file(path: str | Path) -> str:
         The file does not exist.
     """
     return "".join(text + "\n" for _, text in read_text_lines(path))
+
+
+def read_json_file(path: str | Path) -> object:
+    """Parse a UTF-8 JSON file strictly: ``NaN``/``Infinity`` (not JSON, though Python writes them) are refused.
+
+    Raises
+    ------
+    FileFormatError
+        Not text, a syntax error or a non-finite number; the message names the file and line.
+
+    Examples
+    --------
+    >>> import os, tempfile
+    >>> path = os.path.join(tempfile.mkdtemp(), "c.json")
+    >>> _ = open(path, "w").write('{"radius": 5.0,\\n "form": NaN}')
+    >>> try:
+    ...     read_json_file(path)
+    ... except FileFormatError as exc:
+    ...     print(exc.line, exc.reason)
+    2 expected JSON, got the non-finite number NaN
+    """
+    import json
+
+    text = read_text_file(path)
+
+    def refuse(token: str) -> None:
+        raise ValueError(token)
+
+    try:
+        return json.loads(text, parse_constant=refuse)
+    except json.JSONDecodeError as exc:
+        raise FileFormatError(str(path), f"expected JSON, got {exc.msg}", line=exc.lineno) from None
+    except ValueError as exc:
+        token = str(exc)
+        line = next((n for n, t in enumerate(text.splitlines(), 1) if token in t), None)
+        raise FileFormatError(str(path), f"expected JSON, got the non-finite number {token}", line=line) from None

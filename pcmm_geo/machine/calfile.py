@@ -197,13 +197,9 @@ def _tetrahedron_dict(tetrahedron: Any) -> dict[str, Any]:
 
 def _read_document(path: str | Path) -> tuple[Path, dict[str, Any]]:
     file = Path(path)
-    from pcmm_geo.io._text import read_text_file
+    from pcmm_geo.io._text import read_json_file
 
-    text = read_text_file(file)
-    try:
-        document = json.loads(text)
-    except json.JSONDecodeError as exc:
-        raise FileFormatError(str(file), f"expected JSON, got a syntax error: {exc.msg}", exc.lineno) from None
+    document = read_json_file(file)
     if not isinstance(document, dict):
         raise FileFormatError(str(file), f"expected a JSON object, got {type(document).__name__}")
     schema = document.get("schema")

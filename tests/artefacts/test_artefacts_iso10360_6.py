@@ -99,7 +99,7 @@ def test_example_files_and_readers(tmp_path: Path) -> None:
         read_element_parameters(bad)
     broken = tmp_path / "broken.json"
     broken.write_text("[{")
-    with pytest.raises(FileFormatError, match="invalid JSON"):
+    with pytest.raises(FileFormatError, match=r"broken.json:2: expected JSON"):
         read_element_parameters(broken)
     empty_dir = tmp_path / "nothing"
     empty_dir.mkdir()

@@ -187,3 +187,14 @@ def test_decimal_comma_files_are_read_not_misread(tmp_path: Path, capsys: pytest
     assert len(err) == 1 and f"{semicolons}:2: decimal comma in" in err[0]
     assert main(["iso10360-5", str(semicolons), "--reference-diameter", "10", "--json"]) == 0
     assert json.loads(capsys.readouterr().out)["p_stu_um"] == pytest.approx(0.0, abs=1e-6)
+
+
+@pytest.mark.parametrize("command", ["kinematics", "process-log calibration", "sensitivity"])
+def test_json_with_non_finite_numbers_is_refused(tmp_path: Path, capsys: pytest.CaptureFixture[str],
+                                                 command: str) -> None:
+    bad = tmp_path / "nan.json"
+    bad.write_text('{"schema": "pcmm_geo.machine.calibration/1",\n "kind": "tetrahedron",\n "scale": NaN}\n')
+    (tmp_path / "out").mkdir()
+    assert main(COMMANDS[command][0](str(bad), tmp_path)) == 2
+    lines = capsys.readouterr().err.strip().splitlines()
+    assert len(lines) == 1 and f"{bad}:3: expected JSON, got the non-finite number NaN" in lines[0]
