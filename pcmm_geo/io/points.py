@@ -93,30 +93,16 @@ def _read_text(file: Path, decimal: str | None) -> FloatArray:
     if lines[0][1].isdigit():  # NIST .ds: point count first
         expected_count = int(lines[0][1])
         lines = lines[1:]
-    columns: tuple[int, int, int] | None = None
-    header_fields: list[str] | None = None
+    header: tuple[int, str] | None = None
     if lines and not _looks_numeric(lines[0][1]):
-        header_line, header_text = lines[0]
-        lines = lines[1:]
-        header_fields = [header_text]  # split once the separator is known
+        header, lines = lines[0], lines[1:]
     if not lines:
-        if header_fields is not None and not {"x", "y", "z"} <= {
-            f.strip('"').lower() for f in re.split(r"[,;\s]+", header_text)
-        }:
-            raise FileFormatError(str(file), f"header without x, y, z columns: {header_text!r}", line=header_line)
+        if header is not None and not {"x", "y", "z"} <= _header_tokens(header[1]):
+            raise FileFormatError(str(file), f"header without x, y, z columns: {header[1]!r}", line=header[0])
         raise FileFormatError(str(file), "no points in the file (a header only)")
     layout = _Layout.detect(file, lines[0], decimal)
-    if header_fields is not None:
-        names = [f.strip().strip('"').lower() for f in layout.split_header(header_text)]
-        if len(names) != layout.width and {"x", "y", "z"} <= {n.strip('"') for n in re.split(r"[,;\s]+", header_text)}:
-            raise FileFormatError(
-                str(file), f"header has {len(names)} columns separated by {_SEPARATOR_NAMES[layout.separator]}, "
-                f"the first data line {layout.width}: {header_text!r}", line=header_line,
-            )
-        if not {"x", "y", "z"} <= set(names):
-            raise FileFormatError(str(file), f"header without x, y, z columns: {header_text!r}", line=header_line)
-        columns = (names.index("x"), names.index("y"), names.index("z"))
-    elif layout.width < 3:
+    columns = None if header is None else layout.xyz_columns(*header)
+    if columns is None and layout.width < 3:
         raise FileFormatError(str(file), f"expected at least 3 columns, got {layout.width}", line=lines[0][0])
     data = np.array([layout.parse(number, text) for number, text in lines], dtype=float)
     points = data[:, list(columns)] if columns is not None else data[:, :3]
@@ -131,6 +117,11 @@ def _read_text(file: Path, decimal: str | None) -> FloatArray:
 _POINT_NUMBER = re.compile(r"[+-]?(\d+\.?\d*|\.\d+)([eE][+-]?\d+)?|[+-]?(nan|inf|infinity)", re.IGNORECASE)
 _COMMA_NUMBER = re.compile(r"[+-]?(\d+,?\d*|,\d+)([eE][+-]?\d+)?|[+-]?(nan|inf|infinity)", re.IGNORECASE)
 _SEPARATOR_NAMES = {";": "';'", "\t": "tab", ",": "','", " ": "spaces"}
+
+
+def _header_tokens(text: str) -> set[str]:
+    """Lower-case column names of a header line, whatever its separator."""
+    return {t.strip('"').lower() for t in re.split(r"[,;\s]+", text) if t}
 
 
 def _looks_numeric(text: str) -> bool:
@@ -180,8 +171,17 @@ class _Layout:
             return text.split()
         return [f.strip() for f in text.split(separator)]
 
-    def split_header(self, text: str) -> list[str]:
-        return self._split(text, self.separator)
+    def xyz_columns(self, line: int, text: str) -> tuple[int, int, int]:
+        """Indices of the x, y, z columns named by the header ``text`` (split like the data)."""
+        names = [f.strip('"').lower() for f in self._split(text, self.separator)]
+        if len(names) != self.width and {"x", "y", "z"} <= _header_tokens(text):
+            raise FileFormatError(
+                str(self.file), f"header has {len(names)} columns separated by {_SEPARATOR_NAMES[self.separator]}, "
+                f"the first data line {self.width}: {text!r}", line=line,
+            )
+        if not {"x", "y", "z"} <= set(names):
+            raise FileFormatError(str(self.file), f"header without x, y, z columns: {text!r}", line=line)
+        return names.index("x"), names.index("y"), names.index("z")
 
     def parse(self, number: int, text: str) -> list[float]:
         fields = self._split(text, self.separator)
