@@ -13,6 +13,11 @@ Decision rule (ISO 14253-1 style, stated in every result):
 * ``"simple"`` -- simple acceptance, zero guard band: a value conforms when ``|E0| ≤ MPE``.
 * ``"guarded"`` -- guarded acceptance: the conformance zone is reduced by the expanded
   uncertainty ``U`` of the test: a value conforms when ``|E0| + U ≤ MPE``.
+* ``"iso14253"`` -- the three-state rule of ISO 14253-1
+  (:func:`pcmm_geo.uncertainty.conformity.decide_conformity`): ``PASS`` (conformity
+  proved, ``|E0| + U ≤ MPE``), ``FAIL`` (nonconformity proved, ``|E0| − U > MPE``) or
+  ``NOT PROVEN``; the test's ``verdict`` is ``FAIL`` if any value fails, ``PASS`` if all
+  pass.  ``passed`` is True only for ``PASS``.
 
 The machine passes when every value conforms (and every R0 does, when an ``MPL_R0`` is
 given).  The retest allowances of ISO 10360-2:2009 are not applied automatically.
@@ -53,6 +58,8 @@ STANDARD_LAYOUT = (5, 7, 3)
 DECISION_RULES = {
     "simple": "simple acceptance (ISO 14253-1, zero guard band): |E0| <= MPE_E0",
     "guarded": "guarded acceptance (ISO 14253-1): |E0| + U <= MPE_E0, U = expanded test uncertainty",
+    "iso14253": "ISO 14253-1: PASS if |E0| + U <= MPE_E0 (conformity proved), FAIL if |E0| - U > MPE_E0 "
+    "(nonconformity proved), otherwise NOT PROVEN",
 }
 
 
@@ -118,6 +125,8 @@ class E0Value:
     mpe: float
     acceptance_limit: float
     conforms: bool
+    #: ISO 14253-1 verdict (``"PASS"``, ``"FAIL"``, ``"NOT PROVEN"``) under the ``"iso14253"`` rule, else ""
+    verdict: str = ""
 
 
 @dataclass(frozen=True)
@@ -174,16 +183,10 @@ class LengthTestResult:
     test_uncertainty: float
     mpe: LengthMpe
     mpl_r0: float | None
+    #: ``"PASS"``, ``"FAIL"`` or (``"iso14253"`` rule only) ``"NOT PROVEN"``
+    verdict: str = ""
     complete: bool = True
     completeness: str = ""
-
-    @property
-    def verdict(self) -> str:
-        """"PASS", "FAIL", or "INCOMPLETE (...): ..." for a partial data set."""
-        if self.complete:
-            return "PASS" if self.passed else "FAIL"
-        found = "FAIL" if self.passed is False else "no nonconforming value among these, no acceptance verdict"
-        return f"INCOMPLETE ({self.completeness}): {found}"
 
 
 def completeness(measurements: Iterable[LengthMeasurement]) -> str:
@@ -245,7 +248,7 @@ def evaluate_length_test(
         All measured test lengths (mm).
     mpe : LengthMpe
         The stated ``MPE_E0``.
-    decision_rule : {"simple", "guarded"}
+    decision_rule : {"simple", "guarded", "iso14253"}
         See the module documentation.
     test_uncertainty : float
         Expanded uncertainty U of the test (mm), used by ``"guarded"``.
@@ -297,11 +300,16 @@ def evaluate_length_test(
     missing = completeness(items)
     if missing and not allow_incomplete:
         raise IncompleteTestError("ISO 10360-2", math.prod(STANDARD_LAYOUT), len(items), missing.partition(": ")[2])
-    guard = test_uncertainty if decision_rule == "guarded" else 0.0
+    guard = test_uncertainty if decision_rule in ("guarded", "iso14253") else 0.0
     errors = []
     for item in items:
         limit_mpe = mpe.mpe_mm(item.calibrated_length)
         error = item.measured_length - item.calibrated_length
+        verdict = ""
+        if decision_rule == "iso14253":
+            from pcmm_geo.uncertainty.conformity import decide_conformity
+
+            verdict = decide_conformity(abs(error), test_uncertainty, upper_limit=limit_mpe).verdict
         errors.append(
             E0Value(
                 length_id=item.length_id,
@@ -312,6 +320,7 @@ def evaluate_length_test(
                 mpe=limit_mpe,
                 acceptance_limit=limit_mpe - guard,
                 conforms=abs(error) <= limit_mpe - guard,
+                verdict=verdict,
             )
         )
     groups: dict[tuple[str, str], list[float]] = {}
@@ -323,6 +332,17 @@ def evaluate_length_test(
         ok = True if mpl_r0 is None else spread <= mpl_r0 - guard
         ranges.append(R0Value(length_id, position, len(values), spread, ok))
     n_bad = sum(not e.conforms for e in errors) + sum(not r.conforms for r in ranges)
+    if decision_rule == "iso14253":
+        from pcmm_geo.uncertainty.conformity import overall_verdict
+
+        verdict = overall_verdict([e.verdict for e in errors] + ["PASS" if r.conforms else "NOT PROVEN"
+                                                                 for r in ranges])
+    else:
+        verdict = "PASS" if n_bad == 0 else "FAIL"
+    if missing:  # a partial data set never passes; a proven nonconformity is still reported
+        found = "FAIL" if verdict == "FAIL" else (
+            "NOT PROVEN" if verdict == "NOT PROVEN" else "no nonconforming value among these")
+        verdict = f"INCOMPLETE ({missing}): {found}" + ("" if verdict == "FAIL" else ", no acceptance verdict")
     return LengthTestResult(
         errors=tuple(errors),
         repeatability=tuple(ranges),
@@ -335,6 +355,7 @@ def evaluate_length_test(
         test_uncertainty=test_uncertainty,
         mpe=mpe,
         mpl_r0=mpl_r0,
+        verdict=verdict,
         complete=not missing,
         completeness=missing,
     )

@@ -128,6 +128,13 @@ class ProbingResult:
         Stated MPEs (mm), if any.
     form_conforms, size_conforms : bool or None
         ``P_FTU <= MPE_PFTU``, ``|P_STU| <= MPE_PSTU`` (simple acceptance), None without MPE.
+    form_verdict, size_verdict : str
+        With a test uncertainty: the ISO 14253-1 verdicts (``"PASS"``, ``"FAIL"``,
+        ``"NOT PROVEN"``, :func:`pcmm_geo.uncertainty.conformity.decide_conformity`); the
+        ``*_conforms`` fields are then True only for ``PASS``.  "" otherwise.
+    test_uncertainty : tuple of float or None
+        ``(U_form, U_size)`` (mm) used by the decision.
+    decision_rule : str
     complete : bool
         The data set has the standard's 25 points; a partial set (evaluated only on request)
         never passes: :attr:`passed` is then None or False and :attr:`verdict` starts with
@@ -145,6 +152,10 @@ class ProbingResult:
     mpe_size: float | None
     form_conforms: bool | None
     size_conforms: bool | None
+    form_verdict: str = ""
+    size_verdict: str = ""
+    test_uncertainty: tuple[float, float] | None = None
+    decision_rule: str = "simple acceptance (zero guard band)"
     complete: bool = True
 
     @property
@@ -159,14 +170,19 @@ class ProbingResult:
 
     @property
     def verdict(self) -> str:
-        """"PASS", "FAIL", "no MPE stated", or "INCOMPLETE (n of 25 points): ..." for a partial data set."""
-        verdicts = [v for v in (self.form_conforms, self.size_conforms) if v is not None]
-        if not verdicts:
+        """"PASS", "FAIL", "NOT PROVEN" (ISO 14253-1 rule), "no MPE stated", or "INCOMPLETE (n of 25 points): ..."."""
+        stated = [(conforms, word) for conforms, word in ((self.form_conforms, self.form_verdict),
+                                                          (self.size_conforms, self.size_verdict))
+                  if conforms is not None]
+        words = [word or ("PASS" if conforms else "FAIL") for conforms, word in stated]
+        if not words:
             text = "no MPE stated"
-        elif all(verdicts):
-            text = "PASS" if self.complete else "MPEs met on these points, no acceptance verdict"
-        else:
+        elif "FAIL" in words:
             text = "FAIL"
+        elif "NOT PROVEN" in words:
+            text = "NOT PROVEN"
+        else:
+            text = "PASS" if self.complete else "MPEs met on these points, no acceptance verdict"
         if self.complete:
             return text
         return f"INCOMPLETE ({self.n} of {STANDARD_POINT_COUNT} points): {text}"
@@ -178,6 +194,7 @@ def evaluate_probing(
     *,
     mpe_form: float | None = None,
     mpe_size: float | None = None,
+    test_uncertainty: tuple[float, float] | None = None,
     allow_incomplete: bool = False,
 ) -> ProbingResult:
     """P_FTU and P_STU from points probed on a calibrated sphere (Gaussian sphere fit).
@@ -190,6 +207,9 @@ def evaluate_probing(
         Calibrated sphere diameter (mm).
     mpe_form, mpe_size : float, optional
         MPE_PFTU and MPE_PSTU (mm).
+    test_uncertainty : tuple of float, optional
+        Expanded uncertainties ``(U_form, U_size)`` (mm, 95 %) of the two test values; when
+        given the ISO 14253-1 rule decides (guard bands of U), else simple acceptance.
     allow_incomplete : bool
         Evaluate a data set of other than 25 points (at least 5); the result is then marked
         incomplete and never passes.
@@ -234,6 +254,21 @@ def evaluate_probing(
     form = float(residuals.max() - residuals.min())
     diameter = 2.0 * float(fit.radius)
     size = diameter - float(reference_diameter)
+    form_ok = None if mpe_form is None else form <= mpe_form
+    size_ok = None if mpe_size is None else abs(size) <= mpe_size
+    verdicts = ("", "")
+    rule = "simple acceptance (zero guard band)"
+    if test_uncertainty is not None:
+        from pcmm_geo.uncertainty.conformity import DECISION_RULE_TEXT, decide_conformity
+
+        u_form, u_size = (float(v) for v in test_uncertainty)
+        verdicts = (
+            "" if mpe_form is None else decide_conformity(form, u_form, upper_limit=mpe_form).verdict,
+            "" if mpe_size is None else decide_conformity(abs(size), u_size, upper_limit=mpe_size).verdict,
+        )
+        form_ok = None if mpe_form is None else verdicts[0] == "PASS"
+        size_ok = None if mpe_size is None else verdicts[1] == "PASS"
+        rule = DECISION_RULE_TEXT
     return ProbingResult(
         form_error=form,
         size_error=size,
@@ -244,8 +279,12 @@ def evaluate_probing(
         n=len(pts),
         mpe_form=mpe_form,
         mpe_size=mpe_size,
-        form_conforms=None if mpe_form is None else form <= mpe_form,
-        size_conforms=None if mpe_size is None else abs(size) <= mpe_size,
+        form_conforms=form_ok,
+        size_conforms=size_ok,
+        form_verdict=verdicts[0],
+        size_verdict=verdicts[1],
+        test_uncertainty=None if test_uncertainty is None else (u_form, u_size),
+        decision_rule=rule,
         complete=complete,
     )
 

@@ -32,6 +32,7 @@ COMMAND_MODULES = (
     "compare",
     "segment",
     "convert",
+    "uncertainty",
 )
 
 
@@ -56,7 +57,7 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 def main(argv: Sequence[str] | None = None) -> int:
-    from pcmm_geo.cli._output import run_handler
+    from pcmm_geo.cli._run import run_handler
 
     parser = build_parser()
     args = parser.parse_args(argv)

@@ -7,7 +7,10 @@ import json
 import math
 import sys
 from dataclasses import dataclass, field
+from pathlib import Path
 from typing import Any
+
+REPORT_SUFFIXES = (".md", ".html", ".htm")
 
 EXIT_OK = 0
 EXIT_FAILURE = 1  # the computation ran but the verdict is "fail" (e.g. an ISO test)
@@ -84,8 +87,6 @@ def check_output_paths(args: argparse.Namespace) -> None:
 
         check_plot_path(args.plot, overwrite=overwrite)
     if getattr(args, "shared_report_flag", False) and getattr(args, "report", None):
-        from pcmm_geo.cli._report import check_report_path
-
         check_report_path(args.report, overwrite=overwrite)
 
 
@@ -154,43 +155,26 @@ def print_report(report: Report, as_json: bool) -> None:
     print("\n\n".join(blocks))
 
 
-def run_handler(args: argparse.Namespace) -> int:
-    from pcmm_geo.errors import OutputExistsError, PcmmGeoError
+def check_report_path(path: str | Path, *, overwrite: bool = False) -> Path:
+    """Validate a report destination (suffix, existing file) before any work is done.
 
-    try:
-        check_output_paths(args)
-        report = args.handler(args)
-        if getattr(args, "shared_report_flag", False) and getattr(args, "report", None):
-            from pcmm_geo.cli._report import write_report
+    Raises
+    ------
+    InvalidInputError
+        The suffix is not ``.md``, ``.html`` or ``.htm``.
+    OutputExistsError
+        ``path`` exists and ``overwrite`` is False.
 
-            written = write_report(report, args.report, title=f"pcmm {args.command}",
-                                   command=getattr(args, "command_line", None),
-                                   overwrite=bool(getattr(args, "overwrite", False)))
-            report.data["report"] = str(written)
-            report.lines.append(f"report written to {written}")
-    except OutputExistsError as exc:
-        how = "use --overwrite to replace it" if hasattr(args, "overwrite") else "choose another name"
-        print(f"pcmm {args.command}: error: {exc.path}: already exists; refusing to overwrite ({how})",
-              file=sys.stderr)
-        return EXIT_USAGE
-    except PcmmGeoError as exc:
-        print(f"pcmm {args.command}: error: {' '.join(str(exc).split())}", file=sys.stderr)
-        return EXIT_USAGE
-    except (OSError, ValueError) as exc:
-        if isinstance(exc, OSError) and exc.filename is not None and exc.strerror:
-            message = f"{exc.filename}: {exc.strerror}"  # e.g. "run.csv: No such file or directory"
-        else:
-            message = " ".join(str(exc).split())  # one line, whatever the library put in it
-        print(f"pcmm {args.command}: error: {message}", file=sys.stderr)
-        return EXIT_USAGE
-    except KeyboardInterrupt:
-        print(f"pcmm {args.command}: interrupted", file=sys.stderr)
-        return 130
-    try:
-        print_report(report, bool(getattr(args, "json", False)))
-        sys.stdout.flush()
-    except BrokenPipeError:  # e.g. ``pcmm ... | head``: the reader left, not an error of ours
-        import os
+    Examples
+    --------
+    >>> check_report_path("summary.html").suffix
+    '.html'
+    """
+    from pcmm_geo.errors import InvalidInputError, OutputExistsError
 
-        os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
-    return report.exit_code
+    target = Path(path)
+    if target.suffix.lower() not in REPORT_SUFFIXES:
+        raise InvalidInputError("report file", "a name ending in .md or .html", repr(str(target)))
+    if target.exists() and not overwrite:
+        raise OutputExistsError(str(target))
+    return target

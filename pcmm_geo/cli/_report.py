@@ -14,9 +14,8 @@ import os
 from collections.abc import Sequence
 from pathlib import Path
 
-from pcmm_geo.cli._output import Report, Table, _looks_numeric, format_cell
+from pcmm_geo.cli._output import Report, Table, _looks_numeric, check_report_path, format_cell
 
-REPORT_SUFFIXES = (".md", ".html", ".htm")
 _MARKDOWN_SPECIAL = "\\`*_[]<|"
 _EMBEDDED_TYPES = {".png": "image/png", ".svg": "image/svg+xml"}
 _STYLE = (
@@ -25,31 +24,6 @@ _STYLE = (
     "th,td{border:1px solid #bbb;padding:0.25em 0.6em}th{background:#eee}"
     "td.num{text-align:right;font-family:monospace}code{background:#f4f4f4}img{max-width:100%}"
 )
-
-
-def check_report_path(path: str | Path, *, overwrite: bool = False) -> Path:
-    """Validate a report destination (suffix, existing file) before any work is done.
-
-    Raises
-    ------
-    InvalidInputError
-        The suffix is not ``.md``, ``.html`` or ``.htm``.
-    OutputExistsError
-        ``path`` exists and ``overwrite`` is False.
-
-    Examples
-    --------
-    >>> check_report_path("summary.html").suffix
-    '.html'
-    """
-    from pcmm_geo.errors import InvalidInputError, OutputExistsError
-
-    target = Path(path)
-    if target.suffix.lower() not in REPORT_SUFFIXES:
-        raise InvalidInputError("report file", "a name ending in .md or .html", repr(str(target)))
-    if target.exists() and not overwrite:
-        raise OutputExistsError(str(target))
-    return target
 
 
 def markdown_text(text: str) -> str:
@@ -209,6 +183,6 @@ def write_report(
     target = check_report_path(path, overwrite=overwrite)
     render = render_markdown if target.suffix.lower() == ".md" else render_html
     text = render(report, title, command=command, base_dir=target.parent)
-    from pcmm_geo.io._atomic import write_atomic
+    from pcmm_geo._atomic import write_atomic
 
     return write_atomic(target, text, overwrite=overwrite)

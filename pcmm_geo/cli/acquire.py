@@ -56,7 +56,7 @@ def register(subparsers: Any) -> None:
 def _open_log(args: argparse.Namespace, metadata: dict[str, Any]) -> Any:
     from pathlib import Path
 
-    from pcmm_geo.machine.acqlog import AcquisitionLog
+    from pcmm_geo.acquisition.acqlog import AcquisitionLog
 
     if args.resume and Path(args.out).exists():
         return AcquisitionLog.resume(args.out, repair=args.repair)
@@ -94,7 +94,7 @@ def _handle(args: argparse.Namespace) -> Report:
     with contextlib.ExitStack() as stack:
         rig = None
         if args.simulate:
-            from pcmm_geo.machine.simulators.cmm import SimulatedMicroCMM, SimulatedRig
+            from pcmm_geo.acquisition.simulators.cmm import SimulatedMicroCMM, SimulatedRig
 
             cmm = SimulatedMicroCMM(
                 laser_noise=0.002 if args.defects else 0.0, dead_spot=4.0 if args.defects else 0.0,
@@ -127,7 +127,7 @@ def _handle(args: argparse.Namespace) -> Report:
         summary = session.summary()
     data: dict[str, Any] = {"out": str(args.out), **summary.as_dict()}
     if args.table_3_2:
-        from pcmm_geo.machine.acqlog import export_table_3_2
+        from pcmm_geo.acquisition.acqlog import export_table_3_2
 
         data["table_3_2"] = str(export_table_3_2(args.out, args.table_3_2, overwrite=args.overwrite))
     data["resumed"] = bool(args.resume and log.recovery.rows)
@@ -144,47 +144,14 @@ def _handle(args: argparse.Namespace) -> Report:
 
 
 def _open_session(args: argparse.Namespace, ports: dict[str, Any], stack: Any, clock: Any = None) -> Any:
-    from pcmm_geo.machine.drivers.lasers import LaserSensor
-    from pcmm_geo.machine.drivers.probe import ProbeReader
-    from pcmm_geo.machine.drivers.zaber import ZaberChain
-    from pcmm_geo.machine.session import AcquisitionSession, SessionConfig
-
-    motors = stack.enter_context(ZaberChain(ports["zaber"], timeout=args.timeout, move_timeout=args.move_timeout))
-    lasers = [
-        stack.enter_context(
-            LaserSensor(ports[f"laser_{arm}"], model="ILD1420" if arm == "c" else "ILD1302", name=f"laser_{arm}",
-                        timeout=args.timeout)
-        )
-        for arm in _ARMS
-    ]
-    probe = stack.enter_context(ProbeReader(ports["probe"], mode=args.probe_mode, timeout=args.timeout))
-    config = SessionConfig(settle_time=args.settle)
-    if clock is not None:  # simulated time: settling and backoff cost no wall time and repeat exactly
-        return AcquisitionSession(motors, lasers, probe, None, config, sleep=clock.sleep, clock=clock)
-    return AcquisitionSession(motors, lasers, probe, None, config)
+    from pcmm_geo.acquisition.programme import open_session
+    return open_session(ports, stack, timeout=args.timeout, move_timeout=args.move_timeout,
+                        probe_mode=args.probe_mode, settle_time=args.settle, clock=clock)
 
 
 def _run_programme(session: Any, args: argparse.Namespace) -> None:
-    """Seeded move programme: approach with motor 1, retreat after contact, random moves otherwise."""
-    import numpy as np
-
+    from pcmm_geo.acquisition.programme import run_random_programme
     from pcmm_geo.cli._progress import progress_bar, progress_wanted
 
-    rng = np.random.default_rng(args.seed)
-    step_max = max(2, session.motors.to_microsteps(args.step_mm))
-    start, limit = session.config.start_position, session.config.presequence_span
-
     with progress_bar("acquiring", enabled=progress_wanted(args), total=args.moves) as update:
-        for done in range(1, args.moves + 1):
-            steps = int(rng.integers(step_max // 2, step_max + 1))
-            if session.contact_move is not None:
-                motor, direction = session.contact_move[0], -session.contact_move[1]
-            elif rng.random() < 0.4:
-                motor, direction = 1, 1
-            else:
-                motor, direction = int(rng.integers(1, 4)), int(rng.choice((-1, 1)))
-            offset = session.positions[motor] - start
-            if session.contact_move is None and abs(offset + direction * steps) > limit:
-                direction = -1 if offset > 0 else 1
-            session.move(motor, direction * steps)
-            update(done)
+        run_random_programme(session, args.moves, step_mm=args.step_mm, seed=args.seed, on_move=update)

@@ -25,6 +25,11 @@ def register(subparsers: Any) -> None:
     parser.add_argument("--overwrite", action="store_true", help="replace existing --out, --plot and --report files")
     parser.add_argument("--sweep", metavar="SWEEP.csv", help="laser sweep (position,laser_a,laser_b,laser_c) for b")
     parser.add_argument("--start-of-range", type=float, default=60.0, help="laser start of range in mm (default 60)")
+    parser.add_argument("--probing-u", type=float, metavar="MM",
+                        help="standard uncertainty of one external-CMM probing (mm); with --laser-u gives the "
+                             "covariance of the calibrated parameters (table, JSON, --out file)")
+    parser.add_argument("--laser-u", type=float, metavar="MM",
+                        help="standard uncertainty of one laser reading at a calibration position (mm)")
     add_plot_flag(parser, "a 3-D plot of slider lines, joint centres, tip and probe points (fig 7.2)")
     add_report_flag(parser)
     add_json_flag(parser)
@@ -36,7 +41,7 @@ def _handle(args: argparse.Namespace) -> Report:
 
     from pcmm_geo.errors import OutputExistsError
     from pcmm_geo.machine.calibration import PAIRS, calibrate_tetrahedron, save_calibration
-    from pcmm_geo.machine.calibration_io import read_lasers
+    from pcmm_geo.machine.calibration.probings import read_lasers
 
     if args.out and Path(args.out).exists() and not args.overwrite:
         raise OutputExistsError(str(args.out))
@@ -46,8 +51,22 @@ def _handle(args: argparse.Namespace) -> Report:
     )
     data: dict[str, Any] = cal.summary()
     lines: list[str] = []
+    covariance = None
+    if (args.probing_u is None) != (args.laser_u is None):
+        from pcmm_geo.errors import InvalidInputError
+
+        raise InvalidInputError("--probing-u/--laser-u", "both or neither", "only one of them")
+    if args.probing_u is not None:
+        from pcmm_geo.uncertainty.calibration import calibration_covariance
+
+        covariance = calibration_covariance(args.probings, args.lasers, probing_sigma=args.probing_u,
+                                            laser_sigma=args.laser_u, laser_start_of_range=args.start_of_range)
+        data["uncertainty"] = covariance.to_dict()
+        data["uncertainty"]["standard_uncertainties"] = covariance.standard_uncertainties
+    else:
+        lines.append("no uncertainty: give --probing-u and --laser-u (mm) for the parameters' covariance")
     if args.out:
-        written = save_calibration(cal, args.out, overwrite=args.overwrite)
+        written = save_calibration(cal, args.out, overwrite=args.overwrite, covariance=covariance)
         data["written"] = str(written)
         lines.append(f"calibration written to {written}")
     plots = []
@@ -76,5 +95,13 @@ def _handle(args: argparse.Namespace) -> Report:
          ["probe point (seed pairwise)", *cal.probe_point_pairwise.tolist()]],
     )
     lines.insert(0, "skew distances (mm): " + ", ".join(f"{k} {v:.4f}" for k, v in cal.skew_distances.items()))
-    return Report(data=data, tables=[arms, geometry], lines=lines, plots=plots)
+    tables = [arms, geometry]
+    if covariance is not None:
+        tables.append(Table(
+            f"Standard uncertainties (GUM linear; probing u = {1000 * args.probing_u:g} um, "
+            f"laser u = {1000 * args.laser_u:g} um)",
+            ["parameter", "value", "u", "unit"],
+            [[row["name"], row["value"], row["standard_uncertainty"], row["unit"]] for row in covariance.table()],
+        ))
+    return Report(data=data, tables=tables, lines=lines, plots=plots)
 

@@ -96,7 +96,7 @@ def _read_any(path: Path, decimal: str | None = None) -> tuple[Any, Any, str]:
             return read_mesh(path), None, "mesh"
         return None, read_points(path), "point cloud"
     if _is_element_export(path):
-        from pcmm_geo.machine.calibration_io import read_probings
+        from pcmm_geo.machine.calibration.probings import read_probings
 
         features = read_probings(path)
         import numpy as np

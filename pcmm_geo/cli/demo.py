@@ -97,4 +97,17 @@ def handle(args: argparse.Namespace) -> Report:
         ),
     ]
     lines = [f"plot: {path}" for path in plots]
+    if result.length_uncertainty is not None:
+        from pcmm_geo.uncertainty.result import decimals_for
+
+        u = result.length_uncertainty.result
+        places = decimals_for(u.expanded_uncertainty)
+        budget = ", ".join(f"{entry.name} {1000 * entry.contribution:.3f}" for entry in u.budget)
+        lines[:0] = [
+            f"calibrated length L = {result.measured_length_calibrated:.{places}f} mm "
+            f"± {u.expanded_uncertainty:.{places}f} mm (U, k = {u.coverage_factor:.2f}, coverage "
+            f"{100 * u.coverage_probability:.0f} %; virtual micro-CMM, {u.method}, {u.n_trials} trials)",
+            f"true length error {1000 * result.length_error_calibrated:+.3f} um, U = "
+            f"{1000 * u.expanded_uncertainty:.3f} um" + (f"; budget u_i / um: {budget}" if budget else ""),
+        ]
     return Report(data=data, tables=tables, lines=lines, plots=plots)

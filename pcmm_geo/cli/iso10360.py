@@ -28,8 +28,9 @@ def register(subparsers: Any) -> None:
     p2.add_argument("--mpe-a", type=float, required=True, help="A in micrometres")
     p2.add_argument("--mpe-k", type=float, required=True, help="K (L in mm, L/K in micrometres)")
     p2.add_argument("--mpe-b", type=float, default=None, help="optional cap B in micrometres")
-    p2.add_argument("--rule", choices=("simple", "guarded"), default="simple",
-                    help="decision rule: simple acceptance or guarded by --uncertainty (default simple)")
+    p2.add_argument("--rule", choices=("simple", "guarded", "iso14253"), default=None,
+                    help="decision rule: simple acceptance, guarded by --uncertainty, or the three-state "
+                         "ISO 14253-1 rule (PASS / FAIL / NOT PROVEN; the default when --uncertainty is given)")
     p2.add_argument("--uncertainty", type=float, default=0.0, help="expanded test uncertainty U in micrometres")
     p2.add_argument("--mpl-r0", type=float, default=None, help="limit of the repeatability range R0 in micrometres")
     p2.add_argument("--allow-incomplete", action="store_true", help=_INCOMPLETE_HELP + " (5 lengths x 7 positions x 3)")
@@ -48,6 +49,9 @@ def register(subparsers: Any) -> None:
     p5.add_argument("--mpe-size", type=float, default=None, help="MPE of P_STU in micrometres")
     p5.add_argument("--allow-incomplete", action="store_true", help=_INCOMPLETE_HELP + " (25 points)")
     add_decimal_flag(p5)
+    p5.add_argument("--uncertainty", type=float, nargs=2, metavar=("U_FORM", "U_SIZE"), default=None,
+                    help="expanded test uncertainties of P_FTU and P_STU in micrometres: ISO 14253-1 decision "
+                         "(PASS / FAIL / NOT PROVEN)")
     add_json_flag(p5)
     p5.set_defaults(handler=_handle_5)
 
@@ -89,15 +93,16 @@ def _handle_2(args: argparse.Namespace) -> Report:
     result = evaluate_length_test(
         read_length_test_csv(args.file),
         mpe,
-        decision_rule=args.rule,
+        decision_rule=args.rule or ("iso14253" if args.uncertainty > 0 else "simple"),
         test_uncertainty=args.uncertainty / 1000.0,
         mpl_r0=None if args.mpl_r0 is None else args.mpl_r0 / 1000.0,
         allow_incomplete=args.allow_incomplete,
     )
     bad = [e for e in result.errors if not e.conforms]
     data = {
-        "verdict": result.verdict,
         "passed": result.passed,
+        "verdict": result.verdict,
+        "test_uncertainty_um": result.test_uncertainty * 1000,
         "complete": result.complete,
         "decision_rule": result.decision_rule,
         "mpe": {"a_um": mpe.a_um, "k": mpe.k, "b_um": mpe.b_um},
@@ -109,7 +114,7 @@ def _handle_2(args: argparse.Namespace) -> Report:
         "errors": [
             {"length_id": e.length_id, "position": e.position, "repetition": e.repetition,
              "calibrated_length_mm": e.calibrated_length, "error_um": e.error * 1000, "mpe_um": e.mpe * 1000,
-             "conforms": e.conforms}
+             "conforms": e.conforms, "verdict": e.verdict or ("PASS" if e.conforms else "FAIL")}
             for e in result.errors
         ],
         "r0": [
@@ -119,11 +124,12 @@ def _handle_2(args: argparse.Namespace) -> Report:
     }
     rows = [[f"{e.length_id}/{e.position}/{e.repetition}", e.calibrated_length, e.error * 1000, e.mpe * 1000]
             for e in bad]
-    tables = [Table("Nonconforming E0 values", ["length/position/rep", "L (mm)", "E0 (um)", "MPE (um)"], rows)] \
-        if rows else []
+    title = "E0 values not proven to conform" if result.errors[0].verdict else "Nonconforming E0 values"
+    tables = [Table(title, ["length/position/rep", "L (mm)", "E0 (um)", "MPE (um)"], rows)] if rows else []
     lines = [
-        f"ISO 10360-2: {result.verdict} ({len(result.errors)} values, "
-        f"{result.n_nonconforming} nonconforming)",
+        f"ISO 10360-2: {result.verdict} ({len(result.errors)} values, " + (
+            ", ".join(f"{sum(e.verdict == v for e in result.errors)} {v}" for v in ("PASS", "NOT PROVEN", "FAIL"))
+            if result.errors[0].verdict else f"{result.n_nonconforming} nonconforming") + ")",
         f"max |E0| = {result.max_abs_error * 1000:.3f} um ({result.max_error_ratio:.2f} of MPE), "
         f"max R0 = {result.max_range * 1000:.3f} um",
         f"decision rule: {result.decision_rule}",
@@ -148,12 +154,16 @@ def _handle_5(args: argparse.Namespace) -> Report:
     if stated is not None and args.reference_diameter is not None and stated != args.reference_diameter:
         raise InvalidInputError("--reference-diameter", f"the {stated} mm that {args.file} states",
                                 f"{args.reference_diameter} mm")
+    for value in args.uncertainty or ():
+        _positive("--uncertainty", value, allow_zero=True)
     result = evaluate_probing(
         points,
         diameter,
         mpe_form=None if args.mpe_form is None else args.mpe_form / 1000,
         mpe_size=None if args.mpe_size is None else args.mpe_size / 1000,
         allow_incomplete=args.allow_incomplete,
+        test_uncertainty=None if args.uncertainty is None else (args.uncertainty[0] / 1000,
+                                                                 args.uncertainty[1] / 1000),
     )
     data = {
         "p_ftu_um": result.form_error * 1000,
@@ -167,6 +177,9 @@ def _handle_5(args: argparse.Namespace) -> Report:
         "passed": result.passed,
         "complete": result.complete,
         "verdict": result.verdict,
+        "form_verdict": result.form_verdict or None,
+        "size_verdict": result.size_verdict or None,
+        "decision_rule": result.decision_rule,
     }
     table = Table(
         "ISO 10360-5 probing test",
@@ -174,7 +187,11 @@ def _handle_5(args: argparse.Namespace) -> Report:
         [["P_FTU (um)", result.form_error * 1000], ["P_STU (um)", result.size_error * 1000],
          ["fitted diameter (mm)", result.fitted_diameter], ["points", result.n]],
     )
-    return Report(data=data, tables=[table], lines=[f"verdict: {result.verdict}"],
+    verdict = result.verdict
+    if result.test_uncertainty is not None and (result.form_verdict or result.size_verdict):
+        verdict += f" (P_FTU {result.form_verdict or '-'}, P_STU {result.size_verdict or '-'})"
+    lines = [f"verdict: {verdict}", f"decision rule: {result.decision_rule}"]
+    return Report(data=data, tables=[table], lines=lines,
                   exit_code=EXIT_FAILURE if result.passed is False else EXIT_OK)
 
 

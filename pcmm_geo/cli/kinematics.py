@@ -28,7 +28,7 @@ def load_machine_file(path: str | None) -> Any:
     """
 
     from pcmm_geo.errors import FileFormatError, InvalidInputError
-    from pcmm_geo.machine.model import MODEL_SCHEMA, RigidBodyMachine
+    from pcmm_geo.machine.kinematics.model import MODEL_SCHEMA, RigidBodyMachine
 
     if path is None:
         return RigidBodyMachine.from_dpkm()
@@ -134,7 +134,7 @@ def _handle_inverse(args: argparse.Namespace) -> Report:
 def _handle_trilaterate(args: argparse.Namespace) -> Report:
     import numpy as np
 
-    from pcmm_geo.machine.trilateration import trilaterate
+    from pcmm_geo.machine.kinematics.trilateration import trilaterate
 
     pivots = np.asarray(args.pivots, dtype=float).reshape(3, 3)
     result = trilaterate(pivots, args.lengths)

@@ -30,7 +30,7 @@ def register(subparsers: Any) -> None:
 
 def _handle(args: argparse.Namespace) -> Report:
     from pcmm_geo.cli._progress import progress_bar, progress_wanted
-    from pcmm_geo.machine.numcal import calibrate_numerically, read_numcal_csv
+    from pcmm_geo.machine.calibration.numcal import calibrate_numerically, read_numcal_csv
 
     data = read_numcal_csv(args.data)
     # calibrate_numerically calls progress(done, total) from the global search (generations, starts)

@@ -38,7 +38,7 @@ def register(subparsers: Any) -> None:
 def _handle(args: argparse.Namespace) -> Report:
     from pcmm_geo.cli._progress import progress_bar, progress_wanted
     from pcmm_geo.cli.kinematics import load_machine_file
-    from pcmm_geo.machine.logproc import process_log, read_log
+    from pcmm_geo.machine.analysis.logproc import process_log, read_log
 
     machine = load_machine_file(args.calibration)
     log = read_log(args.file)

@@ -31,7 +31,7 @@ def register(subparsers: Any) -> None:
 
 def _handle(args: argparse.Namespace) -> Report:
     from pcmm_geo.cli.kinematics import load_machine_file
-    from pcmm_geo.machine.sensitivity import sensitivity_over_cube
+    from pcmm_geo.machine.analysis.sensitivity import sensitivity_over_cube
     from pcmm_geo.plots import plot_sensitivity
 
     machine = load_machine_file(args.calibration)

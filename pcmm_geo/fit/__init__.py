@@ -48,6 +48,8 @@ _LAZY = {
     "LinePair": "skew",
     "nearest_point_to_lines": "skew",
     "LinesNearestPoint": "skew",
+    "pairwise_closest_points": "skew",
+    "mean_pairwise_midpoint": "skew",
     "fit_spheres": "batch",
     "fit_circles": "batch",
     "fit_planes": "batch",

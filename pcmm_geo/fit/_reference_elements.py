@@ -37,7 +37,8 @@ moved points, which is why the generator iterates for them.
 from __future__ import annotations
 
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, field
+from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
@@ -46,7 +47,7 @@ from pcmm_geo.errors import InvalidInputError
 
 FloatArray = NDArray[np.float64]
 
-__all__ = ["ELEMENTS", "MIN_POINTS", "StandardElement", "build_standard_element"]
+__all__ = ["ELEMENTS", "MIN_POINTS", "ReferenceDataSet", "StandardElement", "build_standard_element"]
 
 #: minimum number of points that determines each element
 MIN_POINTS: dict[str, int] = {
@@ -62,6 +63,51 @@ MIN_POINTS: dict[str, int] = {
     "torus": 7,
 }
 ELEMENTS = tuple(MIN_POINTS)
+
+
+@dataclass(frozen=True, eq=False)
+class ReferenceDataSet:
+    """A data set whose Gaussian (least-squares) solution is known.
+
+    Attributes
+    ----------
+    element : str
+        One of :data:`ELEMENTS`.
+    points : ndarray, shape (N, 3) or (N, 2)
+        The data, mm (2 columns for ``line2d`` and ``circle2d``).
+    parameters : dict
+        The reference solution under the fit-result contract names, machine frame:
+        line ``point`` (data centroid), ``direction``; plane ``point`` (centroid), ``normal``;
+        circle2d ``center``, ``radius``; circle3d ``center``, ``normal``, ``radius``; sphere
+        ``center``, ``radius``; cylinder ``point`` (axis point nearest the data centroid),
+        ``axis``, ``radius``; cone ``apex``, ``axis`` (apex -> opening), ``half_angle``,
+        ``point`` (axis point nearest the data centroid), ``radius_at_point``; torus
+        ``center``, ``axis``, ``major_radius``, ``minor_radius``.
+    residuals : ndarray, shape (N,) or (N, 2)
+        Signed orthogonal distances of the points from the reference element, mm
+        (two components per point for line3d and the 3-D circles).
+    foot_points : ndarray, shape like ``points``
+        The points on the reference element before the residuals were applied.
+    sampling : dict
+        How the set was made (point count, arc, cap, length, form, offset, seed, ...).
+    """
+
+    element: str
+    points: FloatArray
+    parameters: dict[str, Any]
+    residuals: FloatArray
+    foot_points: FloatArray
+    sampling: dict[str, Any] = field(default_factory=dict)
+
+    @property
+    def form(self) -> float:
+        """Range of the residual values, mm."""
+        return float(np.ptp(self.residuals)) if self.residuals.size else 0.0
+
+    @property
+    def n(self) -> int:
+        """Number of points."""
+        return int(self.points.shape[0])
 
 
 @dataclass(frozen=True, eq=False)

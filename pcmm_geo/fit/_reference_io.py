@@ -25,15 +25,13 @@ from __future__ import annotations
 import json
 import math
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
 import numpy as np
 
+from pcmm_geo._atomic import write_atomic
 from pcmm_geo.errors import FileFormatError, InvalidInputError
-from pcmm_geo.io._atomic import write_atomic
-
-if TYPE_CHECKING:
-    from pcmm_geo.fit.reference import ReferenceDataSet
+from pcmm_geo.fit._reference_elements import ReferenceDataSet
 
 __all__ = ["read_reference_data", "write_nist_pair", "write_reference_data"]
 
@@ -113,8 +111,6 @@ def read_reference_data(path: str | Path) -> ReferenceDataSet:
     --------
     See :func:`write_reference_data`.
     """
-    from pcmm_geo.fit.reference import ReferenceDataSet
-
     path = Path(path)
     text_lines = path.read_text(encoding="utf-8").splitlines()
     if not text_lines or text_lines[0].strip() != _MAGIC:

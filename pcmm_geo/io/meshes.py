@@ -210,7 +210,7 @@ def write_mesh(path: str | Path, mesh: trimesh.Trimesh, *, overwrite: bool = Fal
         import trimesh
 
         content = trimesh.exchange.stl.export_stl(mesh)
-    from pcmm_geo.io._atomic import write_atomic
+    from pcmm_geo._atomic import write_atomic
 
     return write_atomic(file, content, overwrite=overwrite)
 

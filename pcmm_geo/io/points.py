@@ -240,7 +240,7 @@ def write_points(path: str | Path, points: ArrayLike, *, overwrite: bool = False
         raise InvalidInputError("points", "shape (N, 3)", f"shape {pts.shape}")
     if not np.all(np.isfinite(pts)):
         raise InvalidInputError("points", "finite coordinates", "NaN or inf")
-    from pcmm_geo.io._atomic import atomic_output, write_atomic
+    from pcmm_geo._atomic import atomic_output, write_atomic
 
     if file.exists() and not overwrite:
         raise OutputExistsError(str(file))

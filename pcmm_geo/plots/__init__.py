@@ -8,10 +8,11 @@ without ``pyplot``, so no global matplotlib backend is switched.
 
 - :func:`plot_calibration` -- tetrahedron calibration in 3-D (thesis fig 7.2) and miss distances.
 - :func:`plot_gauge_block` -- per-face plane residuals and the lengths of every method.
-- :func:`plot_sensitivity` -- workspace sensitivity map (defined in :mod:`pcmm_geo.machine.sensitivity`).
+- :func:`plot_sensitivity` -- workspace sensitivity map (defined in :mod:`pcmm_geo.machine.analysis.sensitivity`).
 - :func:`plot_fit_residuals` -- residuals of a Gaussian fit.
 - :func:`plot_processed_log` -- tip path, pivot heights and closure residuals of a log.
 - :func:`plot_tip_errors`, :func:`plot_demo_overview` -- the end-to-end demo.
+- :func:`plot_monte_carlo` -- a Monte Carlo uncertainty evaluation (histogram, interval, budget).
 
 Examples
 --------
@@ -33,10 +34,11 @@ from typing import Any
 _LAZY = {
     "plot_calibration": "pcmm_geo.plots.calibration",
     "plot_gauge_block": "pcmm_geo.plots.gauge_block",
-    "plot_sensitivity": "pcmm_geo.machine.sensitivity",
+    "plot_sensitivity": "pcmm_geo.machine.analysis.sensitivity",
     "plot_fit_residuals": "pcmm_geo.plots.fit_residuals",
     "plot_processed_log": "pcmm_geo.plots.process_log",
     "plot_tip_errors": "pcmm_geo.plots.demo",
+    "plot_monte_carlo": "pcmm_geo.plots.uncertainty",
     "plot_demo_overview": "pcmm_geo.plots.demo",
     "check_plot_path": "pcmm_geo.plots._figure",
 }

@@ -93,7 +93,7 @@ def save_figure(figure: Figure, path: str | Path, *, overwrite: bool = False) ->
     >>> save_figure(figure, os.path.join(tempfile.mkdtemp(), "line.png")).name
     'line.png'
     """
-    from pcmm_geo.io._atomic import write_atomic
+    from pcmm_geo._atomic import write_atomic
 
     target = check_plot_path(path, overwrite=overwrite)
     return write_atomic(target, lambda stream: figure.savefig(stream, format=target.suffix[1:].lower(), dpi=PLOT_DPI),

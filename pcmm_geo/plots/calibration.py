@@ -20,7 +20,7 @@ import numpy as np
 from pcmm_geo.plots._figure import ARM_COLOURS, check_plot_path, equal_3d_limits, new_figure, save_figure
 
 if TYPE_CHECKING:
-    from pcmm_geo.machine.calibration_result import TetrahedronCalibration
+    from pcmm_geo.machine.calibration.result import TetrahedronCalibration
 
 __all__ = ["draw_calibration_3d", "draw_miss_distances", "plot_calibration"]
 
@@ -154,7 +154,7 @@ def plot_calibration(
     --------
     >>> import os, tempfile
     >>> from pcmm_geo.machine.calibration import calibrate_tetrahedron
-    >>> from pcmm_geo.machine.calibration_seed import appendix_cd_files
+    >>> from pcmm_geo.machine.calibration.seed import appendix_cd_files
     >>> calibration = calibrate_tetrahedron(*appendix_cd_files())
     >>> plot_calibration(calibration, os.path.join(tempfile.mkdtemp(), "cal.png")).suffix
     '.png'

@@ -18,7 +18,7 @@ from numpy.typing import ArrayLike
 from pcmm_geo.plots._figure import check_plot_path, new_figure, save_figure
 
 if TYPE_CHECKING:
-    from pcmm_geo.machine.calibration_result import TetrahedronCalibration
+    from pcmm_geo.machine.calibration.result import TetrahedronCalibration
 
 __all__ = ["draw_tip_errors", "plot_demo_overview", "plot_tip_errors"]
 

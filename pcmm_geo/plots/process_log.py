@@ -10,7 +10,7 @@ import numpy as np
 from pcmm_geo.plots._figure import ARM_COLOURS, check_plot_path, equal_3d_limits, new_figure, save_figure
 
 if TYPE_CHECKING:
-    from pcmm_geo.machine.logproc import ProcessedLog
+    from pcmm_geo.machine.analysis.logproc import ProcessedLog
 
 __all__ = ["plot_processed_log"]
 
@@ -21,7 +21,7 @@ def plot_processed_log(processed: ProcessedLog, path: str | Path, *, overwrite: 
     Parameters
     ----------
     processed : ProcessedLog
-        Result of :func:`pcmm_geo.machine.logproc.process_log` (mm).
+        Result of :func:`pcmm_geo.machine.analysis.logproc.process_log` (mm).
     path : str or Path
         Destination, ``.png``, ``.svg`` or ``.pdf``.
     overwrite : bool
@@ -44,8 +44,8 @@ def plot_processed_log(processed: ProcessedLog, path: str | Path, *, overwrite: 
     Examples
     --------
     >>> import os, tempfile
-    >>> from pcmm_geo.machine.logproc import process_log, synthesise_log
-    >>> from pcmm_geo.machine.model import RigidBodyMachine
+    >>> from pcmm_geo.machine.analysis.logproc import process_log, synthesise_log
+    >>> from pcmm_geo.machine.kinematics.model import RigidBodyMachine
     >>> machine = RigidBodyMachine.from_dpkm()
     >>> start = machine.reference_heights + [0.0, 60.0, -50.0]
     >>> log = synthesise_log(machine, start, [(1, 5.0, True), (2, -4.0, True), (3, 3.0, False)])

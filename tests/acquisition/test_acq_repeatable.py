@@ -13,15 +13,15 @@ from pathlib import Path
 
 import pytest
 
+from pcmm_geo.acquisition.acqlog import read_log
+from pcmm_geo.acquisition.drivers.lasers import LaserSensor
+from pcmm_geo.acquisition.drivers.probe import ProbeReader
+from pcmm_geo.acquisition.drivers.zaber import ZaberChain
+from pcmm_geo.acquisition.session import AcquisitionSession, SessionConfig
+from pcmm_geo.acquisition.simulators.cmm import SimulatedRig
+from pcmm_geo.acquisition.simulators.faults import FaultPlan
 from pcmm_geo.cli import main
 from pcmm_geo.errors import DeviceError
-from pcmm_geo.machine.acqlog import read_log
-from pcmm_geo.machine.drivers.lasers import LaserSensor
-from pcmm_geo.machine.drivers.probe import ProbeReader
-from pcmm_geo.machine.drivers.zaber import ZaberChain
-from pcmm_geo.machine.session import AcquisitionSession, SessionConfig
-from pcmm_geo.machine.simulators.cmm import SimulatedRig
-from pcmm_geo.machine.simulators.faults import FaultPlan
 
 PCMM = str(Path(sys.executable).with_name("pcmm"))
 

@@ -13,10 +13,10 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from pcmm_geo.machine.calibration_seed import TABLE_7_1, appendix_cd_files
-from pcmm_geo.machine.logproc import synthesise_log, write_log
-from pcmm_geo.machine.model import RigidBodyMachine
-from pcmm_geo.machine.numcal import NumcalParameters, synthesise_numcal_data
+from pcmm_geo.machine.analysis.logproc import synthesise_log, write_log
+from pcmm_geo.machine.calibration.numcal import NumcalParameters, synthesise_numcal_data
+from pcmm_geo.machine.calibration.seed import TABLE_7_1, appendix_cd_files
+from pcmm_geo.machine.kinematics.model import RigidBodyMachine
 
 PCMM = str(Path(sys.executable).with_name("pcmm"))
 EXAMPLES = Path(__file__).parents[2] / "pcmm_geo" / "data" / "examples"
@@ -236,7 +236,7 @@ def test_process_log_plot_report_and_progress(long_log: tuple[Path, list[str], n
 def test_demo_and_acquire_progress_on_a_terminal(tmp_path: Path) -> None:
     code, stdout, stderr = run_with_terminal_stderr("demo", "--no-plots")
     assert code == 0 and "calibrated (rigid body)" in stdout and "\x1b" not in stdout
-    assert "done" in stderr and "4/4" in stderr  # the last state is always drawn; earlier ones depend on timing
+    assert "done" in stderr and "5/5" in stderr  # 5 steps with the uncertainty; the last state is always drawn
     code, _, stderr = run_with_terminal_stderr(
         "acquire",
         "--simulate",

@@ -130,7 +130,7 @@ def test_garbage_bytes_name_file_and_line(tmp_path: Path, data: bytes, message: 
 
 
 def test_outputs_are_written_whole_or_not_at_all(tmp_path: Path) -> None:
-    from pcmm_geo.io._atomic import write_atomic
+    from pcmm_geo._atomic import write_atomic
 
     target = tmp_path / "result.csv"
     target.write_text("earlier result\n")

@@ -6,9 +6,9 @@ import numpy as np
 import pytest
 
 from pcmm_geo.machine.calibration import calibrate_tetrahedron
-from pcmm_geo.machine.calibration_geometry import angle_between_deg, seed_printed_angle_deg
-from pcmm_geo.machine.calibration_io import read_lasers, read_probings
-from pcmm_geo.machine.calibration_seed import (
+from pcmm_geo.machine.calibration.geometry import angle_between_deg, seed_printed_angle_deg
+from pcmm_geo.machine.calibration.probings import read_lasers, read_probings
+from pcmm_geo.machine.calibration.seed import (
     APPENDIX_C,
     APPENDIX_D,
     TABLE_6_2,

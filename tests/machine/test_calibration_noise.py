@@ -7,7 +7,7 @@ import pytest
 
 from pcmm_geo.errors import InvalidInputError
 from pcmm_geo.machine.calibration import calibrate_tetrahedron
-from pcmm_geo.machine.calibration_noise import (
+from pcmm_geo.machine.calibration.noise import (
     CALIBRATION_LASERS,
     SIGMAS,
     calibration_errors,

@@ -107,13 +107,13 @@ def test_gauge_block_plot_is_a_picture_and_is_never_overwritten(tmp_path: Path) 
 
 def test_calibration_demo_and_log_plots(tmp_path: Path) -> None:
     from pcmm_geo.demo import run_demo
-    from pcmm_geo.machine.logproc import process_log, synthesise_log
-    from pcmm_geo.machine.model import RigidBodyMachine
+    from pcmm_geo.machine.analysis.logproc import process_log, synthesise_log
+    from pcmm_geo.machine.kinematics.model import RigidBodyMachine
     from pcmm_geo.plots import plot_calibration, plot_demo_overview, plot_processed_log, plot_tip_errors
 
     steps: list[tuple[int, int, str]] = []
     result = run_demo(progress=lambda done, total, text: steps.append((done, total, text)))
-    assert [(done, total) for done, total, _ in steps] == [(k, 4) for k in range(5)]
+    assert [(done, total) for done, total, _ in steps] == [(k, 5) for k in range(6)]  # 5 steps: + uncertainty
     assert steps[-1][2] == "done"
     _assert_real_picture(plot_calibration(result.tetrahedron_calibration, tmp_path / "cal.png"), 12.0, 6.5)
     _assert_real_picture(plot_tip_errors(result.tip_errors, tmp_path / "tips.png"), 7.0, 4.0)
