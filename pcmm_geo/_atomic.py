@@ -48,6 +48,7 @@ def atomic_output(path: str | Path, *, overwrite: bool = False) -> Iterator[Path
     if target.exists() and not overwrite:
         raise OutputExistsError(str(target))
     folder = target.parent if str(target.parent) else Path(".")
+    folder.mkdir(parents=True, exist_ok=True)
     handle, name = tempfile.mkstemp(prefix=f".{target.stem}-", suffix=f".tmp{target.suffix}", dir=folder)
     os.close(handle)
     temporary = Path(name)

@@ -309,6 +309,7 @@ class AcquisitionLog:
             entries[str(key)] = text
         header = "# pcmm_geo acquisition log\n" + "".join(f"# {k}: {v}\n" for k, v in entries.items())
         header += ",".join(LOG_COLUMNS) + "\n"
+        path.parent.mkdir(parents=True, exist_ok=True)  # README: missing folders are created
         try:
             handle = open(path, "w" if overwrite else "x", encoding="utf-8", newline="")
         except FileExistsError as exc:

@@ -33,6 +33,7 @@ COMMAND_MODULES = (
     "segment",
     "convert",
     "uncertainty",
+    "batch",
 )
 
 
