@@ -193,9 +193,7 @@ def print_report(report: Report, as_json: bool) -> None:
         blocks.append("\n".join(report.lines))
     blocks += [render_table(t) for t in uncertainty_tables(report, correlations=False)]
     if blocks:  # a command that printed its own output (pcmm batch) returns an empty report
-        print("
-
-".join(blocks))
+        print("\n\n".join(blocks))
 
 
 def check_report_path(path: str | Path, *, overwrite: bool = False) -> Path:
