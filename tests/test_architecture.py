@@ -50,18 +50,6 @@ LAYERS: dict[str, int] = {
 #: deprecation shims of old import paths: not part of the layered graph (they forward by name)
 SHIMS: frozenset[str] = frozenset({"pcmm_geo.machine._moved"})
 
-#: cycles that exist on main and are owned elsewhere, each as its sorted set of modules.  The
-#: minimum-zone solvers (fit/zone/, merged into main at adfa01a) import both ways, in functions:
-#: fit.<element> dispatches ``criterion=`` to fit.zone.<family>, which imports the element's
-#: result class and Gaussian fit back.  To break them, move the result class and the Gaussian
-#: start below both (or pass them in).  Listed so that the test still fails on any NEW cycle, and
-#: fails when a listed cycle is gone (then delete its line): the list can only shrink.
-KNOWN_CYCLES: frozenset[frozenset[str]] = frozenset({
-    frozenset({"pcmm_geo.fit.line", "pcmm_geo.fit.zone._linear", "pcmm_geo.fit.plane"}),
-    frozenset({"pcmm_geo.fit.circle", "pcmm_geo.fit.zone._round", "pcmm_geo.fit.sphere"}),
-    frozenset({"pcmm_geo.fit.cone", "pcmm_geo.fit.zone._axial", "pcmm_geo.fit.cylinder"}),
-})
-
 #: folders created by the re-housing (issue 11): at most MAX_MODULES modules directly inside
 CHECKED_FOLDERS = (
     "acquisition",
@@ -260,12 +248,8 @@ def test_every_module_has_a_layer() -> None:
 
 def test_no_import_cycles() -> None:
     graph = _without_shims(import_graph())
-    components = cycle_components(graph)
-    new = [c for c in components if frozenset(c) not in KNOWN_CYCLES]
-    paths = [_cycle_path(graph, c) for c in new]
+    paths = [_cycle_path(graph, c) for c in cycle_components(graph)]
     assert paths == [], "import cycles:\n" + "\n".join(" -> ".join(path) for path in paths)
-    gone = [sorted(c) for c in KNOWN_CYCLES if c not in {frozenset(c) for c in components}]
-    assert gone == [], f"these cycles are gone: delete them from KNOWN_CYCLES in {__file__}: {gone}"
 
 
 def test_no_upward_or_sideways_imports() -> None:

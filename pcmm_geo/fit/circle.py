@@ -130,7 +130,7 @@ def fit_circle(
     if criterion != "gaussian":
         from pcmm_geo.fit.zone._round import circle_minimax
 
-        return circle_minimax(pts, criterion)
+        return circle_minimax(pts, criterion, result_type=CircleFit, fit_plane=fit_plane)
     w = as_weights(weights, len(pts), element=_ELEMENT)
     if pts.shape[1] == 2:
         return _circle_2d(pts, w, radius)

@@ -195,7 +195,7 @@ def fit_cone(
     if criterion != "gaussian":
         from pcmm_geo.fit.zone._axial import cone_minimax
 
-        return cone_minimax(data, criterion)
+        return cone_minimax(data, criterion, gauss=fit_cone(data), result_type=ConeFit)
     weight = as_weights(weights, data.shape[0], element=_ELEMENT)
     sqrt_weights = None if weight is None else np.sqrt(weight)
     centroid = data.mean(axis=0)

@@ -196,7 +196,7 @@ def fit_cylinder(
     if criterion != "gaussian":
         from pcmm_geo.fit.zone._axial import cylinder_minimax
 
-        return cylinder_minimax(data, criterion)
+        return cylinder_minimax(data, criterion, gauss=fit_cylinder(data), result_type=CylinderFit)
     weight = as_weights(weights, data.shape[0], element=_ELEMENT)
     sqrt_weights = None if weight is None else np.sqrt(weight)
     centroid = data.mean(axis=0)

@@ -98,7 +98,7 @@ def fit_line(points: ArrayLike, *, weights: ArrayLike | None = None, criterion: 
     if criterion != "gaussian":
         from pcmm_geo.fit.zone._linear import line_minimax
 
-        return line_minimax(pts, criterion)
+        return line_minimax(pts, criterion, gauss=fit_line(pts), result_type=LineFit)
     w = as_weights(weights, len(pts), element=_ELEMENT)
     centroid, singular, vt = principal_frame(pts, w, element=_ELEMENT)
     if len(singular) > 1 and singular[1] >= (1 - 1e-12) * singular[0] and len(pts) > 2:

@@ -90,7 +90,7 @@ def fit_plane(points: ArrayLike, *, weights: ArrayLike | None = None, criterion:
     if criterion != "gaussian":
         from pcmm_geo.fit.zone._linear import plane_minimax
 
-        return plane_minimax(pts, criterion)
+        return plane_minimax(pts, criterion, gauss=fit_plane(pts), result_type=PlaneFit)
     w = as_weights(weights, len(pts), element=_ELEMENT)
     centroid, singular, vt = principal_frame(pts, w, element=_ELEMENT)
     if singular[1] <= TOL.degenerate * singular[0]:

@@ -109,7 +109,7 @@ def fit_sphere(
     if criterion != "gaussian":
         from pcmm_geo.fit.zone._round import sphere_minimax
 
-        return sphere_minimax(pts, criterion)
+        return sphere_minimax(pts, criterion, result_type=SphereFit)
     w = as_weights(weights, len(pts), element=_ELEMENT)
     centre, fitted_radius, outcome, residuals, cond, cov = fit_nsphere(pts, w, element=_ELEMENT, fixed_radius=radius)
     rms, form = residual_stats(residuals)
