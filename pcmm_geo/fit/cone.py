@@ -18,7 +18,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from pcmm_geo.errors import ConvergenceError
-from pcmm_geo.fit._axial import (
+from pcmm_geo.fit._kernels._axial import (
     AxialSolution,
     FloatArray,
     as_axis_hint,
@@ -29,8 +29,8 @@ from pcmm_geo.fit._axial import (
     screened_axes,
     solve_axial,
 )
-from pcmm_geo.fit._core import FitResult, as_points, as_weights, covariance_from_jacobian, residual_stats
-from pcmm_geo.fit._linear import frozen
+from pcmm_geo.fit._kernels._core import FitResult, as_points, as_weights, covariance_from_jacobian, residual_stats
+from pcmm_geo.fit._kernels._linear import frozen
 from pcmm_geo.fit.cylinder import _cylinder_model, _cylinder_start, axis_point_jacobian
 from pcmm_geo.fit.zone._common import check_criterion
 

@@ -13,7 +13,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from pcmm_geo.errors import InvalidInputError
-from pcmm_geo.fit._axial import (
+from pcmm_geo.fit._kernels._axial import (
     AxialSolution,
     FloatArray,
     LocalModel,
@@ -27,8 +27,8 @@ from pcmm_geo.fit._axial import (
     local_direction,
     solve_axial,
 )
-from pcmm_geo.fit._core import FitResult, as_points, as_weights, covariance_from_jacobian, residual_stats
-from pcmm_geo.fit._linear import frozen
+from pcmm_geo.fit._kernels._core import FitResult, as_points, as_weights, covariance_from_jacobian, residual_stats
+from pcmm_geo.fit._kernels._linear import frozen
 from pcmm_geo.fit.zone._common import check_criterion
 
 __all__ = ["CylinderFit", "fit_cylinder"]

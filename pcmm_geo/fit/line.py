@@ -12,8 +12,8 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from pcmm_geo.errors import DegenerateGeometryError
-from pcmm_geo.fit._core import FitResult, as_points, as_weights, residual_stats
-from pcmm_geo.fit._linear import frozen, local_covariance, principal_frame, propagate, sign_convention
+from pcmm_geo.fit._kernels._core import FitResult, as_points, as_weights, residual_stats
+from pcmm_geo.fit._kernels._linear import frozen, local_covariance, principal_frame, propagate, sign_convention
 from pcmm_geo.fit.zone._common import check_criterion
 
 __all__ = ["LineFit", "fit_line"]

@@ -8,9 +8,9 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from pcmm_geo.errors import InvalidInputError
-from pcmm_geo.fit._core import FitResult, as_points, as_weights, residual_stats
-from pcmm_geo.fit._linear import frozen
-from pcmm_geo.fit._round import fit_nsphere
+from pcmm_geo.fit._kernels._core import FitResult, as_points, as_weights, residual_stats
+from pcmm_geo.fit._kernels._linear import frozen
+from pcmm_geo.fit._kernels._round import fit_nsphere
 from pcmm_geo.fit.zone._common import check_criterion
 
 __all__ = ["SphereFit", "fit_sphere"]

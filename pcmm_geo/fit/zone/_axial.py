@@ -14,9 +14,9 @@ from typing import Any, TypeVar
 import numpy as np
 
 from pcmm_geo.errors import DegenerateGeometryError
-from pcmm_geo.fit._axial import canonical_axis
-from pcmm_geo.fit._core import FitResult, rotation_to_z
-from pcmm_geo.fit._linear import frozen
+from pcmm_geo.fit._kernels._axial import canonical_axis
+from pcmm_geo.fit._kernels._core import FitResult, rotation_to_z
+from pcmm_geo.fit._kernels._linear import frozen
 from pcmm_geo.fit.zone._common import mode_of, shared_fields
 from pcmm_geo.fit.zone._models import FloatArray, axis_distance, cone_distance
 from pcmm_geo.fit.zone._solver import solve_minimax

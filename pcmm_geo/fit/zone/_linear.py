@@ -20,8 +20,8 @@ from typing import Any, TypeVar
 
 import numpy as np
 
-from pcmm_geo.fit._core import FitResult, rotation_to_z
-from pcmm_geo.fit._linear import frozen, sign_convention
+from pcmm_geo.fit._kernels._core import FitResult, rotation_to_z
+from pcmm_geo.fit._kernels._linear import frozen, sign_convention
 from pcmm_geo.fit.zone._common import shared_fields
 from pcmm_geo.fit.zone._models import FloatArray, axis_distance, line2d_offset, plane_offset
 from pcmm_geo.fit.zone._solver import solve_minimax

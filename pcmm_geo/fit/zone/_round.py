@@ -15,8 +15,8 @@ from typing import Any, TypeVar
 import numpy as np
 
 from pcmm_geo.errors import DegenerateGeometryError
-from pcmm_geo.fit._core import FitResult
-from pcmm_geo.fit._linear import frozen, sign_convention
+from pcmm_geo.fit._kernels._core import FitResult
+from pcmm_geo.fit._kernels._linear import frozen, sign_convention
 from pcmm_geo.fit.zone._common import mode_of, shared_fields
 from pcmm_geo.fit.zone._models import FloatArray, center_distance
 from pcmm_geo.fit.zone._solver import ZoneSolution, solve_minimax
@@ -39,7 +39,7 @@ def solve_round(points: FloatArray, criterion: str, *, element: str) -> tuple[Fl
         do not surround a maximal empty circle / sphere), or a zone that runs off to an
         infinite radius.
     """
-    from pcmm_geo.fit._round import fit_nsphere
+    from pcmm_geo.fit._kernels._round import fit_nsphere
 
     origin = points.mean(axis=0)
     local = points - origin
