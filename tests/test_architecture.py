@@ -39,12 +39,13 @@ LAYERS: dict[str, int] = {
     "pcmm_geo.machine": 6,  # machine/__init__ (lazy re-exports) and the deprecation finder
     "pcmm_geo.machine.calibration": 6,  # ch. 6 and ch. 7 calibration, calibration files
     "pcmm_geo.machine.analysis": 6,  # log processing, sensitivity
-    "pcmm_geo.artefacts": 7,  # gauge blocks, ISO 10360, CAD comparison
-    "pcmm_geo.testing": 8,  # helpers for users' tests
-    "pcmm_geo.data": 8,  # scripts that regenerate bundled example data
-    "pcmm_geo.plots": 8,  # matplotlib figures of results
-    "pcmm_geo.demo": 9,  # the end-to-end demo
-    "pcmm_geo.cli": 10,  # the pcmm command only wires; nothing imports it
+    "pcmm_geo.uncertainty": 7,  # GUM, Monte Carlo, calibration covariance, virtual CMM, ISO 14253-1
+    "pcmm_geo.artefacts": 8,  # gauge blocks, ISO 10360, CAD comparison
+    "pcmm_geo.testing": 9,  # helpers for users' tests
+    "pcmm_geo.data": 9,  # scripts that regenerate bundled example data
+    "pcmm_geo.plots": 9,  # matplotlib figures of results
+    "pcmm_geo.demo": 10,  # the end-to-end demo
+    "pcmm_geo.cli": 11,  # the pcmm command only wires; nothing imports it
 }
 
 #: deprecation shims of old import paths: not part of the layered graph (they forward by name)

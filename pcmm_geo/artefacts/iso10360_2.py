@@ -13,6 +13,11 @@ Decision rule (ISO 14253-1 style, stated in every result):
 * ``"simple"`` -- simple acceptance, zero guard band: a value conforms when ``|E0| ≤ MPE``.
 * ``"guarded"`` -- guarded acceptance: the conformance zone is reduced by the expanded
   uncertainty ``U`` of the test: a value conforms when ``|E0| + U ≤ MPE``.
+* ``"iso14253"`` -- the three-state rule of ISO 14253-1
+  (:func:`pcmm_geo.uncertainty.conformity.decide_conformity`): ``PASS`` (conformity
+  proved, ``|E0| + U ≤ MPE``), ``FAIL`` (nonconformity proved, ``|E0| − U > MPE``) or
+  ``NOT PROVEN``; the test's ``verdict`` is ``FAIL`` if any value fails, ``PASS`` if all
+  pass.  ``passed`` is True only for ``PASS``.
 
 The machine passes when every value conforms (and every R0 does, when an ``MPL_R0`` is
 given).  The retest allowances of ISO 10360-2:2009 are not applied automatically.
@@ -48,6 +53,8 @@ __all__ = [
 DECISION_RULES = {
     "simple": "simple acceptance (ISO 14253-1, zero guard band): |E0| <= MPE_E0",
     "guarded": "guarded acceptance (ISO 14253-1): |E0| + U <= MPE_E0, U = expanded test uncertainty",
+    "iso14253": "ISO 14253-1: PASS if |E0| + U <= MPE_E0 (conformity proved), FAIL if |E0| - U > MPE_E0 "
+    "(nonconformity proved), otherwise NOT PROVEN",
 }
 
 
@@ -113,6 +120,8 @@ class E0Value:
     mpe: float
     acceptance_limit: float
     conforms: bool
+    #: ISO 14253-1 verdict (``"PASS"``, ``"FAIL"``, ``"NOT PROVEN"``) under the ``"iso14253"`` rule, else ""
+    verdict: str = ""
 
 
 @dataclass(frozen=True)
@@ -163,6 +172,8 @@ class LengthTestResult:
     test_uncertainty: float
     mpe: LengthMpe
     mpl_r0: float | None
+    #: ``"PASS"``, ``"FAIL"`` or (``"iso14253"`` rule only) ``"NOT PROVEN"``
+    verdict: str = ""
 
 
 def evaluate_length_test(
@@ -181,7 +192,7 @@ def evaluate_length_test(
         All measured test lengths (mm).
     mpe : LengthMpe
         The stated ``MPE_E0``.
-    decision_rule : {"simple", "guarded"}
+    decision_rule : {"simple", "guarded", "iso14253"}
         See the module documentation.
     test_uncertainty : float
         Expanded uncertainty U of the test (mm), used by ``"guarded"``.
@@ -221,11 +232,16 @@ def evaluate_length_test(
             raise InvalidInputError(
                 f"calibrated_length of {item.length_id!r}", f"{known} mm in every row", f"{item.calibrated_length} mm"
             )
-    guard = test_uncertainty if decision_rule == "guarded" else 0.0
+    guard = test_uncertainty if decision_rule in ("guarded", "iso14253") else 0.0
     errors = []
     for item in items:
         limit_mpe = mpe.mpe_mm(item.calibrated_length)
         error = item.measured_length - item.calibrated_length
+        verdict = ""
+        if decision_rule == "iso14253":
+            from pcmm_geo.uncertainty.conformity import decide_conformity
+
+            verdict = decide_conformity(abs(error), test_uncertainty, upper_limit=limit_mpe).verdict
         errors.append(
             E0Value(
                 length_id=item.length_id,
@@ -236,6 +252,7 @@ def evaluate_length_test(
                 mpe=limit_mpe,
                 acceptance_limit=limit_mpe - guard,
                 conforms=abs(error) <= limit_mpe - guard,
+                verdict=verdict,
             )
         )
     groups: dict[tuple[str, str], list[float]] = {}
@@ -247,6 +264,13 @@ def evaluate_length_test(
         ok = True if mpl_r0 is None else spread <= mpl_r0 - guard
         ranges.append(R0Value(length_id, position, len(values), spread, ok))
     n_bad = sum(not e.conforms for e in errors) + sum(not r.conforms for r in ranges)
+    if decision_rule == "iso14253":
+        from pcmm_geo.uncertainty.conformity import overall_verdict
+
+        verdict = overall_verdict([e.verdict for e in errors] + ["PASS" if r.conforms else "NOT PROVEN"
+                                                                 for r in ranges])
+    else:
+        verdict = "PASS" if n_bad == 0 else "FAIL"
     return LengthTestResult(
         errors=tuple(errors),
         repeatability=tuple(ranges),
@@ -259,6 +283,7 @@ def evaluate_length_test(
         test_uncertainty=test_uncertainty,
         mpe=mpe,
         mpl_r0=mpl_r0,
+        verdict=verdict,
     )
 
 

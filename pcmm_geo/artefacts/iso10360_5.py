@@ -118,6 +118,13 @@ class ProbingResult:
         Stated MPEs (mm), if any.
     form_conforms, size_conforms : bool or None
         ``P_FTU <= MPE_PFTU``, ``|P_STU| <= MPE_PSTU`` (simple acceptance), None without MPE.
+    form_verdict, size_verdict : str
+        With a test uncertainty: the ISO 14253-1 verdicts (``"PASS"``, ``"FAIL"``,
+        ``"NOT PROVEN"``, :func:`pcmm_geo.uncertainty.conformity.decide_conformity`); the
+        ``*_conforms`` fields are then True only for ``PASS``.  "" otherwise.
+    test_uncertainty : tuple of float or None
+        ``(U_form, U_size)`` (mm) used by the decision.
+    decision_rule : str
     """
 
     form_error: float
@@ -131,6 +138,10 @@ class ProbingResult:
     mpe_size: float | None
     form_conforms: bool | None
     size_conforms: bool | None
+    form_verdict: str = ""
+    size_verdict: str = ""
+    test_uncertainty: tuple[float, float] | None = None
+    decision_rule: str = "simple acceptance (zero guard band)"
 
     @property
     def passed(self) -> bool | None:
@@ -145,6 +156,7 @@ def evaluate_probing(
     *,
     mpe_form: float | None = None,
     mpe_size: float | None = None,
+    test_uncertainty: tuple[float, float] | None = None,
 ) -> ProbingResult:
     """P_FTU and P_STU from points probed on a calibrated sphere (Gaussian sphere fit).
 
@@ -156,6 +168,9 @@ def evaluate_probing(
         Calibrated sphere diameter (mm).
     mpe_form, mpe_size : float, optional
         MPE_PFTU and MPE_PSTU (mm).
+    test_uncertainty : tuple of float, optional
+        Expanded uncertainties ``(U_form, U_size)`` (mm, 95 %) of the two test values; when
+        given the ISO 14253-1 rule decides (guard bands of U), else simple acceptance.
 
     Returns
     -------
@@ -189,6 +204,21 @@ def evaluate_probing(
     form = float(residuals.max() - residuals.min())
     diameter = 2.0 * float(fit.radius)
     size = diameter - float(reference_diameter)
+    form_ok = None if mpe_form is None else form <= mpe_form
+    size_ok = None if mpe_size is None else abs(size) <= mpe_size
+    verdicts = ("", "")
+    rule = "simple acceptance (zero guard band)"
+    if test_uncertainty is not None:
+        from pcmm_geo.uncertainty.conformity import DECISION_RULE_TEXT, decide_conformity
+
+        u_form, u_size = (float(v) for v in test_uncertainty)
+        verdicts = (
+            "" if mpe_form is None else decide_conformity(form, u_form, upper_limit=mpe_form).verdict,
+            "" if mpe_size is None else decide_conformity(abs(size), u_size, upper_limit=mpe_size).verdict,
+        )
+        form_ok = None if mpe_form is None else verdicts[0] == "PASS"
+        size_ok = None if mpe_size is None else verdicts[1] == "PASS"
+        rule = DECISION_RULE_TEXT
     return ProbingResult(
         form_error=form,
         size_error=size,
@@ -199,8 +229,12 @@ def evaluate_probing(
         n=len(pts),
         mpe_form=mpe_form,
         mpe_size=mpe_size,
-        form_conforms=None if mpe_form is None else form <= mpe_form,
-        size_conforms=None if mpe_size is None else abs(size) <= mpe_size,
+        form_conforms=form_ok,
+        size_conforms=size_ok,
+        form_verdict=verdicts[0],
+        size_verdict=verdicts[1],
+        test_uncertainty=None if test_uncertainty is None else (u_form, u_size),
+        decision_rule=rule,
     )
 
 

@@ -33,6 +33,8 @@ COMMAND_MODULES = (
     "measurement_commands.compare",
     "measurement_commands.segment",
     "measurement_commands.convert",
+    "measurement_commands.uncertainty",
+    "measurement_commands.batch",
 )
 
 

@@ -13,6 +13,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from pcmm_geo.errors import InvalidInputError
+from pcmm_geo.fit._kernels import _tall
 from pcmm_geo.fit._kernels._axial import (
     AxialSolution,
     FloatArray,
@@ -29,6 +30,7 @@ from pcmm_geo.fit._kernels._axial import (
 )
 from pcmm_geo.fit._kernels._core import FitResult, as_points, as_weights, covariance_from_jacobian, residual_stats
 from pcmm_geo.fit._kernels._linear import frozen
+from pcmm_geo.fit.scale import is_dask_array
 from pcmm_geo.fit.zone._common import check_criterion
 
 __all__ = ["CylinderFit", "fit_cylinder"]
@@ -143,13 +145,17 @@ def fit_cylinder(
     Gauss-Newton / Levenberg-Marquardt with an analytic Jacobian in standard position
     (data centred at the centroid, current axis rotated to +z; local parameters are the
     axis crossing ``x0, y0`` of the local ``z = 0`` plane, two tilts ``a, b`` and the radius).
+    From ``pcmm_geo.fit._kernels._tall.TALL_ROWS`` unweighted points on, and for a dask array, the fit
+    of a strided subsample starts Gauss-Newton passes whose normal equations are accumulated
+    in chunks (:mod:`pcmm_geo.fit.scale.fits`).
     Starting values come from an algebraic circle fit of the data projected along each
     principal axis (and ``axis_hint``); the converged solution of least cost is returned.
 
     Parameters
     ----------
-    points : array_like, shape (N, 3)
-        Measured points (mm); N >= 5 (N >= 4 with a fixed radius).
+    points : array_like or dask.array.Array, shape (N, 3)
+        Measured points (mm); N >= 5 (N >= 4 with a fixed radius).  A dask array is fitted
+        block by block (no weights); ``residuals`` are then lazy.
     radius : float, optional
         Fix the radius (mm) and fit the axis only.
     weights : array_like, shape (N,), optional
@@ -192,12 +198,27 @@ def fit_cylinder(
             raise InvalidInputError("radius", "a positive finite radius in mm", repr(radius))
         radius = float(radius)
     check_criterion(criterion, _ELEMENT, weights=weights, radius=radius, axis_hint=axis_hint)
+    if is_dask_array(points):
+        if criterion != "gaussian":
+            raise InvalidInputError("criterion", "'gaussian' for a dask array of points", repr(criterion))
+        from pcmm_geo.fit.scale.dask import fit_cylinder_dask
+
+        return CylinderFit(**fit_cylinder_dask(points, radius=radius, weights=weights, axis_hint=axis_hint,
+                                               **_scale_parts()))
     data = as_points(points, element=_ELEMENT, min_points=5 if radius is None else 4)
     if criterion != "gaussian":
         from pcmm_geo.fit.zone._axial import cylinder_minimax
 
         return cylinder_minimax(data, criterion, gauss=fit_cylinder(data), result_type=CylinderFit)
     weight = as_weights(weights, data.shape[0], element=_ELEMENT)
+    if weight is None and len(data) >= _tall.TALL_ROWS:
+        from pcmm_geo.fit.scale.chunked import IllConditionedSteps
+        from pcmm_geo.fit.scale.fits import fit_cylinder_scaled, numpy_source
+
+        try:
+            return CylinderFit(**fit_cylinder_scaled(numpy_source(data), radius, axis_hint, **_scale_parts()))
+        except IllConditionedSteps:
+            pass  # nearly coplanar: the solver below decides
     sqrt_weights = None if weight is None else np.sqrt(weight)
     centroid = data.mean(axis=0)
     centred = data - centroid
@@ -215,6 +236,11 @@ def fit_cylinder(
         sqrt_weights=sqrt_weights,
     )
     return _result(data, solution, radius)
+
+
+def _scale_parts() -> dict[str, object]:
+    """What :mod:`pcmm_geo.fit.scale.fits` needs of this module (passed in: it must not import us)."""
+    return {"fit_cylinder": fit_cylinder, "model": _cylinder_model, "axis_point_jacobian": axis_point_jacobian}
 
 
 def _result(data: FloatArray, solution: AxialSolution, fixed_radius: float | None) -> CylinderFit:

@@ -13,6 +13,9 @@ A file holds
   :meth:`RigidBodyMachine.to_dict` ``["tetrahedron"]``;
 * ``machine`` -- optionally, a whole :meth:`RigidBodyMachine.to_dict` (when column lines are
   supplied), which :func:`load_machine` returns for the kinematics;
+* ``covariance`` -- optionally, the calibrated parameters' covariance with their names
+  (:meth:`pcmm_geo.uncertainty.calibration.CalibrationCovariance.to_dict`); files without
+  it load as before and :func:`load_covariance` returns None for them;
 * ``created`` (UTC, ISO 8601) and ``extra`` (free JSON-ready notes).
 
 Files are never overwritten unless asked (``overwrite=True``); writes go through a
@@ -50,7 +53,14 @@ if TYPE_CHECKING:
     from pcmm_geo.machine.calibration.result import TetrahedronCalibration
     from pcmm_geo.machine.kinematics.model import ColumnLine, RigidBodyMachine
 
-__all__ = ["CALIBRATION_SCHEMA", "SCHEMA_VERSION", "load_calibration", "load_machine", "save_calibration"]
+__all__ = [
+    "CALIBRATION_SCHEMA",
+    "SCHEMA_VERSION",
+    "load_calibration",
+    "load_covariance",
+    "load_machine",
+    "save_calibration",
+]
 
 SCHEMA_VERSION = 1
 CALIBRATION_SCHEMA = f"pcmm_geo.machine.calibration/{SCHEMA_VERSION}"
@@ -102,6 +112,7 @@ def save_calibration(
     overwrite: bool = False,
     columns: Mapping[str, ColumnLine] | None = None,
     extra: Mapping[str, Any] | None = None,
+    covariance: Any = None,
 ) -> Path:
     """Write a calibration as versioned JSON.
 
@@ -117,6 +128,8 @@ def save_calibration(
         file also holds the complete rigid-body machine (``"machine"``).
     extra : mapping, optional
         JSON-ready notes stored under ``"extra"``.
+    covariance : CalibrationCovariance, optional
+        Stored under ``"covariance"`` (its ``to_dict()``: names, units, values, matrix).
 
     Returns
     -------
@@ -159,6 +172,8 @@ def save_calibration(
         "tetrahedron": _tetrahedron_dict(tetrahedron),
         "extra": dict(extra or {}),
     }
+    if covariance is not None:
+        document["covariance"] = covariance.to_dict()
     if columns is not None:
         if set(columns) != set(ARMS):
             raise InvalidInputError("columns", "column lines for arms 'a', 'b', 'c'", f"keys {sorted(columns)}")
@@ -272,6 +287,21 @@ def load_calibration(path: str | Path) -> TetrahedronCalibration:
     except (KeyError, TypeError, ValueError, IndexError) as exc:
         raise FileFormatError(str(file), f"expected calibration inputs and results, got a problem: {exc!r}") from None
     return cal
+
+
+def load_covariance(path: str | Path) -> dict[str, Any] | None:
+    """The ``"covariance"`` entry of a calibration file (names, units, values, matrix), or None.
+
+    Read it with :meth:`pcmm_geo.uncertainty.calibration.CalibrationCovariance.from_dict`.
+
+    Raises
+    ------
+    FileFormatError
+        Not a calibration file of a known schema version.
+    """
+    _, document = _read_document(path)
+    entry = document.get("covariance")
+    return dict(entry) if isinstance(entry, Mapping) else None
 
 
 def load_machine(path: str | Path) -> RigidBodyMachine:
