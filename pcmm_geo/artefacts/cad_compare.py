@@ -31,7 +31,7 @@ from numpy.typing import ArrayLike, NDArray
 from pcmm_geo.artefacts.cad_distance import surface_distances
 from pcmm_geo.artefacts.cad_register import DEFAULT_SAMPLE_COUNT, Registration, register_to_mesh
 from pcmm_geo.errors import InvalidInputError
-from pcmm_geo.fit._core import as_points
+from pcmm_geo.fit._kernels._core import as_points
 
 if TYPE_CHECKING:
     import trimesh

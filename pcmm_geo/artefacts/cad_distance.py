@@ -48,7 +48,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from pcmm_geo.artefacts._triangle import closest_on_triangles
 from pcmm_geo.errors import InvalidInputError
-from pcmm_geo.fit._core import as_points
+from pcmm_geo.fit._kernels._core import as_points
 from pcmm_geo.fit.scale import is_dask_array
 
 if TYPE_CHECKING:

@@ -34,7 +34,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from pcmm_geo.artefacts.cad_distance import SurfaceIndex
 from pcmm_geo.errors import ConvergenceError, IllConditionedWarning, InvalidInputError
-from pcmm_geo.fit._core import as_points
+from pcmm_geo.fit._kernels._core import as_points
 
 if TYPE_CHECKING:
     import trimesh

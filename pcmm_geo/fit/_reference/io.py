@@ -31,7 +31,7 @@ import numpy as np
 
 from pcmm_geo._atomic import write_atomic
 from pcmm_geo.errors import FileFormatError, InvalidInputError
-from pcmm_geo.fit._reference_elements import ReferenceDataSet
+from pcmm_geo.fit._reference.elements import ReferenceDataSet
 
 __all__ = ["read_reference_data", "write_nist_pair", "write_reference_data"]
 

@@ -126,7 +126,7 @@ def _handle_forward(args: argparse.Namespace) -> Report:
     rows = [[arm, float(sol.lasers[k]), float(sol.heights[k])] for k, arm in enumerate(ARM_NAMES)]
     plots = []
     if args.plot:
-        from pcmm_geo.plots.machine_state import plot_pose
+        from pcmm_geo.plots.machine.machine_state import plot_pose
 
         plots.append(str(plot_pose(machine, sol.heights, sol.tip, args.plot, residuals=sol.residuals,
                                    title="Forward kinematics: pose for the readings", overwrite=args.overwrite)))
@@ -154,7 +154,7 @@ def _handle_inverse(args: argparse.Namespace) -> Report:
     rows = [[arm, float(sol.lasers[k]), float(sol.heights[k])] for k, arm in enumerate(ARM_NAMES)]
     plots = []
     if args.plot:
-        from pcmm_geo.plots.machine_state import plot_pose
+        from pcmm_geo.plots.machine.machine_state import plot_pose
 
         plots.append(str(plot_pose(machine, sol.heights, args.tip, args.plot,
                                    title="Inverse kinematics: pose for the tip", overwrite=args.overwrite)))
@@ -179,7 +179,7 @@ def _handle_trilaterate(args: argparse.Namespace) -> Report:
     rows = [["lower (probe hangs below)", *result.lower.tolist()], ["upper", *result.upper.tolist()]]
     plots = []
     if args.plot:
-        from pcmm_geo.plots.machine_state import plot_trilateration
+        from pcmm_geo.plots.machine.machine_state import plot_trilateration
 
         plots.append(str(plot_trilateration(pivots, args.lengths, result.lower, result.upper, args.plot,
                                             overwrite=args.overwrite)))
