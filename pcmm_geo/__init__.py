@@ -32,6 +32,7 @@ from pcmm_geo.errors import (
     DeviceTimeoutError,
     FileFormatError,
     IllConditionedWarning,
+    IncompleteTestError,
     InvalidInputError,
     LogIntegrityError,
     MissingDependencyError,
@@ -61,6 +62,7 @@ __all__ = [
     "DeviceTimeoutError",
     "DeviceProtocolError",
     "LogIntegrityError",
+    "IncompleteTestError",
     "IllConditionedWarning",
     "require",
 ]

@@ -154,7 +154,7 @@ def fit_center_line(centers: ArrayLike, *, what: str) -> FittedLine:
     --------
     >>> import numpy as np
     >>> line = fit_center_line([[0, 0, 0], [0, 0, 1], [0, 0, 2.0]], what="a")
-    >>> bool(np.allclose(line.direction, [0, 0, 1])), round(line.straightness, 12)
+    >>> bool(np.allclose(line.direction, [0, 0, 1])), round(line.straightness, 12) + 0.0
     (True, 0.0)
     """
     from pcmm_geo.fit import fit_line
