@@ -138,36 +138,39 @@ def read_labelled_points(path: str | Path) -> LabelledPoints:
     points: list[list[float]] = []
     labels: list[str] = []
     lines: list[int] = []
-    with open(file, encoding="utf-8-sig") as handle:
-        for number, raw in enumerate(handle, start=1):
-            text = raw.strip()
-            if not text or text.startswith("#"):
+    try:
+        text_lines = file.read_text(encoding="utf-8-sig").splitlines()
+    except UnicodeDecodeError as exc:
+        raise FileFormatError(str(file), f"expected UTF-8 text, got undecodable bytes at byte {exc.start}") from None
+    for number, raw in enumerate(text_lines, start=1):
+        text = raw.strip()
+        if not text or text.startswith("#"):
+            continue
+        fields = _fields(text)
+        if label_column is None:
+            if sum(_is_number(f) for f in fields) < 3:  # the header
+                label_column, xyz = _header_columns(file, fields, number)
+                width = len(fields)
                 continue
-            fields = _fields(text)
-            if label_column is None:
-                if sum(_is_number(f) for f in fields) < 3:  # the header
-                    label_column, xyz = _header_columns(file, fields, number)
-                    width = len(fields)
-                    continue
-                if len(fields) != 4 or _is_number(fields[0]):
-                    raise FileFormatError(
-                        str(file), f"expected a header, or rows 'name,x,y,z' with a non-numeric name, got {text!r}",
-                        number,
-                    )
-                label_column, width = 0, 4
-            if len(fields) != width:
-                raise FileFormatError(str(file), f"expected {width} fields, got {len(fields)}: {text!r}", number)
-            try:
-                point = [float(fields[k]) for k in xyz]
-            except ValueError:
-                raise FileFormatError(str(file), f"expected numbers for x, y, z, got {text!r}", number) from None
-            if not all(np.isfinite(point)):
-                raise FileFormatError(str(file), f"expected finite coordinates, got {text!r}", number)
-            if not fields[label_column]:
-                raise FileFormatError(str(file), "expected a label, got an empty field", number)
-            points.append(point)
-            labels.append(fields[label_column])
-            lines.append(number)
+            if len(fields) != 4 or _is_number(fields[0]):
+                raise FileFormatError(
+                    str(file), f"expected a header, or rows 'name,x,y,z' with a non-numeric name, got {text!r}",
+                    number,
+                )
+            label_column, width = 0, 4
+        if len(fields) != width:
+            raise FileFormatError(str(file), f"expected {width} fields, got {len(fields)}: {text!r}", number)
+        try:
+            point = [float(fields[k]) for k in xyz]
+        except ValueError:
+            raise FileFormatError(str(file), f"expected numbers for x, y, z, got {text!r}", number) from None
+        if not all(np.isfinite(point)):
+            raise FileFormatError(str(file), f"expected finite coordinates, got {text!r}", number)
+        if not fields[label_column]:
+            raise FileFormatError(str(file), "expected a label, got an empty field", number)
+        points.append(point)
+        labels.append(fields[label_column])
+        lines.append(number)
     if not points:
         raise FileFormatError(str(file), "no points in the file")
     return LabelledPoints(np.asarray(points, dtype=float), tuple(labels), tuple(lines), str(file))
