@@ -51,8 +51,11 @@ EXTRAS_NEEDED = {
 
 def pytest_collection_modifyitems(config: pytest.Config, items: list[pytest.Item]) -> None:
     """Mark the tests of :data:`EXTRAS_NEEDED` with ``extras(<extra>)``."""
+    root = Path(__file__).parent
     for item in items:
-        module = Path(str(item.path)).relative_to(Path(__file__).parent).as_posix()
+        if not Path(str(item.path)).is_relative_to(root):  # the library's doctests
+            continue
+        module = Path(str(item.path)).relative_to(root).as_posix()
         function = getattr(item, "originalname", item.name)
         extra = EXTRAS_NEEDED.get(f"{module}::{function}") or EXTRAS_NEEDED.get(module)
         if extra is not None:
