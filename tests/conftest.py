@@ -22,6 +22,8 @@ def data_dir() -> Path:
 EXTRAS_NEEDED = {
     "acquisition/test_acq_cli.py": "acquire",
     "acquisition/test_acq_programme.py": "acquire",
+    "acquisition/test_acq_repeatable.py::test_pty_transport_still_runs_over_real_pseudo_terminals": "acquire",
+    "cli/test_bad_input.py::test_bad_file_gives_one_line_naming_it_and_exit_2[compare": "cad",
     "acquisition/test_acq_lasers.py": "acquire",
     "acquisition/test_acq_probe.py": "acquire",
     "acquisition/test_acq_session.py": "acquire",
@@ -57,7 +59,10 @@ def pytest_collection_modifyitems(config: pytest.Config, items: list[pytest.Item
             continue
         module = Path(str(item.path)).relative_to(root).as_posix()
         function = getattr(item, "originalname", item.name)
-        extra = EXTRAS_NEEDED.get(f"{module}::{function}") or EXTRAS_NEEDED.get(module)
+        # keys: a module, a test function, or the start of a parametrised test's id ("test[compare")
+        extra = EXTRAS_NEEDED.get(f"{module}::{function}") or EXTRAS_NEEDED.get(module) or next(
+            (value for key, value in EXTRAS_NEEDED.items()
+             if "[" in key and f"{module}::{item.name}".startswith(key)), None)
         if extra is not None:
             item.add_marker(pytest.mark.extras(extra))
 
