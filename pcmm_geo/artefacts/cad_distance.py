@@ -73,6 +73,12 @@ _PAIRS_PER_BLOCK = 1_000_000
 _FIRST_NEIGHBOURS = 6
 #: triangle size classes (half box diagonals within a factor 2 of each other, the last takes the rest)
 _SIZE_CLASSES = 8
+#: centroid neighbours listed per triangle (the local proof, step 3a)
+_LISTED_NEIGHBOURS = 16
+#: the neighbour lists reach this many largest triangle radii (fewer when a list is full)
+_LISTED_REACH = 3.0
+#: points tested against their neighbour lists at once
+_LISTED_POINTS_PER_BLOCK = 8192
 
 @dataclass(frozen=True)
 class SurfaceDistances:
@@ -190,6 +196,22 @@ def surface_distances(points: ArrayLike, mesh: trimesh.Trimesh, *, require_close
 
 
 @dataclass(frozen=True)
+class _NeighbourLists:
+    """Per triangle, the triangles whose centroids lie nearest to its own centroid.
+
+    ``listed[t]`` holds every triangle whose centroid is closer than ``complete_within[t]``
+    to the centroid of ``t`` (padded with ``t`` itself); ``centroids`` and ``radius`` (largest
+    centroid-to-corner distance, slightly enlarged) describe every triangle.
+    """
+
+    listed: IntArray
+    complete_within: FloatArray
+    centroids: FloatArray
+    radius: FloatArray
+    centroid_axes: tuple[FloatArray, FloatArray, FloatArray]
+
+
+@dataclass(frozen=True)
 class _SizeClass:
     """Triangles of similar size: a k-d tree over their centroids and their largest centroid-to-corner distance."""
 
@@ -218,6 +240,8 @@ class SurfaceIndex:
         Corners of each triangle's axis-aligned box (mm).
     size_classes : tuple
         Triangles grouped by size, each group with a k-d tree over its centroids.
+    neighbours : _NeighbourLists
+        For each triangle, the triangles with centroids nearest to its own (the local proof).
     scene_origin : ndarray, shape (3,)
         Centre of the mesh's box: the open3d scene holds ``vertices - scene_origin`` in float32.
     vertices, faces : ndarray
@@ -231,6 +255,7 @@ class SurfaceIndex:
     box_lower: FloatArray
     box_upper: FloatArray
     size_classes: tuple[_SizeClass, ...]
+    neighbours: _NeighbourLists
     scene_origin: FloatArray
     vertices: FloatArray
     faces: IntArray
@@ -265,7 +290,7 @@ class SurfaceIndex:
         lower, upper = triangles.min(axis=1), triangles.max(axis=1)
         return cls(triangles=triangles, face_normals=face_normals, edge_normals=edge_normals,
                    corner_normals=corner_normals, box_lower=lower, box_upper=upper,
-                   size_classes=_size_classes(triangles),
+                   size_classes=_size_classes(triangles), neighbours=_neighbour_lists(triangles),
                    scene_origin=(vertices.min(axis=0) + vertices.max(axis=0)) / 2, vertices=vertices, faces=faces)
 
     def __getstate__(self) -> dict[str, Any]:
@@ -344,10 +369,15 @@ class SurfaceIndex:
         """Nearest surface point, squared distance, triangle and barycentric weights of every point (exact)."""
         face_index = self.candidates(query)
         closest, squared, barycentric = closest_on_triangles(query, self.triangles[face_index])
-        # every triangle whose box is within the candidate's exact distance could be nearer
-        reach = np.sqrt(squared) * (1.0 + _SLACK) + _ROUNDING * (1.0 + np.abs(query).max(axis=1))
-        for group in self.size_classes:
-            point_of_pair, triangle_of_pair = _pairs_within(group, query, reach)
+        # every triangle within the candidate's exact distance could be nearer
+        rounding = _ROUNDING * (1.0 + np.abs(query).max(axis=1))
+        reach = np.sqrt(squared) * (1.0 + _SLACK) + rounding
+        found = [_listed_pairs(self.neighbours, query, reach, face_index, rounding)]
+        rest = found[0][2]
+        for group in self.size_classes if len(rest) else ():
+            point_of_pair, triangle_of_pair = _pairs_within(group, query[rest], reach[rest])
+            found.append((rest[point_of_pair], triangle_of_pair, rest))
+        for point_of_pair, triangle_of_pair, _ in found:
             for chunk in range(0, len(point_of_pair), _PAIRS_PER_BLOCK):
                 rows = slice(chunk, chunk + _PAIRS_PER_BLOCK)
                 self._keep_nearer(query, point_of_pair[rows], triangle_of_pair[rows], reach,
@@ -360,19 +390,21 @@ class SurfaceIndex:
         """Evaluate the pairs whose box lies within reach; keep (in place) any strictly nearer triangle."""
         other = triangle_of_pair != face_index[point_of_pair]
         point_of_pair, triangle_of_pair = point_of_pair[other], triangle_of_pair[other]
-        gap = np.maximum(np.maximum(self.box_lower[triangle_of_pair] - query[point_of_pair],
-                                    query[point_of_pair] - self.box_upper[triangle_of_pair]), 0.0)
-        keep = np.einsum("ij,ij->i", gap, gap) <= reach[point_of_pair] ** 2
-        point_of_pair, triangle_of_pair = point_of_pair[keep], triangle_of_pair[keep]
+        point = query[point_of_pair]
+        pair_reach = reach[point_of_pair]
+        gap = np.maximum(np.maximum(self.box_lower[triangle_of_pair] - point, point - self.box_upper[triangle_of_pair]),
+                         0.0)
+        keep = np.flatnonzero(np.einsum("ij,ij->i", gap, gap) <= pair_reach * pair_reach)
+        point_of_pair, triangle_of_pair, point, pair_reach = (point_of_pair[keep], triangle_of_pair[keep],
+                                                              point[keep], pair_reach[keep])
+        corners = self.triangles[triangle_of_pair]
         # the distance to a triangle's plane is a lower bound of the distance to the triangle
-        to_plane = np.einsum("ij,ij->i", query[point_of_pair] - self.triangles[triangle_of_pair, 0],
-                             self.face_normals[triangle_of_pair])
-        keep = np.abs(to_plane) <= reach[point_of_pair] * (1.0 + _SLACK)
-        point_of_pair, triangle_of_pair = point_of_pair[keep], triangle_of_pair[keep]
-        if len(point_of_pair) == 0:
+        to_plane = np.einsum("ij,ij->i", point - corners[:, 0], self.face_normals[triangle_of_pair])
+        keep = np.flatnonzero(np.abs(to_plane) <= pair_reach * (1.0 + _SLACK))
+        if len(keep) == 0:
             return
-        on_triangle, pair_squared, pair_weights = closest_on_triangles(query[point_of_pair],
-                                                                       self.triangles[triangle_of_pair])
+        point_of_pair, triangle_of_pair = point_of_pair[keep], triangle_of_pair[keep]
+        on_triangle, pair_squared, pair_weights = closest_on_triangles(point[keep], corners[keep])
         order = np.lexsort((triangle_of_pair, pair_squared, point_of_pair))
         first = order[np.r_[True, point_of_pair[order][1:] != point_of_pair[order][:-1]]]
         winners = first[pair_squared[first] < squared[point_of_pair[first]]]
@@ -466,3 +498,51 @@ def _pairs_within(group: _SizeClass, query: FloatArray, reach: FloatArray) -> tu
         rows = rows[~complete]
         asked *= 4
     return np.concatenate(points), np.concatenate(triangles)
+
+
+def _neighbour_lists(triangles: FloatArray) -> _NeighbourLists:
+    """The centroid neighbour lists of every triangle (see :func:`_listed_pairs`)."""
+    from scipy.spatial import cKDTree
+
+    centroids = triangles.mean(axis=1)
+    radius = np.linalg.norm(triangles - centroids[:, None, :], axis=2).max(axis=1) * (1.0 + _SLACK)
+    count = min(_LISTED_NEIGHBOURS, len(triangles))
+    bound = _LISTED_REACH * float(radius.max())
+    distance, listed = cKDTree(centroids).query(centroids, k=count, distance_upper_bound=bound)
+    distance, listed = distance.reshape(len(centroids), count), listed.reshape(len(centroids), count)
+    # a full list is complete only below its last distance; rounding of the distances is allowed for
+    within = np.where(np.isfinite(distance[:, -1]), distance[:, -1], bound)
+    within = within * (1.0 - _SLACK) - _ROUNDING * (1.0 + np.abs(centroids).max(axis=1))
+    own = np.arange(len(triangles))[:, None]
+    listed = np.where(listed < len(triangles), listed, own)
+    return _NeighbourLists(listed=listed, complete_within=within, centroids=centroids, radius=radius,
+                           centroid_axes=tuple(np.ascontiguousarray(centroids[:, axis]) for axis in range(3)))
+
+
+def _listed_pairs(lists: _NeighbourLists, query: FloatArray, reach: FloatArray, face_index: IntArray,
+                  rounding: FloatArray) -> tuple[IntArray, IntArray, IntArray]:
+    """Pairs (point, triangle) that could lie within ``reach``, from the candidate's neighbour list.
+
+    A triangle ``t`` within ``reach`` of point ``p`` has its centroid within ``reach + r_t`` of
+    ``p`` and so within ``reach + r_max + |p - c|`` of the candidate's centroid ``c`` (triangle
+    inequality).  Where that is below the list's completeness radius, the list holds every
+    such triangle and no tree search is needed.  Returns the pairs and the rows of the points
+    the lists cannot answer (left to the k-d trees).
+    """
+    to_candidate = np.linalg.norm(query - lists.centroids[face_index], axis=1)
+    needed = (reach + float(lists.radius.max()) + to_candidate) * (1.0 + _SLACK) + rounding
+    local = needed < lists.complete_within[face_index]
+    points, triangles = [], []
+    # blocks of points and one coordinate at a time: (points, neighbours) temporaries stay small
+    for start in range(0, len(query), _LISTED_POINTS_PER_BLOCK):
+        rows = start + np.flatnonzero(local[start:start + _LISTED_POINTS_PER_BLOCK])
+        listed = lists.listed[face_index[rows]]
+        limit = reach[rows, None] + lists.radius[listed]
+        squared = np.zeros(listed.shape)
+        for axis in range(3):
+            offset = lists.centroid_axes[axis][listed] - query[rows, axis, None]
+            squared += offset * offset
+        pair_row, pair_column = np.nonzero((squared <= limit * limit) & (listed != face_index[rows, None]))
+        points.append(rows[pair_row])
+        triangles.append(listed[pair_row, pair_column])
+    return np.concatenate(points), np.concatenate(triangles), np.flatnonzero(~local)
