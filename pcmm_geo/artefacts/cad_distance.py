@@ -9,10 +9,16 @@ The nearest surface point of every query point is found in three steps
 2. **upper bound** -- the distance ``d0`` from the point to that triangle is evaluated in
    double precision.  It is the distance to an actual triangle, so the true nearest
    triangle is never farther than ``d0``, whatever the single-precision search did;
-3. **proof or correction** -- every triangle whose axis-aligned box comes within ``d0``
-   (with a relative slack of 1e-9 for rounding) is found with scipy k-d trees over the
-   triangle centroids (one tree per size class, searched to ``d0`` plus the class's largest
-   centroid-to-corner distance) and evaluated in double precision; the nearest is kept.
+3. **proof or correction** -- every triangle that could come within ``d0`` (with a relative
+   slack of 1e-9 for rounding) is evaluated in double precision and the nearest is kept.
+   Such a triangle has its centroid within ``d0`` plus its own centroid-to-corner radius of
+   the point.  Most points are answered from a list, made once per triangle, of the
+   triangles with the nearest centroids: when ``d0`` plus the largest radius plus the
+   point's distance from the candidate's centroid stays below the radius up to which that
+   list is complete, the list holds every such triangle (triangle inequality), so no search
+   is needed.  The other points search scipy k-d trees over the centroids (one per size
+   class, to ``d0`` plus the class's largest radius).  Box and plane lower bounds discard
+   most pairs before the exact evaluation.
 
 No float32 error bound is needed for correctness: step 3 only relies on ``d0``, a double
 precision distance to a real triangle.  The float32 error (of order 1e-7 of the coordinates)
@@ -46,7 +52,17 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from pcmm_geo.artefacts._triangle import closest_on_triangles
+from pcmm_geo.artefacts._triangle import (
+    ROUNDING,
+    SLACK,
+    NeighbourLists,
+    SizeClass,
+    closest_on_triangles,
+    listed_pairs,
+    neighbour_lists,
+    pairs_within,
+    size_classes,
+)
 from pcmm_geo.errors import InvalidInputError
 from pcmm_geo.fit._core import as_points
 from pcmm_geo.fit.scale import is_dask_array
@@ -61,25 +77,10 @@ IntArray = NDArray[np.int64]
 
 #: barycentric coordinate below which a nearest point counts as lying on an edge or vertex
 _ON_BOUNDARY = 1e-9
-#: distances below this fraction of the coordinates' size are rounding noise
-_ROUNDING = 1e-12
-#: relative slack on the search distance (rounding of box and triangle distances)
-_SLACK = 1e-9
 #: points handled at once (bounds the memory of the candidate pairs)
 _POINTS_PER_BLOCK = 65_536
 #: point-triangle pairs evaluated at once
 _PAIRS_PER_BLOCK = 1_000_000
-#: neighbours asked of a k-d tree first (more for the points that have more within reach)
-_FIRST_NEIGHBOURS = 6
-#: triangle size classes (half box diagonals within a factor 2 of each other, the last takes the rest)
-_SIZE_CLASSES = 8
-#: centroid neighbours listed per triangle (the local proof, step 3a)
-_LISTED_NEIGHBOURS = 16
-#: the neighbour lists reach this many largest triangle radii (fewer when a list is full)
-_LISTED_REACH = 3.0
-#: points tested against their neighbour lists at once
-_LISTED_POINTS_PER_BLOCK = 8192
-
 @dataclass(frozen=True)
 class SurfaceDistances:
     """Nearest surface points and signed distances of points from a mesh.
@@ -195,32 +196,6 @@ def surface_distances(points: ArrayLike, mesh: trimesh.Trimesh, *, require_close
     return index.distances(points)
 
 
-@dataclass(frozen=True)
-class _NeighbourLists:
-    """Per triangle, the triangles whose centroids lie nearest to its own centroid.
-
-    ``listed[t]`` holds every triangle whose centroid is closer than ``complete_within[t]``
-    to the centroid of ``t`` (padded with ``t`` itself); ``centroids`` and ``radius`` (largest
-    centroid-to-corner distance, slightly enlarged) describe every triangle.
-    """
-
-    listed: IntArray
-    complete_within: FloatArray
-    centroids: FloatArray
-    radius: FloatArray
-    centroid_axes: tuple[FloatArray, FloatArray, FloatArray]
-
-
-@dataclass(frozen=True)
-class _SizeClass:
-    """Triangles of similar size: a k-d tree over their centroids and their largest centroid-to-corner distance."""
-
-    members: IntArray
-    tree: Any
-    reach: float
-    member_reach: FloatArray
-
-
 @dataclass(frozen=True, eq=False)
 class SurfaceIndex:
     """A mesh prepared for repeated exact distance queries (build once with :meth:`build`).
@@ -240,7 +215,7 @@ class SurfaceIndex:
         Corners of each triangle's axis-aligned box (mm).
     size_classes : tuple
         Triangles grouped by size, each group with a k-d tree over its centroids.
-    neighbours : _NeighbourLists
+    neighbours : NeighbourLists
         For each triangle, the triangles with centroids nearest to its own (the local proof).
     scene_origin : ndarray, shape (3,)
         Centre of the mesh's box: the open3d scene holds ``vertices - scene_origin`` in float32.
@@ -254,8 +229,8 @@ class SurfaceIndex:
     corner_normals: FloatArray
     box_lower: FloatArray
     box_upper: FloatArray
-    size_classes: tuple[_SizeClass, ...]
-    neighbours: _NeighbourLists
+    size_classes: tuple[SizeClass, ...]
+    neighbours: NeighbourLists
     scene_origin: FloatArray
     vertices: FloatArray
     faces: IntArray
@@ -290,7 +265,7 @@ class SurfaceIndex:
         lower, upper = triangles.min(axis=1), triangles.max(axis=1)
         return cls(triangles=triangles, face_normals=face_normals, edge_normals=edge_normals,
                    corner_normals=corner_normals, box_lower=lower, box_upper=upper,
-                   size_classes=_size_classes(triangles), neighbours=_neighbour_lists(triangles),
+                   size_classes=size_classes(triangles), neighbours=neighbour_lists(triangles),
                    scene_origin=(vertices.min(axis=0) + vertices.max(axis=0)) / 2, vertices=vertices, faces=faces)
 
     def __getstate__(self) -> dict[str, Any]:
@@ -350,7 +325,7 @@ class SurfaceIndex:
         signed = sign * distance
         # nearest point inside a face: the gradient is that face's normal, exactly; at an edge or
         # a vertex it points from the nearest point, unless the distance is down at rounding level
-        rounding = _ROUNDING * (1.0 + np.abs(query).max(axis=1))
+        rounding = ROUNDING * (1.0 + np.abs(query).max(axis=1))
         from_feature = ~inside_face & (distance > rounding)
         direction = pseudo_normal.copy()
         direction[from_feature] = offset[from_feature] / signed[from_feature, None]
@@ -370,12 +345,12 @@ class SurfaceIndex:
         face_index = self.candidates(query)
         closest, squared, barycentric = closest_on_triangles(query, self.triangles[face_index])
         # every triangle within the candidate's exact distance could be nearer
-        rounding = _ROUNDING * (1.0 + np.abs(query).max(axis=1))
-        reach = np.sqrt(squared) * (1.0 + _SLACK) + rounding
-        found = [_listed_pairs(self.neighbours, query, reach, face_index, rounding)]
+        rounding = ROUNDING * (1.0 + np.abs(query).max(axis=1))
+        reach = np.sqrt(squared) * (1.0 + SLACK) + rounding
+        found = [listed_pairs(self.neighbours, query, reach, face_index, rounding)]
         rest = found[0][2]
         for group in self.size_classes if len(rest) else ():
-            point_of_pair, triangle_of_pair = _pairs_within(group, query[rest], reach[rest])
+            point_of_pair, triangle_of_pair = pairs_within(group, query[rest], reach[rest])
             found.append((rest[point_of_pair], triangle_of_pair, rest))
         for point_of_pair, triangle_of_pair, _ in found:
             for chunk in range(0, len(point_of_pair), _PAIRS_PER_BLOCK):
@@ -400,7 +375,7 @@ class SurfaceIndex:
         corners = self.triangles[triangle_of_pair]
         # the distance to a triangle's plane is a lower bound of the distance to the triangle
         to_plane = np.einsum("ij,ij->i", point - corners[:, 0], self.face_normals[triangle_of_pair])
-        keep = np.flatnonzero(np.abs(to_plane) <= pair_reach * (1.0 + _SLACK))
+        keep = np.flatnonzero(np.abs(to_plane) <= pair_reach * (1.0 + SLACK))
         if len(keep) == 0:
             return
         point_of_pair, triangle_of_pair = point_of_pair[keep], triangle_of_pair[keep]
@@ -452,97 +427,3 @@ def _feature_normals(mesh: trimesh.Trimesh, triangles: FloatArray) -> tuple[Floa
     vertex_sum = np.zeros((len(mesh.vertices), 3))
     np.add.at(vertex_sum, faces.ravel(), (face_normals[:, None, :] * corner_angles[:, :, None]).reshape(-1, 3))
     return face_normals, edge_sum[unique_edges], vertex_sum[faces]
-
-
-def _size_classes(triangles: FloatArray) -> tuple[_SizeClass, ...]:
-    """Triangles grouped by circumscribing radius about the centroid (factor 2 per group), with k-d trees.
-
-    Every point of a triangle lies within its largest centroid-to-corner distance of its
-    centroid, so a triangle within ``d`` of a point has its centroid within ``d`` plus
-    that radius.
-    """
-    from scipy.spatial import cKDTree
-
-    centroids = triangles.mean(axis=1)
-    radius = np.linalg.norm(triangles - centroids[:, None, :], axis=2).max(axis=1) * (1.0 + _SLACK)
-    largest = max(float(radius.max()), 1e-300)
-    with np.errstate(divide="ignore"):
-        level = np.floor(np.log2(largest / np.maximum(radius, 1e-300)))
-    level = np.clip(level, 0, _SIZE_CLASSES - 1).astype(np.int64)
-    groups = []
-    for value in np.unique(level):
-        members = np.flatnonzero(level == value)
-        groups.append(_SizeClass(members=members, tree=cKDTree(centroids[members]),
-                                 reach=float(radius[members].max()), member_reach=radius[members]))
-    return tuple(groups)
-
-
-def _pairs_within(group: _SizeClass, query: FloatArray, reach: FloatArray) -> tuple[IntArray, IntArray]:
-    """Point-triangle pairs with the centroid within the point's ``reach`` plus the triangle's own radius."""
-    count = len(group.members)
-    rows = np.arange(len(query))
-    radius = reach + group.reach
-    asked = _FIRST_NEIGHBOURS
-    points, triangles = [], []
-    while rows.size:
-        asked = min(asked, count)
-        distance, neighbour = group.tree.query(query[rows], k=asked, distance_upper_bound=float(radius[rows].max()),
-                                               workers=-1)
-        distance, neighbour = distance.reshape(len(rows), -1), neighbour.reshape(len(rows), -1)
-        complete = ~(distance[:, -1] <= radius[rows]) | (asked == count)
-        member = np.minimum(neighbour, count - 1)
-        close = (distance <= reach[rows, None] + group.member_reach[member]) & complete[:, None]
-        pair_row, pair_column = np.nonzero(close)
-        points.append(rows[pair_row])
-        triangles.append(group.members[member[pair_row, pair_column]])
-        rows = rows[~complete]
-        asked *= 4
-    return np.concatenate(points), np.concatenate(triangles)
-
-
-def _neighbour_lists(triangles: FloatArray) -> _NeighbourLists:
-    """The centroid neighbour lists of every triangle (see :func:`_listed_pairs`)."""
-    from scipy.spatial import cKDTree
-
-    centroids = triangles.mean(axis=1)
-    radius = np.linalg.norm(triangles - centroids[:, None, :], axis=2).max(axis=1) * (1.0 + _SLACK)
-    count = min(_LISTED_NEIGHBOURS, len(triangles))
-    bound = _LISTED_REACH * float(radius.max())
-    distance, listed = cKDTree(centroids).query(centroids, k=count, distance_upper_bound=bound)
-    distance, listed = distance.reshape(len(centroids), count), listed.reshape(len(centroids), count)
-    # a full list is complete only below its last distance; rounding of the distances is allowed for
-    within = np.where(np.isfinite(distance[:, -1]), distance[:, -1], bound)
-    within = within * (1.0 - _SLACK) - _ROUNDING * (1.0 + np.abs(centroids).max(axis=1))
-    own = np.arange(len(triangles))[:, None]
-    listed = np.where(listed < len(triangles), listed, own)
-    return _NeighbourLists(listed=listed, complete_within=within, centroids=centroids, radius=radius,
-                           centroid_axes=tuple(np.ascontiguousarray(centroids[:, axis]) for axis in range(3)))
-
-
-def _listed_pairs(lists: _NeighbourLists, query: FloatArray, reach: FloatArray, face_index: IntArray,
-                  rounding: FloatArray) -> tuple[IntArray, IntArray, IntArray]:
-    """Pairs (point, triangle) that could lie within ``reach``, from the candidate's neighbour list.
-
-    A triangle ``t`` within ``reach`` of point ``p`` has its centroid within ``reach + r_t`` of
-    ``p`` and so within ``reach + r_max + |p - c|`` of the candidate's centroid ``c`` (triangle
-    inequality).  Where that is below the list's completeness radius, the list holds every
-    such triangle and no tree search is needed.  Returns the pairs and the rows of the points
-    the lists cannot answer (left to the k-d trees).
-    """
-    to_candidate = np.linalg.norm(query - lists.centroids[face_index], axis=1)
-    needed = (reach + float(lists.radius.max()) + to_candidate) * (1.0 + _SLACK) + rounding
-    local = needed < lists.complete_within[face_index]
-    points, triangles = [], []
-    # blocks of points and one coordinate at a time: (points, neighbours) temporaries stay small
-    for start in range(0, len(query), _LISTED_POINTS_PER_BLOCK):
-        rows = start + np.flatnonzero(local[start:start + _LISTED_POINTS_PER_BLOCK])
-        listed = lists.listed[face_index[rows]]
-        limit = reach[rows, None] + lists.radius[listed]
-        squared = np.zeros(listed.shape)
-        for axis in range(3):
-            offset = lists.centroid_axes[axis][listed] - query[rows, axis, None]
-            squared += offset * offset
-        pair_row, pair_column = np.nonzero((squared <= limit * limit) & (listed != face_index[rows, None]))
-        points.append(rows[pair_row])
-        triangles.append(listed[pair_row, pair_column])
-    return np.concatenate(points), np.concatenate(triangles), np.flatnonzero(~local)
