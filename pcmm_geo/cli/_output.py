@@ -10,6 +10,8 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+from pcmm_geo.cli._record import CovarianceBlock, Provenance, UncertaintyEntry, Verdict
+
 REPORT_SUFFIXES = (".md", ".html", ".htm")
 
 EXIT_OK = 0
@@ -31,6 +33,8 @@ class Report:
     """What a handler returns: JSON-ready ``data`` plus human ``tables`` and free ``lines``.
 
     ``plots`` lists the image files the handler wrote; ``--report`` embeds or links them.
+    ``verdict``, ``uncertainties`` and ``covariances`` are the slots a ``--report`` renders as
+    its verdict and uncertainty sections; ``provenance`` is filled by :func:`run_handler`.
     """
 
     data: dict[str, Any]
@@ -38,6 +42,10 @@ class Report:
     lines: list[str] = field(default_factory=list)
     exit_code: int = EXIT_OK
     plots: list[str] = field(default_factory=list)
+    verdict: Verdict | None = None
+    uncertainties: list[UncertaintyEntry] = field(default_factory=list)
+    covariances: list[CovarianceBlock] = field(default_factory=list)
+    provenance: Provenance | None = None
 
 
 def add_json_flag(parser: argparse.ArgumentParser) -> None:
@@ -137,6 +145,44 @@ def to_jsonable(value: Any) -> Any:
     return value
 
 
+def uncertainty_tables(report: Report, *, correlations: bool = True) -> list[Table]:
+    """The report's uncertainty slots as tables: one of the entries, one correlation matrix per block.
+
+    The terminal shows the entries only (``correlations=False``); ``--report`` shows both.
+
+    Examples
+    --------
+    >>> from pcmm_geo.cli._record import UncertaintyEntry
+    >>> entry = UncertaintyEntry("L", 100.0, 2e-4, "mm", 2.0, method="GUM")
+    >>> table = uncertainty_tables(Report({}, uncertainties=[entry]))[0]
+    >>> table.title, table.columns, table.rows[0][5]
+    ('Standard uncertainties (GUM)', ['quantity', 'value', 'u', 'unit', 'k', 'U = k u'], 0.0004)
+    """
+    tables = []
+    entries = report.uncertainties
+    if entries:
+        methods = {e.method for e in entries}
+        shared = methods.pop() if len(methods) == 1 else None
+        expanded = any(e.coverage_factor is not None for e in entries)
+        columns = ["quantity", "value", "u", "unit"] + (["k", "U = k u"] if expanded else [])
+        columns += [] if shared is not None else ["method"]
+        rows = []
+        for e in entries:
+            row = [e.quantity, e.value, e.standard_uncertainty, e.unit]
+            if expanded:
+                row += ["-" if e.coverage_factor is None else e.coverage_factor,
+                        "-" if e.expanded_uncertainty is None else e.expanded_uncertainty]
+            rows.append(row + ([] if shared is not None else [e.method]))
+        # one method for all entries goes in the title, not in every row
+        tables.append(Table("Standard uncertainties" + (f" ({shared})" if shared else ""), columns, rows))
+    for block in report.covariances if correlations else ():
+        names = list(block.names)
+        tables.append(Table(f"{block.title}: correlation coefficients", ["", *names],
+                            [[name, *(f"{round(value, 3) + 0.0:.3f}" for value in row)]
+                             for name, row in zip(names, block.correlation(), strict=True)]))
+    return tables
+
+
 def print_report(report: Report, as_json: bool) -> None:
     if as_json:
         json.dump(to_jsonable(report.data), sys.stdout, indent=2, allow_nan=False)
@@ -145,6 +191,7 @@ def print_report(report: Report, as_json: bool) -> None:
     blocks = [render_table(t) for t in report.tables]
     if report.lines:
         blocks.append("\n".join(report.lines))
+    blocks += [render_table(t) for t in uncertainty_tables(report, correlations=False)]
     if blocks:  # a command that printed its own output (pcmm batch) returns an empty report
         print("\n\n".join(blocks))
 

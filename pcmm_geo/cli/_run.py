@@ -10,16 +10,29 @@ import argparse
 import sys
 
 from pcmm_geo.cli._output import EXIT_USAGE, check_output_paths, print_report
+from pcmm_geo.cli._record import input_paths, software_versions, start_provenance
 from pcmm_geo.cli._report import write_report
 from pcmm_geo.errors import OutputExistsError, PcmmGeoError
 
 
+def report_title(args: argparse.Namespace) -> str:
+    """``"pcmm COMMAND [ACTION]"``, e.g. ``"pcmm thermal correct-length"``."""
+    action = getattr(args, "action", None)
+    return f"pcmm {args.command}" + (f" {action}" if isinstance(action, str) else "")
+
+
 def run_handler(args: argparse.Namespace) -> int:
+    wants_report = bool(getattr(args, "shared_report_flag", False) and getattr(args, "report", None))
     try:
         check_output_paths(args)
+        if wants_report:  # inputs are hashed before the handler reads them, outputs do not exist yet
+            provenance = start_provenance(getattr(args, "command_line", None) or ["pcmm", args.command],
+                                          input_paths(args))
         report = args.handler(args)
-        if getattr(args, "shared_report_flag", False) and getattr(args, "report", None):
-            written = write_report(report, args.report, title=f"pcmm {args.command}",
+        if wants_report:
+            provenance.versions = software_versions()
+            report.provenance = provenance
+            written = write_report(report, args.report, title=report_title(args),
                                    command=getattr(args, "command_line", None),
                                    overwrite=bool(getattr(args, "overwrite", False)))
             report.data["report"] = str(written)

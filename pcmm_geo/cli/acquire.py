@@ -15,14 +15,14 @@ def register(subparsers: Any) -> None:
         "acquire",
         help="acquisition session: home, pre-sequence, moves with start/stop rows (thesis Table 3.2) to a CSV log",
         description=(
-            "Drive the three Zaber stages, read lasers a, b, c and the probe after each move and append seed "
+            "Drive the three Zaber stages, read lasers a, b, c and the probe after each move and append thesis "
             "Table 3.2 rows (plus raw values) to an fsync'ed CSV log. --simulate runs the simulated micro-CMM on "
             "pseudo-terminals, optionally with injected faults."
         ),
     )
     parser.add_argument("--simulate", action="store_true", help="use the simulated machine (pseudo-terminals)")
     parser.add_argument("--moves", type=int, default=20, help="number of logged moves (default 20)")
-    parser.add_argument("--settle", type=float, default=2.6, help="settling wait after each move, s (seed 2.6)")
+    parser.add_argument("--settle", type=float, default=2.6, help="settling wait after each move, s (thesis 2.6)")
     parser.add_argument("--fault-rate", type=float, default=0.0, help="simulated fault probability per reply/window")
     parser.add_argument("--seed", type=int, default=0, help="seed of the move programme and the simulation")
     parser.add_argument("--out", required=True, help="CSV log to create (refuses to overwrite)")
@@ -33,7 +33,7 @@ def register(subparsers: Any) -> None:
     parser.add_argument("--repair", action="store_true", help="with --resume: cut a partial last row and report it")
     parser.add_argument("--step-mm", type=float, default=4.0, help="largest motor step of the programme, mm")
     parser.add_argument("--no-presequence", action="store_true", help="skip the settling pre-sequence")
-    parser.add_argument("--defects", action="store_true", help="simulate the seed's dead spot and settling scatter")
+    parser.add_argument("--defects", action="store_true", help="simulate the thesis' dead spot and settling scatter")
     parser.add_argument("--probe-mode", choices=("pin", "text"), default="pin", help="Arduino firmware mode")
     parser.add_argument(
         "--timeout", type=float, default=None, help="device reply timeout, s (default 0.5; simulated 0.1)"
@@ -41,7 +41,7 @@ def register(subparsers: Any) -> None:
     parser.add_argument(
         "--move-timeout", type=float, default=None, help="timeout of a motion reply, s (default 60; simulated 1)"
     )
-    parser.add_argument("--port-zaber", help="port of the Zaber chain (real hardware; seed COM11)")
+    parser.add_argument("--port-zaber", help="port of the Zaber chain (real hardware; thesis COM11)")
     for arm in _ARMS:
         parser.add_argument(f"--port-laser-{arm}", help=f"port of laser {arm}")
     parser.add_argument("--port-probe", help="port of the probe Arduino")

@@ -6,6 +6,7 @@ import argparse
 from typing import Any
 
 from pcmm_geo.cli._output import Report, Table, add_json_flag, add_plot_flag, add_report_flag
+from pcmm_geo.cli._record import UncertaintyEntry
 
 
 def register(subparsers: Any) -> None:
@@ -13,9 +14,9 @@ def register(subparsers: Any) -> None:
         "calibrate",
         help="calibrate the tetrahedron from external-CMM probings and laser readings (thesis ch. 7)",
         description=(
-            "Fit the probed joint and tip spheres, the slider lines and laser scales, and report the seed's "
+            "Fit the probed joint and tip spheres, the slider lines and laser scales, and report the thesis' "
             "dead distances d (eq 7.3), arm angles beta (eq 7.4, corrected) and b (eq 7.5). PROBINGS.csv is "
-            "feature,position,x,y,z (feature joint_a|joint_b|joint_c|tip) or the seed's x,y,z,d,r export; "
+            "feature,position,x,y,z (feature joint_a|joint_b|joint_c|tip) or the thesis' x,y,z,d,r export; "
             "LASERS.csv is position,laser_a,laser_b,laser_c (mm)."
         ),
     )
@@ -84,24 +85,22 @@ def _handle(args: argparse.Namespace) -> Report:
                      line.laser_offset, line.straightness, line.tip_offset])
     arms = Table(
         "Tetrahedron calibration (Table 7.1 layout)",
-        ["arm", "d (mm)", "pair", "beta (deg)", "b (mm)", "laser scale", "laser offset (mm)", "straightness (mm)",
-         "tip offset (mm)"],
+        ["arm", "d / mm", "pair", "beta / deg", "b / mm", "laser scale", "laser offset / mm", "straightness / mm",
+         "tip offset / mm"],
         rows,
     )
     geometry = Table(
         "Geometry",
-        ["quantity", "x (mm)", "y (mm)", "z (mm)"],
+        ["quantity", "x / mm", "y / mm", "z / mm"],
         [["tip centre", *cal.tip_centre.tolist()], ["probe point eq 7.2 (least squares)", *cal.probe_point.tolist()],
-         ["probe point (seed pairwise)", *cal.probe_point_pairwise.tolist()]],
+         ["probe point (thesis pairwise)", *cal.probe_point_pairwise.tolist()]],
     )
-    lines.insert(0, "skew distances (mm): " + ", ".join(f"{k} {v:.4f}" for k, v in cal.skew_distances.items()))
-    tables = [arms, geometry]
+    lines.insert(0, "skew distances / mm: " + ", ".join(f"{k} {v:.4f}" for k, v in cal.skew_distances.items()))
+    uncertainties = []
     if covariance is not None:
-        tables.append(Table(
-            f"Standard uncertainties (GUM linear; probing u = {1000 * args.probing_u:g} um, "
-            f"laser u = {1000 * args.laser_u:g} um)",
-            ["parameter", "value", "u", "unit"],
-            [[row["name"], row["value"], row["standard_uncertainty"], row["unit"]] for row in covariance.table()],
-        ))
-    return Report(data=data, tables=tables, lines=lines, plots=plots)
+        method = (f"{covariance.method}; probing u = {1000 * args.probing_u:g} µm, "
+                  f"laser u = {1000 * args.laser_u:g} µm")
+        uncertainties = [UncertaintyEntry(row["name"], row["value"], row["standard_uncertainty"], row["unit"],
+                                          method=method) for row in covariance.table()]
+    return Report(data=data, tables=[arms, geometry], lines=lines, plots=plots, uncertainties=uncertainties)
 

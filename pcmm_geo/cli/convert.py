@@ -18,7 +18,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         description=(
             "Convert IN to OUT, formats chosen by suffix.  Points: .csv .txt .xyz .ds .dat .asc (text), "
             ".ply .pcd (point clouds).  Meshes: .stl .obj .ply (a .ply with faces is read as a mesh).  The "
-            "seed's element export (header x,y,z,d,r) is read as its sphere centres.  A mesh written as "
+            "thesis' element export (header x,y,z,d,r) is read as its sphere centres.  A mesh written as "
             "points gives its vertices, or --sample N points spread evenly over its surface.  Refuses to "
             "replace OUT unless --overwrite."
         ),
@@ -124,7 +124,7 @@ def _ply_has_faces(path: Path) -> bool:
 
 
 def _is_element_export(path: Path) -> bool:
-    """Whether a text file starts with the seed's ``x,y,z,d,r`` header (comments and blank lines skipped)."""
+    """Whether a text file starts with the thesis' ``x,y,z,d,r`` header (comments and blank lines skipped)."""
     try:
         with open(path, encoding="utf-8-sig") as handle:
             for line in handle:

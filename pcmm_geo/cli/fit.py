@@ -14,6 +14,7 @@ from pcmm_geo.cli._output import (
     add_plot_flag,
     add_report_flag,
 )
+from pcmm_geo.cli._record import CovarianceBlock
 
 _CRITERION_TITLES = {
     "gaussian": "Gaussian least squares",
@@ -106,7 +107,7 @@ def handle(args: argparse.Namespace) -> Report:
     tables = [
         Table(
             f"{args.element} fit of {args.file} ({_CRITERION_TITLES[args.criterion]})",
-            ["parameter", "value", "u (1 sigma)", "unit"],
+            ["parameter", "value", "u (k = 1)", "unit"],
             rows,
         ),
         Table(
@@ -125,11 +126,15 @@ def handle(args: argparse.Namespace) -> Report:
     if args.plot is not None:
         from pcmm_geo.plots.fit_residuals import plot_fit_residuals
 
-        written = plot_fit_residuals(result, args.plot, element=args.element, overwrite=args.overwrite)
+        written = plot_fit_residuals(result, args.plot, points=points, element=args.element,
+                                     overwrite=args.overwrite)
         data["plot"] = str(written)
         plots.append(str(written))
         lines.append(f"plot: {written}")
-    return Report(data=data, tables=tables, lines=lines, plots=plots)
+    covariance = np.asarray(result.covariance, dtype=float)
+    blocks = [CovarianceBlock(f"{args.element} fit parameters", tuple(result.parameter_names), covariance)] \
+        if covariance.size and np.all(np.isfinite(covariance)) and np.any(np.diag(covariance) > 0) else []
+    return Report(data=data, tables=tables, lines=lines, plots=plots, covariances=blocks)
 
 
 def _geometry_rows(result: Any) -> list[tuple[str, float]]:

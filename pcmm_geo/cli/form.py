@@ -78,4 +78,11 @@ def handle(args: argparse.Namespace) -> Report:
         plots.append(str(written))
         lines.append(f"plot: {written}")
     exit_code = EXIT_FAILURE if evaluation.tolerance is not None and evaluation.passed is not True else 0
-    return Report(data=data, tables=tables, lines=lines, plots=plots, exit_code=exit_code)
+    verdict = None
+    if evaluation.tolerance is not None:
+        from pcmm_geo.cli._record import Verdict
+
+        verdict = Verdict(evaluation.passed, f"{evaluation.characteristic}: {evaluation.verdict}",
+                          f"minimum-zone width <= {1000.0 * evaluation.tolerance:g} µm; a zone within the tolerance "
+                          "proves pass even uncertified, fail needs a certified zone")
+    return Report(data=data, tables=tables, lines=lines, plots=plots, exit_code=exit_code, verdict=verdict)

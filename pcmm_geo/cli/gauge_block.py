@@ -1,4 +1,4 @@
-"""``pcmm gauge-block FILE``: gauge block length from points labelled by face (ISO 3650 and the seed's method)."""
+"""``pcmm gauge-block FILE``: gauge block length from points labelled by face (ISO 3650 and the thesis' method)."""
 
 from __future__ import annotations
 
@@ -19,7 +19,7 @@ from pcmm_geo.cli._output import (
 def register(subparsers: Any) -> None:
     parser = subparsers.add_parser(
         "gauge-block",
-        help="gauge block central length from probed faces (ISO 3650 method and the seed's eqs 5.1-5.3)",
+        help="gauge block central length from probed faces (ISO 3650 method and the thesis' eqs 5.1-5.3)",
         description=(
             "Evaluate a gauge block from a CSV with header face,x,y,z (mm); face is face_1, face_2 "
             "(measuring faces, >= 3 points each), top or side (reference faces, >= 3 points each, optional)."
@@ -68,13 +68,13 @@ def _handle(args: argparse.Namespace) -> Report:
     if seed is not None:
         rows += [
             ["exact projection (top x side)", result.projected_length],
-            ["seed eqs 5.1-5.3 length", seed.length],
+            ["thesis eqs 5.1-5.3 length", seed.length],
             ["two-point distance", seed.vector_length],
         ]
     lines = []
     if seed is not None:
         lines.append(
-            f"seed angles: phi = {math.degrees(seed.phi):.4f} deg, theta1 = {math.degrees(seed.theta_top):.4f} deg, "
+            f"thesis angles: phi = {math.degrees(seed.phi):.4f} deg, theta1 = {math.degrees(seed.theta_top):.4f} deg, "
             f"theta2 = {math.degrees(seed.theta_side):.4f} deg"
         )
     plots = []
@@ -85,5 +85,5 @@ def _handle(args: argparse.Namespace) -> Report:
         data["plot"] = str(written)
         plots.append(str(written))
         lines.append(f"plot written to {written}")
-    table = Table("Gauge block", ["quantity", "value (mm)"], rows)
+    table = Table("Gauge block", ["quantity", "value / mm"], rows)
     return Report(data=data, tables=[table], lines=lines, plots=plots)

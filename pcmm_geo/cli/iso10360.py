@@ -9,7 +9,17 @@ import argparse
 import math
 from typing import Any
 
-from pcmm_geo.cli._output import EXIT_FAILURE, EXIT_OK, Report, Table, add_json_flag
+from pcmm_geo.cli._output import (
+    EXIT_FAILURE,
+    EXIT_OK,
+    Report,
+    Table,
+    add_json_flag,
+    add_overwrite_flag,
+    add_plot_flag,
+    add_report_flag,
+)
+from pcmm_geo.cli._record import Verdict
 
 
 def register(subparsers: Any) -> None:
@@ -30,6 +40,9 @@ def register(subparsers: Any) -> None:
                          "ISO 14253-1 rule (PASS / FAIL / NOT PROVEN; the default when --uncertainty is given)")
     p2.add_argument("--uncertainty", type=float, default=0.0, help="expanded test uncertainty U in micrometres")
     p2.add_argument("--mpl-r0", type=float, default=None, help="limit of the repeatability range R0 in micrometres")
+    add_plot_flag(p2, "every E0 against its length with the MPE curve, and R0 per length")
+    add_report_flag(p2)
+    add_overwrite_flag(p2)
     add_json_flag(p2)
     p2.set_defaults(handler=_handle_2)
 
@@ -45,6 +58,9 @@ def register(subparsers: Any) -> None:
     p5.add_argument("--uncertainty", type=float, nargs=2, metavar=("U_FORM", "U_SIZE"), default=None,
                     help="expanded test uncertainties of P_FTU and P_STU in micrometres: ISO 14253-1 decision "
                          "(PASS / FAIL / NOT PROVEN)")
+    add_plot_flag(p5, "the residuals on the sphere (azimuth x elevation) and sorted")
+    add_report_flag(p5)
+    add_overwrite_flag(p5)
     add_json_flag(p5)
     p5.set_defaults(handler=_handle_5)
 
@@ -63,7 +79,11 @@ def register(subparsers: Any) -> None:
     p6.add_argument("--mpe-orientation", type=float, default=1e-9, help="rad (default 1e-9)")
     p6.add_argument("--mpe-size", type=float, default=1e-9, help="mm (default 1e-9)")
     p6.add_argument("--mpe-angle", type=float, default=1e-9, help="rad (default 1e-9)")
-    p6.add_argument("--markdown", action="store_true", help="print the Markdown report")
+    p6.add_argument("--markdown", action="store_true",
+                    help="deprecated (removed in the next release): use --report FILE.md")
+    add_plot_flag(p6, "each case's deviations as fractions of their MPE")
+    add_report_flag(p6)
+    add_overwrite_flag(p6)
     add_json_flag(p6)
     p6.set_defaults(handler=_handle_6)
 
@@ -116,16 +136,44 @@ def _handle_2(args: argparse.Namespace) -> Report:
     rows = [[f"{e.length_id}/{e.position}/{e.repetition}", e.calibrated_length, e.error * 1000, e.mpe * 1000]
             for e in bad]
     title = "E0 values not proven to conform" if result.errors[0].verdict else "Nonconforming E0 values"
-    tables = [Table(title, ["length/position/rep", "L (mm)", "E0 (um)", "MPE (um)"], rows)] if rows else []
+    tables = [Table(title, ["length/position/rep", "L / mm", "E0 / µm", "MPE / µm"], rows)] if rows else []
+    statement = f"ISO 10360-2: {result.verdict} ({len(result.errors)} values, " + (
+        ", ".join(f"{sum(e.verdict == v for e in result.errors)} {v}" for v in ("PASS", "NOT PROVEN", "FAIL"))
+        if result.errors[0].verdict else f"{result.n_nonconforming} nonconforming") + ")"
     lines = [
-        f"ISO 10360-2: {result.verdict} ({len(result.errors)} values, " + (
-            ", ".join(f"{sum(e.verdict == v for e in result.errors)} {v}" for v in ("PASS", "NOT PROVEN", "FAIL"))
-            if result.errors[0].verdict else f"{result.n_nonconforming} nonconforming") + ")",
-        f"max |E0| = {result.max_abs_error * 1000:.3f} um ({result.max_error_ratio:.2f} of MPE), "
-        f"max R0 = {result.max_range * 1000:.3f} um",
+        statement,
+        f"max |E0| = {result.max_abs_error * 1000:.3f} µm ({result.max_error_ratio:.2f} of MPE), "
+        f"max R0 = {result.max_range * 1000:.3f} µm",
         f"decision rule: {result.decision_rule}",
     ]
-    return Report(data=data, tables=tables, lines=lines, exit_code=EXIT_OK if result.passed else EXIT_FAILURE)
+    rule = f"{result.decision_rule}, MPE_E0 = {_mpe_text(mpe)}"
+    if result.test_uncertainty > 0:
+        rule += f", U = {1000 * result.test_uncertainty:g} µm"
+    if args.mpl_r0 is not None:
+        rule += f"; R0 <= {args.mpl_r0:g} µm"
+    plots = _plot(args, "plot_length_test", result)
+    return Report(data=data, tables=tables, lines=lines, exit_code=EXIT_OK if result.passed else EXIT_FAILURE,
+                  plots=plots, verdict=Verdict(_passed(result.verdict), statement, rule))
+
+
+def _passed(verdict: str) -> bool | None:
+    """PASS -> True, FAIL -> False, NOT PROVEN (or no decision) -> None."""
+    return {"PASS": True, "FAIL": False}.get(verdict)
+
+
+def _mpe_text(mpe: object) -> str:
+    text = f"{mpe.a_um:g} µm + L / {mpe.k:g}"  # type: ignore[attr-defined]
+    cap = mpe.b_um  # type: ignore[attr-defined]
+    return text if cap is None else f"min({text}, {cap:g} µm)"
+
+
+def _plot(args: argparse.Namespace, function: str, *inputs: object) -> list[str]:
+    """Draw ``pcmm_geo.plots.verification.<function>(*inputs, args.plot)`` when --plot was given."""
+    if not args.plot:
+        return []
+    from pcmm_geo.plots import verification
+
+    return [str(getattr(verification, function)(*inputs, args.plot, overwrite=args.overwrite))]
 
 
 def _handle_5(args: argparse.Namespace) -> Report:
@@ -135,8 +183,9 @@ def _handle_5(args: argparse.Namespace) -> Report:
     _positive("--mpe-size", args.mpe_size)
     for value in args.uncertainty or ():
         _positive("--uncertainty", value, allow_zero=True)
+    points = read_points_csv(args.file)
     result = evaluate_probing(
-        read_points_csv(args.file),
+        points,
         args.reference_diameter,
         mpe_form=None if args.mpe_form is None else args.mpe_form / 1000,
         mpe_size=None if args.mpe_size is None else args.mpe_size / 1000,
@@ -159,9 +208,10 @@ def _handle_5(args: argparse.Namespace) -> Report:
     }
     table = Table(
         "ISO 10360-5 probing test",
-        ["quantity", "value"],
-        [["P_FTU (um)", result.form_error * 1000], ["P_STU (um)", result.size_error * 1000],
-         ["fitted diameter (mm)", result.fitted_diameter], ["points", result.n]],
+        ["quantity", "value", "unit"],
+        [["P_FTU", result.form_error * 1000, "µm"], ["P_STU", result.size_error * 1000, "µm"],
+         ["fitted diameter", result.fitted_diameter, "mm"], ["reference diameter", result.reference_diameter, "mm"],
+         ["points", result.n, "1"]],
     )
     verdict = "no MPE stated" if result.passed is None else ("PASS" if result.passed else "FAIL")
     if result.test_uncertainty is not None and result.passed is not None:
@@ -170,7 +220,13 @@ def _handle_5(args: argparse.Namespace) -> Report:
         verdict = overall_verdict([v for v in (result.form_verdict, result.size_verdict) if v])
         verdict += f" (P_FTU {result.form_verdict or '-'}, P_STU {result.size_verdict or '-'})"
     lines = [f"verdict: {verdict}", f"decision rule: {result.decision_rule}"]
-    return Report(data=data, tables=[table], lines=lines,
+    limits = [f"P_FTU <= {args.mpe_form:g} µm" if args.mpe_form is not None else "",
+              f"|P_STU| <= {args.mpe_size:g} µm" if args.mpe_size is not None else ""]
+    rule = (f"{result.decision_rule}: " + " and ".join(t for t in limits if t)) if any(limits) \
+        else "none (no MPE stated)"
+    plots = _plot(args, "plot_probing_test", result, points)
+    return Report(data=data, tables=[table], lines=lines, plots=plots,
+                  verdict=Verdict(_passed(verdict.split(" ")[0]), f"ISO 10360-5: {verdict}", rule),
                   exit_code=EXIT_FAILURE if result.passed is False else EXIT_OK)
 
 
@@ -202,16 +258,25 @@ def _handle_6(args: argparse.Namespace) -> Report:
         ],
         "markdown": report.to_markdown(),
     }
+    plots = _plot(args, "plot_software_test", report, mpe)
+    statement = (f"ISO 10360-6: {'PASS' if report.passed else 'FAIL'} "
+                 f"({len(report.cases) - report.n_failed}/{len(report.cases)} cases within MPE)")
+    verdict = Verdict(report.passed, statement,
+                      f"every deviation <= its MPE: position {mpe.position:g} mm, orientation {mpe.orientation:g} rad, "
+                      f"size {mpe.size:g} mm, angle {mpe.angle:g} rad")
     if args.markdown:
-        return Report(data=data, lines=[report.to_markdown().rstrip("\n")],
+        import sys
+
+        print("pcmm iso10360-6: warning: --markdown is deprecated and will be removed in the next release; "
+              "use --report FILE.md", file=sys.stderr)
+        return Report(data=data, lines=[report.to_markdown().rstrip("\n")], plots=plots, verdict=verdict,
                       exit_code=EXIT_OK if report.passed else EXIT_FAILURE)
     table = Table(
         "ISO 10360-6 software test",
-        ["case", "element", "position (mm)", "orientation (rad)", "size (mm)", "angle (rad)", "result"],
+        ["case", "element", "position / mm", "orientation / rad", "size / mm", "angle / rad", "result"],
         [[c.name, c.element, *(("-" if math.isnan(v) else v) for v in (c.position, c.orientation, c.size, c.angle)),
           "pass" if c.passed else f"FAIL {c.note}".strip()]
          for c in report.cases],
     )
-    lines = [f"ISO 10360-6: {'PASS' if report.passed else 'FAIL'} "
-             f"({len(report.cases) - report.n_failed}/{len(report.cases)} cases within MPE)"]
-    return Report(data=data, tables=[table], lines=lines, exit_code=EXIT_OK if report.passed else EXIT_FAILURE)
+    return Report(data=data, tables=[table], lines=[statement], plots=plots, verdict=verdict,
+                  exit_code=EXIT_OK if report.passed else EXIT_FAILURE)

@@ -5,26 +5,33 @@ from __future__ import annotations
 import argparse
 from typing import Any
 
-from pcmm_geo.cli._output import Report, Table, add_json_flag
+from pcmm_geo.cli._output import (
+    Report,
+    Table,
+    add_json_flag,
+    add_overwrite_flag,
+    add_plot_flag,
+    add_report_flag,
+)
 
 ARM_NAMES = ("a", "b", "c")
 
 
 def add_machine_argument(parser: argparse.ArgumentParser, *, required: bool = False) -> None:
-    """``--calibration FILE``: machine model JSON or calibration JSON (default: the seed geometry)."""
+    """``--calibration FILE``: machine model JSON or calibration JSON (default: the thesis geometry)."""
     parser.add_argument(
         "--calibration",
         required=required,
         metavar="CAL.json",
-        help="rigid-body model or calibration JSON (default: seed geometry of thesis Table 3.1 / Appendix D)",
+        help="rigid-body model or calibration JSON (default: thesis geometry of thesis Table 3.1 / Appendix D)",
     )
 
 
 def load_machine_file(path: str | None) -> Any:
-    """RigidBodyMachine from a model JSON, a calibration JSON (with or without columns) or the seed default.
+    """RigidBodyMachine from a model JSON, a calibration JSON (with or without columns) or the thesis default.
 
     A calibration without a stored machine supplies the tetrahedron; the columns are
-    then the seed's (Appendix D, vertical).
+    then the thesis' (Appendix D, vertical).
     """
     import json
 
@@ -60,7 +67,7 @@ def register(subparsers: Any) -> None:
     parser = subparsers.add_parser(
         "kinematics",
         help="rigid-body kinematics: forward (readings -> tip), inverse (tip -> readings), trilaterate",
-        description="Kinematics of the parallel micro-CMM (rigid-body model; the seed DPKM is its special case).",
+        description="Kinematics of the parallel micro-CMM (rigid-body model; the thesis DPKM is its special case).",
     )
     actions = parser.add_subparsers(dest="action", metavar="ACTION", required=True)
 
@@ -72,12 +79,14 @@ def register(subparsers: Any) -> None:
     forward.add_argument("--laser-sigma", type=float, default=1e-3, help="laser standard uncertainty in mm")
     forward.add_argument("--height-sigma", type=float, default=1e-3, help="height standard uncertainty in mm")
     add_machine_argument(forward)
+    _add_outputs(forward, "the machine in the solved pose and the loop-closure residuals")
     add_json_flag(forward)
     forward.set_defaults(handler=_handle_forward)
 
     inverse = actions.add_parser("inverse", help="probe-tip centre -> height and laser readings")
     inverse.add_argument("--tip", type=float, nargs=3, required=True, metavar=("X", "Y", "Z"), help="tip in mm")
     add_machine_argument(inverse)
+    _add_outputs(inverse, "the machine in the pose for the tip")
     add_json_flag(inverse)
     inverse.set_defaults(handler=_handle_inverse)
 
@@ -86,8 +95,15 @@ def register(subparsers: Any) -> None:
                      help="pivot centres a, b, c: xa ya za xb yb zb xc yc zc (mm)")
     tri.add_argument("--lengths", type=float, nargs=3, required=True, metavar=("LA", "LB", "LC"),
                      help="pivot-to-tip lengths in mm")
+    _add_outputs(tri, "the pivots, arm lengths and both intersections in 3-D")
     add_json_flag(tri)
     tri.set_defaults(handler=_handle_trilaterate)
+
+
+def _add_outputs(parser: argparse.ArgumentParser, what: str) -> None:
+    add_plot_flag(parser, what)
+    add_report_flag(parser)
+    add_overwrite_flag(parser)
 
 
 def _handle_forward(args: argparse.Namespace) -> Report:
@@ -111,9 +127,17 @@ def _handle_forward(args: argparse.Namespace) -> Report:
         "measured": [name for name, value in (("lasers", args.lasers), ("heights", args.heights)) if value],
     }
     rows = [[arm, float(sol.lasers[k]), float(sol.heights[k])] for k, arm in enumerate(ARM_NAMES)]
+    plots = []
+    if args.plot:
+        from pcmm_geo.plots.machine_state import plot_pose
+
+        plots.append(str(plot_pose(machine, sol.heights, sol.tip, args.plot, residuals=sol.residuals,
+                                   title="Forward kinematics: pose for the readings", overwrite=args.overwrite)))
+        data["plot"] = plots[0]
     return Report(
         data=data,
-        tables=[Table("Readings (as solved)", ["arm", "laser [mm]", "height [mm]"], rows)],
+        plots=plots,
+        tables=[Table("Readings (as solved)", ["arm", "laser / mm", "height / mm"], rows)],
         lines=[f"tip centre: x = {sol.tip[0]:.6f}  y = {sol.tip[1]:.6f}  z = {sol.tip[2]:.6f} mm"
                f" (max closure residual {abs(sol.residuals).max():.3g} mm)"],
     )
@@ -131,7 +155,15 @@ def _handle_inverse(args: argparse.Namespace) -> Report:
         "converged": bool(sol.converged),
     }
     rows = [[arm, float(sol.lasers[k]), float(sol.heights[k])] for k, arm in enumerate(ARM_NAMES)]
-    return Report(data=data, tables=[Table("Readings for the tip", ["arm", "laser [mm]", "height [mm]"], rows)])
+    plots = []
+    if args.plot:
+        from pcmm_geo.plots.machine_state import plot_pose
+
+        plots.append(str(plot_pose(machine, sol.heights, args.tip, args.plot,
+                                   title="Inverse kinematics: pose for the tip", overwrite=args.overwrite)))
+        data["plot"] = plots[0]
+    return Report(data=data, plots=plots,
+                  tables=[Table("Readings for the tip", ["arm", "laser / mm", "height / mm"], rows)])
 
 
 def _handle_trilaterate(args: argparse.Namespace) -> Report:
@@ -148,4 +180,12 @@ def _handle_trilaterate(args: argparse.Namespace) -> Report:
         "height_squared": float(result.height_squared),
     }
     rows = [["lower (probe hangs below)", *result.lower.tolist()], ["upper", *result.upper.tolist()]]
-    return Report(data=data, tables=[Table("Sphere intersections", ["root", "x [mm]", "y [mm]", "z [mm]"], rows)])
+    plots = []
+    if args.plot:
+        from pcmm_geo.plots.machine_state import plot_trilateration
+
+        plots.append(str(plot_trilateration(pivots, args.lengths, result.lower, result.upper, args.plot,
+                                            overwrite=args.overwrite)))
+        data["plot"] = plots[0]
+    return Report(data=data, plots=plots,
+                  tables=[Table("Sphere intersections", ["root", "x / mm", "y / mm", "z / mm"], rows)])

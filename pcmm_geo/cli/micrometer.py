@@ -5,7 +5,14 @@ from __future__ import annotations
 import argparse
 from typing import Any
 
-from pcmm_geo.cli._output import Report, Table, add_json_flag
+from pcmm_geo.cli._output import (
+    Report,
+    Table,
+    add_json_flag,
+    add_overwrite_flag,
+    add_plot_flag,
+    add_report_flag,
+)
 
 
 def register(subparsers: Any) -> None:
@@ -19,6 +26,9 @@ def register(subparsers: Any) -> None:
         "--pairs", choices=("thesis", "consecutive", "all"), default="thesis",
         help="pairs to compare: thesis (1-2, 2-3, ..., 1-3, 1-4, ...), consecutive or all (default thesis)",
     )
+    add_plot_flag(parser, "the CMM-minus-stage error of each pair against the stage distance")
+    add_report_flag(parser)
+    add_overwrite_flag(parser)
     add_json_flag(parser)
     parser.set_defaults(handler=_handle)
 
@@ -35,7 +45,13 @@ def _handle(args: argparse.Namespace) -> Report:
     data = {"pairs": pairs, "max_abs_error_mm": result.max_abs_error, "rms_error_mm": result.rms_error}
     table = Table(
         "Micrometer-stage test",
-        ["pair", "stage (mm)", "CMM (mm)", "error (mm)"],
+        ["pair", "stage / mm", "CMM / mm", "error / mm"],
         [[p["pair"], p["stage_mm"], p["cmm_mm"], p["error_mm"]] for p in pairs],
     )
-    return Report(data=data, tables=[table], lines=[f"max |error| = {result.max_abs_error:.4f} mm"])
+    plots = []
+    if args.plot:
+        from pcmm_geo.plots.verification import plot_stage_test
+
+        plots.append(str(plot_stage_test(result, args.plot, overwrite=args.overwrite)))
+        data["plot"] = plots[0]
+    return Report(data=data, tables=[table], lines=[f"max |error| = {result.max_abs_error:.4f} mm"], plots=plots)

@@ -5,7 +5,14 @@ from __future__ import annotations
 import argparse
 from typing import Any
 
-from pcmm_geo.cli._output import Report, Table, add_json_flag
+from pcmm_geo.cli._output import (
+    Report,
+    Table,
+    add_json_flag,
+    add_overwrite_flag,
+    add_plot_flag,
+    add_report_flag,
+)
 
 
 def register(subparsers: Any) -> None:
@@ -24,6 +31,9 @@ def register(subparsers: Any) -> None:
     parser.add_argument("--search", choices=("differential_evolution", "multistart", "none"),
                         default="differential_evolution", help="global search before least squares")
     parser.add_argument("--seed", type=int, default=0, help="seed of the global search (default 0)")
+    add_plot_flag(parser, "the distance residual of every sample and the singular values")
+    add_report_flag(parser)
+    add_overwrite_flag(parser)
     add_json_flag(parser)
     parser.set_defaults(handler=_handle)
 
@@ -45,11 +55,19 @@ def _handle(args: argparse.Namespace) -> Report:
         [arm, params.d[arm], pair, params.beta_deg[pair], params.b[pair]]
         for arm, pair in zip("abc", ("ab", "bc", "ca"), strict=True)
     ]
-    table = Table("Numerical calibration", ["arm", "d (mm)", "pair", "beta (deg)", "b (mm)"], rows)
+    table = Table("Numerical calibration", ["arm", "d / mm", "pair", "beta / deg", "b / mm"], rows)
     ident = result.identifiability
     lines = [
         f"rms distance residual: {result.rms:.6g} mm over {len(data.moved)} samples ({result.evaluations} evaluations)",
         f"condition number (column-scaled Jacobian): {ident.condition_number:.4g}, rank {ident.rank} of 9",
     ]
     lines += [f"weak combination (s/s_max = {w.relative:.3g}): {w.text}" for w in ident.weak_combinations]
-    return Report(data=result.to_dict(), tables=[table], lines=lines)
+    plots = []
+    if args.plot:
+        from pcmm_geo.plots.machine_state import plot_numerical_calibration
+
+        plots.append(str(plot_numerical_calibration(result, data, args.plot, overwrite=args.overwrite)))
+    out = result.to_dict()
+    if plots:
+        out["plot"] = plots[0]
+    return Report(data=out, tables=[table], lines=lines, plots=plots)

@@ -1,4 +1,4 @@
-"""``pcmm process-log FILE``: pivot heights and probe points from a seed Table 3.2 log."""
+"""``pcmm process-log FILE``: pivot heights and probe points from a thesis Table 3.2 log."""
 
 from __future__ import annotations
 
@@ -66,7 +66,7 @@ def _handle(args: argparse.Namespace) -> Report:
         lines.append(f"warning: direction flag contradicts the solved height change on lines {bad}")
     table = Table(
         "Probe points" if not args.all_rows else "Rows",
-        ["line", "probe", "x [mm]", "y [mm]", "z [mm]", "h_a [mm]", "h_b [mm]", "h_c [mm]"],
+        ["line", "probe", "x / mm", "y / mm", "z / mm", "h_a / mm", "h_b / mm", "h_c / mm"],
         rows,
     )
     plots = []

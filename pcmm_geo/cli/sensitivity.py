@@ -14,7 +14,7 @@ def register(subparsers: Any) -> None:
     parser = subparsers.add_parser(
         "sensitivity",
         help="laser/encoder-to-tip amplification over the 100 mm working cube",
-        description="Jacobians of the probe tip w.r.t. the readings; the seed's probe-to-laser ratio (20:1).",
+        description="Jacobians of the probe tip w.r.t. the readings; the thesis' probe-to-laser ratio (20:1).",
     )
     add_machine_argument(parser)
     parser.add_argument("--size", type=float, default=100.0, help="edge of the working cube in mm (default 100)")
@@ -47,13 +47,13 @@ def _handle(args: argparse.Namespace) -> Report:
         plots.append(data["plot"])
         lines.append(f"plot written to {data['plot']}")
     rows = []
-    for name, label in (("laser_gain", "laser gain [mm/mm]"), ("tip_error_mm", "tip error [mm]"),
-                        ("height_gain", "height gain [mm/mm]")):
+    for name, label in (("laser_gain", "laser gain / (mm/mm)"), ("tip_error_mm", "tip error / mm"),
+                        ("height_gain", "height gain / (mm/mm)")):
         stats = data[name]
         rows.append([label, stats["median"], stats["max_finite"], stats["infinite"]])
     for arm in "abc":
         stats = data["motor_ratio"][arm]
-        rows.append([f"probe/laser ratio motor {arm}", stats["median"], stats["max_finite"], stats["infinite"]])
+        rows.append([f"probe/laser ratio, motor {arm}", stats["median"], stats["max_finite"], stats["infinite"]])
     paths = ", ".join(f"{axis}: {value:.2f}" for axis, value in data["path_ratio"].items())
     lines.insert(0, f"probe/laser ratio on {args.size:g} mm paths through the centre -> {paths} (thesis: 20:1)")
     table = Table(f"Sensitivity over {data['points']} grid points", ["quantity", "median", "max (finite)", "infinite"],

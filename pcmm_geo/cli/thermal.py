@@ -5,22 +5,31 @@ from __future__ import annotations
 import argparse
 from typing import Any
 
-from pcmm_geo.cli._output import Report, Table, add_json_flag
+from pcmm_geo.cli._output import (
+    Report,
+    Table,
+    add_json_flag,
+    add_overwrite_flag,
+    add_plot_flag,
+    add_report_flag,
+)
+from pcmm_geo.cli._record import UncertaintyEntry
 
 
 def register(subparsers: Any) -> None:
     parser = subparsers.add_parser(
         "thermal",
         help="thermal tools: rtd, thermistor, correct-length, triangle, table",
-        description="Temperature sensors, correction of lengths to 20 degC and the thermal model of the micro-CMM.",
+        description="Temperature sensors, correction of lengths to 20 °C and the thermal model of the micro-CMM.",
     )
     actions = parser.add_subparsers(dest="action", metavar="ACTION", required=True)
 
     rtd = actions.add_parser("rtd", help="IEC 60751 platinum RTD: resistance <-> temperature")
     group = rtd.add_mutually_exclusive_group(required=True)
     group.add_argument("--resistance", type=float, help="resistance in ohm -> temperature")
-    group.add_argument("--temperature", type=float, help="temperature in degC -> resistance")
-    rtd.add_argument("--r0", type=float, default=100.0, help="resistance at 0 degC in ohm (default 100, Pt100)")
+    group.add_argument("--temperature", type=float, help="temperature in °C -> resistance")
+    rtd.add_argument("--r0", type=float, default=100.0, help="resistance at 0 °C in ohm (default 100, Pt100)")
+    _add_outputs(rtd, "the sensor curve with the converted point")
     add_json_flag(rtd)
     rtd.set_defaults(handler=_handle_rtd)
 
@@ -28,40 +37,59 @@ def register(subparsers: Any) -> None:
     source = ntc.add_mutually_exclusive_group(required=True)
     source.add_argument("--coefficients", type=float, nargs=3, metavar=("A", "B", "C"),
                         help="Steinhart-Hart A B C (1/K)")
-    source.add_argument("--calibration", help="CSV temperature,resistance (degC, ohm), >= 3 rows, to fit A B C")
+    source.add_argument("--calibration", help="CSV temperature,resistance (°C, ohm), >= 3 rows, to fit A B C")
     value = ntc.add_mutually_exclusive_group()
     value.add_argument("--resistance", type=float, help="resistance in ohm -> temperature")
-    value.add_argument("--temperature", type=float, help="temperature in degC -> resistance")
+    value.add_argument("--temperature", type=float, help="temperature in °C -> resistance")
+    _add_outputs(ntc, "the sensor curve, the converted point and the calibration residuals")
     add_json_flag(ntc)
     ntc.set_defaults(handler=_handle_thermistor)
 
-    corr = actions.add_parser("correct-length", help="correct a measured length to 20 degC (ISO 1) with a budget")
+    corr = actions.add_parser("correct-length", help="correct a measured length to 20 °C (ISO 1) with a budget")
     corr.add_argument("--length", type=float, required=True, help="measured length in mm")
-    corr.add_argument("--temperature", type=float, required=True, help="workpiece temperature in degC")
+    corr.add_argument("--temperature", type=float, required=True, help="workpiece temperature in °C")
     corr.add_argument("--alpha", type=float, required=True, help="workpiece expansion coefficient in 1/K")
-    corr.add_argument("--scale-temperature", type=float, default=20.0, help="machine scale temperature in degC")
+    corr.add_argument("--scale-temperature", type=float, default=20.0, help="machine scale temperature in °C")
     corr.add_argument("--scale-alpha", type=float, default=0.0, help="scale expansion coefficient in 1/K (0)")
     corr.add_argument("--u-length", type=float, default=0.0, help="standard uncertainty of the length in mm")
     corr.add_argument("--u-alpha", type=float, default=0.0, help="standard uncertainty of alpha in 1/K")
     corr.add_argument("--u-temperature", type=float, default=0.0, help="standard uncertainty of T in K")
     corr.add_argument("--u-scale-alpha", type=float, default=0.0, help="standard uncertainty of scale alpha in 1/K")
     corr.add_argument("--u-scale-temperature", type=float, default=0.0, help="standard uncertainty of scale T in K")
+    _add_outputs(corr, "the uncertainty budget (|c| u of each input)")
     add_json_flag(corr)
     corr.set_defaults(handler=_handle_correct)
 
     tri = actions.add_parser("triangle", help="frame triangle corners for side temperatures (eqs 4.2-4.9)")
     tri.add_argument("--temperatures", type=float, nargs=3, required=True, metavar=("T_AB", "T_AC", "T_BC"),
-                     help="side temperatures in degC")
+                     help="side temperatures in °C")
     tri.add_argument("--side", type=float, default=650.0, help="nominal side length in mm (default 650)")
     tri.add_argument("--alpha", type=float, default=23.1e-6, help="expansion coefficient in 1/K (aluminium)")
+    _add_outputs(tri, "the nominal and the expanded triangle (displacements magnified)")
     add_json_flag(tri)
     tri.set_defaults(handler=_handle_triangle)
 
-    table = actions.add_parser("table", help="tip displacement in um per K per member over the working volume")
+    table = actions.add_parser("table", help="tip displacement in µm per K per member over the working volume")
     table.add_argument("--points-per-axis", type=int, default=3, help="grid points per axis (default 3)")
     table.add_argument("--size", type=float, default=100.0, help="edge of the working cube in mm (default 100)")
+    _add_outputs(table, "the largest tip displacement per K of each member")
     add_json_flag(table)
     table.set_defaults(handler=_handle_table)
+
+
+def _add_outputs(parser: argparse.ArgumentParser, what: str) -> None:
+    add_plot_flag(parser, what)
+    add_report_flag(parser)
+    add_overwrite_flag(parser)
+
+
+def _plot(args: argparse.Namespace, function: str, *inputs: Any, **options: Any) -> list[str]:
+    """Draw ``pcmm_geo.plots.thermal.<function>(*inputs, args.plot, **options)`` when --plot was given."""
+    if not args.plot:
+        return []
+    from pcmm_geo.plots import thermal
+
+    return [str(getattr(thermal, function)(*inputs, args.plot, overwrite=args.overwrite, **options))]
 
 
 def _handle_rtd(args: argparse.Namespace) -> Report:
@@ -69,11 +97,16 @@ def _handle_rtd(args: argparse.Namespace) -> Report:
 
     if args.resistance is not None:
         temperature = float(rtd_temperature(args.resistance, r0=args.r0))
-        data = {"resistance_ohm": args.resistance, "temperature_degC": temperature, "r0_ohm": args.r0}
-        return Report(data=data, lines=[f"{args.resistance} ohm -> {temperature:.6f} degC (IEC 60751, R0 = {args.r0})"])
-    resistance = float(rtd_resistance(args.temperature, r0=args.r0))
-    data = {"temperature_degC": args.temperature, "resistance_ohm": resistance, "r0_ohm": args.r0}
-    return Report(data=data, lines=[f"{args.temperature} degC -> {resistance:.6f} ohm (IEC 60751, R0 = {args.r0})"])
+        resistance = float(args.resistance)
+        line = f"{args.resistance} ohm -> {temperature:.6f} °C (IEC 60751, R0 = {args.r0})"
+    else:
+        temperature = float(args.temperature)
+        resistance = float(rtd_resistance(args.temperature, r0=args.r0))
+        line = f"{args.temperature} °C -> {resistance:.6f} ohm (IEC 60751, R0 = {args.r0})"
+    data = {"resistance_ohm": resistance, "temperature_degC": temperature, "r0_ohm": args.r0}
+    plots = _plot(args, "plot_sensor_curve", lambda r: rtd_temperature(r, r0=args.r0), (resistance, temperature),
+                  title=f"Platinum RTD (IEC 60751), R0 = {args.r0:g} ohm")
+    return Report(data=data, lines=[line], plots=plots)
 
 
 def _read_calibration(path: str) -> tuple[list[float], list[float]]:
@@ -87,9 +120,11 @@ def _read_calibration(path: str) -> tuple[list[float], list[float]]:
 def _handle_thermistor(args: argparse.Namespace) -> Report:
     from pcmm_geo.thermal.sensors import SteinhartHart, fit_steinhart_hart
 
+    calibration = None
     if args.calibration is not None:
         temps, resistances = _read_calibration(args.calibration)
         model = fit_steinhart_hart(temps, resistances)
+        calibration = (temps, resistances)
     else:
         model = SteinhartHart(*args.coefficients)
     data: dict[str, Any] = {"a": model.a, "b": model.b, "c": model.c, "rms_residual_K": model.rms_residual}
@@ -99,12 +134,15 @@ def _handle_thermistor(args: argparse.Namespace) -> Report:
     if args.resistance is not None:
         data["resistance_ohm"] = args.resistance
         data["temperature_degC"] = float(model.temperature(args.resistance))
-        lines.append(f"{args.resistance} ohm -> {data['temperature_degC']:.6f} degC")
+        lines.append(f"{args.resistance} ohm -> {data['temperature_degC']:.6f} °C")
     if args.temperature is not None:
         data["temperature_degC"] = args.temperature
         data["resistance_ohm"] = float(model.resistance(args.temperature))
-        lines.append(f"{args.temperature} degC -> {data['resistance_ohm']:.6f} ohm")
-    return Report(data=data, lines=lines)
+        lines.append(f"{args.temperature} °C -> {data['resistance_ohm']:.6f} ohm")
+    point = (data["resistance_ohm"], data["temperature_degC"]) if "resistance_ohm" in data else None
+    plots = _plot(args, "plot_sensor_curve", model.temperature, point, calibration=calibration,
+                  title="Steinhart-Hart thermistor")
+    return Report(data=data, lines=lines, plots=plots)
 
 
 def _handle_correct(args: argparse.Namespace) -> Report:
@@ -126,12 +164,15 @@ def _handle_correct(args: argparse.Namespace) -> Report:
         "standard_uncertainty_mm": res.standard_uncertainty, "expanded_uncertainty_k2_mm": res.expanded_uncertainty(),
         "budget": budget,
     }
-    table = Table("Uncertainty budget", ["quantity", "value", "u(x)", "c = dL/dx", "|c| u (mm)"],
+    table = Table("Uncertainty budget", ["quantity", "value", "u(x)", "c = dL/dx", "|c| u / mm"],
                   [[b["quantity"], b["value"], b["standard_uncertainty"], b["sensitivity"], b["contribution_mm"]]
                    for b in budget])
-    lines = [f"L(20 degC) = {res.value:.6f} mm (correction {res.correction * 1000:+.3f} um), "
-             f"u = {res.standard_uncertainty * 1000:.3f} um, U(k=2) = {res.expanded_uncertainty() * 1000:.3f} um"]
-    return Report(data=data, tables=[table], lines=lines)
+    lines = [f"L(20 °C) = {res.value:.6f} mm (correction {res.correction * 1000:+.3f} µm), "
+             f"u = {res.standard_uncertainty * 1000:.3f} µm, U(k=2) = {res.expanded_uncertainty() * 1000:.3f} µm"]
+    uncertainty = UncertaintyEntry("length at 20 °C", res.value, res.standard_uncertainty, "mm", coverage_factor=2.0,
+                                   method="GUM, first-order propagation of the budget above")
+    return Report(data=data, tables=[table], lines=lines, plots=_plot(args, "plot_length_correction", res),
+                  uncertainties=[uncertainty])
 
 
 def _handle_triangle(args: argparse.Namespace) -> Report:
@@ -149,9 +190,9 @@ def _handle_triangle(args: argparse.Namespace) -> Report:
         data["corners"][name] = {"x_mm": now[0], "y_mm": now[1], "dx_um": (now[0] - before[0]) * 1000,
                                  "dy_um": (now[1] - before[1]) * 1000}
         rows.append([name.upper(), now[0], now[1], (now[0] - before[0]) * 1000, (now[1] - before[1]) * 1000])
-    table = Table("Frame corners (A pinned, B sliding in x)", ["corner", "x (mm)", "y (mm)", "dx (um)", "dy (um)"],
+    table = Table("Frame corners (A pinned, B sliding in x)", ["corner", "x / mm", "y / mm", "dx / µm", "dy / µm"],
                   rows)
-    return Report(data=data, tables=[table])
+    return Report(data=data, tables=[table], plots=_plot(args, "plot_frame_triangle", nominal, tri))
 
 
 def _handle_table(args: argparse.Namespace) -> Report:
@@ -163,8 +204,8 @@ def _handle_table(args: argparse.Namespace) -> Report:
             "displacement_um_per_k": table.displacement_um_per_k}
     out = Table(
         f"Tip displacement per K over a {args.size:g} mm cube ({len(table.positions)} positions)",
-        ["member", "max (um/K)", "mean (um/K)", "max |dx|", "max |dy|", "max |dz|"],
+        ["member", "max / (µm/K)", "mean / (µm/K)", "max |dx| / (µm/K)", "max |dy| / (µm/K)", "max |dz| / (µm/K)"],
         [[r["member"], r["max_um_per_k"], r["mean_um_per_k"], r["max_dx_um_per_k"], r["max_dy_um_per_k"],
           r["max_dz_um_per_k"]] for r in summary],
     )
-    return Report(data=data, tables=[out])
+    return Report(data=data, tables=[out], plots=_plot(args, "plot_thermal_table", table))

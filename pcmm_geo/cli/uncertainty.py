@@ -119,13 +119,13 @@ def _handle(args: argparse.Namespace) -> Report:
     plots: list[str] = []
     lines = [
         f"machine: {source}",
-        f"{task.quantity} {task.nominal:g} mm: U = {1000 * result.expanded_uncertainty:.3f} um "
+        f"{task.quantity} {task.nominal:g} mm: U = {1000 * result.expanded_uncertainty:.3f} µm "
         f"(k = {result.coverage_factor:.2f}, {100 * result.coverage_probability:.0f} % "
         f"{result.interval_kind} interval, {result.n_trials} trials; {result.message})",
     ]
     if gum is not None:
         verdict = "validated" if outcome.validation.get("validated") else "not validated: Monte Carlo used"
-        lines.append(f"GUM linear: U = {1000 * gum.expanded_uncertainty:.3f} um (JCGM 101 §8: {verdict})")
+        lines.append(f"GUM linear: U = {1000 * gum.expanded_uncertainty:.3f} µm (JCGM 101 §8: {verdict})")
     if args.plot:
         from pcmm_geo.plots.uncertainty import plot_monte_carlo
 
@@ -138,7 +138,7 @@ def _handle(args: argparse.Namespace) -> Report:
     low, high = result.coverage_interval
     summary = Table(
         f"Task-specific uncertainty: {args.task}",
-        ["method", "mean - nominal / um", "u / um", "U / um", "k", "interval low / um", "interval high / um"],
+        ["method", "mean - nominal / µm", "u / µm", "U / µm", "k", "interval low / µm", "interval high / µm"],
         [["Monte Carlo", 1000 * (result.value - task.nominal), 1000 * result.standard_uncertainty,
           1000 * result.expanded_uncertainty, result.coverage_factor, 1000 * (low - task.nominal),
           1000 * (high - task.nominal)]]
@@ -149,7 +149,7 @@ def _handle(args: argparse.Namespace) -> Report:
     gum_parts = {entry.name: entry.contribution for entry in gum.budget} if gum is not None else {}
     budget = Table(
         "Budget (one input group varied at a time)",
-        ["input group", "u_i(y) Monte Carlo / um", "share", "u_i(y) GUM / um"],
+        ["input group", "u_i(y) Monte Carlo / µm", "share", "u_i(y) GUM / µm"],
         [[entry.name, 1000 * entry.contribution, entry.share, 1000 * gum_parts.get(entry.name, float("nan"))]
          for entry in result.budget],
     )

@@ -83,7 +83,6 @@ _LAZY = {
     "Sensitivity": "analysis.sensitivity",
     "tip_jacobian": "analysis.sensitivity",
     "sensitivity_over_cube": "analysis.sensitivity",
-    "plot_sensitivity": "analysis.sensitivity",
     # calibration (written by the calibration engineer)
     "calibrate_tetrahedron": "calibration.tetrahedron",
     "TetrahedronCalibration": "calibration.result",

@@ -3,7 +3,7 @@
 The left panel is the 3-D view of thesis fig 7.2: each arm's fitted slider line over the
 range its joint travelled, the probed joint-ball centres at every slider position, the
 probe-tip centre, the least-squares point nearest to the three lines (eq 7.2) and the
-seed's pairwise variant, with the common perpendicular of each pair of lines.  At the
+thesis' pairwise variant, with the common perpendicular of each pair of lines.  At the
 scale of the machine the few millimetres by which the lines miss each other and the tip
 are hard to see, so the right panel gives them as numbers: each line's distance from the
 tip centre, the skew distance of each pair and how far the two theoretical probe points
@@ -63,26 +63,38 @@ def draw_calibration_3d(axes: Any, calibration: TetrahedronCalibration) -> None:
         colour = ARM_COLOURS[arm]
         segment = _line_extent(calibration, arm)
         centres = np.array([sphere.centre for sphere in calibration.joint_spheres[arm]])
-        axes.plot(*segment.T, color=colour, linewidth=1.5, label=f"arm {arm}: slider line, joint centres")
+        axes.plot(*segment.T, color=colour, linewidth=1.5, label=f"arm {arm}: slider line, joint centers")
         axes.scatter(*centres.T, color=colour, s=28, depthshade=False)
         plotted += [segment, centres]
+    tip = np.asarray(calibration.tip_centre, dtype=float)
+    probe = np.asarray(calibration.probe_point, dtype=float)
+    pairwise = np.asarray(calibration.probe_point_pairwise, dtype=float)
+    cloud = np.vstack([*plotted, probe, pairwise])
+    # what is shorter than 4 % of the plotted span cannot be told apart in the 3-D view: it is not
+    # drawn nor listed in the legend (the right panel gives those distances as numbers)
+    visible = 0.04 * float(np.max(np.ptp(cloud, axis=0)))
+    perpendiculars = []
     for pair in PAIRS:
         first, second = (calibration.slider_lines[arm] for arm in pair)
         closest = closest_points(first.point, first.direction, second.point, second.direction)
-        ends = np.vstack([closest.point_a, closest.point_b])
-        axes.plot(*ends.T, color="grey", linestyle=":", linewidth=1.0)
-    axes.plot([], [], color="grey", linestyle=":", label="common perpendiculars")
-    axes.scatter(*np.asarray(calibration.tip_centre), marker="*", s=140, color="black", depthshade=False,
-                 label="tip centre")
-    axes.scatter(*np.asarray(calibration.probe_point), marker="x", s=70, color="red", depthshade=False,
-                 label="probe point eq 7.2")
-    axes.scatter(*np.asarray(calibration.probe_point_pairwise), marker="+", s=90, color="purple",
-                 depthshade=False, label="probe point (seed pairwise)")
-    equal_3d_limits(axes, np.vstack(plotted))
+        perpendiculars.append(np.vstack([closest.point_a, closest.point_b]))
+    if max(float(np.linalg.norm(ends[1] - ends[0])) for ends in perpendiculars) >= visible:
+        for ends in perpendiculars:
+            axes.plot(*ends.T, color="grey", linestyle=":", linewidth=1.0)
+        axes.plot([], [], color="grey", linestyle=":", label="common perpendiculars")
+    axes.scatter(*tip, marker="*", s=140, color="black", depthshade=False, label="tip center")
+    if float(np.linalg.norm(probe - pairwise)) >= visible:
+        axes.scatter(*probe, marker="x", s=70, color="red", depthshade=False, label="probe point eq 7.2")
+        axes.scatter(*pairwise, marker="+", s=90, color="purple", depthshade=False,
+                     label="probe point (thesis pairwise)")
+    else:
+        axes.scatter(*probe, marker="x", s=70, color="red", depthshade=False,
+                     label="probe point: eq 7.2 = thesis pairwise at this scale")
+    equal_3d_limits(axes, cloud)
     axes.set_xlabel("x / mm")
     axes.set_ylabel("y / mm")
     axes.set_zlabel("z / mm", labelpad=8)
-    axes.set_title("Slider paths, joint centres and probe point (fig 7.2)")
+    axes.set_title("Slider paths, joint centers and probe point (fig 7.2; equal scale on x, y, z)")
     axes.legend(loc="upper center", bbox_to_anchor=(0.5, -0.1), ncol=2, fontsize=7)
 
 
@@ -101,14 +113,14 @@ def draw_miss_distances(axes: Any, calibration: TetrahedronCalibration) -> None:
     tip = np.asarray(calibration.tip_centre, dtype=float)
     labels, values, colours = [], [], []
     for arm in ARMS:
-        labels.append(f"line {arm} to tip centre")
+        labels.append(f"line {arm} to tip center")
         values.append(float(calibration.slider_lines[arm].tip_offset))
         colours.append(ARM_COLOURS[arm])
     for pair in PAIRS:
         labels.append(f"skew distance {pair[0]}-{pair[1]}")
         values.append(float(calibration.skew_distances[pair]))
         colours.append("grey")
-    labels += ["eq 7.2 point to tip centre", "pairwise point to tip centre"]
+    labels += ["eq 7.2 point to tip center", "pairwise point to tip center"]
     values += [float(np.linalg.norm(np.asarray(calibration.probe_point) - tip)),
                float(np.linalg.norm(np.asarray(calibration.probe_point_pairwise) - tip))]
     colours += ["red", "purple"]

@@ -140,7 +140,7 @@ def test_gauge_block_plot_and_html_report(tmp_path: Path) -> None:
     parsed = parse_html(page)
     rows = {row[0].strip(): row[1] for row in parsed.rows[1:]}
     assert rows["ISO 3650 central length (mean)"] == f"{data['central_length_mm']:.6f}"
-    assert rows["seed eqs 5.1-5.3 length"] == f"{data['seed']['length_mm']:.6f}"
+    assert rows["thesis eqs 5.1-5.3 length"] == f"{data['seed']['length_mm']:.6f}"
     assert rows["two-point distance"] == f"{data['seed']['two_point_distance_mm']:.6f}"
     assert len(parsed.images) == 1 and parsed.images[0].startswith("data:image/png;base64,")
 
@@ -160,7 +160,7 @@ def test_fit_sensitivity_and_demo_keep_json_clean(tmp_path: Path) -> None:
     done = run("fit", "sphere", str(nist), "--plot", str(fit_plot), "--json")
     assert done.returncode == 0 and done.stderr == ""
     assert json.loads(done.stdout)["plot"] == str(fit_plot)
-    assert_picture(fit_plot, 7.0, 3.5)
+    assert_picture(fit_plot, 8.0, 4.8)
     assert_refused(run("fit", "sphere", str(nist), "--plot", str(fit_plot)), fit_plot)
 
     report = tmp_path / "sens.md"
@@ -170,7 +170,7 @@ def test_fit_sensitivity_and_demo_keep_json_clean(tmp_path: Path) -> None:
     assert done.returncode == 0 and done.stderr == ""
     data = json.loads(done.stdout)
     gain = data["laser_gain"]
-    assert f"| laser gain \\[mm/mm\\] | {gain['median']:.6f} | {gain['max_finite']:.6f} | 3 |" in (
+    assert f"| laser gain / (mm/mm) | {gain['median']:.6f} | {gain['max_finite']:.6f} | 3 |" in (
         report.read_text(encoding="utf-8").splitlines()
     )
 

@@ -33,16 +33,15 @@ Examples
 from __future__ import annotations
 
 from dataclasses import dataclass
-from pathlib import Path
 from typing import Any
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from pcmm_geo.errors import InvalidInputError, OutputExistsError
+from pcmm_geo.errors import InvalidInputError
 from pcmm_geo.machine.kinematics.model import RigidBodyMachine, as_readings, as_vector3
 
-__all__ = ["Sensitivity", "plot_sensitivity", "sensitivity_over_cube", "tip_jacobian"]
+__all__ = ["Sensitivity", "sensitivity_over_cube", "tip_jacobian"]
 
 FloatArray = NDArray[np.float64]
 
@@ -247,53 +246,3 @@ def sensitivity_over_cube(
         size=float(size),
         laser_accuracy=float(laser_accuracy),
     )
-
-
-def plot_sensitivity(sensitivity: Sensitivity, path: str | Path, *, overwrite: bool = False) -> Path:
-    """Write a PNG: laser gain over the grid (x-y scatter per layer) and motor ratios.
-
-    Raises
-    ------
-    FileExistsError
-        ``path`` exists and ``overwrite`` is False.
-
-    Examples
-    --------
-    >>> import tempfile, os
-    >>> out = plot_sensitivity(sensitivity_over_cube(points_per_axis=2), os.path.join(tempfile.mkdtemp(), "s.png"))
-    >>> out.suffix
-    '.png'
-    """
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    target = Path(path)
-    if target.exists() and not overwrite:
-        raise OutputExistsError(str(target))
-    gain = np.log10(np.where(np.isfinite(sensitivity.laser_gain), sensitivity.laser_gain, np.nan))
-    fig, (left, right) = plt.subplots(1, 2, figsize=(11, 4.5))
-    rel = sensitivity.points - sensitivity.centre
-    scatter = left.scatter(rel[:, 0], rel[:, 1], c=gain, s=20 + 4 * (rel[:, 2] - rel[:, 2].min()), cmap="viridis")
-    blind = ~np.isfinite(sensitivity.laser_gain)
-    left.scatter(rel[blind, 0], rel[blind, 1], marker="x", color="red", label="lasers blind (level pivots)")
-    fig.colorbar(scatter, ax=left, label="log10 laser gain (mm tip / mm laser)")
-    left.set_xlabel("x - centre [mm]")
-    left.set_ylabel("y - centre [mm]")
-    left.set_title("Laser-to-tip amplification (marker size: z)")
-    if blind.any():
-        left.legend(loc="upper right", fontsize=8)
-    ratios = np.where(np.isfinite(sensitivity.motor_ratio), sensitivity.motor_ratio, np.nan)
-    for k, arm in enumerate("abc"):
-        right.plot(np.sort(ratios[:, k]), label=f"motor {arm}")
-    right.set_yscale("log")
-    right.set_xlabel("grid point (sorted)")
-    right.set_ylabel("probe / laser movement")
-    right.axhline(20.0, color="grey", linestyle="--", label="thesis 20:1")
-    right.legend(fontsize=8)
-    right.set_title("Probe-to-laser ratio per motor")
-    fig.tight_layout()
-    fig.savefig(target, dpi=100)
-    plt.close(fig)
-    return target

@@ -277,10 +277,10 @@ class NoiseGrowth:
     lasers: FloatArray
 
     def to_markdown(self) -> str:
-        """The table of ``docs/machine.md`` (noise in um, errors in um, urad, ppm and millidegrees)."""
+        """The table of ``docs/machine.md`` (noise in µm, errors in µm, µrad, ppm and millidegrees)."""
         lines = [
-            "| probe noise σ (µm) | tip centre (µm) | slider direction (µrad) | slider point (µm) | laser scale (ppm) "
-            "| laser offset (µm) | d (µm) | β (mdeg) |",
+            "| probe noise σ / µm | tip center / µm | slider direction / µrad | slider point / µm | laser scale / ppm "
+            "| laser offset / µm | d / µm | β / mdeg |",
             "|---|---|---|---|---|---|---|---|",
         ]
         for row in self.rows:
@@ -351,7 +351,7 @@ def main(argv: Sequence[str] | None = None) -> None:
     parser.add_argument("--seeds", type=int, default=20, help="probing runs per noise level (default 20)")
     parser.add_argument("--points", type=int, default=12, help="probed points per ball (default 12)")
     parser.add_argument("--sigma-um", type=float, nargs="+", default=[s * 1e3 for s in SIGMAS],
-                        help="probe noise levels in um (default 0 0.1 0.5 1 2)")
+                        help="probe noise levels in µm (default 0 0.1 0.5 1 2)")
     args = parser.parse_args(argv)
     study = noise_growth_study([s * 1e-3 for s in args.sigma_um], seeds=args.seeds, points_per_ball=args.points)
     print(f"median over {study.seeds} seeds, {study.points_per_ball} points per ball, "
