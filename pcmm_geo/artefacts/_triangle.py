@@ -186,7 +186,7 @@ def neighbour_lists(triangles: FloatArray) -> NeighbourLists:
     radius = np.linalg.norm(triangles - centroids[:, None, :], axis=2).max(axis=1) * (1.0 + SLACK)
     count = min(_LISTED_NEIGHBOURS, len(triangles))
     bound = _LISTED_REACH * float(radius.max())
-    distance, listed = cKDTree(centroids).query(centroids, k=count, distance_upper_bound=bound)
+    distance, listed = cKDTree(centroids).query(centroids, k=count, distance_upper_bound=bound, workers=-1)
     distance, listed = distance.reshape(len(centroids), count), listed.reshape(len(centroids), count)
     # a full list is complete only below its last distance; rounding of the distances is allowed for
     within = np.where(np.isfinite(distance[:, -1]), distance[:, -1], bound)
