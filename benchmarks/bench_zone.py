@@ -32,7 +32,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 from _timing import best_of
 
 from pcmm_geo.fit import fit_circle, fit_cylinder, fit_sphere
-from pcmm_geo.fit._core import rotation_to_z
+from pcmm_geo.fit._kernels._core import rotation_to_z
 from pcmm_geo.fit.zone.reference import make_minimax_reference
 
 

@@ -26,6 +26,7 @@ from pcmm_geo.errors import (
     DeviceTimeoutError,
     FileFormatError,
     IllConditionedWarning,
+    IncompleteTestError,
     InvalidInputError,
     LogIntegrityError,
     NoRealSolutionError,
@@ -53,5 +54,6 @@ __all__ = [
     "DeviceTimeoutError",
     "DeviceProtocolError",
     "LogIntegrityError",
+    "IncompleteTestError",
     "IllConditionedWarning",
 ]

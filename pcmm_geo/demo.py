@@ -418,8 +418,8 @@ def _length_uncertainty(
 def _write_plots(folder: Path, calibration: Any, tip_errors: dict[str, list[FloatArray]]) -> list[str]:
     """Slider lines, joint centres and tip (thesis fig 7.2) and the tip errors per contact."""
     from pcmm_geo.errors import OutputExistsError
-    from pcmm_geo.plots.calibration import plot_calibration
     from pcmm_geo.plots.demo import plot_tip_errors
+    from pcmm_geo.plots.machine.calibration import plot_calibration
 
     folder.mkdir(parents=True, exist_ok=True)
     paths = [folder / "calibration_3d.png", folder / "gauge_block_tip_errors.png"]

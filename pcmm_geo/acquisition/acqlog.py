@@ -309,6 +309,7 @@ class AcquisitionLog:
             entries[str(key)] = text
         header = "# pcmm_geo acquisition log\n" + "".join(f"# {k}: {v}\n" for k, v in entries.items())
         header += ",".join(LOG_COLUMNS) + "\n"
+        path.parent.mkdir(parents=True, exist_ok=True)  # README: missing folders are created
         try:
             handle = open(path, "w" if overwrite else "x", encoding="utf-8", newline="")
         except FileExistsError as exc:
@@ -424,14 +425,9 @@ def export_table_3_2(
     contents = read_log(source)
     destination = Path(destination)
     lines = [",".join(TABLE_3_2_COLUMNS)] + [",".join(row.cells()[: len(TABLE_3_2_COLUMNS)]) for row in contents.rows]
-    try:
-        with open(destination, "w" if overwrite else "x", encoding="utf-8", newline="") as handle:
-            handle.write("\n".join(lines) + "\n")
-            handle.flush()
-            os.fsync(handle.fileno())
-    except FileExistsError as exc:
-        raise OutputExistsError(str(destination)) from exc
-    return destination
+    from pcmm_geo._atomic import write_atomic
+
+    return write_atomic(destination, "\n".join(lines) + "\n", overwrite=overwrite)
 
 
 def _fsync_directory(directory: Path) -> None:

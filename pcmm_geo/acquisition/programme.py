@@ -24,6 +24,7 @@ from __future__ import annotations
 
 import contextlib
 from collections.abc import Callable, Mapping
+from typing import Any
 
 from pcmm_geo.acquisition.session import AcquisitionSession, SessionConfig
 from pcmm_geo.errors import InvalidInputError
@@ -37,13 +38,14 @@ DEVICE_PORTS = ("zaber", "laser_a", "laser_b", "laser_c", "probe")
 
 
 def open_session(
-    ports: Mapping[str, str],
+    ports: Mapping[str, Any],
     stack: contextlib.ExitStack,
     *,
     timeout: float = 0.5,
     move_timeout: float = 60.0,
     probe_mode: str = "pin",
     settle_time: float = 2.6,
+    clock: Any = None,
 ) -> AcquisitionSession:
     """Connect the five devices on ``ports`` and return a session on them.
 
@@ -59,6 +61,10 @@ def open_session(
         Arduino firmware mode.
     settle_time : float
         Settling wait after each move, s (seed 2.6 s, thesis 3.5).
+    clock : VirtualClock, optional
+        The simulated clock of virtual ports (:class:`~pcmm_geo.acquisition.simulators.cmm.SimulatedRig`
+        with ``transport="virtual"``): settling, retry backoff and ``elapsed`` then use simulated
+        time, so a seeded run repeats exactly and costs no wall time.
 
     Returns
     -------
@@ -88,7 +94,10 @@ def open_session(
         for arm in ARMS
     ]
     probe = stack.enter_context(ProbeReader(ports["probe"], mode=probe_mode, timeout=timeout))
-    return AcquisitionSession(motors, lasers, probe, None, SessionConfig(settle_time=settle_time))
+    config = SessionConfig(settle_time=settle_time)
+    if clock is not None:
+        return AcquisitionSession(motors, lasers, probe, None, config, sleep=clock.sleep, clock=clock)
+    return AcquisitionSession(motors, lasers, probe, None, config)
 
 
 def run_random_programme(

@@ -11,10 +11,14 @@ The seed's procedure (Appendix A, chapters 3 and 6) is:
    direction (away from the artefact) is allowed (thesis 3.6); anything else is refused with
    :class:`~pcmm_geo.errors.InvalidInputError` before a byte is sent.
 
-Every device call is retried on transient failures (timeouts, garbled/partial replies, busy
-replies, laser error values); positions are only trusted once two consecutive position queries
-agree, since a garbled data byte in a Zaber reply cannot be detected otherwise.  Counters of
-retries, resyncs and timeouts end up in a frozen :class:`SessionSummary`.
+Every device call is retried, with exponential backoff, on transient failures (timeouts,
+garbled/partial replies, busy replies, laser error values): up to ``max_retries`` times.  An
+error reply with any other code (which a garbled byte may also fake) is retried up to
+``max_refusals`` times: only a code that persists aborts the session, with a message saying how
+many retries failed.  A failed port (disconnect) aborts at once.  Positions are only trusted
+once two consecutive position queries agree, since a garbled data byte in a Zaber reply cannot
+be detected otherwise.  Counters of retries, backoff, resyncs and timeouts end up in a frozen
+:class:`SessionSummary`.
 """
 
 from __future__ import annotations
@@ -52,6 +56,12 @@ class SessionConfig:
         Stream values per laser reading (median).
     position_checks : int
         Consecutive identical position replies needed to trust a position.
+    backoff : float
+        Wait before the first retry of a device call, s; doubled for each further retry.
+    max_backoff : float
+        Longest wait between two retries, s.
+    max_refusals : int
+        Retries of a call answered with a non-transient error code before giving up.
 
     Examples
     --------
@@ -65,11 +75,15 @@ class SessionConfig:
     max_retries: int = 8
     laser_samples: int = 5
     position_checks: int = 2
+    backoff: float = 0.01
+    max_backoff: float = 0.32
+    max_refusals: int = 2
 
     def __post_init__(self) -> None:
-        if not (self.settle_time >= 0):
-            raise InvalidInputError("settle_time", "a non-negative number of seconds", repr(self.settle_time))
-        for name in ("max_retries", "presequence_span", "start_position"):
+        for name in ("settle_time", "backoff", "max_backoff"):
+            if not (getattr(self, name) >= 0):
+                raise InvalidInputError(name, "a non-negative number of seconds", repr(getattr(self, name)))
+        for name in ("max_retries", "presequence_span", "start_position", "max_refusals"):
             if not (isinstance(getattr(self, name), int) and getattr(self, name) >= 0):
                 raise InvalidInputError(name, "a non-negative integer", repr(getattr(self, name)))
         for name in ("laser_samples", "position_checks"):
@@ -100,7 +114,11 @@ class SessionSummary:
         Logged moves, rows written, moves that ended in probe contact, moves refused by the
         contact rule.
     retries : int
-        Device calls repeated after a transient failure.
+        Device calls repeated after a failure (or a disagreeing position reply).
+    error_retries : int
+        Of those, retries after the device reported an error code (busy, laser error value...).
+    backoff : float
+        Seconds spent waiting between retries.
     resyncs, timeouts, device_errors, discarded_bytes : int
         Summed over the drivers (see :class:`~pcmm_geo.acquisition.drivers._port.LinkStatistics`).
     requests : int
@@ -114,6 +132,8 @@ class SessionSummary:
     contacts: int
     refused_moves: int
     retries: int
+    error_retries: int
+    backoff: float
     resyncs: int
     timeouts: int
     device_errors: int
@@ -140,7 +160,10 @@ class AcquisitionSession:
         Where rows go (None: rows are only returned).
     config : SessionConfig
     sleep : callable
-        ``sleep(seconds)``, injectable for tests.
+        ``sleep(seconds)``, injectable for tests (settling and retry backoff).
+    clock : callable
+        ``clock() -> seconds``, for :attr:`SessionSummary.elapsed` (a simulated clock makes
+        simulated sessions repeatable).
 
     Examples
     --------
@@ -171,6 +194,7 @@ class AcquisitionSession:
         config: SessionConfig | None = None,
         *,
         sleep: Callable[[float], None] = time.sleep,
+        clock: Callable[[], float] = time.monotonic,
     ) -> None:
         if len(lasers) != 3:
             raise InvalidInputError("lasers", "three laser drivers (a, b, c)", f"{len(lasers)}")
@@ -182,19 +206,39 @@ class AcquisitionSession:
         self.sleep = sleep
         self.positions: dict[int, int] = {}
         self.contact_move: tuple[int, int] | None = None
-        self._started = time.monotonic()
+        self.clock = clock
+        self._started = clock()
         self._moves = self._rows = self._contacts = self._refused = self._retries = 0
+        self._error_retries = 0
+        self._backoff_total = 0.0
 
     # ------------------------------------------------------------------ plumbing
     def _call(self, function: Callable[..., T], *args: Any) -> T:
-        for attempt in range(self.config.max_retries + 1):
+        """``function(*args)``, retried with exponential backoff; see the module documentation."""
+        retries = refusals = 0
+        while True:
             try:
                 return function(*args)
             except DeviceError as error:
-                if not is_transient(error) or attempt == self.config.max_retries:
+                code = getattr(error, "code", None)
+                if is_transient(error):
+                    exhausted = retries >= self.config.max_retries
+                elif code is not None:  # a refusal, or a garbled reply that looks like one
+                    refusals += 1
+                    exhausted = refusals > self.config.max_refusals or retries >= self.config.max_retries
+                else:
+                    raise  # the port failed: nothing to retry
+                if exhausted:
+                    _note_persistent(error, retries)
                     raise
+                retries += 1
                 self._retries += 1
-        raise AssertionError("unreachable")  # pragma: no cover
+                if code is not None:
+                    self._error_retries += 1
+                wait = min(self.config.backoff * 2 ** (retries - 1), self.config.max_backoff)
+                if wait > 0:
+                    self._backoff_total += wait
+                    self.sleep(wait)
 
     def confirmed_position(self, motor: int) -> int:
         """Query ``motor``'s position until ``position_checks`` consecutive replies agree."""
@@ -344,6 +388,16 @@ class AcquisitionSession:
         link = self.link_statistics()
         return SessionSummary(
             moves=self._moves, rows=self._rows, contacts=self._contacts, refused_moves=self._refused,
-            retries=self._retries, resyncs=link.resyncs, timeouts=link.timeouts, device_errors=link.device_errors,
-            discarded_bytes=link.discarded_bytes, requests=link.requests, elapsed=time.monotonic() - self._started,
+            retries=self._retries, error_retries=self._error_retries, backoff=round(self._backoff_total, 9),
+            resyncs=link.resyncs, timeouts=link.timeouts, device_errors=link.device_errors,
+            discarded_bytes=link.discarded_bytes, requests=link.requests, elapsed=self.clock() - self._started,
         )
+
+
+def _note_persistent(error: DeviceError, retries: int) -> None:
+    """Say in the error (message and ``retries`` field) how many retries failed before giving up."""
+    text = f"{error}; persistent fault: {retries} {'retry' if retries == 1 else 'retries'} failed, giving up"
+    error.args = (text,)
+    error.message = text
+    error.fields["retries"] = retries
+    error.retries = retries  # type: ignore[attr-defined]

@@ -52,6 +52,13 @@ def add_json_flag(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--json", action="store_true", help="print the result as JSON on stdout")
 
 
+def add_decimal_flag(parser: argparse.ArgumentParser) -> None:
+    """Add ``--decimal {.,,}``: the decimal mark of text point files (default: detected, ambiguity refused)."""
+    parser.add_argument("--decimal", choices=(".", ","), default=None,
+                        help="decimal mark of a text point file: '.' or ',' (with ';', tab or space separators); "
+                             "default: detected, an ambiguous file is refused")
+
+
 def add_plot_flag(parser: argparse.ArgumentParser, what: str) -> None:
     """Add ``--plot FILE.png`` (``what`` says what is drawn); the file is checked before any work."""
     parser.add_argument("--plot", metavar="FILE.png", help=f"write {what} (.png, .svg or .pdf)")

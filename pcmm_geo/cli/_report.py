@@ -260,15 +260,11 @@ def write_report(
     >>> out.read_text(encoding="utf-8").splitlines()[-1]
     '- ok'
     """
-    from pcmm_geo.errors import OutputExistsError
 
     target = check_report_path(path, overwrite=overwrite)
     render = render_markdown if target.suffix.lower() == ".md" else render_html
     text = render(report, title, command=command, base_dir=target.parent)
     target.parent.mkdir(parents=True, exist_ok=True)
-    try:
-        with open(target, "w" if overwrite else "x", encoding="utf-8", newline="\n") as handle:
-            handle.write(text)
-    except FileExistsError:
-        raise OutputExistsError(str(target)) from None
-    return target
+    from pcmm_geo._atomic import write_atomic
+
+    return write_atomic(target, text, overwrite=overwrite)

@@ -43,10 +43,14 @@ def run_handler(args: argparse.Namespace) -> int:
               file=sys.stderr)
         return EXIT_USAGE
     except PcmmGeoError as exc:
-        print(f"pcmm {args.command}: error: {exc}", file=sys.stderr)
+        print(f"pcmm {args.command}: error: {' '.join(str(exc).split())}", file=sys.stderr)
         return EXIT_USAGE
     except (OSError, ValueError) as exc:
-        print(f"pcmm {args.command}: error: {exc}", file=sys.stderr)
+        if isinstance(exc, OSError) and exc.filename is not None and exc.strerror:
+            message = f"{exc.filename}: {exc.strerror}"  # e.g. "run.csv: No such file or directory"
+        else:
+            message = " ".join(str(exc).split())  # one line, whatever the library put in it
+        print(f"pcmm {args.command}: error: {message}", file=sys.stderr)
         return EXIT_USAGE
     except KeyboardInterrupt:
         print(f"pcmm {args.command}: interrupted", file=sys.stderr)

@@ -16,9 +16,9 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from pcmm_geo.errors import DegenerateGeometryError, InvalidInputError
-from pcmm_geo.fit._core import FitResult, as_points, as_weights, residual_stats, solve_least_squares
-from pcmm_geo.fit._linear import frozen, local_covariance, sign_convention, weighted_centroid
-from pcmm_geo.fit._round import fit_nsphere
+from pcmm_geo.fit._kernels._core import FitResult, as_points, as_weights, residual_stats, solve_least_squares
+from pcmm_geo.fit._kernels._linear import frozen, local_covariance, sign_convention, weighted_centroid
+from pcmm_geo.fit._kernels._round import fit_nsphere
 from pcmm_geo.fit.plane import fit_plane
 from pcmm_geo.fit.zone._common import check_criterion
 
@@ -130,7 +130,7 @@ def fit_circle(
     if criterion != "gaussian":
         from pcmm_geo.fit.zone._round import circle_minimax
 
-        return circle_minimax(pts, criterion)
+        return circle_minimax(pts, criterion, result_type=CircleFit, fit_plane=fit_plane)
     w = as_weights(weights, len(pts), element=_ELEMENT)
     if pts.shape[1] == 2:
         return _circle_2d(pts, w, radius)

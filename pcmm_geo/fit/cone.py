@@ -18,7 +18,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from pcmm_geo.errors import ConvergenceError
-from pcmm_geo.fit._axial import (
+from pcmm_geo.fit._kernels._axial import (
     AxialSolution,
     FloatArray,
     as_axis_hint,
@@ -29,8 +29,8 @@ from pcmm_geo.fit._axial import (
     screened_axes,
     solve_axial,
 )
-from pcmm_geo.fit._core import FitResult, as_points, as_weights, covariance_from_jacobian, residual_stats
-from pcmm_geo.fit._linear import frozen
+from pcmm_geo.fit._kernels._core import FitResult, as_points, as_weights, covariance_from_jacobian, residual_stats
+from pcmm_geo.fit._kernels._linear import frozen
 from pcmm_geo.fit.cylinder import _cylinder_model, _cylinder_start, axis_point_jacobian
 from pcmm_geo.fit.zone._common import check_criterion
 
@@ -195,7 +195,7 @@ def fit_cone(
     if criterion != "gaussian":
         from pcmm_geo.fit.zone._axial import cone_minimax
 
-        return cone_minimax(data, criterion)
+        return cone_minimax(data, criterion, gauss=fit_cone(data), result_type=ConeFit)
     weight = as_weights(weights, data.shape[0], element=_ELEMENT)
     sqrt_weights = None if weight is None else np.sqrt(weight)
     centroid = data.mean(axis=0)

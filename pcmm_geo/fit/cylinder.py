@@ -13,8 +13,8 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from pcmm_geo.errors import InvalidInputError
-from pcmm_geo.fit import _tall
-from pcmm_geo.fit._axial import (
+from pcmm_geo.fit._kernels import _tall
+from pcmm_geo.fit._kernels._axial import (
     AxialSolution,
     FloatArray,
     LocalModel,
@@ -28,8 +28,8 @@ from pcmm_geo.fit._axial import (
     local_direction,
     solve_axial,
 )
-from pcmm_geo.fit._core import FitResult, as_points, as_weights, covariance_from_jacobian, residual_stats
-from pcmm_geo.fit._linear import frozen
+from pcmm_geo.fit._kernels._core import FitResult, as_points, as_weights, covariance_from_jacobian, residual_stats
+from pcmm_geo.fit._kernels._linear import frozen
 from pcmm_geo.fit.scale import is_dask_array
 from pcmm_geo.fit.zone._common import check_criterion
 
@@ -145,7 +145,7 @@ def fit_cylinder(
     Gauss-Newton / Levenberg-Marquardt with an analytic Jacobian in standard position
     (data centred at the centroid, current axis rotated to +z; local parameters are the
     axis crossing ``x0, y0`` of the local ``z = 0`` plane, two tilts ``a, b`` and the radius).
-    From ``pcmm_geo.fit._tall.TALL_ROWS`` unweighted points on, and for a dask array, the fit
+    From ``pcmm_geo.fit._kernels._tall.TALL_ROWS`` unweighted points on, and for a dask array, the fit
     of a strided subsample starts Gauss-Newton passes whose normal equations are accumulated
     in chunks (:mod:`pcmm_geo.fit.scale.fits`).
     Starting values come from an algebraic circle fit of the data projected along each
@@ -209,7 +209,7 @@ def fit_cylinder(
     if criterion != "gaussian":
         from pcmm_geo.fit.zone._axial import cylinder_minimax
 
-        return cylinder_minimax(data, criterion)
+        return cylinder_minimax(data, criterion, gauss=fit_cylinder(data), result_type=CylinderFit)
     weight = as_weights(weights, data.shape[0], element=_ELEMENT)
     if weight is None and len(data) >= _tall.TALL_ROWS:
         from pcmm_geo.fit.scale.chunked import IllConditionedSteps

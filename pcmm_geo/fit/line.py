@@ -12,9 +12,9 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from pcmm_geo.errors import DegenerateGeometryError, InvalidInputError
-from pcmm_geo.fit import _tall
-from pcmm_geo.fit._core import FitResult, as_points, as_weights, residual_stats
-from pcmm_geo.fit._linear import frozen, local_covariance, principal_frame, propagate, sign_convention
+from pcmm_geo.fit._kernels import _tall
+from pcmm_geo.fit._kernels._core import FitResult, as_points, as_weights, residual_stats
+from pcmm_geo.fit._kernels._linear import frozen, local_covariance, principal_frame, propagate, sign_convention
 from pcmm_geo.fit.scale import is_dask_array
 from pcmm_geo.fit.zone._common import check_criterion
 
@@ -64,7 +64,7 @@ def fit_line(points: ArrayLike, *, weights: ArrayLike | None = None, criterion: 
     Parameters
     ----------
     points : array_like, shape (N, 2) or (N, 3), or dask.array.Array, shape (N, 3)
-        Measured points (mm), N >= 2, not all identical.  From ``pcmm_geo.fit._tall.TALL_ROWS``
+        Measured points (mm), N >= 2, not all identical.  From ``pcmm_geo.fit._kernels._tall.TALL_ROWS``
         unweighted 3-D points on, the moments are accumulated in chunks
         (:mod:`pcmm_geo.fit.scale.fits`); a dask array is fitted so, block by block (no
         weights), with lazy ``residuals``.
@@ -109,7 +109,7 @@ def fit_line(points: ArrayLike, *, weights: ArrayLike | None = None, criterion: 
     if criterion != "gaussian":
         from pcmm_geo.fit.zone._linear import line_minimax
 
-        return line_minimax(pts, criterion)
+        return line_minimax(pts, criterion, gauss=fit_line(pts), result_type=LineFit)
     w = as_weights(weights, len(pts), element=_ELEMENT)
     if w is None and pts.shape[1] == 3 and len(pts) >= _tall.TALL_ROWS:
         from pcmm_geo.fit.scale.fits import fit_line_scaled, numpy_source

@@ -13,9 +13,9 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from pcmm_geo.errors import DegenerateGeometryError, InvalidInputError
-from pcmm_geo.fit import _tall
-from pcmm_geo.fit._core import TOL, FitResult, as_points, as_weights, residual_stats
-from pcmm_geo.fit._linear import frozen, local_covariance, principal_frame, propagate, sign_convention
+from pcmm_geo.fit._kernels import _tall
+from pcmm_geo.fit._kernels._core import TOL, FitResult, as_points, as_weights, residual_stats
+from pcmm_geo.fit._kernels._linear import frozen, local_covariance, principal_frame, propagate, sign_convention
 from pcmm_geo.fit.scale import is_dask_array
 from pcmm_geo.fit.zone._common import check_criterion
 
@@ -56,7 +56,7 @@ def fit_plane(points: ArrayLike, *, weights: ArrayLike | None = None, criterion:
     Parameters
     ----------
     points : array_like or dask.array.Array, shape (N, 3)
-        Measured points (mm), N >= 3, not all on one line.  From ``pcmm_geo.fit._tall.TALL_ROWS``
+        Measured points (mm), N >= 3, not all on one line.  From ``pcmm_geo.fit._kernels._tall.TALL_ROWS``
         unweighted points on, the centroid and scatter matrix are accumulated in chunks and the
         normal is their eigenvector (:mod:`pcmm_geo.fit.scale.fits`); a dask array is fitted so,
         block by block (no weights), with lazy ``residuals``.
@@ -101,7 +101,7 @@ def fit_plane(points: ArrayLike, *, weights: ArrayLike | None = None, criterion:
     if criterion != "gaussian":
         from pcmm_geo.fit.zone._linear import plane_minimax
 
-        return plane_minimax(pts, criterion)
+        return plane_minimax(pts, criterion, gauss=fit_plane(pts), result_type=PlaneFit)
     w = as_weights(weights, len(pts), element=_ELEMENT)
     if w is None and len(pts) >= _tall.TALL_ROWS:
         from pcmm_geo.fit.scale.chunked import IllConditionedSteps

@@ -46,14 +46,14 @@ import numpy as np
 from numpy.typing import NDArray
 
 from pcmm_geo.errors import ConvergenceError, DegenerateGeometryError, InvalidInputError, TooFewPointsError
-from pcmm_geo.fit._reference_elements import (
+from pcmm_geo.fit._reference.elements import (
     ELEMENTS,
     MIN_POINTS,
     ReferenceDataSet,
     StandardElement,
     build_standard_element,
 )
-from pcmm_geo.fit._reference_io import read_reference_data, write_nist_pair, write_reference_data
+from pcmm_geo.fit._reference.io import read_reference_data, write_nist_pair, write_reference_data
 
 __all__ = [
     "ELEMENTS",
@@ -272,7 +272,7 @@ def make_reference_data(
     >>> data.parameters["radius"], data.points.shape
     (5.0, (30, 3))
     >>> circle = make_reference_data("circle2d", n_points=3, rotate=False)
-    >>> np.round(circle.points, 12).tolist()[0]
+    >>> (np.round(circle.points, 12) + 0.0).tolist()[0]
     [10.0, 0.0]
     """
     if element not in MIN_POINTS:

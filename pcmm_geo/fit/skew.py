@@ -18,8 +18,8 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from pcmm_geo.errors import DegenerateGeometryError, InvalidInputError, TooFewPointsError
-from pcmm_geo.fit._core import TOL
-from pcmm_geo.fit._linear import frozen
+from pcmm_geo.fit._kernels._core import TOL
+from pcmm_geo.fit._kernels._linear import frozen
 
 __all__ = [
     "LinePair",

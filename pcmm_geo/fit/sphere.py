@@ -9,10 +9,10 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from pcmm_geo.errors import InvalidInputError
-from pcmm_geo.fit import _tall
-from pcmm_geo.fit._core import FitResult, as_points, as_weights, residual_stats
-from pcmm_geo.fit._linear import frozen
-from pcmm_geo.fit._round import fit_nsphere
+from pcmm_geo.fit._kernels import _tall
+from pcmm_geo.fit._kernels._core import FitResult, as_points, as_weights, residual_stats
+from pcmm_geo.fit._kernels._linear import frozen
+from pcmm_geo.fit._kernels._round import fit_nsphere
 from pcmm_geo.fit.scale import is_dask_array
 from pcmm_geo.fit.zone._common import check_criterion
 
@@ -66,7 +66,7 @@ def fit_sphere(
     """Fit a sphere minimising the (weighted) sum of squared orthogonal distances.
 
     Gauss-Newton / Levenberg-Marquardt on centred data from an algebraic (Kasa)
-    starting value; the algebraic fit is never returned.  From ``pcmm_geo.fit._tall.TALL_ROWS``
+    starting value; the algebraic fit is never returned.  From ``pcmm_geo.fit._kernels._tall.TALL_ROWS``
     points on (unweighted) the data are read in cache-sized chunks: the start from moments of
     one pass, then each Gauss-Newton step from normal equations accumulated chunk by chunk
     (:mod:`pcmm_geo.fit.scale.sphere`); ill-conditioned data go to the orthogonal routines.
@@ -124,7 +124,7 @@ def fit_sphere(
     if criterion != "gaussian":
         from pcmm_geo.fit.zone._round import sphere_minimax
 
-        return sphere_minimax(pts, criterion)
+        return sphere_minimax(pts, criterion, result_type=SphereFit)
     w = as_weights(weights, len(pts), element=_ELEMENT)
     if w is None and len(pts) >= _tall.TALL_ROWS:
         chunked = _fit_chunked(pts, radius)

@@ -13,7 +13,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike
 
-from pcmm_geo.fit._axial import (
+from pcmm_geo.fit._kernels._axial import (
     AxialSolution,
     FloatArray,
     algebraic_circle,
@@ -26,9 +26,9 @@ from pcmm_geo.fit._axial import (
     screened_axes,
     solve_axial,
 )
-from pcmm_geo.fit._core import FitResult, as_points, as_weights, covariance_from_jacobian, residual_stats
-from pcmm_geo.fit._linear import frozen
-from pcmm_geo.fit._torus_search import best_axis_position, refined_axis
+from pcmm_geo.fit._kernels._core import FitResult, as_points, as_weights, covariance_from_jacobian, residual_stats
+from pcmm_geo.fit._kernels._linear import frozen
+from pcmm_geo.fit._kernels._torus_search import best_axis_position, refined_axis
 from pcmm_geo.fit.zone._common import check_criterion
 
 __all__ = ["TorusFit", "fit_torus"]

@@ -39,11 +39,11 @@ from typing import Any
 
 # public name -> module defining it, imported on first access (PEP 562)
 _LAZY = {
-    "plot_calibration": "pcmm_geo.plots.calibration",
+    "plot_calibration": "pcmm_geo.plots.machine.calibration",
     "plot_gauge_block": "pcmm_geo.plots.gauge_block",
-    "plot_sensitivity": "pcmm_geo.plots.sensitivity",
+    "plot_sensitivity": "pcmm_geo.plots.machine.sensitivity",
     "plot_fit_residuals": "pcmm_geo.plots.fit_residuals",
-    "plot_processed_log": "pcmm_geo.plots.process_log",
+    "plot_processed_log": "pcmm_geo.plots.machine.process_log",
     "plot_tip_errors": "pcmm_geo.plots.demo",
     "plot_monte_carlo": "pcmm_geo.plots.uncertainty",
     "plot_demo_overview": "pcmm_geo.plots.demo",
@@ -53,9 +53,9 @@ _LAZY = {
     "plot_probing_test": "pcmm_geo.plots.verification",
     "plot_software_test": "pcmm_geo.plots.verification",
     "plot_stage_test": "pcmm_geo.plots.verification",
-    "plot_numerical_calibration": "pcmm_geo.plots.machine_state",
-    "plot_pose": "pcmm_geo.plots.machine_state",
-    "plot_trilateration": "pcmm_geo.plots.machine_state",
+    "plot_numerical_calibration": "pcmm_geo.plots.machine.machine_state",
+    "plot_pose": "pcmm_geo.plots.machine.machine_state",
+    "plot_trilateration": "pcmm_geo.plots.machine.machine_state",
     "plot_sensor_curve": "pcmm_geo.plots.thermal",
     "plot_length_correction": "pcmm_geo.plots.thermal",
     "plot_frame_triangle": "pcmm_geo.plots.thermal",

@@ -7,7 +7,6 @@ the suffix and is rendered by matplotlib's Agg canvas for raster formats.
 
 from __future__ import annotations
 
-import contextlib
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -96,20 +95,12 @@ def save_figure(figure: Figure, path: str | Path, *, overwrite: bool = False) ->
     >>> save_figure(figure, os.path.join(tempfile.mkdtemp(), "line.png")).name
     'line.png'
     """
+    from pcmm_geo._atomic import write_atomic
+
     target = check_plot_path(path, overwrite=overwrite)
     target.parent.mkdir(parents=True, exist_ok=True)
-    try:
-        handle = open(target, "wb" if overwrite else "xb")  # closed by the ``with`` below
-    except FileExistsError:
-        raise OutputExistsError(str(target)) from None
-    try:
-        with handle:
-            figure.savefig(handle, format=target.suffix[1:].lower(), dpi=PLOT_DPI)
-    except BaseException:
-        with contextlib.suppress(OSError):
-            target.unlink()
-        raise
-    return target
+    return write_atomic(target, lambda stream: figure.savefig(stream, format=target.suffix[1:].lower(), dpi=PLOT_DPI),
+                        overwrite=overwrite)
 
 
 def equal_3d_limits(axes: Any, points: Any, margin: float = 0.05) -> None:

@@ -128,7 +128,7 @@ def plot_demo_overview(
     >>> plot_demo_overview(result.tetrahedron_calibration, result.tip_errors, path).name
     'demo.png'
     """
-    from pcmm_geo.plots.calibration import draw_calibration_3d
+    from pcmm_geo.plots.machine.calibration import draw_calibration_3d
 
     check_plot_path(path, overwrite=overwrite)
     figure = new_figure(13.0, 5.5)

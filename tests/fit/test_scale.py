@@ -14,7 +14,8 @@ import numpy as np
 import pytest
 
 from pcmm_geo.errors import DegenerateGeometryError, InvalidInputError, TooFewPointsError
-from pcmm_geo.fit import _tall, fit_cylinder, fit_line, fit_plane, fit_sphere
+from pcmm_geo.fit import fit_cylinder, fit_line, fit_plane, fit_sphere
+from pcmm_geo.fit._kernels import _tall
 from pcmm_geo.fit.reference import make_reference_data
 from pcmm_geo.fit.scale import chunked, is_dask_array
 from pcmm_geo.testing import assert_fit_close

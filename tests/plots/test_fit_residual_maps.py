@@ -66,7 +66,7 @@ def test_every_element_has_a_residual_map(element: str, tmp_path: Path) -> None:
 
 def test_sensitivity_plot_shows_every_point_and_counts_the_singular_ones(tmp_path: Path) -> None:
     from pcmm_geo.machine.analysis.sensitivity import sensitivity_over_cube
-    from pcmm_geo.plots.sensitivity import plot_sensitivity, z_levels
+    from pcmm_geo.plots.machine.sensitivity import plot_sensitivity, z_levels
 
     sensitivity = sensitivity_over_cube(points_per_axis=5)
     levels, index = z_levels(sensitivity.points - sensitivity.centre)
@@ -78,7 +78,7 @@ def test_sensitivity_plot_shows_every_point_and_counts_the_singular_ones(tmp_pat
 def test_calibration_legend_lists_only_what_can_be_seen() -> None:
     from pcmm_geo.machine.calibration import calibrate_tetrahedron
     from pcmm_geo.machine.calibration.seed import appendix_cd_files
-    from pcmm_geo.plots.calibration import draw_calibration_3d
+    from pcmm_geo.plots.machine.calibration import draw_calibration_3d
 
     calibration = calibrate_tetrahedron(*appendix_cd_files())
     axes = new_figure(6, 6).add_subplot(projection="3d")

@@ -89,7 +89,7 @@ def test_iso10360_commands_apply_the_iso14253_rule() -> None:
     assert data["verdict"] == "NOT PROVEN" and data["test_uncertainty_um"] == pytest.approx(0.6)
     assert {e["verdict"] for e in data["errors"]} == {"PASS", "NOT PROVEN"}
     sphere = str(examples / "iso10360_5_sphere.csv")
-    done = run("iso10360-5", sphere, "--reference-diameter", "25", "--mpe-form", "1.5", "--mpe-size", "1.5",
+    done = run("iso10360-5", sphere, "--reference-diameter", "25.0004", "--mpe-form", "1.5", "--mpe-size", "1.5",
                "--uncertainty", "0.3", "0.4", "--json")
     assert done.returncode == 0
     data = json.loads(done.stdout)

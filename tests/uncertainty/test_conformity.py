@@ -35,7 +35,12 @@ def test_one_sided_and_zero_uncertainty() -> None:
 
 
 def _lengths(errors_um: list[float]) -> list[LengthMeasurement]:
-    return [LengthMeasurement(f"L{i}", "p1", 1, 100.0, 100.0 + e / 1000.0) for i, e in enumerate(errors_um)]
+    """The given errors (length L{i}, position p1, repetition 1) first, completed by error-free values to the
+    standard's 5 lengths x 7 positions x 3 repetitions (a partial set gets no verdict)."""
+    given = [LengthMeasurement(f"L{i}", "p1", 1, 100.0, 100.0 + e / 1000.0) for i, e in enumerate(errors_um)]
+    rest = [LengthMeasurement(f"L{i}", f"p{p}", r, 100.0, 100.0) for i in range(5) for p in range(1, 8)
+            for r in (1, 2, 3) if not (p == 1 and r == 1 and i < len(errors_um))]
+    return given + rest
 
 
 def test_iso10360_2_with_the_iso14253_rule() -> None:
@@ -43,7 +48,7 @@ def test_iso10360_2_with_the_iso14253_rule() -> None:
     passed = evaluate_length_test(_lengths([0.5, -1.0]), mpe, decision_rule="iso14253", test_uncertainty=0.0005)
     assert passed.verdict == "PASS" and passed.passed
     ambiguous = evaluate_length_test(_lengths([0.5, 1.8]), mpe, decision_rule="iso14253", test_uncertainty=0.0005)
-    assert [e.verdict for e in ambiguous.errors] == ["PASS", "NOT PROVEN"]
+    assert [e.verdict for e in ambiguous.errors[:2]] == ["PASS", "NOT PROVEN"]
     assert ambiguous.verdict == "NOT PROVEN" and not ambiguous.passed
     failed = evaluate_length_test(_lengths([1.8, -2.7]), mpe, decision_rule="iso14253", test_uncertainty=0.0005)
     assert failed.verdict == "FAIL"

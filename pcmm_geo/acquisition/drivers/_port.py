@@ -10,12 +10,13 @@ the pcmm_geo error tree.
 from __future__ import annotations
 
 import time
+from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Protocol
 
 from pcmm_geo.errors import DeviceError, DeviceProtocolError, DeviceTimeoutError, InvalidInputError
 
-__all__ = ["LinkCounters", "LinkStatistics", "SerialLike", "is_transient", "open_port"]
+__all__ = ["LinkCounters", "LinkStatistics", "SerialLike", "is_transient", "link_clock", "open_port"]
 
 #: reason text of the DeviceError raised when the port itself fails (cable pulled, pty closed)
 DISCONNECTED = "port disconnected or failed"
@@ -167,6 +168,16 @@ def flush_input(link: SerialLike, device: str) -> None:
         link.reset_input_buffer()
     except _port_failures() as exc:
         raise DeviceError(device, f"{DISCONNECTED}: {exc}") from exc
+
+
+def link_clock(link: object) -> Callable[[], float]:
+    """The clock a driver measures its deadlines with: the port's ``clock`` if it has one, else ``time.monotonic``.
+
+    Simulated ports (:class:`~pcmm_geo.acquisition.simulators.pty.VirtualPort`) carry a simulated
+    clock so that timeouts depend on simulated time, not on the host's speed.
+    """
+    clock = getattr(link, "clock", None)
+    return clock if callable(clock) else time.monotonic
 
 
 def deadline_after(seconds: float) -> float:

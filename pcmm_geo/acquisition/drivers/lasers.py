@@ -28,7 +28,6 @@ Examples
 
 from __future__ import annotations
 
-import time
 from dataclasses import dataclass
 
 from pcmm_geo.acquisition.drivers._port import (
@@ -36,6 +35,7 @@ from pcmm_geo.acquisition.drivers._port import (
     LinkStatistics,
     SerialLike,
     flush_input,
+    link_clock,
     open_port,
     read_some,
     write_all,
@@ -313,6 +313,7 @@ class LaserSensor:
         self._errors = ILD1302_ERRORS if model == "ILD1302" else ILD1420_ERRORS
         self._error_floor = 16370 if model == "ILD1302" else 262075
         self._link, self._owned = open_port(port, device=name, baudrate=baudrate, timeout=0.01)
+        self._clock = link_clock(self._link)
         self._counters = LinkCounters()
 
     def close(self) -> None:
@@ -367,11 +368,11 @@ class LaserSensor:
         flush_input(self._link, self.name)
         self._align_to_value_end()
         write_all(self._link, text.encode("ascii") + b"\r\n", self.name)
-        deadline = time.monotonic() + wait
+        deadline = self._clock() + wait
         pending = bytearray()
         reply = bytearray()
         while b"->" not in reply:
-            if time.monotonic() >= deadline:
+            if self._clock() >= deadline:
                 self._counters.timeouts += 1
                 raise DeviceTimeoutError(self.name, wait, f"no prompt after {text!r}")
             pending += read_some(self._link, 256, self.name)
@@ -412,13 +413,13 @@ class LaserSensor:
 
     def _align_to_value_end(self) -> None:
         """Consume stream bytes up to the end of a value (a byte with bit 7 set); give up after 20 ms of silence."""
-        deadline = time.monotonic() + 0.02
-        while time.monotonic() < deadline:
+        deadline = self._clock() + 0.02
+        while self._clock() < deadline:
             chunk = read_some(self._link, 1, self.name)
             if chunk and chunk[0] & 0x80:
                 return
             if chunk:
-                deadline = time.monotonic() + 0.02
+                deadline = self._clock() + 0.02
 
     def read(self, samples: int | None = None) -> LaserReading:
         """Discard stale bytes, then take the median of ``samples`` fresh values.
@@ -442,9 +443,9 @@ class LaserSensor:
         self._decoder.reset()
         values: list[int] = []
         errors: list[int] = []
-        deadline = time.monotonic() + self.timeout
+        deadline = self._clock() + self.timeout
         while len(values) < wanted:
-            if time.monotonic() >= deadline:
+            if self._clock() >= deadline:
                 self._counters.timeouts += 1
                 raise DeviceTimeoutError(self.name, self.timeout, f"fewer than {wanted} valid values")
             for raw in self._decoder.feed(read_some(self._link, 64, self.name)):

@@ -24,7 +24,6 @@ True
 
 from __future__ import annotations
 
-import time
 from dataclasses import dataclass
 
 from pcmm_geo.acquisition.drivers._port import (
@@ -32,6 +31,7 @@ from pcmm_geo.acquisition.drivers._port import (
     LinkStatistics,
     SerialLike,
     flush_input,
+    link_clock,
     open_port,
     read_some,
 )
@@ -144,6 +144,7 @@ class ProbeReader:
         self.timeout = float(timeout)
         self.name = name
         self._link, self._owned = open_port(port, device=name, baudrate=baudrate, timeout=0.01)
+        self._clock = link_clock(self._link)
         self._counters = LinkCounters()
 
     def close(self) -> None:
@@ -180,9 +181,9 @@ class ProbeReader:
         streak_token = b""
         streak = 0
         discarded = 0
-        deadline = time.monotonic() + self.timeout
+        deadline = self._clock() + self.timeout
         while True:
-            if time.monotonic() >= deadline:
+            if self._clock() >= deadline:
                 self._counters.timeouts += 1
                 raise DeviceTimeoutError(self.name, self.timeout, f"no {self.confirm} consistent probe states")
             buffer += read_some(self._link, 64, self.name)

@@ -24,7 +24,6 @@ ZaberReply(device=3, command=255, data=20)
 from __future__ import annotations
 
 import struct
-import time
 from collections.abc import Iterable
 from dataclasses import dataclass
 
@@ -33,6 +32,7 @@ from pcmm_geo.acquisition.drivers._port import (
     LinkStatistics,
     SerialLike,
     flush_input,
+    link_clock,
     open_port,
     read_some,
     write_all,
@@ -245,6 +245,7 @@ class ZaberChain:
         self.move_timeout = float(move_timeout)
         self.packet_gap = float(packet_gap)
         self._link, self._owned = open_port(port, device="zaber", baudrate=baudrate, timeout=packet_gap)
+        self._clock = link_clock(self._link)
         self._counters = LinkCounters()
         self.unsolicited: list[ZaberReply] = []
 
@@ -313,12 +314,12 @@ class ZaberChain:
         write_all(self._link, packet, "zaber")
         wanted = command if reply_command is None else reply_command
         timeout = self.move_timeout if command in MOTION_COMMANDS else self.timeout
-        deadline = time.monotonic() + timeout
+        deadline = self._clock() + timeout
         replies: dict[int, ZaberReply] = {}
         buffer = bytearray()
-        last_byte = time.monotonic()
+        last_byte = self._clock()
         while len(replies) < len(expected):
-            now = time.monotonic()
+            now = self._clock()
             if now >= deadline:
                 if buffer:
                     self._discard(buffer)
@@ -326,7 +327,7 @@ class ZaberChain:
                 missing = sorted(expected - set(replies))
                 raise DeviceTimeoutError(f"zaber device(s) {missing}", timeout, f"no reply to command {command}")
             chunk = read_some(self._link, PACKET_SIZE - len(buffer), "zaber")
-            now = time.monotonic()
+            now = self._clock()
             if chunk:
                 buffer += chunk
                 last_byte = now

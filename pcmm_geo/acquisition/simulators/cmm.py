@@ -32,7 +32,7 @@ from numpy.typing import ArrayLike, NDArray
 from pcmm_geo.acquisition.drivers.zaber import T_LSR450B_MICROSTEP_MM
 from pcmm_geo.acquisition.simulators.devices import LaserStreamSim, ProbeSim, ZaberChainSim
 from pcmm_geo.acquisition.simulators.faults import RECOVERABLE_FAULTS, FaultPlan
-from pcmm_geo.acquisition.simulators.pty import PtyServer
+from pcmm_geo.acquisition.simulators.pty import PtyServer, VirtualClock, VirtualPort
 from pcmm_geo.errors import InvalidInputError
 
 __all__ = ["START_POSITION", "GaugeBlock", "SimulatedMicroCMM", "SimulatedRig"]
@@ -245,11 +245,17 @@ class SimulatedRig:
         Seeds the fault plans (each device gets its own stream).
     probe_mode : {"pin", "text"}
         Arduino firmware mode.
+    transport : {"pty", "virtual"}
+        ``"pty"``: real pseudo-terminals served by a thread in real time (realistic, but timing
+        depends on the host); ``"virtual"``: in-process :class:`VirtualPort` objects on one
+        :class:`VirtualClock`, so a seed reproduces the same faults, retries and rows on any host.
 
     Attributes
     ----------
-    ports : dict str -> str
-        tty paths under keys ``zaber``, ``laser_a``, ``laser_b``, ``laser_c``, ``probe``.
+    ports : dict str -> str or VirtualPort
+        tty paths (or virtual ports) under keys ``zaber``, ``laser_a``, ``laser_b``, ``laser_c``, ``probe``.
+    clock : VirtualClock or None
+        The simulated clock of the virtual transport (None with ptys).
     faults : dict str -> FaultPlan
         Per device, with injected-fault counts.
 
@@ -271,7 +277,10 @@ class SimulatedRig:
         seed: int = 0,
         probe_mode: str = "pin",
         silence: float = 0.3,
+        transport: str = "pty",
     ) -> None:
+        if transport not in ("pty", "virtual"):
+            raise InvalidInputError("transport", "'pty' or 'virtual'", repr(transport))
         self.cmm = cmm if cmm is not None else SimulatedMicroCMM(seed=seed)
         self.faults = {
             key: FaultPlan(fault_rate, fault_kinds, seed=int(np.random.SeedSequence([seed, i]).generate_state(1)[0]))
@@ -287,8 +296,17 @@ class SimulatedRig:
             for i, arm in enumerate("abc")
         ]
         self.probe = ProbeSim(self.cmm.contact, mode=probe_mode, faults=self.faults["probe"], silence=silence)
-        self.server = PtyServer([self.zaber, *self.lasers, self.probe])
-        self.ports = dict(zip(self.DEVICE_KEYS, self.server.port_names, strict=True))
+        devices = [self.zaber, *self.lasers, self.probe]
+        self.clock: VirtualClock | None = None
+        self.server: PtyServer | None = None
+        self.ports: dict[str, Any]
+        if transport == "virtual":
+            self.clock = VirtualClock()
+            self.ports = {key: VirtualPort(device, self.clock, name=key)
+                          for key, device in zip(self.DEVICE_KEYS, devices, strict=True)}
+        else:
+            self.server = PtyServer(devices)
+            self.ports = dict(zip(self.DEVICE_KEYS, self.server.port_names, strict=True))
 
     @property
     def injected_faults(self) -> dict[str, int]:
@@ -307,8 +325,12 @@ class SimulatedRig:
         return block
 
     def close(self) -> None:
-        """Stop the simulators and close the ptys."""
-        self.server.close()
+        """Stop the simulators and close the ptys (or the virtual ports)."""
+        if self.server is not None:
+            self.server.close()
+        else:
+            for port in self.ports.values():
+                port.close()
 
     def __enter__(self) -> SimulatedRig:
         return self

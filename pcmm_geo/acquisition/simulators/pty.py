@@ -19,7 +19,7 @@ from collections.abc import Sequence
 
 from pcmm_geo.errors import DeviceError, InvalidInputError
 
-__all__ = ["PtyServer", "SimulatedDevice"]
+__all__ = ["PtyServer", "SimulatedDevice", "VirtualClock", "VirtualPort"]
 
 _IDLE_WAIT = 0.05  # s, longest select wait when no device has anything due
 
@@ -187,3 +187,120 @@ class PtyServer:
             device.overflow_bytes += len(out) - written
         if hang_up:
             endpoint.hang_up()
+
+
+class VirtualClock:
+    """Simulated time (s) for :class:`VirtualPort`: it only moves when a driver waits or sleeps.
+
+    Callable like ``time.monotonic``; :meth:`sleep` replaces ``time.sleep``.  Driving drivers and
+    simulated devices from one such clock makes a simulated session independent of the host's
+    speed and scheduling: the same seed gives the same bytes, faults, retries and rows.
+
+    Examples
+    --------
+    >>> clock = VirtualClock()
+    >>> clock.sleep(2.5)
+    >>> clock()
+    2.5
+    """
+
+    def __init__(self, start: float = 0.0) -> None:
+        self.now = float(start)
+
+    def __call__(self) -> float:
+        return self.now
+
+    def sleep(self, seconds: float) -> None:
+        """Advance the clock by ``seconds`` (negative values count as 0)."""
+        self.now += max(0.0, float(seconds))
+
+    def advance_to(self, when: float) -> None:
+        """Move the clock forward to ``when`` (never backwards)."""
+        self.now = max(self.now, float(when))
+
+
+class VirtualPort:
+    """An in-process serial-like port serving one :class:`SimulatedDevice` on a :class:`VirtualClock`.
+
+    Drivers accept it wherever they accept an open pyserial port; they read the time from its
+    ``clock`` attribute.  ``read`` returns the bytes the device has produced by the current
+    simulated time; when there are none it lets simulated time pass (up to ``timeout``) until
+    the device's next output.  Each byte read costs ``byte_time`` seconds (the line's speed),
+    so simulated time always moves on.  No thread, no wall-clock: deterministic by design.
+
+    Parameters
+    ----------
+    device : SimulatedDevice
+    clock : VirtualClock
+        Shared by every port of one simulated machine (and the session's sleeps).
+    byte_time : float
+        Seconds per byte (default: 10 bits at 115 200 Bd).
+    name : str
+        Shown by ``str(port)``.
+
+    Examples
+    --------
+    >>> from pcmm_geo.acquisition.simulators.devices import ZaberChainSim
+    >>> from pcmm_geo.acquisition.drivers.zaber import ZaberChain
+    >>> clock = VirtualClock()
+    >>> port = VirtualPort(ZaberChainSim(initial_positions={1: 1234}), clock, name="zaber")
+    >>> ZaberChain(port).position(1), str(port)
+    (1234, 'virtual:zaber')
+    """
+
+    def __init__(self, device: SimulatedDevice, clock: VirtualClock, *, byte_time: float = 10 / 115_200,
+                 name: str = "") -> None:
+        self.device = device
+        self.clock = clock
+        self.byte_time = float(byte_time)
+        self.name = name or device.name
+        self.timeout: float | None = 0.0
+        self._input = bytearray()
+        self._dead = False
+        self.is_open = True
+
+    def __str__(self) -> str:
+        return f"virtual:{self.name}"
+
+    def _collect(self) -> None:
+        if self._dead:
+            return
+        out = self.device.pending(self.clock.now)
+        if out:
+            self._input += out
+        if self.device.disconnect_requested:
+            self._dead = True
+
+    def _check_open(self) -> None:
+        if not self.is_open:
+            raise OSError(f"{self}: port closed")
+        if self._dead and not self._input:
+            raise OSError(5, f"{self}: device hung up (simulated disconnect)")
+
+    def write(self, data: bytes) -> int:
+        self._check_open()
+        self.device.on_receive(bytes(data), self.clock.now)
+        self.clock.sleep(len(data) * self.byte_time)
+        self._collect()
+        return len(data)
+
+    def read(self, size: int = 1) -> bytes:
+        self._check_open()
+        self._collect()
+        limit = self.clock.now + (self.timeout or 0.0)
+        while not self._input and not self._dead and self.clock.now < limit:
+            due = self.device.next_due(self.clock.now)
+            self.clock.advance_to(limit if due is None else min(max(due, self.clock.now + 1e-9), limit))
+            self._collect()
+        out = bytes(self._input[:size])
+        del self._input[:size]
+        self.clock.sleep(len(out) * self.byte_time)
+        return out
+
+    def reset_input_buffer(self) -> None:
+        self._check_open()
+        self._collect()
+        self._input.clear()
+
+    def close(self) -> None:
+        self.is_open = False

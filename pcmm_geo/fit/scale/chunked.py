@@ -23,7 +23,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from pcmm_geo.errors import ConvergenceError
-from pcmm_geo.fit._core import TOL
+from pcmm_geo.fit._kernels._core import TOL
 
 FloatArray = NDArray[np.float64]
 
@@ -214,7 +214,7 @@ def gauss_newton(
     """Levenberg-Marquardt on normal equations accumulated by passes over the data.
 
     ``evaluate(x)`` makes one pass at ``x``.  The iteration stops as
-    :func:`pcmm_geo.fit._core.solve_least_squares` does: an undamped Gauss-Newton step below
+    :func:`pcmm_geo.fit._kernels._core.solve_least_squares` does: an undamped Gauss-Newton step below
     ``TOL.step * (scale + |local(x)|)``, or a step at the rounding floor that no longer
     shrinks.  The parameters returned are those of the last pass, so the residuals and
     normal equations of that pass belong to them (no extra pass).

@@ -28,7 +28,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from pcmm_geo.errors import DegenerateGeometryError, InvalidInputError
-from pcmm_geo.fit._core import TOL, rotation_to_z
+from pcmm_geo.fit._kernels._core import TOL, rotation_to_z
 from pcmm_geo.fit.scale.chunked import (
     IllConditionedSteps,
     Moments,
@@ -140,7 +140,7 @@ def line_distances(points: FloatArray, point: FloatArray, e1: FloatArray, e2: Fl
 
 def fit_plane_scaled(source: Source) -> dict[str, Any]:
     """Fields of :func:`pcmm_geo.fit.fit_plane`'s result from a moment pass (unweighted)."""
-    from pcmm_geo.fit._linear import propagate, sign_convention
+    from pcmm_geo.fit._kernels._linear import propagate, sign_convention
 
     data, _ = checked_moments(source, "plane")
     eigen, vectors = _principal(data)
@@ -168,7 +168,7 @@ def fit_plane_scaled(source: Source) -> dict[str, Any]:
 
 def fit_line_scaled(source: Source) -> dict[str, Any]:
     """Fields of :func:`pcmm_geo.fit.fit_line`'s result for 3-D points from a moment pass (unweighted)."""
-    from pcmm_geo.fit._linear import propagate, sign_convention
+    from pcmm_geo.fit._kernels._linear import propagate, sign_convention
 
     data, _ = checked_moments(source, "line")
     eigen, vectors = _principal(data)
@@ -236,7 +236,7 @@ def fit_cylinder_scaled(source: Source, radius: float | None, axis_hint: Any = N
     the fixed radius) and ``axis_point_jacobian`` come from :mod:`pcmm_geo.fit.cylinder`,
     which passes them in (it imports this module).  Unweighted.
     """
-    from pcmm_geo.fit._axial import canonical_axis, local_direction
+    from pcmm_geo.fit._kernels._axial import canonical_axis, local_direction
 
     data, _ = checked_moments(source, "cylinder")
     eigen, _ = _principal(data)

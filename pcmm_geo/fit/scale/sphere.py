@@ -9,7 +9,7 @@
    also gives the residuals, rms and form of the returned sphere (no extra pass).
 
 Two to three Gauss-Newton passes follow the start on measured data.  The fixed point is the
-one of :func:`pcmm_geo.fit._round.fit_nsphere`, the orthogonal-routine solver used for
+one of :func:`pcmm_geo.fit._kernels._round.fit_nsphere`, the orthogonal-routine solver used for
 small or ill-conditioned problems.
 """
 

@@ -9,23 +9,21 @@ whose width is measured normal to the cone surface.
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING
+from typing import Any, TypeVar
 
 import numpy as np
 
 from pcmm_geo.errors import DegenerateGeometryError
-from pcmm_geo.fit._axial import canonical_axis
-from pcmm_geo.fit._core import rotation_to_z
-from pcmm_geo.fit._linear import frozen
+from pcmm_geo.fit._kernels._axial import canonical_axis
+from pcmm_geo.fit._kernels._core import FitResult, rotation_to_z
+from pcmm_geo.fit._kernels._linear import frozen
 from pcmm_geo.fit.zone._common import mode_of, shared_fields
 from pcmm_geo.fit.zone._models import FloatArray, axis_distance, cone_distance
 from pcmm_geo.fit.zone._solver import solve_minimax
 
 _RUNAWAY = 2.0
 
-if TYPE_CHECKING:
-    from pcmm_geo.fit.cone import ConeFit
-    from pcmm_geo.fit.cylinder import CylinderFit
+ResultT = TypeVar("ResultT", bound=FitResult)
 
 
 def _axis_frame(
@@ -40,11 +38,12 @@ def _axis_frame(
     return axis_raw, axis_point + height * axis_raw, height
 
 
-def cylinder_minimax(points: FloatArray, criterion: str) -> CylinderFit:
-    """Chebyshev / MCC / MIC cylinder of validated ``(N, 3)`` points."""
-    from pcmm_geo.fit.cylinder import CylinderFit, fit_cylinder
+def cylinder_minimax(points: FloatArray, criterion: str, *, gauss: Any, result_type: type[ResultT]) -> ResultT:
+    """Chebyshev / MCC / MIC cylinder of validated ``(N, 3)`` points.
 
-    gauss = fit_cylinder(points)
+    ``gauss`` is the least-squares cylinder of the points (the start), ``result_type`` the
+    ``CylinderFit`` class: both come from :mod:`pcmm_geo.fit.cylinder`, which this module does not import.
+    """
     frame = rotation_to_z(gauss.axis)
     local = (points - gauss.point) @ frame.T
     mode = mode_of(criterion)
@@ -83,14 +82,15 @@ def cylinder_minimax(points: FloatArray, criterion: str) -> CylinderFit:
         form=r_out - r_in,
         n_free=6 if criterion == "chebyshev" else 5,
     )
-    return CylinderFit(point=frozen(point), axis=frozen(axis), radius=radius, r_in=r_in, r_out=r_out, **fields)
+    return result_type(point=frozen(point), axis=frozen(axis), radius=radius, r_in=r_in, r_out=r_out, **fields)
 
 
-def cone_minimax(points: FloatArray, criterion: str) -> ConeFit:
-    """Minimum-zone cone of validated ``(N, 3)`` points."""
-    from pcmm_geo.fit.cone import ConeFit, fit_cone
+def cone_minimax(points: FloatArray, criterion: str, *, gauss: Any, result_type: type[ResultT]) -> ResultT:
+    """Minimum-zone cone of validated ``(N, 3)`` points.
 
-    gauss = fit_cone(points)
+    ``gauss`` is the least-squares cone of the points (the start), ``result_type`` the
+    ``ConeFit`` class: both come from :mod:`pcmm_geo.fit.cone`, which this module does not import.
+    """
     frame = rotation_to_z(gauss.axis)
     local = (points - gauss.point) @ frame.T
     size = max(gauss.radius_at_point, float(np.ptp(local[:, 2])))
@@ -120,7 +120,7 @@ def cone_minimax(points: FloatArray, criterion: str) -> ConeFit:
         form=solution.upper - solution.lower,
         n_free=7,
     )
-    return ConeFit(
+    return result_type(
         apex=frozen(apex),
         axis=frozen(axis_raw),
         half_angle=alpha,

@@ -8,8 +8,8 @@ import numpy as np
 from numpy.typing import NDArray
 
 from pcmm_geo.errors import InvalidInputError
-from pcmm_geo.fit._core import Certificate
-from pcmm_geo.fit._linear import frozen
+from pcmm_geo.fit._kernels._core import Certificate
+from pcmm_geo.fit._kernels._linear import frozen
 from pcmm_geo.fit.zone._solver import ZoneSolution
 
 FloatArray = NDArray[np.float64]

@@ -16,19 +16,17 @@ from the least-squares axis); ``form`` is its diameter.
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING
+from typing import Any, TypeVar
 
 import numpy as np
 
-from pcmm_geo.fit._core import rotation_to_z
-from pcmm_geo.fit._linear import frozen, sign_convention
+from pcmm_geo.fit._kernels._core import FitResult, rotation_to_z
+from pcmm_geo.fit._kernels._linear import frozen, sign_convention
 from pcmm_geo.fit.zone._common import shared_fields
 from pcmm_geo.fit.zone._models import FloatArray, axis_distance, line2d_offset, plane_offset
 from pcmm_geo.fit.zone._solver import solve_minimax
 
-if TYPE_CHECKING:
-    from pcmm_geo.fit.line import LineFit
-    from pcmm_geo.fit.plane import PlaneFit
+ResultT = TypeVar("ResultT", bound=FitResult)
 
 
 def _size(local: FloatArray) -> float:
@@ -52,11 +50,12 @@ def _hull_start(centred: FloatArray, fallback: FloatArray) -> FloatArray:
     return fallback
 
 
-def plane_minimax(points: FloatArray, criterion: str) -> PlaneFit:
-    """Minimum-zone plane (narrowest slab) of validated ``(N, 3)`` points."""
-    from pcmm_geo.fit.plane import PlaneFit, fit_plane
+def plane_minimax(points: FloatArray, criterion: str, *, gauss: Any, result_type: type[ResultT]) -> ResultT:
+    """Minimum-zone plane (narrowest slab) of validated ``(N, 3)`` points.
 
-    gauss = fit_plane(points)
+    ``gauss`` is the least-squares plane of the points (the start), ``result_type`` the
+    ``PlaneFit`` class: both come from :mod:`pcmm_geo.fit.plane`, which this module does not import.
+    """
     frame = rotation_to_z(_hull_start(points - gauss.point, gauss.normal))
     local = (points - gauss.point) @ frame.T
     solution = solve_minimax(local, np.zeros(2), plane_offset, "zone", size=_size(local))
@@ -76,14 +75,15 @@ def plane_minimax(points: FloatArray, criterion: str) -> PlaneFit:
         form=solution.upper - solution.lower,
         n_free=4,
     )
-    return PlaneFit(point=frozen(point), normal=frozen(normal), **fields)
+    return result_type(point=frozen(point), normal=frozen(normal), **fields)
 
 
-def line_minimax(points: FloatArray, criterion: str) -> LineFit:
-    """Minimum-zone line: narrowest strip (2-D) or smallest enclosing cylinder (3-D)."""
-    from pcmm_geo.fit.line import LineFit, fit_line
+def line_minimax(points: FloatArray, criterion: str, *, gauss: Any, result_type: type[ResultT]) -> ResultT:
+    """Minimum-zone line: narrowest strip (2-D) or smallest enclosing cylinder (3-D).
 
-    gauss = fit_line(points)
+    ``gauss`` is the least-squares line of the points (the start), ``result_type`` the
+    ``LineFit`` class: both come from :mod:`pcmm_geo.fit.line`, which this module does not import.
+    """
     if points.shape[1] == 2:
         normal0 = np.array([-gauss.direction[1], gauss.direction[0]])
         normal0 = _hull_start(points - gauss.point, normal0)
@@ -131,4 +131,4 @@ def line_minimax(points: FloatArray, criterion: str) -> LineFit:
         n_residuals=len(points) * (dim - 1),
     )
     fields["extra"] = {"residual_components": frozen(components)}
-    return LineFit(point=frozen(point), direction=frozen(direction), **fields)
+    return result_type(point=frozen(point), direction=frozen(direction), **fields)

@@ -9,12 +9,14 @@ one cross-section; the out-of-plane offsets are reported as ``residual_component
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING
+from collections.abc import Callable
+from typing import Any, TypeVar
 
 import numpy as np
 
 from pcmm_geo.errors import DegenerateGeometryError
-from pcmm_geo.fit._linear import frozen, sign_convention
+from pcmm_geo.fit._kernels._core import FitResult
+from pcmm_geo.fit._kernels._linear import frozen, sign_convention
 from pcmm_geo.fit.zone._common import mode_of, shared_fields
 from pcmm_geo.fit.zone._models import FloatArray, center_distance
 from pcmm_geo.fit.zone._solver import ZoneSolution, solve_minimax
@@ -22,9 +24,7 @@ from pcmm_geo.fit.zone._solver import ZoneSolution, solve_minimax
 #: a maximum-inscribed centre this many radii away from the Gaussian centre is running away
 _RUNAWAY = 2.0
 
-if TYPE_CHECKING:
-    from pcmm_geo.fit.circle import CircleFit
-    from pcmm_geo.fit.sphere import SphereFit
+ResultT = TypeVar("ResultT", bound=FitResult)
 
 
 def solve_round(points: FloatArray, criterion: str, *, element: str) -> tuple[FloatArray, ZoneSolution]:
@@ -39,7 +39,7 @@ def solve_round(points: FloatArray, criterion: str, *, element: str) -> tuple[Fl
         do not surround a maximal empty circle / sphere), or a zone that runs off to an
         infinite radius.
     """
-    from pcmm_geo.fit._round import fit_nsphere
+    from pcmm_geo.fit._kernels._round import fit_nsphere
 
     origin = points.mean(axis=0)
     local = points - origin
@@ -79,10 +79,13 @@ def _radii(solution: ZoneSolution, criterion: str) -> tuple[float, float, float,
     return radius, r_in, r_out, r_out - r_in
 
 
-def circle_from_solution(origin: FloatArray, solution: ZoneSolution, criterion: str) -> CircleFit:
-    """The 2-D :class:`CircleFit` of a solved minimax problem in coordinates centred at ``origin``."""
-    from pcmm_geo.fit.circle import CircleFit
+def circle_from_solution(
+    origin: FloatArray, solution: ZoneSolution, criterion: str, *, result_type: type[ResultT]
+) -> ResultT:
+    """The 2-D circle of a solved minimax problem in coordinates centred at ``origin``.
 
+    ``result_type`` is the ``CircleFit`` class (passed in: this module imports no element module).
+    """
     centre = origin + solution.x
     radius, r_in, r_out, form = _radii(solution, criterion)
     residuals = solution.distances - radius
@@ -95,7 +98,7 @@ def circle_from_solution(origin: FloatArray, solution: ZoneSolution, criterion: 
         form=form,
         n_free=4 if criterion == "chebyshev" else 3,
     )
-    return CircleFit(
+    return result_type(
         center=frozen(centre),
         radius=radius,
         normal=None,
@@ -106,15 +109,18 @@ def circle_from_solution(origin: FloatArray, solution: ZoneSolution, criterion: 
     )
 
 
-def circle_minimax(points: FloatArray, criterion: str) -> CircleFit:
-    """Chebyshev / MCC / MIC circle of validated ``(N, 2)`` or ``(N, 3)`` points."""
-    from pcmm_geo.fit.circle import CircleFit
-    from pcmm_geo.fit.plane import fit_plane
+def circle_minimax(
+    points: FloatArray, criterion: str, *, result_type: type[ResultT], fit_plane: Callable[[FloatArray], Any]
+) -> ResultT:
+    """Chebyshev / MCC / MIC circle of validated ``(N, 2)`` or ``(N, 3)`` points.
 
+    ``result_type`` is the ``CircleFit`` class and ``fit_plane`` the least-squares plane fit (the
+    plane of 3-D points), passed in by :mod:`pcmm_geo.fit.circle`: this module imports no element module.
+    """
     if points.shape[1] == 2:
         origin = points.mean(axis=0)
         _, solution = solve_round(points, criterion, element="circle")
-        return circle_from_solution(origin, solution, criterion)
+        return circle_from_solution(origin, solution, criterion, result_type=result_type)
     try:
         plane = fit_plane(points)
     except DegenerateGeometryError:
@@ -140,7 +146,7 @@ def circle_minimax(points: FloatArray, criterion: str) -> CircleFit:
         form=form,
         n_free=4 if criterion == "chebyshev" else 3,
     )
-    return CircleFit(
+    return result_type(
         center=frozen(centre),
         radius=radius,
         normal=frozen(normal),
@@ -151,10 +157,8 @@ def circle_minimax(points: FloatArray, criterion: str) -> CircleFit:
     )
 
 
-def sphere_minimax(points: FloatArray, criterion: str) -> SphereFit:
-    """Chebyshev / MCC / MIC sphere of validated ``(N, 3)`` points."""
-    from pcmm_geo.fit.sphere import SphereFit
-
+def sphere_minimax(points: FloatArray, criterion: str, *, result_type: type[ResultT]) -> ResultT:
+    """Chebyshev / MCC / MIC sphere of validated ``(N, 3)`` points (``result_type``: the ``SphereFit`` class)."""
     centre, solution = solve_round(points, criterion, element="sphere")
     radius, r_in, r_out, form = _radii(solution, criterion)
     residuals = solution.distances - radius
@@ -167,4 +171,4 @@ def sphere_minimax(points: FloatArray, criterion: str) -> SphereFit:
         form=form,
         n_free=5 if criterion == "chebyshev" else 4,
     )
-    return SphereFit(center=frozen(centre), radius=radius, r_in=r_in, r_out=r_out, **fields)
+    return result_type(center=frozen(centre), radius=radius, r_in=r_in, r_out=r_out, **fields)

@@ -122,6 +122,7 @@ def roundness_profiles(profiles: ArrayLike, *, criterion: str = "chebyshev") -> 
 def _batch_2d(stack: FloatArray, criterion: str) -> dict[int, object]:
     """Certified CircleFit of each finite, well-posed 2-D profile by the batched SLP; others are left out."""
     from pcmm_geo.fit.batch import fit_circles
+    from pcmm_geo.fit.circle import CircleFit
     from pcmm_geo.fit.zone._common import mode_of
     from pcmm_geo.fit.zone._models import center_distance
     from pcmm_geo.fit.zone._round import circle_from_solution
@@ -147,7 +148,7 @@ def _batch_2d(stack: FloatArray, criterion: str) -> dict[int, object]:
             continue  # running away (e.g. an unbounded MIC): the single fit reports it
         solution = solve_minimax(local[j], x0[j], center_distance, mode, size=size, start=starts[j])  # type: ignore[arg-type]
         if solution.certified:
-            out[k] = circle_from_solution(origins[j], solution, criterion)
+            out[k] = circle_from_solution(origins[j], solution, criterion, result_type=CircleFit)
     return out
 
 

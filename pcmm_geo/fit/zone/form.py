@@ -17,7 +17,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from pcmm_geo.errors import InvalidInputError
-from pcmm_geo.fit._core import FitResult
+from pcmm_geo.fit._kernels._core import FitResult
 
 __all__ = ["CHARACTERISTICS", "FormEvaluation", "evaluate_form"]
 

@@ -30,7 +30,7 @@ from pathlib import Path
 import numpy as np
 from numpy.typing import NDArray
 
-from pcmm_geo.errors import FileFormatError, InvalidInputError, OutputExistsError
+from pcmm_geo.errors import FileFormatError, InvalidInputError
 from pcmm_geo.machine.kinematics.model_parts import as_readings
 
 __all__ = ["LOG_COLUMNS", "MeasurementLog", "read_log", "write_log"]
@@ -101,10 +101,11 @@ def read_log(path: str | Path) -> MeasurementLog:
     """
     name = str(path)
     rows: list[list[float]] = []
-    with open(path, newline="", encoding="utf-8") as handle:
-        # ``# key: value`` metadata lines (written by pcmm_geo.acquisition.acqlog) are skipped;
-        # columns after the seven Table 3.2 columns (sequence number, time, raw counts) are ignored.
-        numbered = [(number, text) for number, text in enumerate(handle, start=1) if not text.startswith("#")]
+    from pcmm_geo.io._text import read_text_lines
+
+    # ``# key: value`` metadata lines (written by pcmm_geo.acquisition.acqlog) are skipped;
+    # columns after the seven Table 3.2 columns (sequence number, time, raw counts) are ignored.
+    numbered = [(number, text) for number, text in read_text_lines(path) if not text.startswith("#")]
     reader = csv.reader(text for _, text in numbered)
     header = next(reader, None)
     header_line = numbered[0][0] if numbered else 1
@@ -153,10 +154,11 @@ def write_log(path: str | Path, log: MeasurementLog, *, overwrite: bool = False)
     >>> read_log(path).motor.tolist()
     [2]
     """
+    from pcmm_geo._atomic import atomic_output
+
     target = Path(path)
-    if target.exists() and not overwrite:
-        raise OutputExistsError(str(target))
-    with open(target, "w", newline="", encoding="utf-8") as handle:
+    with atomic_output(target, overwrite=overwrite) as temporary, \
+            open(temporary, "w", newline="", encoding="utf-8") as handle:
         writer = csv.writer(handle)
         writer.writerow(LOG_COLUMNS)
         for k in range(len(log)):

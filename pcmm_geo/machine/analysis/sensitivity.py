@@ -142,7 +142,7 @@ def tip_jacobian(
     --------
     >>> m = RigidBodyMachine.from_dpkm()
     >>> jx, jl, _, _ = tip_jacobian(m, m.reference_heights[None] + [[0.0, 40.0, -30.0]])
-    >>> np.round(jx[0] @ np.ones(3), 6).tolist()  # all motors up 1 mm: tip up 1 mm
+    >>> (np.round(jx[0] @ np.ones(3), 6) + 0.0).tolist()  # all motors up 1 mm: tip up 1 mm
     [0.0, 0.0, 1.0]
     """
     if not (np.isfinite(step) and step > 0):

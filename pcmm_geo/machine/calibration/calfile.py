@@ -212,14 +212,9 @@ def _tetrahedron_dict(tetrahedron: Any) -> dict[str, Any]:
 
 def _read_document(path: str | Path) -> tuple[Path, dict[str, Any]]:
     file = Path(path)
-    try:
-        text = file.read_text(encoding="utf-8")
-    except UnicodeDecodeError:
-        raise FileFormatError(str(file), "expected UTF-8 JSON text, got undecodable bytes") from None
-    try:
-        document = json.loads(text)
-    except json.JSONDecodeError as exc:
-        raise FileFormatError(str(file), f"expected JSON, got a syntax error: {exc.msg}", exc.lineno) from None
+    from pcmm_geo.io._text import read_json_file
+
+    document = read_json_file(file)
     if not isinstance(document, dict):
         raise FileFormatError(str(file), f"expected a JSON object, got {type(document).__name__}")
     schema = document.get("schema")

@@ -19,7 +19,7 @@ Examples
 >>> hole = np.c_[5 + 3 * np.cos(angles), 2 + 3 * np.sin(angles), np.repeat([-1.0, -4.0], 6)]
 >>> plane = np.array([[0, 0, 0], [20, 0, 0], [0, 20, 0], [20, 20, 0.0], [10, 30, 0]])
 >>> frame = datum_frame(plane, hole, x_towards=[50, 2, 40])
->>> np.round(frame.origin, 9).tolist(), np.round(frame.apply([50, 2, 40]), 9).tolist()
+>>> (np.round(frame.origin, 9) + 0.0).tolist(), (np.round(frame.apply([50, 2, 40]), 9) + 0.0).tolist()
 ([5.0, 2.0, 0.0], [45.0, 0.0, 40.0])
 """
 
@@ -136,7 +136,7 @@ def datum_frame(plane_points: ArrayLike, hole_points: ArrayLike, *, x_towards: A
     See the module docstring.
     """
     from pcmm_geo.fit import fit_cylinder
-    from pcmm_geo.fit._core import as_points
+    from pcmm_geo.fit._kernels._core import as_points
 
     plane = as_points(plane_points, element="datum plane", min_points=3, name="datum_plane")
     centroid = plane.mean(axis=0)

@@ -150,7 +150,7 @@ def fit_centre_line(centres: ArrayLike, *, what: str) -> FittedLine:
     --------
     >>> import numpy as np
     >>> line = fit_centre_line([[0, 0, 0], [0, 0, 1], [0, 0, 2.0]], what="a")
-    >>> bool(np.allclose(line.direction, [0, 0, 1])), round(line.straightness, 12)
+    >>> bool(np.allclose(line.direction, [0, 0, 1])), round(line.straightness, 12) + 0.0
     (True, 0.0)
     """
     from pcmm_geo.fit import fit_line

@@ -135,7 +135,9 @@ def read_numcal_csv(path: str | Path) -> NumcalData:
     [0.0, 5.5]
     """
     file = Path(path)
-    lines = [(n, raw.strip()) for n, raw in enumerate(file.read_text(encoding="utf-8-sig").splitlines(), 1)]
+    from pcmm_geo.io._text import read_text_lines
+
+    lines = [(n, raw.strip()) for n, raw in read_text_lines(file)]
     lines = [(n, text) for n, text in lines if text and not text.startswith("#")]
     header = ("moved", "laser_a", "laser_b", "laser_c", "height")
     if not lines or tuple(f.strip().lower() for f in lines[0][1].split(",")) != header:

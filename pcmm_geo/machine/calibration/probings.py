@@ -38,6 +38,7 @@ from pathlib import Path
 import numpy as np
 from numpy.typing import NDArray
 
+from pcmm_geo._atomic import write_atomic
 from pcmm_geo.errors import FileFormatError, PcmmGeoError
 from pcmm_geo.machine.calibration.geometry import FittedSphere, fit_probed_sphere
 
@@ -124,10 +125,9 @@ class LaserTable:
 
 
 def _data_lines(path: Path) -> list[tuple[int, list[str]]]:
-    try:
-        text = path.read_text(encoding="utf-8-sig")
-    except UnicodeDecodeError as exc:
-        raise FileFormatError(str(path), f"expected UTF-8 text, got undecodable bytes ({exc.reason})") from None
+    from pcmm_geo.io._text import read_text_file
+
+    text = read_text_file(path)
     rows = []
     for number, raw in enumerate(text.splitlines(), start=1):
         line = raw.strip()
@@ -405,7 +405,7 @@ def write_probings_csv(
     for (feature, position), value in points.items():
         for x, y, z in np.asarray(value, dtype=float):
             lines.append(f"{feature},{'' if position is None else position},{_fmt(x)},{_fmt(y)},{_fmt(z)}")
-    file.write_text("\n".join(lines) + "\n", encoding="utf-8")
+    write_atomic(file, "\n".join(lines) + "\n", overwrite=overwrite)
     return file
 
 
@@ -428,7 +428,7 @@ def write_element_export(
     lines = [",".join(EXPORT_HEADER)] if header else []
     for (x, y, z), d, r in zip(rows, diam, rnd, strict=True):
         lines.append(",".join(_fmt(v) for v in (x, y, z, d, r)))
-    file.write_text("\n".join(lines) + "\n", encoding="utf-8")
+    write_atomic(file, "\n".join(lines) + "\n", overwrite=overwrite)
     return file
 
 
@@ -446,5 +446,5 @@ def write_lasers_csv(
     values = np.asarray(readings, dtype=float).reshape(-1, 3)
     lines = [",".join(LASER_HEADER)]
     lines += [f"{pos},{_fmt(a)},{_fmt(b)},{_fmt(c)}" for pos, (a, b, c) in zip(positions, values, strict=True)]
-    file.write_text("\n".join(lines) + "\n", encoding="utf-8")
+    write_atomic(file, "\n".join(lines) + "\n", overwrite=overwrite)
     return file

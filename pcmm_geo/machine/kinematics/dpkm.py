@@ -213,7 +213,7 @@ def relative_pivot_heights(
     --------
     >>> h, err = relative_pivot_heights([410.0, 410.0, 410.0], {"ab": 60, "bc": 60, "ca": 60},
     ...                                 {"ab": 400.0, "bc": 400.0, "ca": 400.0}, [1, 1])
-    >>> np.round(h, 6).tolist()
+    >>> (np.round(h, 6) + 0.0).tolist()
     [0.0, 90.0, -90.0]
     """
     length = as_readings(lengths, "lengths")

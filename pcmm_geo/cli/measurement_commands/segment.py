@@ -6,7 +6,15 @@ import argparse
 from pathlib import Path
 from typing import Any
 
-from pcmm_geo.cli._output import Report, Table, add_json_flag, add_overwrite_flag, add_plot_flag, add_report_flag
+from pcmm_geo.cli._output import (
+    Report,
+    Table,
+    add_decimal_flag,
+    add_json_flag,
+    add_overwrite_flag,
+    add_plot_flag,
+    add_report_flag,
+)
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
@@ -32,6 +40,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     add_plot_flag(parser, "a 3-D scatter coloured by segment")
     add_report_flag(parser)
     add_overwrite_flag(parser)
+    add_decimal_flag(parser)
     add_json_flag(parser)
     parser.set_defaults(handler=handle)
 
@@ -42,7 +51,7 @@ def handle(args: argparse.Namespace) -> Report:
     from pcmm_geo.artefacts.cad_segment import segment_scan
     from pcmm_geo.io.points import read_points
 
-    points = read_points(args.points)
+    points = read_points(args.points, decimal=args.decimal)
     kinds = tuple(k.strip() for k in args.kinds.split(",") if k.strip())
     result = segment_scan(points, distance_threshold=args.distance_threshold,
                           max_normal_angle=math.radians(args.max_normal_angle_deg), min_points=args.min_points,

@@ -29,8 +29,9 @@ from typing import Any
 
 import numpy as np
 
+from pcmm_geo._atomic import write_atomic
 from pcmm_geo.errors import FileFormatError, InvalidInputError
-from pcmm_geo.fit._reference_elements import ReferenceDataSet
+from pcmm_geo.fit._reference.elements import ReferenceDataSet
 
 __all__ = ["read_reference_data", "write_nist_pair", "write_reference_data"]
 
@@ -93,7 +94,7 @@ def write_reference_data(dataset: ReferenceDataSet, path: str | Path, *, overwri
     residual_columns = dataset.residuals.reshape(len(dataset.points), -1)
     for point, residual in zip(dataset.points, residual_columns, strict=True):
         lines.append(" ".join(f"{value:.17g}" for value in (*point, *residual)))
-    path.write_text("\n".join(lines) + "\n", encoding="utf-8")
+    write_atomic(path, "\n".join(lines) + "\n", overwrite=overwrite)
     return path
 
 
@@ -231,6 +232,6 @@ def write_nist_pair(
     folder.mkdir(parents=True, exist_ok=True)
     rows = [str(len(dataset.points))]
     rows += ["\t".join(f"{v:.17g}" for v in _as3(point)) for point in dataset.points]
-    data_path.write_text("\n".join(rows) + "\n", encoding="utf-8")
+    write_atomic(data_path, "\n".join(rows) + "\n", overwrite=overwrite)
     fit_path.write_text("\n".join(f"{float(v):.17g}" for v in values) + "\n", encoding="utf-8")
     return data_path, fit_path

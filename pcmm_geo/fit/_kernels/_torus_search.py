@@ -13,7 +13,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from pcmm_geo.fit._axial import FloatArray, local_direction, rotation_to_z
+from pcmm_geo.fit._kernels._axial import FloatArray, local_direction, rotation_to_z
 
 __all__ = ["best_axis_position", "refined_axis", "varpro_costs"]
 

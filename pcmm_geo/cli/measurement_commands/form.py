@@ -9,6 +9,7 @@ from pcmm_geo.cli._output import (
     EXIT_FAILURE,
     Report,
     Table,
+    add_decimal_flag,
     add_json_flag,
     add_overwrite_flag,
     add_plot_flag,
@@ -35,6 +36,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     add_plot_flag(parser, "the zone with the deviations and contact points")
     add_report_flag(parser)
     add_overwrite_flag(parser)
+    add_decimal_flag(parser)
     add_json_flag(parser)
     parser.set_defaults(handler=handle)
 
@@ -44,7 +46,7 @@ def handle(args: argparse.Namespace) -> Report:
     from pcmm_geo.fit.zone.form import evaluate_form
     from pcmm_geo.io.points import read_points
 
-    points = read_points(args.file)
+    points = read_points(args.file, decimal=args.decimal)
     if args.two_d:
         if args.element not in ("line", "circle"):
             raise InvalidInputError("--two-d", "element line or circle", args.element)

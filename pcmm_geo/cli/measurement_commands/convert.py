@@ -6,7 +6,7 @@ import argparse
 from pathlib import Path
 from typing import Any
 
-from pcmm_geo.cli._output import Report, Table, add_json_flag
+from pcmm_geo.cli._output import Report, Table, add_decimal_flag, add_json_flag
 
 _MESH_ONLY = (".stl", ".obj")  # .ply holds either a mesh or a point cloud
 
@@ -29,6 +29,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
                         help="mesh -> points: N points spread evenly over the surface instead of the vertices")
     parser.add_argument("--seed", type=int, default=0, help="seed of --sample (default 0)")
     parser.add_argument("--overwrite", action="store_true", help="replace OUT if it exists")
+    add_decimal_flag(parser)
     add_json_flag(parser)
     parser.set_defaults(handler=handle)
 
@@ -45,7 +46,7 @@ def handle(args: argparse.Namespace) -> Report:
         raise OutputExistsError(str(target))
     if source.resolve() == target.resolve():
         raise InvalidInputError("OUT", "a file other than IN", str(target))
-    mesh, points, read_as = _read_any(source)
+    mesh, points, read_as = _read_any(source, args.decimal)
     out_suffix = target.suffix.lower()
     data: dict[str, Any] = {"input": str(source), "output": str(target), "read_as": read_as}
 
@@ -81,7 +82,7 @@ def handle(args: argparse.Namespace) -> Report:
     return Report(data=data, tables=[table])
 
 
-def _read_any(path: Path) -> tuple[Any, Any, str]:
+def _read_any(path: Path, decimal: str | None = None) -> tuple[Any, Any, str]:
     """(mesh, None, label) for a mesh file, (None, points, label) for points."""
     from pcmm_geo.errors import FileFormatError
     from pcmm_geo.io.meshes import read_mesh
@@ -103,7 +104,7 @@ def _read_any(path: Path) -> tuple[Any, Any, str]:
         centres = np.vstack([features.centres().reshape(-1, 3), features.tip.centre[None, :]])
         return None, centres, f"element export ({len(features.positions)} positions x 3 joints + tip)"
     try:
-        return None, read_points(path), "points"
+        return None, read_points(path, decimal=decimal), "points"
     except UnicodeDecodeError as exc:
         raise FileFormatError(str(path), f"expected a text point file, got undecodable bytes ({exc.reason})") from None
 

@@ -14,12 +14,16 @@ from pcmm_geo.cli._output import (
     EXIT_OK,
     Report,
     Table,
+    add_decimal_flag,
     add_json_flag,
     add_overwrite_flag,
     add_plot_flag,
     add_report_flag,
 )
 from pcmm_geo.cli._record import Verdict
+
+_INCOMPLETE_HELP = ("evaluate a data set that is not the standard's (verdict INCOMPLETE, never PASS); "
+                    "without it such a file is refused")
 
 
 def register(subparsers: Any) -> None:
@@ -40,6 +44,7 @@ def register(subparsers: Any) -> None:
                          "ISO 14253-1 rule (PASS / FAIL / NOT PROVEN; the default when --uncertainty is given)")
     p2.add_argument("--uncertainty", type=float, default=0.0, help="expanded test uncertainty U in micrometres")
     p2.add_argument("--mpl-r0", type=float, default=None, help="limit of the repeatability range R0 in micrometres")
+    p2.add_argument("--allow-incomplete", action="store_true", help=_INCOMPLETE_HELP + " (5 lengths x 7 positions x 3)")
     add_plot_flag(p2, "every E0 against its length with the MPE curve, and R0 per length")
     add_report_flag(p2)
     add_overwrite_flag(p2)
@@ -52,9 +57,12 @@ def register(subparsers: Any) -> None:
         description="CSV header x,y,z (mm): the points probed on the test sphere (25 in the standard).",
     )
     p5.add_argument("file", help="CSV of probed points")
-    p5.add_argument("--reference-diameter", type=float, required=True, help="calibrated diameter in mm")
+    p5.add_argument("--reference-diameter", type=float, default=None,
+                    help="calibrated diameter in mm (default: the file's '# reference_diameter_mm: D' line)")
     p5.add_argument("--mpe-form", type=float, default=None, help="MPE of P_FTU in micrometres")
     p5.add_argument("--mpe-size", type=float, default=None, help="MPE of P_STU in micrometres")
+    p5.add_argument("--allow-incomplete", action="store_true", help=_INCOMPLETE_HELP + " (25 points)")
+    add_decimal_flag(p5)
     p5.add_argument("--uncertainty", type=float, nargs=2, metavar=("U_FORM", "U_SIZE"), default=None,
                     help="expanded test uncertainties of P_FTU and P_STU in micrometres: ISO 14253-1 decision "
                          "(PASS / FAIL / NOT PROVEN)")
@@ -109,12 +117,14 @@ def _handle_2(args: argparse.Namespace) -> Report:
         decision_rule=args.rule or ("iso14253" if args.uncertainty > 0 else "simple"),
         test_uncertainty=args.uncertainty / 1000.0,
         mpl_r0=None if args.mpl_r0 is None else args.mpl_r0 / 1000.0,
+        allow_incomplete=args.allow_incomplete,
     )
     bad = [e for e in result.errors if not e.conforms]
     data = {
         "passed": result.passed,
         "verdict": result.verdict,
         "test_uncertainty_um": result.test_uncertainty * 1000,
+        "complete": result.complete,
         "decision_rule": result.decision_rule,
         "mpe": {"a_um": mpe.a_um, "k": mpe.k, "b_um": mpe.b_um},
         "max_abs_error_um": result.max_abs_error * 1000,
@@ -152,7 +162,7 @@ def _handle_2(args: argparse.Namespace) -> Report:
     if args.mpl_r0 is not None:
         rule += f"; R0 <= {args.mpl_r0:g} µm"
     plots = _plot(args, "plot_length_test", result)
-    return Report(data=data, tables=tables, lines=lines, exit_code=EXIT_OK if result.passed else EXIT_FAILURE,
+    return Report(data=data, tables=tables, lines=lines, exit_code=EXIT_FAILURE if result.passed is False else EXIT_OK,
                   plots=plots, verdict=Verdict(_passed(result.verdict), statement, rule))
 
 
@@ -177,18 +187,29 @@ def _plot(args: argparse.Namespace, function: str, *inputs: object) -> list[str]
 
 
 def _handle_5(args: argparse.Namespace) -> Report:
-    from pcmm_geo.artefacts.iso10360_5 import evaluate_probing, read_points_csv
+    from pcmm_geo.artefacts.iso10360_5 import evaluate_probing, read_reference_diameter
+    from pcmm_geo.errors import InvalidInputError
+    from pcmm_geo.io.points import read_points
 
     _positive("--mpe-form", args.mpe_form)
     _positive("--mpe-size", args.mpe_size)
+    points = read_points(args.file, decimal=args.decimal)
+    stated = read_reference_diameter(args.file)
+    diameter = args.reference_diameter if args.reference_diameter is not None else stated
+    if diameter is None:
+        raise InvalidInputError("--reference-diameter", "the sphere's calibrated diameter in mm "
+                                f"(or a '# reference_diameter_mm: D' line in {args.file})", "neither")
+    if stated is not None and args.reference_diameter is not None and stated != args.reference_diameter:
+        raise InvalidInputError("--reference-diameter", f"the {stated} mm that {args.file} states",
+                                f"{args.reference_diameter} mm")
     for value in args.uncertainty or ():
         _positive("--uncertainty", value, allow_zero=True)
-    points = read_points_csv(args.file)
     result = evaluate_probing(
         points,
-        args.reference_diameter,
+        diameter,
         mpe_form=None if args.mpe_form is None else args.mpe_form / 1000,
         mpe_size=None if args.mpe_size is None else args.mpe_size / 1000,
+        allow_incomplete=args.allow_incomplete,
         test_uncertainty=None if args.uncertainty is None else (args.uncertainty[0] / 1000,
                                                                  args.uncertainty[1] / 1000),
     )
@@ -202,6 +223,8 @@ def _handle_5(args: argparse.Namespace) -> Report:
         "form_conforms": result.form_conforms,
         "size_conforms": result.size_conforms,
         "passed": result.passed,
+        "complete": result.complete,
+        "verdict": result.verdict,
         "form_verdict": result.form_verdict or None,
         "size_verdict": result.size_verdict or None,
         "decision_rule": result.decision_rule,
@@ -213,11 +236,8 @@ def _handle_5(args: argparse.Namespace) -> Report:
          ["fitted diameter", result.fitted_diameter, "mm"], ["reference diameter", result.reference_diameter, "mm"],
          ["points", result.n, "1"]],
     )
-    verdict = "no MPE stated" if result.passed is None else ("PASS" if result.passed else "FAIL")
-    if result.test_uncertainty is not None and result.passed is not None:
-        from pcmm_geo.uncertainty.conformity import overall_verdict
-
-        verdict = overall_verdict([v for v in (result.form_verdict, result.size_verdict) if v])
+    verdict = result.verdict
+    if result.test_uncertainty is not None and (result.form_verdict or result.size_verdict):
         verdict += f" (P_FTU {result.form_verdict or '-'}, P_STU {result.size_verdict or '-'})"
     lines = [f"verdict: {verdict}", f"decision rule: {result.decision_rule}"]
     limits = [f"P_FTU <= {args.mpe_form:g} µm" if args.mpe_form is not None else "",

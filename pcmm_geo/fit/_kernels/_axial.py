@@ -24,9 +24,9 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from pcmm_geo.errors import ConvergenceError, DegenerateGeometryError, InvalidInputError
-from pcmm_geo.fit import _core
-from pcmm_geo.fit._axial_lm import levenberg_marquardt
-from pcmm_geo.fit._core import SolverOutcome, rotation_to_z
+from pcmm_geo.fit._kernels import _core
+from pcmm_geo.fit._kernels._axial_lm import levenberg_marquardt
+from pcmm_geo.fit._kernels._core import SolverOutcome, rotation_to_z
 
 FloatArray = NDArray[np.float64]
 

@@ -6,8 +6,8 @@ import numpy as np
 from numpy.typing import NDArray
 
 from pcmm_geo.errors import DegenerateGeometryError
-from pcmm_geo.fit._core import TOL
-from pcmm_geo.fit._tall import tall_svd
+from pcmm_geo.fit._kernels._core import TOL
+from pcmm_geo.fit._kernels._tall import tall_svd
 
 FloatArray = NDArray[np.float64]
 

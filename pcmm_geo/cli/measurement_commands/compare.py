@@ -11,6 +11,7 @@ from pcmm_geo.cli._output import (
     EXIT_OK,
     Report,
     Table,
+    add_decimal_flag,
     add_json_flag,
     add_overwrite_flag,
     add_plot_flag,
@@ -51,6 +52,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     add_plot_flag(parser, "a 3-D scatter of the registered points coloured by deviation")
     add_report_flag(parser)
     add_overwrite_flag(parser)
+    add_decimal_flag(parser)
     add_json_flag(parser)
     parser.set_defaults(handler=handle)
 
@@ -73,7 +75,7 @@ def handle(args: argparse.Namespace) -> Report:
     mesh = read_mesh(args.mesh) if args.mesh is not None else nominal_mesh(args.nominal)
     nominal_name = str(args.mesh) if args.mesh is not None else args.nominal
     check_closed_mesh(mesh, what=nominal_name)  # signed deviations need a closed surface
-    points = read_points(args.points)
+    points = read_points(args.points, decimal=args.decimal)
     initial = None
     if args.init_transform == "centroid":
         initial = centroid_alignment(points, mesh)
@@ -170,7 +172,9 @@ def read_transform(path: Path) -> Any:
     from pcmm_geo.errors import FileFormatError, InvalidInputError
 
     numbers: list[float] = []
-    for line_number, line in enumerate(path.read_text(encoding="utf-8").splitlines(), start=1):
+    from pcmm_geo.io._text import read_text_lines
+
+    for line_number, line in read_text_lines(path):
         text = line.split("#", 1)[0].replace(",", " ").split()
         try:
             numbers.extend(float(field) for field in text)

@@ -24,7 +24,11 @@ def register(subparsers: Any) -> None:
     parser.add_argument("--moves", type=int, default=20, help="number of logged moves (default 20)")
     parser.add_argument("--settle", type=float, default=2.6, help="settling wait after each move, s (thesis 2.6)")
     parser.add_argument("--fault-rate", type=float, default=0.0, help="simulated fault probability per reply/window")
-    parser.add_argument("--seed", type=int, default=0, help="seed of the move programme and the simulation")
+    parser.add_argument("--seed", type=int, default=0,
+                        help="seed of the move programme and the simulation (same seed: same faults, counters, rows)")
+    parser.add_argument("--transport", choices=("virtual", "pty"), default="virtual",
+                        help="with --simulate: in-process devices on a simulated clock (virtual, repeatable, "
+                             "default) or real pseudo-terminals served in real time (pty)")
     parser.add_argument("--out", required=True, help="CSV log to create (refuses to overwrite)")
     parser.add_argument("--overwrite", action="store_true", help="replace an existing log")
     parser.add_argument("--table-3-2", dest="table_3_2", metavar="FILE",
@@ -98,16 +102,16 @@ def _handle(args: argparse.Namespace) -> Report:
             )
             rig = stack.enter_context(
                 SimulatedRig(cmm, fault_rate=args.fault_rate, seed=args.seed, probe_mode=args.probe_mode,
-                             silence=max(0.1, 2 * args.timeout))
+                             silence=max(0.1, 2 * args.timeout), transport=args.transport)
             )
             ports = dict(rig.ports)
         else:
             ports = {"zaber": args.port_zaber, "probe": args.port_probe}
             ports.update({f"laser_{arm}": getattr(args, f"port_laser_{arm}") for arm in _ARMS})
-        session = _open_session(args, ports, stack)
+        session = _open_session(args, ports, stack, None if rig is None else rig.clock)
         metadata = {
             "mode": "simulated" if args.simulate else "hardware",
-            "ports": " ".join(f"{k}={v}" for k, v in ports.items()),
+            "ports": " ".join(f"{k}={v}" for k, v in ports.items()), "transport": args.transport,
             "settle_s": args.settle, "moves_requested": args.moves, "seed": args.seed,
             "fault_rate": args.fault_rate, "probe_mode": args.probe_mode, "presequence": not args.no_presequence,
             "start_position_usteps": session.config.start_position,
@@ -139,11 +143,10 @@ def _handle(args: argparse.Namespace) -> Report:
     return Report(data=data, tables=[Table("Acquisition session", ["counter", "value"], counters)], lines=lines)
 
 
-def _open_session(args: argparse.Namespace, ports: dict[str, str], stack: Any) -> Any:
+def _open_session(args: argparse.Namespace, ports: dict[str, Any], stack: Any, clock: Any = None) -> Any:
     from pcmm_geo.acquisition.programme import open_session
-
     return open_session(ports, stack, timeout=args.timeout, move_timeout=args.move_timeout,
-                        probe_mode=args.probe_mode, settle_time=args.settle)
+                        probe_mode=args.probe_mode, settle_time=args.settle, clock=clock)
 
 
 def _run_programme(session: Any, args: argparse.Namespace) -> None:

@@ -9,6 +9,7 @@ from typing import Any
 from pcmm_geo.cli._output import (
     Report,
     Table,
+    add_decimal_flag,
     add_json_flag,
     add_overwrite_flag,
     add_plot_flag,
@@ -56,6 +57,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     add_plot_flag(parser, "a residual plot")
     add_report_flag(parser)
     add_overwrite_flag(parser)
+    add_decimal_flag(parser)
     add_json_flag(parser)
     parser.set_defaults(handler=handle)
 
@@ -67,7 +69,7 @@ def handle(args: argparse.Namespace) -> Report:
     from pcmm_geo.errors import InvalidInputError
     from pcmm_geo.io.points import read_points
 
-    points = read_points(args.file)
+    points = read_points(args.file, decimal=args.decimal)
     if args.two_d:
         if args.element not in ("line", "circle"):
             raise InvalidInputError("--two-d", "element line or circle", args.element)

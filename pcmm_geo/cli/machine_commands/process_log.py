@@ -16,7 +16,7 @@ from pcmm_geo.cli._output import (
 
 
 def register(subparsers: Any) -> None:
-    from pcmm_geo.cli.kinematics import add_machine_argument
+    from pcmm_geo.cli.machine_commands.kinematics import add_machine_argument
 
     parser = subparsers.add_parser(
         "process-log",
@@ -37,7 +37,7 @@ def register(subparsers: Any) -> None:
 
 def _handle(args: argparse.Namespace) -> Report:
     from pcmm_geo.cli._progress import progress_bar, progress_wanted
-    from pcmm_geo.cli.kinematics import load_machine_file
+    from pcmm_geo.cli.machine_commands.kinematics import load_machine_file
     from pcmm_geo.machine.analysis.logproc import process_log, read_log
 
     machine = load_machine_file(args.calibration)
@@ -71,7 +71,7 @@ def _handle(args: argparse.Namespace) -> Report:
     )
     plots = []
     if args.plot:
-        from pcmm_geo.plots.process_log import plot_processed_log
+        from pcmm_geo.plots.machine.process_log import plot_processed_log
 
         written = plot_processed_log(out, args.plot, overwrite=args.overwrite)
         data["plot"] = str(written)

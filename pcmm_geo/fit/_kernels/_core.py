@@ -23,7 +23,7 @@ from pcmm_geo.errors import (
     InvalidInputError,
     TooFewPointsError,
 )
-from pcmm_geo.fit._tall import tall_lstsq, tall_svd
+from pcmm_geo.fit._kernels._tall import tall_lstsq, tall_svd
 
 __all__ = [
     "Certificate",

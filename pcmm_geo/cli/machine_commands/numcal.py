@@ -64,7 +64,7 @@ def _handle(args: argparse.Namespace) -> Report:
     lines += [f"weak combination (s/s_max = {w.relative:.3g}): {w.text}" for w in ident.weak_combinations]
     plots = []
     if args.plot:
-        from pcmm_geo.plots.machine_state import plot_numerical_calibration
+        from pcmm_geo.plots.machine.machine_state import plot_numerical_calibration
 
         plots.append(str(plot_numerical_calibration(result, data, args.plot, overwrite=args.overwrite)))
     out = result.to_dict()

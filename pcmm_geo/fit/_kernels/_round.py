@@ -10,9 +10,9 @@ import numpy as np
 from numpy.typing import NDArray
 
 from pcmm_geo.errors import DegenerateGeometryError
-from pcmm_geo.fit._core import TOL, SolverOutcome, solve_least_squares
-from pcmm_geo.fit._linear import local_covariance, weighted_centroid
-from pcmm_geo.fit._tall import tall_lstsq, tall_svd
+from pcmm_geo.fit._kernels._core import TOL, SolverOutcome, solve_least_squares
+from pcmm_geo.fit._kernels._linear import local_covariance, weighted_centroid
+from pcmm_geo.fit._kernels._tall import tall_lstsq, tall_svd
 
 FloatArray = NDArray[np.float64]
 

@@ -1,6 +1,6 @@
 """Levenberg-Marquardt for the axial fits, with re-centring after every accepted step.
 
-Private to :mod:`pcmm_geo.fit`; used by :func:`pcmm_geo.fit._axial.solve_axial`.
+Private to :mod:`pcmm_geo.fit`; used by :func:`pcmm_geo.fit._kernels._axial.solve_axial`.
 """
 
 from __future__ import annotations
@@ -11,8 +11,8 @@ import numpy as np
 from numpy.typing import NDArray
 
 from pcmm_geo.errors import ConvergenceError
-from pcmm_geo.fit import _core
-from pcmm_geo.fit._core import SolverOutcome
+from pcmm_geo.fit._kernels import _core
+from pcmm_geo.fit._kernels._core import SolverOutcome
 
 FloatArray = NDArray[np.float64]
 
@@ -81,7 +81,7 @@ def levenberg_marquardt(
     -----
     The undamped Gauss-Newton step is computed at every iterate.  Convergence is declared
     when it is below ``TOL.step * (scale + |x|)`` (the test of
-    :func:`pcmm_geo.fit._core.solve_least_squares`) or below ``1e-13 * (scale + |x|)`` while no
+    :func:`pcmm_geo.fit._kernels._core.solve_least_squares`) or below ``1e-13 * (scale + |x|)`` while no
     longer contracting (at least half the previous Gauss-Newton step).  The second test
     recognises the rounding floor of ill-conditioned problems (a 30 degree arc with 0.1 mm
     form error), where the strict test alone may never fire.  Undamped steps below

@@ -33,18 +33,15 @@ def load_machine_file(path: str | None) -> Any:
     A calibration without a stored machine supplies the tetrahedron; the columns are
     then the thesis' (Appendix D, vertical).
     """
-    import json
 
     from pcmm_geo.errors import FileFormatError, InvalidInputError
     from pcmm_geo.machine.kinematics.model import MODEL_SCHEMA, RigidBodyMachine
 
     if path is None:
         return RigidBodyMachine.from_dpkm()
-    with open(path, encoding="utf-8") as handle:
-        try:
-            document = json.load(handle)
-        except json.JSONDecodeError as exc:
-            raise FileFormatError(path, f"expected JSON, got {exc.msg}", line=exc.lineno) from None
+    from pcmm_geo.io._text import read_json_file
+
+    document = read_json_file(path)
     if not isinstance(document, dict):
         raise FileFormatError(path, f"expected a JSON object, got {type(document).__name__}")
     try:
@@ -129,7 +126,7 @@ def _handle_forward(args: argparse.Namespace) -> Report:
     rows = [[arm, float(sol.lasers[k]), float(sol.heights[k])] for k, arm in enumerate(ARM_NAMES)]
     plots = []
     if args.plot:
-        from pcmm_geo.plots.machine_state import plot_pose
+        from pcmm_geo.plots.machine.machine_state import plot_pose
 
         plots.append(str(plot_pose(machine, sol.heights, sol.tip, args.plot, residuals=sol.residuals,
                                    title="Forward kinematics: pose for the readings", overwrite=args.overwrite)))
@@ -157,7 +154,7 @@ def _handle_inverse(args: argparse.Namespace) -> Report:
     rows = [[arm, float(sol.lasers[k]), float(sol.heights[k])] for k, arm in enumerate(ARM_NAMES)]
     plots = []
     if args.plot:
-        from pcmm_geo.plots.machine_state import plot_pose
+        from pcmm_geo.plots.machine.machine_state import plot_pose
 
         plots.append(str(plot_pose(machine, sol.heights, args.tip, args.plot,
                                    title="Inverse kinematics: pose for the tip", overwrite=args.overwrite)))
@@ -182,7 +179,7 @@ def _handle_trilaterate(args: argparse.Namespace) -> Report:
     rows = [["lower (probe hangs below)", *result.lower.tolist()], ["upper", *result.upper.tolist()]]
     plots = []
     if args.plot:
-        from pcmm_geo.plots.machine_state import plot_trilateration
+        from pcmm_geo.plots.machine.machine_state import plot_trilateration
 
         plots.append(str(plot_trilateration(pivots, args.lengths, result.lower, result.upper, args.plot,
                                             overwrite=args.overwrite)))

@@ -72,7 +72,7 @@ def _handle(args: argparse.Namespace) -> Report:
         lines.append(f"calibration written to {written}")
     plots = []
     if args.plot:
-        from pcmm_geo.plots.calibration import plot_calibration
+        from pcmm_geo.plots.machine.calibration import plot_calibration
 
         written_plot = plot_calibration(cal, args.plot, overwrite=args.overwrite)
         data["plot"] = str(written_plot)
