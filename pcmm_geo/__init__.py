@@ -17,6 +17,8 @@ Units: millimetres and radians inside; degrees only where named ``*_deg``.
 from __future__ import annotations
 
 from pcmm_geo.errors import (
+    AmbiguousFitError,
+    AmbiguousFitWarning,
     CalibrationError,
     ConvergenceError,
     DegenerateGeometryError,
@@ -43,6 +45,8 @@ __all__ = [
     "InvalidInputError",
     "TooFewPointsError",
     "DegenerateGeometryError",
+    "AmbiguousFitError",
+    "AmbiguousFitWarning",
     "ConvergenceError",
     "NoRealSolutionError",
     "OutputExistsError",

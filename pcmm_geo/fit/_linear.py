@@ -7,16 +7,12 @@ from numpy.typing import NDArray
 
 from pcmm_geo.errors import DegenerateGeometryError
 from pcmm_geo.fit._core import TOL
+from pcmm_geo.fit._inputs import weighted_centroid
 from pcmm_geo.fit._tall import tall_svd
 
+__all__ = ["frozen", "local_covariance", "principal_frame", "propagate", "sign_convention", "weighted_centroid"]
+
 FloatArray = NDArray[np.float64]
-
-
-def weighted_centroid(points: FloatArray, weights: FloatArray | None) -> FloatArray:
-    """Centroid of ``points`` (``(N, D)``), weighted when ``weights`` is given."""
-    if weights is None:
-        return points.mean(axis=0)
-    return (weights[:, None] * points).sum(axis=0) / weights.sum()
 
 
 def principal_frame(

@@ -17,6 +17,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from pcmm_geo.errors import DegenerateGeometryError, InvalidInputError
 from pcmm_geo.fit._core import FitResult, as_points, as_weights, residual_stats, solve_least_squares
+from pcmm_geo.fit._inputs import positive_length
 from pcmm_geo.fit._linear import frozen, local_covariance, sign_convention, weighted_centroid
 from pcmm_geo.fit._round import fit_nsphere
 from pcmm_geo.fit.plane import fit_plane
@@ -105,8 +106,8 @@ def fit_circle(
     """
     if method not in ("gaussian", "projected"):
         raise InvalidInputError("method", "'gaussian' or 'projected'", repr(method))
-    if radius is not None and not (np.isfinite(radius) and radius > 0):
-        raise InvalidInputError("radius", "a positive finite radius", repr(radius))
+    if radius is not None:
+        radius = positive_length(radius, "radius")
     pts = as_points(points, element=_ELEMENT, dims=(2, 3), min_points=3)
     w = as_weights(weights, len(pts), element=_ELEMENT)
     if pts.shape[1] == 2:

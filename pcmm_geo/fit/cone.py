@@ -30,7 +30,7 @@ from pcmm_geo.fit._axial import (
     solve_axial,
 )
 from pcmm_geo.fit._core import FitResult, as_points, as_weights, covariance_from_jacobian, residual_stats
-from pcmm_geo.fit._linear import frozen
+from pcmm_geo.fit._linear import frozen, weighted_centroid
 from pcmm_geo.fit.cylinder import _cylinder_model, _cylinder_start, axis_point_jacobian
 
 __all__ = ["ConeFit", "fit_cone"]
@@ -187,7 +187,7 @@ def fit_cone(
     data = as_points(points, element=_ELEMENT, min_points=6)
     weight = as_weights(weights, data.shape[0], element=_ELEMENT)
     sqrt_weights = None if weight is None else np.sqrt(weight)
-    centroid = data.mean(axis=0)
+    centroid = weighted_centroid(data)
     centred = data - centroid
     check_spread(centred, element=_ELEMENT, forbid_coplanar=True)
     hint = as_axis_hint(axis_hint)

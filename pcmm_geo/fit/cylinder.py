@@ -12,7 +12,6 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike
 
-from pcmm_geo.errors import InvalidInputError
 from pcmm_geo.fit._axial import (
     AxialSolution,
     FloatArray,
@@ -28,7 +27,8 @@ from pcmm_geo.fit._axial import (
     solve_axial,
 )
 from pcmm_geo.fit._core import FitResult, as_points, as_weights, covariance_from_jacobian, residual_stats
-from pcmm_geo.fit._linear import frozen
+from pcmm_geo.fit._inputs import positive_length
+from pcmm_geo.fit._linear import frozen, weighted_centroid
 
 __all__ = ["CylinderFit", "fit_cylinder"]
 
@@ -175,13 +175,11 @@ def fit_cylinder(
     (5.0, [0.0, 0.0, 1.0], [1000.0, 0.0, 10.0])
     """
     if radius is not None:
-        if not np.isfinite(radius) or radius <= 0:
-            raise InvalidInputError("radius", "a positive finite radius in mm", repr(radius))
-        radius = float(radius)
+        radius = positive_length(radius, "radius")
     data = as_points(points, element=_ELEMENT, min_points=5 if radius is None else 4)
     weight = as_weights(weights, data.shape[0], element=_ELEMENT)
     sqrt_weights = None if weight is None else np.sqrt(weight)
-    centroid = data.mean(axis=0)
+    centroid = weighted_centroid(data)
     centred = data - centroid
     check_spread(centred, element=_ELEMENT, forbid_coplanar=True)
     axes = candidate_axes(centred, [as_axis_hint(axis_hint)])

@@ -7,8 +7,8 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from pcmm_geo.errors import InvalidInputError
 from pcmm_geo.fit._core import FitResult, as_points, as_weights, residual_stats
+from pcmm_geo.fit._inputs import positive_length
 from pcmm_geo.fit._linear import frozen
 from pcmm_geo.fit._round import fit_nsphere
 
@@ -87,8 +87,8 @@ def fit_sphere(
     >>> (np.round(result.center, 12) + 0.0).tolist(), round(result.radius, 12)
     ([1.0, 0.0, 0.0], 10.0)
     """
-    if radius is not None and not (np.isfinite(radius) and radius > 0):
-        raise InvalidInputError("radius", "a positive finite radius", repr(radius))
+    if radius is not None:
+        radius = positive_length(radius, "radius")
     pts = as_points(points, element=_ELEMENT, min_points=4 if radius is None else 3)
     w = as_weights(weights, len(pts), element=_ELEMENT)
     centre, fitted_radius, outcome, residuals, cond, cov = fit_nsphere(pts, w, element=_ELEMENT, fixed_radius=radius)

@@ -27,7 +27,7 @@ from pcmm_geo.fit._axial import (
     solve_axial,
 )
 from pcmm_geo.fit._core import FitResult, as_points, as_weights, covariance_from_jacobian, residual_stats
-from pcmm_geo.fit._linear import frozen
+from pcmm_geo.fit._linear import frozen, weighted_centroid
 from pcmm_geo.fit._torus_search import best_axis_position, refined_axis
 
 __all__ = ["TorusFit", "fit_torus"]
@@ -228,7 +228,7 @@ def fit_torus(
     data = as_points(points, element=_ELEMENT, min_points=7)
     weight = as_weights(weights, data.shape[0], element=_ELEMENT)
     sqrt_weights = None if weight is None else np.sqrt(weight)
-    centroid = data.mean(axis=0)
+    centroid = weighted_centroid(data)
     centred = data - centroid
     check_spread(centred, element=_ELEMENT, forbid_coplanar=True)
     solution = solve_axial(
