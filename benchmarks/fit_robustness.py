@@ -32,10 +32,10 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests" / "fit"))
 
-from multistart_reference import reference_for, sparse_case  # noqa: E402
+from multistart_reference import reference_for, sparse_case
 
-from pcmm_geo import fit  # noqa: E402
-from pcmm_geo.errors import PcmmGeoError, PcmmGeoWarning  # noqa: E402
+from pcmm_geo import fit
+from pcmm_geo.errors import PcmmGeoError
 
 #: name -> (kind, points per set (low, high inclusive), arc about the axis in degrees (low, high))
 CONFIGS: dict[str, tuple[str, tuple[int, int], tuple[float, float]]] = {
@@ -62,8 +62,6 @@ def classify(kind: str, points: np.ndarray, reference_cost: float) -> tuple[str,
             return "error", time.perf_counter() - start
     elapsed = time.perf_counter() - start
     ambiguous = any(type(w.message).__name__ == "AmbiguousFitWarning" for w in caught)
-    other = [w for w in caught if isinstance(w.message, PcmmGeoWarning) and type(w.message).__name__ != "AmbiguousFitWarning"]
-    del other
     cost = result.sum_of_squares
     if cost <= reference_cost * (1 + 1e-9) + 1e-24:
         return ("better" if cost < reference_cost * (1 - 1e-6) else "global"), elapsed

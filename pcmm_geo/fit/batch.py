@@ -130,13 +130,13 @@ def _check_sets(stack: FloatArray, singular: FloatArray, *, element: str, rank: 
         if np.any(collinear):
             k = int(np.argmax(collinear))
             raise DegenerateGeometryError(
-                element, f"set {k} of {count}: all points lie on one straight line", set_index=k
+                element, f"set {k} of {count}: points are collinear", set_index=k
             )
     if rank >= 3:
         coplanar = singular[:, 2] <= TOL.degenerate * singular[:, 0]
         if np.any(coplanar):
             k = int(np.argmax(coplanar))
-            raise DegenerateGeometryError(element, f"set {k} of {count}: all points lie in one plane", set_index=k)
+            raise DegenerateGeometryError(element, f"set {k} of {count}: points are coplanar", set_index=k)
 
 
 def _sign_rows(vectors: FloatArray) -> FloatArray:

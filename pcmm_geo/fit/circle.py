@@ -69,9 +69,11 @@ def fit_circle(
     Parameters
     ----------
     points : array_like, shape (N, 2) or (N, 3)
-        Measured points (mm); N >= 3 (2-D with fixed radius: N >= 2), not collinear.
+        Measured points (mm); N >= 3, not collinear.  A fixed radius does not lower this:
+        two points (or collinear points) lie on two mirror-image circles of a given radius,
+        which no data tell apart (:class:`~pcmm_geo.errors.AmbiguousFitError`).
     radius : float, optional
-        Fixed radius (mm).
+        Fixed radius (mm), one positive number.
     weights : array_like, shape (N,), optional
         Non-negative weights of the squared distances.
     method : {"gaussian", "projected"}
@@ -88,11 +90,15 @@ def fit_circle(
     Raises
     ------
     InvalidInputError
-        Wrong shape, NaN or inf, unknown method, non-positive fixed radius.
+        Wrong shape, complex or non-numeric values, NaN or inf, coordinates beyond 1e150 mm,
+        unknown method, a fixed radius that is not one positive number, bad weights.
     TooFewPointsError
         Fewer than 3 points.
     DegenerateGeometryError
-        Identical or collinear points.
+        Identical or collinear points (free radius).
+    AmbiguousFitError
+        Fixed radius and collinear points whose best circles are two mirror images
+        (field ``candidates``: both centres).
     ConvergenceError
         The iteration did not converge.
 

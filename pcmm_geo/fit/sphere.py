@@ -57,9 +57,12 @@ def fit_sphere(
     Parameters
     ----------
     points : array_like, shape (N, 3)
-        Measured points (mm); N >= 4 (N >= 3 with a fixed radius), not coplanar.
+        Measured points (mm); N >= 4, not coplanar (N >= 3 with a fixed radius).
     radius : float, optional
-        Fixed radius (mm): only the centre is fitted (e.g. a calibrated reference sphere).
+        Fixed radius (mm, one positive number): only the centre is fitted (e.g. a calibrated
+        reference sphere).  Coplanar points then fit a centre and its mirror image in their
+        plane equally well unless the best centre lies in the plane (points on a circle
+        larger than the radius): the ambiguous case raises :class:`~pcmm_geo.errors.AmbiguousFitError`.
     weights : array_like, shape (N,), optional
         Non-negative weights of the squared distances.
 
@@ -72,11 +75,14 @@ def fit_sphere(
     Raises
     ------
     InvalidInputError
-        Wrong shape, NaN or inf, non-positive fixed radius.
+        Wrong shape, complex or non-numeric values, NaN or inf, coordinates beyond 1e150 mm,
+        a fixed radius that is not one positive number, bad weights.
     TooFewPointsError
         Fewer than 4 points (3 with fixed radius).
     DegenerateGeometryError
         Identical or coplanar points (free radius).
+    AmbiguousFitError
+        Fixed radius, coplanar points, two mirror-image centres (field ``candidates``).
     ConvergenceError
         The iteration did not converge.
 

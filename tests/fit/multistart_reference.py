@@ -133,7 +133,7 @@ def torus_reference(
     truth_center: FloatArray | None = None,
     count: int = 60,
 ) -> Reference:
-    """Multi-start least-squares torus: each start axis with the axis position from a projected circle and the truth's."""
+    """Multi-start least-squares torus: every start axis, axis position from a projected circle (and the truth's)."""
     centroid = points.mean(axis=0)
     best: Reference | None = None
     for index, start_axis in enumerate(_start_axes(points, truth_axis, count)):
