@@ -60,6 +60,10 @@ class Tolerances:
     ill_conditioned : float
         Condition number of the weighted Jacobian above which :class:`IllConditionedWarning`
         is emitted.
+    ambiguous : float
+        Two distinct local minima of an axial fit (cylinder, cone, torus) whose sums of
+        squares differ by less than this fraction are indistinguishable:
+        :class:`~pcmm_geo.errors.AmbiguousFitWarning` is emitted with both.
     rounding_floor : float
         A Gauss-Newton step below ``rounding_floor * (scale + |x|)`` that is no longer at
         least halving from one iteration to the next is rounding noise: the iteration stops
@@ -72,6 +76,7 @@ class Tolerances:
     degenerate: float = 1e-10
     ill_conditioned: float = 1e10
     rounding_floor: float = 1e-11
+    ambiguous: float = 0.01
 
 
 TOL = Tolerances()

@@ -26,11 +26,12 @@ from pcmm_geo.fit._axial import (
     candidate_axes,
     check_spread,
     local_direction,
-    screened_axes,
     solve_axial,
+    warn_if_ambiguous,
 )
 from pcmm_geo.fit._core import FitResult, as_points, as_weights, covariance_from_jacobian, residual_stats
 from pcmm_geo.fit._linear import frozen, weighted_centroid
+from pcmm_geo.fit._screen import cone_reduced, screened_directions
 from pcmm_geo.fit.cylinder import _cylinder_model, _cylinder_start, axis_point_jacobian
 
 __all__ = ["ConeFit", "fit_cone"]
@@ -94,17 +95,6 @@ def _cone_model(local: FloatArray, params: FloatArray) -> tuple[FloatArray, Floa
     jac[:, 4] = -cos_a
     jac[:, 5] = -(terms.rho - radius) * sin_a - terms.height * cos_a
     return residuals, jac
-
-
-def _cone_cost(local: FloatArray, params: FloatArray) -> float:
-    """Sum of squared residuals (no Jacobian), for ranking starting values."""
-    x0, y0, a, b, radius, half_angle = (float(v) for v in params)
-    direction = local_direction(a, b)
-    offset = local - np.array([x0, y0, 0.0])
-    height = offset @ direction
-    rho = np.linalg.norm(offset - height[:, None] * direction, axis=1)
-    residuals = (rho - radius) * np.cos(half_angle) - height * np.sin(half_angle)
-    return float(residuals @ residuals)
 
 
 def _slide_cone(old: FloatArray, new: FloatArray, shift: float) -> FloatArray:
@@ -211,7 +201,7 @@ def fit_cone(
     solution = solve_axial(
         data,
         centroid,
-        candidate_axes(centred, [*extra, *screened_axes(centred, _cone_start, _cone_cost)]),
+        candidate_axes(centred, [*extra, *screened_directions(centred, cone_reduced)]),
         start=_cone_start,
         model=_cone_model,
         position_slots=(0, 1),
@@ -219,6 +209,13 @@ def fit_cone(
         element=_ELEMENT,
         sqrt_weights=sqrt_weights,
         slide=_slide_cone,
+    )
+    warn_if_ambiguous(
+        solution,
+        element=_ELEMENT,
+        position_slots=(0, 1),
+        tilt_slots=(2, 3),
+        sizes=lambda params: {"radius": float(params[4]), "half_angle": abs(float(params[5]))},
     )
     return _result(data, solution)
 

@@ -25,10 +25,12 @@ from pcmm_geo.fit._axial import (
     check_spread,
     local_direction,
     solve_axial,
+    warn_if_ambiguous,
 )
 from pcmm_geo.fit._core import FitResult, as_points, as_weights, covariance_from_jacobian, residual_stats
 from pcmm_geo.fit._inputs import positive_length
 from pcmm_geo.fit._linear import frozen, weighted_centroid
+from pcmm_geo.fit._screen import cylinder_reduced, screened_directions
 
 __all__ = ["CylinderFit", "fit_cylinder"]
 
@@ -182,7 +184,7 @@ def fit_cylinder(
     centroid = weighted_centroid(data)
     centred = data - centroid
     check_spread(centred, element=_ELEMENT, forbid_coplanar=True)
-    axes = candidate_axes(centred, [as_axis_hint(axis_hint)])
+    axes = candidate_axes(centred, [as_axis_hint(axis_hint), *screened_directions(centred, cylinder_reduced(radius))])
     solution = solve_axial(
         data,
         centroid,
@@ -193,6 +195,13 @@ def fit_cylinder(
         tilt_slots=(2, 3),
         element=_ELEMENT,
         sqrt_weights=sqrt_weights,
+    )
+    warn_if_ambiguous(
+        solution,
+        element=_ELEMENT,
+        position_slots=(0, 1),
+        tilt_slots=(2, 3),
+        sizes=lambda params: {"radius": radius if radius is not None else float(params[4])},
     )
     return _result(data, solution, radius)
 

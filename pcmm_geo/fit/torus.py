@@ -23,11 +23,12 @@ from pcmm_geo.fit._axial import (
     canonical_axis,
     check_spread,
     local_direction,
-    screened_axes,
     solve_axial,
+    warn_if_ambiguous,
 )
 from pcmm_geo.fit._core import FitResult, as_points, as_weights, covariance_from_jacobian, residual_stats
 from pcmm_geo.fit._linear import frozen, weighted_centroid
+from pcmm_geo.fit._screen import screened_directions, torus_reduced
 from pcmm_geo.fit._torus_search import best_axis_position, refined_axis
 
 __all__ = ["TorusFit", "fit_torus"]
@@ -236,7 +237,7 @@ def fit_torus(
         centroid,
         candidate_axes(
             centred,
-            [*_hinted_axes(centred, as_axis_hint(axis_hint)), *screened_axes(centred, _torus_start_cheap, _torus_cost)],
+            [*_hinted_axes(centred, as_axis_hint(axis_hint)), *screened_directions(centred, torus_reduced)],
         ),
         start=_torus_start,
         model=_torus_model,
@@ -244,6 +245,13 @@ def fit_torus(
         tilt_slots=(3, 4),
         element=_ELEMENT,
         sqrt_weights=sqrt_weights,
+    )
+    warn_if_ambiguous(
+        solution,
+        element=_ELEMENT,
+        position_slots=(0, 1, 2),
+        tilt_slots=(3, 4),
+        sizes=lambda params: {"major_radius": float(params[5]), "minor_radius": float(params[6])},
     )
     return _result(data, solution)
 
