@@ -37,6 +37,9 @@ LATTICE = 240
 #: Nearest lattice neighbours that a local minimum must not exceed.
 _NEIGHBOURS = 6
 _BATCH_ITERATIONS = 12
+#: Torus: axis-position grid (ticks per side) and how many of its best cells start a refinement.
+_TORUS_GRID = 13
+_TORUS_GRID_STARTS = 2
 
 
 @lru_cache(maxsize=4)
@@ -268,16 +271,33 @@ def cone_reduced(local: FloatArray) -> FloatArray:
 
 
 def torus_reduced(local: FloatArray) -> FloatArray:
-    """Reduced torus cost: per trial axis, the best of three algebraic axis positions refined geometrically."""
+    """Reduced torus cost: per trial axis, the best of three algebraic axis positions (circles through all,
+    the highest and the lowest points) refined geometrically."""
     x, y, z = local[..., 0], local[..., 1], local[..., 2]
     order = np.argsort(z, axis=1)
     size = max(5, local.shape[1] // 8)
     candidates = []
-    for subset in (local, np.take_along_axis(local, order[:, -size:, None], axis=1)):
+    top = np.take_along_axis(local, order[:, -size:, None], axis=1)
+    bottom = np.take_along_axis(local, order[:, :size, None], axis=1)
+    for subset in (local, top, bottom):
         centre = _kasa(subset[..., :2])[:, :2]
         rho = np.hypot(x - centre[:, 0:1], y - centre[:, 1:2])
         section = _kasa(np.stack([rho, z], axis=2))  # (R, z0, r) of the tube section
         candidates.append(np.c_[centre, section[:, 1], section[:, 0], section[:, 2]])
+
+    # sparse data have narrow basins in the axis position: also start from the best cells of a
+    # coarse grid of positions, the tube section projected out (variable projection)
+    from pcmm_geo.fit._torus_search import varpro_costs  # torus-only helper
+
+    extent = 1.5 * np.max(np.hypot(x, y), axis=1)
+    ticks = np.linspace(-1.0, 1.0, _TORUS_GRID)
+    gx, gy = np.meshgrid(ticks, ticks)
+    centres = extent[:, None, None] * np.c_[gx.ravel(), gy.ravel()][None]
+    grid_costs, grid_params = varpro_costs(local, centres)
+    for rank in range(_TORUS_GRID_STARTS):
+        pick = np.argsort(grid_costs, axis=1)[:, rank]
+        chosen = grid_params[np.arange(len(local)), pick]
+        candidates.append(np.c_[chosen[:, 0:3], chosen[:, 5:7]])
 
     def model(params: FloatArray) -> tuple[FloatArray, FloatArray]:
         dx, dy, dz = x - params[:, 0:1], y - params[:, 1:2], z - params[:, 2:3]
@@ -292,8 +312,7 @@ def torus_reduced(local: FloatArray) -> FloatArray:
         )
         return tube - params[:, 4:5], jac
 
-    costs = [batched_lm(model, start)[1] for start in candidates]
-    return np.minimum(*costs)
+    return np.min([batched_lm(model, start)[1] for start in candidates], axis=0)
 
 
 #: Screened minima whose reduced cost exceeds the best one's by more than this factor are not
