@@ -154,18 +154,27 @@ def as_axis_hint(axis_hint: ArrayLike | None) -> FloatArray | None:
     return hint / length
 
 
+#: Dense data (more points than the screening uses): starting axes within this angle (rad) of
+#: an earlier one share its basin and are dropped (each start is a full fit of all points).
+_DENSE_MERGE = np.radians(1.0)
+
+
 def candidate_axes(centred: FloatArray, extra: Sequence[FloatArray | None] = ()) -> list[FloatArray]:
     """Starting axis directions: the given extras first, then the three principal axes.
 
-    Near-duplicates (|cos| > 1 - 1e-9) are dropped.
+    Near-duplicates (|cos| > 1 - 1e-9; for data denser than the screening subset, within
+    1 degree of an earlier start) are dropped.
     """
+    from pcmm_geo.fit._screen import SCREEN_POINTS
+
     _, vt = principal_axes(centred)
+    merge = np.cos(_DENSE_MERGE) if centred.shape[0] > SCREEN_POINTS else 1 - 1e-9
     out: list[FloatArray] = []
     for axis in [*extra, vt[2], vt[0], vt[1]]:
         if axis is None:
             continue
         unit_axis = axis / np.linalg.norm(axis)
-        if all(abs(float(unit_axis @ seen)) < 1 - 1e-9 for seen in out):
+        if all(abs(float(unit_axis @ seen)) < merge for seen in out):
             out.append(unit_axis)
     return out
 

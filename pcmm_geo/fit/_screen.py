@@ -320,9 +320,19 @@ def torus_reduced(local: FloatArray) -> FloatArray:
 _WORTH_FITTING = 2.0
 
 
+#: Above this many points the data determine the element well (the failures the screening
+#: exists for are sparse sets): a coarser screening (60 directions, 2 polish levels) suffices.
+DENSE_POINTS = 200
+
+
 def screened_directions(centred: FloatArray, reduced_cost: ReducedCost) -> list[FloatArray]:
-    """Directions from :func:`screen` worth a full fit: within a factor 2 of the best reduced cost."""
-    found = screen(centred, reduced_cost)
+    """Directions from :func:`screen` worth a full fit: within a factor 2 of the best reduced cost.
+
+    Sparse data (at most :data:`DENSE_POINTS` points) get the full screening; denser data a
+    coarse one, which still catches a principal-axis start in the wrong basin.
+    """
+    dense = centred.shape[0] > DENSE_POINTS
+    found = screen(centred, reduced_cost, count=60, keep=3, levels=2) if dense else screen(centred, reduced_cost)
     if not found:
         return []
     limit = _WORTH_FITTING * found[0].cost + 1e-24 * float(np.sum(centred * centred))
