@@ -133,8 +133,8 @@ def fit_cone(
     Levenberg-Marquardt with an analytic Jacobian in standard position (data centred at
     the centroid, current axis along +z).  Local parameters: the axis crossing ``x0, y0``
     of the local ``z = 0`` plane, two tilts, the radius at that plane and the half angle.
-    Starting axes: ``axis_hint``, a short cylinder fit, the three directions of a
-    64-direction hemisphere search whose algebraic cones fit best, and the principal axes;
+    Starting axes: ``axis_hint``, a short cylinder fit, the polished minima of a direction
+    screening (:mod:`pcmm_geo.fit._screen`), and the principal axes;
     for each, an algebraic cone (``x^2 + y^2`` linear in ``x, y, 1, z, z^2``) gives the
     remaining starting values.  The converged solution of least cost is returned.  The
     half angle is reported in ``[0, pi/2)`` with the axis pointing to the opening.

@@ -136,8 +136,11 @@ def fit_cylinder(
     Gauss-Newton / Levenberg-Marquardt with an analytic Jacobian in standard position
     (data centred at the centroid, current axis rotated to +z; local parameters are the
     axis crossing ``x0, y0`` of the local ``z = 0`` plane, two tilts ``a, b`` and the radius).
-    Starting values come from an algebraic circle fit of the data projected along each
-    principal axis (and ``axis_hint``); the converged solution of least cost is returned.
+    Starting axes are ``axis_hint``, the polished local minima of a direction screening
+    (:mod:`pcmm_geo.fit._screen`: the circle fit of the data projected along each of 240
+    directions) and the principal axes; an algebraic circle of the projected data starts each.
+    The converged solution of least cost is returned; when another distinct minimum is within
+    ``TOL.ambiguous`` (1 %) of it, :class:`~pcmm_geo.errors.AmbiguousFitWarning` lists both.
 
     Parameters
     ----------

@@ -175,21 +175,22 @@ def fit_torus(
     Levenberg-Marquardt with an analytic Jacobian in standard position (data centred at
     the centroid, current axis along +z).  Local parameters: the centre ``x0, y0, z0``,
     two axis tilts, the major and the minor radius.  Starting axes are ``axis_hint`` (as
-    given and refined by a tilt pattern search), the three directions of a 64-direction
-    hemisphere search whose starting values fit best (a fat pipe elbow has no principal
-    axis near its torus axis) and the principal axes.  For each axis the axis position comes
-    from a coarse-to-fine grid search with ``z0, R, r`` projected out (a circle in the
-    ``(rho, z)`` half-plane), polished by Nelder-Mead.  The converged solution of least
+    given and refined by a tilt pattern search), the polished minima of a direction screening
+    (a fat pipe elbow has no principal axis near its torus axis) and the principal axes.
+    For each axis the axis position comes from a coarse-to-fine grid search with ``z0, R, r``
+    projected out (a circle in the ``(rho, z)`` half-plane), polished by Nelder-Mead.  The converged solution of least
     cost is returned.
 
     Notes
     -----
-    Sparse data round a whole torus (seven to about a dozen points) can be fitted to some
+    Sparse data (seven to about a dozen points, whole or partial torus) can be fitted to some
     10 um rms by spurious tori whose axes lie tens of degrees from the true one, while the
-    true minimum's basin is a fraction of a degree wide.  Without ``axis_hint`` the fit may
-    then return such a local minimum (about one case in ten for 8 random points on a
-    30 x 6 mm torus); give the nominal axis for such data.  With 20 or more points, or a
-    partial torus, no hint is needed.
+    true minimum's basin is a fraction of a degree wide.  The direction screening
+    (:mod:`pcmm_geo.fit._screen`: a 240-direction lattice, each direction's reduced fit started
+    also from the best cells of an axis-position grid) finds that basin without a hint; when
+    two distinct minima are within ``TOL.ambiguous`` (1 %) of each other,
+    :class:`~pcmm_geo.errors.AmbiguousFitWarning` lists them.  Measured rates:
+    ``docs/fit-robustness.md``.  ``axis_hint`` remains useful to save time.
 
     Parameters
     ----------
