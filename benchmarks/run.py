@@ -7,6 +7,10 @@ In one run, on the same reference data (known least-squares solution):
 * cylinder, 5,000 points: ``fit_cylinder`` vs scikit-spatial ``Cylinder.best_fit``
   (target <= 0.01 x);
 * a batch of five-point sphere fits with ``fit_spheres`` (target >= 10,000 fits/s);
+* exact signed distances, 200,000 points vs an 81,920-face icosphere: ``SurfaceIndex.distances``
+  vs open3d's float32 ``compute_closest_points`` (target <= 3 x; exact on a 2,000-point subset);
+* ``fit_sphere`` of a lazily generated 1e8-point dask array in a child process (target: peak
+  memory < 1.5 GB; equal to the in-memory fit, checked on 1e7 points; throughput reported);
 
 plus each contender's deviation from the truth.  Timings are the best of N wall-clock runs.
 The table is printed; ``--output PATH`` also writes it as Markdown (refusing an existing
@@ -15,7 +19,7 @@ Never part of the test suite.
 
 Usage::
 
-    .venv/bin/python benchmarks/run.py [--quick] [--repeat N] [--output PATH [--overwrite]]
+    .venv/bin/python benchmarks/run.py [--quick] [--repeat N] [--only CASE,...] [--output PATH [--overwrite]]
 """
 
 from __future__ import annotations
@@ -32,6 +36,7 @@ from pathlib import Path
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
 from cases import CaseResult, batch_sphere_case, cylinder_case, sphere_case
+from cases_scale import dask_sphere_case, surface_case
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -69,6 +74,8 @@ def table_lines(results: Sequence[CaseResult]) -> list[str]:
     for result in results:
         if result.ratio is not None:
             measure = f"{result.ratio:.4f} x"
+        elif "points_per_second" in result.extra:
+            measure = f"{result.extra['points_per_second']:,.0f} points/s"
         else:
             measure = f"{result.extra.get('fits_per_second', float('nan')):,.0f} fits/s"
         met = {True: "yes", False: "**NO**", None: "-"}[result.target_met]
@@ -113,16 +120,25 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser.add_argument("--quick", action="store_true", help="small sizes (a smoke run, not for the report)")
     parser.add_argument("--repeat", type=int, default=5, help="best of N runs for pcmm_geo and trimesh (default 5)")
     parser.add_argument("--peer-repeat", type=int, default=2, help="best of N for scikit-spatial (slow; default 2)")
+    parser.add_argument("--only", default="", help="comma-separated case names to run (default: all): "
+                        "sphere, cylinder, batch, surface, dask")
     parser.add_argument("--output", type=Path, default=None, help="also write the table as Markdown to PATH")
     parser.add_argument("--overwrite", action="store_true", help="replace an existing --output file")
     args = parser.parse_args(argv)
 
     sphere_points, cylinder_points, batch_fits = (20_000, 500, 2_000) if args.quick else (1_000_000, 5_000, 20_000)
+    surface_points, subdivisions, subset = (20_000, 4, 200) if args.quick else (200_000, 6, 2_000)
+    dask_points, dask_compare = (2_000_000, 1_000_000) if args.quick else (100_000_000, 10_000_000)
     jobs: list[tuple[str, Callable[[], CaseResult]]] = [
         ("sphere", lambda: sphere_case(sphere_points, args.repeat)),
         ("cylinder", lambda: cylinder_case(cylinder_points, args.repeat, args.peer_repeat)),
-        ("batch spheres", lambda: batch_sphere_case(batch_fits, args.repeat)),
+        ("batch", lambda: batch_sphere_case(batch_fits, args.repeat)),
+        ("surface", lambda: surface_case(surface_points, subdivisions, subset, args.repeat)),
+        ("dask", lambda: dask_sphere_case(dask_points, dask_compare, 1_000_000)),
     ]
+    if args.only:
+        wanted = {name.strip() for name in args.only.split(",")}
+        jobs = [job for job in jobs if job[0] in wanted]
     results: list[CaseResult] = []
     failures: list[str] = []
     for name, job in jobs:

@@ -1,12 +1,13 @@
 """pcmm_geo: geometric metrology for coordinate measuring machines.
 
-Sub-packages (data flows down, nothing below imports from above):
+Sub-packages (data flows down, nothing below imports from above; docs/architecture.md):
 
 - :mod:`pcmm_geo.fit` -- Gaussian least-squares fits of geometric elements, skew lines,
   reference-data generator (pure numpy/scipy).
 - :mod:`pcmm_geo.thermal` -- expansion model, RTD / thermistor conversions, 20 degC correction.
-- :mod:`pcmm_geo.machine` -- kinematics of the parallel-mechanism micro-CMM, calibration,
-  acquisition drivers and simulators.
+- :mod:`pcmm_geo.machine` -- the parallel-mechanism micro-CMM: kinematics, calibration,
+  log processing and sensitivity (sub-packages ``kinematics``, ``calibration``, ``analysis``).
+- :mod:`pcmm_geo.acquisition` -- serial drivers, device simulators, sessions, durable logs.
 - :mod:`pcmm_geo.artefacts` -- gauge blocks, ISO 10360-2/-5/-6 evaluations.
 - :mod:`pcmm_geo.io` -- point, mesh and CSV file formats.
 - :mod:`pcmm_geo.testing` -- helpers for users' own tests.
@@ -27,6 +28,7 @@ from pcmm_geo.errors import (
     DeviceTimeoutError,
     FileFormatError,
     IllConditionedWarning,
+    IncompleteTestError,
     InvalidInputError,
     LogIntegrityError,
     NoRealSolutionError,
@@ -56,5 +58,6 @@ __all__ = [
     "DeviceTimeoutError",
     "DeviceProtocolError",
     "LogIntegrityError",
+    "IncompleteTestError",
     "IllConditionedWarning",
 ]

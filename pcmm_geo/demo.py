@@ -16,6 +16,13 @@ The chain, every step with the library's own tools:
    centres (forward kinematics), which are compensated for the tip radius.
 5. :func:`~pcmm_geo.artefacts.gauge_block.measure_gauge_block` evaluates the central length
    (ISO 3650 method) and the length error is reported.
+6. The uncertainty of that length: the calibration's covariance
+   (:func:`~pcmm_geo.uncertainty.calibration.calibration_covariance`, from the probing and
+   laser noise) and the reading noise are propagated by the virtual micro-CMM
+   (:class:`~pcmm_geo.uncertainty.virtual_cmm.VirtualCMM`, Monte Carlo, JCGM 101) to the
+   expanded uncertainty ``U`` (95 % coverage).  The simulation's error sources are exactly
+   these, so over many seeds the true error lies within ``+-U`` in about 95 % of runs
+   (tests/uncertainty/test_demo_coverage.py).
 """
 
 from __future__ import annotations
@@ -54,6 +61,10 @@ class DemoSettings:
         (1.5, 2.0, 1.0),
     )
     laser_scales: tuple[float, float, float] = (1.002, 0.998, 1.001)
+    #: Monte Carlo trials of the virtual CMM for the uncertainty (0: GUM linear instead)
+    uncertainty_trials: int = 10_000
+    #: also run the virtual CMM one input group at a time (the budget)
+    uncertainty_budget: bool = True
 
 
 @dataclass(frozen=True)
@@ -70,6 +81,8 @@ class DemoResult:
     tip_error_rms_nominal: float
     face_form_calibrated: tuple[float, float]
     plots: list[str] = field(default_factory=list)
+    #: task-specific uncertainty of the calibrated length (virtual CMM; not in ``to_dict`` except U, k, budget)
+    length_uncertainty: Any = field(default=None, repr=False, compare=False)
     #: the full calibration result (not in ``to_dict``), for plots
     tetrahedron_calibration: Any = field(default=None, repr=False, compare=False)
     #: measured minus true tip centres per model, face by face, ``{model: [(N, 3), ...]}`` (mm; not in ``to_dict``)
@@ -85,6 +98,31 @@ class DemoResult:
         """Measured minus true central length with the nominal design model (mm)."""
         return self.measured_length_nominal - self.gauge_length
 
+    @property
+    def expanded_uncertainty_calibrated(self) -> float:
+        """Expanded uncertainty (95 % coverage) of the calibrated central length (mm); NaN if not evaluated."""
+        if self.length_uncertainty is None:
+            return float("nan")
+        return float(self.length_uncertainty.result.expanded_uncertainty)
+
+    def _uncertainty_dict(self) -> dict[str, Any]:
+        if self.length_uncertainty is None:
+            return {"expanded_uncertainty_calibrated_mm": None}
+        result = self.length_uncertainty.result
+        low, high = self.length_uncertainty.interval_about(self.measured_length_calibrated)
+        return {
+            "expanded_uncertainty_calibrated_mm": result.expanded_uncertainty,
+            "uncertainty_calibrated": {
+                "standard_uncertainty_mm": result.standard_uncertainty,
+                "coverage_factor": result.coverage_factor,
+                "coverage_probability": result.coverage_probability,
+                "coverage_interval_mm": [low, high],
+                "method": result.method,
+                "n_trials": result.n_trials,
+                "budget_mm": {entry.name: entry.contribution for entry in result.budget},
+            },
+        }
+
     def to_dict(self) -> dict[str, Any]:
         return {
             "settings": self.settings.__dict__,
@@ -94,6 +132,7 @@ class DemoResult:
             "measured_length_calibrated_mm": self.measured_length_calibrated,
             "measured_length_nominal_mm": self.measured_length_nominal,
             "length_error_calibrated_mm": self.length_error_calibrated,
+            **self._uncertainty_dict(),
             "length_error_nominal_mm": self.length_error_nominal,
             "tip_error_rms_calibrated_mm": self.tip_error_rms_calibrated,
             "tip_error_rms_nominal_mm": self.tip_error_rms_nominal,
@@ -104,7 +143,7 @@ class DemoResult:
 
 def true_machine(settings: DemoSettings) -> Any:
     """The simulated machine: the thesis design with skewed slider lines and laser scale errors."""
-    from pcmm_geo.machine.model import RigidBodyMachine, SliderLine, Tetrahedron
+    from pcmm_geo.machine.kinematics.model import RigidBodyMachine, SliderLine, Tetrahedron
 
     nominal = RigidBodyMachine.from_dpkm()
     sliders = {}
@@ -213,11 +252,11 @@ def run_demo(
     """
     from pcmm_geo.artefacts.gauge_block import measure_gauge_block
     from pcmm_geo.machine.calibration import calibrate_tetrahedron
-    from pcmm_geo.machine.model import RigidBodyMachine
+    from pcmm_geo.machine.kinematics.model import RigidBodyMachine
 
     settings = settings or DemoSettings()
     rng = np.random.default_rng(settings.seed)
-    steps_total = 5 if out_dir is not None else 4
+    steps_total = 6 if out_dir is not None else 5
     steps_done = [0]
 
     def say(text: str) -> None:
@@ -237,7 +276,8 @@ def run_demo(
 
     say("external CMM probing the tetrahedron and calibrating (thesis ch. 7)")
     probings = simulate_probings(machine, settings, rng)
-    calibration = calibrate_tetrahedron(probings, CALIBRATION_LASERS)
+    calibration_lasers = CALIBRATION_LASERS + rng.normal(0.0, settings.laser_sigma, CALIBRATION_LASERS.shape)
+    calibration = calibrate_tetrahedron(probings, calibration_lasers)
     calibrated = RigidBodyMachine(
         tetrahedron=calibration.tetrahedron,
         columns=machine.columns,
@@ -285,6 +325,9 @@ def run_demo(
             for arm in ARMS
         },
     }
+    say("uncertainty of the calibrated length (virtual micro-CMM, JCGM 101)")
+    uncertainty = _length_uncertainty(settings, probings, calibration_lasers, calibrated, tip_radius,
+                                      np.asarray(reference_tip), rng)
     plots: list[str] = []
     if out_dir is not None:
         say("writing plots")
@@ -307,16 +350,76 @@ def run_demo(
         tip_error_rms_nominal=rms(tip_errors["nominal"]),
         face_form_calibrated=tuple(float(v) for v in result_cal.face_form),  # type: ignore[arg-type]
         plots=plots,
+        length_uncertainty=uncertainty,
         tetrahedron_calibration=calibration,
         tip_errors=tip_errors,
+    )
+
+
+def demo_calibrated_machine(settings: DemoSettings | None = None) -> tuple[Any, float, Any, FloatArray]:
+    """The demo's calibrated micro-CMM with its calibration covariance (for ``pcmm uncertainty``).
+
+    Returns
+    -------
+    machine : RigidBodyMachine
+        Calibrated tetrahedron on the true (nominal) columns.
+    tip_radius : float
+        Calibrated tip radius (mm).
+    covariance : CalibrationCovariance
+        From the demo's probing and laser noise.
+    reference_tip : ndarray, shape (3,)
+        Tip centre in the middle of the working volume (mm).
+    """
+    from pcmm_geo.machine.calibration import calibrate_tetrahedron
+    from pcmm_geo.machine.kinematics.model import RigidBodyMachine
+    from pcmm_geo.uncertainty.calibration import calibration_covariance
+
+    settings = settings or DemoSettings()
+    rng = np.random.default_rng(settings.seed)
+    machine = true_machine(settings)
+    probings = simulate_probings(machine, settings, rng)
+    lasers = CALIBRATION_LASERS + rng.normal(0.0, settings.laser_sigma, CALIBRATION_LASERS.shape)
+    calibration = calibrate_tetrahedron(probings, lasers)
+    covariance = calibration_covariance(
+        probings, lasers, probing_sigma=settings.cmm_probing_sigma, laser_sigma=settings.laser_sigma
+    )
+    calibrated = RigidBodyMachine(calibration.tetrahedron, machine.columns, machine.reference_lasers,
+                                  machine.reference_heights)
+    reference_tip = machine.forward(heights=machine.reference_heights, lasers_hint=machine.reference_lasers).tip
+    return calibrated, float(calibration.tip.radius), covariance, np.asarray(reference_tip)
+
+
+def _length_uncertainty(
+    settings: DemoSettings, probings: Any, lasers: FloatArray, calibrated: Any, tip_radius: float,
+    center: FloatArray, rng: np.random.Generator,
+) -> Any:
+    """Virtual-CMM uncertainty of the gauge-block length with the demo's error sources."""
+    from pcmm_geo.uncertainty.calibration import calibration_covariance
+    from pcmm_geo.uncertainty.tasks import gauge_block_task
+    from pcmm_geo.uncertainty.virtual_cmm import TaskUncertainty, VirtualCMM
+
+    covariance = calibration_covariance(
+        probings, lasers, probing_sigma=settings.cmm_probing_sigma, laser_sigma=settings.laser_sigma
+    )
+    vcmm = VirtualCMM(
+        calibrated, tip_radius, covariance.model_covariance()[1],
+        laser_sigma=settings.laser_sigma, encoder_sigma=settings.encoder_sigma,
+    )
+    task = gauge_block_task(settings.gauge_length, center, points_per_face=settings.points_per_face)
+    if settings.uncertainty_trials <= 0:
+        gum = vcmm.gum(task)
+        return TaskUncertainty(task.name, task.quantity, task.nominal, gum, gum)
+    return vcmm.evaluate(
+        task, seed=rng, trials=settings.uncertainty_trials, budget=settings.uncertainty_budget,
+        with_gum=settings.uncertainty_budget, group_trials=max(2000, settings.uncertainty_trials // 2),
     )
 
 
 def _write_plots(folder: Path, calibration: Any, tip_errors: dict[str, list[FloatArray]]) -> list[str]:
     """Slider lines, joint centres and tip (thesis fig 7.2) and the tip errors per contact."""
     from pcmm_geo.errors import OutputExistsError
-    from pcmm_geo.plots.calibration import plot_calibration
     from pcmm_geo.plots.demo import plot_tip_errors
+    from pcmm_geo.plots.machine.calibration import plot_calibration
 
     folder.mkdir(parents=True, exist_ok=True)
     paths = [folder / "calibration_3d.png", folder / "gauge_block_tip_errors.png"]

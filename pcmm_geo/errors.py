@@ -36,6 +36,7 @@ __all__ = [
     "DeviceProtocolError",
     "LogIntegrityError",
     "OutputExistsError",
+    "IncompleteTestError",
     "IllConditionedWarning",
     "AmbiguousFitWarning",
     "PcmmGeoWarning",
@@ -179,6 +180,20 @@ class OutputExistsError(PcmmGeoError, FileExistsError):
         PcmmGeoError.__init__(
             self, f"{path}: already exists; refusing to overwrite (pass overwrite=True to replace it)", path=path
         )
+
+
+class IncompleteTestError(PcmmGeoError, ValueError):
+    """A standard test's data set is not the standard's (too few values); no verdict without an explicit opt-in.
+
+    Fields: ``test`` (e.g. "ISO 10360-5"), ``needed`` (the standard's count), ``got``, ``detail``.
+    """
+
+    def __init__(self, test: str, needed: int, got: int, detail: str = "", unit: str = "values") -> None:
+        text = f"{test}: the standard uses {needed} {unit}, got {got}"
+        if detail:
+            text += f" ({detail})"
+        text += "; evaluate a partial data set only with allow_incomplete=True (--allow-incomplete)"
+        super().__init__(text, test=test, needed=needed, got=got, detail=detail)
 
 
 class PcmmGeoWarning(UserWarning):

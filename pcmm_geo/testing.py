@@ -116,7 +116,7 @@ def fit_deviations(result: Any, reference: Any) -> dict[str, float]:
     >>> import numpy as np
     >>> reference = {"point": np.zeros(3), "axis": np.array([0.0, 0.0, 1.0]), "radius": 5.0}
     >>> fitted = {"point": np.array([0.0, 1e-6, 3.0]), "axis": np.array([0.0, 0.0, -1.0]), "radius": 5.0}
-    >>> {k: round(v, 12) for k, v in fit_deviations(fitted, reference).items()}
+    >>> {k: round(v, 12) + 0.0 for k, v in fit_deviations(fitted, reference).items()}
     {'axis': 0.0, 'point': 1e-06, 'radius': 0.0}
     """
     params, element = _reference_parameters(reference)

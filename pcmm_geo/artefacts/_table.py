@@ -18,13 +18,15 @@ def read_rows(path: str | Path, required: Sequence[str]) -> list[tuple[int, dict
     Raises
     ------
     FileFormatError
-        No header, missing required columns, no data rows, or a row with the wrong number of cells.
+        No header, missing required columns, no data rows, a row with the wrong number of cells,
+        binary or non-UTF-8 content, a directory.
     OSError
         The file cannot be read.
     """
+    from pcmm_geo.io._text import read_text_lines
+
     text_path = str(path)
-    with open(path, newline="", encoding="utf-8") as handle:
-        lines = [(i + 1, line) for i, line in enumerate(handle) if line.strip() and not line.lstrip().startswith("#")]
+    lines = [(n, line) for n, line in read_text_lines(path) if line.strip() and not line.lstrip().startswith("#")]
     if not lines:
         raise FileFormatError(text_path, "empty file: expected a CSV header and data rows")
     reader = csv.reader([line for _, line in lines])
@@ -32,8 +34,9 @@ def read_rows(path: str | Path, required: Sequence[str]) -> list[tuple[int, dict
     header = [name.strip().lower() for name in rows[0]]
     missing = [name for name in required if name not in header]
     if missing:
+        hint = "; fields must be separated by ',' with '.' as decimal mark" if ";" in lines[0][1] else ""
         raise FileFormatError(
-            text_path, f"expected columns {', '.join(required)}; missing {', '.join(missing)}", line=lines[0][0]
+            text_path, f"expected columns {', '.join(required)}; missing {', '.join(missing)}{hint}", line=lines[0][0]
         )
     out: list[tuple[int, dict[str, str]]] = []
     for (number, _), cells in zip(lines[1:], rows[1:], strict=True):

@@ -31,7 +31,7 @@ from numpy.typing import ArrayLike, NDArray
 from pcmm_geo.artefacts.cad_distance import surface_distances
 from pcmm_geo.artefacts.cad_register import DEFAULT_SAMPLE_COUNT, Registration, register_to_mesh
 from pcmm_geo.errors import InvalidInputError
-from pcmm_geo.fit._core import as_points
+from pcmm_geo.fit._kernels._core import as_points
 
 if TYPE_CHECKING:
     import trimesh
@@ -170,7 +170,7 @@ def mesh_deviations(points: ArrayLike, mesh: trimesh.Trimesh, *, tolerance: floa
     --------
     >>> from pcmm_geo.io.meshes import box_mesh
     >>> result = mesh_deviations([[0, 0, 4.51], [50.0, 0, 0], [0, 17.49, 0]], box_mesh(100, 35, 9))
-    >>> np.round(result.signed_distance, 12).tolist()
+    >>> (np.round(result.signed_distance, 12) + 0.0).tolist()
     [0.01, 0.0, -0.01]
     """
     data = as_points(points, element="deviations", min_points=1)

@@ -1,30 +1,33 @@
 """Exact signed distances of points from a triangle mesh (double precision, any mesh size).
 
-The nearest surface point of every query point is found by an exact branch-and-bound search
-(:class:`SurfaceIndex`, built once per mesh):
+The nearest surface point of every query point is found in three steps
+(:class:`SurfaceIndex`, built once per mesh and reused):
 
-1. **first guesses** -- every triangle carries a few surface samples (more along long thin
-   ones); the triangles of a point's four nearest samples (scipy k-d tree), then their
-   edge neighbours while these are nearer (a short walk over the mesh), give each point an
-   exact distance to some triangle: a search radius that holds the true nearest point;
-2. **search** -- a bounding-volume hierarchy (triangles ordered along a Morton curve of
-   their centroids, neighbours paired level by level up to one root, each node with the
-   tight axis-aligned box of its triangles) is searched level by level for all points at
-   once, dropping every node whose box lies beyond the point's radius;
-3. **exact distances** -- the point-triangle pairs that remain are evaluated with
-   ``trimesh.triangles.closest_point`` and the nearest kept.
+1. **candidate** -- open3d's ray-casting scene (Embree, ``compute_closest_points``) names,
+   in single precision, a triangle near the point (the scene holds the vertices centred on
+   the mesh's box, which keeps the float32 coordinates small);
+2. **upper bound** -- the distance ``d0`` from the point to that triangle is evaluated in
+   double precision.  It is the distance to an actual triangle, so the true nearest
+   triangle is never farther than ``d0``, whatever the single-precision search did;
+3. **proof or correction** -- every triangle whose axis-aligned box comes within ``d0``
+   (with a relative slack of 1e-9 for rounding) is found with scipy k-d trees over the
+   triangle centroids (one tree per size class, searched to ``d0`` plus the class's largest
+   centroid-to-corner distance) and evaluated in double precision; the nearest is kept.
 
-Nothing is approximated: only triangles that cannot come closer are dropped (with a
-relative slack of 1e-9 for rounding), so the result is that of a brute-force search over
-all triangles, while the work grows with the number of triangles near each point rather
-than with the size of the mesh.  No spatial index beyond scipy's is needed (trimesh's own
-``proximity`` queries need ``rtree``).
+No float32 error bound is needed for correctness: step 3 only relies on ``d0``, a double
+precision distance to a real triangle.  The float32 error (of order 1e-7 of the coordinates)
+only decides how often the candidate is not the nearest triangle (when another one lies
+within a few float32 roundings of the same distance); then step 3 corrects it.  The result
+is that of a brute-force double-precision search over all triangles.
 
 The sign follows the angle-weighted pseudo-normal of the nearest feature (face, edge or
 vertex; Baerentzen and Aanaes, IEEE TVCG 11 (2005) 243): positive on the side the face
 normals point to, i.e. outside the material for a closed mesh with outward normals.  The
 sign means "outside the material" only for a closed mesh, which is therefore required by
 default (``require_closed``).
+
+A ``dask.array.Array`` of points is evaluated block by block (lazily); the index is sent
+to the workers without its open3d scene, which each worker rebuilds once.
 
 Examples
 --------
@@ -37,14 +40,16 @@ Examples
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from pcmm_geo.artefacts._triangle import closest_on_triangles
 from pcmm_geo.errors import InvalidInputError
-from pcmm_geo.fit._core import as_points
+from pcmm_geo.fit._kernels._core import as_points
+from pcmm_geo.fit.scale import is_dask_array
 
 if TYPE_CHECKING:
     import trimesh
@@ -58,21 +63,16 @@ IntArray = NDArray[np.int64]
 _ON_BOUNDARY = 1e-9
 #: distances below this fraction of the coordinates' size are rounding noise
 _ROUNDING = 1e-12
-#: relative slack on the pruning distance (rounding of box and triangle distances)
+#: relative slack on the search distance (rounding of box and triangle distances)
 _SLACK = 1e-9
-#: point-triangle pairs evaluated at once (bounds the memory to a few tens of MB)
-_PAIRS_PER_BLOCK = 400_000
-#: point-node pairs of one search front before it is split by points
-_FRONT_LIMIT = 1_000_000
-#: bits per coordinate of the Morton code
-_MORTON_BITS = 21
-#: triangles of the nearest surface samples evaluated first (they set the first search radius)
-_FIRST_GUESSES = 4
-#: steps of the walk from the first guess to edge-neighbouring triangles that are nearer
-_WALK_STEPS = 4
-#: surface samples per triangle on average at most (long triangles get more than short ones)
-_SAMPLES_PER_TRIANGLE = 4
-
+#: points handled at once (bounds the memory of the candidate pairs)
+_POINTS_PER_BLOCK = 65_536
+#: point-triangle pairs evaluated at once
+_PAIRS_PER_BLOCK = 1_000_000
+#: neighbours asked of a k-d tree first (more for the points that have more within reach)
+_FIRST_NEIGHBOURS = 6
+#: triangle size classes (half box diagonals within a factor 2 of each other, the last takes the rest)
+_SIZE_CLASSES = 8
 
 @dataclass(frozen=True)
 class SurfaceDistances:
@@ -91,6 +91,8 @@ class SurfaceDistances:
         face, else ``(point - closest) / signed_distance`` (the feature's pseudo-normal for a
         point on the surface).  A small move ``dp`` of a point changes its signed distance
         by ``direction . dp``.
+
+    For a dask array of points every field is a lazy dask array (computed block by block).
     """
 
     closest: FloatArray
@@ -154,8 +156,9 @@ def surface_distances(points: ArrayLike, mesh: trimesh.Trimesh, *, require_close
 
     Parameters
     ----------
-    points : array_like, shape (N, 3)
-        Points in the mesh frame (mm).
+    points : array_like or dask.array.Array, shape (N, 3)
+        Points in the mesh frame (mm).  A dask array is evaluated block by block: the
+        fields of the result are then lazy dask arrays.
     mesh : trimesh.Trimesh
         Triangle mesh with outward face normals.
     require_closed : bool
@@ -179,11 +182,21 @@ def surface_distances(points: ArrayLike, mesh: trimesh.Trimesh, *, require_close
     --------
     >>> from pcmm_geo.io.meshes import box_mesh
     >>> near = surface_distances([[50.002, 0.0, 0.0]], box_mesh(100, 35, 9))
-    >>> round(float(near.signed_distance[0]), 12), near.closest[0].tolist()
+    >>> round(float(near.signed_distance[0]), 12), (np.round(near.closest[0], 12) + 0.0).tolist()
     (0.002, [50.0, 0.0, 0.0])
     """
-    query = as_points(points, element="mesh distance", min_points=1)
-    return SurfaceIndex.build(mesh, require_closed=require_closed).distances(query)
+    index = SurfaceIndex.build(mesh, require_closed=require_closed)
+    return index.distances(points)
+
+
+@dataclass(frozen=True)
+class _SizeClass:
+    """Triangles of similar size: a k-d tree over their centroids and their largest centroid-to-corner distance."""
+
+    members: IntArray
+    tree: Any
+    reach: float
+    member_reach: FloatArray
 
 
 @dataclass(frozen=True, eq=False)
@@ -201,29 +214,27 @@ class SurfaceIndex:
         opposite corner ``(k + 2) % 3`` (edges v0v1, v1v2, v2v0).
     corner_normals : ndarray, shape (F, 3, 3)
         Angle-weighted pseudo-normal of the vertex at each corner.
-    neighbours : ndarray, shape (F, 3)
-        The triangles sharing an edge with each triangle (itself where an edge has none).
-    order : ndarray, shape (F,)
-        Triangle numbers along the Morton curve: leaf ``k`` of the hierarchy is ``order[k]``.
-    lower, upper : tuple of ndarray
-        Box corners of the nodes, per level (``[0]`` the leaves, one triangle each; ``[-1]``
-        the root); node ``i`` of a level has children ``2i`` and ``2i + 1`` on the level below.
-    sample_tree : scipy.spatial.cKDTree
-        Points spread over every triangle (more along long ones), for the first guesses.
-    sample_triangle : ndarray, shape (S,)
-        Triangle of each sample.
+    box_lower, box_upper : ndarray, shape (F, 3)
+        Corners of each triangle's axis-aligned box (mm).
+    size_classes : tuple
+        Triangles grouped by size, each group with a k-d tree over its centroids.
+    scene_origin : ndarray, shape (3,)
+        Centre of the mesh's box: the open3d scene holds ``vertices - scene_origin`` in float32.
+    vertices, faces : ndarray
+        The mesh, from which the open3d scene is built (on first use, once per process).
     """
 
     triangles: FloatArray
     face_normals: FloatArray
     edge_normals: FloatArray
     corner_normals: FloatArray
-    neighbours: IntArray
-    order: IntArray
-    lower: tuple[FloatArray, ...]
-    upper: tuple[FloatArray, ...]
-    sample_tree: Any
-    sample_triangle: IntArray
+    box_lower: FloatArray
+    box_upper: FloatArray
+    size_classes: tuple[_SizeClass, ...]
+    scene_origin: FloatArray
+    vertices: FloatArray
+    faces: IntArray
+    _cache: dict[str, Any] = field(default_factory=dict, repr=False)
 
     @classmethod
     def build(cls, mesh: trimesh.Trimesh, *, require_closed: bool = True) -> SurfaceIndex:
@@ -238,8 +249,8 @@ class SurfaceIndex:
         --------
         >>> from pcmm_geo.io.meshes import box_mesh
         >>> index = SurfaceIndex.build(box_mesh(100, 35, 9))
-        >>> [len(level) for level in index.lower]
-        [12, 6, 3, 2, 1]
+        >>> len(index.triangles), [len(group.members) for group in index.size_classes]  # long faces, end faces
+        (12, [8, 4])
         """
         faces = np.asarray(mesh.faces, dtype=np.int64)
         if faces.ndim != 2 or len(faces) == 0:
@@ -249,15 +260,32 @@ class SurfaceIndex:
             raise InvalidInputError("mesh", "finite vertex coordinates", "NaN or inf")
         if require_closed:
             check_closed_mesh(mesh)
-        from scipy.spatial import cKDTree
-
         triangles = vertices[faces]
         face_normals, edge_normals, corner_normals = _feature_normals(mesh, triangles)
-        order, lower, upper = _hierarchy(triangles)
-        samples, sample_triangle = _surface_samples(triangles)
+        lower, upper = triangles.min(axis=1), triangles.max(axis=1)
         return cls(triangles=triangles, face_normals=face_normals, edge_normals=edge_normals,
-                   corner_normals=corner_normals, neighbours=_edge_neighbours(mesh), order=order, lower=lower,
-                   upper=upper, sample_tree=cKDTree(samples), sample_triangle=sample_triangle)
+                   corner_normals=corner_normals, box_lower=lower, box_upper=upper,
+                   size_classes=_size_classes(triangles),
+                   scene_origin=(vertices.min(axis=0) + vertices.max(axis=0)) / 2, vertices=vertices, faces=faces)
+
+    def __getstate__(self) -> dict[str, Any]:
+        # the open3d scene does not pickle (dask workers): each process builds its own
+        state = dict(self.__dict__)
+        state["_cache"] = {}
+        return state
+
+    @property
+    def scene(self) -> Any:
+        """The open3d ``RaycastingScene`` of the mesh (float32, centred on ``scene_origin``), built once."""
+        scene = self._cache.get("scene")
+        if scene is None:
+            import open3d as o3d
+
+            scene = o3d.t.geometry.RaycastingScene()
+            scene.add_triangles(o3d.core.Tensor((self.vertices - self.scene_origin).astype(np.float32)),
+                                o3d.core.Tensor(self.faces.astype(np.uint32)))
+            self._cache["scene"] = scene
+        return scene
 
     def distances(self, points: ArrayLike) -> SurfaceDistances:
         """Exact signed distances of ``points`` (N, 3) from the indexed surface (see :func:`surface_distances`).
@@ -269,11 +297,30 @@ class SurfaceIndex:
         TooFewPointsError
             No points.
         """
+        if is_dask_array(points):
+            return self._lazy_distances(points)
         query = as_points(points, element="mesh distance", min_points=1)
-        closest, face_index = self._nearest(query)
+        parts = [self._distances(query[start:start + _POINTS_PER_BLOCK])
+                 for start in range(0, len(query), _POINTS_PER_BLOCK)]
+        if len(parts) == 1:
+            return parts[0]
+        return SurfaceDistances(*(np.concatenate([getattr(part, name) for part in parts])
+                                  for name in ("closest", "signed_distance", "face_index", "direction")))
+
+    def _lazy_distances(self, points: Any) -> SurfaceDistances:
+        """Block-wise distances of a dask array of points; every field a lazy dask array."""
+        from pcmm_geo.fit.scale.dask import as_dask_points, lazy_rows
+
+        checked = as_dask_points(points, element="mesh distance", min_points=1)
+        packed = lazy_rows(checked, _packed_distances, self, columns=8)
+        return SurfaceDistances(closest=packed[:, 0:3], signed_distance=packed[:, 3],
+                                face_index=packed[:, 4].astype(np.int64), direction=packed[:, 5:8])
+
+    def _distances(self, query: FloatArray) -> SurfaceDistances:
+        closest, squared, face_index, barycentric = self._nearest(query)
         offset = query - closest
-        distance = np.linalg.norm(offset, axis=1)
-        pseudo_normal, inside_face = self._pseudo_normals(closest, face_index)
+        distance = np.sqrt(squared)
+        pseudo_normal, inside_face = self._pseudo_normals(barycentric, face_index)
         sign = np.where(np.einsum("ij,ij->i", offset, pseudo_normal) < 0.0, -1.0, 1.0)
         signed = sign * distance
         # nearest point inside a face: the gradient is that face's normal, exactly; at an edge or
@@ -286,68 +333,59 @@ class SurfaceIndex:
 
     # ------------------------------------------------------------------ search
 
-    def _nearest(self, query: FloatArray) -> tuple[FloatArray, IntArray]:
-        """Nearest surface point of every query point and the triangle holding it (exact)."""
-        count = len(query)
-        best = np.full(count, np.inf)  # squared distance of the nearest triangle evaluated so far
-        closest = np.empty_like(query)
-        face_index = np.zeros(count, dtype=np.int64)
-        everyone = np.arange(count)
-        # first guesses: the triangles of the nearest surface samples, then a walk to better neighbours
-        _, nearest = self.sample_tree.query(query, k=min(_FIRST_GUESSES, len(self.sample_triangle)))
-        nearest = np.asarray(nearest).reshape(count, -1)
-        _keep_nearest(query, self.triangles, np.repeat(everyone, nearest.shape[1]),
-                      self.sample_triangle[nearest.ravel()], best, closest, face_index)
-        moving = everyone
-        for _ in range(_WALK_STEPS):
-            before = face_index[moving]
-            _keep_nearest(query, self.triangles, np.repeat(moving, 3), self.neighbours[before].ravel(),
-                          best, closest, face_index)
-            moving = moving[face_index[moving] != before]
-            if moving.size == 0:
-                break
-        # exhaustive search, pruned by the best distance so far; a front too large is split by points
-        stack = [(len(self.lower) - 1, everyone, np.zeros(count, dtype=np.int64))]
-        while stack:
-            level, pair_point, pair_node = stack.pop()
-            if level == 0:
-                for chunk in range(0, len(pair_point), _PAIRS_PER_BLOCK):
-                    rows = slice(chunk, chunk + _PAIRS_PER_BLOCK)
-                    _keep_nearest(query, self.triangles, pair_point[rows], self.order[pair_node[rows]],
-                                  best, closest, face_index)
-                continue
-            pair_point, pair_node = self._expand(query, level - 1, pair_point, pair_node, best)
-            if len(pair_point) > _FRONT_LIMIT and pair_point[0] != pair_point[-1]:
-                middle = int(np.searchsorted(pair_point, pair_point[len(pair_point) // 2]))
-                middle = middle or int(np.searchsorted(pair_point, pair_point[0], side="right"))
-                stack.append((level - 1, pair_point[middle:], pair_node[middle:]))
-                stack.append((level - 1, pair_point[:middle], pair_node[:middle]))
-            elif len(pair_point):
-                stack.append((level - 1, pair_point, pair_node))
-        return closest, face_index
+    def candidates(self, query: FloatArray) -> IntArray:
+        """The triangle open3d finds nearest to each point, in float32 (a candidate, not the answer)."""
+        import open3d as o3d
 
-    def _expand(
-        self, query: FloatArray, level: int, pair_point: IntArray, pair_node: IntArray, best: FloatArray
-    ) -> tuple[IntArray, IntArray]:
-        """Children on ``level`` of the point-node pairs whose box is not farther than the best triangle so far.
+        answer = self.scene.compute_closest_points(o3d.core.Tensor((query - self.scene_origin).astype(np.float32)))
+        return answer["primitive_ids"].numpy().astype(np.int64)
 
-        The pairs stay sorted by point.
-        """
-        child = (2 * pair_node[:, None] + np.array([0, 1])).ravel()
-        point = np.repeat(pair_point, 2)
-        exists = child < len(self.lower[level])
-        point, child = point[exists], child[exists]
-        radius = np.sqrt(best[point]) * (1.0 + _SLACK) + _SLACK
-        keep = _box_distance_squared(query[point], self.lower[level][child], self.upper[level][child]) <= radius**2
-        return point[keep], child[keep]
+    def _nearest(self, query: FloatArray) -> tuple[FloatArray, FloatArray, IntArray, FloatArray]:
+        """Nearest surface point, squared distance, triangle and barycentric weights of every point (exact)."""
+        face_index = self.candidates(query)
+        closest, squared, barycentric = closest_on_triangles(query, self.triangles[face_index])
+        # every triangle whose box is within the candidate's exact distance could be nearer
+        reach = np.sqrt(squared) * (1.0 + _SLACK) + _ROUNDING * (1.0 + np.abs(query).max(axis=1))
+        for group in self.size_classes:
+            point_of_pair, triangle_of_pair = _pairs_within(group, query, reach)
+            for chunk in range(0, len(point_of_pair), _PAIRS_PER_BLOCK):
+                rows = slice(chunk, chunk + _PAIRS_PER_BLOCK)
+                self._keep_nearer(query, point_of_pair[rows], triangle_of_pair[rows], reach,
+                                  closest, squared, face_index, barycentric)
+        return closest, squared, face_index, barycentric
+
+    def _keep_nearer(self, query: FloatArray, point_of_pair: IntArray, triangle_of_pair: IntArray,
+                     reach: FloatArray, closest: FloatArray, squared: FloatArray, face_index: IntArray,
+                     barycentric: FloatArray) -> None:
+        """Evaluate the pairs whose box lies within reach; keep (in place) any strictly nearer triangle."""
+        other = triangle_of_pair != face_index[point_of_pair]
+        point_of_pair, triangle_of_pair = point_of_pair[other], triangle_of_pair[other]
+        gap = np.maximum(np.maximum(self.box_lower[triangle_of_pair] - query[point_of_pair],
+                                    query[point_of_pair] - self.box_upper[triangle_of_pair]), 0.0)
+        keep = np.einsum("ij,ij->i", gap, gap) <= reach[point_of_pair] ** 2
+        point_of_pair, triangle_of_pair = point_of_pair[keep], triangle_of_pair[keep]
+        # the distance to a triangle's plane is a lower bound of the distance to the triangle
+        to_plane = np.einsum("ij,ij->i", query[point_of_pair] - self.triangles[triangle_of_pair, 0],
+                             self.face_normals[triangle_of_pair])
+        keep = np.abs(to_plane) <= reach[point_of_pair] * (1.0 + _SLACK)
+        point_of_pair, triangle_of_pair = point_of_pair[keep], triangle_of_pair[keep]
+        if len(point_of_pair) == 0:
+            return
+        on_triangle, pair_squared, pair_weights = closest_on_triangles(query[point_of_pair],
+                                                                       self.triangles[triangle_of_pair])
+        order = np.lexsort((triangle_of_pair, pair_squared, point_of_pair))
+        first = order[np.r_[True, point_of_pair[order][1:] != point_of_pair[order][:-1]]]
+        winners = first[pair_squared[first] < squared[point_of_pair[first]]]
+        rows = point_of_pair[winners]
+        squared[rows] = pair_squared[winners]
+        closest[rows] = on_triangle[winners]
+        face_index[rows] = triangle_of_pair[winners]
+        barycentric[rows] = pair_weights[winners]
 
     # ------------------------------------------------------------------ sign
 
-    def _pseudo_normals(self, closest: FloatArray, face_index: IntArray) -> tuple[FloatArray, NDArray[np.bool_]]:
+    def _pseudo_normals(self, barycentric: FloatArray, face_index: IntArray) -> tuple[FloatArray, NDArray[np.bool_]]:
         """Pseudo-normals of the features holding the nearest points, and which of these lie inside a face."""
-        import trimesh
-
-        barycentric = trimesh.triangles.points_to_barycentric(self.triangles[face_index], closest)
         on_zero = barycentric < _ON_BOUNDARY
         zero_count = on_zero.sum(axis=1)
         normals = self.face_normals[face_index].copy()
@@ -360,6 +398,13 @@ class SurfaceIndex:
         normals[at_vertex] = self.corner_normals[face_index[at_vertex], corner]
         length = np.linalg.norm(normals, axis=1, keepdims=True)
         return normals / np.where(length > 0.0, length, 1.0), zero_count == 0
+
+
+def _packed_distances(block: FloatArray, index: SurfaceIndex) -> FloatArray:
+    """Distances of one block packed as columns: closest (3), signed distance, face index, direction (3)."""
+    found = index.distances(np.asarray(block, dtype=np.float64))
+    return np.column_stack([found.closest, found.signed_distance, found.face_index.astype(np.float64),
+                            found.direction])
 
 
 def _feature_normals(mesh: trimesh.Trimesh, triangles: FloatArray) -> tuple[FloatArray, FloatArray, FloatArray]:
@@ -377,111 +422,47 @@ def _feature_normals(mesh: trimesh.Trimesh, triangles: FloatArray) -> tuple[Floa
     return face_normals, edge_sum[unique_edges], vertex_sum[faces]
 
 
-def _edge_neighbours(mesh: trimesh.Trimesh) -> IntArray:
-    """(F, 3) triangles sharing an edge with each triangle, padded with the triangle itself."""
-    count = len(mesh.faces)
-    pairs = np.asarray(mesh.face_adjacency, dtype=np.int64).reshape(-1, 2)
-    both = np.vstack([pairs, pairs[:, ::-1]])
-    both = both[np.argsort(both[:, 0], kind="stable")]
-    rank = np.arange(len(both)) - np.searchsorted(both[:, 0], both[:, 0])
-    neighbours = np.repeat(np.arange(count, dtype=np.int64)[:, None], 3, axis=1)
-    first_three = rank < 3
-    neighbours[both[first_three, 0], rank[first_three]] = both[first_three, 1]
-    return neighbours
+def _size_classes(triangles: FloatArray) -> tuple[_SizeClass, ...]:
+    """Triangles grouped by circumscribing radius about the centroid (factor 2 per group), with k-d trees.
 
-
-def _hierarchy(triangles: FloatArray) -> tuple[IntArray, tuple[FloatArray, ...], tuple[FloatArray, ...]]:
-    """Leaf order along the Morton curve of the centroids, and the node boxes level by level."""
-    centroids = triangles.mean(axis=1)
-    origin = centroids.min(axis=0)
-    extent = max(float(np.ptp(centroids, axis=0).max()), 1e-300)
-    cells = np.minimum((centroids - origin) / extent * 2**_MORTON_BITS, 2**_MORTON_BITS - 1).astype(np.uint64)
-    code = _spread_bits(cells[:, 0]) | (_spread_bits(cells[:, 1]) << np.uint64(1)) | (
-        _spread_bits(cells[:, 2]) << np.uint64(2))
-    order = np.argsort(code, kind="stable").astype(np.int64)
-    lower = [triangles.min(axis=1)[order]]
-    upper = [triangles.max(axis=1)[order]]
-    while len(lower[-1]) > 1:
-        pairs = np.arange(0, len(lower[-1]), 2)
-        lower.append(np.minimum.reduceat(lower[-1], pairs))
-        upper.append(np.maximum.reduceat(upper[-1], pairs))
-    return order, tuple(lower), tuple(upper)
-
-
-def _surface_samples(triangles: FloatArray) -> tuple[FloatArray, IntArray]:
-    """Centres of the ``m x m`` congruent sub-triangles of every triangle, ``m`` growing with its longest edge.
-
-    ``m`` is the longest edge over a common spacing, the finest that gives at most
-    ``_SAMPLES_PER_TRIANGLE`` samples per triangle on average (``m`` from 1 to 64): long
-    triangles are sampled along their length, so the nearest samples find a triangle near a
-    point's foot.
+    Every point of a triangle lies within its largest centroid-to-corner distance of its
+    centroid, so a triangle within ``d`` of a point has its centroid within ``d`` plus
+    that radius.
     """
-    longest = np.linalg.norm(triangles - np.roll(triangles, 1, axis=1), axis=2).max(axis=1)
-    budget = _SAMPLES_PER_TRIANGLE * len(triangles)
+    from scipy.spatial import cKDTree
 
-    def divisions_for(spacing: float) -> IntArray:
-        return np.clip(np.ceil(longest / spacing), 1, 64).astype(np.int64)
-
-    # the finest spacing within the budget (bisection in log scale; the longest edge gives one each)
-    coarse, fine = max(float(longest.max()), 1e-300), max(float(longest.max()), 1e-300) / 64.0
-    for _ in range(40):
-        middle = float(np.sqrt(coarse * fine))
-        if int(np.sum(divisions_for(middle) ** 2)) <= budget:
-            coarse = middle
-        else:
-            fine = middle
-    divisions = divisions_for(coarse)
-    points, owners = [], []
-    for m in np.unique(divisions):
-        members = np.flatnonzero(divisions == m)
-        i, j = np.meshgrid(np.arange(m), np.arange(m), indexing="ij")
-        up = np.c_[i.ravel() + 1 / 3, j.ravel() + 1 / 3][(i + j).ravel() <= m - 1]
-        down = np.c_[i.ravel() + 2 / 3, j.ravel() + 2 / 3][(i + j).ravel() <= m - 2]
-        u, v = np.vstack([up, down]).T / m
-        weights = np.c_[1.0 - u - v, u, v]  # (m*m, 3) barycentric
-        points.append(np.einsum("sk,tkj->tsj", weights, triangles[members]).reshape(-1, 3))
-        owners.append(np.repeat(members, len(weights)))
-    return np.vstack(points), np.concatenate(owners)
+    centroids = triangles.mean(axis=1)
+    radius = np.linalg.norm(triangles - centroids[:, None, :], axis=2).max(axis=1) * (1.0 + _SLACK)
+    largest = max(float(radius.max()), 1e-300)
+    with np.errstate(divide="ignore"):
+        level = np.floor(np.log2(largest / np.maximum(radius, 1e-300)))
+    level = np.clip(level, 0, _SIZE_CLASSES - 1).astype(np.int64)
+    groups = []
+    for value in np.unique(level):
+        members = np.flatnonzero(level == value)
+        groups.append(_SizeClass(members=members, tree=cKDTree(centroids[members]),
+                                 reach=float(radius[members].max()), member_reach=radius[members]))
+    return tuple(groups)
 
 
-def _spread_bits(value: NDArray[np.uint64]) -> NDArray[np.uint64]:
-    """Insert two zero bits after each of the lowest 21 bits (Morton interleaving)."""
-    spread = value & np.uint64(0x1FFFFF)
-    for shift, mask in ((32, 0x1F00000000FFFF), (16, 0x1F0000FF0000FF), (8, 0x100F00F00F00F00F),
-                        (4, 0x10C30C30C30C30C3), (2, 0x1249249249249249)):
-        spread = (spread | (spread << np.uint64(shift))) & np.uint64(mask)
-    return spread
-
-
-def _box_distance_squared(points: FloatArray, lower: FloatArray, upper: FloatArray) -> FloatArray:
-    """Squared distance from each point to its axis-aligned box (0 inside): no triangle in it is nearer."""
-    gap = np.maximum(np.maximum(lower - points, points - upper), 0.0)
-    return np.einsum("ij,ij->i", gap, gap)
-
-
-def _keep_nearest(
-    query: FloatArray,
-    triangles: FloatArray,
-    point_of_pair: IntArray,
-    triangle_of_pair: IntArray,
-    best_squared: FloatArray,
-    closest: FloatArray,
-    face_index: IntArray,
-) -> FloatArray:
-    """Update the running nearest points (in place) with a chunk of point-triangle pairs; their squared distances."""
-    import trimesh
-
-    if len(point_of_pair) == 0:
-        return np.empty(0)
-    on_triangle = trimesh.triangles.closest_point(triangles[triangle_of_pair], query[point_of_pair])
-    difference = on_triangle - query[point_of_pair]
-    squared = np.einsum("ij,ij->i", difference, difference)
-    order = np.lexsort((squared, point_of_pair))
-    first = order[np.r_[True, point_of_pair[order][1:] != point_of_pair[order][:-1]]]
-    better = squared[first] < best_squared[point_of_pair[first]]
-    winners = first[better]
-    rows = point_of_pair[winners]
-    best_squared[rows] = squared[winners]
-    closest[rows] = on_triangle[winners]
-    face_index[rows] = triangle_of_pair[winners]
-    return squared
+def _pairs_within(group: _SizeClass, query: FloatArray, reach: FloatArray) -> tuple[IntArray, IntArray]:
+    """Point-triangle pairs with the centroid within the point's ``reach`` plus the triangle's own radius."""
+    count = len(group.members)
+    rows = np.arange(len(query))
+    radius = reach + group.reach
+    asked = _FIRST_NEIGHBOURS
+    points, triangles = [], []
+    while rows.size:
+        asked = min(asked, count)
+        distance, neighbour = group.tree.query(query[rows], k=asked, distance_upper_bound=float(radius[rows].max()),
+                                               workers=-1)
+        distance, neighbour = distance.reshape(len(rows), -1), neighbour.reshape(len(rows), -1)
+        complete = ~(distance[:, -1] <= radius[rows]) | (asked == count)
+        member = np.minimum(neighbour, count - 1)
+        close = (distance <= reach[rows, None] + group.member_reach[member]) & complete[:, None]
+        pair_row, pair_column = np.nonzero(close)
+        points.append(rows[pair_row])
+        triangles.append(group.members[member[pair_row, pair_column]])
+        rows = rows[~complete]
+        asked *= 4
+    return np.concatenate(points), np.concatenate(triangles)

@@ -17,7 +17,7 @@ Examples
 >>> import numpy as np
 >>> quarter_turn = np.eye(4)
 >>> quarter_turn[:2, :2] = [[0.0, -1.0], [1.0, 0.0]]
->>> as_rigid_transform(quarter_turn)[:3, :3].round(12).tolist()
+>>> (as_rigid_transform(quarter_turn)[:3, :3].round(12) + 0.0).tolist()
 [[0.0, -1.0, 0.0], [1.0, 0.0, 0.0], [0.0, 0.0, 1.0]]
 
 See :func:`register_to_mesh` for a registration.
@@ -34,7 +34,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from pcmm_geo.artefacts.cad_distance import SurfaceIndex
 from pcmm_geo.errors import ConvergenceError, IllConditionedWarning, InvalidInputError
-from pcmm_geo.fit._core import as_points
+from pcmm_geo.fit._kernels._core import as_points
 
 if TYPE_CHECKING:
     import trimesh
@@ -245,7 +245,7 @@ def register_to_mesh(
     >>> grid = np.stack(np.meshgrid(*[np.linspace(lo, hi, 5) for lo, hi in corners.T]), -1).reshape(-1, 3)
     >>> on_surface = grid[np.any(np.isclose(np.abs(grid), corners[1]), axis=1)]
     >>> fit = register_to_mesh(on_surface + [0.2, 0.0, -0.1], block)
-    >>> np.round(fit.translation, 9).tolist(), round(fit.inlier_rms, 12)
+    >>> (np.round(fit.translation, 9) + 0.0).tolist(), round(fit.inlier_rms, 12) + 0.0
     ([-0.2, 0.0, 0.1], 0.0)
     """
     import open3d as o3d

@@ -13,6 +13,11 @@ Decision rule (ISO 14253-1 style, stated in every result):
 * ``"simple"`` -- simple acceptance, zero guard band: a value conforms when ``|E0| ≤ MPE``.
 * ``"guarded"`` -- guarded acceptance: the conformance zone is reduced by the expanded
   uncertainty ``U`` of the test: a value conforms when ``|E0| + U ≤ MPE``.
+* ``"iso14253"`` -- the three-state rule of ISO 14253-1
+  (:func:`pcmm_geo.uncertainty.conformity.decide_conformity`): ``PASS`` (conformity
+  proved, ``|E0| + U ≤ MPE``), ``FAIL`` (nonconformity proved, ``|E0| − U > MPE``) or
+  ``NOT PROVEN``; the test's ``verdict`` is ``FAIL`` if any value fails, ``PASS`` if all
+  pass.  ``passed`` is True only for ``PASS``.
 
 The machine passes when every value conforms (and every R0 does, when an ``MPL_R0`` is
 given).  The retest allowances of ISO 10360-2:2009 are not applied automatically.
@@ -41,13 +46,20 @@ __all__ = [
     "LengthMpe",
     "LengthTestResult",
     "R0Value",
+    "STANDARD_LAYOUT",
+    "completeness",
     "evaluate_length_test",
     "read_length_test_csv",
 ]
 
+#: the standard's data set: (test lengths, positions, repetitions) = 5 x 7 x 3 = 105 values
+STANDARD_LAYOUT = (5, 7, 3)
+
 DECISION_RULES = {
     "simple": "simple acceptance (ISO 14253-1, zero guard band): |E0| <= MPE_E0",
     "guarded": "guarded acceptance (ISO 14253-1): |E0| + U <= MPE_E0, U = expanded test uncertainty",
+    "iso14253": "ISO 14253-1: PASS if |E0| + U <= MPE_E0 (conformity proved), FAIL if |E0| - U > MPE_E0 "
+    "(nonconformity proved), otherwise NOT PROVEN",
 }
 
 
@@ -113,6 +125,8 @@ class E0Value:
     mpe: float
     acceptance_limit: float
     conforms: bool
+    #: ISO 14253-1 verdict (``"PASS"``, ``"FAIL"``, ``"NOT PROVEN"``) under the ``"iso14253"`` rule, else ""
+    verdict: str = ""
 
 
 @dataclass(frozen=True)
@@ -150,6 +164,12 @@ class LengthTestResult:
     mpe : LengthMpe
     mpl_r0 : float or None
         Limit of R0 (mm), if given.
+    complete : bool
+        The data set is the standard's 5 lengths x 7 positions x 3 repetitions.  A partial set
+        (evaluated only on request) never passes: ``passed`` is then False when a value does not
+        conform and None otherwise.
+    completeness : str
+        What the data set holds against the standard ("" when complete).
     """
 
     errors: tuple[E0Value, ...]
@@ -158,11 +178,57 @@ class LengthTestResult:
     max_error_ratio: float
     max_range: float
     n_nonconforming: int
-    passed: bool
+    passed: bool | None
     decision_rule: str
     test_uncertainty: float
     mpe: LengthMpe
     mpl_r0: float | None
+    #: ``"PASS"``, ``"FAIL"`` or (``"iso14253"`` rule only) ``"NOT PROVEN"``
+    verdict: str = ""
+    complete: bool = True
+    completeness: str = ""
+
+
+def completeness(measurements: Iterable[LengthMeasurement]) -> str:
+    """What a data set lacks against the standard's 5 lengths x 7 positions x 3 repetitions ("" when complete).
+
+    Raises
+    ------
+    InvalidInputError
+        The same length, position and repetition appear twice.
+
+    Examples
+    --------
+    >>> completeness([LengthMeasurement("L1", "x", r, 100.0, 100.0) for r in (1, 2, 3)])
+    '3 of 105 values: 1 of 5 lengths, 1 of 7 positions'
+    """
+    lengths_needed, positions_needed, repetitions_needed = STANDARD_LAYOUT
+    seen: set[tuple[str, str, int]] = set()
+    for item in measurements:
+        key = (item.length_id, item.position, item.repetition)
+        if key in seen:
+            raise InvalidInputError("measurements", "each length/position/repetition once", f"{key} twice")
+        seen.add(key)
+    lengths = {k[0] for k in seen}
+    positions = {k[1] for k in seen}
+    per_group: dict[tuple[str, str], int] = {}
+    for length_id, position, _ in seen:
+        per_group[(length_id, position)] = per_group.get((length_id, position), 0) + 1
+    needed = lengths_needed * positions_needed * repetitions_needed
+    gaps = []
+    if len(lengths) != lengths_needed:
+        gaps.append(f"{len(lengths)} of {lengths_needed} lengths")
+    if len(positions) != positions_needed:
+        gaps.append(f"{len(positions)} of {positions_needed} positions")
+    missing_groups = len(lengths) * len(positions) - len(per_group)
+    if missing_groups:
+        gaps.append(f"{missing_groups} length/position pairs not measured")
+    odd = sum(count != repetitions_needed for count in per_group.values())
+    if odd:
+        gaps.append(f"{odd} length/position pairs without {repetitions_needed} repetitions")
+    if not gaps and len(seen) == needed:
+        return ""
+    return f"{len(seen)} of {needed} values" + (": " + ", ".join(gaps) if gaps else "")
 
 
 def evaluate_length_test(
@@ -172,6 +238,7 @@ def evaluate_length_test(
     decision_rule: str = "simple",
     test_uncertainty: float = 0.0,
     mpl_r0: float | None = None,
+    allow_incomplete: bool = False,
 ) -> LengthTestResult:
     """Evaluate an ISO 10360-2 length test.
 
@@ -181,12 +248,15 @@ def evaluate_length_test(
         All measured test lengths (mm).
     mpe : LengthMpe
         The stated ``MPE_E0``.
-    decision_rule : {"simple", "guarded"}
+    decision_rule : {"simple", "guarded", "iso14253"}
         See the module documentation.
     test_uncertainty : float
         Expanded uncertainty U of the test (mm), used by ``"guarded"``.
     mpl_r0 : float, optional
         Maximum permissible limit of R0 (mm).
+    allow_incomplete : bool
+        Evaluate a data set that is not the standard's 105 values (see :func:`completeness`);
+        the result is then marked incomplete and never passes.
 
     Returns
     -------
@@ -196,15 +266,21 @@ def evaluate_length_test(
     ------
     InvalidInputError
         No measurements, unknown rule, negative U, or a calibrated length that differs
-        between measurements of the same ``length_id``.
+        between measurements of the same ``length_id``, or a length/position/repetition twice.
+    IncompleteTestError
+        Not the standard's 5 x 7 x 3 values and ``allow_incomplete`` is False.
 
     Examples
     --------
     >>> data = [LengthMeasurement("L1", "x", r, 100.0, 100.0 + e) for r, e in enumerate([1e-3, 2e-3, -1e-3])]
-    >>> res = evaluate_length_test(data, LengthMpe(2.0, 100.0))
+    >>> res = evaluate_length_test(data, LengthMpe(2.0, 100.0), allow_incomplete=True)
     >>> res.passed, round(res.max_abs_error, 6), round(res.repeatability[0].range, 6)
-    (True, 0.002, 0.003)
+    (None, 0.002, 0.003)
+    >>> res.verdict.split(":")[0]
+    'INCOMPLETE (3 of 105 values'
     """
+    from pcmm_geo.errors import IncompleteTestError
+
     if decision_rule not in DECISION_RULES:
         raise InvalidInputError("decision_rule", f"one of {sorted(DECISION_RULES)}", repr(decision_rule))
     if not (math.isfinite(test_uncertainty) and test_uncertainty >= 0):
@@ -221,11 +297,19 @@ def evaluate_length_test(
             raise InvalidInputError(
                 f"calibrated_length of {item.length_id!r}", f"{known} mm in every row", f"{item.calibrated_length} mm"
             )
-    guard = test_uncertainty if decision_rule == "guarded" else 0.0
+    missing = completeness(items)
+    if missing and not allow_incomplete:
+        raise IncompleteTestError("ISO 10360-2", math.prod(STANDARD_LAYOUT), len(items), missing.partition(": ")[2])
+    guard = test_uncertainty if decision_rule in ("guarded", "iso14253") else 0.0
     errors = []
     for item in items:
         limit_mpe = mpe.mpe_mm(item.calibrated_length)
         error = item.measured_length - item.calibrated_length
+        verdict = ""
+        if decision_rule == "iso14253":
+            from pcmm_geo.uncertainty.conformity import decide_conformity
+
+            verdict = decide_conformity(abs(error), test_uncertainty, upper_limit=limit_mpe).verdict
         errors.append(
             E0Value(
                 length_id=item.length_id,
@@ -236,6 +320,7 @@ def evaluate_length_test(
                 mpe=limit_mpe,
                 acceptance_limit=limit_mpe - guard,
                 conforms=abs(error) <= limit_mpe - guard,
+                verdict=verdict,
             )
         )
     groups: dict[tuple[str, str], list[float]] = {}
@@ -247,6 +332,17 @@ def evaluate_length_test(
         ok = True if mpl_r0 is None else spread <= mpl_r0 - guard
         ranges.append(R0Value(length_id, position, len(values), spread, ok))
     n_bad = sum(not e.conforms for e in errors) + sum(not r.conforms for r in ranges)
+    if decision_rule == "iso14253":
+        from pcmm_geo.uncertainty.conformity import overall_verdict
+
+        verdict = overall_verdict([e.verdict for e in errors] + ["PASS" if r.conforms else "NOT PROVEN"
+                                                                 for r in ranges])
+    else:
+        verdict = "PASS" if n_bad == 0 else "FAIL"
+    if missing:  # a partial data set never passes; a proven nonconformity is still reported
+        found = "FAIL" if verdict == "FAIL" else (
+            "NOT PROVEN" if verdict == "NOT PROVEN" else "no nonconforming value among these")
+        verdict = f"INCOMPLETE ({missing}): {found}" + ("" if verdict == "FAIL" else ", no acceptance verdict")
     return LengthTestResult(
         errors=tuple(errors),
         repeatability=tuple(ranges),
@@ -254,11 +350,14 @@ def evaluate_length_test(
         max_error_ratio=max(abs(e.error) / e.mpe if e.mpe > 0 else math.inf for e in errors),
         max_range=max(r.range for r in ranges),
         n_nonconforming=n_bad,
-        passed=n_bad == 0,
+        passed=False if n_bad else (True if not missing else None),
         decision_rule=DECISION_RULES[decision_rule],
         test_uncertainty=test_uncertainty,
         mpe=mpe,
         mpl_r0=mpl_r0,
+        verdict=verdict,
+        complete=not missing,
+        completeness=missing,
     )
 
 

@@ -25,14 +25,24 @@ from numpy.typing import ArrayLike, NDArray
 
 from pcmm_geo.artefacts._table import cell_float, read_rows
 from pcmm_geo.errors import InvalidInputError
-from pcmm_geo.fit._core import as_points
+from pcmm_geo.fit._kernels._core import as_points
 
-__all__ = ["PATTERN_RINGS", "ProbingResult", "evaluate_probing", "read_points_csv", "sphere_probing_pattern"]
+__all__ = [
+    "PATTERN_RINGS",
+    "STANDARD_POINT_COUNT",
+    "ProbingResult",
+    "evaluate_probing",
+    "read_points_csv",
+    "read_reference_diameter",
+    "sphere_probing_pattern",
+]
 
 FloatArray = NDArray[np.float64]
 
 #: (polar angle below the pole in degrees, number of points, azimuth turn of the ring in degrees)
 PATTERN_RINGS = ((0.0, 1, 0.0), (22.5, 4, 0.0), (45.0, 8, 22.5), (67.5, 4, 45.0), (90.0, 8, 67.5))
+#: points of the standard's probing test
+STANDARD_POINT_COUNT = 25
 
 
 def sphere_probing_pattern(
@@ -118,6 +128,17 @@ class ProbingResult:
         Stated MPEs (mm), if any.
     form_conforms, size_conforms : bool or None
         ``P_FTU <= MPE_PFTU``, ``|P_STU| <= MPE_PSTU`` (simple acceptance), None without MPE.
+    form_verdict, size_verdict : str
+        With a test uncertainty: the ISO 14253-1 verdicts (``"PASS"``, ``"FAIL"``,
+        ``"NOT PROVEN"``, :func:`pcmm_geo.uncertainty.conformity.decide_conformity`); the
+        ``*_conforms`` fields are then True only for ``PASS``.  "" otherwise.
+    test_uncertainty : tuple of float or None
+        ``(U_form, U_size)`` (mm) used by the decision.
+    decision_rule : str
+    complete : bool
+        The data set has the standard's 25 points; a partial set (evaluated only on request)
+        never passes: :attr:`passed` is then None or False and :attr:`verdict` starts with
+        "INCOMPLETE".
     """
 
     form_error: float
@@ -131,12 +152,40 @@ class ProbingResult:
     mpe_size: float | None
     form_conforms: bool | None
     size_conforms: bool | None
+    form_verdict: str = ""
+    size_verdict: str = ""
+    test_uncertainty: tuple[float, float] | None = None
+    decision_rule: str = "simple acceptance (zero guard band)"
+    complete: bool = True
 
     @property
     def passed(self) -> bool | None:
-        """All stated MPEs met (None when none was stated)."""
+        """All stated MPEs met on a complete test (False on any exceeded MPE; None without MPE or when incomplete)."""
         verdicts = [v for v in (self.form_conforms, self.size_conforms) if v is not None]
-        return all(verdicts) if verdicts else None
+        if not verdicts:
+            return None
+        if not all(verdicts):
+            return False
+        return True if self.complete else None
+
+    @property
+    def verdict(self) -> str:
+        """"PASS", "FAIL", "NOT PROVEN" (ISO 14253-1 rule), "no MPE stated", or "INCOMPLETE (n of 25 points): ..."."""
+        stated = [(conforms, word) for conforms, word in ((self.form_conforms, self.form_verdict),
+                                                          (self.size_conforms, self.size_verdict))
+                  if conforms is not None]
+        words = [word or ("PASS" if conforms else "FAIL") for conforms, word in stated]
+        if not words:
+            text = "no MPE stated"
+        elif "FAIL" in words:
+            text = "FAIL"
+        elif "NOT PROVEN" in words:
+            text = "NOT PROVEN"
+        else:
+            text = "PASS" if self.complete else "MPEs met on these points, no acceptance verdict"
+        if self.complete:
+            return text
+        return f"INCOMPLETE ({self.n} of {STANDARD_POINT_COUNT} points): {text}"
 
 
 def evaluate_probing(
@@ -145,17 +194,25 @@ def evaluate_probing(
     *,
     mpe_form: float | None = None,
     mpe_size: float | None = None,
+    test_uncertainty: tuple[float, float] | None = None,
+    allow_incomplete: bool = False,
 ) -> ProbingResult:
     """P_FTU and P_STU from points probed on a calibrated sphere (Gaussian sphere fit).
 
     Parameters
     ----------
     points : array_like, shape (N, 3)
-        Probed points (mm); the standard uses 25 (:func:`sphere_probing_pattern`), at least 5.
+        Probed points (mm); the standard uses 25 (:func:`sphere_probing_pattern`).
     reference_diameter : float
         Calibrated sphere diameter (mm).
     mpe_form, mpe_size : float, optional
         MPE_PFTU and MPE_PSTU (mm).
+    test_uncertainty : tuple of float, optional
+        Expanded uncertainties ``(U_form, U_size)`` (mm, 95 %) of the two test values; when
+        given the ISO 14253-1 rule decides (guard bands of U), else simple acceptance.
+    allow_incomplete : bool
+        Evaluate a data set of other than 25 points (at least 5); the result is then marked
+        incomplete and never passes.
 
     Returns
     -------
@@ -165,6 +222,8 @@ def evaluate_probing(
     ------
     InvalidInputError
         Non-positive diameter or MPE, bad point array.
+    IncompleteTestError
+        Not 25 points and ``allow_incomplete`` is False.
     TooFewPointsError, DegenerateGeometryError, ConvergenceError
         From the sphere fit.
 
@@ -172,9 +231,12 @@ def evaluate_probing(
     --------
     >>> pts = sphere_probing_pattern((10.0, 20.0, 30.0), 12.5)
     >>> res = evaluate_probing(pts, 25.0)
-    >>> round(res.form_error, 12), round(res.size_error, 12)
+    >>> round(res.form_error, 12) + 0.0, round(res.size_error, 12) + 0.0
     (0.0, 0.0)
+    >>> evaluate_probing(pts[:9], 25.0, mpe_form=0.001, allow_incomplete=True).verdict
+    'INCOMPLETE (9 of 25 points): MPEs met on these points, no acceptance verdict'
     """
+    from pcmm_geo.errors import IncompleteTestError
     from pcmm_geo.fit import fit_sphere
 
     if not (isinstance(reference_diameter, (int, float)) and math.isfinite(reference_diameter)
@@ -184,11 +246,29 @@ def evaluate_probing(
         if value is not None and not (math.isfinite(value) and value > 0):
             raise InvalidInputError(name, "a positive length in mm or None", repr(value))
     pts = as_points(points, element="sphere", min_points=5)
+    complete = len(pts) == STANDARD_POINT_COUNT
+    if not complete and not allow_incomplete:
+        raise IncompleteTestError("ISO 10360-5", STANDARD_POINT_COUNT, len(pts), unit="points on the test sphere")
     fit = fit_sphere(pts)
     residuals = np.asarray(fit.residuals, dtype=float)
     form = float(residuals.max() - residuals.min())
     diameter = 2.0 * float(fit.radius)
     size = diameter - float(reference_diameter)
+    form_ok = None if mpe_form is None else form <= mpe_form
+    size_ok = None if mpe_size is None else abs(size) <= mpe_size
+    verdicts = ("", "")
+    rule = "simple acceptance (zero guard band)"
+    if test_uncertainty is not None:
+        from pcmm_geo.uncertainty.conformity import DECISION_RULE_TEXT, decide_conformity
+
+        u_form, u_size = (float(v) for v in test_uncertainty)
+        verdicts = (
+            "" if mpe_form is None else decide_conformity(form, u_form, upper_limit=mpe_form).verdict,
+            "" if mpe_size is None else decide_conformity(abs(size), u_size, upper_limit=mpe_size).verdict,
+        )
+        form_ok = None if mpe_form is None else verdicts[0] == "PASS"
+        size_ok = None if mpe_size is None else verdicts[1] == "PASS"
+        rule = DECISION_RULE_TEXT
     return ProbingResult(
         form_error=form,
         size_error=size,
@@ -199,8 +279,13 @@ def evaluate_probing(
         n=len(pts),
         mpe_form=mpe_form,
         mpe_size=mpe_size,
-        form_conforms=None if mpe_form is None else form <= mpe_form,
-        size_conforms=None if mpe_size is None else abs(size) <= mpe_size,
+        form_conforms=form_ok,
+        size_conforms=size_ok,
+        form_verdict=verdicts[0],
+        size_verdict=verdicts[1],
+        test_uncertainty=None if test_uncertainty is None else (u_form, u_size),
+        decision_rule=rule,
+        complete=complete,
     )
 
 
@@ -222,3 +307,46 @@ def read_points_csv(path: str | Path) -> FloatArray:
     """
     rows = read_rows(path, ("x", "y", "z"))
     return np.array([[cell_float(path, line, row, axis) for axis in "xyz"] for line, row in rows])
+
+
+_DIAMETER_KEY = "reference_diameter_mm"
+
+
+def read_reference_diameter(path: str | Path) -> float | None:
+    """The calibrated sphere diameter (mm) a points file states in a ``# reference_diameter_mm: D`` comment.
+
+    Returns None when the file states none.
+
+    Raises
+    ------
+    FileFormatError
+        The line is there but its value is not a positive number, or it appears twice.
+
+    Examples
+    --------
+    >>> from importlib.resources import files
+    >>> read_reference_diameter(files("pcmm_geo") / "data/examples/iso10360_5_sphere.csv")
+    25.0004
+    """
+    from pcmm_geo.errors import FileFormatError
+    from pcmm_geo.io._text import read_text_lines
+
+    found: float | None = None
+    for number, text in read_text_lines(path):
+        body = text.strip()
+        if not body.startswith("#") or ":" not in body:
+            continue
+        key, _, value = body.lstrip("#").partition(":")
+        if key.strip().lower() != _DIAMETER_KEY:
+            continue
+        try:
+            diameter = float(value.strip())
+        except ValueError:
+            diameter = math.nan
+        if not (math.isfinite(diameter) and diameter > 0):
+            raise FileFormatError(str(path), f"{_DIAMETER_KEY}: expected a positive number, got {value.strip()!r}",
+                                  line=number)
+        if found is not None:
+            raise FileFormatError(str(path), f"{_DIAMETER_KEY} stated twice", line=number)
+        found = diameter
+    return found

@@ -18,7 +18,6 @@ the harness schema (radii, half-angle, radius at the axis point).
 
 from __future__ import annotations
 
-import json
 import math
 from pathlib import Path
 
@@ -117,10 +116,9 @@ def read_element_parameters(path: str | Path) -> dict[str, ElementParameters]:
     file = Path(path)
     out: dict[str, ElementParameters] = {}
     if file.suffix.lower() == ".json":
-        try:
-            data = json.loads(file.read_text(encoding="utf-8"))
-        except json.JSONDecodeError as exc:
-            raise FileFormatError(str(file), f"invalid JSON: {exc.msg}", line=exc.lineno) from None
+        from pcmm_geo.io._text import read_json_file
+
+        data = read_json_file(file)
         items = data.get("cases") if isinstance(data, dict) else data
         if not isinstance(items, list):
             raise FileFormatError(str(file), "expected a list of cases or {\"cases\": [...]}")

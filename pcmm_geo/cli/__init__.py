@@ -1,6 +1,7 @@
 """The ``pcmm`` command: wiring only; the work happens in the library.
 
-Each sub-command lives in its own module of this package and exposes
+Each sub-command lives in its own module (``demo`` here, the others in
+:mod:`~pcmm_geo.cli.machine_commands` and :mod:`~pcmm_geo.cli.measurement_commands`) and exposes
 ``register(subparsers)``; modules must import numpy and heavier libraries inside
 their handlers so that ``pcmm --help`` stays fast.  A handler returns a
 :class:`pcmm_geo.cli._output.Report`; ``main`` prints it as aligned text or, with
@@ -14,23 +15,26 @@ import importlib
 import sys
 from collections.abc import Sequence
 
-# sub-command modules, in the order ``pcmm --help`` lists them
+# sub-command modules relative to pcmm_geo.cli, in the order ``pcmm --help`` lists them
 COMMAND_MODULES = (
     "demo",
-    "fit",
-    "calibrate",
-    "kinematics",
-    "process_log",
-    "numcal",
-    "sensitivity",
-    "gauge_block",
-    "iso10360",
-    "micrometer",
-    "thermal",
-    "acquire",
-    "compare",
-    "segment",
-    "convert",
+    "measurement_commands.fit",
+    "measurement_commands.form",
+    "machine_commands.calibrate",
+    "machine_commands.kinematics",
+    "machine_commands.process_log",
+    "machine_commands.numcal",
+    "machine_commands.sensitivity",
+    "measurement_commands.gauge_block",
+    "measurement_commands.iso10360",
+    "measurement_commands.micrometer",
+    "measurement_commands.thermal",
+    "machine_commands.acquire",
+    "measurement_commands.compare",
+    "measurement_commands.segment",
+    "measurement_commands.convert",
+    "measurement_commands.uncertainty",
+    "measurement_commands.batch",
 )
 
 
@@ -55,7 +59,7 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 def main(argv: Sequence[str] | None = None) -> int:
-    from pcmm_geo.cli._output import run_handler
+    from pcmm_geo.cli._run import run_handler
 
     parser = build_parser()
     args = parser.parse_args(argv)

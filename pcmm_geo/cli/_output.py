@@ -7,7 +7,12 @@ import json
 import math
 import sys
 from dataclasses import dataclass, field
+from pathlib import Path
 from typing import Any
+
+from pcmm_geo.cli._record import CovarianceBlock, Provenance, UncertaintyEntry, Verdict
+
+REPORT_SUFFIXES = (".md", ".html", ".htm")
 
 EXIT_OK = 0
 EXIT_FAILURE = 1  # the computation ran but the verdict is "fail" (e.g. an ISO test)
@@ -28,6 +33,8 @@ class Report:
     """What a handler returns: JSON-ready ``data`` plus human ``tables`` and free ``lines``.
 
     ``plots`` lists the image files the handler wrote; ``--report`` embeds or links them.
+    ``verdict``, ``uncertainties`` and ``covariances`` are the slots a ``--report`` renders as
+    its verdict and uncertainty sections; ``provenance`` is filled by :func:`run_handler`.
     """
 
     data: dict[str, Any]
@@ -35,10 +42,21 @@ class Report:
     lines: list[str] = field(default_factory=list)
     exit_code: int = EXIT_OK
     plots: list[str] = field(default_factory=list)
+    verdict: Verdict | None = None
+    uncertainties: list[UncertaintyEntry] = field(default_factory=list)
+    covariances: list[CovarianceBlock] = field(default_factory=list)
+    provenance: Provenance | None = None
 
 
 def add_json_flag(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--json", action="store_true", help="print the result as JSON on stdout")
+
+
+def add_decimal_flag(parser: argparse.ArgumentParser) -> None:
+    """Add ``--decimal {.,,}``: the decimal mark of text point files (default: detected, ambiguity refused)."""
+    parser.add_argument("--decimal", choices=(".", ","), default=None,
+                        help="decimal mark of a text point file: '.' or ',' (with ';', tab or space separators); "
+                             "default: detected, an ambiguous file is refused")
 
 
 def add_plot_flag(parser: argparse.ArgumentParser, what: str) -> None:
@@ -77,8 +95,6 @@ def check_output_paths(args: argparse.Namespace) -> None:
 
         check_plot_path(args.plot, overwrite=overwrite)
     if getattr(args, "shared_report_flag", False) and getattr(args, "report", None):
-        from pcmm_geo.cli._report import check_report_path
-
         check_report_path(args.report, overwrite=overwrite)
 
 
@@ -136,6 +152,44 @@ def to_jsonable(value: Any) -> Any:
     return value
 
 
+def uncertainty_tables(report: Report, *, correlations: bool = True) -> list[Table]:
+    """The report's uncertainty slots as tables: one of the entries, one correlation matrix per block.
+
+    The terminal shows the entries only (``correlations=False``); ``--report`` shows both.
+
+    Examples
+    --------
+    >>> from pcmm_geo.cli._record import UncertaintyEntry
+    >>> entry = UncertaintyEntry("L", 100.0, 2e-4, "mm", 2.0, method="GUM")
+    >>> table = uncertainty_tables(Report({}, uncertainties=[entry]))[0]
+    >>> table.title, table.columns, table.rows[0][5]
+    ('Standard uncertainties (GUM)', ['quantity', 'value', 'u', 'unit', 'k', 'U = k u'], 0.0004)
+    """
+    tables = []
+    entries = report.uncertainties
+    if entries:
+        methods = {e.method for e in entries}
+        shared = methods.pop() if len(methods) == 1 else None
+        expanded = any(e.coverage_factor is not None for e in entries)
+        columns = ["quantity", "value", "u", "unit"] + (["k", "U = k u"] if expanded else [])
+        columns += [] if shared is not None else ["method"]
+        rows = []
+        for e in entries:
+            row = [e.quantity, e.value, e.standard_uncertainty, e.unit]
+            if expanded:
+                row += ["-" if e.coverage_factor is None else e.coverage_factor,
+                        "-" if e.expanded_uncertainty is None else e.expanded_uncertainty]
+            rows.append(row + ([] if shared is not None else [e.method]))
+        # one method for all entries goes in the title, not in every row
+        tables.append(Table("Standard uncertainties" + (f" ({shared})" if shared else ""), columns, rows))
+    for block in report.covariances if correlations else ():
+        names = list(block.names)
+        tables.append(Table(f"{block.title}: correlation coefficients", ["", *names],
+                            [[name, *(f"{round(value, 3) + 0.0:.3f}" for value in row)]
+                             for name, row in zip(names, block.correlation(), strict=True)]))
+    return tables
+
+
 def print_report(report: Report, as_json: bool) -> None:
     if as_json:
         json.dump(to_jsonable(report.data), sys.stdout, indent=2, allow_nan=False)
@@ -144,42 +198,31 @@ def print_report(report: Report, as_json: bool) -> None:
     blocks = [render_table(t) for t in report.tables]
     if report.lines:
         blocks.append("\n".join(report.lines))
-    print("\n\n".join(blocks))
+    blocks += [render_table(t) for t in uncertainty_tables(report, correlations=False)]
+    if blocks:  # a command that printed its own output (pcmm batch) returns an empty report
+        print("\n\n".join(blocks))
 
 
-def run_handler(args: argparse.Namespace) -> int:
-    from pcmm_geo.errors import OutputExistsError, PcmmGeoError
+def check_report_path(path: str | Path, *, overwrite: bool = False) -> Path:
+    """Validate a report destination (suffix, existing file) before any work is done.
 
-    try:
-        check_output_paths(args)
-        report = args.handler(args)
-        if getattr(args, "shared_report_flag", False) and getattr(args, "report", None):
-            from pcmm_geo.cli._report import write_report
+    Raises
+    ------
+    InvalidInputError
+        The suffix is not ``.md``, ``.html`` or ``.htm``.
+    OutputExistsError
+        ``path`` exists and ``overwrite`` is False.
 
-            written = write_report(report, args.report, title=f"pcmm {args.command}",
-                                   command=getattr(args, "command_line", None),
-                                   overwrite=bool(getattr(args, "overwrite", False)))
-            report.data["report"] = str(written)
-            report.lines.append(f"report written to {written}")
-    except OutputExistsError as exc:
-        how = "use --overwrite to replace it" if hasattr(args, "overwrite") else "choose another name"
-        print(f"pcmm {args.command}: error: {exc.path}: already exists; refusing to overwrite ({how})",
-              file=sys.stderr)
-        return EXIT_USAGE
-    except PcmmGeoError as exc:
-        print(f"pcmm {args.command}: error: {exc}", file=sys.stderr)
-        return EXIT_USAGE
-    except (OSError, ValueError) as exc:
-        print(f"pcmm {args.command}: error: {exc}", file=sys.stderr)
-        return EXIT_USAGE
-    except KeyboardInterrupt:
-        print(f"pcmm {args.command}: interrupted", file=sys.stderr)
-        return 130
-    try:
-        print_report(report, bool(getattr(args, "json", False)))
-        sys.stdout.flush()
-    except BrokenPipeError:  # e.g. ``pcmm ... | head``: the reader left, not an error of ours
-        import os
+    Examples
+    --------
+    >>> check_report_path("summary.html").suffix
+    '.html'
+    """
+    from pcmm_geo.errors import InvalidInputError, OutputExistsError
 
-        os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
-    return report.exit_code
+    target = Path(path)
+    if target.suffix.lower() not in REPORT_SUFFIXES:
+        raise InvalidInputError("report file", "a name ending in .md or .html", repr(str(target)))
+    if target.exists() and not overwrite:
+        raise OutputExistsError(str(target))
+    return target

@@ -29,7 +29,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     parser.add_argument(
         "--out",
         type=Path,
-        default=Path("pcmm-demo-output"),
+        default=Path("out") / "demo",
         help="folder for the plots; each run writes a fresh time-stamped sub-folder (default: %(default)s)",
     )
     parser.add_argument("--no-plots", action="store_true", help="skip the plots in the --out folder")
@@ -79,7 +79,7 @@ def handle(args: argparse.Namespace) -> Report:
         ),
         Table(
             f"{result.gauge_length:g} mm gauge block, ISO 3650 central length",
-            ["model", "measured / mm", "error / um", "tip error rms / um"],
+            ["model", "measured / mm", "error / µm", "tip error rms / µm"],
             [
                 [
                     "calibrated (rigid body)",
@@ -97,4 +97,17 @@ def handle(args: argparse.Namespace) -> Report:
         ),
     ]
     lines = [f"plot: {path}" for path in plots]
+    if result.length_uncertainty is not None:
+        from pcmm_geo.uncertainty.result import decimals_for
+
+        u = result.length_uncertainty.result
+        places = decimals_for(u.expanded_uncertainty)
+        budget = ", ".join(f"{entry.name} {1000 * entry.contribution:.3f}" for entry in u.budget)
+        lines[:0] = [
+            f"calibrated length L = {result.measured_length_calibrated:.{places}f} mm "
+            f"± {u.expanded_uncertainty:.{places}f} mm (U, k = {u.coverage_factor:.2f}, coverage "
+            f"{100 * u.coverage_probability:.0f} %; virtual micro-CMM, {u.method}, {u.n_trials} trials)",
+            f"true length error {1000 * result.length_error_calibrated:+.3f} µm, U = "
+            f"{1000 * u.expanded_uncertainty:.3f} µm" + (f"; budget u_i / µm: {budget}" if budget else ""),
+        ]
     return Report(data=data, tables=tables, lines=lines, plots=plots)

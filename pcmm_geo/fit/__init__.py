@@ -25,7 +25,7 @@ from __future__ import annotations
 import importlib
 from typing import Any
 
-from pcmm_geo.fit._core import TOL, FitResult, Tolerances
+from pcmm_geo.fit._kernels._core import TOL, FitResult, Tolerances
 
 # public name -> submodule that defines it; loaded on first access (PEP 562) so that
 # ``import pcmm_geo.fit`` stays fast and independent of scipy until a fit runs.
@@ -48,6 +48,8 @@ _LAZY = {
     "LinePair": "skew",
     "nearest_point_to_lines": "skew",
     "LinesNearestPoint": "skew",
+    "pairwise_closest_points": "skew",
+    "mean_pairwise_midpoint": "skew",
     "fit_spheres": "batch",
     "fit_circles": "batch",
     "fit_planes": "batch",

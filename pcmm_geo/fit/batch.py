@@ -15,9 +15,9 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from pcmm_geo.errors import ConvergenceError, DegenerateGeometryError, InvalidInputError, TooFewPointsError
-from pcmm_geo.fit._core import TOL
-from pcmm_geo.fit._inputs import check_magnitude, real_array
-from pcmm_geo.fit._linear import frozen, weighted_centroid
+from pcmm_geo.fit._kernels._core import TOL
+from pcmm_geo.fit._kernels._inputs import check_magnitude, real_array
+from pcmm_geo.fit._kernels._linear import frozen, weighted_centroid
 
 __all__ = [
     "BatchFit",

@@ -16,11 +16,12 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from pcmm_geo.errors import DegenerateGeometryError, InvalidInputError
-from pcmm_geo.fit._core import FitResult, as_points, as_weights, residual_stats, solve_least_squares
-from pcmm_geo.fit._inputs import positive_length
-from pcmm_geo.fit._linear import frozen, local_covariance, sign_convention, weighted_centroid
-from pcmm_geo.fit._round import fit_nsphere
+from pcmm_geo.fit._kernels._core import FitResult, as_points, as_weights, residual_stats, solve_least_squares
+from pcmm_geo.fit._kernels._inputs import positive_length
+from pcmm_geo.fit._kernels._linear import frozen, local_covariance, sign_convention, weighted_centroid
+from pcmm_geo.fit._kernels._round import fit_nsphere
 from pcmm_geo.fit.plane import fit_plane
+from pcmm_geo.fit.zone._common import check_criterion
 
 __all__ = ["CircleFit", "fit_circle"]
 
@@ -44,12 +45,21 @@ class CircleFit(FitResult):
     residual_components : ndarray, shape (N, 2) or (N, 1)
         3-D: in-plane radial and axial components of each point's offset from the circle;
         2-D: the radial residuals as a column.
+    r_in : float
+        Radius of the inner boundary of the zone: the smallest distance of a point from the
+        centre (mm) for the ``"chebyshev"``, ``"mcc"`` and ``"mic"`` criteria; NaN for
+        Gaussian fits.
+    r_out : float
+        Radius of the outer boundary (largest distance of a point from the centre), mm;
+        NaN for Gaussian fits.
     """
 
     center: FloatArray
     radius: float
     normal: FloatArray | None
     residual_components: FloatArray
+    r_in: float = float("nan")
+    r_out: float = float("nan")
 
     @property
     def diameter(self) -> float:
@@ -63,6 +73,7 @@ def fit_circle(
     radius: float | None = None,
     weights: ArrayLike | None = None,
     method: Literal["gaussian", "projected"] = "gaussian",
+    criterion: str = "gaussian",
 ) -> CircleFit:
     """Fit a circle minimising the (weighted) sum of squared orthogonal distances.
 
@@ -78,6 +89,13 @@ def fit_circle(
         Non-negative weights of the squared distances.
     method : {"gaussian", "projected"}
         3-D only: distance to the circle curve (default) or plane-then-projected circle.
+
+    criterion : {"gaussian", "chebyshev", "mcc", "mic"}
+        ``"gaussian"`` (least squares, default) or the minimax criteria of
+        :mod:`pcmm_geo.fit.zone` (contacts and optimality certificate on the result).
+        For 3-D points these are evaluated in the least-squares plane of the points: the
+        points are projected onto it and the 2-D minimax circle of the projections is
+        returned (``residual_components[:, 1]`` keeps the out-of-plane offsets).
 
     Returns
     -------
@@ -114,7 +132,12 @@ def fit_circle(
         raise InvalidInputError("method", "'gaussian' or 'projected'", repr(method))
     if radius is not None:
         radius = positive_length(radius, "radius")
+    check_criterion(criterion, _ELEMENT, weights=weights, radius=radius)
     pts = as_points(points, element=_ELEMENT, dims=(2, 3), min_points=3)
+    if criterion != "gaussian":
+        from pcmm_geo.fit.zone._round import circle_minimax
+
+        return circle_minimax(pts, criterion, result_type=CircleFit, fit_plane=fit_plane)
     w = as_weights(weights, len(pts), element=_ELEMENT)
     if pts.shape[1] == 2:
         return _circle_2d(pts, w, radius)

@@ -18,7 +18,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from pcmm_geo.errors import ConvergenceError
-from pcmm_geo.fit._axial import (
+from pcmm_geo.fit._kernels._axial import (
     AxialSolution,
     FloatArray,
     as_axis_hint,
@@ -29,10 +29,11 @@ from pcmm_geo.fit._axial import (
     solve_axial,
     warn_if_ambiguous,
 )
-from pcmm_geo.fit._core import FitResult, as_points, as_weights, covariance_from_jacobian, residual_stats
-from pcmm_geo.fit._linear import frozen, weighted_centroid
-from pcmm_geo.fit._screen import cone_reduced, screened_directions
+from pcmm_geo.fit._kernels._core import FitResult, as_points, as_weights, covariance_from_jacobian, residual_stats
+from pcmm_geo.fit._kernels._linear import frozen, weighted_centroid
+from pcmm_geo.fit._kernels._screen import cone_reduced, screened_directions
 from pcmm_geo.fit.cylinder import _cylinder_model, _cylinder_start, axis_point_jacobian
+from pcmm_geo.fit.zone._common import check_criterion
 
 __all__ = ["ConeFit", "fit_cone"]
 
@@ -127,6 +128,7 @@ def fit_cone(
     *,
     weights: ArrayLike | None = None,
     axis_hint: ArrayLike | None = None,
+    criterion: str = "gaussian",
 ) -> ConeFit:
     """Fit a cone to 3-D points by orthogonal-distance least squares.
 
@@ -134,7 +136,7 @@ def fit_cone(
     the centroid, current axis along +z).  Local parameters: the axis crossing ``x0, y0``
     of the local ``z = 0`` plane, two tilts, the radius at that plane and the half angle.
     Starting axes: ``axis_hint``, a short cylinder fit, the polished minima of a direction
-    screening (:mod:`pcmm_geo.fit._screen`), and the principal axes;
+    screening (:mod:`pcmm_geo.fit._kernels._screen`), and the principal axes;
     for each, an algebraic cone (``x^2 + y^2`` linear in ``x, y, 1, z, z^2``) gives the
     remaining starting values.  The converged solution of least cost is returned.  The
     half angle is reported in ``[0, pi/2)`` with the axis pointing to the opening.
@@ -147,6 +149,10 @@ def fit_cone(
         Non-negative weights of the squared residuals.
     axis_hint : array_like, shape (3,), optional
         Approximate axis direction tried first (either sign).
+
+    criterion : {"gaussian", "chebyshev"}
+        ``"gaussian"`` (least squares, default) or the minimax criteria of
+        :mod:`pcmm_geo.fit.zone` (contacts and optimality certificate on the result).
 
     Returns
     -------
@@ -174,7 +180,12 @@ def fit_cone(
     >>> round(fit.apex_angle_deg / 2, 9), np.round(fit.apex, 9).tolist()
     (45.0, [500.0, 500.0, 498.0])
     """
+    check_criterion(criterion, _ELEMENT, weights=weights, axis_hint=axis_hint)
     data = as_points(points, element=_ELEMENT, min_points=6)
+    if criterion != "gaussian":
+        from pcmm_geo.fit.zone._axial import cone_minimax
+
+        return cone_minimax(data, criterion, gauss=fit_cone(data), result_type=ConeFit)
     weight = as_weights(weights, data.shape[0], element=_ELEMENT)
     sqrt_weights = None if weight is None else np.sqrt(weight)
     centroid = weighted_centroid(data)

@@ -12,7 +12,9 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike
 
-from pcmm_geo.fit._axial import (
+from pcmm_geo.errors import InvalidInputError
+from pcmm_geo.fit._kernels import _tall
+from pcmm_geo.fit._kernels._axial import (
     AxialSolution,
     FloatArray,
     LocalModel,
@@ -27,10 +29,12 @@ from pcmm_geo.fit._axial import (
     solve_axial,
     warn_if_ambiguous,
 )
-from pcmm_geo.fit._core import FitResult, as_points, as_weights, covariance_from_jacobian, residual_stats
-from pcmm_geo.fit._inputs import positive_length
-from pcmm_geo.fit._linear import frozen, weighted_centroid
-from pcmm_geo.fit._screen import cylinder_reduced, screened_directions
+from pcmm_geo.fit._kernels._core import FitResult, as_points, as_weights, covariance_from_jacobian, residual_stats
+from pcmm_geo.fit._kernels._inputs import positive_length
+from pcmm_geo.fit._kernels._linear import frozen, weighted_centroid
+from pcmm_geo.fit._kernels._screen import cylinder_reduced, screened_directions
+from pcmm_geo.fit.scale import is_dask_array
+from pcmm_geo.fit.zone._common import check_criterion
 
 __all__ = ["CylinderFit", "fit_cylinder"]
 
@@ -56,11 +60,18 @@ class CylinderFit(FitResult):
     ``parameter_names`` are ``point_x, point_y, point_z, axis_x, axis_y, axis_z, radius``
     (machine frame).  The covariance of these 7 numbers has rank 5 (4 with a fixed radius):
     the point can only move across the axis and the axis only tilt.
+
+    With a non-Gaussian ``criterion`` the reported ``radius`` is the mid-zone radius
+    (``"chebyshev"``), the circumscribed (``"mcc"``) or the inscribed (``"mic"``) radius;
+    ``r_in`` / ``r_out`` are the smallest / largest point distances from the axis (NaN for
+    Gaussian fits).
     """
 
     point: FloatArray
     axis: FloatArray
     radius: float
+    r_in: float = float("nan")
+    r_out: float = float("nan")
 
     @property
     def diameter(self) -> float:
@@ -130,28 +141,37 @@ def fit_cylinder(
     radius: float | None = None,
     weights: ArrayLike | None = None,
     axis_hint: ArrayLike | None = None,
+    criterion: str = "gaussian",
 ) -> CylinderFit:
     """Fit a cylinder to 3-D points by orthogonal-distance least squares.
 
     Gauss-Newton / Levenberg-Marquardt with an analytic Jacobian in standard position
     (data centred at the centroid, current axis rotated to +z; local parameters are the
     axis crossing ``x0, y0`` of the local ``z = 0`` plane, two tilts ``a, b`` and the radius).
+    From ``pcmm_geo.fit._kernels._tall.TALL_ROWS`` unweighted points on, and for a dask array, the fit
+    of a strided subsample starts Gauss-Newton passes whose normal equations are accumulated
+    in chunks (:mod:`pcmm_geo.fit.scale.fits`).
     Starting axes are ``axis_hint``, the polished local minima of a direction screening
-    (:mod:`pcmm_geo.fit._screen`: the circle fit of the data projected along each of 240
+    (:mod:`pcmm_geo.fit._kernels._screen`: the circle fit of the data projected along each of 240
     directions) and the principal axes; an algebraic circle of the projected data starts each.
     The converged solution of least cost is returned; when another distinct minimum is within
     ``TOL.ambiguous`` (1 %) of it, :class:`~pcmm_geo.errors.AmbiguousFitWarning` lists both.
 
     Parameters
     ----------
-    points : array_like, shape (N, 3)
-        Measured points (mm); N >= 5 (N >= 4 with a fixed radius).
+    points : array_like or dask.array.Array, shape (N, 3)
+        Measured points (mm); N >= 5 (N >= 4 with a fixed radius).  A dask array is fitted
+        block by block (no weights); ``residuals`` are then lazy.
     radius : float, optional
         Fix the radius (mm) and fit the axis only.
     weights : array_like, shape (N,), optional
         Non-negative weights of the squared residuals.
     axis_hint : array_like, shape (3,), optional
         Approximate axis direction tried first (either sign).
+
+    criterion : {"gaussian", "chebyshev", "mcc", "mic"}
+        ``"gaussian"`` (least squares, default) or the minimax criteria of
+        :mod:`pcmm_geo.fit.zone` (contacts and optimality certificate on the result).
 
     Returns
     -------
@@ -181,8 +201,28 @@ def fit_cylinder(
     """
     if radius is not None:
         radius = positive_length(radius, "radius")
+    check_criterion(criterion, _ELEMENT, weights=weights, radius=radius, axis_hint=axis_hint)
+    if is_dask_array(points):
+        if criterion != "gaussian":
+            raise InvalidInputError("criterion", "'gaussian' for a dask array of points", repr(criterion))
+        from pcmm_geo.fit.scale.dask import fit_cylinder_dask
+
+        return CylinderFit(**fit_cylinder_dask(points, radius=radius, weights=weights, axis_hint=axis_hint,
+                                               **_scale_parts()))
     data = as_points(points, element=_ELEMENT, min_points=5 if radius is None else 4)
+    if criterion != "gaussian":
+        from pcmm_geo.fit.zone._axial import cylinder_minimax
+
+        return cylinder_minimax(data, criterion, gauss=fit_cylinder(data), result_type=CylinderFit)
     weight = as_weights(weights, data.shape[0], element=_ELEMENT)
+    if weight is None and len(data) >= _tall.TALL_ROWS:
+        from pcmm_geo.fit.scale.chunked import IllConditionedSteps
+        from pcmm_geo.fit.scale.fits import fit_cylinder_scaled, numpy_source
+
+        try:
+            return CylinderFit(**fit_cylinder_scaled(numpy_source(data), radius, axis_hint, **_scale_parts()))
+        except IllConditionedSteps:
+            pass  # nearly coplanar: the solver below decides
     sqrt_weights = None if weight is None else np.sqrt(weight)
     centroid = weighted_centroid(data)
     centred = data - centroid
@@ -207,6 +247,11 @@ def fit_cylinder(
         sizes=lambda params: {"radius": radius if radius is not None else float(params[4])},
     )
     return _result(data, solution, radius)
+
+
+def _scale_parts() -> dict[str, object]:
+    """What :mod:`pcmm_geo.fit.scale.fits` needs of this module (passed in: it must not import us)."""
+    return {"fit_cylinder": fit_cylinder, "model": _cylinder_model, "axis_point_jacobian": axis_point_jacobian}
 
 
 def _result(data: FloatArray, solution: AxialSolution, fixed_radius: float | None) -> CylinderFit:

@@ -11,9 +11,12 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from pcmm_geo.errors import DegenerateGeometryError
-from pcmm_geo.fit._core import FitResult, as_points, as_weights, residual_stats
-from pcmm_geo.fit._linear import frozen, local_covariance, principal_frame, propagate, sign_convention
+from pcmm_geo.errors import DegenerateGeometryError, InvalidInputError
+from pcmm_geo.fit._kernels import _tall
+from pcmm_geo.fit._kernels._core import FitResult, as_points, as_weights, residual_stats
+from pcmm_geo.fit._kernels._linear import frozen, local_covariance, principal_frame, propagate, sign_convention
+from pcmm_geo.fit.scale import is_dask_array
+from pcmm_geo.fit.zone._common import check_criterion
 
 __all__ = ["LineFit", "fit_line"]
 
@@ -55,15 +58,22 @@ class LineFit(FitResult):
         return self.point + (rel @ self.direction)[..., None] * self.direction
 
 
-def fit_line(points: ArrayLike, *, weights: ArrayLike | None = None) -> LineFit:
+def fit_line(points: ArrayLike, *, weights: ArrayLike | None = None, criterion: str = "gaussian") -> LineFit:
     """Fit a straight line minimising the (weighted) sum of squared orthogonal distances.
 
     Parameters
     ----------
-    points : array_like, shape (N, 2) or (N, 3)
-        Measured points (mm), N >= 2, not all identical.
+    points : array_like, shape (N, 2) or (N, 3), or dask.array.Array, shape (N, 3)
+        Measured points (mm), N >= 2, not all identical.  From ``pcmm_geo.fit._kernels._tall.TALL_ROWS``
+        unweighted 3-D points on, the moments are accumulated in chunks
+        (:mod:`pcmm_geo.fit.scale.fits`); a dask array is fitted so, block by block (no
+        weights), with lazy ``residuals``.
     weights : array_like, shape (N,), optional
         Non-negative weights of the squared distances.
+
+    criterion : {"gaussian", "chebyshev"}
+        ``"gaussian"`` (least squares, default) or the minimax criteria of
+        :mod:`pcmm_geo.fit.zone` (contacts and optimality certificate on the result).
 
     Returns
     -------
@@ -88,8 +98,23 @@ def fit_line(points: ArrayLike, *, weights: ArrayLike | None = None) -> LineFit:
     >>> np.round(result.direction * np.sqrt(3), 12).tolist(), result.point.tolist()
     ([1.0, 1.0, 1.0], [1.0, 1.0, 1.0])
     """
+    check_criterion(criterion, _ELEMENT, weights=weights)
+    if is_dask_array(points):
+        if criterion != "gaussian":
+            raise InvalidInputError("criterion", "'gaussian' for a dask array of points", repr(criterion))
+        from pcmm_geo.fit.scale.dask import fit_line_dask
+
+        return LineFit(**fit_line_dask(points, weights=weights))
     pts = as_points(points, element=_ELEMENT, dims=(2, 3), min_points=2)
+    if criterion != "gaussian":
+        from pcmm_geo.fit.zone._linear import line_minimax
+
+        return line_minimax(pts, criterion, gauss=fit_line(pts), result_type=LineFit)
     w = as_weights(weights, len(pts), element=_ELEMENT)
+    if w is None and pts.shape[1] == 3 and len(pts) >= _tall.TALL_ROWS:
+        from pcmm_geo.fit.scale.fits import fit_line_scaled, numpy_source
+
+        return LineFit(**fit_line_scaled(numpy_source(pts)))
     centroid, singular, vt = principal_frame(pts, w, element=_ELEMENT)
     if len(singular) > 1 and singular[1] >= (1 - 1e-12) * singular[0] and len(pts) > 2:
         raise DegenerateGeometryError(_ELEMENT, "points have no preferred direction (isotropic spread)")

@@ -12,9 +12,12 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from pcmm_geo.errors import DegenerateGeometryError
-from pcmm_geo.fit._core import TOL, FitResult, as_points, as_weights, residual_stats
-from pcmm_geo.fit._linear import frozen, local_covariance, principal_frame, propagate, sign_convention
+from pcmm_geo.errors import DegenerateGeometryError, InvalidInputError
+from pcmm_geo.fit._kernels import _tall
+from pcmm_geo.fit._kernels._core import TOL, FitResult, as_points, as_weights, residual_stats
+from pcmm_geo.fit._kernels._linear import frozen, local_covariance, principal_frame, propagate, sign_convention
+from pcmm_geo.fit.scale import is_dask_array
+from pcmm_geo.fit.zone._common import check_criterion
 
 __all__ = ["PlaneFit", "fit_plane"]
 
@@ -47,15 +50,22 @@ class PlaneFit(FitResult):
         return pts - self.distance(pts)[..., None] * self.normal
 
 
-def fit_plane(points: ArrayLike, *, weights: ArrayLike | None = None) -> PlaneFit:
+def fit_plane(points: ArrayLike, *, weights: ArrayLike | None = None, criterion: str = "gaussian") -> PlaneFit:
     """Fit a plane minimising the (weighted) sum of squared orthogonal distances.
 
     Parameters
     ----------
-    points : array_like, shape (N, 3)
-        Measured points (mm), N >= 3, not all on one line.
+    points : array_like or dask.array.Array, shape (N, 3)
+        Measured points (mm), N >= 3, not all on one line.  From ``pcmm_geo.fit._kernels._tall.TALL_ROWS``
+        unweighted points on, the centroid and scatter matrix are accumulated in chunks and the
+        normal is their eigenvector (:mod:`pcmm_geo.fit.scale.fits`); a dask array is fitted so,
+        block by block (no weights), with lazy ``residuals``.
     weights : array_like, shape (N,), optional
         Non-negative weights of the squared distances.
+
+    criterion : {"gaussian", "chebyshev"}
+        ``"gaussian"`` (least squares, default) or the minimax criteria of
+        :mod:`pcmm_geo.fit.zone` (contacts and optimality certificate on the result).
 
     Returns
     -------
@@ -80,8 +90,27 @@ def fit_plane(points: ArrayLike, *, weights: ArrayLike | None = None) -> PlaneFi
     >>> result.normal.tolist(), result.point.tolist(), result.form
     ([0.0, 0.0, 1.0], [0.5, 0.5, 1.0], 0.0)
     """
+    check_criterion(criterion, _ELEMENT, weights=weights)
+    if is_dask_array(points):
+        if criterion != "gaussian":
+            raise InvalidInputError("criterion", "'gaussian' for a dask array of points", repr(criterion))
+        from pcmm_geo.fit.scale.dask import fit_plane_dask
+
+        return PlaneFit(**fit_plane_dask(points, weights=weights))
     pts = as_points(points, element=_ELEMENT, min_points=3)
+    if criterion != "gaussian":
+        from pcmm_geo.fit.zone._linear import plane_minimax
+
+        return plane_minimax(pts, criterion, gauss=fit_plane(pts), result_type=PlaneFit)
     w = as_weights(weights, len(pts), element=_ELEMENT)
+    if w is None and len(pts) >= _tall.TALL_ROWS:
+        from pcmm_geo.fit.scale.chunked import IllConditionedSteps
+        from pcmm_geo.fit.scale.fits import fit_plane_scaled, numpy_source
+
+        try:
+            return PlaneFit(**fit_plane_scaled(numpy_source(pts)))
+        except IllConditionedSteps:
+            pass  # nearly collinear: the singular value decomposition below decides
     centroid, singular, vt = principal_frame(pts, w, element=_ELEMENT)
     if singular[1] <= TOL.degenerate * singular[0]:
         raise DegenerateGeometryError(_ELEMENT, "points are collinear; a plane needs points spanning two directions")

@@ -40,15 +40,20 @@ True
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
 
 from pcmm_geo.errors import ConvergenceError, DegenerateGeometryError, InvalidInputError, TooFewPointsError
-from pcmm_geo.fit._reference_elements import ELEMENTS, MIN_POINTS, StandardElement, build_standard_element
-from pcmm_geo.fit._reference_io import read_reference_data, write_nist_pair, write_reference_data
+from pcmm_geo.fit._reference.elements import (
+    ELEMENTS,
+    MIN_POINTS,
+    ReferenceDataSet,
+    StandardElement,
+    build_standard_element,
+)
+from pcmm_geo.fit._reference.io import read_reference_data, write_nist_pair, write_reference_data
 
 __all__ = [
     "ELEMENTS",
@@ -67,51 +72,6 @@ FloatArray = NDArray[np.float64]
 #: relative size of ``J^T e`` accepted as "zero" (the iteration stops below it)
 FIRST_ORDER_TOLERANCE = 1e-14
 _MAX_ITERATIONS = 50
-
-
-@dataclass(frozen=True, eq=False)
-class ReferenceDataSet:
-    """A data set whose Gaussian (least-squares) solution is known.
-
-    Attributes
-    ----------
-    element : str
-        One of :data:`ELEMENTS`.
-    points : ndarray, shape (N, 3) or (N, 2)
-        The data, mm (2 columns for ``line2d`` and ``circle2d``).
-    parameters : dict
-        The reference solution under the fit-result contract names, machine frame:
-        line ``point`` (data centroid), ``direction``; plane ``point`` (centroid), ``normal``;
-        circle2d ``center``, ``radius``; circle3d ``center``, ``normal``, ``radius``; sphere
-        ``center``, ``radius``; cylinder ``point`` (axis point nearest the data centroid),
-        ``axis``, ``radius``; cone ``apex``, ``axis`` (apex -> opening), ``half_angle``,
-        ``point`` (axis point nearest the data centroid), ``radius_at_point``; torus
-        ``center``, ``axis``, ``major_radius``, ``minor_radius``.
-    residuals : ndarray, shape (N,) or (N, 2)
-        Signed orthogonal distances of the points from the reference element, mm
-        (two components per point for line3d and the 3-D circles).
-    foot_points : ndarray, shape like ``points``
-        The points on the reference element before the residuals were applied.
-    sampling : dict
-        How the set was made (point count, arc, cap, length, form, offset, seed, ...).
-    """
-
-    element: str
-    points: FloatArray
-    parameters: dict[str, Any]
-    residuals: FloatArray
-    foot_points: FloatArray
-    sampling: dict[str, Any] = field(default_factory=dict)
-
-    @property
-    def form(self) -> float:
-        """Range of the residual values, mm."""
-        return float(np.ptp(self.residuals)) if self.residuals.size else 0.0
-
-    @property
-    def n(self) -> int:
-        """Number of points."""
-        return int(self.points.shape[0])
 
 
 def random_rotation(rng: np.random.Generator, dims: int = 3) -> FloatArray:
@@ -312,7 +272,7 @@ def make_reference_data(
     >>> data.parameters["radius"], data.points.shape
     (5.0, (30, 3))
     >>> circle = make_reference_data("circle2d", n_points=3, rotate=False)
-    >>> np.round(circle.points, 12).tolist()[0]
+    >>> (np.round(circle.points, 12) + 0.0).tolist()[0]
     [10.0, 0.0]
     """
     if element not in MIN_POINTS:

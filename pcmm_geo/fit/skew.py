@@ -5,6 +5,9 @@
 - :func:`nearest_point_to_lines` -- the point with the least sum of squared distances
   to K >= 2 lines: the general form of thesis eq 7.2, where the thesis minimised the
   squared distance between each pair of slider lines and averaged the pairwise results.
+- :func:`pairwise_closest_points` -- :func:`closest_points` of chosen pairs of K lines;
+  :func:`mean_pairwise_midpoint` -- the thesis' own form of eq 7.2, the average of the
+  pairwise midpoints.
 """
 
 from __future__ import annotations
@@ -15,11 +18,18 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from pcmm_geo.errors import DegenerateGeometryError, InvalidInputError, TooFewPointsError
-from pcmm_geo.fit._core import as_weights
-from pcmm_geo.fit._inputs import check_magnitude, real_array, weighted_centroid
-from pcmm_geo.fit._linear import frozen
+from pcmm_geo.fit._kernels._core import as_weights
+from pcmm_geo.fit._kernels._inputs import check_magnitude, real_array, weighted_centroid
+from pcmm_geo.fit._kernels._linear import frozen
 
-__all__ = ["LinePair", "LinesNearestPoint", "closest_points", "nearest_point_to_lines"]
+__all__ = [
+    "LinePair",
+    "LinesNearestPoint",
+    "closest_points",
+    "mean_pairwise_midpoint",
+    "nearest_point_to_lines",
+    "pairwise_closest_points",
+]
 
 FloatArray = NDArray[np.float64]
 
@@ -305,3 +315,95 @@ def nearest_point_to_lines(
         rms=float(np.sqrt(np.mean(distances**2))),
         condition_number=float(singular[0] / singular[-1]),
     )
+
+
+def _line_pairs(count: int, pairs: ArrayLike | None) -> NDArray[np.intp]:
+    if pairs is None:
+        return np.array([(i, j) for i in range(count) for j in range(i + 1, count)], dtype=np.intp).reshape(-1, 2)
+    index = np.asarray(pairs)
+    if index.ndim != 2 or index.shape[1] != 2 or index.shape[0] < 1 or not np.issubdtype(index.dtype, np.integer):
+        raise InvalidInputError("pairs", "integer line indices of shape (P, 2)", f"{index!r}")
+    if np.any(index < 0) or np.any(index >= count) or np.any(index[:, 0] == index[:, 1]):
+        raise InvalidInputError("pairs", f"two different line indices in 0..{count - 1} per pair", f"{index.tolist()}")
+    return index.astype(np.intp)
+
+
+def pairwise_closest_points(points: ArrayLike, directions: ArrayLike, pairs: ArrayLike | None = None) -> LinePair:
+    """Closest points of several pairs of K lines at once (:func:`closest_points` per pair).
+
+    Parameters
+    ----------
+    points, directions : array_like, shape (K, 3)
+        A point on each line (mm) and its direction (any non-zero length), K >= 2.
+    pairs : array_like of int, shape (P, 2), optional
+        Which lines to pair, as indices into ``points``; by default every pair ``i < j`` in
+        lexicographic order (for three lines: 0-1, 0-2, 1-2).  The thesis' slider-line pairs
+        a-b, b-c, c-a are ``[(0, 1), (1, 2), (2, 0)]``.
+
+    Returns
+    -------
+    LinePair
+        Batch shape ``(P,)``: ``point_a`` on the first line of each pair, ``point_b`` on
+        the second, their ``distance`` (the skew distance) and the ``parallel`` flags.
+
+    Raises
+    ------
+    InvalidInputError
+        Shapes differ or are not (K, 3), NaN/inf, zero directions, bad pair indices.
+    TooFewPointsError
+        Fewer than 2 lines.
+
+    Examples
+    --------
+    >>> pair = pairwise_closest_points([[0, 0, 1], [0, 0, -1], [5, 0, 0]], [[1, 0, 0], [0, 1, 0], [0, 0, 1]])
+    >>> pair.distance.round(12).tolist()  # pairs 0-1, 0-2 (they meet at (5, 0, 1)), 1-2
+    [2.0, 0.0, 5.0]
+    """
+    p = _vectors(points, "points")
+    d = _unit_directions(directions, "directions")
+    if p.ndim != 2 or d.shape != p.shape:
+        raise InvalidInputError("points/directions", "two arrays of shape (K, 3)", f"{p.shape} and {d.shape}")
+    if len(p) < 2:
+        raise TooFewPointsError("pairwise closest points of lines", 2, len(p))
+    index = _line_pairs(len(p), pairs)
+    return closest_points(p[index[:, 0]], d[index[:, 0]], p[index[:, 1]], d[index[:, 1]])
+
+
+def mean_pairwise_midpoint(points: ArrayLike, directions: ArrayLike, pairs: ArrayLike | None = None) -> FloatArray:
+    """Average of the midpoints of the common perpendiculars of pairs of lines.
+
+    The thesis' theoretical probe point (section 7.2): eq 7.2 is minimised for every pair
+    of slider lines and "the average between the three coordinates is taken"; here each
+    pair contributes the midpoint of its common perpendicular.  For the least-squares point
+    of all lines at once see :func:`nearest_point_to_lines`.
+
+    Parameters
+    ----------
+    points, directions, pairs
+        As for :func:`pairwise_closest_points`.
+
+    Returns
+    -------
+    ndarray, shape (3,)
+        The mean midpoint (mm).
+
+    Raises
+    ------
+    DegenerateGeometryError
+        Two paired lines are parallel (their midpoint is not unique).
+    InvalidInputError, TooFewPointsError
+        As for :func:`pairwise_closest_points`.
+
+    Examples
+    --------
+    >>> lines = ([[0, 0, 1], [0, 0, -1], [5, 0, 0]], [[1, 0, 0], [0, 1, 0], [0, 0, 1]])
+    >>> (mean_pairwise_midpoint(*lines, pairs=[(0, 1), (1, 2), (2, 0)]).round(12) + 0.0).tolist()
+    [2.5, 0.0, 0.0]
+    """
+    pair = pairwise_closest_points(points, directions, pairs)
+    if np.any(pair.parallel):
+        index = _line_pairs(len(np.asarray(points)), pairs)[np.asarray(pair.parallel)]
+        raise DegenerateGeometryError(
+            "pairwise midpoint of lines", f"lines {index.tolist()} are parallel; their midpoint is not unique"
+        )
+    return pair.midpoint.mean(axis=0)

@@ -3,14 +3,19 @@
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from pcmm_geo.fit._core import FitResult, as_points, as_weights, residual_stats
-from pcmm_geo.fit._inputs import positive_length
-from pcmm_geo.fit._linear import frozen
-from pcmm_geo.fit._round import fit_nsphere
+from pcmm_geo.errors import InvalidInputError
+from pcmm_geo.fit._kernels import _tall
+from pcmm_geo.fit._kernels._core import FitResult, as_points, as_weights, residual_stats
+from pcmm_geo.fit._kernels._inputs import positive_length
+from pcmm_geo.fit._kernels._linear import frozen
+from pcmm_geo.fit._kernels._round import fit_nsphere
+from pcmm_geo.fit.scale import is_dask_array
+from pcmm_geo.fit.zone._common import check_criterion
 
 __all__ = ["SphereFit", "fit_sphere"]
 
@@ -28,10 +33,19 @@ class SphereFit(FitResult):
         Centre (mm).
     radius : float
         Radius (mm); ``diameter`` is twice it.
+    r_in : float
+        Radius of the inner boundary of the zone: the smallest distance of a point from the
+        centre (mm) for the ``"chebyshev"``, ``"mcc"`` and ``"mic"`` criteria; NaN for
+        Gaussian fits.
+    r_out : float
+        Radius of the outer boundary (largest distance of a point from the centre), mm;
+        NaN for Gaussian fits.
     """
 
     center: FloatArray
     radius: float
+    r_in: float = float("nan")
+    r_out: float = float("nan")
 
     @property
     def diameter(self) -> float:
@@ -48,16 +62,22 @@ def fit_sphere(
     *,
     radius: float | None = None,
     weights: ArrayLike | None = None,
+    criterion: str = "gaussian",
 ) -> SphereFit:
     """Fit a sphere minimising the (weighted) sum of squared orthogonal distances.
 
     Gauss-Newton / Levenberg-Marquardt on centred data from an algebraic (Kasa)
-    starting value; the algebraic fit is never returned.
+    starting value; the algebraic fit is never returned.  From ``pcmm_geo.fit._kernels._tall.TALL_ROWS``
+    points on (unweighted) the data are read in cache-sized chunks: the start from moments of
+    one pass, then each Gauss-Newton step from normal equations accumulated chunk by chunk
+    (:mod:`pcmm_geo.fit.scale.sphere`); ill-conditioned data go to the orthogonal routines.
 
     Parameters
     ----------
-    points : array_like, shape (N, 3)
-        Measured points (mm); N >= 4, not coplanar (N >= 3 with a fixed radius).
+    points : array_like or dask.array.Array, shape (N, 3)
+        Measured points (mm); N >= 4 (N >= 3 with a fixed radius), not coplanar.  A dask
+        array is fitted block by block without being materialised (no weights); the
+        result's ``residuals`` are then a lazy dask array.
     radius : float, optional
         Fixed radius (mm, one positive number): only the centre is fitted (e.g. a calibrated
         reference sphere).  Coplanar points then fit a centre and its mirror image in their
@@ -65,6 +85,10 @@ def fit_sphere(
         larger than the radius): the ambiguous case raises :class:`~pcmm_geo.errors.AmbiguousFitError`.
     weights : array_like, shape (N,), optional
         Non-negative weights of the squared distances.
+
+    criterion : {"gaussian", "chebyshev", "mcc", "mic"}
+        ``"gaussian"`` (least squares, default) or the minimax criteria of
+        :mod:`pcmm_geo.fit.zone` (contacts and optimality certificate on the result).
 
     Returns
     -------
@@ -95,24 +119,72 @@ def fit_sphere(
     """
     if radius is not None:
         radius = positive_length(radius, "radius")
+    check_criterion(criterion, _ELEMENT, weights=weights, radius=radius)
+    if is_dask_array(points):
+        if criterion != "gaussian":
+            raise InvalidInputError("criterion", "'gaussian' for a dask array of points", repr(criterion))
+        from pcmm_geo.fit.scale.dask import fit_sphere_dask
+
+        found, residuals = fit_sphere_dask(points, radius=radius, weights=weights)
+        return _from_solution(found, residuals, radius)
     pts = as_points(points, element=_ELEMENT, min_points=4 if radius is None else 3)
+    if criterion != "gaussian":
+        from pcmm_geo.fit.zone._round import sphere_minimax
+
+        return sphere_minimax(pts, criterion, result_type=SphereFit)
     w = as_weights(weights, len(pts), element=_ELEMENT)
+    if w is None and len(pts) >= _tall.TALL_ROWS:
+        chunked = _fit_chunked(pts, radius)
+        if chunked is not None:
+            return chunked
     centre, fitted_radius, outcome, residuals, cond, cov = fit_nsphere(pts, w, element=_ELEMENT, fixed_radius=radius)
     rms, form = residual_stats(residuals)
+    return sphere_result(centre, fitted_radius, residuals, rms=rms, form=form, n=len(pts),
+                         parameter_count=outcome.x.size, covariance=cov, condition=cond, converged=outcome.converged,
+                         iterations=outcome.iterations, message=outcome.message, fixed=radius is not None)
+
+
+def _fit_chunked(pts: FloatArray, radius: float | None) -> SphereFit | None:
+    """The chunked solver on in-memory points; None when the data need the orthogonal routines."""
+    from pcmm_geo.fit.scale.chunked import IllConditionedSteps, in_memory
+    from pcmm_geo.fit.scale.sphere import fit_nsphere_chunked
+
+    residuals = np.empty(len(pts))
+    try:
+        found = fit_nsphere_chunked(in_memory(pts), pts[0].copy(), element=_ELEMENT, fixed_radius=radius,
+                                    out=residuals)
+    except IllConditionedSteps:
+        return None
+    return _from_solution(found, residuals, radius)
+
+
+def _from_solution(found: Any, residuals: Any, radius: float | None) -> SphereFit:
+    """A :class:`SphereFit` from a :class:`~pcmm_geo.fit.scale.sphere.SphereSolution`."""
+    return sphere_result(found.center, found.radius, residuals, rms=found.rms, form=found.form, n=found.count,
+                         parameter_count=found.parameter_count, covariance=found.covariance,
+                         condition=found.condition, converged=found.converged, iterations=found.iterations,
+                         message=found.message, fixed=radius is not None)
+
+
+def sphere_result(
+    center: FloatArray, radius: float, residuals: Any, *, rms: float, form: float, n: int, parameter_count: int,
+    covariance: FloatArray, condition: float, converged: bool, iterations: int, message: str, fixed: bool,
+) -> SphereFit:
+    """Assemble a :class:`SphereFit` (``residuals`` a numpy array, or a lazy dask array)."""
     return SphereFit(
-        center=frozen(centre),
-        radius=fitted_radius,
-        residuals=frozen(residuals),
+        center=frozen(center),
+        radius=float(radius),
+        residuals=residuals if is_dask_array(residuals) else frozen(residuals),
         rms=rms,
         form=form,
-        n=len(pts),
-        dof=len(pts) - outcome.x.size,
+        n=n,
+        dof=n - parameter_count,
         parameter_names=("center_x", "center_y", "center_z", "radius"),
-        parameters=frozen(np.append(centre, fitted_radius)),
-        covariance=frozen(cov),
-        condition_number=cond,
-        converged=outcome.converged,
-        iterations=outcome.iterations,
-        message=outcome.message,
-        method="gaussian" if radius is None else "gaussian-fixed-radius",
+        parameters=frozen(np.append(center, radius)),
+        covariance=frozen(covariance),
+        condition_number=condition,
+        converged=converged,
+        iterations=iterations,
+        message=message,
+        method="gaussian-fixed-radius" if fixed else "gaussian",
     )

@@ -13,7 +13,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike
 
-from pcmm_geo.fit._axial import (
+from pcmm_geo.fit._kernels._axial import (
     AxialSolution,
     FloatArray,
     algebraic_circle,
@@ -26,10 +26,11 @@ from pcmm_geo.fit._axial import (
     solve_axial,
     warn_if_ambiguous,
 )
-from pcmm_geo.fit._core import FitResult, as_points, as_weights, covariance_from_jacobian, residual_stats
-from pcmm_geo.fit._linear import frozen, weighted_centroid
-from pcmm_geo.fit._screen import screened_directions, torus_reduced
-from pcmm_geo.fit._torus_search import best_axis_position, refined_axis
+from pcmm_geo.fit._kernels._core import FitResult, as_points, as_weights, covariance_from_jacobian, residual_stats
+from pcmm_geo.fit._kernels._linear import frozen, weighted_centroid
+from pcmm_geo.fit._kernels._screen import screened_directions, torus_reduced
+from pcmm_geo.fit._kernels._torus_search import best_axis_position, refined_axis
+from pcmm_geo.fit.zone._common import check_criterion
 
 __all__ = ["TorusFit", "fit_torus"]
 
@@ -169,6 +170,7 @@ def fit_torus(
     *,
     weights: ArrayLike | None = None,
     axis_hint: ArrayLike | None = None,
+    criterion: str = "gaussian",
 ) -> TorusFit:
     """Fit a torus to 3-D points by orthogonal-distance least squares.
 
@@ -186,7 +188,7 @@ def fit_torus(
     Sparse data (seven to about a dozen points, whole or partial torus) can be fitted to some
     10 um rms by spurious tori whose axes lie tens of degrees from the true one, while the
     true minimum's basin is a fraction of a degree wide.  The direction screening
-    (:mod:`pcmm_geo.fit._screen`: a 240-direction lattice, each direction's reduced fit started
+    (:mod:`pcmm_geo.fit._kernels._screen`: a 240-direction lattice, each direction's reduced fit started
     also from the best cells of an axis-position grid) finds that basin without a hint; when
     two distinct minima are within ``TOL.ambiguous`` (1 %) of each other,
     :class:`~pcmm_geo.errors.AmbiguousFitWarning` lists them.  Measured rates:
@@ -200,6 +202,9 @@ def fit_torus(
         Non-negative weights of the squared residuals.
     axis_hint : array_like, shape (3,), optional
         Approximate (nominal) axis direction tried first (either sign).
+
+    criterion : {"gaussian"}
+        Only the least-squares criterion is defined for a torus (an explicit error otherwise).
 
     Returns
     -------
@@ -227,6 +232,7 @@ def fit_torus(
     >>> round(fit.major_radius, 9), round(fit.minor_radius, 9), (np.round(fit.center, 9) + 0.0).tolist()
     (20.0, 4.0, [0.0, 0.0, 1000.0])
     """
+    check_criterion(criterion, _ELEMENT)
     data = as_points(points, element=_ELEMENT, min_points=7)
     weight = as_weights(weights, data.shape[0], element=_ELEMENT)
     sqrt_weights = None if weight is None else np.sqrt(weight)

@@ -41,7 +41,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from pcmm_geo.errors import FileFormatError, InvalidInputError, OutputExistsError
+from pcmm_geo.errors import FileFormatError, InvalidInputError
 
 if TYPE_CHECKING:
     import trimesh
@@ -179,6 +179,7 @@ def write_mesh(path: str | Path, mesh: trimesh.Trimesh, *, overwrite: bool = Fal
     Examples
     --------
     >>> import os, tempfile
+    >>> from pcmm_geo.errors import OutputExistsError
     >>> folder = tempfile.mkdtemp()
     >>> write_mesh(os.path.join(folder, "pin.stl"), cylinder_mesh(5.0, 20.0)).name
     'pin.stl'
@@ -209,12 +210,9 @@ def write_mesh(path: str | Path, mesh: trimesh.Trimesh, *, overwrite: bool = Fal
         import trimesh
 
         content = trimesh.exchange.stl.export_stl(mesh)
-    try:
-        with open(file, "wb" if overwrite else "xb") as handle:
-            handle.write(content)
-    except FileExistsError:
-        raise OutputExistsError(str(file)) from None
-    return file
+    from pcmm_geo._atomic import write_atomic
+
+    return write_atomic(file, content, overwrite=overwrite)
 
 
 def _ply_bytes(vertices: np.ndarray, faces: np.ndarray) -> bytes:

@@ -164,8 +164,10 @@ def read_nist_points(path: str | Path) -> FloatArray:
     >>> read_nist_points(p).tolist()
     [[1.0, 2.0, 3.0], [4.0, 5.0, 6.0]]
     """
+    from pcmm_geo.io._text import read_text_lines
+
     path = Path(path)
-    lines = path.read_text().splitlines()
+    lines = [text for _, text in read_text_lines(path)]
     if not lines or not lines[0].strip():
         raise FileFormatError(str(path), "expected the number of points on the first line, got an empty line", 1)
     head = lines[0].split()
@@ -213,7 +215,9 @@ def read_nist_fit(path: str | Path, expected_count: int | None = None) -> FloatA
     """
     path = Path(path)
     values: list[float] = []
-    for number, text in enumerate(path.read_text().splitlines(), start=1):
+    from pcmm_geo.io._text import read_text_lines
+
+    for number, text in read_text_lines(path):
         if not text.strip():
             continue
         fields = text.split()

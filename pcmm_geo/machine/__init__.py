@@ -1,15 +1,31 @@
-"""Machine layer: kinematics of the parallel-mechanism micro-CMM, calibration, acquisition.
+"""Machine layer: kinematics, calibration and analysis of the parallel-mechanism micro-CMM.
 
-Public names are loaded lazily on first access (PEP 562) so that ``import
-pcmm_geo.machine`` stays fast and free of scipy until something is computed.
+Sub-packages (each ``__init__`` says what lives there and what it may import):
 
-- rigid-body model (:mod:`~pcmm_geo.machine.model`): :class:`RigidBodyMachine`,
-  :class:`Tetrahedron`, :class:`SliderLine`, :class:`ColumnLine`, ``ARMS``;
-- the seed's DPKM with errata 1-4 fixed (:mod:`~pcmm_geo.machine.dpkm`) and robust
-  trilateration (:mod:`~pcmm_geo.machine.trilateration`);
-- seed Table 3.2 log processing (:mod:`~pcmm_geo.machine.logproc`);
-- reading-to-tip sensitivity (:mod:`~pcmm_geo.machine.sensitivity`);
-- tetrahedron calibration (:mod:`~pcmm_geo.machine.calibration`).
+- :mod:`~pcmm_geo.machine.kinematics` -- rigid-body model, the seed's DPKM with errata 1-4
+  fixed, trilateration, pose solver; imports nothing else of the machine;
+- :mod:`~pcmm_geo.machine.calibration` -- tetrahedron and column calibration from
+  external-CMM probings (ch. 7), numerical calibration from height-gauge data (ch. 6),
+  identifiability, calibration files;
+- :mod:`~pcmm_geo.machine.analysis` -- seed Table 3.2 log processing and reading-to-tip
+  sensitivity.
+
+Talking to the hardware (drivers, simulators, sessions, durable logs) is
+:mod:`pcmm_geo.acquisition`, below the calibration and analysis and above the kinematics.
+
+The machine may import :mod:`pcmm_geo.acquisition`, :mod:`pcmm_geo.fit`, :mod:`pcmm_geo.io`,
+:mod:`pcmm_geo.thermal` and :mod:`pcmm_geo.errors`; never :mod:`pcmm_geo.artefacts`,
+:mod:`pcmm_geo.plots` or :mod:`pcmm_geo.cli`.
+
+The most used names are re-exported here, loaded lazily on first access (PEP 562) so that
+``import pcmm_geo.machine`` stays fast and free of scipy until something is computed:
+:class:`RigidBodyMachine`, :class:`Tetrahedron`, :class:`SliderLine`, :class:`ColumnLine`,
+``ARMS``, the DPKM functions, :func:`trilaterate`, the log processing, the sensitivity and
+:func:`calibrate_tetrahedron` with its calibration files.
+
+The modules' former flat paths (``pcmm_geo.machine.dpkm``, ``pcmm_geo.machine.drivers.zaber``,
+...) still import for one release with a :class:`DeprecationWarning`
+(:mod:`pcmm_geo.machine._moved`).
 
 Examples
 --------
@@ -24,51 +40,54 @@ from __future__ import annotations
 import importlib
 from typing import Any
 
+from pcmm_geo.machine import _moved
+
+_moved.install()
+
 _LAZY = {
     # model
-    "ARMS": "model",
-    "MODEL_SCHEMA": "model",
-    "SliderLine": "model",
-    "Tetrahedron": "model",
-    "ColumnLine": "model",
-    "RigidBodyMachine": "model",
-    "ForwardSolution": "model",
-    "InverseSolution": "model",
+    "ARMS": "kinematics.model",
+    "MODEL_SCHEMA": "kinematics.model",
+    "SliderLine": "kinematics.model",
+    "Tetrahedron": "kinematics.model",
+    "ColumnLine": "kinematics.model",
+    "RigidBodyMachine": "kinematics.model",
+    "ForwardSolution": "kinematics.model",
+    "InverseSolution": "kinematics.model",
     # seed DPKM
-    "START_OF_RANGE": "dpkm",
-    "DpkmProbe": "dpkm",
-    "arm_lengths": "dpkm",
-    "pivot_distance": "dpkm",
-    "height_difference": "dpkm",
-    "relative_pivot_heights": "dpkm",
-    "column_pivots": "dpkm",
-    "sphere_constants": "dpkm",
-    "dpkm_probe": "dpkm",
-    "seed_probe_roots_as_printed": "seed_forms",
-    "seed_machine": "dpkm",
-    "tetrahedron_directions": "dpkm",
+    "START_OF_RANGE": "kinematics.dpkm",
+    "DpkmProbe": "kinematics.dpkm",
+    "arm_lengths": "kinematics.dpkm",
+    "pivot_distance": "kinematics.dpkm",
+    "height_difference": "kinematics.dpkm",
+    "relative_pivot_heights": "kinematics.dpkm",
+    "column_pivots": "kinematics.dpkm",
+    "sphere_constants": "kinematics.dpkm",
+    "dpkm_probe": "kinematics.dpkm",
+    "seed_probe_roots_as_printed": "kinematics.seed_forms",
+    "seed_machine": "kinematics.model",
+    "tetrahedron_directions": "kinematics.dpkm",
     # trilateration
-    "Trilateration": "trilateration",
-    "trilaterate": "trilateration",
+    "Trilateration": "kinematics.trilateration",
+    "trilaterate": "kinematics.trilateration",
     # log processing
-    "LOG_COLUMNS": "logproc",
-    "MeasurementLog": "logproc",
-    "ProcessedLog": "logproc",
-    "read_log": "logproc",
-    "write_log": "logproc",
-    "process_log": "logproc",
-    "process_log_dpkm": "logproc",
-    "synthesise_log": "logproc",
+    "LOG_COLUMNS": "analysis.logproc",
+    "MeasurementLog": "analysis.logproc",
+    "ProcessedLog": "analysis.logproc",
+    "read_log": "analysis.logproc",
+    "write_log": "analysis.logproc",
+    "process_log": "analysis.logproc",
+    "process_log_dpkm": "analysis.logproc",
+    "synthesise_log": "analysis.logproc",
     # sensitivity
-    "Sensitivity": "sensitivity",
-    "tip_jacobian": "sensitivity",
-    "sensitivity_over_cube": "sensitivity",
-    "plot_sensitivity": "sensitivity",
+    "Sensitivity": "analysis.sensitivity",
+    "tip_jacobian": "analysis.sensitivity",
+    "sensitivity_over_cube": "analysis.sensitivity",
     # calibration (written by the calibration engineer)
-    "calibrate_tetrahedron": "calibration",
-    "TetrahedronCalibration": "calibration",
-    "load_calibration": "calibration",
-    "save_calibration": "calibration",
+    "calibrate_tetrahedron": "calibration.tetrahedron",
+    "TetrahedronCalibration": "calibration.result",
+    "load_calibration": "calibration.calfile",
+    "save_calibration": "calibration.calfile",
 }
 
 __all__ = sorted(_LAZY)

@@ -8,10 +8,18 @@ without ``pyplot``, so no global matplotlib backend is switched.
 
 - :func:`plot_calibration` -- tetrahedron calibration in 3-D (thesis fig 7.2) and miss distances.
 - :func:`plot_gauge_block` -- per-face plane residuals and the lengths of every method.
-- :func:`plot_sensitivity` -- workspace sensitivity map (defined in :mod:`pcmm_geo.machine.sensitivity`).
-- :func:`plot_fit_residuals` -- residuals of a Gaussian fit.
+- :func:`plot_sensitivity` -- workspace sensitivity map, one panel per z level, singular points counted.
+- :func:`plot_fit_residuals` -- residuals of a fit where the points lie (angle, height, in-plane maps).
 - :func:`plot_processed_log` -- tip path, pivot heights and closure residuals of a log.
 - :func:`plot_tip_errors`, :func:`plot_demo_overview` -- the end-to-end demo.
+- :func:`plot_length_test`, :func:`plot_probing_test`, :func:`plot_software_test`,
+  :func:`plot_stage_test` -- ISO 10360-2, -5, -6 and the micrometer-stage test.
+- :func:`plot_numerical_calibration`, :func:`plot_pose`, :func:`plot_trilateration` -- the machine.
+- :func:`plot_sensor_curve`, :func:`plot_length_correction`, :func:`plot_frame_triangle`,
+  :func:`plot_thermal_table` -- the thermal tools.
+
+Lengths that may be nm, µm or mm are shown in the unit :func:`length_unit` picks from the data.
+- :func:`plot_monte_carlo` -- a Monte Carlo uncertainty evaluation (histogram, interval, budget).
 
 Examples
 --------
@@ -19,8 +27,8 @@ Examples
 >>> import numpy as np
 >>> from pcmm_geo import plots
 >>> from pcmm_geo.fit import fit_plane
->>> plane = fit_plane(np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0], [1, 1, 0.001]]))
->>> plots.plot_fit_residuals(plane, os.path.join(tempfile.mkdtemp(), "p.png"), element="plane").suffix
+>>> points = np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0], [1, 1, 0.001]])
+>>> plots.plot_fit_residuals(fit_plane(points), os.path.join(tempfile.mkdtemp(), "p.png"), points=points).suffix
 '.png'
 """
 
@@ -31,14 +39,27 @@ from typing import Any
 
 # public name -> module defining it, imported on first access (PEP 562)
 _LAZY = {
-    "plot_calibration": "pcmm_geo.plots.calibration",
+    "plot_calibration": "pcmm_geo.plots.machine.calibration",
     "plot_gauge_block": "pcmm_geo.plots.gauge_block",
-    "plot_sensitivity": "pcmm_geo.machine.sensitivity",
+    "plot_sensitivity": "pcmm_geo.plots.machine.sensitivity",
     "plot_fit_residuals": "pcmm_geo.plots.fit_residuals",
-    "plot_processed_log": "pcmm_geo.plots.process_log",
+    "plot_processed_log": "pcmm_geo.plots.machine.process_log",
     "plot_tip_errors": "pcmm_geo.plots.demo",
+    "plot_monte_carlo": "pcmm_geo.plots.uncertainty",
     "plot_demo_overview": "pcmm_geo.plots.demo",
     "check_plot_path": "pcmm_geo.plots._figure",
+    "length_unit": "pcmm_geo.plots._figure",
+    "plot_length_test": "pcmm_geo.plots.verification",
+    "plot_probing_test": "pcmm_geo.plots.verification",
+    "plot_software_test": "pcmm_geo.plots.verification",
+    "plot_stage_test": "pcmm_geo.plots.verification",
+    "plot_numerical_calibration": "pcmm_geo.plots.machine.machine_state",
+    "plot_pose": "pcmm_geo.plots.machine.machine_state",
+    "plot_trilateration": "pcmm_geo.plots.machine.machine_state",
+    "plot_sensor_curve": "pcmm_geo.plots.thermal",
+    "plot_length_correction": "pcmm_geo.plots.thermal",
+    "plot_frame_triangle": "pcmm_geo.plots.thermal",
+    "plot_thermal_table": "pcmm_geo.plots.thermal",
 }
 
 __all__ = sorted(_LAZY)

@@ -7,7 +7,6 @@ the suffix and is rendered by matplotlib's Agg canvas for raster formats.
 
 from __future__ import annotations
 
-import contextlib
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -68,6 +67,8 @@ def new_figure(width: float, height: float) -> Figure:
 def save_figure(figure: Figure, path: str | Path, *, overwrite: bool = False) -> Path:
     """Write ``figure`` to ``path``; never replaces a file unless ``overwrite`` is True.
 
+    Missing folders of ``path`` are created (``--plot out/run1/fit.png`` works in a fresh tree).
+
     The file is opened in exclusive-create mode when ``overwrite`` is False, so a file that
     appears between the check and the write is not clobbered either; a partly written file
     is removed when rendering fails.
@@ -84,7 +85,7 @@ def save_figure(figure: Figure, path: str | Path, *, overwrite: bool = False) ->
     OutputExistsError
         ``path`` exists and ``overwrite`` is False.
     OSError
-        The folder does not exist or is not writable.
+        The folder cannot be created or is not writable.
 
     Examples
     --------
@@ -94,19 +95,12 @@ def save_figure(figure: Figure, path: str | Path, *, overwrite: bool = False) ->
     >>> save_figure(figure, os.path.join(tempfile.mkdtemp(), "line.png")).name
     'line.png'
     """
+    from pcmm_geo._atomic import write_atomic
+
     target = check_plot_path(path, overwrite=overwrite)
-    try:
-        handle = open(target, "wb" if overwrite else "xb")  # closed by the ``with`` below
-    except FileExistsError:
-        raise OutputExistsError(str(target)) from None
-    try:
-        with handle:
-            figure.savefig(handle, format=target.suffix[1:].lower(), dpi=PLOT_DPI)
-    except BaseException:
-        with contextlib.suppress(OSError):
-            target.unlink()
-        raise
-    return target
+    target.parent.mkdir(parents=True, exist_ok=True)
+    return write_atomic(target, lambda stream: figure.savefig(stream, format=target.suffix[1:].lower(), dpi=PLOT_DPI),
+                        overwrite=overwrite)
 
 
 def equal_3d_limits(axes: Any, points: Any, margin: float = 0.05) -> None:
@@ -121,3 +115,55 @@ def equal_3d_limits(axes: Any, points: Any, margin: float = 0.05) -> None:
     axes.set_ylim(middle[1] - half, middle[1] + half)
     axes.set_zlim(middle[2] - half, middle[2] + half)
     axes.set_box_aspect((1.0, 1.0, 1.0))
+
+
+def length_unit(values_mm: Any) -> tuple[float, str]:
+    """Scale factor and unit name to show lengths given in mm: ``mm``, ``µm`` or ``nm``.
+
+    The unit follows the largest magnitude among the finite values: 1 mm and above stays in
+    mm, from 1 µm up to 1 mm is shown in µm, below 1 µm in nm (all-zero or empty: µm), so
+    that tick labels carry at most three digits before the decimal point.
+
+    Parameters
+    ----------
+    values_mm : array_like
+        Lengths in mm (any shape; NaN and inf are ignored).
+
+    Returns
+    -------
+    factor : float
+        Multiply mm by this to get the unit (1, 1e3 or 1e6).
+    unit : str
+        ``"mm"``, ``"µm"`` or ``"nm"``.
+
+    Examples
+    --------
+    >>> length_unit([0.0021, -0.004])
+    (1000.0, 'µm')
+    >>> length_unit([2.5, 0.1])
+    (1.0, 'mm')
+    >>> length_unit([3e-7])
+    (1000000.0, 'nm')
+    """
+    import numpy as np
+
+    values = np.abs(np.asarray(values_mm, dtype=float)).ravel()
+    values = values[np.isfinite(values)]
+    largest = float(values.max()) if values.size else 0.0
+    if largest >= 1.0:
+        return 1.0, "mm"
+    if largest >= 1e-3 or largest == 0.0:
+        return 1000.0, "µm"
+    return 1e6, "nm"
+
+
+def three_digits(value: float, *, sign: bool = False) -> str:
+    """``value`` with three significant digits, trailing zeros kept, no dangling point.
+
+    Examples
+    --------
+    >>> three_digits(2.0), three_digits(193.159), three_digits(0.0575), three_digits(-1.5, sign=True)
+    ('2.00', '193', '0.0575', '-1.50')
+    """
+    text = format(value, "+#.3g" if sign else "#.3g")
+    return text.rstrip(".") if "e" not in text else text

@@ -8,7 +8,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from pcmm_geo.plots._figure import check_plot_path, new_figure, save_figure
+from pcmm_geo.plots._figure import check_plot_path, length_unit, new_figure, save_figure
 
 if TYPE_CHECKING:
     from pcmm_geo.artefacts.cad_compare import MeshDeviations
@@ -22,7 +22,7 @@ FloatArray = NDArray[np.float64]
 def plot_deviations(
     deviations: MeshDeviations, path: str | Path, *, title: str | None = None, overwrite: bool = False
 ) -> Path:
-    """Write a 3-D scatter of the registered points coloured by their signed deviation (µm).
+    """Write a 3-D scatter of the registered points coloured by their signed deviation (nm, µm or mm).
 
     The colour scale is symmetric about zero (blue inside the material, red outside); with
     a tolerance it spans the larger of the tolerance and the largest deviation, and points
@@ -66,17 +66,19 @@ def plot_deviations(
 
     check_plot_path(path, overwrite=overwrite)
     points = np.asarray(deviations.points, dtype=float)
-    deviation_um = 1000.0 * np.asarray(deviations.signed_distance, dtype=float)
     summary = deviations.summary
-    tolerance_um = None if summary.tolerance is None else 1000.0 * summary.tolerance
-    limit = float(np.max(np.abs(deviation_um))) if deviation_um.size else 0.0
-    if tolerance_um is not None:
-        limit = max(limit, tolerance_um)
+    signed = np.asarray(deviations.signed_distance, dtype=float)
+    factor, unit = length_unit(np.r_[signed, [] if summary.tolerance is None else [summary.tolerance]])
+    shown = factor * signed
+    tolerance = None if summary.tolerance is None else factor * summary.tolerance
+    limit = float(np.max(np.abs(shown))) if shown.size else 0.0
+    if tolerance is not None:
+        limit = max(limit, tolerance)
     limit = limit or 1.0
     figure = new_figure(7.5, 5.5)
     axes = figure.add_subplot(projection="3d")
-    beyond = np.zeros(len(points), dtype=bool) if tolerance_um is None else np.abs(deviation_um) > tolerance_um
-    scatter = axes.scatter(points[:, 0], points[:, 1], points[:, 2], c=deviation_um, cmap="RdBu_r",
+    beyond = np.zeros(len(points), dtype=bool) if tolerance is None else np.abs(shown) > tolerance
+    scatter = axes.scatter(points[:, 0], points[:, 1], points[:, 2], c=shown, cmap="RdBu_r",
                            norm=TwoSlopeNorm(vcenter=0.0, vmin=-limit, vmax=limit), s=6, depthshade=False,
                            edgecolors=np.where(beyond[:, None], [[0.0, 0.0, 0.0, 1.0]], [[0.0, 0.0, 0.0, 0.0]]),
                            linewidths=0.6)
@@ -85,11 +87,11 @@ def plot_deviations(
     axes.set_ylabel("y / mm")
     axes.set_zlabel("z / mm")
     colour_bar = figure.colorbar(scatter, ax=axes, shrink=0.7, pad=0.08)
-    colour_bar.set_label("deviation / µm (+ outside)")
-    statistics = (f"n {summary.count}, min {1000 * summary.minimum:.3g} µm, max {1000 * summary.maximum:.3g} µm, "
-                  f"rms {1000 * summary.rms:.3g} µm")
-    if tolerance_um is not None:
-        statistics += f", {summary.count_beyond} beyond ±{tolerance_um:.3g} µm"
+    colour_bar.set_label(f"deviation / {unit} (+ outside)")
+    statistics = (f"n {summary.count}, min {factor * summary.minimum:.3g} {unit}, "
+                  f"max {factor * summary.maximum:.3g} {unit}, rms {factor * summary.rms:.3g} {unit}")
+    if tolerance is not None:
+        statistics += f", {summary.count_beyond} beyond ±{tolerance:.3g} {unit}"
     axes.set_title(f"{title or 'deviations from nominal'}\n{statistics}", fontsize=9)
     return save_figure(figure, path, overwrite=overwrite)
 

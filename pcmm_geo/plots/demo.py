@@ -18,7 +18,7 @@ from numpy.typing import ArrayLike
 from pcmm_geo.plots._figure import check_plot_path, new_figure, save_figure
 
 if TYPE_CHECKING:
-    from pcmm_geo.machine.calibration_result import TetrahedronCalibration
+    from pcmm_geo.machine.calibration.result import TetrahedronCalibration
 
 __all__ = ["draw_tip_errors", "plot_demo_overview", "plot_tip_errors"]
 
@@ -128,7 +128,7 @@ def plot_demo_overview(
     >>> plot_demo_overview(result.tetrahedron_calibration, result.tip_errors, path).name
     'demo.png'
     """
-    from pcmm_geo.plots.calibration import draw_calibration_3d
+    from pcmm_geo.plots.machine.calibration import draw_calibration_3d
 
     check_plot_path(path, overwrite=overwrite)
     figure = new_figure(13.0, 5.5)

@@ -3,7 +3,7 @@
 Top row: one panel per probed face (``face_1``, ``face_2``, ``top``, ``side``), the points in
 the coordinates of their own least-squares plane, coloured by their signed deviation from it
 (µm, one colour scale for all faces).  Bottom: every length the evaluation gives -- the two
-one-way ISO 3650 central lengths, the exact projection, the seed's eqs 5.1-5.3 and the naive
+one-way ISO 3650 central lengths, the exact projection, the thesis' eqs 5.1-5.3 and the naive
 two-point distance -- as differences from the ISO 3650 central length (µm), with the lengths
 themselves written next to the bars.
 """
@@ -18,7 +18,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 from numpy.typing import ArrayLike
 
-from pcmm_geo.plots._figure import check_plot_path, new_figure, save_figure
+from pcmm_geo.plots._figure import check_plot_path, length_unit, new_figure, save_figure
 
 if TYPE_CHECKING:
     from pcmm_geo.artefacts.gauge_block import GaugeBlockMeasurement
@@ -79,18 +79,18 @@ def length_comparison(measurement: GaugeBlockMeasurement) -> list[tuple[str, flo
     if not math.isnan(measurement.projected_length):
         rows.append(("exact projection (top x side)", float(measurement.projected_length)))
     if measurement.seed is not None:
-        rows.append(("seed eqs 5.1-5.3", float(measurement.seed.length)))
+        rows.append(("thesis eqs 5.1-5.3", float(measurement.seed.length)))
         rows.append(("two-point distance", float(measurement.seed.vector_length)))
     return rows
 
 
-def _draw_face(axes: Any, label: str, points: ArrayLike, scale_um: float) -> Any:
+def _draw_face(axes: Any, label: str, points: ArrayLike, limit: float, factor: float, unit: str) -> Any:
     flat, deviation = face_deviations(points)
-    deviation_um = 1000.0 * deviation
-    mappable = axes.scatter(flat[:, 0], flat[:, 1], c=deviation_um, cmap="coolwarm", vmin=-scale_um,
-                            vmax=scale_um, s=46, edgecolors="black", linewidths=0.4)
+    shown = factor * deviation
+    mappable = axes.scatter(flat[:, 0], flat[:, 1], c=shown, cmap="coolwarm", vmin=-limit,
+                            vmax=limit, s=46, edgecolors="black", linewidths=0.4)
     axes.set_aspect("equal", adjustable="datalim")
-    axes.set_title(f"{FACE_TITLES[label]}: {len(flat)} points\nform {float(np.ptp(deviation_um)):.3g} µm",
+    axes.set_title(f"{FACE_TITLES[label]}: {len(flat)} points\nform {float(np.ptp(shown)):.3g} {unit}",
                    fontsize=9)
     axes.set_xlabel("in-plane u / mm", fontsize=8)
     axes.set_ylabel("in-plane v / mm", fontsize=8)
@@ -112,7 +112,7 @@ def _draw_lengths(axes: Any, measurement: GaugeBlockMeasurement) -> None:
     axes.set_xlim(-1.1 * span, 2.3 * span)
     axes.set_yticks(positions, [name for name, _ in rows], fontsize=8)
     axes.set_xlabel("length minus ISO 3650 central length / µm")
-    axes.set_title(f"Central length {reference:.6f} mm (ISO 3650) against the seed's method", fontsize=10)
+    axes.set_title(f"Central length {reference:.6f} mm (ISO 3650) against the thesis' method", fontsize=10)
 
 
 def plot_gauge_block(
@@ -164,13 +164,14 @@ def plot_gauge_block(
     check_plot_path(path, overwrite=overwrite)
     labels = [label for label in FACE_ORDER if label in points_by_face]
     largest = max(float(np.max(np.abs(face_deviations(points_by_face[label])[1]))) for label in labels)
-    scale_um = max(1000.0 * largest, 1e-3)
+    factor, unit = length_unit([largest])
+    limit = factor * largest or 1.0
     figure = new_figure(3.0 * len(labels) + 1.5, 7.0)
     grid = figure.add_gridspec(2, len(labels), height_ratios=(1.25, 1.0))
     face_axes = [figure.add_subplot(grid[0, k]) for k in range(len(labels))]
     mappable = None
     for axes, label in zip(face_axes, labels, strict=True):
-        mappable = _draw_face(axes, label, points_by_face[label], scale_um)
-    figure.colorbar(mappable, ax=face_axes, label="deviation from face plane / µm", shrink=0.9)
+        mappable = _draw_face(axes, label, points_by_face[label], limit, factor, unit)
+    figure.colorbar(mappable, ax=face_axes, label=f"deviation from face plane / {unit}", shrink=0.9)
     _draw_lengths(figure.add_subplot(grid[1, :]), measurement)
     return save_figure(figure, path, overwrite=overwrite)

@@ -1,7 +1,7 @@
 """Thermal expansion applied to the rigid-body machine model, then forward kinematics re-solved.
 
 :func:`expand_rigid_body_machine` returns a warmed copy of a
-:class:`pcmm_geo.machine.model.RigidBodyMachine` (passed in; this layer does not import the
+:class:`pcmm_geo.machine.kinematics.model.RigidBodyMachine` (passed in; this layer does not import the
 machine package, it only uses the object's fields and ``dataclasses.replace``):
 
 * frame -- the plan triangle of the column points deforms with the temperatures of its
@@ -66,7 +66,7 @@ def expand_rigid_body_machine(
     Parameters
     ----------
     machine : RigidBodyMachine
-        Nominal (20 °C) machine (:mod:`pcmm_geo.machine.model`).
+        Nominal (20 °C) machine (:mod:`pcmm_geo.machine.kinematics.model`).
     frame_temperatures : array_like, shape (3,)
         Frame sides between columns a-b, a-c, b-c (°C).
     column_temperatures, arm_temperatures : array_like, shape (3,)
@@ -92,7 +92,7 @@ def expand_rigid_body_machine(
 
     Examples
     --------
-    >>> from pcmm_geo.machine.model import RigidBodyMachine
+    >>> from pcmm_geo.machine.kinematics.model import RigidBodyMachine
     >>> cold = RigidBodyMachine.from_dpkm()
     >>> hot = expand_rigid_body_machine(cold, column_temperatures=[21.0, 21.0, 21.0])
     >>> round(float(hot.columns["a"].encoder_scale - cold.columns["a"].encoder_scale), 10)
@@ -168,7 +168,7 @@ def rigid_body_tip_displacement(
 
     Examples
     --------
-    >>> from pcmm_geo.machine.model import RigidBodyMachine
+    >>> from pcmm_geo.machine.kinematics.model import RigidBodyMachine
     >>> machine = RigidBodyMachine.from_dpkm()
     >>> d = rigid_body_tip_displacement(machine, [0.0, 0.0, -380.0])
     >>> bool(np.abs(d).max() < 1e-9)

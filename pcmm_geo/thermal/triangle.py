@@ -130,7 +130,7 @@ def frame_corners(
     Examples
     --------
     >>> tri = frame_corners(650.0, 650.0, 650.0)
-    >>> [round(float(v), 3) for v in (*tri.a, *tri.b, *tri.c)]
+    >>> [round(float(v), 3) + 0.0 for v in (*tri.a, *tri.b, *tri.c)]
     [-375.278, 0.0, 187.639, 325.0, 187.639, -325.0]
     """
     sides = {"side_ab": side_ab, "side_ac": side_ac, "side_bc": side_bc}

@@ -8,7 +8,7 @@ from collections.abc import Callable, Iterator
 
 import pytest
 
-from pcmm_geo.machine.simulators.pty import PtyServer, SimulatedDevice
+from pcmm_geo.acquisition.simulators.pty import PtyServer, SimulatedDevice
 
 
 def _open_fds() -> int:

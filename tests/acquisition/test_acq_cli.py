@@ -9,7 +9,7 @@ import sys
 import time
 from pathlib import Path
 
-from pcmm_geo.machine.acqlog import read_log
+from pcmm_geo.acquisition.acqlog import read_log
 
 PCMM = str(Path(sys.executable).with_name("pcmm"))
 FAST = ["--simulate", "--settle", "0", "--timeout", "0.06", "--move-timeout", "0.12"]

@@ -5,8 +5,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from pcmm_geo.acquisition.simulators.cmm import GaugeBlock, SimulatedMicroCMM
 from pcmm_geo.errors import InvalidInputError
-from pcmm_geo.machine.simulators.cmm import GaugeBlock, SimulatedMicroCMM
 
 MICROSTEP = 6.35 / 12800
 

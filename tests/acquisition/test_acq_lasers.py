@@ -6,11 +6,11 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
+from pcmm_geo.acquisition.drivers import lasers
+from pcmm_geo.acquisition.drivers._port import is_transient
+from pcmm_geo.acquisition.simulators.devices import LaserStreamSim
+from pcmm_geo.acquisition.simulators.faults import FaultPlan
 from pcmm_geo.errors import DeviceError, DeviceTimeoutError, InvalidInputError
-from pcmm_geo.machine.drivers import lasers
-from pcmm_geo.machine.drivers._port import is_transient
-from pcmm_geo.machine.simulators.devices import LaserStreamSim
-from pcmm_geo.machine.simulators.faults import FaultPlan
 
 # one count in mm for MR = 200: 200 * 1.02 / full scale
 COUNT_1302 = 200 * 1.02 / 16368

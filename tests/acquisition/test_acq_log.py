@@ -11,9 +11,9 @@ from pathlib import Path
 
 import pytest
 
+from pcmm_geo.acquisition import acqlog
+from pcmm_geo.acquisition.acqlog import LOG_COLUMNS, AcquisitionLog, LogRow, read_log
 from pcmm_geo.errors import InvalidInputError, LogIntegrityError, OutputExistsError
-from pcmm_geo.machine import acqlog
-from pcmm_geo.machine.acqlog import LOG_COLUMNS, AcquisitionLog, LogRow, read_log
 
 
 def _row(i: int) -> LogRow:
@@ -116,7 +116,7 @@ def test_row_validation() -> None:
 
 _WRITER = """
 import sys
-from pcmm_geo.machine.acqlog import AcquisitionLog, LogRow
+from pcmm_geo.acquisition.acqlog import AcquisitionLog, LogRow
 with AcquisitionLog.create(sys.argv[1]) as log:
     i = 0
     while True:
@@ -151,7 +151,7 @@ def test_writer_killed_with_sigkill_leaves_only_whole_rows(tmp_path: Path) -> No
 
 
 def test_table_3_2_export_reads_with_the_log_processor(tmp_path: Path) -> None:
-    from pcmm_geo.machine.logproc import read_log as read_table_3_2
+    from pcmm_geo.machine.analysis.logproc import read_log as read_table_3_2
 
     with AcquisitionLog.create(tmp_path / "run.csv", {"seed": 1}) as log:
         for i in range(5):

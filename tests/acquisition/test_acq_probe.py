@@ -4,10 +4,10 @@ from __future__ import annotations
 
 import pytest
 
+from pcmm_geo.acquisition.drivers.probe import ProbeReader, parse_probe_token
+from pcmm_geo.acquisition.simulators.devices import ProbeSim
+from pcmm_geo.acquisition.simulators.faults import FaultPlan
 from pcmm_geo.errors import DeviceError, DeviceTimeoutError, InvalidInputError
-from pcmm_geo.machine.drivers.probe import ProbeReader, parse_probe_token
-from pcmm_geo.machine.simulators.devices import ProbeSim
-from pcmm_geo.machine.simulators.faults import FaultPlan
 
 
 def test_token_parsing() -> None:

@@ -9,15 +9,15 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from pcmm_geo.acquisition.acqlog import AcquisitionLog, read_log
+from pcmm_geo.acquisition.drivers import zaber
+from pcmm_geo.acquisition.drivers.lasers import LaserSensor
+from pcmm_geo.acquisition.drivers.probe import ProbeReader
+from pcmm_geo.acquisition.drivers.zaber import ZaberChain
+from pcmm_geo.acquisition.session import AcquisitionSession, SessionConfig
+from pcmm_geo.acquisition.simulators.cmm import SimulatedRig
+from pcmm_geo.acquisition.simulators.faults import FaultPlan
 from pcmm_geo.errors import DeviceError, InvalidInputError
-from pcmm_geo.machine.acqlog import AcquisitionLog, read_log
-from pcmm_geo.machine.drivers import zaber
-from pcmm_geo.machine.drivers.lasers import LaserSensor
-from pcmm_geo.machine.drivers.probe import ProbeReader
-from pcmm_geo.machine.drivers.zaber import ZaberChain
-from pcmm_geo.machine.session import AcquisitionSession, SessionConfig
-from pcmm_geo.machine.simulators.cmm import SimulatedRig
-from pcmm_geo.machine.simulators.faults import FaultPlan
 
 MICROSTEP = 6.35 / 12800  # mm, T-LSR450B
 COUNT_1302 = 200 * 1.02 / 16368  # one ILD1302 count, mm

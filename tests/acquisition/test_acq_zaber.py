@@ -6,12 +6,12 @@ import time
 
 import pytest
 
+from pcmm_geo.acquisition.drivers import zaber
+from pcmm_geo.acquisition.drivers._port import is_transient
+from pcmm_geo.acquisition.simulators.devices import ZaberChainSim
+from pcmm_geo.acquisition.simulators.faults import FaultPlan
+from pcmm_geo.acquisition.simulators.pty import SimulatedDevice
 from pcmm_geo.errors import DeviceError, DeviceTimeoutError, InvalidInputError
-from pcmm_geo.machine.drivers import zaber
-from pcmm_geo.machine.drivers._port import is_transient
-from pcmm_geo.machine.simulators.devices import ZaberChainSim
-from pcmm_geo.machine.simulators.faults import FaultPlan
-from pcmm_geo.machine.simulators.pty import SimulatedDevice
 
 # golden frames of protocols.md §1.2 (little-endian int32 data)
 GOLDEN = [
@@ -227,7 +227,7 @@ class _BrokenDevice(SimulatedDevice):
 
 
 def test_a_failing_simulator_is_reported_not_hidden() -> None:
-    from pcmm_geo.machine.simulators.pty import PtyServer
+    from pcmm_geo.acquisition.simulators.pty import PtyServer
 
     with PtyServer([_BrokenDevice()]) as server, _chain(server) as chain:
         with pytest.raises(DeviceError):

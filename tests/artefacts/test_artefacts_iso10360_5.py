@@ -69,3 +69,20 @@ def test_bad_input() -> None:
         sphere_probing_pattern(radius=0.0)
     with pytest.raises(InvalidInputError, match="pole"):
         sphere_probing_pattern(pole=(0.0, 0.0, 0.0))
+
+
+def test_the_standards_25_points_or_an_explicit_incomplete_verdict() -> None:
+    from pcmm_geo.errors import IncompleteTestError
+
+    points = sphere_probing_pattern((5.0, -3.0, 40.0), 12.5)
+    assert evaluate_probing(points, 25.0, mpe_form=1e-3).verdict == "PASS"
+    with pytest.raises(IncompleteTestError, match="the standard uses 25 points on the test sphere, got 24") as info:
+        evaluate_probing(points[:24], 25.0, mpe_form=1e-3)
+    assert (info.value.needed, info.value.got) == (25, 24)
+    partial = evaluate_probing(points[:24], 25.0, mpe_form=1e-3, allow_incomplete=True)
+    assert partial.passed is None and not partial.complete
+    assert partial.verdict.startswith("INCOMPLETE (24 of 25 points)") and "PASS" not in partial.verdict
+    failing = evaluate_probing(points[:24], 25.01, mpe_size=1e-3, allow_incomplete=True)
+    assert failing.passed is False and failing.verdict == "INCOMPLETE (24 of 25 points): FAIL"
+    with pytest.raises(IncompleteTestError, match="got 26"):
+        evaluate_probing(np.vstack([points, points[:1] * 1.0 + 1e-9]), 25.0)

@@ -151,31 +151,70 @@ def test_distances_equal_a_search_over_every_triangle(mesh_number: int) -> None:
     np.testing.assert_allclose(on_face, found.closest, rtol=0, atol=1e-12)
 
 
-class _FarthestSample:
-    """Stands in for the index's k-d tree: every point's "nearest" sample is the farthest one (a poor start)."""
-
-    def __init__(self, samples: np.ndarray) -> None:
-        self.samples = samples
-
-    def query(self, points: np.ndarray, k: int) -> tuple[np.ndarray, np.ndarray]:
-        far = np.argmax(points @ -self.samples.T, axis=1)  # roughly opposite, far away
-        return np.zeros((len(points), k)), np.repeat(far[:, None], k, axis=1)
-
-
 @pytest.mark.parametrize("mesh_number", [0, 1])
-def test_search_alone_finds_the_nearest_triangle(monkeypatch: pytest.MonkeyPatch, mesh_number: int) -> None:
-    """From a far first guess, without the walk, and with every front and pair block split: still exact."""
-    import dataclasses
-
+def test_a_wrong_candidate_is_corrected(monkeypatch: pytest.MonkeyPatch, mesh_number: int) -> None:
+    """open3d's float32 candidate replaced by a far triangle and the pairs split into tiny blocks: still exact."""
     mesh = _fine_meshes()[mesh_number]
     points = np.random.default_rng(4).uniform(mesh.bounds[0] - 3.0, mesh.bounds[1] + 3.0, (200, 3))
     index = SurfaceIndex.build(mesh)
-    index = dataclasses.replace(index, sample_tree=_FarthestSample(index.sample_tree.data))
-    monkeypatch.setattr(cad_distance, "_WALK_STEPS", 0)
-    monkeypatch.setattr(cad_distance, "_FRONT_LIMIT", 50)
+    far = np.argmax(points @ -index.triangles.mean(axis=1).T, axis=1)  # roughly opposite, far away
+    monkeypatch.setattr(SurfaceIndex, "candidates", lambda self, query: far[: len(query)])
     monkeypatch.setattr(cad_distance, "_PAIRS_PER_BLOCK", 64)
+    monkeypatch.setattr(cad_distance, "_FIRST_NEIGHBOURS", 2)
     found = index.distances(points)
     np.testing.assert_allclose(np.abs(found.signed_distance), _brute_force_distances(points, mesh), rtol=0, atol=1e-12)
+
+
+def test_adversarial_points_match_a_double_precision_brute_force() -> None:
+    """Points a float32 search cannot separate: on edges and vertices, near-equidistant from two
+    walls 1e-6 mm apart in distance, at the centre of a sphere (every triangle nearly equidistant),
+    far away, and 500 mm from the origin."""
+    import trimesh
+
+    sphere = trimesh.creation.icosphere(subdivisions=4, radius=10.0)
+    sphere.apply_translation([500.0, -300.0, 200.0])
+    rng = np.random.default_rng(8)
+    edge = rng.integers(0, len(sphere.edges_unique), 200)
+    ends = sphere.vertices[sphere.edges_unique[edge]]
+    along = rng.uniform(0, 1, (200, 1))
+    on_edges = ends[:, 0] * along + ends[:, 1] * (1 - along)
+    center = sphere.bounds.mean(axis=0)
+    radial = (on_edges - center) / np.linalg.norm(on_edges - center, axis=1, keepdims=True)
+    points = np.vstack([
+        on_edges + 1e-7 * radial, on_edges - 1e-7 * radial,  # just off an edge, either side
+        sphere.vertices[:100] + 1e-8 * rng.standard_normal((100, 3)),  # at vertices
+        center + 1e-3 * rng.standard_normal((20, 3)),  # all triangles within a hair of the same distance
+        center + rng.standard_normal((50, 3)) * 1e3,  # far away
+    ])
+    found = surface_distances(points, sphere)
+    np.testing.assert_allclose(np.abs(found.signed_distance), _brute_force_distances(points, sphere),
+                               rtol=0, atol=1e-12)
+    # a thin slab: points in the middle are 1e-6 mm nearer one wall than the other
+    slab = box_mesh(20.0, 20.0, 0.002)
+    middle = np.c_[rng.uniform(-5, 5, (300, 2)), rng.choice([-1e-6, 1e-6, 0.0], 300)]
+    found = surface_distances(middle, slab)
+    np.testing.assert_allclose(found.signed_distance, box_signed_distance(middle, np.array([10.0, 10.0, 0.001])),
+                               rtol=0, atol=1e-15)
+    off_middle = middle[:, 2] != 0.0
+    np.testing.assert_array_equal(np.sign(found.closest[off_middle, 2]), np.sign(middle[off_middle, 2]))
+
+
+def test_index_survives_pickling_and_dask_blocks() -> None:
+    """The index crosses process boundaries (dask workers) without its open3d scene; lazy block-wise distances."""
+    import pickle
+
+    import dask.array as da
+
+    mesh = _fine_meshes()[1]
+    points = np.random.default_rng(5).uniform(mesh.bounds[0] - 2.0, mesh.bounds[1] + 2.0, (900, 3))
+    index = pickle.loads(pickle.dumps(SurfaceIndex.build(mesh)))
+    direct = index.distances(points)
+    lazy = surface_distances(da.from_array(points, chunks=(250, 3)), mesh)
+    assert isinstance(lazy.signed_distance, da.Array)
+    np.testing.assert_allclose(lazy.signed_distance.compute(), _brute_force_distances(points, mesh)
+                               * np.sign(direct.signed_distance), rtol=0, atol=1e-12)
+    np.testing.assert_array_equal(lazy.face_index.compute(), direct.face_index)
+    np.testing.assert_allclose(lazy.direction.compute(), direct.direction, rtol=0, atol=1e-15)
 
 
 def test_open_and_flipped_meshes_are_refused_for_signed_distances() -> None:

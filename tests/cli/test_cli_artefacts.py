@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import json
-import math
 import subprocess
 import sys
 from importlib.resources import files
@@ -71,20 +70,52 @@ def test_iso10360_5(tmp_path: Path) -> None:
     data = json.loads(proc.stdout)
     assert data["n_points"] == 25
     assert 0 < data["p_ftu_um"] < 3.0 and abs(data["p_stu_um"]) < 1.0  # 0.4 um probing noise
-    # exact points on a sphere of radius 10.0005: P_FTU 0, P_STU = +1 um against 20 mm
+    # the diameter stated in the file (25.0004 mm) is used; a contradicting option is refused
+    stated = json.loads(run("iso10360-5", example("iso10360_5_sphere.csv"), "--json").stdout)
+    assert stated["reference_diameter_mm"] == 25.0004 and stated["verdict"] == "no MPE stated"
+    assert stated["p_stu_um"] == pytest.approx(data["p_stu_um"], abs=1e-9)
+    assert_usage_error(run("iso10360-5", example("iso10360_5_sphere.csv"), "--reference-diameter", "25"),
+                       "expected the 25.0004 mm that")
+    # the standard's 25 exact points on a sphere of radius 10.0005: P_FTU 0, P_STU = +1 um against 20 mm
+    from pcmm_geo.artefacts import sphere_probing_pattern
+
     pts = tmp_path / "exact.csv"
-    angles = np.linspace(0, 2 * math.pi, 9)[:-1]
-    ring = np.c_[np.cos(angles), np.sin(angles), np.zeros(8)]
-    units = np.vstack([ring, [[0, 0, 1], [0, 0, -1]], ring * math.sqrt(0.5) + [0, 0, math.sqrt(0.5)]])
-    coords = 10.0005 * units + [1.0, 2.0, 3.0]
+    coords = sphere_probing_pattern((1.0, 2.0, 3.0), 10.0005)
     pts.write_text("x,y,z\n" + "\n".join(",".join(f"{v:.12f}" for v in p) for p in coords) + "\n")
     exact = json.loads(run("iso10360-5", str(pts), "--reference-diameter", "20", "--mpe-size", "0.5",
                            "--json").stdout)
     assert exact["p_ftu_um"] == pytest.approx(0.0, abs=1e-6)
     assert exact["p_stu_um"] == pytest.approx(1.0, abs=1e-6)
-    assert exact["passed"] is False
+    assert exact["passed"] is False and exact["verdict"] == "FAIL"
     assert run("iso10360-5", str(pts), "--reference-diameter", "20", "--mpe-size", "0.5").returncode == 1
     assert_usage_error(run("iso10360-5", str(pts), "--reference-diameter", "-20"), "reference_diameter")
+    # 5 of the 25 points: refused, or with --allow-incomplete an INCOMPLETE verdict, never a plain PASS
+    few = tmp_path / "few.csv"
+    few.write_text("x,y,z\n" + "\n".join(",".join(f"{v:.12f}" for v in p) for p in coords[::5]) + "\n")
+    assert_usage_error(run("iso10360-5", str(few), "--reference-diameter", "20.001", "--mpe-size", "5"),
+                       "ISO 10360-5: the standard uses 25 points on the test sphere, got 5")
+    partial = run("iso10360-5", str(few), "--reference-diameter", "20.001", "--mpe-size", "5", "--allow-incomplete")
+    assert partial.returncode == 0 and "verdict: INCOMPLETE (5 of 25 points)" in partial.stdout
+    assert "PASS" not in partial.stdout
+    partial_json = json.loads(run("iso10360-5", str(few), "--reference-diameter", "20.001", "--mpe-size", "5",
+                                  "--allow-incomplete", "--json").stdout)
+    assert partial_json["complete"] is False and partial_json["passed"] is None
+    assert partial_json["verdict"].startswith("INCOMPLETE (5 of 25 points)")
+
+
+def test_iso10360_2_incomplete(tmp_path: Path) -> None:
+    lines = Path(example("iso10360_2_lengths.csv")).read_text().splitlines()
+    three = tmp_path / "three.csv"
+    three.write_text("\n".join([line for line in lines if line.startswith("length_id")] +
+                               [line for line in lines if line.startswith("L1,x,")]) + "\n")
+    assert_usage_error(run("iso10360-2", str(three), "--mpe-a", "2", "--mpe-k", "100"),
+                       "ISO 10360-2: the standard uses 105 values, got 3 (1 of 5 lengths, 1 of 7 positions)")
+    partial = run("iso10360-2", str(three), "--mpe-a", "2", "--mpe-k", "100", "--allow-incomplete", "--json")
+    data = json.loads(partial.stdout)
+    assert partial.returncode == 0 and data["passed"] is None and data["complete"] is False
+    assert data["verdict"].startswith("INCOMPLETE (3 of 105 values") and "PASS" not in data["verdict"]
+    text = run("iso10360-2", str(three), "--mpe-a", "2", "--mpe-k", "100", "--allow-incomplete").stdout
+    assert text.startswith("ISO 10360-2: INCOMPLETE (3 of 105 values") and "PASS" not in text
 
 
 def _nist_pair(folder: Path) -> None:

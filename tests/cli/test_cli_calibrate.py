@@ -10,8 +10,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from pcmm_geo.machine.calibration_seed import TABLE_7_1, appendix_cd_files
-from pcmm_geo.machine.numcal import NumcalParameters, synthesise_numcal_data
+from pcmm_geo.machine.calibration.numcal import NumcalParameters, synthesise_numcal_data
+from pcmm_geo.machine.calibration.seed import TABLE_7_1, appendix_cd_files
 
 PCMM = str(Path(sys.executable).with_name("pcmm"))
 

@@ -65,4 +65,4 @@ def test_demo_human_output_is_a_table() -> None:
     done = subprocess.run([PCMM, "demo", "--no-plots"], capture_output=True, text=True, timeout=300)
     assert done.returncode == 0, done.stderr
     assert "gauge block" in done.stdout and "calibrated (rigid body)" in done.stdout
-    assert "error / um" in done.stdout
+    assert "error / µm" in done.stdout

@@ -9,8 +9,8 @@ from pathlib import Path
 
 import numpy as np
 
-from pcmm_geo.machine.logproc import synthesise_log, write_log
-from pcmm_geo.machine.model import RigidBodyMachine
+from pcmm_geo.machine.analysis.logproc import synthesise_log, write_log
+from pcmm_geo.machine.kinematics.model import RigidBodyMachine
 
 PCMM = str(Path(sys.executable).with_name("pcmm"))
 

@@ -13,10 +13,10 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from pcmm_geo.machine.calibration_seed import TABLE_7_1, appendix_cd_files
-from pcmm_geo.machine.logproc import synthesise_log, write_log
-from pcmm_geo.machine.model import RigidBodyMachine
-from pcmm_geo.machine.numcal import NumcalParameters, synthesise_numcal_data
+from pcmm_geo.machine.analysis.logproc import synthesise_log, write_log
+from pcmm_geo.machine.calibration.numcal import NumcalParameters, synthesise_numcal_data
+from pcmm_geo.machine.calibration.seed import TABLE_7_1, appendix_cd_files
+from pcmm_geo.machine.kinematics.model import RigidBodyMachine
 
 PCMM = str(Path(sys.executable).with_name("pcmm"))
 EXAMPLES = Path(__file__).parents[2] / "pcmm_geo" / "data" / "examples"
@@ -140,7 +140,7 @@ def test_gauge_block_plot_and_html_report(tmp_path: Path) -> None:
     parsed = parse_html(page)
     rows = {row[0].strip(): row[1] for row in parsed.rows[1:]}
     assert rows["ISO 3650 central length (mean)"] == f"{data['central_length_mm']:.6f}"
-    assert rows["seed eqs 5.1-5.3 length"] == f"{data['seed']['length_mm']:.6f}"
+    assert rows["thesis eqs 5.1-5.3 length"] == f"{data['seed']['length_mm']:.6f}"
     assert rows["two-point distance"] == f"{data['seed']['two_point_distance_mm']:.6f}"
     assert len(parsed.images) == 1 and parsed.images[0].startswith("data:image/png;base64,")
 
@@ -160,7 +160,7 @@ def test_fit_sensitivity_and_demo_keep_json_clean(tmp_path: Path) -> None:
     done = run("fit", "sphere", str(nist), "--plot", str(fit_plot), "--json")
     assert done.returncode == 0 and done.stderr == ""
     assert json.loads(done.stdout)["plot"] == str(fit_plot)
-    assert_picture(fit_plot, 7.0, 3.5)
+    assert_picture(fit_plot, 8.0, 4.8)
     assert_refused(run("fit", "sphere", str(nist), "--plot", str(fit_plot)), fit_plot)
 
     report = tmp_path / "sens.md"
@@ -170,7 +170,7 @@ def test_fit_sensitivity_and_demo_keep_json_clean(tmp_path: Path) -> None:
     assert done.returncode == 0 and done.stderr == ""
     data = json.loads(done.stdout)
     gain = data["laser_gain"]
-    assert f"| laser gain \\[mm/mm\\] | {gain['median']:.6f} | {gain['max_finite']:.6f} | 3 |" in (
+    assert f"| laser gain / (mm/mm) | {gain['median']:.6f} | {gain['max_finite']:.6f} | 3 |" in (
         report.read_text(encoding="utf-8").splitlines()
     )
 
@@ -236,7 +236,7 @@ def test_process_log_plot_report_and_progress(long_log: tuple[Path, list[str], n
 def test_demo_and_acquire_progress_on_a_terminal(tmp_path: Path) -> None:
     code, stdout, stderr = run_with_terminal_stderr("demo", "--no-plots")
     assert code == 0 and "calibrated (rigid body)" in stdout and "\x1b" not in stdout
-    assert "done" in stderr and "4/4" in stderr  # the last state is always drawn; earlier ones depend on timing
+    assert "done" in stderr and "5/5" in stderr  # 5 steps with the uncertainty; the last state is always drawn
     code, _, stderr = run_with_terminal_stderr(
         "acquire",
         "--simulate",

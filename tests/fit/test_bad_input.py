@@ -29,7 +29,7 @@ from pcmm_geo.fit import (
     fit_spheres,
     fit_torus,
 )
-from pcmm_geo.fit._inputs import weighted_centroid
+from pcmm_geo.fit._kernels._inputs import weighted_centroid
 
 
 def _ring(n: int = 7, radius: float = 10.0, offset: float = 1000.0) -> np.ndarray:

@@ -174,7 +174,7 @@ def test_sphere_errors() -> None:
 
 
 def test_non_convergence_is_reported(monkeypatch: pytest.MonkeyPatch) -> None:
-    from pcmm_geo.fit import _core
+    from pcmm_geo.fit._kernels import _core
 
     monkeypatch.setattr(_core, "TOL", _core.Tolerances(max_iterations=1, step=0.0, rounding_floor=0.0))
     rng = np.random.default_rng(0)
@@ -204,9 +204,9 @@ def test_sphere_residuals_orthogonal_to_jacobian_and_motion_invariant(seed: int,
 def test_tall_sphere_uses_normal_equations_without_losing_accuracy(
     cap_deg: float, monkeypatch: pytest.MonkeyPatch
 ) -> None:
-    # 30,000 points take the normal-equation path (pcmm_geo.fit._tall); the truth is the
+    # 30,000 points take the normal-equation path (pcmm_geo.fit._kernels._tall); the truth is the
     # generator's; the covariance must equal the one from the orthogonal routines
-    from pcmm_geo.fit import _tall
+    from pcmm_geo.fit._kernels import _tall
     from pcmm_geo.fit.reference import make_reference_data
 
     data = make_reference_data(

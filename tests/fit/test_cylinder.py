@@ -302,7 +302,7 @@ def test_bad_options_raise():
 
 
 def test_no_convergence_raises(monkeypatch):
-    import pcmm_geo.fit._core as core
+    import pcmm_geo.fit._kernels._core as core
 
     rng = np.random.default_rng(6)
     points, *_ = sample_cylinder(rng, offset=0.0, radius=3.0, length=10.0, arc_deg=360.0, n=12)

@@ -194,7 +194,7 @@ def test_bad_input_raises_typed_error(points, error):
 
 
 def test_no_convergence_raises(monkeypatch):
-    import pcmm_geo.fit._core as core
+    import pcmm_geo.fit._kernels._core as core
 
     rng = np.random.default_rng(4)
     points, *_ = sample_torus(rng, offset=0.0, major=20.0, minor=5.0, around_deg=360, tube_deg=360, n=40)
@@ -215,8 +215,8 @@ def test_sparse_torus_with_a_nominal_axis_two_degrees_off():
 
 
 def test_projected_torus_cost_vanishes_at_the_true_axis_position():
-    from pcmm_geo.fit._axial import rotation_to_z
-    from pcmm_geo.fit._torus_search import best_axis_position, varpro_costs
+    from pcmm_geo.fit._kernels._axial import rotation_to_z
+    from pcmm_geo.fit._kernels._torus_search import best_axis_position, varpro_costs
 
     rng = np.random.default_rng(5)
     points, centre, axis, _ = sample_torus(rng, offset=0.0, major=25.0, minor=5.0, around_deg=360, tube_deg=360, n=9)

@@ -6,9 +6,9 @@ import numpy as np
 import pytest
 
 from pcmm_geo.machine.calibration import calibrate_tetrahedron
-from pcmm_geo.machine.calibration_geometry import angle_between_deg, seed_printed_angle_deg
-from pcmm_geo.machine.calibration_io import read_lasers, read_probings
-from pcmm_geo.machine.calibration_seed import (
+from pcmm_geo.machine.calibration.geometry import angle_between_deg, seed_printed_angle_deg
+from pcmm_geo.machine.calibration.probings import read_lasers, read_probings
+from pcmm_geo.machine.calibration.seed import (
     APPENDIX_C,
     APPENDIX_D,
     TABLE_6_2,
@@ -39,14 +39,34 @@ def test_reconstruction_matches_every_printed_number(rebuilt):
     np.testing.assert_allclose(units, APPENDIX_D["v1"], atol=1e-4)
 
 
+# The reconstruction is an iterative least-squares solve: other BLAS kernels (OPENBLAS_CORETYPE=Haswell,
+# Sandybridge, Nehalem, Prescott on the same machine) move its result by up to 7e-9 mm.  1e-7 mm is far
+# below the 6e-5 mm resolution of the printed numbers it reproduces, and far above that rounding noise.
+REBUILD_TOLERANCE_MM = 1e-7
+
+
 def test_shipped_files_are_the_reconstruction(rebuilt, tmp_path):
     export, lasers = appendix_cd_files()
     features = read_probings(export)
-    np.testing.assert_allclose(features.centres(), rebuilt.centres, atol=1e-9)
+    np.testing.assert_allclose(features.centres(), rebuilt.centres, rtol=0, atol=REBUILD_TOLERANCE_MM)
     np.testing.assert_allclose(features.tip.centre, [0.0, 0.0, 0.0], atol=0)
     np.testing.assert_array_equal(read_lasers(lasers).readings, APPENDIX_C["lasers"])
-    fresh_export, _ = build_appendix_cd(tmp_path)
-    assert fresh_export.read_text() == export.read_text()
+    # the shipped file is the source of truth; a rebuild on another machine (other BLAS kernels)
+    # may differ in the last digits, so compare its parsed numbers with a stated tolerance
+    fresh_export, fresh_lasers = build_appendix_cd(tmp_path)
+    _assert_same_table(fresh_export, export, atol=REBUILD_TOLERANCE_MM)
+    _assert_same_table(fresh_lasers, lasers, atol=1e-12)
+
+
+def _assert_same_table(fresh, shipped, atol: float) -> None:
+    """Same header, same layout and the same numbers within ``atol`` (mm), NaN where NaN."""
+    fresh_lines = fresh.read_text().splitlines()
+    shipped_lines = shipped.read_text().splitlines()
+    assert fresh_lines[0] == shipped_lines[0]
+    assert len(fresh_lines) == len(shipped_lines)
+    fresh_values = np.array([[float(v) for v in line.split(",")] for line in fresh_lines[1:]])
+    shipped_values = np.array([[float(v) for v in line.split(",")] for line in shipped_lines[1:]])
+    np.testing.assert_allclose(fresh_values, shipped_values, rtol=0, atol=atol, equal_nan=True)
 
 
 def test_table_7_1_dead_distance_and_beta(seed_cal):

@@ -7,7 +7,7 @@ import pytest
 
 from pcmm_geo.errors import CalibrationError, DegenerateGeometryError, InvalidInputError, OutputExistsError
 from pcmm_geo.machine.calibration import b_in_from_lasers, calibrate_tetrahedron
-from pcmm_geo.machine.calibration_io import write_lasers_csv, write_probings_csv
+from pcmm_geo.machine.calibration.probings import write_lasers_csv, write_probings_csv
 
 ARMS = ("a", "b", "c")
 PAIRS = ("ab", "bc", "ca")
@@ -238,7 +238,7 @@ def test_bad_inputs_raise_typed_errors(skewed):
 
 def test_calibrated_tetrahedron_drives_the_rigid_body_model(skewed):
     """Forward kinematics with the calibrated tetrahedron equals that of the true one."""
-    from pcmm_geo.machine.model import RigidBodyMachine, SliderLine, Tetrahedron
+    from pcmm_geo.machine.kinematics.model import RigidBodyMachine, SliderLine, Tetrahedron
 
     geometry, cal = skewed
     sliders = {
@@ -258,7 +258,7 @@ def test_calibrated_tetrahedron_drives_the_rigid_body_model(skewed):
 
 
 def test_column_lines_from_probed_pivot_points():
-    from pcmm_geo.machine.calibration_columns import calibrate_columns
+    from pcmm_geo.machine.calibration.columns import calibrate_columns
 
     rng = np.random.default_rng(5)
     readings = np.array([0.0, 40.0, 80.0])

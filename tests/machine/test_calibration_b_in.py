@@ -6,9 +6,9 @@ import numpy as np
 import pytest
 
 from pcmm_geo.machine.calibration import calibrate_tetrahedron
-from pcmm_geo.machine.calibration_noise import synthesise_probings
-from pcmm_geo.machine.calibration_seed import APPENDIX_C, TABLE_7_1, appendix_cd_files
-from pcmm_geo.machine.model import SliderLine, Tetrahedron
+from pcmm_geo.machine.calibration.noise import synthesise_probings
+from pcmm_geo.machine.calibration.seed import APPENDIX_C, TABLE_7_1, appendix_cd_files
+from pcmm_geo.machine.kinematics.model import SliderLine, Tetrahedron
 
 ARMS = ("a", "b", "c")
 PAIRS = ("ab", "bc", "ca")

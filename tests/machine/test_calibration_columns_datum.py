@@ -5,8 +5,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from pcmm_geo.machine.calibration_columns import calibrate_columns
-from pcmm_geo.machine.calibration_datum import datum_frame
+from pcmm_geo.machine.calibration.columns import calibrate_columns
+from pcmm_geo.machine.calibration.datum import datum_frame
 
 ARMS = ("a", "b", "c")
 

@@ -14,12 +14,12 @@ from pcmm_geo.errors import (
     InvalidInputError,
     OutputExistsError,
 )
-from pcmm_geo.machine.calfile import CALIBRATION_SCHEMA, load_calibration, load_machine, save_calibration
 from pcmm_geo.machine.calibration import calibrate_tetrahedron
-from pcmm_geo.machine.calibration_columns import calibrate_columns
-from pcmm_geo.machine.calibration_datum import DatumFrame, datum_frame
-from pcmm_geo.machine.calibration_io import read_lasers, read_probings
-from pcmm_geo.machine.calibration_seed import appendix_cd_files
+from pcmm_geo.machine.calibration.calfile import CALIBRATION_SCHEMA, load_calibration, load_machine, save_calibration
+from pcmm_geo.machine.calibration.columns import calibrate_columns
+from pcmm_geo.machine.calibration.datum import DatumFrame, datum_frame
+from pcmm_geo.machine.calibration.probings import read_lasers, read_probings
+from pcmm_geo.machine.calibration.seed import appendix_cd_files
 
 
 @pytest.fixture(scope="module")
@@ -48,7 +48,7 @@ def test_json_round_trip_and_refusal_to_overwrite(tmp_path, seed_cal):
 
 
 def test_machine_entry_for_the_kinematics(tmp_path, seed_cal):
-    from pcmm_geo.machine.model import RigidBodyMachine
+    from pcmm_geo.machine.kinematics.model import RigidBodyMachine
 
     columns = RigidBodyMachine.from_dpkm().columns
     path = save_calibration(seed_cal, tmp_path / "cal.json", columns=columns)
@@ -109,7 +109,7 @@ def test_malformed_csv_files_name_path_and_line(tmp_path):
     with pytest.raises(FileFormatError, match=r"bad.csv:1: expected header"):
         read_lasers(path)
     path.write_bytes(b"\xff\xfe\x00garbage")
-    with pytest.raises(FileFormatError, match="UTF-8"):
+    with pytest.raises(FileFormatError, match=r"bad.csv:1: (binary data|not UTF-8)"):
         read_lasers(path)
 
 

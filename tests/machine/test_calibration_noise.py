@@ -7,7 +7,7 @@ import pytest
 
 from pcmm_geo.errors import InvalidInputError
 from pcmm_geo.machine.calibration import calibrate_tetrahedron
-from pcmm_geo.machine.calibration_noise import (
+from pcmm_geo.machine.calibration.noise import (
     CALIBRATION_LASERS,
     SIGMAS,
     calibration_errors,
@@ -74,7 +74,7 @@ def test_markdown_table_and_errors_of_a_single_run():
     assert set(errors) == set(FIELDS)
     assert 1e-5 < errors["tip_centre"] < 5e-3
     table = noise_growth_study([0.0, 1e-3], seeds=2).to_markdown().splitlines()
-    assert len(table) == 4 and table[0].startswith("| probe noise σ (µm) |") and table[3].startswith("| 1 |")
+    assert len(table) == 4 and table[0].startswith("| probe noise σ / µm |") and table[3].startswith("| 1 |")
     with pytest.raises(InvalidInputError):
         noise_growth_study([1e-3], seeds=0)
     with pytest.raises(InvalidInputError):

@@ -9,10 +9,11 @@ import numpy as np
 import pytest
 
 from pcmm_geo.errors import OutputExistsError, PcmmGeoError
-from pcmm_geo.machine import calfile, calibration
-from pcmm_geo.machine.calibration_io import write_element_export, write_lasers_csv, write_probings_csv
-from pcmm_geo.machine.calibration_seed import appendix_cd_files, build_appendix_cd
-from pcmm_geo.machine.logproc import MeasurementLog, write_log
+from pcmm_geo.machine import calibration
+from pcmm_geo.machine.analysis.logproc import MeasurementLog, write_log
+from pcmm_geo.machine.calibration import calfile
+from pcmm_geo.machine.calibration.probings import write_element_export, write_lasers_csv, write_probings_csv
+from pcmm_geo.machine.calibration.seed import appendix_cd_files, build_appendix_cd
 
 LASERS = np.array([[50.0, 130.0, 135.0], [12.0, 3.0, 2.0]])
 

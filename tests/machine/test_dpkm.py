@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from pcmm_geo.errors import DegenerateGeometryError, InvalidInputError, NoRealSolutionError
-from pcmm_geo.machine.dpkm import (
+from pcmm_geo.machine.kinematics.dpkm import (
     APPENDIX_D_COLUMN_POINTS,
     TABLE_3_1_BETA_DEG,
     TABLE_3_1_DEAD_DISTANCE,
@@ -19,8 +19,8 @@ from pcmm_geo.machine.dpkm import (
     sphere_constants,
     tetrahedron_directions,
 )
-from pcmm_geo.machine.model import RigidBodyMachine
-from pcmm_geo.machine.trilateration import trilaterate
+from pcmm_geo.machine.kinematics.model import RigidBodyMachine
+from pcmm_geo.machine.kinematics.trilateration import trilaterate
 
 APPENDIX_E_SLOPES = {"a": (0.0075, 0.0201), "b": (0.0082, 0.0192), "c": (0.0069, 0.0153)}
 

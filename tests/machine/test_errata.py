@@ -5,10 +5,10 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from pcmm_geo.machine.dpkm import APPENDIX_E, dpkm_probe
-from pcmm_geo.machine.model import ARMS, RigidBodyMachine, SliderLine, Tetrahedron
-from pcmm_geo.machine.seed_forms import seed_probe_roots_as_printed
-from pcmm_geo.machine.trilateration import trilaterate
+from pcmm_geo.machine.kinematics.dpkm import APPENDIX_E, dpkm_probe
+from pcmm_geo.machine.kinematics.model import ARMS, RigidBodyMachine, SliderLine, Tetrahedron
+from pcmm_geo.machine.kinematics.seed_forms import seed_probe_roots_as_printed
+from pcmm_geo.machine.kinematics.trilateration import trilaterate
 
 # a consistent configuration: pivot a at 400 mm (z_a != 0 matters for erratum 4), probe below; the frame
 # is shifted 60 mm in y because erratum 1 (the sign of 2 y_a) vanishes when pivot a sits on y = 0

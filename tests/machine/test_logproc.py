@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from pcmm_geo.errors import FileFormatError, InvalidInputError, OutputExistsError
-from pcmm_geo.machine.logproc import (
+from pcmm_geo.machine.analysis.logproc import (
     LOG_COLUMNS,
     MeasurementLog,
     process_log,
@@ -17,7 +17,7 @@ from pcmm_geo.machine.logproc import (
     synthesise_log,
     write_log,
 )
-from pcmm_geo.machine.model import RigidBodyMachine
+from pcmm_geo.machine.kinematics.model import RigidBodyMachine
 
 APPENDIX_E_SLOPES = {"a": (0.0075, 0.0201), "b": (0.0082, 0.0192), "c": (0.0069, 0.0153)}
 
@@ -133,7 +133,7 @@ def test_empty_log_and_bad_arrays(tmp_path: Path) -> None:
 
 
 def seed_processing(log, h0, sign_rule="continuity"):
-    from pcmm_geo.machine import dpkm
+    from pcmm_geo.machine.kinematics import dpkm
 
     return process_log_dpkm(
         log, dead_distance=dpkm.TABLE_3_1_DEAD_DISTANCE, beta_deg=dpkm.TABLE_3_1_BETA_DEG,

@@ -9,7 +9,7 @@ import pytest
 from scipy.spatial.transform import Rotation
 
 from pcmm_geo.errors import InvalidInputError
-from pcmm_geo.machine.model import (
+from pcmm_geo.machine.kinematics.model import (
     ARMS,
     MODEL_SCHEMA,
     ColumnLine,

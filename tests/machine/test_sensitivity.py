@@ -8,8 +8,9 @@ import numpy as np
 import pytest
 
 from pcmm_geo.errors import InvalidInputError
-from pcmm_geo.machine.model import RigidBodyMachine
-from pcmm_geo.machine.sensitivity import plot_sensitivity, sensitivity_over_cube, tip_jacobian
+from pcmm_geo.machine.analysis.sensitivity import sensitivity_over_cube, tip_jacobian
+from pcmm_geo.machine.kinematics.model import RigidBodyMachine
+from pcmm_geo.plots import plot_sensitivity
 
 
 @pytest.fixture(scope="module")

@@ -6,8 +6,8 @@ import numpy as np
 import pytest
 
 from pcmm_geo.errors import DegenerateGeometryError, InvalidInputError, NoRealSolutionError
-from pcmm_geo.machine.dpkm import APPENDIX_E
-from pcmm_geo.machine.trilateration import trilaterate
+from pcmm_geo.machine.kinematics.dpkm import APPENDIX_E
+from pcmm_geo.machine.kinematics.trilateration import trilaterate
 
 
 def test_random_configurations_recover_both_roots() -> None:

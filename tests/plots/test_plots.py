@@ -80,9 +80,9 @@ def test_length_comparison_matches_the_closed_form_of_each_method() -> None:
     assert rows["exact projection (top x side)"] == pytest.approx(100.0, abs=1e-9)
     assert rows["two-point distance"] == pytest.approx(math.sqrt(v2), abs=1e-9)
     # |v| cos(theta_top) cos(theta_side) removes dz and dy one at a time (module docstring)
-    assert rows["seed eqs 5.1-5.3"] == pytest.approx(math.sqrt((v2 - 6.0**2) * (v2 - 20.0**2) / v2), abs=1e-9)
+    assert rows["thesis eqs 5.1-5.3"] == pytest.approx(math.sqrt((v2 - 6.0**2) * (v2 - 20.0**2) / v2), abs=1e-9)
     assert list(rows) == ["ISO 3650 central length", "face 1 centre to plane 2", "face 2 centre to plane 1",
-                          "exact projection (top x side)", "seed eqs 5.1-5.3", "two-point distance"]
+                          "exact projection (top x side)", "thesis eqs 5.1-5.3", "two-point distance"]
 
 
 def test_gauge_block_plot_is_a_picture_and_is_never_overwritten(tmp_path: Path) -> None:
@@ -100,20 +100,22 @@ def test_gauge_block_plot_is_a_picture_and_is_never_overwritten(tmp_path: Path) 
     assert plot_gauge_block(faces, measurement, path, overwrite=True) == path
     with pytest.raises(InvalidInputError, match="plot file"):
         plot_gauge_block(faces, measurement, tmp_path / "gb.jpeg")
+    # a missing folder is created; a path through a file is an OSError
+    assert plot_gauge_block(faces, measurement, tmp_path / "new" / "gb.png").is_file()
+    (tmp_path / "plain").write_text("x")
     with pytest.raises(OSError):
-        plot_gauge_block(faces, measurement, tmp_path / "missing" / "gb.png")
-    assert not (tmp_path / "missing").exists()
+        plot_gauge_block(faces, measurement, tmp_path / "plain" / "gb.png")
 
 
 def test_calibration_demo_and_log_plots(tmp_path: Path) -> None:
     from pcmm_geo.demo import run_demo
-    from pcmm_geo.machine.logproc import process_log, synthesise_log
-    from pcmm_geo.machine.model import RigidBodyMachine
+    from pcmm_geo.machine.analysis.logproc import process_log, synthesise_log
+    from pcmm_geo.machine.kinematics.model import RigidBodyMachine
     from pcmm_geo.plots import plot_calibration, plot_demo_overview, plot_processed_log, plot_tip_errors
 
     steps: list[tuple[int, int, str]] = []
     result = run_demo(progress=lambda done, total, text: steps.append((done, total, text)))
-    assert [(done, total) for done, total, _ in steps] == [(k, 4) for k in range(5)]
+    assert [(done, total) for done, total, _ in steps] == [(k, 5) for k in range(6)]  # 5 steps: + uncertainty
     assert steps[-1][2] == "done"
     _assert_real_picture(plot_calibration(result.tetrahedron_calibration, tmp_path / "cal.png"), 12.0, 6.5)
     _assert_real_picture(plot_tip_errors(result.tip_errors, tmp_path / "tips.png"), 7.0, 4.0)
@@ -135,8 +137,8 @@ def test_fit_residual_plot(tmp_path: Path) -> None:
 
     rng = np.random.default_rng(5)
     points = np.c_[rng.uniform(-5, 5, (40, 2)), rng.normal(0.0, 0.001, 40)]
-    path = plot_fit_residuals(fit_plane(points), tmp_path / "res.png", element="plane")
-    _assert_real_picture(path, 7.0, 3.5)
+    path = plot_fit_residuals(fit_plane(points), tmp_path / "res.png", points=points)
+    _assert_real_picture(path, 8.0, 4.8)
 
 
 class _Cells(HTMLParser):

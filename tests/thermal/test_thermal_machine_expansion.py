@@ -7,7 +7,7 @@ import math
 import numpy as np
 import pytest
 
-from pcmm_geo.machine.model import ColumnLine, RigidBodyMachine, SliderLine, Tetrahedron
+from pcmm_geo.machine.kinematics.model import ColumnLine, RigidBodyMachine, SliderLine, Tetrahedron
 from pcmm_geo.thermal import (
     ThermalMachineGeometry,
     deform_triangle,

@@ -169,7 +169,7 @@ def test_table_4_2_vertical_row() -> None:
     res = seed_probe_error(probe, np.column_stack([x, y, z]), column_temperatures=[21.0] * 3)
     # eq 4.1 on the mean pivot height reproduces the table's 21 C z (126.682); its "difference" row
     # (0.011) disagrees with its own two rows (0.009)
-    assert round(probe[2] + res.displacement[2], 3) == 126.682
+    assert probe[2] + res.displacement[2] == pytest.approx(126.682, abs=5e-4)  # printed to 3 decimals
     assert res.displacement[2] == pytest.approx(ALPHA * z.mean(), rel=1e-12)
     # the seed's alpha*10*dT would leave z at 126.673
-    assert round(probe[2] + float(np.mean(seed_delta_l(z, 20.0, 21.0))), 3) == 126.673
+    assert probe[2] + float(np.mean(seed_delta_l(z, 20.0, 21.0))) == pytest.approx(126.673, abs=5e-4)

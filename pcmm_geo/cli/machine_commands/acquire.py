@@ -1,0 +1,157 @@
+"""``pcmm acquire``: run an acquisition session (simulated rig or real devices) into a durable log."""
+
+from __future__ import annotations
+
+import argparse
+from typing import Any
+
+from pcmm_geo.cli._output import Report, Table, add_json_flag
+
+_ARMS = ("a", "b", "c")
+
+
+def register(subparsers: Any) -> None:
+    parser = subparsers.add_parser(
+        "acquire",
+        help="acquisition session: home, pre-sequence, moves with start/stop rows (thesis Table 3.2) to a CSV log",
+        description=(
+            "Drive the three Zaber stages, read lasers a, b, c and the probe after each move and append thesis "
+            "Table 3.2 rows (plus raw values) to an fsync'ed CSV log. --simulate runs the simulated micro-CMM on "
+            "pseudo-terminals, optionally with injected faults."
+        ),
+    )
+    parser.add_argument("--simulate", action="store_true", help="use the simulated machine (pseudo-terminals)")
+    parser.add_argument("--moves", type=int, default=20, help="number of logged moves (default 20)")
+    parser.add_argument("--settle", type=float, default=2.6, help="settling wait after each move, s (thesis 2.6)")
+    parser.add_argument("--fault-rate", type=float, default=0.0, help="simulated fault probability per reply/window")
+    parser.add_argument("--seed", type=int, default=0,
+                        help="seed of the move programme and the simulation (same seed: same faults, counters, rows)")
+    parser.add_argument("--transport", choices=("virtual", "pty"), default="virtual",
+                        help="with --simulate: in-process devices on a simulated clock (virtual, repeatable, "
+                             "default) or real pseudo-terminals served in real time (pty)")
+    parser.add_argument("--out", required=True, help="CSV log to create (refuses to overwrite)")
+    parser.add_argument("--overwrite", action="store_true", help="replace an existing log")
+    parser.add_argument("--table-3-2", dest="table_3_2", metavar="FILE",
+                        help="also write the plain 7-column Table 3.2 view (for pcmm process_log) to FILE")
+    parser.add_argument("--resume", action="store_true", help="append to an existing log instead of creating one")
+    parser.add_argument("--repair", action="store_true", help="with --resume: cut a partial last row and report it")
+    parser.add_argument("--step-mm", type=float, default=4.0, help="largest motor step of the programme, mm")
+    parser.add_argument("--no-presequence", action="store_true", help="skip the settling pre-sequence")
+    parser.add_argument("--defects", action="store_true", help="simulate the thesis' dead spot and settling scatter")
+    parser.add_argument("--probe-mode", choices=("pin", "text"), default="pin", help="Arduino firmware mode")
+    parser.add_argument(
+        "--timeout", type=float, default=None, help="device reply timeout, s (default 0.5; simulated 0.1)"
+    )
+    parser.add_argument(
+        "--move-timeout", type=float, default=None, help="timeout of a motion reply, s (default 60; simulated 1)"
+    )
+    parser.add_argument("--port-zaber", help="port of the Zaber chain (real hardware; thesis COM11)")
+    for arm in _ARMS:
+        parser.add_argument(f"--port-laser-{arm}", help=f"port of laser {arm}")
+    parser.add_argument("--port-probe", help="port of the probe Arduino")
+    add_json_flag(parser)
+    parser.set_defaults(handler=_handle)
+
+
+def _open_log(args: argparse.Namespace, metadata: dict[str, Any]) -> Any:
+    from pathlib import Path
+
+    from pcmm_geo.acquisition.acqlog import AcquisitionLog
+
+    if args.resume and Path(args.out).exists():
+        return AcquisitionLog.resume(args.out, repair=args.repair)
+    return AcquisitionLog.create(args.out, metadata, overwrite=args.overwrite)
+
+
+def _check_args(args: argparse.Namespace) -> None:
+    # simulated devices answer at once: a lost reply should cost a fraction of a second, not a minute
+    if args.timeout is None:
+        args.timeout = 0.1 if args.simulate else 0.5
+    if args.move_timeout is None:
+        args.move_timeout = 1.0 if args.simulate else 60.0
+    from pcmm_geo.errors import InvalidInputError
+
+    if args.moves < 0:
+        raise InvalidInputError("--moves", "a non-negative integer", str(args.moves))
+    if not args.settle >= 0:
+        raise InvalidInputError("--settle", "a non-negative number of seconds", str(args.settle))
+    if not 0.0 <= args.fault_rate <= 1.0:
+        raise InvalidInputError("--fault-rate", "a probability in [0, 1]", str(args.fault_rate))
+    if args.fault_rate > 0 and not args.simulate:
+        raise InvalidInputError("--fault-rate", "0 unless --simulate", str(args.fault_rate))
+    if not args.step_mm > 0:
+        raise InvalidInputError("--step-mm", "a positive length", str(args.step_mm))
+    if not args.simulate:
+        for name in ("port_zaber", "port_laser_a", "port_laser_b", "port_laser_c", "port_probe"):
+            if not getattr(args, name):
+                raise InvalidInputError("--" + name.replace("_", "-"), "a port name (or use --simulate)", "nothing")
+
+
+def _handle(args: argparse.Namespace) -> Report:
+    import contextlib
+
+    _check_args(args)
+    with contextlib.ExitStack() as stack:
+        rig = None
+        if args.simulate:
+            from pcmm_geo.acquisition.simulators.cmm import SimulatedMicroCMM, SimulatedRig
+
+            cmm = SimulatedMicroCMM(
+                laser_noise=0.002 if args.defects else 0.0, dead_spot=4.0 if args.defects else 0.0,
+                settle_scatter=0.45 if args.defects else 0.0, seed=args.seed,
+            )
+            rig = stack.enter_context(
+                SimulatedRig(cmm, fault_rate=args.fault_rate, seed=args.seed, probe_mode=args.probe_mode,
+                             silence=max(0.1, 2 * args.timeout), transport=args.transport)
+            )
+            ports = dict(rig.ports)
+        else:
+            ports = {"zaber": args.port_zaber, "probe": args.port_probe}
+            ports.update({f"laser_{arm}": getattr(args, f"port_laser_{arm}") for arm in _ARMS})
+        session = _open_session(args, ports, stack, None if rig is None else rig.clock)
+        metadata = {
+            "mode": "simulated" if args.simulate else "hardware",
+            "ports": " ".join(f"{k}={v}" for k, v in ports.items()), "transport": args.transport,
+            "settle_s": args.settle, "moves_requested": args.moves, "seed": args.seed,
+            "fault_rate": args.fault_rate, "probe_mode": args.probe_mode, "presequence": not args.no_presequence,
+            "start_position_usteps": session.config.start_position,
+            "microstep_mm": session.motors.microstep_mm, "laser_models": "a=ILD1302 b=ILD1302 c=ILD1420",
+            **session.identify(),
+        }
+        log = stack.enter_context(_open_log(args, metadata))
+        session.log = log
+        session.prepare(presequence=not args.no_presequence)
+        if rig is not None:
+            rig.place_gauge_block(0.5)
+        _run_programme(session, args)
+        summary = session.summary()
+    data: dict[str, Any] = {"out": str(args.out), **summary.as_dict()}
+    if args.table_3_2:
+        from pcmm_geo.acquisition.acqlog import export_table_3_2
+
+        data["table_3_2"] = str(export_table_3_2(args.out, args.table_3_2, overwrite=args.overwrite))
+    data["resumed"] = bool(args.resume and log.recovery.rows)
+    data["truncated_bytes"] = log.recovery.dropped_bytes
+    if rig is not None:
+        data["injected_faults"] = rig.injected_faults
+    counters = [[key, value] for key, value in summary.as_dict().items()]
+    if rig is not None:
+        counters += [[f"injected {kind}", count] for kind, count in rig.injected_faults.items()]
+    lines = [f"wrote {summary.rows} rows to {args.out}"]
+    if log.recovery.truncated:
+        lines.append(f"cut a partial last row of {log.recovery.dropped_bytes} bytes before resuming")
+    return Report(data=data, tables=[Table("Acquisition session", ["counter", "value"], counters)], lines=lines)
+
+
+def _open_session(args: argparse.Namespace, ports: dict[str, Any], stack: Any, clock: Any = None) -> Any:
+    from pcmm_geo.acquisition.programme import open_session
+    return open_session(ports, stack, timeout=args.timeout, move_timeout=args.move_timeout,
+                        probe_mode=args.probe_mode, settle_time=args.settle, clock=clock)
+
+
+def _run_programme(session: Any, args: argparse.Namespace) -> None:
+    from pcmm_geo.acquisition.programme import run_random_programme
+    from pcmm_geo.cli._progress import progress_bar, progress_wanted
+
+    with progress_bar("acquiring", enabled=progress_wanted(args), total=args.moves) as update:
+        run_random_programme(session, args.moves, step_mm=args.step_mm, seed=args.seed, on_move=update)

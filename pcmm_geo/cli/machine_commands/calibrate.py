@@ -1,0 +1,106 @@
+"""``pcmm calibrate PROBINGS.csv LASERS.csv``: tetrahedron calibration from external-CMM probings (thesis ch. 7)."""
+
+from __future__ import annotations
+
+import argparse
+from typing import Any
+
+from pcmm_geo.cli._output import Report, Table, add_json_flag, add_plot_flag, add_report_flag
+from pcmm_geo.cli._record import UncertaintyEntry
+
+
+def register(subparsers: Any) -> None:
+    parser = subparsers.add_parser(
+        "calibrate",
+        help="calibrate the tetrahedron from external-CMM probings and laser readings (thesis ch. 7)",
+        description=(
+            "Fit the probed joint and tip spheres, the slider lines and laser scales, and report the thesis' "
+            "dead distances d (eq 7.3), arm angles beta (eq 7.4, corrected) and b (eq 7.5). PROBINGS.csv is "
+            "feature,position,x,y,z (feature joint_a|joint_b|joint_c|tip) or the thesis' x,y,z,d,r export; "
+            "LASERS.csv is position,laser_a,laser_b,laser_c (mm)."
+        ),
+    )
+    parser.add_argument("probings", help="probings CSV (raw points or element-level export)")
+    parser.add_argument("lasers", help="laser readings CSV position,laser_a,laser_b,laser_c")
+    parser.add_argument("--out", metavar="CAL.json", help="write the versioned calibration file")
+    parser.add_argument("--overwrite", action="store_true", help="replace existing --out, --plot and --report files")
+    parser.add_argument("--sweep", metavar="SWEEP.csv", help="laser sweep (position,laser_a,laser_b,laser_c) for b")
+    parser.add_argument("--start-of-range", type=float, default=60.0, help="laser start of range in mm (default 60)")
+    parser.add_argument("--probing-u", type=float, metavar="MM",
+                        help="standard uncertainty of one external-CMM probing (mm); with --laser-u gives the "
+                             "covariance of the calibrated parameters (table, JSON, --out file)")
+    parser.add_argument("--laser-u", type=float, metavar="MM",
+                        help="standard uncertainty of one laser reading at a calibration position (mm)")
+    add_plot_flag(parser, "a 3-D plot of slider lines, joint centres, tip and probe points (fig 7.2)")
+    add_report_flag(parser)
+    add_json_flag(parser)
+    parser.set_defaults(handler=_handle)
+
+
+def _handle(args: argparse.Namespace) -> Report:
+    from pathlib import Path
+
+    from pcmm_geo.errors import OutputExistsError
+    from pcmm_geo.machine.calibration import PAIRS, calibrate_tetrahedron, save_calibration
+    from pcmm_geo.machine.calibration.probings import read_lasers
+
+    if args.out and Path(args.out).exists() and not args.overwrite:
+        raise OutputExistsError(str(args.out))
+    sweep = None if args.sweep is None else read_lasers(args.sweep).readings
+    cal = calibrate_tetrahedron(
+        args.probings, args.lasers, laser_start_of_range=args.start_of_range, laser_sweep=sweep
+    )
+    data: dict[str, Any] = cal.summary()
+    lines: list[str] = []
+    covariance = None
+    if (args.probing_u is None) != (args.laser_u is None):
+        from pcmm_geo.errors import InvalidInputError
+
+        raise InvalidInputError("--probing-u/--laser-u", "both or neither", "only one of them")
+    if args.probing_u is not None:
+        from pcmm_geo.uncertainty.calibration import calibration_covariance
+
+        covariance = calibration_covariance(args.probings, args.lasers, probing_sigma=args.probing_u,
+                                            laser_sigma=args.laser_u, laser_start_of_range=args.start_of_range)
+        data["uncertainty"] = covariance.to_dict()
+        data["uncertainty"]["standard_uncertainties"] = covariance.standard_uncertainties
+    else:
+        lines.append("no uncertainty: give --probing-u and --laser-u (mm) for the parameters' covariance")
+    if args.out:
+        written = save_calibration(cal, args.out, overwrite=args.overwrite, covariance=covariance)
+        data["written"] = str(written)
+        lines.append(f"calibration written to {written}")
+    plots = []
+    if args.plot:
+        from pcmm_geo.plots.machine.calibration import plot_calibration
+
+        written_plot = plot_calibration(cal, args.plot, overwrite=args.overwrite)
+        data["plot"] = str(written_plot)
+        plots.append(str(written_plot))
+        lines.append(f"plot written to {written_plot}")
+    rows = []
+    for arm, pair in zip("abc", PAIRS, strict=True):
+        line = cal.slider_lines[arm]
+        rows.append([arm, cal.dead_distance[arm], pair, cal.beta[pair], cal.b_in[pair], line.laser_scale,
+                     line.laser_offset, line.straightness, line.tip_offset])
+    arms = Table(
+        "Tetrahedron calibration (Table 7.1 layout)",
+        ["arm", "d / mm", "pair", "beta / deg", "b / mm", "laser scale", "laser offset / mm", "straightness / mm",
+         "tip offset / mm"],
+        rows,
+    )
+    geometry = Table(
+        "Geometry",
+        ["quantity", "x / mm", "y / mm", "z / mm"],
+        [["tip centre", *cal.tip_centre.tolist()], ["probe point eq 7.2 (least squares)", *cal.probe_point.tolist()],
+         ["probe point (thesis pairwise)", *cal.probe_point_pairwise.tolist()]],
+    )
+    lines.insert(0, "skew distances / mm: " + ", ".join(f"{k} {v:.4f}" for k, v in cal.skew_distances.items()))
+    uncertainties = []
+    if covariance is not None:
+        method = (f"{covariance.method}; probing u = {1000 * args.probing_u:g} µm, "
+                  f"laser u = {1000 * args.laser_u:g} µm")
+        uncertainties = [UncertaintyEntry(row["name"], row["value"], row["standard_uncertainty"], row["unit"],
+                                          method=method) for row in covariance.table()]
+    return Report(data=data, tables=[arms, geometry], lines=lines, plots=plots, uncertainties=uncertainties)
+

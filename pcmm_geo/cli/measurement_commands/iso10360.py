@@ -1,0 +1,302 @@
+"""``pcmm iso10360-2``, ``pcmm iso10360-5`` and ``pcmm iso10360-6``: ISO 10360 acceptance-test evaluations.
+
+Verdict "fail" exits with code 1; bad files or impossible input with code 2.
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+from typing import Any
+
+from pcmm_geo.cli._output import (
+    EXIT_FAILURE,
+    EXIT_OK,
+    Report,
+    Table,
+    add_decimal_flag,
+    add_json_flag,
+    add_overwrite_flag,
+    add_plot_flag,
+    add_report_flag,
+)
+from pcmm_geo.cli._record import Verdict
+
+_INCOMPLETE_HELP = ("evaluate a data set that is not the standard's (verdict INCOMPLETE, never PASS); "
+                    "without it such a file is refused")
+
+
+def register(subparsers: Any) -> None:
+    p2 = subparsers.add_parser(
+        "iso10360-2",
+        help="ISO 10360-2 length test: E0 against MPE = A + L/K, repeatability R0",
+        description=(
+            "CSV header length_id,position,repetition,calibrated_length,measured_length (mm). "
+            "MPE_E0 = min(A + L/K, B) in micrometres with L in mm."
+        ),
+    )
+    p2.add_argument("file", help="CSV of measured test lengths")
+    p2.add_argument("--mpe-a", type=float, required=True, help="A in micrometres")
+    p2.add_argument("--mpe-k", type=float, required=True, help="K (L in mm, L/K in micrometres)")
+    p2.add_argument("--mpe-b", type=float, default=None, help="optional cap B in micrometres")
+    p2.add_argument("--rule", choices=("simple", "guarded", "iso14253"), default=None,
+                    help="decision rule: simple acceptance, guarded by --uncertainty, or the three-state "
+                         "ISO 14253-1 rule (PASS / FAIL / NOT PROVEN; the default when --uncertainty is given)")
+    p2.add_argument("--uncertainty", type=float, default=0.0, help="expanded test uncertainty U in micrometres")
+    p2.add_argument("--mpl-r0", type=float, default=None, help="limit of the repeatability range R0 in micrometres")
+    p2.add_argument("--allow-incomplete", action="store_true", help=_INCOMPLETE_HELP + " (5 lengths x 7 positions x 3)")
+    add_plot_flag(p2, "every E0 against its length with the MPE curve, and R0 per length")
+    add_report_flag(p2)
+    add_overwrite_flag(p2)
+    add_json_flag(p2)
+    p2.set_defaults(handler=_handle_2)
+
+    p5 = subparsers.add_parser(
+        "iso10360-5",
+        help="ISO 10360-5 probing test: P_FTU (form) and P_STU (size) on a calibrated sphere",
+        description="CSV header x,y,z (mm): the points probed on the test sphere (25 in the standard).",
+    )
+    p5.add_argument("file", help="CSV of probed points")
+    p5.add_argument("--reference-diameter", type=float, default=None,
+                    help="calibrated diameter in mm (default: the file's '# reference_diameter_mm: D' line)")
+    p5.add_argument("--mpe-form", type=float, default=None, help="MPE of P_FTU in micrometres")
+    p5.add_argument("--mpe-size", type=float, default=None, help="MPE of P_STU in micrometres")
+    p5.add_argument("--allow-incomplete", action="store_true", help=_INCOMPLETE_HELP + " (25 points)")
+    add_decimal_flag(p5)
+    p5.add_argument("--uncertainty", type=float, nargs=2, metavar=("U_FORM", "U_SIZE"), default=None,
+                    help="expanded test uncertainties of P_FTU and P_STU in micrometres: ISO 14253-1 decision "
+                         "(PASS / FAIL / NOT PROVEN)")
+    add_plot_flag(p5, "the residuals on the sphere (azimuth x elevation) and sorted")
+    add_report_flag(p5)
+    add_overwrite_flag(p5)
+    add_json_flag(p5)
+    p5.set_defaults(handler=_handle_5)
+
+    p6 = subparsers.add_parser(
+        "iso10360-6",
+        help="ISO 10360-6 software test: compare fit results with reference data sets",
+        description=(
+            "REFERENCE is a folder of NIST pairs (<Element>/<name>.ds + .fit) or a CSV/JSON of reference "
+            "parameters; RESULTS a CSV/JSON of the tested software's parameters (name,element,x,y,z,i,j,k,"
+            "size,size2,half_angle). Without RESULTS, pcmm_geo's own fits are tested."
+        ),
+    )
+    p6.add_argument("reference", help="reference folder or file")
+    p6.add_argument("results", nargs="?", default=None, help="results CSV/JSON (default: fit with pcmm_geo)")
+    p6.add_argument("--mpe-position", type=float, default=1e-9, help="mm (default 1e-9)")
+    p6.add_argument("--mpe-orientation", type=float, default=1e-9, help="rad (default 1e-9)")
+    p6.add_argument("--mpe-size", type=float, default=1e-9, help="mm (default 1e-9)")
+    p6.add_argument("--mpe-angle", type=float, default=1e-9, help="rad (default 1e-9)")
+    p6.add_argument("--markdown", action="store_true",
+                    help="deprecated (removed in the next release): use --report FILE.md")
+    add_plot_flag(p6, "each case's deviations as fractions of their MPE")
+    add_report_flag(p6)
+    add_overwrite_flag(p6)
+    add_json_flag(p6)
+    p6.set_defaults(handler=_handle_6)
+
+
+def _positive(name: str, value: float | None, *, allow_zero: bool = False) -> None:
+    from pcmm_geo.errors import InvalidInputError
+
+    if value is None:
+        return
+    if not math.isfinite(value) or value < 0 or (value == 0 and not allow_zero):
+        raise InvalidInputError(name, "a positive number" if not allow_zero else "a non-negative number", repr(value))
+
+
+def _handle_2(args: argparse.Namespace) -> Report:
+    from pcmm_geo.artefacts.iso10360_2 import LengthMpe, evaluate_length_test, read_length_test_csv
+
+    _positive("--uncertainty", args.uncertainty, allow_zero=True)
+    _positive("--mpl-r0", args.mpl_r0)
+    mpe = LengthMpe(args.mpe_a, args.mpe_k, args.mpe_b)
+    result = evaluate_length_test(
+        read_length_test_csv(args.file),
+        mpe,
+        decision_rule=args.rule or ("iso14253" if args.uncertainty > 0 else "simple"),
+        test_uncertainty=args.uncertainty / 1000.0,
+        mpl_r0=None if args.mpl_r0 is None else args.mpl_r0 / 1000.0,
+        allow_incomplete=args.allow_incomplete,
+    )
+    bad = [e for e in result.errors if not e.conforms]
+    data = {
+        "passed": result.passed,
+        "verdict": result.verdict,
+        "test_uncertainty_um": result.test_uncertainty * 1000,
+        "complete": result.complete,
+        "decision_rule": result.decision_rule,
+        "mpe": {"a_um": mpe.a_um, "k": mpe.k, "b_um": mpe.b_um},
+        "max_abs_error_um": result.max_abs_error * 1000,
+        "max_error_ratio": result.max_error_ratio,
+        "max_r0_um": result.max_range * 1000,
+        "n_values": len(result.errors),
+        "n_nonconforming": result.n_nonconforming,
+        "errors": [
+            {"length_id": e.length_id, "position": e.position, "repetition": e.repetition,
+             "calibrated_length_mm": e.calibrated_length, "error_um": e.error * 1000, "mpe_um": e.mpe * 1000,
+             "conforms": e.conforms, "verdict": e.verdict or ("PASS" if e.conforms else "FAIL")}
+            for e in result.errors
+        ],
+        "r0": [
+            {"length_id": r.length_id, "position": r.position, "range_um": r.range * 1000, "conforms": r.conforms}
+            for r in result.repeatability
+        ],
+    }
+    rows = [[f"{e.length_id}/{e.position}/{e.repetition}", e.calibrated_length, e.error * 1000, e.mpe * 1000]
+            for e in bad]
+    title = "E0 values not proven to conform" if result.errors[0].verdict else "Nonconforming E0 values"
+    tables = [Table(title, ["length/position/rep", "L / mm", "E0 / µm", "MPE / µm"], rows)] if rows else []
+    statement = f"ISO 10360-2: {result.verdict} ({len(result.errors)} values, " + (
+        ", ".join(f"{sum(e.verdict == v for e in result.errors)} {v}" for v in ("PASS", "NOT PROVEN", "FAIL"))
+        if result.errors[0].verdict else f"{result.n_nonconforming} nonconforming") + ")"
+    lines = [
+        statement,
+        f"max |E0| = {result.max_abs_error * 1000:.3f} µm ({result.max_error_ratio:.2f} of MPE), "
+        f"max R0 = {result.max_range * 1000:.3f} µm",
+        f"decision rule: {result.decision_rule}",
+    ]
+    rule = f"{result.decision_rule}, MPE_E0 = {_mpe_text(mpe)}"
+    if result.test_uncertainty > 0:
+        rule += f", U = {1000 * result.test_uncertainty:g} µm"
+    if args.mpl_r0 is not None:
+        rule += f"; R0 <= {args.mpl_r0:g} µm"
+    plots = _plot(args, "plot_length_test", result)
+    return Report(data=data, tables=tables, lines=lines, exit_code=EXIT_FAILURE if result.passed is False else EXIT_OK,
+                  plots=plots, verdict=Verdict(_passed(result.verdict), statement, rule))
+
+
+def _passed(verdict: str) -> bool | None:
+    """PASS -> True, FAIL -> False, NOT PROVEN (or no decision) -> None."""
+    return {"PASS": True, "FAIL": False}.get(verdict)
+
+
+def _mpe_text(mpe: object) -> str:
+    text = f"{mpe.a_um:g} µm + L / {mpe.k:g}"  # type: ignore[attr-defined]
+    cap = mpe.b_um  # type: ignore[attr-defined]
+    return text if cap is None else f"min({text}, {cap:g} µm)"
+
+
+def _plot(args: argparse.Namespace, function: str, *inputs: object) -> list[str]:
+    """Draw ``pcmm_geo.plots.verification.<function>(*inputs, args.plot)`` when --plot was given."""
+    if not args.plot:
+        return []
+    from pcmm_geo.plots import verification
+
+    return [str(getattr(verification, function)(*inputs, args.plot, overwrite=args.overwrite))]
+
+
+def _handle_5(args: argparse.Namespace) -> Report:
+    from pcmm_geo.artefacts.iso10360_5 import evaluate_probing, read_reference_diameter
+    from pcmm_geo.errors import InvalidInputError
+    from pcmm_geo.io.points import read_points
+
+    _positive("--mpe-form", args.mpe_form)
+    _positive("--mpe-size", args.mpe_size)
+    points = read_points(args.file, decimal=args.decimal)
+    stated = read_reference_diameter(args.file)
+    diameter = args.reference_diameter if args.reference_diameter is not None else stated
+    if diameter is None:
+        raise InvalidInputError("--reference-diameter", "the sphere's calibrated diameter in mm "
+                                f"(or a '# reference_diameter_mm: D' line in {args.file})", "neither")
+    if stated is not None and args.reference_diameter is not None and stated != args.reference_diameter:
+        raise InvalidInputError("--reference-diameter", f"the {stated} mm that {args.file} states",
+                                f"{args.reference_diameter} mm")
+    for value in args.uncertainty or ():
+        _positive("--uncertainty", value, allow_zero=True)
+    result = evaluate_probing(
+        points,
+        diameter,
+        mpe_form=None if args.mpe_form is None else args.mpe_form / 1000,
+        mpe_size=None if args.mpe_size is None else args.mpe_size / 1000,
+        allow_incomplete=args.allow_incomplete,
+        test_uncertainty=None if args.uncertainty is None else (args.uncertainty[0] / 1000,
+                                                                 args.uncertainty[1] / 1000),
+    )
+    data = {
+        "p_ftu_um": result.form_error * 1000,
+        "p_stu_um": result.size_error * 1000,
+        "fitted_diameter_mm": result.fitted_diameter,
+        "reference_diameter_mm": result.reference_diameter,
+        "centre_mm": result.centre,
+        "n_points": result.n,
+        "form_conforms": result.form_conforms,
+        "size_conforms": result.size_conforms,
+        "passed": result.passed,
+        "complete": result.complete,
+        "verdict": result.verdict,
+        "form_verdict": result.form_verdict or None,
+        "size_verdict": result.size_verdict or None,
+        "decision_rule": result.decision_rule,
+    }
+    table = Table(
+        "ISO 10360-5 probing test",
+        ["quantity", "value", "unit"],
+        [["P_FTU", result.form_error * 1000, "µm"], ["P_STU", result.size_error * 1000, "µm"],
+         ["fitted diameter", result.fitted_diameter, "mm"], ["reference diameter", result.reference_diameter, "mm"],
+         ["points", result.n, "1"]],
+    )
+    verdict = result.verdict
+    if result.test_uncertainty is not None and (result.form_verdict or result.size_verdict):
+        verdict += f" (P_FTU {result.form_verdict or '-'}, P_STU {result.size_verdict or '-'})"
+    lines = [f"verdict: {verdict}", f"decision rule: {result.decision_rule}"]
+    limits = [f"P_FTU <= {args.mpe_form:g} µm" if args.mpe_form is not None else "",
+              f"|P_STU| <= {args.mpe_size:g} µm" if args.mpe_size is not None else ""]
+    rule = (f"{result.decision_rule}: " + " and ".join(t for t in limits if t)) if any(limits) \
+        else "none (no MPE stated)"
+    plots = _plot(args, "plot_probing_test", result, points)
+    return Report(data=data, tables=[table], lines=lines, plots=plots,
+                  verdict=Verdict(_passed(verdict.split(" ")[0]), f"ISO 10360-5: {verdict}", rule),
+                  exit_code=EXIT_FAILURE if result.passed is False else EXIT_OK)
+
+
+def _handle_6(args: argparse.Namespace) -> Report:
+    from pcmm_geo.artefacts.iso10360_6 import HarnessMpe, compare_results, fit_with_pcmm_geo
+    from pcmm_geo.artefacts.iso10360_6_io import load_reference_cases, read_element_parameters
+
+    for name in ("mpe_position", "mpe_orientation", "mpe_size", "mpe_angle"):
+        _positive("--" + name.replace("_", "-"), getattr(args, name))
+    cases = load_reference_cases(args.reference)
+    results = fit_with_pcmm_geo(cases) if args.results is None else read_element_parameters(args.results)
+    mpe = HarnessMpe(args.mpe_position, args.mpe_orientation, args.mpe_size, args.mpe_angle)
+    report = compare_results(cases, results, mpe)
+
+    def num(value: float) -> float | None:
+        return None if math.isnan(value) else value
+
+    data = {
+        "passed": report.passed,
+        "n_cases": len(report.cases),
+        "n_failed": report.n_failed,
+        "mpe": {"position_mm": mpe.position, "orientation_rad": mpe.orientation, "size_mm": mpe.size,
+                "angle_rad": mpe.angle},
+        "cases": [
+            {"name": c.name, "element": c.element, "position_mm": num(c.position),
+             "orientation_rad": num(c.orientation), "size_mm": num(c.size), "angle_rad": num(c.angle),
+             "passed": c.passed, "note": c.note}
+            for c in report.cases
+        ],
+        "markdown": report.to_markdown(),
+    }
+    plots = _plot(args, "plot_software_test", report, mpe)
+    statement = (f"ISO 10360-6: {'PASS' if report.passed else 'FAIL'} "
+                 f"({len(report.cases) - report.n_failed}/{len(report.cases)} cases within MPE)")
+    verdict = Verdict(report.passed, statement,
+                      f"every deviation <= its MPE: position {mpe.position:g} mm, orientation {mpe.orientation:g} rad, "
+                      f"size {mpe.size:g} mm, angle {mpe.angle:g} rad")
+    if args.markdown:
+        import sys
+
+        print("pcmm iso10360-6: warning: --markdown is deprecated and will be removed in the next release; "
+              "use --report FILE.md", file=sys.stderr)
+        return Report(data=data, lines=[report.to_markdown().rstrip("\n")], plots=plots, verdict=verdict,
+                      exit_code=EXIT_OK if report.passed else EXIT_FAILURE)
+    table = Table(
+        "ISO 10360-6 software test",
+        ["case", "element", "position / mm", "orientation / rad", "size / mm", "angle / rad", "result"],
+        [[c.name, c.element, *(("-" if math.isnan(v) else v) for v in (c.position, c.orientation, c.size, c.angle)),
+          "pass" if c.passed else f"FAIL {c.note}".strip()]
+         for c in report.cases],
+    )
+    return Report(data=data, tables=[table], lines=[statement], plots=plots, verdict=verdict,
+                  exit_code=EXIT_OK if report.passed else EXIT_FAILURE)

@@ -1,0 +1,465 @@
+"""Shared machinery of the Gaussian fits: input checks, the result base class and the solver.
+
+Nothing here knows about a particular element; the element modules supply a
+function returning residuals and their analytic Jacobian in *standard position*
+(data centred, and for axial elements rotated so the estimated axis is +z).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import warnings
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from pcmm_geo.errors import (
+    ConvergenceError,
+    DegenerateGeometryError,
+    IllConditionedWarning,
+    InvalidInputError,
+    TooFewPointsError,
+)
+from pcmm_geo.fit._kernels._inputs import check_magnitude, real_array
+from pcmm_geo.fit._kernels._tall import tall_lstsq, tall_svd
+
+__all__ = [
+    "Certificate",
+    "FitResult",
+    "Tolerances",
+    "TOL",
+    "as_points",
+    "as_weights",
+    "solve_least_squares",
+    "SolverOutcome",
+    "rotation_to_z",
+    "unit",
+]
+
+FloatArray = NDArray[np.float64]
+
+
+@dataclass(frozen=True)
+class Tolerances:
+    """Numerical tolerances used by every fit (one documented object, like ``trimesh.tol``).
+
+    Attributes
+    ----------
+    step : float
+        Convergence: the Gauss-Newton step is below ``step * (scale + |x|)`` where
+        ``scale`` is the size of the data (mm).  Default 1e-14, well below the 1e-9 mm
+        accuracy target.
+    max_iterations : int
+        Iteration budget of the Levenberg-Marquardt loop.
+    identical : float
+        Points closer than ``identical * scale`` to each other count as the same point.
+    degenerate : float
+        Relative singular value below which data are called collinear / coplanar.
+    ill_conditioned : float
+        Condition number of the weighted Jacobian above which :class:`IllConditionedWarning`
+        is emitted.
+    ambiguous : float
+        Two distinct local minima of an axial fit (cylinder, cone, torus) whose sums of
+        squares differ by less than this fraction are indistinguishable:
+        :class:`~pcmm_geo.errors.AmbiguousFitWarning` is emitted with both.
+    rounding_floor : float
+        A Gauss-Newton step below ``rounding_floor * (scale + |x|)`` that is no longer at
+        least halving from one iteration to the next is rounding noise: the iteration stops
+        as converged (ill-conditioned data never reach ``step``).
+    """
+
+    step: float = 1e-14
+    max_iterations: int = 200
+    identical: float = 1e-12
+    degenerate: float = 1e-10
+    ill_conditioned: float = 1e10
+    rounding_floor: float = 1e-11
+    ambiguous: float = 0.01
+
+
+TOL = Tolerances()
+
+
+def unit(vector: ArrayLike) -> FloatArray:
+    """Return ``vector / |vector|`` along the last axis."""
+    arr = np.asarray(vector, dtype=float)
+    return arr / np.linalg.norm(arr, axis=-1, keepdims=True)
+
+
+def as_points(
+    points: ArrayLike,
+    *,
+    element: str,
+    dims: tuple[int, ...] = (3,),
+    min_points: int = 1,
+    name: str = "points",
+) -> FloatArray:
+    """Validate a point array and return it as a C-contiguous float64 ``(N, D)`` array.
+
+    Raises
+    ------
+    InvalidInputError
+        Wrong shape, non-numeric values, NaN or inf.
+    TooFewPointsError
+        Fewer than ``min_points`` rows.
+    DegenerateGeometryError
+        All points identical (when ``min_points > 1``).
+    """
+    arr = real_array(points, name)
+    shape_text = " or ".join(f"(N, {d})" for d in dims)
+    if arr.ndim != 2 or arr.shape[1] not in dims:
+        raise InvalidInputError(name, f"shape {shape_text}", f"shape {arr.shape}")
+    if arr.shape[0] < min_points:
+        raise TooFewPointsError(element, min_points, arr.shape[0])
+    # one sum is much cheaper than an element-wise mask; it is only non-finite when a value
+    # is (or when finite values overflow, which the mask then tells apart)
+    if not np.isfinite(arr.sum()):
+        bad = ~np.isfinite(arr)
+        if bad.any():
+            row = int(np.argwhere(bad)[0, 0])
+            raise InvalidInputError(name, "finite coordinates", f"{arr[row].tolist()} in row {row}")
+    check_magnitude(arr, name)
+    if min_points > 1:
+        spread = np.ptp(arr, axis=0).max()
+        scale = max(np.abs(arr).max(), 1.0)
+        if spread <= TOL.identical * scale:
+            raise DegenerateGeometryError(element, f"all {arr.shape[0]} points are identical")
+    return np.ascontiguousarray(arr)
+
+
+def as_weights(weights: ArrayLike | None, n: int, *, element: str) -> FloatArray | None:
+    """Validate per-point weights (``(N,)``, real, finite, non-negative, not all zero).
+
+    Raises
+    ------
+    InvalidInputError
+        Strings, complex numbers, a wrong shape, NaN/inf, a negative weight or all weights zero.
+    """
+    if weights is None:
+        return None
+    arr = real_array(weights, "weights")
+    if arr.shape != (n,):
+        raise InvalidInputError("weights", f"shape ({n},)", f"shape {arr.shape}")
+    if not np.all(np.isfinite(arr)):
+        row = int(np.argmax(~np.isfinite(arr)))
+        raise InvalidInputError("weights", "finite values", f"{arr[row]} at index {row}")
+    if np.any(arr < 0):
+        row = int(np.argmax(arr < 0))
+        raise InvalidInputError("weights", "non-negative values", f"{arr[row]} at index {row}")
+    if not np.any(arr > 0):
+        raise InvalidInputError("weights", "at least one positive weight", f"all {n} weights zero")
+    check_magnitude(arr, "weights")
+    return arr
+
+
+def rotation_to_z(direction: ArrayLike) -> FloatArray:
+    """Proper rotation matrix ``R`` with ``R @ direction_unit = (0, 0, 1)``.
+
+    Built with a Householder-free two-step construction that is exact for
+    ``direction = ±z`` (no singular axis).
+    """
+    d = unit(direction)
+    # pick the coordinate axis least aligned with d to build an orthonormal frame
+    helper = np.zeros(3)
+    helper[int(np.argmin(np.abs(d)))] = 1.0
+    e1 = unit(np.cross(helper, d))
+    e2 = np.cross(d, e1)
+    return np.vstack([e1, e2, d])
+
+
+@dataclass(frozen=True)
+class SolverOutcome:
+    """What :func:`solve_least_squares` found (internal, in standard position)."""
+
+    x: FloatArray
+    residuals: FloatArray
+    jacobian: FloatArray
+    converged: bool
+    iterations: int
+    message: str
+
+
+def solve_least_squares(
+    fun: Callable[[FloatArray], tuple[FloatArray, FloatArray]],
+    x0: ArrayLike,
+    *,
+    element: str,
+    scale: float = 1.0,
+    sqrt_weights: FloatArray | None = None,
+    normalize: Callable[[FloatArray], FloatArray] | None = None,
+    raise_on_failure: bool = True,
+) -> SolverOutcome:
+    """Levenberg-Marquardt with analytic Jacobian and QR-based (not normal-equation) steps.
+
+    Parameters
+    ----------
+    fun : callable
+        ``fun(x) -> (r, J)`` with residuals ``(M,)`` and Jacobian ``(M, P)``.
+    x0 : array_like, shape (P,)
+        Starting parameters.
+    element : str
+        Name used in error messages.
+    scale : float
+        Size of the problem (mm) for the relative step test.
+    sqrt_weights : ndarray, shape (M,), optional
+        Square roots of residual weights.
+    normalize : callable, optional
+        Applied to the parameters after each accepted step (e.g. renormalise a direction).
+    raise_on_failure : bool
+        Raise :class:`ConvergenceError` when the budget is exhausted (default); otherwise
+        return ``converged=False``.
+
+    Notes
+    -----
+    Convergence is declared when an undamped Gauss-Newton step is smaller than
+    ``TOL.step * (scale + |x|)``, or when it has reached the rounding floor (below
+    ``TOL.rounding_floor * (scale + |x|)`` and no longer shrinking): the first-order
+    optimality of the exact least-squares problem then holds far below the 1e-9 mm target.
+    """
+    x = np.array(x0, dtype=float)
+
+    def evaluate(params: FloatArray) -> tuple[FloatArray, FloatArray]:
+        r, jac = fun(params)
+        if sqrt_weights is not None:
+            r = r * sqrt_weights
+            jac = jac * sqrt_weights[:, None]
+        return r, jac
+
+    r, jac = evaluate(x)
+    cost = float(r @ r)
+    lam = 0.0
+    n_param = x.size
+    message = "iteration budget exhausted"
+    converged = False
+    iteration = 0
+    previous_gn = np.inf
+    stalled = False
+    for iteration in range(1, TOL.max_iterations + 1):  # noqa: B007 (reported after the loop)
+        if not np.all(np.isfinite(jac)) or not np.all(np.isfinite(r)):
+            message = "non-finite residuals or Jacobian"
+            break
+        gauss_newton = tall_lstsq(jac, -r)
+        gn_norm = float(np.linalg.norm(gauss_newton))
+        size = scale + float(np.linalg.norm(x))
+        if gn_norm <= TOL.step * size or (
+            # rounding floor: a tiny Gauss-Newton step that no longer shrinks (or that no
+            # damping can turn into a decrease of the cost) is rounding noise
+            gn_norm <= TOL.rounding_floor * size and (gn_norm >= 0.5 * previous_gn or stalled)
+        ):
+            x = x + gauss_newton
+            if normalize is not None:
+                x = normalize(x)
+            r, jac = evaluate(x)
+            converged, message = True, "converged: Gauss-Newton step below tolerance"
+            break
+        previous_gn = gn_norm
+        if lam > 0:
+            col_norm = np.linalg.norm(jac, axis=0)
+            col_norm[col_norm == 0] = 1.0
+            aug = np.vstack([jac, np.diag(np.sqrt(lam) * col_norm)])
+            step = tall_lstsq(aug, np.concatenate([-r, np.zeros(n_param)]))
+        else:
+            step = gauss_newton
+        trial = x + step
+        if normalize is not None:
+            trial = normalize(trial)
+        r_trial, jac_trial = evaluate(trial)
+        cost_trial = float(r_trial @ r_trial)
+        # undamped steps are accepted within rounding of the cost; damped ones must decrease it
+        if cost_trial < cost or (lam == 0.0 and cost_trial <= cost * (1 + 1e-12) + 1e-300):
+            x, r, jac, cost = trial, r_trial, jac_trial, cost_trial
+            lam = 0.0 if lam <= 1e-8 else lam / 10.0
+            stalled = False
+        else:
+            lam = 1e-6 if lam == 0.0 else lam * 10.0
+            stalled = True
+            if lam > 1e12:
+                message = "damping exhausted without decrease of the sum of squares"
+                break
+    if not converged and raise_on_failure:
+        raise ConvergenceError(element, iteration, message)
+    return SolverOutcome(x=x, residuals=r, jacobian=jac, converged=converged, iterations=iteration, message=message)
+
+
+def covariance_from_jacobian(
+    jacobian: FloatArray,
+    residuals: FloatArray,
+    dof: int,
+    *,
+    element: str,
+) -> tuple[FloatArray, float]:
+    """Parameter covariance ``s^2 (J^T J)^-1`` with ``s^2 = r.r / dof`` and the Jacobian's condition number.
+
+    Both ``jacobian`` and ``residuals`` are already weighted.  Emits
+    :class:`IllConditionedWarning` when the condition number exceeds ``TOL.ill_conditioned``.
+    """
+    sing, vt = tall_svd(jacobian)
+    if sing.size == 0 or sing[0] == 0:
+        raise DegenerateGeometryError(element, "Jacobian is zero")
+    cond = float(sing[0] / sing[-1]) if sing[-1] > 0 else float("inf")
+    if cond > TOL.ill_conditioned:
+        warnings.warn(
+            f"{element}: ill-conditioned fit (condition number {cond:.3g}); parameters are poorly determined",
+            IllConditionedWarning,
+            stacklevel=3,
+        )
+    variance = float(residuals @ residuals) / dof if dof > 0 else float("nan")
+    with np.errstate(divide="ignore"):
+        inv = np.where(sing > 0, 1.0 / sing**2, np.inf)
+    cov = (vt.T * inv) @ vt * variance
+    return cov, cond
+
+
+@dataclass(frozen=True, eq=False)
+class Certificate:
+    """Optimality certificate of a minimum-zone, minimum-circumscribed or maximum-inscribed fit.
+
+    The fits minimise a max-type objective over the element parameters ``x``; at the
+    optimum the contact (support) points satisfy the Karush-Kuhn-Tucker conditions
+    ``sum_k s_k lambda_k grad d_k(x) = 0`` with ``lambda_k >= 0`` (``s_k = +1`` on the
+    outer level, ``-1`` on the inner one) and the multipliers of each level summing to 1.
+
+    Attributes
+    ----------
+    multipliers : ndarray, shape (M,)
+        KKT multipliers of the contacts (same order as the result's ``contacts``).
+    kkt_residual : float
+        Norm of the stationarity residual relative to the gradient scale (dimensionless).
+    feasibility : float
+        Largest distance by which any point lies outside the reported zone (mm; 0 when inside).
+    certified : bool
+        Multipliers non-negative, ``kkt_residual`` and ``feasibility`` within tolerance.
+    method : str
+        How the optimum was found (e.g. ``"slp+kkt-newton"``).
+    """
+
+    multipliers: FloatArray
+    kkt_residual: float
+    feasibility: float
+    certified: bool
+    method: str
+
+
+@dataclass(frozen=True, kw_only=True, eq=False)
+class FitResult:
+    """Fields shared by every fit result (element parameters are added by subclasses).
+
+    Attributes
+    ----------
+    residuals : ndarray, shape (N,)
+        Signed orthogonal distances of the points from the fitted element (mm),
+        positive outside / along the normal.
+    rms : float
+        Root mean square of ``residuals`` (unweighted), mm.
+    form : float
+        Form error, ``max(residuals) - min(residuals)``, mm.
+    n : int
+        Number of points.
+    dof : int
+        Degrees of freedom, residual count minus number of parameters.
+    parameter_names : tuple of str
+        Names of the entries of ``parameters`` and of the rows/columns of ``covariance``.
+    parameters : ndarray, shape (P,)
+        The fitted parameters in that order (machine frame, mm / rad).
+    covariance : ndarray, shape (P, P)
+        Parameter covariance ``s^2 (J^T J)^-1`` from the (weighted) Jacobian at the solution,
+        ``s^2`` = weighted sum of squares / dof.  Zero for exact data, NaN when dof = 0.
+    condition_number : float
+        Condition number of the weighted Jacobian.
+    converged : bool
+    iterations : int
+    message : str
+    method : str
+        ``"gaussian"`` (orthogonal-distance least squares) or a named variant.
+    criterion : str
+        ``"gaussian"`` (least squares, default), ``"chebyshev"`` (minimum zone), ``"mcc"``
+        (minimum circumscribed) or ``"mic"`` (maximum inscribed).
+    contacts : ndarray of int, shape (M,)
+        Indices of the support points of a non-Gaussian fit (empty for Gaussian fits).
+    certificate : Certificate or None
+        Optimality certificate of a non-Gaussian fit (``None`` for Gaussian fits).
+    """
+
+    residuals: FloatArray
+    rms: float
+    form: float
+    n: int
+    dof: int
+    parameter_names: tuple[str, ...]
+    parameters: FloatArray
+    covariance: FloatArray
+    condition_number: float
+    converged: bool
+    iterations: int
+    message: str
+    method: str = "gaussian"
+    extra: dict[str, Any] = field(default_factory=dict)
+    criterion: str = "gaussian"
+    contacts: NDArray[np.intp] = field(default_factory=lambda: np.zeros(0, dtype=np.intp))
+    certificate: Certificate | None = None
+
+    @property
+    def std_errors(self) -> dict[str, float]:
+        """Standard uncertainty of each parameter (square root of the covariance diagonal)."""
+        diag = np.sqrt(np.clip(np.diag(self.covariance), 0.0, None))
+        return dict(zip(self.parameter_names, diag.tolist(), strict=True))
+
+    @property
+    def sum_of_squares(self) -> float:
+        """Sum of squared residuals (unweighted), mm^2."""
+        return float(self.residuals @ self.residuals)
+
+    def to_dict(self) -> dict[str, Any]:
+        """JSON-ready dictionary (arrays as lists, residuals included)."""
+        out: dict[str, Any] = {"element": type(self).__name__}
+        for f in dataclasses.fields(self):
+            value = getattr(self, f.name)
+            out[f.name] = _jsonable(value)
+        out["std_errors"] = self.std_errors
+        return out
+
+    def __repr__(self) -> str:  # compact: geometry and statistics, not N residuals
+        geometry = ", ".join(
+            f"{f.name}={_short(getattr(self, f.name))}"
+            for f in dataclasses.fields(self)
+            if f.name not in _BASE_FIELDS
+        )
+        return (
+            f"{type(self).__name__}({geometry}, n={self.n}, rms={self.rms:.6g}, form={self.form:.6g}, "
+            f"converged={self.converged})"
+        )
+
+
+_BASE_FIELDS = {f.name for f in dataclasses.fields(FitResult)}
+
+
+def _short(value: Any) -> str:
+    if isinstance(value, np.ndarray):
+        return np.array2string(value, precision=9, separator=", ")
+    if isinstance(value, float):
+        return f"{value:.12g}"
+    return repr(value)
+
+
+def _jsonable(value: Any) -> Any:
+    if isinstance(value, Certificate):
+        return {f.name: _jsonable(getattr(value, f.name)) for f in dataclasses.fields(value)}
+    if isinstance(value, np.ndarray):
+        return value.tolist()
+    if isinstance(value, np.generic):
+        return value.item()
+    if isinstance(value, dict):
+        return {str(k): _jsonable(v) for k, v in value.items()}
+    if isinstance(value, (list, tuple)):
+        return [_jsonable(v) for v in value]
+    return value
+
+
+def residual_stats(residuals: FloatArray) -> tuple[float, float]:
+    """Return ``(rms, form)`` of a residual vector."""
+    if residuals.size == 0:
+        return 0.0, 0.0
+    return float(np.sqrt(np.mean(residuals**2))), float(residuals.max() - residuals.min())

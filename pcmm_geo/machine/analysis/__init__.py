@@ -1,0 +1,16 @@
+"""What the machine measured and how sensitive it is: log processing and sensitivity.
+
+What lives here:
+
+- :mod:`~pcmm_geo.machine.analysis.logproc` -- processing of the seed's measurement log
+  (thesis 3.6, Table 3.2; 5.2; Appendix D) into probe-tip positions, with the rigid-body model
+  or the seed's DPKM;
+- :mod:`~pcmm_geo.machine.analysis.logproc_rows` -- the log's rows: array type, CSV reader
+  and writer;
+- :mod:`~pcmm_geo.machine.analysis.sensitivity` -- sensitivity of the tip to laser and encoder
+  readings over the working cube.
+
+May import: :mod:`pcmm_geo.machine.kinematics`, :mod:`pcmm_geo.acquisition` (to read its logs),
+:mod:`pcmm_geo.errors` and the lower layers (:mod:`pcmm_geo.fit`, :mod:`pcmm_geo.io`,
+:mod:`pcmm_geo.thermal`).  Not :mod:`pcmm_geo.machine.calibration`, nothing above the machine.
+"""

@@ -1,0 +1,369 @@
+"""Processing of the seed's measurement log (thesis 3.6, Table 3.2; 5.2; Appendix D).
+
+The log rows (``start_stop,probe,motor,direction,laser_a,laser_b,laser_c``), their array
+type :class:`MeasurementLog` and the CSV reader/writer live in
+:mod:`pcmm_geo.machine.analysis.logproc_rows` and are re-exported here.
+
+How the seed used the rows (Appendix D, lines 98-257)
+-----------------------------------------------------
+* Row 1 sets the datum ``z_a = 0`` and derives the other heights from laser pairs.
+* On a *stop* row only the motor moved can have changed height: the other two pivots
+  keep their previous heights and the moved pivot's height is re-derived from the
+  laser pair with its neighbour (eqs 2.3-2.8: a from c, b from a, c from b).
+* On a *start* row whose lasers differ from the previous row (the machine had not
+  settled, thesis 3.5) the motor of the *previous* row is treated as still moving; if
+  the lasers are identical the heights are copied.
+* ``direction`` chose the sign of ``dz`` (moved pivot above or below its neighbour);
+  with ``direction = 0`` the sign that keeps the height nearest its previous value was
+  used.  Note that the joystick direction says whether the pivot moved *up or down*,
+  not whether it ends *above or below* its neighbour: the seed's use of it as the sign
+  of ``dz`` is only right when the pivot stays on one side of its neighbour.
+* Probe points are the rows with ``probe = 1``.
+
+This module keeps the seed's row logic (which heights are held, which arm moved)
+but replaces the per-pair height formula by the rigid-body model: for each row the
+pose is solved from the three lasers with the two held heights fixed, starting from
+the previous heights, so the branch (above/below) follows continuity; the direction
+flag is only *checked* (``direction_consistent``).
+
+Examples
+--------
+>>> from pcmm_geo.machine.kinematics.model import RigidBodyMachine
+>>> machine = RigidBodyMachine.from_dpkm()
+>>> start = machine.reference_heights + [0.0, 60.0, -50.0]  # not level: see process_log
+>>> log = synthesise_log(machine, start, [(1, 5.0, True), (2, -4.0, True)])
+>>> processed = process_log(machine, log, initial_heights=start)
+>>> processed.probe_points.shape
+(2, 3)
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Mapping, Sequence
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from pcmm_geo.errors import InvalidInputError
+from pcmm_geo.machine.analysis.logproc_rows import LOG_COLUMNS, MeasurementLog, read_log, write_log
+from pcmm_geo.machine.kinematics import _pose_solver as solver
+from pcmm_geo.machine.kinematics.model import ARMS, RigidBodyMachine, as_readings
+
+__all__ = [
+    "LOG_COLUMNS",
+    "MeasurementLog",
+    "ProcessedLog",
+    "process_log",
+    "process_log_dpkm",
+    "read_log",
+    "synthesise_log",
+    "write_log",
+]
+
+FloatArray = NDArray[np.float64]
+IntArray = NDArray[np.int64]
+
+
+@dataclass(frozen=True)
+class ProcessedLog:
+    """Result of :func:`process_log`.
+
+    Attributes
+    ----------
+    heights : ndarray, shape (N, 3)
+        Pivot height readings per row (mm; absolute only up to the datum of row 1).
+    tips : ndarray, shape (N, 3)
+        Probe-tip centre per row (machine frame, mm).
+    probe_rows : ndarray of int, shape (M,)
+        Indices of rows with ``probe = 1``.
+    probe_points : ndarray, shape (M, 3)
+        ``tips[probe_rows]``.
+    moved_arm : ndarray of int, shape (N,)
+        Arm index (0, 1, 2) whose height was solved on each row; -1 = all (row 1) or copied.
+    residuals : ndarray, shape (N, 9)
+        Loop-closure residuals with the measured lasers and held heights (mm).
+    direction_consistent : ndarray of bool, shape (N,)
+        False where the solved height change of the moved arm contradicts ``direction``
+        by more than 1 um.
+    converged : ndarray of bool, shape (N,)
+    """
+
+    heights: FloatArray
+    tips: FloatArray
+    probe_rows: IntArray
+    probe_points: FloatArray
+    moved_arm: IntArray
+    residuals: FloatArray
+    direction_consistent: NDArray[np.bool_]
+    converged: NDArray[np.bool_]
+
+
+def synthesise_log(
+    machine: RigidBodyMachine,
+    initial_heights: ArrayLike,
+    moves: Sequence[tuple[int, float, bool]],
+) -> MeasurementLog:
+    """Noise-free log of single-motor moves computed with the rigid-body model.
+
+    Each move ``(motor, height_change, probe)`` adds a start row (lasers before the move,
+    ``direction = sign(height_change)``) and a stop row (lasers after it) whose probe flag
+    is ``probe``.  Lasers come from :meth:`RigidBodyMachine.forward` with heights only.
+
+    Raises
+    ------
+    InvalidInputError
+        Motor not 1, 2 or 3.
+
+    Examples
+    --------
+    >>> m = RigidBodyMachine.from_dpkm()
+    >>> len(synthesise_log(m, m.reference_heights, [(3, 2.0, True)]))
+    2
+    """
+    heights = [as_readings(initial_heights, "initial_heights").astype(float)]
+    flags: list[tuple[int, int, int, int]] = []
+    for motor, change, touching in moves:
+        if motor not in (1, 2, 3):
+            raise InvalidInputError("motor", "1, 2 or 3", repr(motor))
+        direction = int(np.sign(change))
+        flags.append((1, 0, motor, direction))
+        heights.append(heights[-1])
+        after = heights[-1].copy()
+        after[motor - 1] += change
+        flags.append((0, int(bool(touching)), motor, direction))
+        heights.append(after)
+    state_heights = np.array(heights[1:])
+    lasers = machine.forward(heights=state_heights).lasers
+    table = np.array(flags, dtype=np.int64).reshape(-1, 4)
+    return MeasurementLog(table[:, 0], table[:, 1], table[:, 2], table[:, 3], lasers)
+
+
+def process_log(
+    machine: RigidBodyMachine,
+    log: MeasurementLog,
+    *,
+    initial_heights: ArrayLike | None = None,
+    laser_sigma: float = 1e-3,
+    progress: Callable[[int, int], None] | None = None,
+) -> ProcessedLog:
+    """Pivot heights and probe points from a Table 3.2 log (see the module notes).
+
+    Parameters
+    ----------
+    machine : RigidBodyMachine
+    log : MeasurementLog
+    initial_heights : array_like, shape (3,), optional
+        Heights of the first row used as datum and starting branch (default: the
+        machine's reference heights).  With parallel columns the lasers cannot see a
+        common height offset, so this datum carries through the whole log.
+    laser_sigma : float
+        Standard uncertainty of a laser reading (weights only; mm).
+    progress : callable, optional
+        ``progress(rows_done, rows_total)``, called every 100 rows and at the end.
+
+    Returns
+    -------
+    ProcessedLog
+
+    Notes
+    -----
+    With level pivots the lasers do not see the pivot heights to first order (the pivot
+    distances change only with the square of a height difference), see
+    :mod:`pcmm_geo.machine.analysis.sensitivity`.  A log that starts in or passes through the
+    level pose is therefore poorly determined there (``converged`` False or branch
+    changes); keep the pivots a few tens of millimetres apart in height.
+
+    Raises
+    ------
+    InvalidInputError
+        Bad ``initial_heights`` or ``laser_sigma``.
+
+    Examples
+    --------
+    >>> m = RigidBodyMachine.from_dpkm()
+    >>> start = m.reference_heights + [0.0, 60.0, -50.0]
+    >>> log = synthesise_log(m, start, [(2, 10.0, True)])
+    >>> out = process_log(m, log, initial_heights=start)
+    >>> bool(abs(out.heights[-1, 1] - start[1] - 10.0) < 1e-6)
+    True
+    """
+    if not (np.isfinite(laser_sigma) and laser_sigma > 0):
+        raise InvalidInputError("laser_sigma", "a positive finite number", str(laser_sigma))
+    datum = machine.reference_heights if initial_heights is None else as_readings(initial_heights, "initial_heights")
+    count = len(log)
+    geometry = machine.geometry
+    heights = np.empty((count, 3))
+    tips = np.empty((count, 3))
+    residuals = np.zeros((count, 9))
+    moved = np.full(count, -1, dtype=np.int64)
+    consistent = np.ones(count, dtype=bool)
+    converged = np.ones(count, dtype=bool)
+    state: solver.PoseState | None = None
+    for row in range(count):
+        if progress is not None and row % 100 == 0:
+            progress(row, count)
+        lasers = log.lasers[row : row + 1]
+        if row == 0:
+            first = machine.forward(lasers=lasers[0], heights_hint=datum, laser_sigma=laser_sigma)
+            state = solver.PoseState(
+                first.rotation[None], first.translation[None], first.lasers[None], first.heights[None],
+                np.array([bool(first.converged)]), first.iterations,
+            )
+            residuals[row] = first.residuals
+        else:
+            previous = heights[row - 1]
+            if log.start_stop[row] == 1 and np.array_equal(log.lasers[row], log.lasers[row - 1]):
+                heights[row], tips[row] = previous, tips[row - 1]
+                residuals[row] = residuals[row - 1]
+                continue
+            arm = int(log.motor[row] if log.start_stop[row] == 0 else log.motor[row - 1]) - 1
+            direction = int(log.direction[row] if log.start_stop[row] == 0 else log.direction[row - 1])
+            moved[row] = arm
+            assert state is not None
+            start = solver.PoseState(
+                state.rotation, state.translation, lasers.copy(), previous[None].copy(), state.converged, 0
+            )
+            w_lasers = np.full((1, 3), 1.0 / laser_sigma)
+            w_heights = np.full((1, 3), 1e3 / laser_sigma)  # held pivots: motors did not move
+            w_heights[0, arm] = 0.0
+            state = solver.solve_pose(
+                geometry, start, laser_weight=w_lasers, height_weight=w_heights, laser_target=lasers,
+                height_target=previous[None], rcond=solver.UNOBSERVABLE,
+            )
+            reported = solver.PoseState(
+                state.rotation, state.translation, lasers, state.heights, state.converged, state.iterations
+            )
+            residuals[row] = solver.closure(geometry, reported)[0]
+            change = state.heights[0, arm] - previous[arm]
+            consistent[row] = direction == 0 or abs(change) <= 1e-3 or np.sign(change) == direction
+        heights[row] = state.heights[0]
+        tips[row] = state.rotation[0] @ geometry.tip_centre + state.translation[0]
+        converged[row] = bool(state.converged[0])
+    if progress is not None:
+        progress(count, count)
+    probe_rows = np.flatnonzero(log.probe == 1)
+    return ProcessedLog(
+        heights=heights,
+        tips=tips,
+        probe_rows=probe_rows,
+        probe_points=tips[probe_rows],
+        moved_arm=moved,
+        residuals=residuals,
+        direction_consistent=consistent,
+        converged=converged,
+    )
+
+
+#: neighbour used by the seed to re-derive a moved pivot's height (Appendix D): a from c, b from a, c from b
+SEED_NEIGHBOUR = {0: 2, 1: 0, 2: 1}
+
+
+def process_log_dpkm(
+    log: MeasurementLog,
+    *,
+    dead_distance: Mapping[str, float],
+    beta_deg: Mapping[str, float],
+    column_points: Mapping[str, ArrayLike],
+    initial_heights: ArrayLike,
+    sign_rule: str = "continuity",
+    start_of_range: float = 60.0,
+) -> ProcessedLog:
+    """The seed's own processing: eqs 2.3-2.8 per laser pair, then eqs 2.9-2.18 (corrected).
+
+    Row logic as in the module notes.  On each row the moved pivot ``i`` gets
+    ``z_i = z_n +- |dz_in|`` from its seed neighbour ``n`` (a from c, b from a, c from b)
+    with ``|dz|`` from eqs 2.5-2.8 and ``b`` the xy distance of the (vertical) columns.
+    The probe is :func:`pcmm_geo.machine.kinematics.dpkm.dpkm_probe` of the pivots (the seed
+    geometry: slider lines meeting at the tip, vertical columns).
+
+    Parameters
+    ----------
+    log : MeasurementLog
+    dead_distance, beta_deg : mapping
+        ``d_i`` (mm, without the 60 mm start of range) and ``beta_in`` (degrees, "ab", "bc", "ca").
+    column_points : mapping arm -> (x, y)
+        Vertical column positions (mm).
+    initial_heights : array_like, shape (3,)
+        Heights of the first row (the seed used ``z_a = 0``).
+    sign_rule : {"continuity", "seed_direction"}
+        ``"continuity"``: the sign giving the height nearest the previous one (correct while
+        the pivot does not cross its neighbour's height); ``"seed_direction"``: the seed's
+        rule, ``+`` when the row's direction is +1, ``-`` when -1 (continuity when 0).
+
+    Returns
+    -------
+    ProcessedLog
+        ``residuals`` hold the b-c / c-a / a-b pair closure ``|z_j - z_k| - |dz_jk|`` in
+        the first three columns (mm), zeros elsewhere.
+
+    Raises
+    ------
+    InvalidInputError
+        Unknown ``sign_rule``.
+    NoRealSolutionError
+        A laser pair gives pivots closer than their column spacing, or the spheres miss.
+
+    Examples
+    --------
+    >>> from pcmm_geo.machine.kinematics import dpkm
+    >>> m = RigidBodyMachine.from_dpkm()
+    >>> start = m.reference_heights + [0.0, 60.0, -50.0]
+    >>> log = synthesise_log(m, start, [(1, 5.0, True)])
+    >>> out = process_log_dpkm(log, dead_distance=dpkm.TABLE_3_1_DEAD_DISTANCE, beta_deg=dpkm.TABLE_3_1_BETA_DEG,
+    ...                        column_points=dpkm.APPENDIX_D_COLUMN_POINTS, initial_heights=start)
+    >>> bool(abs(out.heights[-1, 0] - start[0] - 5.0) < 1e-9)
+    True
+    """
+    from pcmm_geo.machine.kinematics.dpkm import arm_lengths, dpkm_probe, height_difference
+
+    if sign_rule not in ("continuity", "seed_direction"):
+        raise InvalidInputError("sign_rule", "'continuity' or 'seed_direction'", repr(sign_rule))
+    xy = np.array([np.asarray(column_points[arm], dtype=float)[:2] for arm in ARMS])
+    lengths = arm_lengths(log.lasers, dead_distance, start_of_range=start_of_range)
+    pair_of = {(0, 1): "ab", (1, 2): "bc", (2, 0): "ca"}
+
+    def dz(row: int, i: int, j: int) -> float:
+        key = (i, j) if (i, j) in pair_of else (j, i)
+        beta = np.radians(beta_deg[pair_of[key]])
+        return float(height_difference(lengths[row, i], lengths[row, j], beta, np.linalg.norm(xy[i] - xy[j])))
+
+    count = len(log)
+    heights = np.empty((count, 3))
+    moved = np.full(count, -1, dtype=np.int64)
+    consistent = np.ones(count, dtype=bool)
+    heights[0] = as_readings(initial_heights, "initial_heights")
+    for row in range(1, count):
+        heights[row] = heights[row - 1]
+        if log.start_stop[row] == 1 and np.array_equal(log.lasers[row], log.lasers[row - 1]):
+            continue
+        stop = log.start_stop[row] == 0
+        arm = int(log.motor[row] if stop else log.motor[row - 1]) - 1
+        direction = int(log.direction[row] if stop else log.direction[row - 1])
+        moved[row] = arm
+        neighbour = SEED_NEIGHBOUR[arm]
+        size = dz(row, arm, neighbour)
+        above, below = heights[row, neighbour] + size, heights[row, neighbour] - size
+        nearest = above if abs(above - heights[row - 1, arm]) <= abs(below - heights[row - 1, arm]) else below
+        if sign_rule == "seed_direction" and direction != 0:
+            heights[row, arm] = above if direction > 0 else below
+        else:
+            heights[row, arm] = nearest
+        change = heights[row, arm] - heights[row - 1, arm]
+        consistent[row] = direction == 0 or abs(change) <= 1e-3 or np.sign(change) == direction
+    pivots = np.concatenate([np.broadcast_to(xy, (count, 3, 2)), heights[..., None]], axis=-1)
+    tips = dpkm_probe(pivots, lengths).point
+    residuals = np.zeros((count, 9))
+    for k, (i, j) in enumerate(((1, 2), (2, 0), (0, 1))):
+        residuals[:, k] = [abs(heights[r, i] - heights[r, j]) - dz(r, i, j) for r in range(count)]
+    probe_rows = np.flatnonzero(log.probe == 1)
+    return ProcessedLog(
+        heights=heights,
+        tips=tips,
+        probe_rows=probe_rows,
+        probe_points=tips[probe_rows],
+        moved_arm=moved,
+        residuals=residuals,
+        direction_consistent=consistent,
+        converged=np.ones(count, dtype=bool),
+    )

@@ -1,0 +1,122 @@
+"""Plot of a minimum-zone form evaluation: the deviations inside their zone, contacts marked."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+from pcmm_geo.plots._figure import check_plot_path, new_figure, save_figure
+
+if TYPE_CHECKING:
+    from pcmm_geo.fit.zone.form import FormEvaluation
+
+__all__ = ["plot_form_zone"]
+
+
+def plot_form_zone(evaluation: FormEvaluation, path: str | Path, *, overwrite: bool = False) -> Path:
+    """Draw the zone and the deviations of a :class:`~pcmm_geo.fit.zone.form.FormEvaluation`.
+
+    Roundness: a polar profile (deviations magnified about the mid-zone circle) between the
+    inner and outer zone circles.  Other characteristics: the deviation of every point from
+    the mid-zone element (µm) against the point index, with the zone limits.  Contact
+    (support) points are red.
+
+    Parameters
+    ----------
+    evaluation : FormEvaluation
+    path : str or Path
+        ``.png``, ``.svg`` or ``.pdf``.
+    overwrite : bool
+        Replace an existing file.
+
+    Returns
+    -------
+    Path
+
+    Raises
+    ------
+    OutputExistsError
+        ``path`` exists and ``overwrite`` is False.
+    InvalidInputError
+        Unsupported suffix.
+
+    Examples
+    --------
+    >>> import os, tempfile
+    >>> from pcmm_geo.fit.zone import evaluate_form
+    >>> angles = np.linspace(0, 2 * np.pi, 36, endpoint=False)
+    >>> radii = 5 + 0.002 * np.cos(3 * angles)
+    >>> evaluation = evaluate_form(np.c_[radii * np.cos(angles), radii * np.sin(angles)], "circle")
+    >>> plot_form_zone(evaluation, os.path.join(tempfile.mkdtemp(), "zone.png")).name
+    'zone.png'
+    """
+    check_plot_path(path, overwrite=overwrite)
+    fit = evaluation.fit
+    deviations_um = 1000.0 * np.asarray(fit.residuals, dtype=float)
+    contacts = np.asarray(fit.contacts, dtype=int)
+    width_um = 1000.0 * evaluation.deviation
+    title = f"{evaluation.characteristic} {width_um:.4g} µm (minimum zone"
+    title += ", certified)" if evaluation.certified else ", NOT certified)"
+    if evaluation.tolerance is not None:
+        title += f"  tolerance {1000.0 * evaluation.tolerance:.4g} µm: {evaluation.verdict.upper()}"
+    is_circle = evaluation.element == "circle"
+    figure = new_figure(6.5 if is_circle else 8.0, 6.0 if is_circle else 3.8)
+    if is_circle:
+        _polar(figure, evaluation, deviations_um, contacts, width_um)
+    else:
+        _band(figure, deviations_um, contacts, evaluation)
+    figure.suptitle(title, fontsize=10)
+    return save_figure(figure, path, overwrite=overwrite)
+
+
+def _polar(figure, evaluation, deviations_um, contacts, width_um) -> None:
+    """Polar profile: the zone drawn as a ring of fixed width, deviations to scale within it."""
+    fit = evaluation.fit
+    rel = np.asarray(evaluation.points, dtype=float) - fit.center
+    if rel.shape[1] == 3:  # angles in the circle's plane
+        helper = np.zeros(3)
+        helper[int(np.argmin(np.abs(fit.normal)))] = 1.0
+        first = np.cross(helper, fit.normal)
+        first /= np.linalg.norm(first)
+        rel = np.column_stack([rel @ first, rel @ np.cross(fit.normal, first)])
+    angles = np.arctan2(rel[:, 1], rel[:, 0])
+    order = np.argsort(angles)
+    axes = figure.add_subplot(projection="polar")
+    half_ring = 0.5 * max(width_um, 1e-12)
+    base = 2.0 * half_ring  # inner zone circle; the ring between base and base + width is the zone
+    radius_plot = base + half_ring + deviations_um
+    theta = np.linspace(0, 2 * np.pi, 361)
+    for level, style in ((base, "-"), (base + 2 * half_ring, "-"), (base + half_ring, ":")):
+        axes.plot(theta, np.full_like(theta, level), style, color="tab:green", linewidth=1.0)
+    axes.plot(angles[order], radius_plot[order], ".-", color="tab:blue", markersize=3, linewidth=0.6)
+    axes.plot(angles[contacts], radius_plot[contacts], "o", color="tab:red", markersize=7, label="contacts")
+    axes.set_ylim(0, base + 2.6 * half_ring)
+    axes.set_yticklabels([])
+    axes.legend(loc="lower right", fontsize=8)
+    axes.set_title(
+        f"r_in {fit.r_in:.6f} mm, r_out {fit.r_out:.6f} mm (green ring = zone, deviations to scale)", fontsize=8
+    )
+
+
+def _band(figure, deviations_um, contacts, evaluation) -> None:
+    axes = figure.add_subplot()
+    index = np.arange(len(deviations_um))
+    fit = evaluation.fit
+    if evaluation.element == "line" and fit.parameters.size == 6:
+        low, high = 0.0, 1000.0 * evaluation.deviation / 2
+        label = "distance from the axis / µm"
+    else:
+        low, high = -500.0 * evaluation.deviation, 500.0 * evaluation.deviation
+        label = "deviation from the mid-zone element / µm"
+    axes.axhspan(low, high, color="tab:green", alpha=0.12, label="minimum zone")
+    axes.axhline(low, color="tab:green", linewidth=1.0)
+    axes.axhline(high, color="tab:green", linewidth=1.0)
+    axes.plot(index, deviations_um, ".", color="tab:blue", markersize=3)
+    axes.plot(index[contacts], deviations_um[contacts], "o", color="tab:red", markersize=7, label="contacts")
+    margin = 0.3 * (high - low) if high > low else 1.0
+    axes.set_ylim(low - margin, high + margin)
+    axes.set_xlabel("point")
+    axes.set_ylabel(label)
+    axes.legend(loc="upper right", fontsize=8, ncol=2)

@@ -1,0 +1,93 @@
+"""Plot of a processed measurement log: tip path with probe points, pivot heights, closure residuals."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+from pcmm_geo.plots._figure import ARM_COLOURS, check_plot_path, equal_3d_limits, new_figure, save_figure
+
+if TYPE_CHECKING:
+    from pcmm_geo.machine.analysis.logproc import ProcessedLog
+
+__all__ = ["plot_processed_log"]
+
+
+def plot_processed_log(processed: ProcessedLog, path: str | Path, *, overwrite: bool = False) -> Path:
+    """Write the log plot: 3-D tip path and probe points; pivot heights and closure residual per row.
+
+    Parameters
+    ----------
+    processed : ProcessedLog
+        Result of :func:`pcmm_geo.machine.analysis.logproc.process_log` (mm).
+    path : str or Path
+        Destination, ``.png``, ``.svg`` or ``.pdf``.
+    overwrite : bool
+        Replace an existing file.
+
+    Returns
+    -------
+    Path
+        The written file.
+
+    Raises
+    ------
+    OutputExistsError
+        ``path`` exists and ``overwrite`` is False.
+    InvalidInputError
+        Unsupported suffix.
+    OSError
+        The folder does not exist or is not writable.
+
+    Examples
+    --------
+    >>> import os, tempfile
+    >>> from pcmm_geo.machine.analysis.logproc import process_log, synthesise_log
+    >>> from pcmm_geo.machine.kinematics.model import RigidBodyMachine
+    >>> machine = RigidBodyMachine.from_dpkm()
+    >>> start = machine.reference_heights + [0.0, 60.0, -50.0]
+    >>> log = synthesise_log(machine, start, [(1, 5.0, True), (2, -4.0, True), (3, 3.0, False)])
+    >>> processed = process_log(machine, log, initial_heights=start)
+    >>> plot_processed_log(processed, os.path.join(tempfile.mkdtemp(), "log.png")).name
+    'log.png'
+    """
+    check_plot_path(path, overwrite=overwrite)
+    tips = np.asarray(processed.tips, dtype=float)
+    rows = np.arange(1, len(tips) + 1)
+    figure = new_figure(12.0, 6.0)
+    grid = figure.add_gridspec(2, 2, width_ratios=(1.2, 1.0))
+
+    path_axes = figure.add_subplot(grid[:, 0], projection="3d")
+    path_axes.plot(*tips.T, color="tab:grey", linewidth=0.8, label="tip path")
+    if len(processed.probe_rows):
+        path_axes.scatter(*np.asarray(processed.probe_points).T, color="red", s=22, depthshade=False,
+                          label=f"probe points ({len(processed.probe_rows)})")
+    failed = ~np.asarray(processed.converged, dtype=bool)
+    if failed.any():
+        path_axes.scatter(*tips[failed].T, color="black", marker="x", s=30, depthshade=False,
+                          label=f"not converged ({int(failed.sum())})")
+    equal_3d_limits(path_axes, tips)
+    path_axes.set_xlabel("x / mm")
+    path_axes.set_ylabel("y / mm")
+    path_axes.set_zlabel("z / mm")
+    path_axes.set_title(f"Probe-tip path over {len(tips)} rows")
+    path_axes.legend(loc="upper left", fontsize=8)
+
+    height_axes = figure.add_subplot(grid[0, 1])
+    heights = np.asarray(processed.heights, dtype=float)
+    for k, arm in enumerate(ARM_COLOURS):
+        height_axes.plot(rows, heights[:, k] - heights[0, k], color=ARM_COLOURS[arm], label=f"pivot {arm}")
+    height_axes.set_ylabel("height change / mm")
+    height_axes.set_title("Pivot heights relative to row 1", fontsize=10)
+    height_axes.legend(fontsize=8)
+
+    residual_axes = figure.add_subplot(grid[1, 1], sharex=height_axes)
+    closure_um = 1000.0 * np.max(np.abs(np.asarray(processed.residuals, dtype=float)), axis=1)
+    residual_axes.plot(rows, np.maximum(closure_um, 1e-9), color="tab:purple", linewidth=0.8)
+    residual_axes.set_yscale("log")
+    residual_axes.set_xlabel("log row")
+    residual_axes.set_ylabel("largest closure / µm")
+    residual_axes.set_title("Loop-closure residual per row", fontsize=10)
+    return save_figure(figure, path, overwrite=overwrite)
