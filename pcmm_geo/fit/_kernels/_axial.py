@@ -154,6 +154,8 @@ def as_axis_hint(axis_hint: ArrayLike | None) -> FloatArray | None:
     return hint / length
 
 
+#: Points used by the direction screening (:mod:`pcmm_geo.fit._kernels._screen`), evenly strided.
+SCREEN_POINTS = 64
 #: Dense data (more points than the screening uses): starting axes within this angle (rad) of
 #: an earlier one share its basin and are dropped (each start is a full fit of all points).
 _DENSE_MERGE = np.radians(1.0)
@@ -165,8 +167,6 @@ def candidate_axes(centred: FloatArray, extra: Sequence[FloatArray | None] = ())
     Near-duplicates (|cos| > 1 - 1e-9; for data denser than the screening subset, within
     1 degree of an earlier start) are dropped.
     """
-    from pcmm_geo.fit._kernels._screen import SCREEN_POINTS
-
     _, vt = principal_axes(centred)
     merge = np.cos(_DENSE_MERGE) if centred.shape[0] > SCREEN_POINTS else 1 - 1e-9
     out: list[FloatArray] = []

@@ -25,13 +25,13 @@ from functools import lru_cache
 import numpy as np
 from numpy.typing import NDArray
 
+from pcmm_geo.fit._kernels._axial import SCREEN_POINTS
+
 FloatArray = NDArray[np.float64]
 
 #: Vectorised reduced cost: local points ``(D, n, 3)`` (z = trial axis) -> sum of squares ``(D,)``.
 ReducedCost = Callable[[FloatArray], FloatArray]
 
-#: Points used for screening (evenly strided); the fit itself always uses all of them.
-SCREEN_POINTS = 64
 #: Lattice size on the hemisphere (spacing about sqrt(2 pi / count) rad = 8 degrees).
 LATTICE = 240
 #: Nearest lattice neighbours that a local minimum must not exceed.
