@@ -9,10 +9,16 @@ The nearest surface point of every query point is found in three steps
 2. **upper bound** -- the distance ``d0`` from the point to that triangle is evaluated in
    double precision.  It is the distance to an actual triangle, so the true nearest
    triangle is never farther than ``d0``, whatever the single-precision search did;
-3. **proof or correction** -- every triangle whose axis-aligned box comes within ``d0``
-   (with a relative slack of 1e-9 for rounding) is found with scipy k-d trees over the
-   triangle centroids (one tree per size class, searched to ``d0`` plus the class's largest
-   centroid-to-corner distance) and evaluated in double precision; the nearest is kept.
+3. **proof or correction** -- every triangle that could come within ``d0`` (with a relative
+   slack of 1e-9 for rounding) is evaluated in double precision and the nearest is kept.
+   Such a triangle has its centroid within ``d0`` plus its own centroid-to-corner radius of
+   the point.  Most points are answered from a list, made once per triangle, of the
+   triangles with the nearest centroids: when ``d0`` plus the largest radius plus the
+   point's distance from the candidate's centroid stays below the radius up to which that
+   list is complete, the list holds every such triangle (triangle inequality), so no search
+   is needed.  The other points search scipy k-d trees over the centroids (one per size
+   class, to ``d0`` plus the class's largest radius).  Box and plane lower bounds discard
+   most pairs before the exact evaluation.
 
 No float32 error bound is needed for correctness: step 3 only relies on ``d0``, a double
 precision distance to a real triangle.  The float32 error (of order 1e-7 of the coordinates)
@@ -46,7 +52,17 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from pcmm_geo.artefacts._triangle import closest_on_triangles
+from pcmm_geo.artefacts._triangle import (
+    ROUNDING,
+    SLACK,
+    NeighbourLists,
+    SizeClass,
+    closest_on_triangles,
+    listed_pairs,
+    neighbour_lists,
+    pairs_within,
+    size_classes,
+)
 from pcmm_geo.errors import InvalidInputError
 from pcmm_geo.fit._kernels._core import as_points
 from pcmm_geo.fit.scale import is_dask_array
@@ -61,19 +77,10 @@ IntArray = NDArray[np.int64]
 
 #: barycentric coordinate below which a nearest point counts as lying on an edge or vertex
 _ON_BOUNDARY = 1e-9
-#: distances below this fraction of the coordinates' size are rounding noise
-_ROUNDING = 1e-12
-#: relative slack on the search distance (rounding of box and triangle distances)
-_SLACK = 1e-9
 #: points handled at once (bounds the memory of the candidate pairs)
 _POINTS_PER_BLOCK = 65_536
 #: point-triangle pairs evaluated at once
 _PAIRS_PER_BLOCK = 1_000_000
-#: neighbours asked of a k-d tree first (more for the points that have more within reach)
-_FIRST_NEIGHBOURS = 6
-#: triangle size classes (half box diagonals within a factor 2 of each other, the last takes the rest)
-_SIZE_CLASSES = 8
-
 @dataclass(frozen=True)
 class SurfaceDistances:
     """Nearest surface points and signed distances of points from a mesh.
@@ -189,16 +196,6 @@ def surface_distances(points: ArrayLike, mesh: trimesh.Trimesh, *, require_close
     return index.distances(points)
 
 
-@dataclass(frozen=True)
-class _SizeClass:
-    """Triangles of similar size: a k-d tree over their centroids and their largest centroid-to-corner distance."""
-
-    members: IntArray
-    tree: Any
-    reach: float
-    member_reach: FloatArray
-
-
 @dataclass(frozen=True, eq=False)
 class SurfaceIndex:
     """A mesh prepared for repeated exact distance queries (build once with :meth:`build`).
@@ -218,6 +215,8 @@ class SurfaceIndex:
         Corners of each triangle's axis-aligned box (mm).
     size_classes : tuple
         Triangles grouped by size, each group with a k-d tree over its centroids.
+    neighbours : NeighbourLists
+        For each triangle, the triangles with centroids nearest to its own (the local proof).
     scene_origin : ndarray, shape (3,)
         Centre of the mesh's box: the open3d scene holds ``vertices - scene_origin`` in float32.
     vertices, faces : ndarray
@@ -230,7 +229,8 @@ class SurfaceIndex:
     corner_normals: FloatArray
     box_lower: FloatArray
     box_upper: FloatArray
-    size_classes: tuple[_SizeClass, ...]
+    size_classes: tuple[SizeClass, ...]
+    neighbours: NeighbourLists
     scene_origin: FloatArray
     vertices: FloatArray
     faces: IntArray
@@ -265,7 +265,7 @@ class SurfaceIndex:
         lower, upper = triangles.min(axis=1), triangles.max(axis=1)
         return cls(triangles=triangles, face_normals=face_normals, edge_normals=edge_normals,
                    corner_normals=corner_normals, box_lower=lower, box_upper=upper,
-                   size_classes=_size_classes(triangles),
+                   size_classes=size_classes(triangles), neighbours=neighbour_lists(triangles),
                    scene_origin=(vertices.min(axis=0) + vertices.max(axis=0)) / 2, vertices=vertices, faces=faces)
 
     def __getstate__(self) -> dict[str, Any]:
@@ -325,7 +325,7 @@ class SurfaceIndex:
         signed = sign * distance
         # nearest point inside a face: the gradient is that face's normal, exactly; at an edge or
         # a vertex it points from the nearest point, unless the distance is down at rounding level
-        rounding = _ROUNDING * (1.0 + np.abs(query).max(axis=1))
+        rounding = ROUNDING * (1.0 + np.abs(query).max(axis=1))
         from_feature = ~inside_face & (distance > rounding)
         direction = pseudo_normal.copy()
         direction[from_feature] = offset[from_feature] / signed[from_feature, None]
@@ -344,10 +344,15 @@ class SurfaceIndex:
         """Nearest surface point, squared distance, triangle and barycentric weights of every point (exact)."""
         face_index = self.candidates(query)
         closest, squared, barycentric = closest_on_triangles(query, self.triangles[face_index])
-        # every triangle whose box is within the candidate's exact distance could be nearer
-        reach = np.sqrt(squared) * (1.0 + _SLACK) + _ROUNDING * (1.0 + np.abs(query).max(axis=1))
-        for group in self.size_classes:
-            point_of_pair, triangle_of_pair = _pairs_within(group, query, reach)
+        # every triangle within the candidate's exact distance could be nearer
+        rounding = ROUNDING * (1.0 + np.abs(query).max(axis=1))
+        reach = np.sqrt(squared) * (1.0 + SLACK) + rounding
+        found = [listed_pairs(self.neighbours, query, reach, face_index, rounding)]
+        rest = found[0][2]
+        for group in self.size_classes if len(rest) else ():
+            point_of_pair, triangle_of_pair = pairs_within(group, query[rest], reach[rest])
+            found.append((rest[point_of_pair], triangle_of_pair, rest))
+        for point_of_pair, triangle_of_pair, _ in found:
             for chunk in range(0, len(point_of_pair), _PAIRS_PER_BLOCK):
                 rows = slice(chunk, chunk + _PAIRS_PER_BLOCK)
                 self._keep_nearer(query, point_of_pair[rows], triangle_of_pair[rows], reach,
@@ -360,19 +365,21 @@ class SurfaceIndex:
         """Evaluate the pairs whose box lies within reach; keep (in place) any strictly nearer triangle."""
         other = triangle_of_pair != face_index[point_of_pair]
         point_of_pair, triangle_of_pair = point_of_pair[other], triangle_of_pair[other]
-        gap = np.maximum(np.maximum(self.box_lower[triangle_of_pair] - query[point_of_pair],
-                                    query[point_of_pair] - self.box_upper[triangle_of_pair]), 0.0)
-        keep = np.einsum("ij,ij->i", gap, gap) <= reach[point_of_pair] ** 2
-        point_of_pair, triangle_of_pair = point_of_pair[keep], triangle_of_pair[keep]
+        point = query[point_of_pair]
+        pair_reach = reach[point_of_pair]
+        gap = np.maximum(np.maximum(self.box_lower[triangle_of_pair] - point, point - self.box_upper[triangle_of_pair]),
+                         0.0)
+        keep = np.flatnonzero(np.einsum("ij,ij->i", gap, gap) <= pair_reach * pair_reach)
+        point_of_pair, triangle_of_pair, point, pair_reach = (point_of_pair[keep], triangle_of_pair[keep],
+                                                              point[keep], pair_reach[keep])
+        corners = self.triangles[triangle_of_pair]
         # the distance to a triangle's plane is a lower bound of the distance to the triangle
-        to_plane = np.einsum("ij,ij->i", query[point_of_pair] - self.triangles[triangle_of_pair, 0],
-                             self.face_normals[triangle_of_pair])
-        keep = np.abs(to_plane) <= reach[point_of_pair] * (1.0 + _SLACK)
-        point_of_pair, triangle_of_pair = point_of_pair[keep], triangle_of_pair[keep]
-        if len(point_of_pair) == 0:
+        to_plane = np.einsum("ij,ij->i", point - corners[:, 0], self.face_normals[triangle_of_pair])
+        keep = np.flatnonzero(np.abs(to_plane) <= pair_reach * (1.0 + SLACK))
+        if len(keep) == 0:
             return
-        on_triangle, pair_squared, pair_weights = closest_on_triangles(query[point_of_pair],
-                                                                       self.triangles[triangle_of_pair])
+        point_of_pair, triangle_of_pair = point_of_pair[keep], triangle_of_pair[keep]
+        on_triangle, pair_squared, pair_weights = closest_on_triangles(point[keep], corners[keep])
         order = np.lexsort((triangle_of_pair, pair_squared, point_of_pair))
         first = order[np.r_[True, point_of_pair[order][1:] != point_of_pair[order][:-1]]]
         winners = first[pair_squared[first] < squared[point_of_pair[first]]]
@@ -420,49 +427,3 @@ def _feature_normals(mesh: trimesh.Trimesh, triangles: FloatArray) -> tuple[Floa
     vertex_sum = np.zeros((len(mesh.vertices), 3))
     np.add.at(vertex_sum, faces.ravel(), (face_normals[:, None, :] * corner_angles[:, :, None]).reshape(-1, 3))
     return face_normals, edge_sum[unique_edges], vertex_sum[faces]
-
-
-def _size_classes(triangles: FloatArray) -> tuple[_SizeClass, ...]:
-    """Triangles grouped by circumscribing radius about the centroid (factor 2 per group), with k-d trees.
-
-    Every point of a triangle lies within its largest centroid-to-corner distance of its
-    centroid, so a triangle within ``d`` of a point has its centroid within ``d`` plus
-    that radius.
-    """
-    from scipy.spatial import cKDTree
-
-    centroids = triangles.mean(axis=1)
-    radius = np.linalg.norm(triangles - centroids[:, None, :], axis=2).max(axis=1) * (1.0 + _SLACK)
-    largest = max(float(radius.max()), 1e-300)
-    with np.errstate(divide="ignore"):
-        level = np.floor(np.log2(largest / np.maximum(radius, 1e-300)))
-    level = np.clip(level, 0, _SIZE_CLASSES - 1).astype(np.int64)
-    groups = []
-    for value in np.unique(level):
-        members = np.flatnonzero(level == value)
-        groups.append(_SizeClass(members=members, tree=cKDTree(centroids[members]),
-                                 reach=float(radius[members].max()), member_reach=radius[members]))
-    return tuple(groups)
-
-
-def _pairs_within(group: _SizeClass, query: FloatArray, reach: FloatArray) -> tuple[IntArray, IntArray]:
-    """Point-triangle pairs with the centroid within the point's ``reach`` plus the triangle's own radius."""
-    count = len(group.members)
-    rows = np.arange(len(query))
-    radius = reach + group.reach
-    asked = _FIRST_NEIGHBOURS
-    points, triangles = [], []
-    while rows.size:
-        asked = min(asked, count)
-        distance, neighbour = group.tree.query(query[rows], k=asked, distance_upper_bound=float(radius[rows].max()),
-                                               workers=-1)
-        distance, neighbour = distance.reshape(len(rows), -1), neighbour.reshape(len(rows), -1)
-        complete = ~(distance[:, -1] <= radius[rows]) | (asked == count)
-        member = np.minimum(neighbour, count - 1)
-        close = (distance <= reach[rows, None] + group.member_reach[member]) & complete[:, None]
-        pair_row, pair_column = np.nonzero(close)
-        points.append(rows[pair_row])
-        triangles.append(group.members[member[pair_row, pair_column]])
-        rows = rows[~complete]
-        asked *= 4
-    return np.concatenate(points), np.concatenate(triangles)

@@ -154,15 +154,57 @@ def test_distances_equal_a_search_over_every_triangle(mesh_number: int) -> None:
 @pytest.mark.parametrize("mesh_number", [0, 1])
 def test_a_wrong_candidate_is_corrected(monkeypatch: pytest.MonkeyPatch, mesh_number: int) -> None:
     """open3d's float32 candidate replaced by a far triangle and the pairs split into tiny blocks: still exact."""
+    from pcmm_geo.artefacts import _triangle
+
     mesh = _fine_meshes()[mesh_number]
     points = np.random.default_rng(4).uniform(mesh.bounds[0] - 3.0, mesh.bounds[1] + 3.0, (200, 3))
     index = SurfaceIndex.build(mesh)
     far = np.argmax(points @ -index.triangles.mean(axis=1).T, axis=1)  # roughly opposite, far away
     monkeypatch.setattr(SurfaceIndex, "candidates", lambda self, query: far[: len(query)])
     monkeypatch.setattr(cad_distance, "_PAIRS_PER_BLOCK", 64)
-    monkeypatch.setattr(cad_distance, "_FIRST_NEIGHBOURS", 2)
+    monkeypatch.setattr(_triangle, "_FIRST_NEIGHBOURS", 2)
     found = index.distances(points)
     np.testing.assert_allclose(np.abs(found.signed_distance), _brute_force_distances(points, mesh), rtol=0, atol=1e-12)
+
+
+@pytest.mark.parametrize("mesh_number", [1, 2])
+def test_neighbour_lists_correct_a_nearby_wrong_candidate(monkeypatch: pytest.MonkeyPatch, mesh_number: int) -> None:
+    """Near-surface points given a wrong but adjacent candidate are answered (and corrected) from the
+    per-triangle neighbour lists, without a tree search; with the lists switched off the trees agree.
+    (On the cylinder's long facets the lists are too short to prove anything: the trees answer.)"""
+    import trimesh
+
+    from pcmm_geo.artefacts import _triangle
+
+    meshes = [*_fine_meshes(), trimesh.creation.icosphere(subdivisions=4, radius=10.0)]
+    mesh = meshes[mesh_number]
+    on_surface, _ = trimesh.sample.sample_surface(mesh, 400, seed=11 + mesh_number)
+    points = on_surface + 0.02 * np.random.default_rng(12).standard_normal((400, 3))
+    truth = _brute_force_distances(points, mesh)
+    index = SurfaceIndex.build(mesh)
+    true_face = index.candidates(points)
+    listed = index.neighbours.listed[true_face]
+    wrong = np.where(listed[:, 1] != true_face, listed[:, 1], listed[:, 2])  # a neighbour, not the nearest
+    monkeypatch.setattr(SurfaceIndex, "candidates", lambda self, query: wrong[: len(query)].copy())
+    answered = []
+    spy = _triangle.listed_pairs
+
+    def counting(*args: object) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        found = spy(*args)
+        answered.append(len(args[1]) - len(found[2]))
+        return found
+
+    monkeypatch.setattr(cad_distance, "listed_pairs", counting)
+    found = index.distances(points)
+    assert sum(answered) > (30 if mesh_number == 1 else 200)  # proved from the lists (the torus' facets are long)
+    assert np.count_nonzero(found.face_index != wrong) > 350  # and corrected
+    np.testing.assert_allclose(np.abs(found.signed_distance), truth, rtol=0, atol=1e-12)
+    monkeypatch.setattr(_triangle, "_LISTED_NEIGHBOURS", 1)  # lists hold only the triangle itself
+    trees_only = SurfaceIndex.build(mesh)
+    answered.clear()
+    found = trees_only.distances(points)
+    assert sum(answered) == 0
+    np.testing.assert_allclose(np.abs(found.signed_distance), truth, rtol=0, atol=1e-12)
 
 
 def test_adversarial_points_match_a_double_precision_brute_force() -> None:
