@@ -24,6 +24,8 @@ from __future__ import annotations
 
 from pcmm_geo._optional import require
 from pcmm_geo.errors import (
+    AmbiguousFitError,
+    AmbiguousFitWarning,
     CalibrationError,
     ConvergenceError,
     DegenerateGeometryError,
@@ -52,6 +54,8 @@ __all__ = [
     "InvalidInputError",
     "TooFewPointsError",
     "DegenerateGeometryError",
+    "AmbiguousFitError",
+    "AmbiguousFitWarning",
     "ConvergenceError",
     "NoRealSolutionError",
     "OutputExistsError",

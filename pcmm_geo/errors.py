@@ -26,6 +26,7 @@ __all__ = [
     "InvalidInputError",
     "TooFewPointsError",
     "DegenerateGeometryError",
+    "AmbiguousFitError",
     "ConvergenceError",
     "NoRealSolutionError",
     "FileFormatError",
@@ -38,6 +39,7 @@ __all__ = [
     "MissingDependencyError",
     "IncompleteTestError",
     "IllConditionedWarning",
+    "AmbiguousFitWarning",
     "PcmmGeoWarning",
 ]
 
@@ -78,11 +80,24 @@ class TooFewPointsError(PcmmGeoError, ValueError):
 class DegenerateGeometryError(PcmmGeoError, ValueError):
     """The data cannot determine the element (collinear points for a plane, coplanar for a sphere...).
 
-    Fields: ``element``, ``reason``.
+    Fields: ``element``, ``reason`` and any extra given (batch fits add ``set_index``).
     """
 
-    def __init__(self, element: str, reason: str) -> None:
-        super().__init__(f"{element}: degenerate data: {reason}", element=element, reason=reason)
+    def __init__(self, element: str, reason: str, **fields: Any) -> None:
+        super().__init__(f"{element}: degenerate data: {reason}", element=element, reason=reason, **fields)
+
+
+class AmbiguousFitError(DegenerateGeometryError):
+    """The data admit several equally good solutions and nothing tells them apart.
+
+    Example: a sphere of fixed radius through coplanar points (its centre and the mirror
+    image of the centre in the points' plane fit equally well).
+
+    Fields: ``element``, ``reason``, ``candidates`` (the competing solutions, e.g. centres).
+    """
+
+    def __init__(self, element: str, reason: str, candidates: Any) -> None:
+        super().__init__(element, reason, candidates=candidates)
 
 
 class ConvergenceError(PcmmGeoError, RuntimeError):
@@ -204,3 +219,26 @@ class PcmmGeoWarning(UserWarning):
 
 class IllConditionedWarning(PcmmGeoWarning):
     """A fit or calibration is poorly determined by its data (large condition number, tiny arc...)."""
+
+
+class AmbiguousFitWarning(IllConditionedWarning):
+    """A fit found two or more distinct local minima of practically equal sum of squares.
+
+    The data cannot tell the competing solutions apart (sparse points on a cylinder, cone
+    or torus); the least is returned, but another is about as good.
+
+    Fields: ``element``; ``minima``, a tuple of dicts (``sum_of_squares``, ``axis``, ``point``
+    and the element's size parameters), the returned one first; ``margin``, the relative
+    difference of sums of squares below which minima count as indistinguishable.
+    """
+
+    def __init__(self, element: str, minima: tuple[dict[str, Any], ...], margin: float) -> None:
+        costs = ", ".join(f"{m['sum_of_squares']:.6g}" for m in minima)
+        super().__init__(
+            f"{element}: {len(minima)} distinct least-squares minima with sums of squares within "
+            f"{margin:.0%} of each other ({costs} mm^2); the data cannot tell them apart "
+            "(add points or pass axis_hint)"
+        )
+        self.element = element
+        self.minima = minima
+        self.margin = margin

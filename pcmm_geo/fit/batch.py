@@ -22,7 +22,8 @@ from pcmm_geo.fit._kernels._batch_cov import (
     projected_circle_covariance,
 )
 from pcmm_geo.fit._kernels._core import TOL
-from pcmm_geo.fit._kernels._linear import frozen
+from pcmm_geo.fit._kernels._inputs import check_magnitude, real_array
+from pcmm_geo.fit._kernels._linear import frozen, weighted_centroid
 
 __all__ = [
     "BatchFit",
@@ -167,10 +168,7 @@ def _as_stack(points: ArrayLike, *, element: str, dims: tuple[int, ...], min_poi
             "fit each group of equal size, or use the single fit per set)",
             f"{len(sizes)} sets of {counts} points",
         )
-    try:
-        arr = np.asarray(points, dtype=float)
-    except (TypeError, ValueError):
-        raise InvalidInputError("points", "an array of numbers", type(points).__name__) from None
+    arr = real_array(points, "points")
     if arr.ndim != 3 or arr.shape[2] not in dims:
         shapes = " or ".join(f"(K, N, {d})" for d in dims)
         raise InvalidInputError("points", f"shape {shapes}", f"shape {arr.shape}")
@@ -179,7 +177,36 @@ def _as_stack(points: ArrayLike, *, element: str, dims: tuple[int, ...], min_poi
     if not np.all(np.isfinite(arr)):
         bad = int(np.argwhere(~np.isfinite(arr))[0, 0])
         raise InvalidInputError("points", "finite coordinates", f"NaN or inf in set {bad}")
+    check_magnitude(arr, "points")
     return arr
+
+
+def _check_sets(stack: FloatArray, singular: FloatArray, *, element: str, rank: int) -> None:
+    """The single fits' degeneracy tests, per set: identical points, and rank below ``rank``.
+
+    ``singular`` are the singular values (K, D) of the centred sets, descending.  The error
+    names the first offending set (field ``set_index``).
+    """
+    count = len(stack)
+    scale = np.maximum(np.max(np.abs(stack), axis=(1, 2)), 1.0)
+    identical = singular[:, 0] <= TOL.identical * scale
+    if np.any(identical):
+        k = int(np.argmax(identical))
+        raise DegenerateGeometryError(
+            element, f"set {k} of {count}: all {stack.shape[1]} points are identical", set_index=k
+        )
+    if rank >= 2:
+        collinear = singular[:, 1] <= TOL.degenerate * singular[:, 0]
+        if np.any(collinear):
+            k = int(np.argmax(collinear))
+            raise DegenerateGeometryError(
+                element, f"set {k} of {count}: points are collinear", set_index=k
+            )
+    if rank >= 3:
+        coplanar = singular[:, 2] <= TOL.degenerate * singular[:, 0]
+        if np.any(coplanar):
+            k = int(np.argmax(coplanar))
+            raise DegenerateGeometryError(element, f"set {k} of {count}: points are coplanar", set_index=k)
 
 
 def _sign_rows(vectors: FloatArray) -> FloatArray:
@@ -195,7 +222,7 @@ def _stats(residuals: FloatArray) -> tuple[FloatArray, FloatArray]:
 def _nsphere_batch(points: FloatArray, *, element: str) -> tuple[FloatArray, FloatArray, FloatArray, FloatArray]:
     """Batched Gauss-Newton n-sphere fit; returns centres, radii, converged, iterations."""
     k, n, dim = points.shape
-    origin = points.mean(axis=1, keepdims=True)
+    origin = weighted_centroid(points)[:, None, :]
     centred = points - origin
     scale = np.sqrt(np.mean(np.sum(centred**2, axis=2), axis=1))  # (K,)
     if np.any(scale == 0):
@@ -268,6 +295,7 @@ def fit_spheres(points: ArrayLike) -> SphereBatchFit:
     ([5.0, 2.0], [100.0, 100.0, 100.0])
     """
     stack = _as_stack(points, element="sphere", dims=(3,), min_points=4)
+    _check_sets(stack, _planes(stack)[1], element="sphere", rank=3)
     centres, radii, converged, iterations = _nsphere_batch(stack, element="sphere")
     residuals = np.linalg.norm(stack - centres[:, None, :], axis=2) - radii[:, None]
     rms, form = _stats(residuals)
@@ -287,11 +315,13 @@ def fit_spheres(points: ArrayLike) -> SphereBatchFit:
     )
 
 
-def _planes(stack: FloatArray) -> tuple[FloatArray, FloatArray]:
-    """Batched SVD: centroids (K, D) and right singular vectors (K, D, D), rows descending."""
-    centroid = stack.mean(axis=1)
-    _, _, vt = np.linalg.svd(stack - centroid[:, None, :], full_matrices=False)
-    return centroid, vt
+def _planes(stack: FloatArray) -> tuple[FloatArray, FloatArray, FloatArray]:
+    """Batched SVD: centroids (K, D), singular values (K, D) and right singular vectors (K, D, D), descending."""
+    centroid = weighted_centroid(stack)
+    _, singular, vt = np.linalg.svd(stack - centroid[:, None, :], full_matrices=False)
+    if singular.shape[1] < stack.shape[2]:  # fewer points than dimensions
+        singular = np.concatenate([singular, np.zeros((len(stack), stack.shape[2] - singular.shape[1]))], axis=1)
+    return centroid, singular, vt
 
 
 def fit_planes(points: ArrayLike) -> PlaneBatchFit:
@@ -306,9 +336,18 @@ def fit_planes(points: ArrayLike) -> PlaneBatchFit:
     -------
     PlaneBatchFit
         Normals follow the single fit's sign convention (largest component positive).
+
+    Raises
+    ------
+    InvalidInputError, TooFewPointsError
+        As for :func:`~pcmm_geo.fit.fit_plane`.
+    DegenerateGeometryError
+        A set of identical or collinear points; the message and the field ``set_index``
+        name the first such set.
     """
     stack = _as_stack(points, element="plane", dims=(3,), min_points=3)
-    centroid, vt = _planes(stack)
+    centroid, singular, vt = _planes(stack)
+    _check_sets(stack, singular, element="plane", rank=2)
     normals = _sign_rows(vt[:, 2, :])
     rel = stack - centroid[:, None, :]
     residuals = np.einsum("kni,ki->kn", rel, normals)
@@ -336,9 +375,17 @@ def fit_lines(points: ArrayLike) -> LineBatchFit:
     ----------
     points : array_like, shape (K, N, 2) or (K, N, 3)
         K sets of N >= 2 points.
+
+    Raises
+    ------
+    InvalidInputError, TooFewPointsError
+        As for :func:`~pcmm_geo.fit.fit_line`.
+    DegenerateGeometryError
+        A set whose points are all identical (field ``set_index``).
     """
     stack = _as_stack(points, element="line", dims=(2, 3), min_points=2)
-    centroid, vt = _planes(stack)
+    centroid, singular, vt = _planes(stack)
+    _check_sets(stack, singular, element="line", rank=1)
     directions = _sign_rows(vt[:, 0, :])
     rel = stack - centroid[:, None, :]
     along = np.einsum("kni,ki->kn", rel, directions)
@@ -375,8 +422,17 @@ def fit_circles(points: ArrayLike) -> CircleBatchFit:
     points : array_like, shape (K, N, 2) or (K, N, 3)
         2-D: Gaussian circles.  3-D: the projected method (least-squares plane, then the
         2-D Gaussian circle in it), like ``fit_circle(..., method="projected")``.
+
+    Raises
+    ------
+    InvalidInputError, TooFewPointsError, ConvergenceError
+        As for :func:`~pcmm_geo.fit.fit_circle`.
+    DegenerateGeometryError
+        A set of identical or collinear points (field ``set_index``).
     """
     stack = _as_stack(points, element="circle", dims=(2, 3), min_points=3)
+    centroid, singular, vt = _planes(stack)
+    _check_sets(stack, singular, element="circle", rank=2)
     if stack.shape[2] == 2:
         centres, radii, converged, iterations = _nsphere_batch(stack, element="circle")
         residuals = np.linalg.norm(stack - centres[:, None, :], axis=2) - radii[:, None]
@@ -385,7 +441,6 @@ def fit_circles(points: ArrayLike) -> CircleBatchFit:
         parameters = np.column_stack([centres, radii])
         covariance = nsphere_covariance(stack, centres, radii)
     else:
-        centroid, vt = _planes(stack)
         frame = vt[:, :2, :]  # (K, 2, 3) in-plane axes
         in_plane = np.einsum("kni,kji->knj", stack - centroid[:, None, :], frame)
         centres2, radii, converged, iterations = _nsphere_batch(in_plane, element="circle")

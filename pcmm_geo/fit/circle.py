@@ -17,6 +17,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from pcmm_geo.errors import DegenerateGeometryError, InvalidInputError
 from pcmm_geo.fit._kernels._core import FitResult, as_points, as_weights, residual_stats, solve_least_squares
+from pcmm_geo.fit._kernels._inputs import positive_length
 from pcmm_geo.fit._kernels._linear import frozen, local_covariance, sign_convention, weighted_centroid
 from pcmm_geo.fit._kernels._measure import circle_distance, circle_project, query_points
 from pcmm_geo.fit._kernels._round import fit_nsphere
@@ -110,9 +111,11 @@ def fit_circle(
     Parameters
     ----------
     points : array_like, shape (N, 2) or (N, 3)
-        Measured points (mm); N >= 3 (2-D with fixed radius: N >= 2), not collinear.
+        Measured points (mm); N >= 3, not collinear.  A fixed radius does not lower this:
+        two points (or collinear points) lie on two mirror-image circles of a given radius,
+        which no data tell apart (:class:`~pcmm_geo.errors.AmbiguousFitError`).
     radius : float, optional
-        Fixed radius (mm).
+        Fixed radius (mm), one positive number.
     weights : array_like, shape (N,), optional
         Non-negative weights of the squared distances.
     method : {"gaussian", "projected"}
@@ -136,11 +139,15 @@ def fit_circle(
     Raises
     ------
     InvalidInputError
-        Wrong shape, NaN or inf, unknown method, non-positive fixed radius.
+        Wrong shape, complex or non-numeric values, NaN or inf, coordinates beyond 1e150 mm,
+        unknown method, a fixed radius that is not one positive number, bad weights.
     TooFewPointsError
         Fewer than 3 points.
     DegenerateGeometryError
-        Identical or collinear points.
+        Identical or collinear points (free radius).
+    AmbiguousFitError
+        Fixed radius and collinear points whose best circles are two mirror images
+        (field ``candidates``: both centres).
     ConvergenceError
         The iteration did not converge.
 
@@ -154,8 +161,8 @@ def fit_circle(
     """
     if method not in ("gaussian", "projected"):
         raise InvalidInputError("method", "'gaussian' or 'projected'", repr(method))
-    if radius is not None and not (np.isfinite(radius) and radius > 0):
-        raise InvalidInputError("radius", "a positive finite radius", repr(radius))
+    if radius is not None:
+        radius = positive_length(radius, "radius")
     check_criterion(criterion, _ELEMENT, weights=weights, radius=radius)
     pts = as_points(points, element=_ELEMENT, dims=(2, 3), min_points=3)
     if criterion != "gaussian":

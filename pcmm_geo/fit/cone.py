@@ -26,12 +26,13 @@ from pcmm_geo.fit._kernels._axial import (
     candidate_axes,
     check_spread,
     local_direction,
-    screened_axes,
     solve_axial,
+    warn_if_ambiguous,
 )
 from pcmm_geo.fit._kernels._core import FitResult, as_points, as_weights, covariance_from_jacobian, residual_stats
-from pcmm_geo.fit._kernels._linear import frozen
+from pcmm_geo.fit._kernels._linear import frozen, weighted_centroid
 from pcmm_geo.fit._kernels._measure import cone_frame, query_points, radial_unit
+from pcmm_geo.fit._kernels._screen import cone_reduced, screened_directions
 from pcmm_geo.fit.cylinder import _cylinder_model, _cylinder_start, axis_point_jacobian
 from pcmm_geo.fit.zone._common import check_criterion
 
@@ -133,17 +134,6 @@ def _cone_model(local: FloatArray, params: FloatArray) -> tuple[FloatArray, Floa
     return residuals, jac
 
 
-def _cone_cost(local: FloatArray, params: FloatArray) -> float:
-    """Sum of squared residuals (no Jacobian), for ranking starting values."""
-    x0, y0, a, b, radius, half_angle = (float(v) for v in params)
-    direction = local_direction(a, b)
-    offset = local - np.array([x0, y0, 0.0])
-    height = offset @ direction
-    rho = np.linalg.norm(offset - height[:, None] * direction, axis=1)
-    residuals = (rho - radius) * np.cos(half_angle) - height * np.sin(half_angle)
-    return float(residuals @ residuals)
-
-
 def _slide_cone(old: FloatArray, new: FloatArray, shift: float) -> FloatArray:
     """Radius at the axis point after that point moved by ``-shift`` along the axis."""
     new[4] = old[4] - shift * np.tan(old[5])
@@ -181,8 +171,8 @@ def fit_cone(
     Levenberg-Marquardt with an analytic Jacobian in standard position (data centred at
     the centroid, current axis along +z).  Local parameters: the axis crossing ``x0, y0``
     of the local ``z = 0`` plane, two tilts, the radius at that plane and the half angle.
-    Starting axes: ``axis_hint``, a short cylinder fit, the three directions of a
-    64-direction hemisphere search whose algebraic cones fit best, and the principal axes;
+    Starting axes: ``axis_hint``, a short cylinder fit, the polished minima of a direction
+    screening (:mod:`pcmm_geo.fit._kernels._screen`), and the principal axes;
     for each, an algebraic cone (``x^2 + y^2`` linear in ``x, y, 1, z, z^2``) gives the
     remaining starting values.  The converged solution of least cost is returned.  The
     half angle is reported in ``[0, pi/2)`` with the axis pointing to the opening.
@@ -234,7 +224,7 @@ def fit_cone(
         return cone_minimax(data, criterion, gauss=fit_cone(data), result_type=ConeFit)
     weight = as_weights(weights, data.shape[0], element=_ELEMENT)
     sqrt_weights = None if weight is None else np.sqrt(weight)
-    centroid = data.mean(axis=0)
+    centroid = weighted_centroid(data)
     centred = data - centroid
     check_spread(centred, element=_ELEMENT, forbid_coplanar=True)
     hint = as_axis_hint(axis_hint)
@@ -258,7 +248,7 @@ def fit_cone(
     solution = solve_axial(
         data,
         centroid,
-        candidate_axes(centred, [*extra, *screened_axes(centred, _cone_start, _cone_cost)]),
+        candidate_axes(centred, [*extra, *screened_directions(centred, cone_reduced)]),
         start=_cone_start,
         model=_cone_model,
         position_slots=(0, 1),
@@ -266,6 +256,13 @@ def fit_cone(
         element=_ELEMENT,
         sqrt_weights=sqrt_weights,
         slide=_slide_cone,
+    )
+    warn_if_ambiguous(
+        solution,
+        element=_ELEMENT,
+        position_slots=(0, 1),
+        tilt_slots=(2, 3),
+        sizes=lambda params: {"radius": float(params[4]), "half_angle": abs(float(params[5]))},
     )
     return _result(data, solution)
 

@@ -27,10 +27,13 @@ from pcmm_geo.fit._kernels._axial import (
     check_spread,
     local_direction,
     solve_axial,
+    warn_if_ambiguous,
 )
 from pcmm_geo.fit._kernels._core import FitResult, as_points, as_weights, covariance_from_jacobian, residual_stats
-from pcmm_geo.fit._kernels._linear import frozen
+from pcmm_geo.fit._kernels._inputs import positive_length
+from pcmm_geo.fit._kernels._linear import frozen, weighted_centroid
 from pcmm_geo.fit._kernels._measure import axial_parts, query_points, radial_unit
+from pcmm_geo.fit._kernels._screen import cylinder_reduced, screened_directions
 from pcmm_geo.fit.scale import is_dask_array
 from pcmm_geo.fit.zone._common import check_criterion
 
@@ -179,8 +182,11 @@ def fit_cylinder(
     From ``pcmm_geo.fit._kernels._tall.TALL_ROWS`` unweighted points on, and for a dask array, the fit
     of a strided subsample starts Gauss-Newton passes whose normal equations are accumulated
     in chunks (:mod:`pcmm_geo.fit.scale.fits`).
-    Starting values come from an algebraic circle fit of the data projected along each
-    principal axis (and ``axis_hint``); the converged solution of least cost is returned.
+    Starting axes are ``axis_hint``, the polished local minima of a direction screening
+    (:mod:`pcmm_geo.fit._kernels._screen`: the circle fit of the data projected along each of 240
+    directions) and the principal axes; an algebraic circle of the projected data starts each.
+    The converged solution of least cost is returned; when another distinct minimum is within
+    ``TOL.ambiguous`` (1 %) of it, :class:`~pcmm_geo.errors.AmbiguousFitWarning` lists both.
 
     Parameters
     ----------
@@ -225,9 +231,7 @@ def fit_cylinder(
     (5.0, [0.0, 0.0, 1.0], [1000.0, 0.0, 10.0])
     """
     if radius is not None:
-        if not np.isfinite(radius) or radius <= 0:
-            raise InvalidInputError("radius", "a positive finite radius in mm", repr(radius))
-        radius = float(radius)
+        radius = positive_length(radius, "radius")
     check_criterion(criterion, _ELEMENT, weights=weights, radius=radius, axis_hint=axis_hint)
     if is_dask_array(points):
         if criterion != "gaussian":
@@ -251,10 +255,10 @@ def fit_cylinder(
         except IllConditionedSteps:
             pass  # nearly coplanar: the solver below decides
     sqrt_weights = None if weight is None else np.sqrt(weight)
-    centroid = data.mean(axis=0)
+    centroid = weighted_centroid(data)
     centred = data - centroid
     check_spread(centred, element=_ELEMENT, forbid_coplanar=True)
-    axes = candidate_axes(centred, [as_axis_hint(axis_hint)])
+    axes = candidate_axes(centred, [as_axis_hint(axis_hint), *screened_directions(centred, cylinder_reduced(radius))])
     solution = solve_axial(
         data,
         centroid,
@@ -265,6 +269,13 @@ def fit_cylinder(
         tilt_slots=(2, 3),
         element=_ELEMENT,
         sqrt_weights=sqrt_weights,
+    )
+    warn_if_ambiguous(
+        solution,
+        element=_ELEMENT,
+        position_slots=(0, 1),
+        tilt_slots=(2, 3),
+        sizes=lambda params: {"radius": radius if radius is not None else float(params[4])},
     )
     return _result(data, solution, radius)
 

@@ -18,7 +18,8 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from pcmm_geo.errors import DegenerateGeometryError, InvalidInputError, TooFewPointsError
-from pcmm_geo.fit._kernels._core import TOL
+from pcmm_geo.fit._kernels._core import as_weights
+from pcmm_geo.fit._kernels._inputs import check_magnitude, real_array, weighted_centroid
 from pcmm_geo.fit._kernels._linear import frozen
 
 __all__ = [
@@ -64,11 +65,12 @@ class LinePair:
 
 
 def _vectors(value: ArrayLike, name: str) -> FloatArray:
-    arr = np.asarray(value, dtype=float)
+    arr = real_array(value, name)
     if arr.ndim < 1 or arr.shape[-1] != 3:
         raise InvalidInputError(name, "shape (..., 3)", f"shape {arr.shape}")
     if not np.all(np.isfinite(arr)):
         raise InvalidInputError(name, "finite coordinates", "NaN or inf")
+    check_magnitude(arr, name)
     return arr
 
 
@@ -80,9 +82,48 @@ def _unit_directions(value: ArrayLike, name: str) -> FloatArray:
     return arr / norm
 
 
-def closest_points(
-    point_a: ArrayLike, direction_a: ArrayLike, point_b: ArrayLike, direction_b: ArrayLike
-) -> LinePair:
+def _power_of_two_scaled(vectors: FloatArray, lengths: FloatArray) -> FloatArray:
+    """``vectors`` times the power of two nearest ``1 / length`` (exact: no rounding of the direction)."""
+    exponent = -np.round(np.log2(lengths))
+    return np.ldexp(vectors, exponent.astype(int)[..., None])
+
+
+def _two_product(a: FloatArray, b: FloatArray) -> tuple[FloatArray, FloatArray]:
+    """``a * b = product + error`` exactly (Dekker's splitting; no fused multiply-add needed)."""
+    product = a * b
+    split = 134217729.0  # 2^27 + 1
+    a_big = split * a
+    a_hi = a_big - (a_big - a)
+    a_lo = a - a_hi
+    b_big = split * b
+    b_hi = b_big - (b_big - b)
+    b_lo = b - b_hi
+    error = ((a_hi * b_hi - product) + a_hi * b_lo + a_lo * b_hi) + a_lo * b_lo
+    return product, error
+
+
+def accurate_cross(first: FloatArray, second: FloatArray) -> FloatArray:
+    """Cross product with each component correct to a few ulp, even under cancellation.
+
+    Every component is a difference of two products; with the products' rounding errors
+    kept (:func:`_two_product`) the difference of nearly equal products (nearly parallel
+    vectors) is exact and the result relatively accurate.  The plain ``np.cross`` has an
+    absolute error of ``eps |a| |b|``, i.e. a relative error ``eps / angle``.
+    """
+    out = np.empty(np.broadcast_shapes(first.shape, second.shape))
+    for index, (i, j) in enumerate(((1, 2), (2, 0), (0, 1))):
+        left, left_error = _two_product(first[..., i], second[..., j])
+        right, right_error = _two_product(first[..., j], second[..., i])
+        out[..., index] = (left - right) + (left_error - right_error)
+    return out
+
+
+#: Lines count as parallel when ``|unit(d_a) x unit(d_b)|`` is at the rounding level of the
+#: cross product itself (a few ulp of 1): below it float64 cannot resolve their angle.
+_PARALLEL_SINE = 8.0 * float(np.finfo(float).eps)
+
+
+def closest_points(point_a: ArrayLike, direction_a: ArrayLike, point_b: ArrayLike, direction_b: ArrayLike) -> LinePair:
     """Closest points of line a (``point_a + t * direction_a``) and line b.
 
     Parameters
@@ -97,7 +138,20 @@ def closest_points(
     Raises
     ------
     InvalidInputError
-        Wrong shapes, NaN/inf, or a zero direction.
+        Wrong or non-broadcasting shapes, complex or non-numeric values, NaN/inf, or a zero
+        direction.
+
+    Notes
+    -----
+    With ``n = d_a x d_b`` (unit directions), ``t_a = ((p_b - p_a) x d_b) . n / |n|^2`` and
+    ``t_b = ((p_b - p_a) x d_a) . n / |n|^2``.  ``n`` is computed with error-free products
+    (:func:`accurate_cross`), so it is relatively accurate however small the angle, and the
+    directions are scaled only by powers of two: ``1 - cos^2`` would lose every digit near
+    1e-8 rad, and even an eps-level rounding of the directions would move the closest points
+    of lines ``s`` apart by ``s eps / angle^2`` (1 mm at 1e-8 rad, 1 mm apart).  What remains
+    is the rounding of ``p_b - p_a``, about ``|p| eps / angle`` (1e-5 mm for points 500 mm
+    from the origin at 1e-8 rad; see ``tests/fit/test_skew_precision.py``).  Lines are
+    parallel only when ``n`` is exactly zero.
 
     Examples
     --------
@@ -106,22 +160,44 @@ def closest_points(
     ([0.0, 0.0, 0.0], [0.0, 0.0, 5.0], 5.0)
     """
     pa, pb = _vectors(point_a, "point_a"), _vectors(point_b, "point_b")
-    da, db = _unit_directions(direction_a, "direction_a"), _unit_directions(direction_b, "direction_b")
+    raw_a, raw_b = _vectors(direction_a, "direction_a"), _vectors(direction_b, "direction_b")
+    length_a, length_b = np.linalg.norm(raw_a, axis=-1), np.linalg.norm(raw_b, axis=-1)
+    if np.any(length_a == 0) or np.any(length_b == 0):
+        which = "direction_a" if np.any(length_a == 0) else "direction_b"
+        raise InvalidInputError(which, "non-zero direction vectors", "a zero vector")
+    try:
+        np.broadcast_shapes(pa.shape, raw_a.shape, pb.shape, raw_b.shape)
+    except ValueError:
+        raise InvalidInputError(
+            "point_a, direction_a, point_b, direction_b",
+            "shapes that broadcast to one batch shape (..., 3)",
+            f"shapes {pa.shape}, {raw_a.shape}, {pb.shape}, {raw_b.shape}",
+        ) from None
+    # scale the directions by powers of two only (exact), so that the data's angle is kept
+    da, db = _power_of_two_scaled(raw_a, length_a), _power_of_two_scaled(raw_b, length_b)
     offset = pb - pa
-    cos_ab = np.sum(da * db, axis=-1)
-    sin_sq = 1.0 - cos_ab**2
-    along_a = np.sum(offset * da, axis=-1)
-    along_b = np.sum(offset * db, axis=-1)
-    parallel = sin_sq <= 1e-24
+    # n = d_a x d_b to full relative accuracy even for nearly parallel lines (error-free
+    # products): |n| is the sine of the angle, no 1 - cos^2 cancellation and no eps-level
+    # direction error that the 1 / angle^2 sensitivity of skew lines would amplify
+    normal = accurate_cross(da, db)
+    sin_sq = np.sum(normal * normal, axis=-1)
+    parallel = ~(sin_sq > 0)
     safe = np.where(parallel, 1.0, sin_sq)
-    t_a = np.where(parallel, 0.0, (along_a - cos_ab * along_b) / safe)
-    t_b = np.where(parallel, -along_b, (cos_ab * along_a - along_b) / safe)
-    foot_a = pa + t_a[..., None] * da
-    foot_b = pb + t_b[..., None] * db
+    scale_a, scale_b = np.sum(da * da, axis=-1), np.sum(db * db, axis=-1)
+    s_a = np.where(parallel, 0.0, np.sum(np.cross(offset, db) * normal, axis=-1) / safe)
+    s_b = np.where(
+        parallel, -np.sum(offset * db, axis=-1) / scale_b, np.sum(np.cross(offset, da) * normal, axis=-1) / safe
+    )
+    foot_a = pa + s_a[..., None] * da
+    foot_b = pb + s_b[..., None] * db
+    t_a, t_b = s_a * np.sqrt(scale_a), s_b * np.sqrt(scale_b)
+    # the separation straight from the data (|offset . n| / |n|), not as a difference of two far feet
+    skew_distance = np.abs(np.sum(offset * normal, axis=-1)) / np.sqrt(safe)
+    parallel_distance = np.linalg.norm(np.cross(offset, db), axis=-1) / np.sqrt(scale_b)
     return LinePair(
         point_a=foot_a,
         point_b=foot_b,
-        distance=np.linalg.norm(foot_b - foot_a, axis=-1),
+        distance=np.where(parallel, parallel_distance, skew_distance),
         parameter_a=t_a,
         parameter_b=t_b,
         parallel=np.asarray(parallel),
@@ -143,7 +219,8 @@ class LinesNearestPoint:
     rms : float
         Root mean square of ``distances``.
     condition_number : float
-        Of the 3x3 normal matrix; large when the lines are nearly parallel.
+        Of the stacked least-squares system (two rows across each line, weighted): about
+        ``1 / angle`` for lines meeting at a small angle (rad); large when nearly parallel.
     """
 
     point: FloatArray
@@ -158,8 +235,12 @@ def nearest_point_to_lines(
 ) -> LinesNearestPoint:
     """Point with the least (weighted) sum of squared distances to K >= 2 lines.
 
-    Solves ``sum_k w_k (I - d_k d_k^T) x = sum_k w_k (I - d_k d_k^T) p_k`` (thesis eq 7.2
-    generalised from line pairs to all lines at once).
+    Minimises ``sum_k w_k |(I - d_k d_k^T)(x - p_k)|^2`` (thesis eq 7.2 generalised from line
+    pairs to all lines at once).  The normal equations ``sum_k w_k (I - d_k d_k^T) x = ...``
+    would square the condition number (lost accuracy for lines meeting at small angles);
+    instead two orthonormal rows across each line are stacked and the ``2K x 3`` system is
+    solved by SVD, with a rank test at float64 resolution: the lines are called parallel
+    only when their angles cannot be resolved in float64.
 
     Parameters
     ----------
@@ -177,16 +258,18 @@ def nearest_point_to_lines(
     Raises
     ------
     InvalidInputError
-        Shapes differ or are not (K, 3), NaN/inf, zero directions, bad weights.
+        Shapes differ or are not (K, 3), NaN/inf, zero directions, bad weights (strings,
+        negative, all zero).
     TooFewPointsError
         Fewer than 2 lines.
     DegenerateGeometryError
-        All lines parallel: the point is not unique.
+        All lines parallel within float64 resolution, or fewer than two lines with positive
+        weight: the point is not unique.
 
     Examples
     --------
     >>> result = nearest_point_to_lines([[0, 0, 1], [0, 0, -1]], [[1, 0, 0], [0, 1, 0]])
-    >>> (result.point + 0.0).tolist(), result.distances.tolist()
+    >>> (np.round(result.point, 12) + 0.0).tolist(), np.round(result.distances, 12).tolist()
     ([0.0, 0.0, 0.0], [1.0, 1.0])
     """
     p = _vectors(points, "points")
@@ -195,18 +278,33 @@ def nearest_point_to_lines(
         raise InvalidInputError("points/directions", "two arrays of shape (K, 3)", f"{p.shape} and {d.shape}")
     if len(p) < 2:
         raise TooFewPointsError("nearest point to lines", 2, len(p))
-    w = np.ones(len(p)) if weights is None else np.asarray(weights, dtype=float)
-    if w.shape != (len(p),) or not np.all(np.isfinite(w)) or np.any(w < 0):
-        raise InvalidInputError("weights", f"{len(p)} finite non-negative values", f"{np.asarray(weights)!r}")
-    origin = p.mean(axis=0)
+    w = np.ones(len(p)) if weights is None else as_weights(weights, len(p), element="nearest point to lines")
+    if np.count_nonzero(w) < 2:
+        raise DegenerateGeometryError(
+            "nearest point to lines", "only one line has a positive weight; the point is not unique"
+        )
+    origin = weighted_centroid(p, w)
     rel = p - origin
-    projectors = np.eye(3)[None] - d[:, :, None] * d[:, None, :]
-    normal_matrix = np.einsum("k,kij->ij", w, projectors)
-    rhs = np.einsum("k,kij,kj->i", w, projectors, rel)
-    singular = np.linalg.svd(normal_matrix, compute_uv=False)
-    if singular[-1] <= TOL.degenerate * singular[0]:
-        raise DegenerateGeometryError("nearest point to lines", "all lines are parallel; the point is not unique")
-    point = np.linalg.solve(normal_matrix, rhs)
+    # two orthonormal rows across each line: |rows @ (x - p_k)| is the distance to line k, so
+    # the stacked system's condition number is that of the geometry, not its square
+    helper = np.zeros_like(d)
+    helper[np.arange(len(d)), np.argmin(np.abs(d), axis=1)] = 1.0
+    across_1 = np.cross(helper, d)
+    across_1 /= np.linalg.norm(across_1, axis=1, keepdims=True)
+    across_2 = np.cross(d, across_1)
+    root = np.sqrt(w)[:, None, None]
+    rows = np.stack([across_1, across_2], axis=1) * root  # (K, 2, 3)
+    design = rows.reshape(-1, 3)
+    target = np.einsum("kij,kj->ki", rows, rel).reshape(-1)
+    u, singular, vt = np.linalg.svd(design, full_matrices=False)
+    # rank test at the rounding level of the stacked rows (entries of size <= 1 per unit weight)
+    if singular[-1] <= _PARALLEL_SINE * np.sqrt(len(p)) * singular[0]:
+        raise DegenerateGeometryError(
+            "nearest point to lines",
+            f"all lines are parallel to within float64 resolution (relative singular value "
+            f"{singular[-1] / singular[0]:.3g}); the point is not unique",
+        )
+    point = vt.T @ ((u.T @ target) / singular)
     along = np.sum((point - rel) * d, axis=1)
     feet = rel + along[:, None] * d
     distances = np.linalg.norm(point - feet, axis=1)

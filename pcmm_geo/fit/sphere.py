@@ -11,6 +11,7 @@ from numpy.typing import ArrayLike, NDArray
 from pcmm_geo.errors import InvalidInputError
 from pcmm_geo.fit._kernels import _tall
 from pcmm_geo.fit._kernels._core import FitResult, as_points, as_weights, residual_stats
+from pcmm_geo.fit._kernels._inputs import positive_length
 from pcmm_geo.fit._kernels._linear import frozen
 from pcmm_geo.fit._kernels._measure import query_points, radial_unit
 from pcmm_geo.fit._kernels._round import fit_nsphere
@@ -91,7 +92,10 @@ def fit_sphere(
         array is fitted block by block without being materialised (no weights); the
         result's ``residuals`` are then a lazy dask array.
     radius : float, optional
-        Fixed radius (mm): only the centre is fitted (e.g. a calibrated reference sphere).
+        Fixed radius (mm, one positive number): only the centre is fitted (e.g. a calibrated
+        reference sphere).  Coplanar points then fit a centre and its mirror image in their
+        plane equally well unless the best centre lies in the plane (points on a circle
+        larger than the radius): the ambiguous case raises :class:`~pcmm_geo.errors.AmbiguousFitError`.
     weights : array_like, shape (N,), optional
         Non-negative weights of the squared distances.
 
@@ -108,11 +112,14 @@ def fit_sphere(
     Raises
     ------
     InvalidInputError
-        Wrong shape, NaN or inf, non-positive fixed radius.
+        Wrong shape, complex or non-numeric values, NaN or inf, coordinates beyond 1e150 mm,
+        a fixed radius that is not one positive number, bad weights.
     TooFewPointsError
         Fewer than 4 points (3 with fixed radius).
     DegenerateGeometryError
         Identical or coplanar points (free radius).
+    AmbiguousFitError
+        Fixed radius, coplanar points, two mirror-image centres (field ``candidates``).
     ConvergenceError
         The iteration did not converge.
 
@@ -123,8 +130,8 @@ def fit_sphere(
     >>> (np.round(result.center, 12) + 0.0).tolist(), round(result.radius, 12)
     ([1.0, 0.0, 0.0], 10.0)
     """
-    if radius is not None and not (np.isfinite(radius) and radius > 0):
-        raise InvalidInputError("radius", "a positive finite radius", repr(radius))
+    if radius is not None:
+        radius = positive_length(radius, "radius")
     check_criterion(criterion, _ELEMENT, weights=weights, radius=radius)
     if is_dask_array(points):
         if criterion != "gaussian":

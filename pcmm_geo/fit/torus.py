@@ -23,12 +23,13 @@ from pcmm_geo.fit._kernels._axial import (
     canonical_axis,
     check_spread,
     local_direction,
-    screened_axes,
     solve_axial,
+    warn_if_ambiguous,
 )
 from pcmm_geo.fit._kernels._core import FitResult, as_points, as_weights, covariance_from_jacobian, residual_stats
-from pcmm_geo.fit._kernels._linear import frozen
+from pcmm_geo.fit._kernels._linear import frozen, weighted_centroid
 from pcmm_geo.fit._kernels._measure import axial_parts, query_points, torus_project
+from pcmm_geo.fit._kernels._screen import screened_directions, torus_reduced
 from pcmm_geo.fit._kernels._torus_search import best_axis_position, refined_axis
 from pcmm_geo.fit.zone._common import check_criterion
 
@@ -205,21 +206,22 @@ def fit_torus(
     Levenberg-Marquardt with an analytic Jacobian in standard position (data centred at
     the centroid, current axis along +z).  Local parameters: the centre ``x0, y0, z0``,
     two axis tilts, the major and the minor radius.  Starting axes are ``axis_hint`` (as
-    given and refined by a tilt pattern search), the three directions of a 64-direction
-    hemisphere search whose starting values fit best (a fat pipe elbow has no principal
-    axis near its torus axis) and the principal axes.  For each axis the axis position comes
-    from a coarse-to-fine grid search with ``z0, R, r`` projected out (a circle in the
-    ``(rho, z)`` half-plane), polished by Nelder-Mead.  The converged solution of least
+    given and refined by a tilt pattern search), the polished minima of a direction screening
+    (a fat pipe elbow has no principal axis near its torus axis) and the principal axes.
+    For each axis the axis position comes from a coarse-to-fine grid search with ``z0, R, r``
+    projected out (a circle in the ``(rho, z)`` half-plane), polished by Nelder-Mead.  The converged solution of least
     cost is returned.
 
     Notes
     -----
-    Sparse data round a whole torus (seven to about a dozen points) can be fitted to some
+    Sparse data (seven to about a dozen points, whole or partial torus) can be fitted to some
     10 um rms by spurious tori whose axes lie tens of degrees from the true one, while the
-    true minimum's basin is a fraction of a degree wide.  Without ``axis_hint`` the fit may
-    then return such a local minimum (about one case in ten for 8 random points on a
-    30 x 6 mm torus); give the nominal axis for such data.  With 20 or more points, or a
-    partial torus, no hint is needed.
+    true minimum's basin is a fraction of a degree wide.  The direction screening
+    (:mod:`pcmm_geo.fit._kernels._screen`: a 240-direction lattice, each direction's reduced fit started
+    also from the best cells of an axis-position grid) finds that basin without a hint; when
+    two distinct minima are within ``TOL.ambiguous`` (1 %) of each other,
+    :class:`~pcmm_geo.errors.AmbiguousFitWarning` lists them.  Measured rates:
+    ``docs/fit-robustness.md``.  ``axis_hint`` remains useful to save time.
 
     Parameters
     ----------
@@ -263,7 +265,7 @@ def fit_torus(
     data = as_points(points, element=_ELEMENT, min_points=7)
     weight = as_weights(weights, data.shape[0], element=_ELEMENT)
     sqrt_weights = None if weight is None else np.sqrt(weight)
-    centroid = data.mean(axis=0)
+    centroid = weighted_centroid(data)
     centred = data - centroid
     check_spread(centred, element=_ELEMENT, forbid_coplanar=True)
     solution = solve_axial(
@@ -271,7 +273,7 @@ def fit_torus(
         centroid,
         candidate_axes(
             centred,
-            [*_hinted_axes(centred, as_axis_hint(axis_hint)), *screened_axes(centred, _torus_start_cheap, _torus_cost)],
+            [*_hinted_axes(centred, as_axis_hint(axis_hint)), *screened_directions(centred, torus_reduced)],
         ),
         start=_torus_start,
         model=_torus_model,
@@ -279,6 +281,13 @@ def fit_torus(
         tilt_slots=(3, 4),
         element=_ELEMENT,
         sqrt_weights=sqrt_weights,
+    )
+    warn_if_ambiguous(
+        solution,
+        element=_ELEMENT,
+        position_slots=(0, 1, 2),
+        tilt_slots=(3, 4),
+        sizes=lambda params: {"major_radius": float(params[5]), "minor_radius": float(params[6])},
     )
     return _result(data, solution)
 

@@ -153,7 +153,7 @@ def test_circle_errors() -> None:
         fit_circle([[0.0, 0.0, 0.0], [1.0, 1.0, 1.0], [2.0, 2.0, 2.0]])
     with pytest.raises(InvalidInputError, match="'gaussian' or 'projected'"):
         fit_circle(np.eye(3), method="algebraic")  # type: ignore[arg-type]
-    with pytest.raises(InvalidInputError, match="positive finite radius"):
+    with pytest.raises(InvalidInputError, match="positive finite"):
         fit_circle(np.eye(3), radius=-1.0)
 
 

@@ -141,7 +141,7 @@ def test_batch_errors_name_the_set() -> None:
         fit_spheres(stack)
     coplanar = _random_sets(3, 6, 3, seed=9)
     coplanar[2, :, 2] = 0.0
-    with pytest.raises(DegenerateGeometryError, match="set 2: points are coplanar"):
+    with pytest.raises(DegenerateGeometryError, match="set 2 of 3: points are coplanar"):
         fit_spheres(coplanar)
     with pytest.raises(TooFewPointsError):
         fit_spheres(np.zeros((4, 3, 3)))

@@ -17,13 +17,15 @@ is kept.  This module is private; the public functions live in ``cylinder.py``,
 
 from __future__ import annotations
 
+import dataclasses
+import warnings
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from pcmm_geo.errors import ConvergenceError, DegenerateGeometryError, InvalidInputError
+from pcmm_geo.errors import AmbiguousFitWarning, ConvergenceError, DegenerateGeometryError, InvalidInputError
 from pcmm_geo.fit._kernels import _core
 from pcmm_geo.fit._kernels._axial_lm import levenberg_marquardt
 from pcmm_geo.fit._kernels._core import SolverOutcome, rotation_to_z
@@ -152,82 +154,29 @@ def as_axis_hint(axis_hint: ArrayLike | None) -> FloatArray | None:
     return hint / length
 
 
+#: Points used by the direction screening (:mod:`pcmm_geo.fit._kernels._screen`), evenly strided.
+SCREEN_POINTS = 64
+#: Dense data (more points than the screening uses): starting axes within this angle (rad) of
+#: an earlier one share its basin and are dropped (each start is a full fit of all points).
+_DENSE_MERGE = np.radians(1.0)
+
+
 def candidate_axes(centred: FloatArray, extra: Sequence[FloatArray | None] = ()) -> list[FloatArray]:
     """Starting axis directions: the given extras first, then the three principal axes.
 
-    Near-duplicates (|cos| > 1 - 1e-9) are dropped.
+    Near-duplicates (|cos| > 1 - 1e-9; for data denser than the screening subset, within
+    1 degree of an earlier start) are dropped.
     """
     _, vt = principal_axes(centred)
+    merge = np.cos(_DENSE_MERGE) if centred.shape[0] > SCREEN_POINTS else 1 - 1e-9
     out: list[FloatArray] = []
     for axis in [*extra, vt[2], vt[0], vt[1]]:
         if axis is None:
             continue
         unit_axis = axis / np.linalg.norm(axis)
-        if all(abs(float(unit_axis @ seen)) < 1 - 1e-9 for seen in out):
+        if all(abs(float(unit_axis @ seen)) < merge for seen in out):
             out.append(unit_axis)
     return out
-
-
-def hemisphere_directions(count: int) -> FloatArray:
-    """``count`` nearly uniformly spread unit vectors with ``z >= 0`` (a Fibonacci lattice), shape (count, 3)."""
-    index = np.arange(count) + 0.5
-    z = 1.0 - index / count
-    azimuth = np.pi * (3.0 - np.sqrt(5.0)) * index
-    ring = np.sqrt(1.0 - z * z)
-    return np.c_[ring * np.cos(azimuth), ring * np.sin(azimuth), z]
-
-
-def _start_cost(centred: FloatArray, direction: FloatArray, start: StartRule, cost_of: LocalCost) -> float:
-    """Sum of squared residuals of the algebraic starting values around ``direction`` (inf if none)."""
-    local = centred @ rotation_to_z(direction).T
-    params = start(local)
-    if params is None or not np.all(np.isfinite(params)):
-        return float("inf")
-    cost = cost_of(local, params)
-    return cost if np.isfinite(cost) else float("inf")
-
-
-def screened_axes(
-    centred: FloatArray,
-    start: StartRule,
-    cost_of: LocalCost,
-    *,
-    count: int = 64,
-    keep: int = 3,
-    polish: bool = True,
-) -> list[FloatArray]:
-    """Directions whose algebraic starting values fit best: a coarse hemisphere search, then a local polish.
-
-    For each of ``count`` directions the data are put in standard position, ``start`` builds
-    starting values and the sum of squared residuals of that start is evaluated (no
-    iteration).  The ``keep`` best directions are then polished by a short Nelder-Mead search
-    (at most 80 evaluations, 2 mrad) of the same start cost over two tilt angles (a start
-    cost is cheap: a few algebraic fits).
-    """
-    from scipy.optimize import minimize  # heavy import kept out of the module import
-
-    directions = hemisphere_directions(count)
-    costs = np.array([_start_cost(centred, direction, start, cost_of) for direction in directions])
-    order = np.argsort(costs)[:keep]
-    if not polish:
-        return [directions[index] for index in order if np.isfinite(costs[index])]
-    polished: list[FloatArray] = []
-    for index in order:
-        if not np.isfinite(costs[index]):
-            continue
-        frame = rotation_to_z(directions[index])
-
-        def tilted(tilt: FloatArray, frame: FloatArray = frame) -> FloatArray:
-            return frame.T @ local_direction(float(tilt[0]), float(tilt[1]))
-
-        search = minimize(
-            lambda tilt, tilted=tilted: _start_cost(centred, tilted(tilt), start, cost_of),
-            np.zeros(2),
-            method="Nelder-Mead",
-            options={"initial_simplex": [[0, 0], [0.15, 0], [0, 0.15]], "xatol": 2e-3, "fatol": 0, "maxfev": 80},
-        )
-        polished.append(tilted(search.x) if np.isfinite(search.fun) else directions[index])
-    return polished
 
 
 def algebraic_circle(xy: FloatArray) -> tuple[float, float, float]:
@@ -258,6 +207,9 @@ class AxialSolution:
         Solver result; its (weighted) Jacobian belongs to the final frame.
     cost : float
         Weighted sum of squared residuals.
+    others : tuple of AxialSolution
+        The other distinct converged local minima whose cost is within ``TOL.ambiguous``
+        (relative) of this one; empty when the minimum is clear.
     """
 
     centroid: FloatArray
@@ -265,6 +217,7 @@ class AxialSolution:
     params: FloatArray
     outcome: SolverOutcome
     cost: float
+    others: tuple[AxialSolution, ...] = ()
 
     @property
     def iterations(self) -> int:
@@ -390,6 +343,8 @@ def solve_axial(
         )
         starts.append((start_cost if np.isfinite(start_cost) else np.inf, index, frame, params))
     starts.sort(key=lambda item: (item[0], item[1]))
+    minima: list[AxialSolution] = []
+    margin = 1.0 + _core.TOL.ambiguous
     for _, _, frame, params in starts:
         try:
             outcome = levenberg_marquardt(
@@ -399,20 +354,85 @@ def solve_axial(
                 scale=scale,
                 sqrt_weights=sqrt_weights,
                 recentre=frame.recentre,
-                abandon_above=None if best is None else best.cost,
+                abandon_above=None if best is None else best.cost * margin,
                 max_iterations=max_iterations,
             )
         except ConvergenceError as exc:
             failures.append(exc.reason)
             continue
         cost = float(outcome.residuals @ outcome.residuals)
+        found = AxialSolution(centroid=centroid, rotation=frame.rotation, params=outcome.x, outcome=outcome, cost=cost)
+        minima.append(found)
         if best is None or cost < best.cost * (1 - 1e-12):
-            best = AxialSolution(
-                centroid=centroid, rotation=frame.rotation, params=outcome.x, outcome=outcome, cost=cost
-            )
+            best = found
         if cost <= len(outcome.residuals) * (_EXACT_FIT * scale) ** 2:
             break  # the points are interpolated to rounding level: no other start can do better
     if best is None:
         reason = "; ".join(failures) if failures else "no usable starting value"
         raise ConvergenceError(element, _core.TOL.max_iterations, reason)
-    return best
+    floor = len(best.outcome.residuals) * (_EXACT_FIT * scale) ** 2
+    rivals: list[AxialSolution] = []
+    for other in sorted(minima, key=lambda item: item.cost):
+        if other is best or other.cost > best.cost * margin + floor:
+            continue
+        if all(_distinct(other, seen, position_slots, tilt_slots, scale) for seen in [best, *rivals]):
+            rivals.append(other)
+    return dataclasses.replace(best, others=tuple(rivals)) if rivals else best
+
+
+def _axis_and_point(
+    solution: AxialSolution, position_slots: Sequence[int], tilt_slots: tuple[int, int]
+) -> tuple[FloatArray, FloatArray]:
+    """Machine-frame unit axis and axis point (centre for the torus) of a solution."""
+    params = solution.params
+    direction = local_direction(float(params[tilt_slots[0]]), float(params[tilt_slots[1]]))
+    origin = np.zeros(3)
+    origin[: len(position_slots)] = params[list(position_slots)]
+    return solution.rotation.T @ direction, solution.centroid + solution.rotation.T @ origin
+
+
+def _distinct(
+    first: AxialSolution,
+    second: AxialSolution,
+    position_slots: Sequence[int],
+    tilt_slots: tuple[int, int],
+    scale: float,
+) -> bool:
+    """Whether two converged solutions are different minima (axes 1e-6 rad or positions 1e-6 scale apart)."""
+    axis_1, point_1 = _axis_and_point(first, position_slots, tilt_slots)
+    axis_2, point_2 = _axis_and_point(second, position_slots, tilt_slots)
+    if float(np.linalg.norm(np.cross(axis_1, axis_2))) > 1e-6:
+        return True
+    offset = point_2 - point_1
+    if len(position_slots) == 2:  # axis points may slide along the axis
+        offset = offset - (offset @ axis_1) * axis_1
+    return float(np.linalg.norm(offset)) > 1e-6 * max(scale, 1.0)
+
+
+def warn_if_ambiguous(
+    solution: AxialSolution,
+    *,
+    element: str,
+    position_slots: Sequence[int],
+    tilt_slots: tuple[int, int],
+    sizes: Callable[[FloatArray], dict[str, float]],
+) -> None:
+    """Emit :class:`~pcmm_geo.errors.AmbiguousFitWarning` when ``solution`` has rivals (``solution.others``).
+
+    ``sizes(params)`` names the element's size parameters (radius, half angle...) of a
+    solution's local parameters; the warning lists every competing minimum, best first.
+    """
+    if not solution.others:
+        return
+    minima = []
+    for candidate in (solution, *solution.others):
+        axis, point = _axis_and_point(candidate, position_slots, tilt_slots)
+        minima.append(
+            {
+                "sum_of_squares": candidate.cost,
+                "axis": canonical_axis(axis),
+                "point": point,
+                **sizes(candidate.params),
+            }
+        )
+    warnings.warn(AmbiguousFitWarning(element, tuple(minima), _core.TOL.ambiguous), stacklevel=3)

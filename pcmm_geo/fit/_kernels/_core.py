@@ -23,6 +23,7 @@ from pcmm_geo.errors import (
     InvalidInputError,
     TooFewPointsError,
 )
+from pcmm_geo.fit._kernels._inputs import check_magnitude, real_array
 from pcmm_geo.fit._kernels._tall import tall_lstsq, tall_svd
 
 __all__ = [
@@ -60,6 +61,10 @@ class Tolerances:
     ill_conditioned : float
         Condition number of the weighted Jacobian above which :class:`IllConditionedWarning`
         is emitted.
+    ambiguous : float
+        Two distinct local minima of an axial fit (cylinder, cone, torus) whose sums of
+        squares differ by less than this fraction are indistinguishable:
+        :class:`~pcmm_geo.errors.AmbiguousFitWarning` is emitted with both.
     rounding_floor : float
         A Gauss-Newton step below ``rounding_floor * (scale + |x|)`` that is no longer at
         least halving from one iteration to the next is rounding noise: the iteration stops
@@ -72,6 +77,7 @@ class Tolerances:
     degenerate: float = 1e-10
     ill_conditioned: float = 1e10
     rounding_floor: float = 1e-11
+    ambiguous: float = 0.01
 
 
 TOL = Tolerances()
@@ -102,10 +108,7 @@ def as_points(
     DegenerateGeometryError
         All points identical (when ``min_points > 1``).
     """
-    try:
-        arr = np.asarray(points, dtype=float)
-    except (TypeError, ValueError) as exc:
-        raise InvalidInputError(name, "an array of numbers", f"{type(points).__name__} ({exc})") from None
+    arr = real_array(points, name)
     shape_text = " or ".join(f"(N, {d})" for d in dims)
     if arr.ndim != 2 or arr.shape[1] not in dims:
         raise InvalidInputError(name, f"shape {shape_text}", f"shape {arr.shape}")
@@ -118,6 +121,7 @@ def as_points(
         if bad.any():
             row = int(np.argwhere(bad)[0, 0])
             raise InvalidInputError(name, "finite coordinates", f"{arr[row].tolist()} in row {row}")
+    check_magnitude(arr, name)
     if min_points > 1:
         spread = np.ptp(arr, axis=0).max()
         scale = max(np.abs(arr).max(), 1.0)
@@ -127,16 +131,27 @@ def as_points(
 
 
 def as_weights(weights: ArrayLike | None, n: int, *, element: str) -> FloatArray | None:
-    """Validate per-point weights (``(N,)``, finite, non-negative, not all zero)."""
+    """Validate per-point weights (``(N,)``, real, finite, non-negative, not all zero).
+
+    Raises
+    ------
+    InvalidInputError
+        Strings, complex numbers, a wrong shape, NaN/inf, a negative weight or all weights zero.
+    """
     if weights is None:
         return None
-    arr = np.asarray(weights, dtype=float)
+    arr = real_array(weights, "weights")
     if arr.shape != (n,):
         raise InvalidInputError("weights", f"shape ({n},)", f"shape {arr.shape}")
-    if not np.all(np.isfinite(arr)) or np.any(arr < 0):
-        raise InvalidInputError("weights", "finite non-negative values", "a negative or non-finite weight")
+    if not np.all(np.isfinite(arr)):
+        row = int(np.argmax(~np.isfinite(arr)))
+        raise InvalidInputError("weights", "finite values", f"{arr[row]} at index {row}")
+    if np.any(arr < 0):
+        row = int(np.argmax(arr < 0))
+        raise InvalidInputError("weights", "non-negative values", f"{arr[row]} at index {row}")
     if not np.any(arr > 0):
-        raise DegenerateGeometryError(element, "all weights are zero")
+        raise InvalidInputError("weights", "at least one positive weight", f"all {n} weights zero")
+    check_magnitude(arr, "weights")
     return arr
 
 

@@ -7,16 +7,12 @@ from numpy.typing import NDArray
 
 from pcmm_geo.errors import DegenerateGeometryError
 from pcmm_geo.fit._kernels._core import TOL
+from pcmm_geo.fit._kernels._inputs import weighted_centroid
 from pcmm_geo.fit._kernels._tall import tall_svd
 
+__all__ = ["frozen", "local_covariance", "principal_frame", "propagate", "sign_convention", "weighted_centroid"]
+
 FloatArray = NDArray[np.float64]
-
-
-def weighted_centroid(points: FloatArray, weights: FloatArray | None) -> FloatArray:
-    """Centroid of ``points`` (``(N, D)``), weighted when ``weights`` is given."""
-    if weights is None:
-        return points.mean(axis=0)
-    return (weights[:, None] * points).sum(axis=0) / weights.sum()
 
 
 def principal_frame(
@@ -54,9 +50,13 @@ def local_covariance(jacobian: FloatArray, residuals: FloatArray, dof: int) -> t
     singular, vt = tall_svd(jacobian)
     cond = float(singular[0] / singular[-1]) if singular[-1] > 0 else float("inf")
     variance = float(residuals @ residuals) / dof if dof > 0 else float("nan")
-    with np.errstate(divide="ignore"):
-        inverse = np.where(singular > 0, 1.0 / singular**2, np.inf)
-    return (vt.T * inverse) @ vt * variance, cond
+    positive = singular > 0
+    inverse = np.zeros_like(singular)
+    inverse[positive] = 1.0 / singular[positive] ** 2
+    cov = (vt.T * inverse) @ vt * variance
+    for row in vt[~positive]:  # undetermined directions: infinite variance where they reach (no inf * 0 = NaN)
+        cov[np.abs(np.outer(row, row)) > 1e-12] = np.inf
+    return cov, cond
 
 
 def frozen(array: FloatArray) -> FloatArray:

@@ -1,0 +1,83 @@
+"""Sparse cylinders, cones and tori reach the least-squares minimum, or say they cannot be sure.
+
+A seeded scan (the small sibling of ``benchmarks/fit_robustness.py``): every data set is
+fitted by pcmm_geo and by the independent multi-start reference of
+``multistart_reference.py`` (MINPACK LM from a lattice of axes, the principal axes and the
+generating axis).  A fit passes when its sum of squares is within 1e-9 (relative) of the
+reference's, or when it emitted :class:`~pcmm_geo.errors.AmbiguousFitWarning`.  Zero silent
+wrong answers are allowed for cylinders, cones and whole tori (before the direction
+screening: 18 % of 6-point cylinders, 3 % of cones, 12-24 % of sparse tori).  Sparse tori are
+NOT there yet: 8.7 % (whole) and 10 % (partial) silent in the 150-set benchmark scan; the small
+seeded scan here allows one partial-torus failure.
+"""
+
+from __future__ import annotations
+
+import warnings
+
+import numpy as np
+import pytest
+from multistart_reference import reference_for, sparse_case
+
+from pcmm_geo.errors import AmbiguousFitWarning
+from pcmm_geo.fit import fit_cone, fit_cylinder, fit_torus
+
+FITS = {"cylinder": fit_cylinder, "cone": fit_cone, "torus": fit_torus}
+
+SCANS = [
+    # kind, points per set, arc about the axis (deg), number of sets, silent failures allowed
+    ("cylinder", (6, 8), (360, 360), 30, 0),
+    ("cylinder", (15, 15), (180, 180), 10, 0),
+    ("cone", (7, 10), (360, 360), 14, 0),
+    # sparse whole tori: 8.7 % silent in the 150-set benchmark scan; these 8 seeded sets are fine
+    ("torus", (8, 10), (360, 360), 8, 0),
+    # NOT YET MET: sparse partial tori still miss the global minimum silently in about 1 set
+    # of 10 (set 1 of this seed; 10 % in the benchmark, 23.5 % before) -- docs/fit-robustness.md
+    ("torus", (8, 10), (90, 180), 8, 1),
+]
+
+
+def _silent_failures(kind: str, points_range, arc_range, sets: int, seed: int) -> list[str]:
+    rng = np.random.default_rng([seed, len(kind), sets])
+    silent = []
+    for index in range(sets):
+        n = int(rng.integers(points_range[0], points_range[1] + 1))
+        case = sparse_case(kind, rng, n, arc_deg=float(rng.uniform(*arc_range)))
+        reference = reference_for(kind, case, count=24)
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always")
+            result = FITS[kind](case.points)
+        ambiguous = [w.message for w in caught if isinstance(w.message, AmbiguousFitWarning)]
+        for warning in ambiguous:  # structured: the competing minima, best first, within the margin
+            costs = [minimum["sum_of_squares"] for minimum in warning.minima]
+            assert costs[0] == pytest.approx(result.sum_of_squares, rel=1e-9)
+            assert max(costs) <= costs[0] * (1 + warning.margin) + 1e-20
+        if result.sum_of_squares > reference.cost * (1 + 1e-9) + 1e-24 and not ambiguous:
+            silent.append(f"set {index}: {n} points, sum of squares {result.sum_of_squares:.6g} > {reference.cost:.6g}")
+    return silent
+
+
+@pytest.mark.parametrize(("kind", "points_range", "arc_range", "sets", "allowed"), SCANS)
+def test_sparse_axial_fits_never_return_a_wrong_minimum_silently(kind, points_range, arc_range, sets, allowed) -> None:
+    silent = _silent_failures(kind, points_range, arc_range, sets, seed=11)
+    assert len(silent) <= allowed, silent
+
+
+def test_ambiguity_warning_carries_the_competing_minima() -> None:
+    # points near the intersection of the cylinders x^2 + y^2 = 25 and y^2 + z^2 = 25, made
+    # symmetric under the swap x <-> z: the two mirror-image cylinders fit exactly equally well
+    rng = np.random.default_rng(3)
+    angle = rng.uniform(0, 2 * np.pi, 5)
+    side = np.array([1.0, -1.0, 1.0, -1.0, 1.0])
+    half = np.c_[5 * np.cos(angle), 5 * np.sin(angle), side * 5 * np.cos(angle)] + rng.normal(scale=0.02, size=(5, 3))
+    points = np.vstack([half, half[:, ::-1]])
+    with pytest.warns(AmbiguousFitWarning) as record:
+        result = fit_cylinder(points)
+    warning = record[0].message
+    assert warning.element == "cylinder" and len(warning.minima) == 2
+    first, second = warning.minima
+    assert first["sum_of_squares"] == pytest.approx(second["sum_of_squares"], rel=1e-9)
+    assert first["sum_of_squares"] == pytest.approx(result.sum_of_squares, rel=1e-9)
+    # the competitors are each other's mirror image under x <-> z
+    assert np.allclose(np.abs(first["axis"][::-1]), np.abs(second["axis"]), atol=1e-7)
+    assert first["radius"] == pytest.approx(second["radius"], abs=1e-9)
