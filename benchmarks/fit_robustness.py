@@ -7,7 +7,8 @@ the origin) are fitted with ``pcmm_geo.fit`` and with the independent multi-star
 axis).  Each set is classed as
 
 * ``global`` - the fit's sum of squares is within 1e-9 (relative) of the reference's,
-* ``warned`` - it is not, but :class:`~pcmm_geo.errors.AmbiguousFitWarning` was emitted,
+* ``warned`` - it is not, but :class:`~pcmm_geo.errors.AmbiguousFitWarning` or
+  :class:`~pcmm_geo.errors.UnassuredMinimumWarning` was emitted,
 * ``silent`` - a wrong local minimum returned without a warning (the defect),
 * ``better`` - the fit found a lower minimum than the reference (counted as global),
 * ``error`` - the fit raised.
@@ -61,7 +62,7 @@ def classify(kind: str, points: np.ndarray, reference_cost: float) -> tuple[str,
         except PcmmGeoError:
             return "error", time.perf_counter() - start
     elapsed = time.perf_counter() - start
-    ambiguous = any(type(w.message).__name__ == "AmbiguousFitWarning" for w in caught)
+    ambiguous = any(type(w.message).__name__ in ("AmbiguousFitWarning", "UnassuredMinimumWarning") for w in caught)
     cost = result.sum_of_squares
     if cost <= reference_cost * (1 + 1e-9) + 1e-24:
         return ("better" if cost < reference_cost * (1 - 1e-6) else "global"), elapsed

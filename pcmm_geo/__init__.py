@@ -43,6 +43,7 @@ from pcmm_geo.errors import (
     PcmmGeoError,
     PcmmGeoWarning,
     TooFewPointsError,
+    UnassuredMinimumWarning,
 )
 
 __version__ = "0.2.0.dev0"
@@ -56,6 +57,7 @@ __all__ = [
     "DegenerateGeometryError",
     "AmbiguousFitError",
     "AmbiguousFitWarning",
+    "UnassuredMinimumWarning",
     "ConvergenceError",
     "NoRealSolutionError",
     "OutputExistsError",

@@ -40,6 +40,7 @@ __all__ = [
     "IncompleteTestError",
     "IllConditionedWarning",
     "AmbiguousFitWarning",
+    "UnassuredMinimumWarning",
     "PcmmGeoWarning",
 ]
 
@@ -242,3 +243,25 @@ class AmbiguousFitWarning(IllConditionedWarning):
         self.element = element
         self.minima = minima
         self.margin = margin
+
+
+class UnassuredMinimumWarning(IllConditionedWarning):
+    """A fit converged, but for data this sparse the library cannot assure it is the global minimum.
+
+    Raised where scans against an independent multi-start reference still show silent wrong
+    minima (sparse tori without an axis hint: ``docs/fit-robustness.md``). The returned fit is the
+    best minimum found; a nominal ``axis_hint`` or more points remove the doubt.
+
+    Fields: ``element``; ``n_points``; ``assured_from``, the number of points from which the
+    search is assured without a hint.
+    """
+
+    def __init__(self, element: str, n_points: int, assured_from: int) -> None:
+        super().__init__(
+            f"{element}: {n_points} points and no axis_hint: the least-squares minimum found is not assured "
+            f"to be the global one (sparse data can hold a narrow true basin beside spurious minima); pass the "
+            f"nominal axis as axis_hint or measure at least {assured_from} points"
+        )
+        self.element = element
+        self.n_points = n_points
+        self.assured_from = assured_from
