@@ -260,7 +260,7 @@ class UnassuredMinimumWarning(IllConditionedWarning):
         super().__init__(
             f"{element}: {n_points} points and no axis_hint: the least-squares minimum found is not assured "
             f"to be the global one (sparse data can hold a narrow true basin beside spurious minima); pass the "
-            f"nominal axis as axis_hint or measure at least {assured_from} points"
+            f"nominal axis as axis_hint (pcmm fit: --axis-hint X Y Z) or measure at least {assured_from} points"
         )
         self.element = element
         self.n_points = n_points

@@ -8,17 +8,28 @@ from __future__ import annotations
 
 import argparse
 import sys
+import warnings
 
 from pcmm_geo.cli._output import EXIT_USAGE, check_output_paths, print_report
 from pcmm_geo.cli._record import input_paths, software_versions, start_provenance
 from pcmm_geo.cli._report import write_report
-from pcmm_geo.errors import OutputExistsError, PcmmGeoError
+from pcmm_geo.errors import OutputExistsError, PcmmGeoError, PcmmGeoWarning
 
 
 def report_title(args: argparse.Namespace) -> str:
     """``"pcmm COMMAND [ACTION]"``, e.g. ``"pcmm thermal correct-length"``."""
     action = getattr(args, "action", None)
     return f"pcmm {args.command}" + (f" {action}" if isinstance(action, str) else "")
+
+
+def _print_warnings(args: argparse.Namespace, caught: list[warnings.WarningMessage]) -> None:
+    """The library's own warnings as one line each on stderr (``pcmm fit: warning: ...``); others as usual."""
+    for record in caught:
+        if isinstance(record.message, PcmmGeoWarning):
+            text = " ".join(str(record.message).split())
+            print(f"pcmm {args.command}: warning: {type(record.message).__name__}: {text}", file=sys.stderr)
+        else:
+            warnings.showwarning(record.message, record.category, record.filename, record.lineno)
 
 
 def run_handler(args: argparse.Namespace) -> int:
@@ -28,7 +39,10 @@ def run_handler(args: argparse.Namespace) -> int:
         if wants_report:  # inputs are hashed before the handler reads them, outputs do not exist yet
             provenance = start_provenance(getattr(args, "command_line", None) or ["pcmm", args.command],
                                           input_paths(args))
-        report = args.handler(args)
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always", PcmmGeoWarning)
+            report = args.handler(args)
+        _print_warnings(args, caught)
         if wants_report:
             provenance.versions = software_versions()
             report.provenance = provenance

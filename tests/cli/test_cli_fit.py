@@ -72,3 +72,23 @@ def test_help_is_fast_and_lists_commands() -> None:
     assert listing.returncode == 0
     for command in ("fit", "demo", "calibrate", "acquire", "gauge-block", "thermal"):
         assert command in listing.stdout
+
+
+def test_sparse_torus_warns_in_one_line_and_axis_hint_silences_it(tmp_path: Path) -> None:
+    rng = np.random.default_rng(1)
+    around, tube = rng.uniform(0, 2 * np.pi, 9), rng.uniform(0, 2 * np.pi, 9)
+    points = np.c_[(20 + 4 * np.cos(tube)) * np.cos(around), (20 + 4 * np.cos(tube)) * np.sin(around), 4 * np.sin(tube)]
+    data_file = tmp_path / "torus9.csv"
+    np.savetxt(data_file, points + np.array([0.0, 0.0, 500.0]), delimiter=",", header="x,y,z", comments="")
+    unhinted = _run("fit", "torus", str(data_file), "--json")
+    assert unhinted.returncode == 0, unhinted.stderr
+    warning_lines = unhinted.stderr.strip().splitlines()
+    assert len(warning_lines) == 1
+    assert warning_lines[0].startswith("pcmm fit: warning: UnassuredMinimumWarning: torus: 9 points")
+    hinted = _run("fit", "torus", str(data_file), "--axis-hint", "0", "0", "1", "--json")
+    assert hinted.returncode == 0 and hinted.stderr == ""
+    data = json.loads(hinted.stdout)
+    assert abs(data["major_radius"] - 20.0) < 1e-9 and abs(data["minor_radius"] - 4.0) < 1e-9
+    np.testing.assert_allclose(data["center"], [0.0, 0.0, 500.0], atol=1e-9)
+    refused = _run("fit", "plane", str(data_file), "--axis-hint", "0", "0", "1")
+    assert refused.returncode == 2 and "--axis-hint" in refused.stderr

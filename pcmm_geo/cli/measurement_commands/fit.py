@@ -53,6 +53,8 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     )
     parser.add_argument("--radius", type=float, help="fixed radius in mm (circle, sphere, cylinder)")
     parser.add_argument("--two-d", action="store_true", help="line/circle: use only the x and y columns")
+    parser.add_argument("--axis-hint", type=float, nargs=3, metavar=("X", "Y", "Z"),
+                        help="cylinder, cone, torus: the nominal axis direction, tried first (sparse data)")
     parser.add_argument("--residuals", action="store_true", help="include every residual in the JSON output")
     add_plot_flag(parser, "a residual plot")
     add_report_flag(parser)
@@ -79,6 +81,10 @@ def handle(args: argparse.Namespace) -> Report:
         if args.element not in ("circle", "sphere", "cylinder"):
             raise InvalidInputError("--radius", "element circle, sphere or cylinder", args.element)
         kwargs["radius"] = args.radius
+    if args.axis_hint is not None:
+        if args.element not in ("cylinder", "cone", "torus"):
+            raise InvalidInputError("--axis-hint", "element cylinder, cone or torus", args.element)
+        kwargs["axis_hint"] = np.asarray(args.axis_hint, dtype=float)
     if args.element == "circle" and args.criterion == "gaussian":
         kwargs["method"] = args.method
     if args.criterion != "gaussian":
