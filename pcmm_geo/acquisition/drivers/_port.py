@@ -12,7 +12,7 @@ from __future__ import annotations
 import time
 from collections.abc import Callable
 from dataclasses import dataclass
-from typing import Protocol
+from typing import Protocol, Self
 
 from pcmm_geo._optional import require
 from pcmm_geo.errors import DeviceError, DeviceProtocolError, DeviceTimeoutError, InvalidInputError
@@ -205,3 +205,33 @@ def is_transient(error: BaseException) -> bool:
         return False
     code = getattr(error, "code", None)
     return code is not None and (code == 255 or 16370 <= code <= 16383 or 262075 <= code <= 262082)
+
+
+class PortDriver:
+    """Life cycle shared by the device drivers: the link, its clock and its counters.
+
+    A driver calls :meth:`_attach` once in its constructor; the port is closed by :meth:`close`
+    (or the ``with`` block) only if the driver opened it from a name, never when it was handed a
+    port object.
+    """
+
+    _link: SerialLike
+    _owned: bool
+    _clock: Callable[[], float]
+    _counters: LinkCounters
+
+    def _attach(self, port: str | SerialLike, *, device: str, baudrate: int, timeout: float) -> None:
+        self._link, self._owned = open_port(port, device=device, baudrate=baudrate, timeout=timeout)
+        self._clock = link_clock(self._link)
+        self._counters = LinkCounters()
+
+    def close(self) -> None:
+        """Close the port if this driver opened it."""
+        if self._owned:
+            self._link.close()
+
+    def __enter__(self) -> Self:
+        return self
+
+    def __exit__(self, *exc_info: object) -> None:
+        self.close()

@@ -31,12 +31,10 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 from pcmm_geo.acquisition.drivers._port import (
-    LinkCounters,
     LinkStatistics,
+    PortDriver,
     SerialLike,
     flush_input,
-    link_clock,
-    open_port,
     read_some,
     write_all,
 )
@@ -253,7 +251,7 @@ class LaserReading:
     spread: float
 
 
-class LaserSensor:
+class LaserSensor(PortDriver):
     """Driver of one streaming optoNCDT sensor (model ``"ILD1302"`` or ``"ILD1420"``).
 
     Parameters
@@ -312,20 +310,7 @@ class LaserSensor:
         self._decoder: _StreamDecoder = Ild1302Decoder() if model == "ILD1302" else Ild1420Decoder()
         self._errors = ILD1302_ERRORS if model == "ILD1302" else ILD1420_ERRORS
         self._error_floor = 16370 if model == "ILD1302" else 262075
-        self._link, self._owned = open_port(port, device=name, baudrate=baudrate, timeout=0.01)
-        self._clock = link_clock(self._link)
-        self._counters = LinkCounters()
-
-    def close(self) -> None:
-        """Close the port if this driver opened it."""
-        if self._owned:
-            self._link.close()
-
-    def __enter__(self) -> LaserSensor:
-        return self
-
-    def __exit__(self, *exc_info: object) -> None:
-        self.close()
+        self._attach(port, device=name, baudrate=baudrate, timeout=0.01)
 
     @property
     def statistics(self) -> LinkStatistics:

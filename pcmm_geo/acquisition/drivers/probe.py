@@ -27,12 +27,10 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 from pcmm_geo.acquisition.drivers._port import (
-    LinkCounters,
     LinkStatistics,
+    PortDriver,
     SerialLike,
     flush_input,
-    link_clock,
-    open_port,
     read_some,
 )
 from pcmm_geo.errors import DeviceTimeoutError, InvalidInputError
@@ -96,7 +94,7 @@ class ProbeState:
     discarded_lines: int
 
 
-class ProbeReader:
+class ProbeReader(PortDriver):
     """Reads the probe state from the Arduino's serial line.
 
     Parameters
@@ -143,20 +141,7 @@ class ProbeReader:
         self.confirm = confirm
         self.timeout = float(timeout)
         self.name = name
-        self._link, self._owned = open_port(port, device=name, baudrate=baudrate, timeout=0.01)
-        self._clock = link_clock(self._link)
-        self._counters = LinkCounters()
-
-    def close(self) -> None:
-        """Close the port if this driver opened it."""
-        if self._owned:
-            self._link.close()
-
-    def __enter__(self) -> ProbeReader:
-        return self
-
-    def __exit__(self, *exc_info: object) -> None:
-        self.close()
+        self._attach(port, device=name, baudrate=baudrate, timeout=0.01)
 
     @property
     def statistics(self) -> LinkStatistics:

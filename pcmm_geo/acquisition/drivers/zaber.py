@@ -28,12 +28,10 @@ from collections.abc import Iterable
 from dataclasses import dataclass
 
 from pcmm_geo.acquisition.drivers._port import (
-    LinkCounters,
     LinkStatistics,
+    PortDriver,
     SerialLike,
     flush_input,
-    link_clock,
-    open_port,
     read_some,
     write_all,
 )
@@ -193,7 +191,7 @@ def decode_packet(packet: bytes) -> ZaberReply:
     return ZaberReply(device, command, data)
 
 
-class ZaberChain:
+class ZaberChain(PortDriver):
     """Driver of daisy-chained Zaber T-series stages speaking the binary protocol.
 
     Parameters
@@ -244,23 +242,8 @@ class ZaberChain:
         self.timeout = float(timeout)
         self.move_timeout = float(move_timeout)
         self.packet_gap = float(packet_gap)
-        self._link, self._owned = open_port(port, device="zaber", baudrate=baudrate, timeout=packet_gap)
-        self._clock = link_clock(self._link)
-        self._counters = LinkCounters()
+        self._attach(port, device="zaber", baudrate=baudrate, timeout=packet_gap)
         self.unsolicited: list[ZaberReply] = []
-
-    # ------------------------------------------------------------------ life cycle
-    def close(self) -> None:
-        """Close the port if this driver opened it."""
-        if self._owned:
-            self._link.close()
-
-    def __enter__(self) -> ZaberChain:
-        return self
-
-    def __exit__(self, *exc_info: object) -> None:
-        self.close()
-
     @property
     def statistics(self) -> LinkStatistics:
         """Counters of requests, resyncs, timeouts and error replies so far."""
