@@ -38,6 +38,9 @@ __all__ = [
     "OutputExistsError",
     "MissingDependencyError",
     "IncompleteTestError",
+    "OutOfRangeError",
+    "InconsistentMeasurementError",
+    "CalibrationNotConvergedWarning",
     "IllConditionedWarning",
     "AmbiguousFitWarning",
     "UnassuredMinimumWarning",
@@ -214,6 +217,43 @@ class IncompleteTestError(PcmmGeoError, ValueError):
         super().__init__(text, test=test, needed=needed, got=got, detail=detail)
 
 
+class OutOfRangeError(PcmmGeoError, ValueError):
+    """A value lies outside the physical range of the machine or instrument.
+
+    Fields: ``quantity`` (what, e.g. "column a height"), ``value``, ``low``, ``high`` (the
+    allowed closed interval, either may be None for a one-sided limit) and ``unit``.
+    """
+
+    def __init__(self, quantity: str, value: Any, low: Any = None, high: Any = None, unit: str = "mm") -> None:
+        if low is not None and high is not None:
+            allowed = f"[{low}, {high}] {unit}"
+        elif low is not None:
+            allowed = f">= {low} {unit}"
+        else:
+            allowed = f"<= {high} {unit}"
+        super().__init__(
+            f"{quantity}: expected a value in {allowed}, got {value} {unit}",
+            quantity=quantity,
+            value=value,
+            low=low,
+            high=high,
+            unit=unit,
+        )
+
+
+class InconsistentMeasurementError(PcmmGeoError, ValueError):
+    """Redundant readings disagree beyond their tolerance (e.g. a kinematic closure residual).
+
+    Fields: ``what``, ``residual`` and ``tolerance`` (same unit, ``unit``), ``detail``.
+    """
+
+    def __init__(self, what: str, residual: Any, tolerance: Any, unit: str = "mm", detail: str = "") -> None:
+        text = f"{what}: residual {residual} {unit} exceeds the tolerance {tolerance} {unit}"
+        if detail:
+            text += f" ({detail})"
+        super().__init__(text, what=what, residual=residual, tolerance=tolerance, unit=unit, detail=detail)
+
+
 class PcmmGeoWarning(UserWarning):
     """Base class of pcmm_geo warnings."""
 
@@ -265,3 +305,11 @@ class UnassuredMinimumWarning(IllConditionedWarning):
         self.element = element
         self.n_points = n_points
         self.assured_from = assured_from
+
+
+class CalibrationNotConvergedWarning(PcmmGeoWarning):
+    """A calibration solver stopped without meeting its convergence test or is ill-determined.
+
+    The result is returned (``converged=False`` and a ``message`` saying why) so that nothing
+    computed is lost, but it must not be used as a calibration without inspection.
+    """
