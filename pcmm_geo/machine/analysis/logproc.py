@@ -46,11 +46,13 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from pcmm_geo.errors import InvalidInputError
+from pcmm_geo.machine.analysis.logproc_closure import CLOSURE_SIGMAS, first_row_pose, row_closure_error
 from pcmm_geo.machine.analysis.logproc_rows import LOG_COLUMNS, MeasurementLog, read_log, write_log
 from pcmm_geo.machine.kinematics import _pose_solver as solver
 from pcmm_geo.machine.kinematics.model import ARMS, RigidBodyMachine, as_readings
 
 __all__ = [
+    "CLOSURE_SIGMAS",
     "LOG_COLUMNS",
     "MeasurementLog",
     "ProcessedLog",
@@ -76,7 +78,7 @@ class ProcessedLog:
     tips : ndarray, shape (N, 3)
         Probe-tip centre per row (machine frame, mm).
     probe_rows : ndarray of int, shape (M,)
-        Indices of rows with ``probe = 1``.
+        Indices (0-based) of the rows with ``probe = 1`` that passed the closure test.
     probe_points : ndarray, shape (M, 3)
         ``tips[probe_rows]``.
     moved_arm : ndarray of int, shape (N,)
@@ -87,6 +89,15 @@ class ProcessedLog:
         False where the solved height change of the moved arm contradicts ``direction``
         by more than 1 um.
     converged : ndarray of bool, shape (N,)
+    closure_residual : ndarray, shape (N,)
+        Euclidean norm of each row's 9 closure residuals (mm): the laser misfit the pose
+        could not absorb (the quantity tested against ``closure_tolerance``).
+    inconsistent : ndarray of bool, shape (N,)
+        True where ``closure_residual > closure_tolerance``; such rows give no probe point.
+    rejected_probe_rows : ndarray of int, shape (K,)
+        Indices of rows with ``probe = 1`` left out of ``probe_points`` because inconsistent.
+    closure_tolerance : float
+        The tolerance applied (mm).
     """
 
     heights: FloatArray
@@ -97,6 +108,10 @@ class ProcessedLog:
     residuals: FloatArray
     direction_consistent: NDArray[np.bool_]
     converged: NDArray[np.bool_]
+    closure_residual: FloatArray
+    inconsistent: NDArray[np.bool_]
+    rejected_probe_rows: IntArray
+    closure_tolerance: float
 
 
 def synthesise_log(
@@ -145,9 +160,15 @@ def process_log(
     *,
     initial_heights: ArrayLike | None = None,
     laser_sigma: float = 1e-3,
+    closure_tolerance: float | None = None,
+    on_inconsistent: str = "raise",
     progress: Callable[[int, int], None] | None = None,
 ) -> ProcessedLog:
     """Pivot heights and probe points from a Table 3.2 log (see the module notes).
+
+    Every row is tested for closure: the three lasers over-determine the pose, and a row
+    whose closure residual exceeds ``closure_tolerance`` is not turned into a point
+    (see *Closure test* below).
 
     Parameters
     ----------
@@ -158,7 +179,15 @@ def process_log(
         machine's reference heights).  With parallel columns the lasers cannot see a
         common height offset, so this datum carries through the whole log.
     laser_sigma : float
-        Standard uncertainty of a laser reading (weights only; mm).
+        Standard uncertainty of a laser reading (mm): the weights of the solve and the
+        unit of the default closure tolerance.
+    closure_tolerance : float, optional
+        Largest accepted closure residual of a row (mm, :attr:`ProcessedLog.closure_residual`).
+        Default :data:`CLOSURE_SIGMAS` ``* laser_sigma`` (8 um for the default 1 um lasers).
+    on_inconsistent : {"raise", "flag"}
+        ``"raise"`` (default): the first row beyond the tolerance raises
+        :class:`~pcmm_geo.errors.InconsistentMeasurementError`.  ``"flag"``: such rows are
+        kept, marked in :attr:`ProcessedLog.inconsistent` and left out of the probe points.
     progress : callable, optional
         ``progress(rows_done, rows_total)``, called every 100 rows and at the end.
 
@@ -174,10 +203,29 @@ def process_log(
     level pose is therefore poorly determined there (``converged`` False or branch
     changes); keep the pivots a few tens of millimetres apart in height.
 
+    *Closure test.*  The three lasers over-determine each row (two redundant combinations
+    on a row that moved one motor, one on the first row); the closure residual is the laser
+    misfit the pose cannot absorb.  The default tolerance, ``8 laser_sigma``, is derived in
+    :mod:`pcmm_geo.machine.analysis.logproc_closure` (a clean row exceeds it with probability
+    about 2e-9; a 5 mm fault on one laser leaves 1.5-5 mm).  A machine model that does not
+    fit the machine shows up the same way: widen the tolerance to the model's uncertainty.
+
+    *What an inconsistent row does to the rows after it* (``on_inconsistent="flag"``):
+    the heights that row solved are not trusted.  Held heights come from the last
+    consistent row, and every untrusted height is solved again, from the lasers, on the
+    next row that re-solves any pivot (that row then has one redundant combination
+    instead of two); once a row closes, all heights are trusted again.  A start row that
+    repeats the lasers of an inconsistent stop row is itself marked.  An inconsistent
+    *first* row loses the datum: the later rows are then right up to one common vertical
+    offset of all points (the lasers cannot see a common height), distances are unaffected.
+
     Raises
     ------
     InvalidInputError
-        Bad ``initial_heights`` or ``laser_sigma``.
+        Bad ``initial_heights``, ``laser_sigma``, ``closure_tolerance`` or ``on_inconsistent``.
+    InconsistentMeasurementError
+        ``on_inconsistent="raise"`` and a row's closure residual exceeds the tolerance;
+        ``what`` names the row (1-based data row), ``residual`` and ``tolerance`` are in mm.
 
     Examples
     --------
@@ -187,9 +235,20 @@ def process_log(
     >>> out = process_log(m, log, initial_heights=start)
     >>> bool(abs(out.heights[-1, 1] - start[1] - 10.0) < 1e-6)
     True
+    >>> lasers = log.lasers.copy()
+    >>> lasers[1, 0] += 5.0  # laser a of the stop row 5 mm off
+    >>> faulty = MeasurementLog(log.start_stop, log.probe, log.motor, log.direction, lasers)
+    >>> flagged = process_log(m, faulty, initial_heights=start, on_inconsistent="flag")
+    >>> flagged.inconsistent.tolist(), flagged.probe_points.shape
+    ([False, True], (0, 3))
     """
     if not (np.isfinite(laser_sigma) and laser_sigma > 0):
         raise InvalidInputError("laser_sigma", "a positive finite number", str(laser_sigma))
+    tolerance = CLOSURE_SIGMAS * laser_sigma if closure_tolerance is None else closure_tolerance
+    if not (np.isfinite(tolerance) and tolerance > 0):
+        raise InvalidInputError("closure_tolerance", "a positive finite number of mm", str(closure_tolerance))
+    if on_inconsistent not in ("raise", "flag"):
+        raise InvalidInputError("on_inconsistent", "'raise' or 'flag'", repr(on_inconsistent))
     datum = machine.reference_heights if initial_heights is None else as_readings(initial_heights, "initial_heights")
     count = len(log)
     geometry = machine.geometry
@@ -199,34 +258,34 @@ def process_log(
     moved = np.full(count, -1, dtype=np.int64)
     consistent = np.ones(count, dtype=bool)
     converged = np.ones(count, dtype=bool)
-    state: solver.PoseState | None = None
+    inconsistent = np.zeros(count, dtype=bool)
+    trusted = np.ones(3, dtype=bool)  # heights of the last consistent state that may be held
+    good: solver.PoseState | None = None  # last consistent state (start of the next solve)
     for row in range(count):
         if progress is not None and row % 100 == 0:
             progress(row, count)
         lasers = log.lasers[row : row + 1]
         if row == 0:
-            first = machine.forward(lasers=lasers[0], heights_hint=datum, laser_sigma=laser_sigma)
-            state = solver.PoseState(
-                first.rotation[None], first.translation[None], first.lasers[None], first.heights[None],
-                np.array([bool(first.converged)]), first.iterations,
-            )
-            residuals[row] = first.residuals
+            state = first_row_pose(geometry, lasers, datum, laser_sigma)
+            residuals[row] = solver.closure(geometry, state)[0]
+            solved = np.ones(3, dtype=bool)
         else:
-            previous = heights[row - 1]
             if log.start_stop[row] == 1 and np.array_equal(log.lasers[row], log.lasers[row - 1]):
-                heights[row], tips[row] = previous, tips[row - 1]
-                residuals[row] = residuals[row - 1]
+                heights[row], tips[row] = heights[row - 1], tips[row - 1]
+                residuals[row], inconsistent[row] = residuals[row - 1], inconsistent[row - 1]
                 continue
             arm = int(log.motor[row] if log.start_stop[row] == 0 else log.motor[row - 1]) - 1
             direction = int(log.direction[row] if log.start_stop[row] == 0 else log.direction[row - 1])
             moved[row] = arm
-            assert state is not None
+            assert good is not None
+            previous = good.heights[0]
+            solved = ~trusted
+            solved[arm] = True
             start = solver.PoseState(
-                state.rotation, state.translation, lasers.copy(), previous[None].copy(), state.converged, 0
+                good.rotation, good.translation, lasers.copy(), previous[None].copy(), good.converged, 0
             )
             w_lasers = np.full((1, 3), 1.0 / laser_sigma)
-            w_heights = np.full((1, 3), 1e3 / laser_sigma)  # held pivots: motors did not move
-            w_heights[0, arm] = 0.0
+            w_heights = np.where(solved, 0.0, 1e3 / laser_sigma)[None]  # held pivots: motors did not move
             state = solver.solve_pose(
                 geometry, start, laser_weight=w_lasers, height_weight=w_heights, laser_target=lasers,
                 height_target=previous[None], rcond=solver.UNOBSERVABLE,
@@ -240,9 +299,21 @@ def process_log(
         heights[row] = state.heights[0]
         tips[row] = state.rotation[0] @ geometry.tip_center + state.translation[0]
         converged[row] = bool(state.converged[0])
+        closure_size = float(np.linalg.norm(residuals[row]))
+        if closure_size > tolerance:
+            if on_inconsistent == "raise":
+                kind = "first" if row == 0 else ("stop" if log.start_stop[row] == 0 else "start")
+                raise row_closure_error(row, kind, residuals[row], tolerance, solved)
+            inconsistent[row] = True
+            trusted &= ~solved
+            if good is None:  # the first row: keep its pose as the start, trust no height
+                good = state
+        else:
+            trusted[:] = True
+            good = state
     if progress is not None:
         progress(count, count)
-    probe_rows = np.flatnonzero(log.probe == 1)
+    probe_rows = np.flatnonzero((log.probe == 1) & ~inconsistent)
     return ProcessedLog(
         heights=heights,
         tips=tips,
@@ -252,6 +323,10 @@ def process_log(
         residuals=residuals,
         direction_consistent=consistent,
         converged=converged,
+        closure_residual=np.linalg.norm(residuals, axis=1),
+        inconsistent=inconsistent,
+        rejected_probe_rows=np.flatnonzero((log.probe == 1) & inconsistent),
+        closure_tolerance=float(tolerance),
     )
 
 
@@ -295,7 +370,8 @@ def process_log_dpkm(
     -------
     ProcessedLog
         ``residuals`` hold the b-c / c-a / a-b pair closure ``|z_j - z_k| - |dz_jk|`` in
-        the first three columns (mm), zeros elsewhere.
+        the first three columns (mm), zeros elsewhere.  Like the seed, this processing
+        tests no row: ``inconsistent`` is all False and ``closure_tolerance`` infinite.
 
     Raises
     ------
@@ -366,4 +442,8 @@ def process_log_dpkm(
         residuals=residuals,
         direction_consistent=consistent,
         converged=np.ones(count, dtype=bool),
+        closure_residual=np.linalg.norm(residuals, axis=1),
+        inconsistent=np.zeros(count, dtype=bool),  # the seed's processing tests nothing
+        rejected_probe_rows=np.zeros(0, dtype=np.int64),
+        closure_tolerance=float("inf"),
     )
