@@ -48,6 +48,7 @@ from numpy.typing import ArrayLike, NDArray
 from pcmm_geo.errors import InvalidInputError
 from pcmm_geo.machine.analysis.logproc_closure import CLOSURE_SIGMAS, first_row_pose, row_closure_error
 from pcmm_geo.machine.analysis.logproc_rows import LOG_COLUMNS, MeasurementLog, read_log, write_log
+from pcmm_geo.machine.analysis.parameter_laws import DpkmParameterLaws
 from pcmm_geo.machine.kinematics import _pose_solver as solver
 from pcmm_geo.machine.kinematics.model import ARMS, RigidBodyMachine, as_readings
 
@@ -337,12 +338,13 @@ SEED_NEIGHBOUR = {0: 2, 1: 0, 2: 1}
 def process_log_dpkm(
     log: MeasurementLog,
     *,
-    dead_distance: Mapping[str, float],
-    beta_deg: Mapping[str, float],
+    dead_distance: Mapping[str, float] | None = None,
+    beta_deg: Mapping[str, float] | None = None,
     column_points: Mapping[str, ArrayLike],
     initial_heights: ArrayLike,
     sign_rule: str = "continuity",
     start_of_range: float = 60.0,
+    parameter_laws: DpkmParameterLaws | None = None,
 ) -> ProcessedLog:
     """The seed's own processing: eqs 2.3-2.8 per laser pair, then eqs 2.9-2.18 (corrected).
 
@@ -357,6 +359,7 @@ def process_log_dpkm(
     log : MeasurementLog
     dead_distance, beta_deg : mapping
         ``d_i`` (mm, without the 60 mm start of range) and ``beta_in`` (degrees, "ab", "bc", "ca").
+        Ignored when ``parameter_laws`` is given (pass ``None``).
     column_points : mapping arm -> (x, y)
         Vertical column positions (mm).
     initial_heights : array_like, shape (3,)
@@ -365,6 +368,9 @@ def process_log_dpkm(
         ``"continuity"``: the sign giving the height nearest the previous one (correct while
         the pivot does not cross its neighbour's height); ``"seed_direction"``: the seed's
         rule, ``+`` when the row's direction is +1, ``-`` when -1 (continuity when 0).
+    parameter_laws : DpkmParameterLaws, optional
+        ``d_i`` and ``beta_in`` as laws of each row's lasers (thesis 8.2, variable parameters,
+        :mod:`pcmm_geo.machine.analysis.parameter_laws`) instead of constants.
 
     Returns
     -------
@@ -395,13 +401,19 @@ def process_log_dpkm(
 
     if sign_rule not in ("continuity", "seed_direction"):
         raise InvalidInputError("sign_rule", "'continuity' or 'seed_direction'", repr(sign_rule))
+    if parameter_laws is None:
+        if dead_distance is None or beta_deg is None:
+            raise InvalidInputError("dead_distance/beta_deg", "mappings (or parameter_laws)", "None")
+        parameter_laws = DpkmParameterLaws.constant(dead_distance, beta_deg)
     xy = np.array([np.asarray(column_points[arm], dtype=float)[:2] for arm in ARMS])
-    lengths = arm_lengths(log.lasers, dead_distance, start_of_range=start_of_range)
-    pair_of = {(0, 1): "ab", (1, 2): "bc", (2, 0): "ca"}
+    dead_rows, beta_rows = parameter_laws.evaluate(log.lasers)
+    lengths = arm_lengths(log.lasers, dict(zip(ARMS, np.zeros(3), strict=True)), start_of_range=start_of_range)
+    lengths = lengths + dead_rows
+    pair_column = {(0, 1): 0, (1, 2): 1, (2, 0): 2}  # columns of beta_rows: ab, bc, ca
 
     def dz(row: int, i: int, j: int) -> float:
-        key = (i, j) if (i, j) in pair_of else (j, i)
-        beta = np.radians(beta_deg[pair_of[key]])
+        key = (i, j) if (i, j) in pair_column else (j, i)
+        beta = np.radians(beta_rows[row, pair_column[key]])
         return float(height_difference(lengths[row, i], lengths[row, j], beta, np.linalg.norm(xy[i] - xy[j])))
 
     count = len(log)
