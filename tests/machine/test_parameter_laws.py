@@ -8,6 +8,7 @@ import pytest
 from pcmm_geo.errors import InvalidInputError, NoRealSolutionError
 from pcmm_geo.machine.analysis.logproc import process_log_dpkm
 from pcmm_geo.machine.analysis.parameter_laws import (
+    BOTH_ARMS_BETA_DRIVERS,
     TABLE_8_1,
     TABLE_8_2,
     THESIS_BETA_DRIVERS,
@@ -39,11 +40,12 @@ def moves(seed: int = 5, count: int = 30) -> list[tuple[int, float, bool]]:
 
 def thesis_like_laws(pivot: np.ndarray) -> DpkmParameterLaws:
     """Table 3.1 values at the readings ``pivot`` (3,), varying with Appendix C's slopes."""
+    drivers = {p: THESIS_BETA_DRIVERS[p][0] for p in PAIRS}
     return DpkmParameterLaws(
-        {a: LinearLaw(dpkm.TABLE_3_1_DEAD_DISTANCE[a] - DEAD_SLOPE[a] * pivot[k], DEAD_SLOPE[a], a)
+        {a: LinearLaw(dpkm.TABLE_3_1_DEAD_DISTANCE[a] - DEAD_SLOPE[a] * pivot[k], {a: DEAD_SLOPE[a]})
          for k, a in enumerate("abc")},
-        {p: LinearLaw(dpkm.TABLE_3_1_BETA_DEG[p] - BETA_SLOPE[p] * pivot["abc".index(THESIS_BETA_DRIVERS[p])],
-                      BETA_SLOPE[p], THESIS_BETA_DRIVERS[p]) for p in PAIRS},
+        {p: LinearLaw(dpkm.TABLE_3_1_BETA_DEG[p] - BETA_SLOPE[p] * pivot["abc".index(drivers[p])],
+                      {drivers[p]: BETA_SLOPE[p]}) for p in PAIRS},
     )
 
 
@@ -81,9 +83,10 @@ def test_machine_with_linearly_varying_parameters(log_lasers_mid) -> None:
     # the laws come back from two calibration positions (Appendix C's procedure) to rounding
     fit = fit_parameter_laws(calibration_joints(truth, CALIBRATION_LASERS), np.zeros(3), CALIBRATION_LASERS)
     for arm in "abc":
-        assert fit.laws.dead_distance[arm].slope == pytest.approx(DEAD_SLOPE[arm], abs=1e-12)
+        assert fit.laws.dead_distance[arm].slopes == pytest.approx({arm: DEAD_SLOPE[arm]}, abs=1e-12)
     for pair in PAIRS:
-        assert fit.laws.beta_deg[pair].slope == pytest.approx(BETA_SLOPE[pair], abs=1e-12)
+        assert fit.laws.beta_deg[pair].slopes == pytest.approx({THESIS_BETA_DRIVERS[pair][0]: BETA_SLOPE[pair]},
+                                                               abs=1e-12)
     np.testing.assert_allclose(fit.dead_distance_nonlinearity, 0.0, atol=1e-12)
     assert np.abs(process(log, fit.laws).tips - tips).max() < 1e-6
     # the thesis' averages over the calibration positions (readings 1.8-139 mm) are far from this log's
@@ -101,7 +104,8 @@ def test_machine_with_constant_parameters(log_lasers_mid) -> None:
     assert np.abs(wrong.tips - tips).max() > 0.5  # 1.8 mm
     # fitted from exact calibration data, the slopes vanish and the laws are the constants
     fit = fit_parameter_laws(calibration_joints(constant, CALIBRATION_LASERS), np.zeros(3), CALIBRATION_LASERS)
-    assert fit.laws.is_constant or max(abs(law.slope) for law in fit.laws.dead_distance.values()) < 1e-12
+    slopes = [v for law in (*fit.laws.dead_distance.values(), *fit.laws.beta_deg.values()) for v in law.slopes.values()]
+    assert np.abs(slopes).max() < 1e-12
     assert np.abs(process(log, fit.laws).tips - tips).max() < 1e-6
 
 
@@ -109,11 +113,12 @@ def test_appendix_c_laws_are_reproduced_from_the_rebuilt_calibration() -> None:
     """Appendix C lines 93-144: the 15-digit line coefficients from the joint centers, tip and lasers."""
     rebuilt = reconstruct_appendix_cd()
     fit = fit_parameter_laws(rebuilt.centers, rebuilt.tip, rebuilt.lasers)
-    np.testing.assert_allclose([fit.laws.dead_distance[a].slope for a in "abc"], APPENDIX_C["dead_slope"],
+    np.testing.assert_allclose([fit.laws.dead_distance[a].slopes[a] for a in "abc"], APPENDIX_C["dead_slope"],
                                rtol=0, atol=1e-9)
     np.testing.assert_allclose([fit.laws.dead_distance[a].intercept for a in "abc"], APPENDIX_C["dead_intercept"],
                                rtol=0, atol=1e-7)
-    np.testing.assert_allclose([fit.laws.beta_deg[p].slope for p in PAIRS], APPENDIX_C["beta_slope"], rtol=0, atol=1e-9)
+    np.testing.assert_allclose([fit.laws.beta_deg[p].slopes[THESIS_BETA_DRIVERS[p][0]] for p in PAIRS],
+                               APPENDIX_C["beta_slope"], rtol=0, atol=1e-9)
     np.testing.assert_allclose([fit.laws.beta_deg[p].intercept for p in PAIRS], APPENDIX_C["beta_intercept"],
                                rtol=0, atol=1e-7)
     # Table 7.1's d_i and beta_in are the averages of the two positions (Appendix D, D1 and Beta row 3)
@@ -156,18 +161,20 @@ def test_table_8_error_rows_are_calculated_minus_measured(pair: str) -> None:
 
 
 def test_bad_input() -> None:
-    with pytest.raises(InvalidInputError, match="driver"):
-        LinearLaw(1.0, 0.0, "d")
-    with pytest.raises(InvalidInputError, match="slope"):
-        LinearLaw(1.0, float("nan"), "a")
+    with pytest.raises(InvalidInputError, match="slopes"):
+        LinearLaw(1.0, {"d": 0.0})
+    with pytest.raises(InvalidInputError, match="slopes"):
+        LinearLaw(1.0, {"a": float("nan")})
     with pytest.raises(InvalidInputError, match="beta_deg"):
-        DpkmParameterLaws({a: LinearLaw(300.0, 0.0, a) for a in "abc"}, {"ab": LinearLaw(68.0, 0.0, "b")})
+        DpkmParameterLaws({a: LinearLaw(300.0) for a in "abc"}, {"ab": LinearLaw(68.0, {"b": 0.0})})
     joints = calibration_joints(DpkmParameterLaws.constant(dpkm.TABLE_3_1_DEAD_DISTANCE, dpkm.TABLE_3_1_BETA_DEG),
                                 CALIBRATION_LASERS)
-    with pytest.raises(InvalidInputError, match="at least 2"):
+    with pytest.raises(InvalidInputError, match="d_a"):
         fit_parameter_laws(joints[:1], np.zeros(3), CALIBRATION_LASERS[:1])
-    with pytest.raises(InvalidInputError, match="laser a"):
+    with pytest.raises(InvalidInputError, match="d_a"):
         fit_parameter_laws(joints, np.zeros(3), np.array([[50.0, 1.0, 2.0], [50.0, 3.0, 4.0]]))
+    with pytest.raises(InvalidInputError, match="beta_ab"):  # two positions cannot separate l_a from l_b
+        fit_parameter_laws(joints, np.zeros(3), CALIBRATION_LASERS, beta_drivers=BOTH_ARMS_BETA_DRIVERS)
     with pytest.raises(InvalidInputError, match="shapes"):
         parameter_samples(joints[0], np.zeros(3), CALIBRATION_LASERS)
     with pytest.raises(InvalidInputError, match="dead_distance/beta_deg"):
@@ -175,3 +182,54 @@ def test_bad_input() -> None:
             DpkmParameterLaws.constant(dpkm.TABLE_3_1_DEAD_DISTANCE, dpkm.TABLE_3_1_BETA_DEG), COLUMNS, H0,
             [(1, 2.0, True)], lasers_hint=RigidBodyMachine.from_dpkm().forward(heights=H0).lasers)[0],
             column_points=COLUMNS, initial_heights=H0)
+
+
+def offset_line_machine() -> RigidBodyMachine:
+    """The seed geometry with its slider lines moved 3-6 mm off the tip (the calibrated tetrahedron's flaw, 7.2)."""
+    from pcmm_geo.machine.kinematics.model import SliderLine, Tetrahedron
+
+    seed = RigidBodyMachine.from_dpkm()
+    sliders = {}
+    for arm, line in seed.tetrahedron.sliders.items():
+        side = np.cross(line.direction, [0.0, 0.0, 1.0])
+        side /= np.linalg.norm(side)
+        up = np.cross(line.direction, side)
+        offset = {"a": 3.0 * side, "b": -6.0 * up + 2.0 * side, "c": 5.0 * up}[arm]
+        sliders[arm] = SliderLine(line.point + offset, line.direction, line.laser_scale, line.laser_offset)
+    return RigidBodyMachine(Tetrahedron(sliders, seed.tetrahedron.tip_center), seed.columns,
+                            reference_lasers=seed.reference_lasers, reference_heights=seed.reference_heights)
+
+
+def test_slider_lines_that_miss_the_tip() -> None:
+    """Truth: a rigid tetrahedron whose slider lines miss the tip, processed by the DPKM with each parameter model.
+
+    Single-driver laws (Appendix C) are worse than constants -- Table 8.2's finding -- because an
+    angle between two arms changes with both readings; laws driven by both arms' readings and
+    fitted over the log's range are 40x better than constants; the rigid-body model is exact.
+    """
+    from pcmm_geo.machine.analysis.logproc import process_log, synthesise_log
+
+    machine = offset_line_machine()
+    tip = machine.tetrahedron.tip_center
+    log_moves = moves(seed=3)
+    log = synthesise_log(machine, H0, log_moves)
+    states = [H0]
+    for motor, change, _ in log_moves:
+        after = states[-1].copy()
+        after[motor - 1] += change
+        states += [states[-1], after]
+    truth = machine.forward(heights=np.array(states[1:])).tip
+
+    def dpkm_error(laws: DpkmParameterLaws) -> float:
+        return float(np.abs(process(log, laws).tips - truth).max())
+
+    assert np.abs(process_log(machine, log, initial_heights=H0).tips - truth).max() < 1e-6
+    thesis = fit_parameter_laws(machine.joints(CALIBRATION_LASERS), tip, CALIBRATION_LASERS)
+    assert dpkm_error(thesis.laws) > 2.0 * dpkm_error(thesis.constant) > 2.0  # 7.7 mm against 2.6 mm
+    low, high = log.lasers.min(axis=0), log.lasers.max(axis=0)
+    grid = np.stack(np.meshgrid(*[np.linspace(low[k], high[k], 3) for k in range(3)], indexing="ij"), -1).reshape(-1, 3)
+    single = fit_parameter_laws(machine.joints(grid), tip, grid)
+    both = fit_parameter_laws(machine.joints(grid), tip, grid, beta_drivers=BOTH_ARMS_BETA_DRIVERS)
+    assert dpkm_error(single.laws) > dpkm_error(single.constant) > 0.1  # 0.49 mm against 0.28 mm
+    assert dpkm_error(both.laws) < dpkm_error(both.constant) / 10.0  # 0.007 mm against 0.28 mm
+    assert both.beta_nonlinearity.max() < 1e-4 < single.beta_nonlinearity.max()  # degrees

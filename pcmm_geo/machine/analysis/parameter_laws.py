@@ -18,13 +18,26 @@ What this module does
 ---------------------
 * :func:`parameter_samples`: ``d_i`` and ``beta_in`` at each calibration position from the
   joint centers, the tip and the lasers (Appendix C's computation).
-* :func:`fit_parameter_laws`: least-squares straight lines through ``K >= 2`` positions (the
-  thesis' two-point lines when ``K = 2``) and the constant model (their means), with
-  the RMS of what a straight line leaves (the nonlinearity).
+* :func:`fit_parameter_laws`: least-squares laws through ``K`` positions (the thesis'
+  two-point lines when ``K = 2``) and the constant model (their means), with the RMS of
+  what a law leaves (the nonlinearity).  Angles may be driven by one reading
+  (:data:`THESIS_BETA_DRIVERS`) or by both arms' readings (:data:`BOTH_ARMS_BETA_DRIVERS`).
 * :class:`DpkmParameterLaws` evaluates the laws per log row; pass it to
   :func:`pcmm_geo.machine.analysis.logproc.process_log_dpkm` (``parameter_laws=``).
 * :func:`synthesise_log_dpkm`: a noise-free log of a DPKM machine whose parameters follow
   given laws (constant or variable), the constructed truth of the tests.
+
+What the tests find (``tests/machine/test_parameter_laws.py``)
+--------------------------------------------------------------
+* ``d_i`` depends on laser ``i`` only and bends little: along the rebuilt Appendix C/D
+  slider lines a straight line leaves 2-9 um RMS.  ``beta_in`` changes with *both*
+  readings (about 0.011 degree per mm of ``l_a`` for ``beta_ab``, which Appendix C drives
+  by ``l_b``): a one-reading law learnt from positions where all arms moved together
+  is wrong as soon as the arms move differently, as they do in a log.
+* On a rigid tetrahedron whose slider lines miss the tip by 3-6 mm, the DPKM with the
+  thesis' two-position laws puts the tip 7.7 mm off where the constants give 2.6 mm -- the
+  direction of Table 8.2.  Laws driven by both arms and fitted over the log's range give
+  0.007 mm; the rigid-body model, which places the lines where they are, is exact.
 
 ``b_in`` is not given a law: in the library's DPKM it is the xy spacing of the column
 lines, a property of the frame that does not depend on the lasers (the seed's ``b_in``
@@ -49,7 +62,7 @@ Examples
 from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -62,6 +75,7 @@ from pcmm_geo.machine.kinematics.model_parts import ARMS, as_readings, check_arm
 __all__ = [
     "TABLE_8_1",
     "TABLE_8_2",
+    "BOTH_ARMS_BETA_DRIVERS",
     "THESIS_BETA_DRIVERS",
     "DpkmParameterLaws",
     "LinearLaw",
@@ -75,7 +89,9 @@ __all__ = [
 FloatArray = NDArray[np.float64]
 
 #: laser that drives each angle law in Appendix C (lines 134-144): beta_ab on l_b, beta_bc on l_c, beta_ca on l_a
-THESIS_BETA_DRIVERS: Mapping[str, str] = {"ab": "b", "bc": "c", "ca": "a"}
+THESIS_BETA_DRIVERS: Mapping[str, tuple[str, ...]] = {"ab": ("b",), "bc": ("c",), "ca": ("a",)}
+#: each angle driven by the readings of both its arms (needs positions where the two move independently)
+BOTH_ARMS_BETA_DRIVERS: Mapping[str, tuple[str, ...]] = {"ab": ("a", "b"), "bc": ("b", "c"), "ca": ("c", "a")}
 
 #: Table 8.1 (3MS test, constant parameters): pair -> (Measured, Calculated, Error), mm
 TABLE_8_1 = {
@@ -90,25 +106,43 @@ TABLE_8_2 = {
 
 @dataclass(frozen=True)
 class LinearLaw:
-    """``value = intercept + slope * laser[driver]`` (mm or degrees; slope per mm of laser reading)."""
+    """``value = intercept + sum(slopes[arm] * laser[arm])`` (mm or degrees; slopes per mm of reading).
+
+    The thesis' laws have one driving laser (``slopes={"b": -0.0023}``); an angle between two
+    arms is better driven by both readings (:data:`BOTH_ARMS_BETA_DRIVERS`).  No slopes: a constant.
+
+    Examples
+    --------
+    >>> law = LinearLaw(68.0, {"a": 0.01, "b": -0.02})
+    >>> round(float(law([10.0, 20.0, 30.0])), 6), law.drivers
+    (67.7, ('a', 'b'))
+    """
 
     intercept: float
-    slope: float
-    driver: str
+    slopes: Mapping[str, float] = field(default_factory=dict)
 
     def __post_init__(self) -> None:
-        if self.driver not in ARMS:
-            raise InvalidInputError("driver", "one of 'a', 'b', 'c'", repr(self.driver))
-        for name in ("intercept", "slope"):
-            value = float(getattr(self, name))
+        if not set(self.slopes) <= set(ARMS):
+            raise InvalidInputError("slopes", "a mapping with keys among 'a', 'b', 'c'", repr(sorted(self.slopes)))
+        values = {"intercept": float(self.intercept)} | {f"slopes[{k}]": float(v) for k, v in self.slopes.items()}
+        for name, value in values.items():
             if not np.isfinite(value):
                 raise InvalidInputError(name, "a finite number", str(value))
-            object.__setattr__(self, name, value)
+        object.__setattr__(self, "intercept", float(self.intercept))
+        object.__setattr__(self, "slopes", {arm: float(self.slopes[arm]) for arm in ARMS if arm in self.slopes})
+
+    @property
+    def drivers(self) -> tuple[str, ...]:
+        """Arms whose readings drive the law, in order a, b, c."""
+        return tuple(self.slopes)
 
     def __call__(self, lasers: ArrayLike) -> FloatArray:
         """Values for laser readings ``(..., 3)`` -> ``(...)``."""
         readings = as_readings(lasers, "lasers")
-        return self.intercept + self.slope * readings[..., ARMS.index(self.driver)]
+        value = np.full(readings.shape[:-1], self.intercept)
+        for arm, slope in self.slopes.items():
+            value = value + slope * readings[..., ARMS.index(arm)]
+        return value
 
 
 @dataclass(frozen=True)
@@ -137,14 +171,15 @@ class DpkmParameterLaws:
     def constant(cls, dead_distance: Mapping[str, float], beta_deg: Mapping[str, float]) -> DpkmParameterLaws:
         """Laws with zero slope: the usual constant parameters (Table 3.1 / 7.1 style)."""
         return cls(
-            {arm: LinearLaw(float(dead_distance[arm]), 0.0, arm) for arm in ARMS},
-            {pair: LinearLaw(float(beta_deg[pair]), 0.0, THESIS_BETA_DRIVERS[pair]) for pair in PAIRS},
+            {arm: LinearLaw(float(dead_distance[arm])) for arm in ARMS},
+            {pair: LinearLaw(float(beta_deg[pair])) for pair in PAIRS},
         )
 
     @property
     def is_constant(self) -> bool:
         """True when every slope is zero."""
-        return all(law.slope == 0.0 for law in (*self.dead_distance.values(), *self.beta_deg.values()))
+        laws = (*self.dead_distance.values(), *self.beta_deg.values())
+        return all(slope == 0.0 for law in laws for slope in law.slopes.values())
 
     def at(self, lasers: ArrayLike) -> DpkmParameterLaws:
         """The constant laws with the values at one set of readings ``(3,)`` (e.g. a mid-range pose)."""
@@ -173,7 +208,8 @@ class ParameterLawFit:
     dead_distance, beta_deg : ndarray, shape (K, 3)
         Samples at each position (mm; degrees, pairs ab, bc, ca).
     dead_distance_nonlinearity, beta_nonlinearity : ndarray, shape (3,)
-        RMS of what the straight line leaves per arm / pair (mm; degrees); zero with two positions.
+        RMS of what the fitted law leaves per arm / pair (mm; degrees); zero when the
+        positions are as many as the law's coefficients.
     """
 
     laws: DpkmParameterLaws
@@ -244,21 +280,26 @@ def fit_parameter_laws(
     tip: ArrayLike,
     lasers: ArrayLike,
     *,
-    beta_drivers: Mapping[str, str] = THESIS_BETA_DRIVERS,
+    beta_drivers: Mapping[str, Sequence[str]] = THESIS_BETA_DRIVERS,
     start_of_range: float = START_OF_RANGE,
 ) -> ParameterLawFit:
-    """Linear laws ``d_i(l_i)`` and ``beta_in(l_driver)`` from calibration positions (thesis 8.2, Appendix C).
+    """Linear laws ``d_i(l_i)`` and ``beta_in(l_drivers)`` from calibration positions (thesis 8.2, Appendix C).
+
+    Each law is a least-squares plane in its driving readings (a straight line for one
+    driver, exact through two positions: the thesis' construction).  ``d_i`` is driven by
+    laser ``i`` alone: the distance from the tip to joint ``i`` depends on no other reading.
 
     Parameters
     ----------
     joints : array_like, shape (K, 3, 3)
-        Joint centers at ``K >= 2`` positions with different readings (mm).
+        Joint centers at ``K`` positions (mm).
     tip : array_like, shape (3,)
     lasers : array_like, shape (K, 3)
-    beta_drivers : mapping pair -> arm
-        Which laser drives each angle law (Appendix C: :data:`THESIS_BETA_DRIVERS`).  An angle
-        between two arms depends on both readings; with positions where all arms move
-        together, as in the seed's calibration, one reading has to stand for both.
+    beta_drivers : mapping pair -> sequence of arms
+        Which readings drive each angle law.  Appendix C (:data:`THESIS_BETA_DRIVERS`) drives
+        each angle by one reading; an angle between two arms depends on both
+        (:data:`BOTH_ARMS_BETA_DRIVERS`), which needs positions where the two readings do not
+        move in proportion (the seed's two positions moved all arms together).
 
     Returns
     -------
@@ -267,34 +308,41 @@ def fit_parameter_laws(
     Raises
     ------
     InvalidInputError
-        Fewer than two positions, a driver laser with a single value, bad shapes or drivers.
+        Bad shapes or drivers, or positions that cannot separate a law's drivers (fewer
+        positions than coefficients, or driving readings that move in proportion).
 
     Examples
     --------
     >>> joints = [[[0.0, 0.0, 400.0], [400.0, 0.0, 0.0], [0.0, 400.0, 0.0]],
     ...           [[0.0, 0.0, 350.0], [351.0, 0.0, 0.0], [0.0, 352.0, 0.0]]]
     >>> fit = fit_parameter_laws(joints, [0.0, 0.0, 0.0], [[40.0, 40.0, 40.0], [0.0, 0.0, 0.0]])
-    >>> [round(fit.laws.dead_distance[arm].slope, 6) for arm in "abc"]
+    >>> [round(fit.laws.dead_distance[arm].slopes[arm], 6) for arm in "abc"]
     [0.25, 0.225, 0.2]
     """
     dead, beta = parameter_samples(joints, tip, lasers, start_of_range=start_of_range)
     readings = np.asarray(lasers, dtype=float)
-    if len(readings) < 2:
-        raise InvalidInputError("joints", "at least 2 calibration positions", str(len(readings)))
-    if set(beta_drivers) != set(PAIRS) or not set(beta_drivers.values()) <= set(ARMS):
+    drivers = {pair: tuple(beta_drivers.get(pair, ())) for pair in PAIRS}
+    if set(beta_drivers) != set(PAIRS) or not all(d and set(d) <= set(ARMS) for d in drivers.values()):
         raise InvalidInputError("beta_drivers", "a mapping of 'ab', 'bc', 'ca' to arms", repr(dict(beta_drivers)))
 
-    def line(values: FloatArray, driver: str) -> tuple[LinearLaw, float]:
-        x = readings[:, ARMS.index(driver)]
-        if np.ptp(x) <= 0:
-            raise InvalidInputError(f"laser {driver}", "at least two different readings", f"{x.tolist()}")
-        design = np.column_stack([np.ones_like(x), x - x.mean()])  # centred: well conditioned
-        (level, slope), *_ = np.linalg.lstsq(design, values, rcond=None)
-        left = values - design @ [level, slope]
-        return LinearLaw(level - slope * x.mean(), slope, driver), float(np.sqrt(np.mean(left**2)))
+    def plane(values: FloatArray, arms: tuple[str, ...], what: str) -> tuple[LinearLaw, float]:
+        x = readings[:, [ARMS.index(arm) for arm in arms]]
+        centre = x.mean(axis=0)
+        design = np.column_stack([np.ones(len(x)), x - centre])  # centred: well conditioned
+        if len(x) < design.shape[1] or np.linalg.matrix_rank(design, tol=1e-9 * max(1.0, np.abs(x).max())) < \
+                design.shape[1]:
+            raise InvalidInputError(
+                f"calibration positions for {what}", f"readings of {', '.join(arms)} that vary independently "
+                f"at {design.shape[1]} or more positions", f"{len(x)} positions of rank "
+                f"{np.linalg.matrix_rank(design)}")
+        coefficients, *_ = np.linalg.lstsq(design, values, rcond=None)
+        left = values - design @ coefficients
+        slopes = dict(zip(arms, coefficients[1:], strict=True))
+        law = LinearLaw(float(coefficients[0] - coefficients[1:] @ centre), slopes)
+        return law, float(np.sqrt(np.mean(left**2)))
 
-    dead_fits = [line(dead[:, k], arm) for k, arm in enumerate(ARMS)]
-    beta_fits = [line(beta[:, k], beta_drivers[pair]) for k, pair in enumerate(PAIRS)]
+    dead_fits = [plane(dead[:, k], (arm,), f"d_{arm}") for k, arm in enumerate(ARMS)]
+    beta_fits = [plane(beta[:, k], drivers[pair], f"beta_{pair}") for k, pair in enumerate(PAIRS)]
     laws = DpkmParameterLaws(
         {arm: fit for arm, (fit, _) in zip(ARMS, dead_fits, strict=True)},
         {pair: fit for pair, (fit, _) in zip(PAIRS, beta_fits, strict=True)},
