@@ -13,6 +13,7 @@ import pytest
 from pcmm_geo.errors import InconsistentMeasurementError, InvalidInputError
 from pcmm_geo.machine.analysis.logproc import (
     CLOSURE_SIGMAS,
+    SEED_LASER_SIGMA,
     MeasurementLog,
     process_log,
     synthesise_log,
@@ -50,8 +51,8 @@ def test_clean_log_passes_and_gating_changes_nothing(clean) -> None:
     gated = process_log(machine, log, initial_heights=h0)
     ungated = process_log(machine, log, initial_heights=h0, closure_tolerance=1e9, on_inconsistent="flag")
     assert not gated.inconsistent.any() and gated.rejected_probe_rows.size == 0
-    assert gated.closure_tolerance == pytest.approx(CLOSURE_SIGMAS * 1e-3)
-    assert gated.closure_residual.max() < 1e-8
+    assert gated.closure_residual.max() < 1e-8 and gated.closure_sigmas.max() < 1e-2
+    assert np.all((gated.closure_tolerance > 1e-3) & (gated.closure_tolerance < 0.1))  # 6 sigma of 3.6 um lasers
     np.testing.assert_allclose(gated.tips, truth, atol=1e-6)  # independent truth: forward from the heights
     np.testing.assert_allclose(gated.tips, ungated.tips, atol=1e-9, rtol=0)
     np.testing.assert_allclose(gated.heights, ungated.heights, atol=1e-9, rtol=0)
@@ -66,8 +67,9 @@ def test_five_mm_laser_fault_raises_naming_the_row(clean, row: int, arm: int) ->
         process_log(machine, with_fault(log, [row], arm), initial_heights=h0)
     error = info.value
     assert error.what == f"closure of log row {row + 1}" and error.unit == "mm"
-    assert error.tolerance == pytest.approx(0.008)
+    assert 0.001 < error.tolerance < 0.1  # 6 standard deviations of the predicted scatter along the residual
     assert 0.8 < error.residual <= FAULT + 1e-6  # the part of the fault the pose cannot absorb
+    assert "standard deviations of its predicted scatter" in error.detail
 
 
 @pytest.mark.parametrize("row", range(1, 12))
@@ -113,8 +115,8 @@ def test_inconsistent_first_row_loses_only_the_datum(clean, arm: int) -> None:
     np.testing.assert_allclose(offset.mean(axis=0)[:2], 0.0, atol=1e-6)
 
 
-def test_default_tolerance_passes_laser_noise_as_derived() -> None:
-    """800 rows with 1 um Gaussian laser noise: none refused; (r / sigma)^2 averages about 3.2 (module notes)."""
+def test_closure_statistic_follows_its_chi_square_law_under_laser_noise() -> None:
+    """800 rows with 1 um Gaussian laser noise: none refused, mean (r/sd)^2 = 2 (two redundant laser combinations)."""
     machine = RigidBodyMachine.from_dpkm()
     rng = np.random.default_rng(1)
     h0 = machine.reference_heights + np.array([0.0, 60.0, -50.0])
@@ -126,15 +128,42 @@ def test_default_tolerance_passes_laser_noise_as_derived() -> None:
     out = process_log(machine, MeasurementLog(log.start_stop, log.probe, log.motor, log.direction, lasers),
                       initial_heights=h0, laser_sigma=sigma)
     assert not out.inconsistent.any()
-    solved = out.moved_arm >= 0
-    ratio = out.closure_residual[solved] / sigma
-    assert 2.5 < np.mean(ratio**2) < 4.0  # chi-square 2 inflated by the held heights' errors
-    assert ratio.max() < 6.0 < CLOSURE_SIGMAS
-    # the same noise with a 20 um fault on one stop row is caught
-    lasers[101, 2] += 0.02
+    statistic = out.closure_sigmas[out.moved_arm >= 0] ** 2
+    assert 1.6 < statistic.mean() < 3.0  # 2.52 (the chi-square-2 mean is 2; first-order propagation)
+    assert statistic.max() < CLOSURE_SIGMAS**2
+    # the same noise with a 30 um fault on one laser of one stop row is caught
+    lasers[101, 2] += 0.03
     with pytest.raises(InconsistentMeasurementError, match="log row 102"):
         process_log(machine, MeasurementLog(log.start_stop, log.probe, log.motor, log.direction, lasers),
                     initial_heights=h0, laser_sigma=sigma)
+
+
+def test_seed_laser_counts_pass_the_default_test() -> None:
+    """Lasers rounded to the seed sensors' counts (12.5 um a, b; 3.1 um c): the default sigma (3.6 um) fits them."""
+    from pcmm_geo.acquisition.drivers.lasers import ild1302_from_mm, ild1302_to_mm, ild1420_from_mm, ild1420_to_mm
+
+    assert SEED_LASER_SIGMA == pytest.approx(200.0 * 1.02 / 16368 / np.sqrt(12.0), rel=1e-12)
+    machine = RigidBodyMachine.from_dpkm()
+    rng = np.random.default_rng(2)
+    h0 = machine.reference_heights + np.array([0.0, 60.0, -50.0])
+    moves = [(int(rng.integers(1, 4)), float(rng.uniform(-10, 10)), bool(rng.random() < 0.3)) for _ in range(150)]
+    log = synthesise_log(machine, h0, moves)
+    counted = np.array([[ild1302_to_mm(ild1302_from_mm(a)), ild1302_to_mm(ild1302_from_mm(b)),
+                         ild1420_to_mm(ild1420_from_mm(c))] for a, b, c in log.lasers])
+    out = process_log(machine, MeasurementLog(log.start_stop, log.probe, log.motor, log.direction, counted),
+                      initial_heights=h0)
+    assert not out.inconsistent.any()
+    assert out.closure_sigmas.max() < 4.0
+
+
+def test_explicit_closure_tolerance_in_mm(clean) -> None:
+    machine, h0, log, _ = clean
+    faulty = with_fault(log, [5], 0, size=0.05)
+    loose = process_log(machine, faulty, initial_heights=h0, closure_tolerance=0.1)
+    assert not loose.inconsistent.any() and np.all(loose.closure_tolerance == 0.1)
+    with pytest.raises(InconsistentMeasurementError, match="log row 6") as info:
+        process_log(machine, faulty, initial_heights=h0, closure_tolerance=0.01)
+    assert info.value.tolerance == pytest.approx(0.01) and 0.01 < info.value.residual <= 0.05 + 1e-9
 
 
 def test_bad_gating_arguments(clean) -> None:
@@ -161,12 +190,12 @@ def test_cli_refuses_an_inconsistent_row_and_keeps_it_only_when_asked(clean, tmp
     assert refused.returncode == 2 and refused.stdout == ""
     lines = refused.stderr.strip().splitlines()
     assert len(lines) == 1 and "fault.csv: closure of log row 6" in lines[0]
-    assert "exceeds the tolerance 0.008 mm" in lines[0]
+    assert "exceeds the tolerance" in lines[0] and "standard deviations" in lines[0]
     kept = run("process-log", str(path), "--initial-heights", *heights, "--keep-inconsistent", "--json")
     assert kept.returncode == 0, kept.stderr
     data = json.loads(kept.stdout)
     assert data["inconsistent_data_rows"] == [6, 7] and data["rejected_probe_data_rows"] == [6]
-    assert data["closure_tolerance_mm"] == pytest.approx(0.008)
+    assert len(data["closure_tolerance_mm"]) == len(log) and data["closure_sigmas"][5] > 1e3
     good = [k for k in range(1, len(log), 2) if k != 5]
     np.testing.assert_allclose(data["probe_points"], truth[good], atol=1e-6)
     assert data["probe_rows"] == [k + 2 for k in good]  # file lines (header on line 1)

@@ -28,11 +28,12 @@ def register(subparsers: Any) -> None:
     parser.add_argument("--initial-heights", type=float, nargs=3, metavar=("A", "B", "C"),
                         help="pivot heights of the first row (datum; default: the machine's reference heights)")
     parser.add_argument("--all-rows", action="store_true", help="list every row, not only the probe points")
-    parser.add_argument("--laser-sigma", type=float, default=1e-3, metavar="MM",
-                        help="standard uncertainty of a laser reading (default 0.001 mm): solve weights and the "
-                             "unit of the default closure tolerance")
+    parser.add_argument("--laser-sigma", type=float, metavar="MM",
+                        help="standard uncertainty of a laser reading (default 0.0036 mm, the seed lasers' count "
+                             "step): scale of the closure test")
     parser.add_argument("--max-closure", type=float, metavar="MM",
-                        help="largest accepted closure residual of a row (default 8 x --laser-sigma)")
+                        help="largest accepted closure residual of a row in mm, instead of the default test "
+                             "(within 6 standard deviations of the scatter predicted from --laser-sigma)")
     parser.add_argument("--keep-inconsistent", action="store_true",
                         help="keep rows beyond --max-closure, marked and left out of the probe points, instead of "
                              "refusing the log (exit 2)")
@@ -48,15 +49,16 @@ def _handle(args: argparse.Namespace) -> Report:
 
     from pcmm_geo.cli._progress import progress_bar, progress_wanted
     from pcmm_geo.cli.machine_commands.kinematics import load_machine_file
-    from pcmm_geo.machine.analysis.logproc import process_log, read_log
+    from pcmm_geo.machine.analysis.logproc import CLOSURE_SIGMAS, SEED_LASER_SIGMA, process_log, read_log
 
-    machine = load_machine_file(args.calibration)
     from pcmm_geo.errors import InconsistentMeasurementError
 
+    machine = load_machine_file(args.calibration)
     log = read_log(args.file)
     try:
         with progress_bar("processing log rows", enabled=progress_wanted(args), total=len(log)) as update:
-            out = process_log(machine, log, initial_heights=args.initial_heights, laser_sigma=args.laser_sigma,
+            sigma = SEED_LASER_SIGMA if args.laser_sigma is None else args.laser_sigma
+            out = process_log(machine, log, initial_heights=args.initial_heights, laser_sigma=sigma,
                               closure_tolerance=args.max_closure, progress=update,
                               on_inconsistent="flag" if args.keep_inconsistent else "raise")
     except InconsistentMeasurementError as exc:
@@ -81,15 +83,18 @@ def _handle(args: argparse.Namespace) -> Report:
         "converged": out.converged.tolist(),
         "max_residual_mm": float(abs(out.residuals).max()),
         "closure_residual_mm": out.closure_residual.tolist(),
-        "closure_tolerance_mm": out.closure_tolerance,
+        "closure_sigmas": [None if not np.isfinite(v) else float(v) for v in out.closure_sigmas],
+        "closure_tolerance_mm": [None if not np.isfinite(v) else float(v) for v in out.closure_tolerance],
         "inconsistent_data_rows": (np.flatnonzero(out.inconsistent) + 1).tolist(),  # 1-based data rows
         "rejected_probe_data_rows": (out.rejected_probe_rows + 1).tolist(),
     }
     lines = [f"{len(log)} rows, {out.probe_rows.size} probe points; max closure residual "
              f"{data['max_residual_mm']:.3g} mm"]
     if out.inconsistent.any():
-        lines.append(f"warning: {int(out.inconsistent.sum())} rows beyond the closure tolerance "
-                     f"{out.closure_tolerance:.3g} mm (data rows {data['inconsistent_data_rows']}); "
+        test = (f"{args.max_closure:g} mm" if args.max_closure is not None
+                else f"{CLOSURE_SIGMAS:g} standard deviations of the predicted scatter")
+        lines.append(f"warning: {int(out.inconsistent.sum())} rows do not close within {test} "
+                     f"(data rows {data['inconsistent_data_rows']}); "
                      f"{out.rejected_probe_rows.size} probe points left out")
     bad = [int(k) + 2 for k in range(len(log)) if not out.direction_consistent[k]]
     if bad:

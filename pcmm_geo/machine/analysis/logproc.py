@@ -46,7 +46,15 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from pcmm_geo.errors import InvalidInputError
-from pcmm_geo.machine.analysis.logproc_closure import CLOSURE_SIGMAS, first_row_pose, row_closure_error
+from pcmm_geo.machine.analysis.logproc_closure import (
+    CLOSURE_SIGMAS,
+    SEED_LASER_SIGMA,
+    closure_sigmas,
+    first_row_pose,
+    row_closure_error,
+    row_derivatives,
+    solve_row,
+)
 from pcmm_geo.machine.analysis.logproc_rows import LOG_COLUMNS, MeasurementLog, read_log, write_log
 from pcmm_geo.machine.analysis.parameter_laws import DpkmParameterLaws
 from pcmm_geo.machine.kinematics import _pose_solver as solver
@@ -54,6 +62,7 @@ from pcmm_geo.machine.kinematics.model import ARMS, RigidBodyMachine, as_reading
 
 __all__ = [
     "CLOSURE_SIGMAS",
+    "SEED_LASER_SIGMA",
     "LOG_COLUMNS",
     "MeasurementLog",
     "ProcessedLog",
@@ -92,13 +101,18 @@ class ProcessedLog:
     converged : ndarray of bool, shape (N,)
     closure_residual : ndarray, shape (N,)
         Euclidean norm of each row's 9 closure residuals (mm): the laser misfit the pose
-        could not absorb (the quantity tested against ``closure_tolerance``).
+        could not absorb.
+    closure_sigmas : ndarray, shape (N,)
+        The residual in standard deviations of its predicted scatter (from ``laser_sigma``
+        and the carried uncertainty of the held heights; NaN where not computed).
+    closure_tolerance : ndarray, shape (N,)
+        Residual size (mm) at which each row is refused: the explicit ``closure_tolerance``,
+        or, by default, :data:`CLOSURE_SIGMAS` predicted standard deviations along the row's
+        residual (infinite: not tested).
     inconsistent : ndarray of bool, shape (N,)
-        True where ``closure_residual > closure_tolerance``; such rows give no probe point.
+        Rows whose closure failed the test; they give no probe point.
     rejected_probe_rows : ndarray of int, shape (K,)
         Indices of rows with ``probe = 1`` left out of ``probe_points`` because inconsistent.
-    closure_tolerance : float
-        The tolerance applied (mm).
     """
 
     heights: FloatArray
@@ -110,9 +124,10 @@ class ProcessedLog:
     direction_consistent: NDArray[np.bool_]
     converged: NDArray[np.bool_]
     closure_residual: FloatArray
+    closure_sigmas: FloatArray
+    closure_tolerance: FloatArray
     inconsistent: NDArray[np.bool_]
     rejected_probe_rows: IntArray
-    closure_tolerance: float
 
 
 def synthesise_log(
@@ -160,7 +175,7 @@ def process_log(
     log: MeasurementLog,
     *,
     initial_heights: ArrayLike | None = None,
-    laser_sigma: float = 1e-3,
+    laser_sigma: float = SEED_LASER_SIGMA,
     closure_tolerance: float | None = None,
     on_inconsistent: str = "raise",
     progress: Callable[[int, int], None] | None = None,
@@ -180,11 +195,13 @@ def process_log(
         machine's reference heights).  With parallel columns the lasers cannot see a
         common height offset, so this datum carries through the whole log.
     laser_sigma : float
-        Standard uncertainty of a laser reading (mm): the weights of the solve and the
-        unit of the default closure tolerance.
+        Standard uncertainty of a laser reading (mm); default :data:`SEED_LASER_SIGMA`
+        (3.6 um, the seed lasers' count step alone).  Sets the closure test's scale; the
+        points do not depend on it.
     closure_tolerance : float, optional
-        Largest accepted closure residual of a row (mm, :attr:`ProcessedLog.closure_residual`).
-        Default :data:`CLOSURE_SIGMAS` ``* laser_sigma`` (8 um for the default 1 um lasers).
+        Largest accepted closure residual of a row (mm, :attr:`ProcessedLog.closure_residual`)
+        instead of the default statistical test (residual within :data:`CLOSURE_SIGMAS`
+        standard deviations of its predicted scatter).
     on_inconsistent : {"raise", "flag"}
         ``"raise"`` (default): the first row beyond the tolerance raises
         :class:`~pcmm_geo.errors.InconsistentMeasurementError`.  ``"flag"``: such rows are
@@ -206,10 +223,12 @@ def process_log(
 
     *Closure test.*  The three lasers over-determine each row (two redundant combinations
     on a row that moved one motor, one on the first row); the closure residual is the laser
-    misfit the pose cannot absorb.  The default tolerance, ``8 laser_sigma``, is derived in
-    :mod:`pcmm_geo.machine.analysis.logproc_closure` (a clean row exceeds it with probability
-    about 2e-9; a 5 mm fault on one laser leaves 1.5-5 mm).  A machine model that does not
-    fit the machine shows up the same way: widen the tolerance to the model's uncertainty.
+    misfit the pose cannot absorb.  By default it is compared with its predicted scatter
+    (laser noise plus the carried uncertainty of the held heights) and refused beyond
+    :data:`CLOSURE_SIGMAS` = 6 standard deviations (a clean row: probability 1.5e-8; a 5 mm
+    fault on one laser leaves 1.5-5 mm); derivation in
+    :mod:`pcmm_geo.machine.analysis.logproc_closure`.  A machine model that does not fit the
+    machine shows up the same way: give ``closure_tolerance`` in mm for it.
 
     *What an inconsistent row does to the rows after it* (``on_inconsistent="flag"``):
     the heights that row solved are not trusted.  Held heights come from the last
@@ -245,8 +264,7 @@ def process_log(
     """
     if not (np.isfinite(laser_sigma) and laser_sigma > 0):
         raise InvalidInputError("laser_sigma", "a positive finite number", str(laser_sigma))
-    tolerance = CLOSURE_SIGMAS * laser_sigma if closure_tolerance is None else closure_tolerance
-    if not (np.isfinite(tolerance) and tolerance > 0):
+    if closure_tolerance is not None and not (np.isfinite(closure_tolerance) and closure_tolerance > 0):
         raise InvalidInputError("closure_tolerance", "a positive finite number of mm", str(closure_tolerance))
     if on_inconsistent not in ("raise", "flag"):
         raise InvalidInputError("on_inconsistent", "'raise' or 'flag'", repr(on_inconsistent))
@@ -260,20 +278,26 @@ def process_log(
     consistent = np.ones(count, dtype=bool)
     converged = np.ones(count, dtype=bool)
     inconsistent = np.zeros(count, dtype=bool)
+    sigmas = np.zeros(count)
+    tolerances = np.full(count, np.nan if closure_tolerance is None else float(closure_tolerance))
     trusted = np.ones(3, dtype=bool)  # heights of the last consistent state that may be held
     good: solver.PoseState | None = None  # last consistent state (start of the next solve)
+    good_covariance = np.zeros((3, 3))  # covariance of its heights (mm^2)
+    laser_variance = laser_sigma**2 * np.eye(3)
     for row in range(count):
         if progress is not None and row % 100 == 0:
             progress(row, count)
         lasers = log.lasers[row : row + 1]
         if row == 0:
             state = first_row_pose(geometry, lasers, datum, laser_sigma)
-            residuals[row] = solver.closure(geometry, state)[0]
             solved = np.ones(3, dtype=bool)
+            previous = None
+            input_covariance = laser_variance
         else:
             if log.start_stop[row] == 1 and np.array_equal(log.lasers[row], log.lasers[row - 1]):
                 heights[row], tips[row] = heights[row - 1], tips[row - 1]
                 residuals[row], inconsistent[row] = residuals[row - 1], inconsistent[row - 1]
+                sigmas[row], tolerances[row] = sigmas[row - 1], tolerances[row - 1]
                 continue
             arm = int(log.motor[row] if log.start_stop[row] == 0 else log.motor[row - 1]) - 1
             direction = int(log.direction[row] if log.start_stop[row] == 0 else log.direction[row - 1])
@@ -281,30 +305,31 @@ def process_log(
             assert good is not None
             previous = good.heights[0]
             solved = ~trusted
-            solved[arm] = True
+            solved[arm] = True  # held pivots: their motors did not move
             start = solver.PoseState(
                 good.rotation, good.translation, lasers.copy(), previous[None].copy(), good.converged, 0
             )
-            w_lasers = np.full((1, 3), 1.0 / laser_sigma)
-            w_heights = np.where(solved, 0.0, 1e3 / laser_sigma)[None]  # held pivots: motors did not move
-            state = solver.solve_pose(
-                geometry, start, laser_weight=w_lasers, height_weight=w_heights, laser_target=lasers,
-                height_target=previous[None], rcond=solver.UNOBSERVABLE,
-            )
-            reported = solver.PoseState(
-                state.rotation, state.translation, lasers, state.heights, state.converged, state.iterations
-            )
-            residuals[row] = solver.closure(geometry, reported)[0]
+            state = solve_row(geometry, start, lasers, previous[None], solved, laser_sigma)
             change = state.heights[0, arm] - previous[arm]
             consistent[row] = direction == 0 or abs(change) <= 1e-3 or np.sign(change) == direction
+            input_covariance = np.block([[laser_variance, np.zeros((3, 3))], [np.zeros((3, 3)), good_covariance]])
+        residuals[row] = solver.closure(geometry, state)[0]
         heights[row] = state.heights[0]
         tips[row] = state.rotation[0] @ geometry.tip_center + state.translation[0]
         converged[row] = bool(state.converged[0])
         closure_size = float(np.linalg.norm(residuals[row]))
-        if closure_size > tolerance:
+        d_residual, d_heights = row_derivatives(geometry, state, previous, solved, laser_sigma)
+        sigmas[row], scale = closure_sigmas(residuals[row], d_residual @ input_covariance @ d_residual.T)
+        if closure_tolerance is None:
+            tolerances[row] = CLOSURE_SIGMAS * scale
+            refused = sigmas[row] > CLOSURE_SIGMAS
+        else:
+            refused = closure_size > closure_tolerance
+        if refused:
             if on_inconsistent == "raise":
                 kind = "first" if row == 0 else ("stop" if log.start_stop[row] == 0 else "start")
-                raise row_closure_error(row, kind, residuals[row], tolerance, solved)
+                raise row_closure_error(row, kind, residuals[row], tolerances[row], solved,
+                                        sigmas[row] if closure_tolerance is None else None)
             inconsistent[row] = True
             trusted &= ~solved
             if good is None:  # the first row: keep its pose as the start, trust no height
@@ -312,6 +337,7 @@ def process_log(
         else:
             trusted[:] = True
             good = state
+            good_covariance = d_heights @ input_covariance @ d_heights.T
     if progress is not None:
         progress(count, count)
     probe_rows = np.flatnonzero((log.probe == 1) & ~inconsistent)
@@ -325,9 +351,10 @@ def process_log(
         direction_consistent=consistent,
         converged=converged,
         closure_residual=np.linalg.norm(residuals, axis=1),
+        closure_sigmas=sigmas,
+        closure_tolerance=tolerances,
         inconsistent=inconsistent,
         rejected_probe_rows=np.flatnonzero((log.probe == 1) & inconsistent),
-        closure_tolerance=float(tolerance),
     )
 
 
@@ -455,7 +482,8 @@ def process_log_dpkm(
         direction_consistent=consistent,
         converged=np.ones(count, dtype=bool),
         closure_residual=np.linalg.norm(residuals, axis=1),
+        closure_sigmas=np.full(count, np.nan),
+        closure_tolerance=np.full(count, np.inf),
         inconsistent=np.zeros(count, dtype=bool),  # the seed's processing tests nothing
         rejected_probe_rows=np.zeros(0, dtype=np.int64),
-        closure_tolerance=float("inf"),
     )

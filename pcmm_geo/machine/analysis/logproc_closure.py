@@ -7,30 +7,43 @@ readings for one unknown reading (the moved height; the pose follows from the th
 pivots through the rigid tetrahedron): two combinations of the lasers are redundant.
 On the first row (lasers only, parallel columns: two observable height differences)
 one is.  The solve takes the held heights as exact and adjusts the lasers; the
-*closure residual* ``r`` of a row is the Euclidean norm (mm) of its nine loop-closure
-components evaluated with the *measured* lasers, i.e. the laser misfit the pose could
-not absorb.
+*closure residual* ``r`` of a row (9 components, mm) is the loop closure evaluated with
+the *measured* lasers, i.e. the laser misfit the pose could not absorb.
 
-Default tolerance (:data:`CLOSURE_SIGMAS` laser uncertainties)
--------------------------------------------------------------
-If the lasers only scatter (independent, Gaussian, standard uncertainty ``sigma``) and
-the held heights were exact, ``(r / sigma)^2`` would follow a chi-square law with two
-degrees of freedom.  The held heights carry the errors of the rows that solved them:
-simulated 800-row logs with Gaussian laser noise give a mean ``(r / sigma)^2`` of
-3.1-3.2 instead of 2 (about a chi-square-2 law scaled by 1.6) and a largest ``r`` of
-4.5 ``sigma``.  For that law ``P(r > k sigma) = exp(-k^2 / 3.2)``: ``k = 8`` gives
-2e-9 per row, so a clean log of a million rows is refused with probability 0.2 %,
-while any fault that leaves more than ``8 sigma`` in the redundant combinations is
-caught (a 5 mm fault on one laser leaves 1.5-5 mm in the logs of the tests).  A fault
+The test (default)
+------------------
+``r`` is compared with the scatter it would have if the readings were only noisy.  To
+first order ``r = A e`` where ``e`` are the errors of the row's inputs: its three lasers
+(independent, standard uncertainty ``laser_sigma``) and the three heights it starts from,
+whose covariance is carried from row to row (``C_next = G C_in G^T``; ``A`` and ``G``
+are the derivatives of the row's solve, by finite differences of 1 um).  With
+``S = A C_in A^T`` the statistic ``t = r^T S^+ r`` follows a chi-square law with
+``nu = rank S`` degrees of freedom (2 on a row that moved one motor, 1 on the first
+row); :attr:`~pcmm_geo.machine.analysis.logproc.ProcessedLog.closure_sigmas` is
+``sqrt(t)``.  A row is inconsistent when ``sqrt(t) >`` :data:`CLOSURE_SIGMAS` (6):
+``P(chi2_2 > 36) = exp(-18) = 1.5e-8`` per row (2e-9 for ``nu = 1``), so a clean log
+of a million rows is refused with probability 1.5 %, while a 5 mm fault on one laser
+is thousands of sigmas.  Carrying the held heights' covariance matters: a fixed
+multiple of ``laser_sigma`` refuses clean rows after the pivots pass near the level
+pose, where the lasers hardly see the heights and the held heights are poor.  A fault
 along the one combination the moved height absorbs is invisible to any closure test.
-A machine model that does not fit the machine (calibration error, nonlinear lasers)
-shows up the same way: give a tolerance that covers the model's uncertainty rather
-than switching the test off.
+
+An explicit ``closure_tolerance`` (mm) replaces the statistical test by ``|r| <=
+closure_tolerance``: use it when the machine model itself is uncertain (calibration
+error, nonlinear lasers), which shows up in the residual like a laser fault.
+
+Default laser uncertainty (:data:`SEED_LASER_SIGMA`)
+----------------------------------------------------
+The seed's lasers a and b (ILD1302, 200 mm range) report 14-bit counts: one count is
+``200 * 1.02 / 16368 = 12.46 um`` and rounding to a count alone has a standard
+uncertainty of ``12.46 / sqrt(12) = 3.6 um`` (laser c, an ILD1420, counts 3.1 um).  The
+lasers' repeatability and linearity come on top and are not printed in the thesis:
+pass your sensors' value.
 
 Examples
 --------
->>> round(CLOSURE_SIGMAS * 1e-3, 6)  # default tolerance for 1 um lasers, mm
-0.008
+>>> round(SEED_LASER_SIGMA * 1e3, 2)  # um
+3.6
 """
 
 from __future__ import annotations
@@ -38,16 +51,24 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import NDArray
 
+from pcmm_geo.acquisition.drivers.lasers import ILD1302_FULL_SCALE, MEASURING_RANGE_MM
 from pcmm_geo.errors import InconsistentMeasurementError
 from pcmm_geo.machine.kinematics import _pose_solver as solver
 from pcmm_geo.machine.kinematics.model_parts import ARMS
 
-__all__ = ["CLOSURE_SIGMAS", "first_row_pose", "row_closure_error"]
+__all__ = ["CLOSURE_SIGMAS", "SEED_LASER_SIGMA", "closure_sigmas", "first_row_pose", "row_closure_error",
+           "row_derivatives", "solve_row"]
 
 FloatArray = NDArray[np.float64]
 
-#: default closure tolerance in units of the laser uncertainty (derivation in the module notes)
-CLOSURE_SIGMAS = 8.0
+#: a row is inconsistent beyond this many standard deviations of its predicted closure scatter (module notes)
+CLOSURE_SIGMAS = 6.0
+#: standard uncertainty of a seed laser reading from its 14-bit quantisation alone, mm (module notes)
+SEED_LASER_SIGMA = MEASURING_RANGE_MM * 1.02 / ILD1302_FULL_SCALE / float(np.sqrt(12.0))
+#: finite-difference step of the inputs for the row derivatives, mm
+STEP = 1e-3
+#: height weight of a held pivot relative to a laser's (the motor did not move)
+HELD_WEIGHT = 1e3
 
 
 def first_row_pose(
@@ -79,12 +100,94 @@ def first_row_pose(
     return solver.PoseState(state.rotation, state.translation, lasers, state.heights, state.converged, state.iterations)
 
 
+def solve_row(
+    geometry: solver.Geometry,
+    start: solver.PoseState,
+    lasers: FloatArray,
+    previous: FloatArray,
+    solved: NDArray[np.bool_],
+    laser_sigma: float,
+) -> solver.PoseState:
+    """Pose of a later log row: lasers ``(K, 3)`` measured, heights ``(K, 3)`` held at ``previous`` except ``solved``.
+
+    ``start`` gives the pose and the starting heights (their unobservable common part is
+    kept).  The returned state carries the measured lasers (for
+    :func:`~pcmm_geo.machine.kinematics._pose_solver.closure`).
+    """
+    count = len(lasers)
+    w_lasers = np.full((count, 3), 1.0 / laser_sigma)
+    w_heights = np.broadcast_to(np.where(solved, 0.0, HELD_WEIGHT / laser_sigma), (count, 3)).copy()
+    state = solver.solve_pose(
+        geometry, start, laser_weight=w_lasers, height_weight=w_heights, laser_target=lasers,
+        height_target=previous, rcond=solver.UNOBSERVABLE,
+    )
+    return solver.PoseState(state.rotation, state.translation, lasers, state.heights, state.converged, state.iterations)
+
+
+def row_derivatives(
+    geometry: solver.Geometry,
+    state: solver.PoseState,
+    previous: FloatArray | None,
+    solved: NDArray[np.bool_],
+    laser_sigma: float,
+) -> tuple[FloatArray, FloatArray]:
+    """Derivatives of a row's closure residual ``(9, n)`` and solved heights ``(3, n)`` with respect to its inputs.
+
+    Inputs: the three lasers, and (later rows, ``previous`` ``(3,)`` given) the three heights the
+    row starts from (``n = 6``); the first row's datum is a convention, not an input (``n = 3``).
+    Forward differences of :data:`STEP` from the converged ``state`` (batched in one solve).
+    """
+    n_inputs = 3 if previous is None else 6
+    steps = STEP * np.eye(n_inputs)
+    lasers = state.lasers[0] + steps[:, :3]
+    base_heights = state.heights[0] if previous is None else previous
+    targets = base_heights + (steps[:, 3:] if previous is not None else 0.0)
+    start_heights = state.heights[0] + (steps[:, 3:] if previous is not None else 0.0)
+    start = solver.PoseState(
+        np.repeat(state.rotation, n_inputs, axis=0), np.repeat(state.translation, n_inputs, axis=0),
+        lasers.copy(), np.broadcast_to(start_heights, (n_inputs, 3)).copy(), np.zeros(n_inputs, bool), 0,
+    )
+    moved = solve_row(geometry, start, lasers, np.broadcast_to(targets, (n_inputs, 3)).copy(),
+                      np.ones(3, bool) if previous is None else solved, laser_sigma)
+    residual = solver.closure(geometry, moved) - solver.closure(geometry, state)
+    return residual.T / STEP, (moved.heights - state.heights).T / STEP
+
+
+def closure_sigmas(residual: FloatArray, covariance: FloatArray) -> tuple[float, float]:
+    """``(sqrt(r^T S^+ r), scale)`` of a residual ``(9,)`` with predicted covariance ``S`` ``(9, 9)``.
+
+    ``scale`` (mm) is the predicted standard deviation along ``r`` (the largest one when
+    ``r`` lies within one standard deviation, where its direction means nothing).
+    Components of ``r`` outside the range of ``S`` are measured with the smallest predicted
+    standard deviation (they cannot come from the noise at all).
+
+    Examples
+    --------
+    >>> cov = np.diag([4e-6, 1e-6] + [0.0] * 7)
+    >>> sigmas, scale = closure_sigmas(np.r_[0.006, 0.0, [0.0] * 7], cov)
+    >>> round(sigmas, 6), round(scale, 6)
+    (3.0, 0.002)
+    """
+    values, vectors = np.linalg.eigh(covariance)
+    keep = values > 1e-10 * max(float(values.max()), 0.0)
+    if not keep.any():
+        return (0.0 if not np.any(residual) else float("inf")), 0.0
+    inside = vectors[:, keep].T @ residual
+    outside = residual - vectors[:, keep] @ inside
+    statistic = float(np.sum(inside**2 / values[keep]) + np.sum(outside**2) / values[keep].min())
+    size = float(np.linalg.norm(residual))
+    # along r when r stands out of the noise; below that its direction is rounding, use the widest spread
+    scale = size / np.sqrt(statistic) if statistic > 1.0 else np.sqrt(values.max())
+    return float(np.sqrt(statistic)), float(scale)
+
+
 def row_closure_error(
-    row: int, kind: str, residual: FloatArray, tolerance: float, solved: NDArray[np.bool_]
+    row: int, kind: str, residual: FloatArray, tolerance: float, solved: NDArray[np.bool_], sigmas: float | None = None
 ) -> InconsistentMeasurementError:
     """The error for log row ``row`` (0-based) whose closure residual ``(9,)`` exceeds ``tolerance`` (mm).
 
-    ``kind`` is "first", "start" or "stop"; ``solved`` ``(3,)`` marks the pivots the row solved.
+    ``kind`` is "first", "start" or "stop"; ``solved`` ``(3,)`` marks the pivots the row solved;
+    ``sigmas`` the residual in standard deviations of its predicted scatter (statistical test).
     The message names the row 1-based (the n-th data row of the log).
 
     Examples
@@ -97,10 +200,12 @@ def row_closure_error(
     per_arm = np.linalg.norm(np.asarray(residual, dtype=float).reshape(3, 3), axis=1)
     worst = int(np.argmax(per_arm))
     pivots = ", ".join(ARMS[k] for k in np.flatnonzero(solved))
+    scatter = "" if sigmas is None else f"{sigmas:.3g} standard deviations of its predicted scatter (limit " \
+        f"{CLOSURE_SIGMAS:g}); "
     detail = (
-        f"{kind} row, pivots solved: {pivots}; largest misfit {per_arm[worst]:.3g} mm at arm {ARMS[worst]}: "
-        "a laser reading is wrong or the machine model does not fit this pose"
+        f"{kind} row, pivots solved: {pivots}; {scatter}largest misfit {per_arm[worst]:.3g} mm at arm "
+        f"{ARMS[worst]}: a laser reading is wrong or the machine model does not fit this pose"
     )
     size = float(np.linalg.norm(residual))
-    return InconsistentMeasurementError(f"closure of log row {row + 1}", round(size, 6), round(float(tolerance), 6),
+    return InconsistentMeasurementError(f"closure of log row {row + 1}", round(size, 6), float(f"{tolerance:.6g}"),
                                         "mm", detail)
