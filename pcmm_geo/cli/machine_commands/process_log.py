@@ -49,9 +49,8 @@ def _handle(args: argparse.Namespace) -> Report:
 
     from pcmm_geo.cli._progress import progress_bar, progress_wanted
     from pcmm_geo.cli.machine_commands.kinematics import load_machine_file
-    from pcmm_geo.machine.analysis.logproc import CLOSURE_SIGMAS, SEED_LASER_SIGMA, process_log, read_log
-
     from pcmm_geo.errors import InconsistentMeasurementError
+    from pcmm_geo.machine.analysis.logproc import CLOSURE_SIGMAS, SEED_LASER_SIGMA, process_log, read_log
 
     machine = load_machine_file(args.calibration)
     log = read_log(args.file)
