@@ -196,8 +196,8 @@ def process_log(
         common height offset, so this datum carries through the whole log.
     laser_sigma : float
         Standard uncertainty of a laser reading (mm); default :data:`SEED_LASER_SIGMA`
-        (3.6 um, the seed lasers' count step alone).  Sets the closure test's scale; the
-        points do not depend on it.
+        (28.9 um: the thesis' 50 um laser accuracy as rectangular bounds).  Sets the
+        closure test's scale; the points do not depend on it.
     closure_tolerance : float, optional
         Largest accepted closure residual of a row (mm, :attr:`ProcessedLog.closure_residual`)
         instead of the default statistical test (residual within :data:`CLOSURE_SIGMAS`

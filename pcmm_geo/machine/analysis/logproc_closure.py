@@ -42,16 +42,19 @@ error, nonlinear lasers), which shows up in the residual like a laser fault.
 
 Default laser uncertainty (:data:`SEED_LASER_SIGMA`)
 ----------------------------------------------------
-The seed's lasers a and b (ILD1302, 200 mm range) report 14-bit counts: one count is
-``200 * 1.02 / 16368 = 12.46 um`` and rounding to a count alone has a standard
-uncertainty of ``12.46 / sqrt(12) = 3.6 um`` (laser c, an ILD1420, counts 3.1 um).  The
-lasers' repeatability and linearity come on top and are not printed in the thesis:
-pass your sensors' value.
+The thesis states its lasers' accuracy as 50 um (section 3.1: Micro-Epsilon, 200 mm
+range).  Read as the bounds of a rectangular distribution (GUM 4.3.7), that is a
+standard uncertainty of ``0.05 / sqrt(3) = 28.9 um``: the default.  It is a type B
+value from a statement; pass your sensors' own.  The lasers' count step is the floor:
+lasers a and b (ILD1302) report 14-bit counts of ``200 * 1.02 / 16368 = 12.46 um``,
+i.e. ``12.46 / sqrt(12) = 3.6 um`` from rounding alone (laser c, an ILD1420: 0.9 um).
+With the default, a row is refused from residuals of about 0.2-0.3 mm; a 5 mm laser
+fault leaves 1.5-5 mm.
 
 Examples
 --------
->>> round(SEED_LASER_SIGMA * 1e3, 2)  # um
-3.6
+>>> round(SEED_LASER_SIGMA * 1e3, 1)  # um
+28.9
 """
 
 from __future__ import annotations
@@ -59,20 +62,29 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import NDArray
 
-from pcmm_geo.acquisition.drivers.lasers import ILD1302_FULL_SCALE, MEASURING_RANGE_MM
 from pcmm_geo.errors import InconsistentMeasurementError
 from pcmm_geo.machine.kinematics import _pose_solver as solver
 from pcmm_geo.machine.kinematics.model_parts import ARMS
 
-__all__ = ["CLOSURE_SIGMAS", "SEED_LASER_SIGMA", "closure_sigmas", "first_row_pose", "row_closure_error",
-           "row_derivatives", "solve_row"]
+__all__ = [
+    "CLOSURE_SIGMAS",
+    "SEED_LASER_ACCURACY",
+    "SEED_LASER_SIGMA",
+    "closure_sigmas",
+    "first_row_pose",
+    "row_closure_error",
+    "row_derivatives",
+    "solve_row",
+]
 
 FloatArray = NDArray[np.float64]
 
 #: a row is inconsistent beyond this many standard deviations of its predicted closure scatter (module notes)
 CLOSURE_SIGMAS = 6.0
-#: standard uncertainty of a seed laser reading from its 14-bit quantisation alone, mm (module notes)
-SEED_LASER_SIGMA = MEASURING_RANGE_MM * 1.02 / ILD1302_FULL_SCALE / float(np.sqrt(12.0))
+#: accuracy of the seed's lasers as the thesis states it (section 3.1), mm
+SEED_LASER_ACCURACY = 0.05
+#: default standard uncertainty of a laser reading: the stated accuracy as rectangular bounds (module notes), mm
+SEED_LASER_SIGMA = SEED_LASER_ACCURACY / float(np.sqrt(3.0))
 #: finite-difference step of the inputs for the row derivatives, mm
 STEP = 1e-3
 #: height weight of a held pivot relative to a laser's (the motor did not move)
