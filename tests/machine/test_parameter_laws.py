@@ -101,7 +101,7 @@ def test_machine_with_constant_parameters(log_lasers_mid) -> None:
     log, _, tips = synthesise_log_dpkm(constant, COLUMNS, H0, moves(), lasers_hint=log_lasers_mid)
     assert np.abs(process(log, constant).tips - tips).max() < 1e-6
     wrong = process(log, thesis_like_laws(log.lasers.mean(axis=0)))  # equal to the constants at mid-log readings
-    assert np.abs(wrong.tips - tips).max() > 0.5  # 1.8 mm
+    assert np.abs(wrong.tips - tips).max() > 0.5  # 2.0 mm
     # fitted from exact calibration data, the slopes vanish and the laws are the constants
     fit = fit_parameter_laws(calibration_joints(constant, CALIBRATION_LASERS), np.zeros(3), CALIBRATION_LASERS)
     slopes = [v for law in (*fit.laws.dead_distance.values(), *fit.laws.beta_deg.values()) for v in law.slopes.values()]
