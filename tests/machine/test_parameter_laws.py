@@ -127,6 +127,26 @@ def test_appendix_c_laws_are_reproduced_from_the_rebuilt_calibration() -> None:
     np.testing.assert_allclose([fit.constant.beta_deg[p].intercept for p in PAIRS], [68.25, 69.03, 68.70], atol=0.005)
 
 
+def test_laws_from_a_tetrahedron_calibration_agree_with_the_fit() -> None:
+    """Two implementations (calibration's Appendix C lines and fit_parameter_laws) on the bundled Appendix C/D data."""
+    from pcmm_geo.machine.calibration import calibrate_tetrahedron
+    from pcmm_geo.machine.calibration.seed import appendix_cd_files
+
+    export, lasers = appendix_cd_files()
+    calibration = calibrate_tetrahedron(export, lasers)
+    laws = DpkmParameterLaws.from_calibration(calibration)
+    fit = fit_parameter_laws(np.stack([[s.center for s in calibration.joint_spheres[a]] for a in "abc"], axis=1),
+                             calibration.tip_center, calibration.lasers)
+    readings = np.array([[10.0, 20.0, 30.0], [50.0, 140.0, 120.0]])
+    np.testing.assert_allclose(laws.evaluate(readings)[0], fit.laws.evaluate(readings)[0], atol=1e-9)
+    np.testing.assert_allclose(laws.evaluate(readings)[1], fit.laws.evaluate(readings)[1], atol=1e-9)
+    constant = DpkmParameterLaws.from_calibration(calibration, variable=False)
+    assert constant.is_constant
+    np.testing.assert_allclose(constant.evaluate(readings)[0][0], [calibration.dead_distance[a] for a in "abc"])
+    with pytest.raises(InvalidInputError, match="calibration"):
+        DpkmParameterLaws.from_calibration(object())
+
+
 def test_dead_distance_is_not_linear_along_a_slider_line_that_misses_the_tip() -> None:
     """Thesis 7.2: with the rebuilt joints moving on their slider lines, d(l) bends away from the two-point line."""
     rebuilt = reconstruct_appendix_cd()

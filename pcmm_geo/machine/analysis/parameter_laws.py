@@ -62,6 +62,7 @@ Examples
 from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
+from typing import Any
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -174,6 +175,32 @@ class DpkmParameterLaws:
             {arm: LinearLaw(float(dead_distance[arm])) for arm in ARMS},
             {pair: LinearLaw(float(beta_deg[pair])) for pair in PAIRS},
         )
+
+    @classmethod
+    def from_calibration(cls, calibration: Any, *, variable: bool = True) -> DpkmParameterLaws:
+        """Laws from a :class:`~pcmm_geo.machine.calibration.TetrahedronCalibration` (thesis 7.3 / Appendix C).
+
+        ``variable=True``: its ``dead_distance_linear`` and ``beta_linear`` (Appendix C's drivers,
+        beta in radians there, degrees here); ``False``: its means ``dead_distance`` and
+        ``beta_deg`` (Table 7.1).  Any object with those attributes will do.
+
+        Raises
+        ------
+        InvalidInputError
+            The object lacks the attributes.
+        """
+        try:
+            if not variable:
+                return cls.constant(calibration.dead_distance, calibration.beta_deg)
+            dead = {arm: LinearLaw(intercept, {arm: slope})
+                    for arm, (slope, intercept) in calibration.dead_distance_linear.items()}
+            beta = {pair: LinearLaw(float(np.degrees(intercept)),
+                                    {THESIS_BETA_DRIVERS[pair][0]: float(np.degrees(slope))})
+                    for pair, (slope, intercept) in calibration.beta_linear.items()}
+        except (AttributeError, TypeError, ValueError) as exc:
+            raise InvalidInputError("calibration", "a TetrahedronCalibration (dead_distance_linear, beta_linear)",
+                                    repr(exc)) from None
+        return cls(dead, beta)
 
     @property
     def is_constant(self) -> bool:
