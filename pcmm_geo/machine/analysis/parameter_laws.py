@@ -39,12 +39,9 @@ What the tests find (``tests/machine/test_parameter_laws.py``)
   direction of Table 8.2.  Laws driven by both arms and fitted over the log's range give
   0.007 mm; the rigid-body model, which places the lines where they are, is exact.
 
-``b_in`` is not given a law: in the library's DPKM it is the xy spacing of the column
-lines, a property of the frame that does not depend on the lasers (the seed's ``b_in``
-of Appendix D is the smallest eq 7.5 value over a log, a stand-in fitted to avoid
-complex roots).  Its law in the thesis would need the pivot sweep of section 7.2, which
-is not printed.  The rigid-body model (:mod:`pcmm_geo.machine.kinematics.model`) needs no
-varying parameter at all: it places the slider lines where they are.
+``b_in`` gets no law: here it is the xy spacing of the column lines, which no laser
+changes (the seed's ``b_in``, Appendix D, is the smallest eq 7.5 value over a log, a
+stand-in against complex roots); a law for it would need the 7.2 sweep, not printed.
 
 Table 8.2 cannot be recomputed: the 3MS laser log (``micro1m.csv``) is not printed.
 :data:`TABLE_8_1` and :data:`TABLE_8_2` hold the printed rows; their "Error" rows are
@@ -62,8 +59,8 @@ Examples
 from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
-from typing import Any
 from dataclasses import dataclass, field
+from typing import Any
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
