@@ -10,7 +10,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from pcmm_geo.errors import InconsistentMeasurementError, InvalidInputError
+from pcmm_geo.errors import ConvergenceError, InconsistentMeasurementError, InvalidInputError
 from pcmm_geo.machine.analysis.logproc import (
     CLOSURE_SIGMAS,
     SEED_LASER_SIGMA,
@@ -167,6 +167,21 @@ def test_explicit_closure_tolerance_in_mm(clean) -> None:
     with pytest.raises(InconsistentMeasurementError, match="log row 6") as info:
         process_log(machine, faulty, initial_heights=h0, closure_tolerance=0.01)
     assert info.value.tolerance == pytest.approx(0.01) and 0.01 < info.value.residual <= 0.05 + 1e-9
+
+
+@pytest.mark.parametrize("reading", [-500.0, 1e4, 1e8])
+def test_absurd_laser_reading(clean, reading: float) -> None:
+    """A reading far off: refused (closure or no convergence); flagged, the other rows are exact."""
+    machine, h0, log, truth = clean
+    lasers = log.lasers.copy()
+    lasers[3, 1] = reading
+    faulty = MeasurementLog(log.start_stop, log.probe, log.motor, log.direction, lasers)
+    with pytest.raises((InconsistentMeasurementError, ConvergenceError), match="log row 4"):
+        process_log(machine, faulty, initial_heights=h0)
+    out = process_log(machine, faulty, initial_heights=h0, on_inconsistent="flag")
+    np.testing.assert_array_equal(np.flatnonzero(out.inconsistent), [3])
+    others = np.delete(np.arange(len(log)), 3)
+    np.testing.assert_allclose(out.tips[others], truth[others], atol=1e-6)
 
 
 def test_bad_gating_arguments(clean) -> None:

@@ -49,7 +49,7 @@ def _handle(args: argparse.Namespace) -> Report:
 
     from pcmm_geo.cli._progress import progress_bar, progress_wanted
     from pcmm_geo.cli.machine_commands.kinematics import load_machine_file
-    from pcmm_geo.errors import InconsistentMeasurementError
+    from pcmm_geo.errors import ConvergenceError, InconsistentMeasurementError
     from pcmm_geo.machine.analysis.logproc import CLOSURE_SIGMAS, SEED_LASER_SIGMA, process_log, read_log
 
     machine = load_machine_file(args.calibration)
@@ -65,6 +65,9 @@ def _handle(args: argparse.Namespace) -> Report:
             f"{args.file}: {exc.what}", exc.residual, exc.tolerance, exc.unit,
             f"{exc.detail}; --keep-inconsistent keeps and marks such rows, --max-closure sets the tolerance",
         ) from None
+    except ConvergenceError as exc:
+        raise ConvergenceError(f"{args.file}: {exc.element}", exc.iterations,
+                               f"{exc.reason}; --keep-inconsistent keeps and marks such rows") from None
     rows_index = range(len(log)) if args.all_rows else out.probe_rows.tolist()
     rows = [
         [int(k) + 2, int(log.probe[k]), *out.tips[k].tolist(), *out.heights[k].tolist(),

@@ -45,7 +45,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from pcmm_geo.errors import InvalidInputError
+from pcmm_geo.errors import ConvergenceError, InvalidInputError
 from pcmm_geo.machine.analysis.logproc_closure import (
     CLOSURE_SIGMAS,
     SEED_LASER_SIGMA,
@@ -110,7 +110,8 @@ class ProcessedLog:
         or, by default, :data:`CLOSURE_SIGMAS` predicted standard deviations along the row's
         residual (infinite: not tested).
     inconsistent : ndarray of bool, shape (N,)
-        Rows whose closure failed the test; they give no probe point.
+        Rows whose closure failed the test or whose pose solve did not converge; they give
+        no probe point.
     rejected_probe_rows : ndarray of int, shape (K,)
         Indices of rows with ``probe = 1`` left out of ``probe_points`` because inconsistent.
     """
@@ -246,6 +247,9 @@ def process_log(
     InconsistentMeasurementError
         ``on_inconsistent="raise"`` and a row's closure residual exceeds the tolerance;
         ``what`` names the row (1-based data row), ``residual`` and ``tolerance`` are in mm.
+    ConvergenceError
+        ``on_inconsistent="raise"`` and a row's pose solve did not converge (``element``
+        names the row); with ``"flag"`` such a row is marked inconsistent.
 
     Examples
     --------
@@ -325,7 +329,10 @@ def process_log(
             refused = sigmas[row] > CLOSURE_SIGMAS
         else:
             refused = closure_size > closure_tolerance
-        if refused:
+        if refused or not converged[row]:  # no closure statistic without a converged solve
+            if on_inconsistent == "raise" and not converged[row]:
+                raise ConvergenceError(f"pose of log row {row + 1}", state.iterations,
+                                       "no pose near the previous one meets these lasers (a reading far off?)")
             if on_inconsistent == "raise":
                 kind = "first" if row == 0 else ("stop" if log.start_stop[row] == 0 else "start")
                 raise row_closure_error(row, kind, residuals[row], tolerances[row], solved,

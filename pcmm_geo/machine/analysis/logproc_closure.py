@@ -202,7 +202,12 @@ def closure_sigmas(residual: FloatArray, covariance: FloatArray) -> tuple[float,
 
 
 def row_closure_error(
-    row: int, kind: str, residual: FloatArray, tolerance: float, solved: NDArray[np.bool_], sigmas: float | None = None
+    row: int,
+    kind: str,
+    residual: FloatArray,
+    tolerance: float,
+    solved: NDArray[np.bool_],
+    sigmas: float | None = None,
 ) -> InconsistentMeasurementError:
     """The error for log row ``row`` (0-based) whose closure residual ``(9,)`` exceeds ``tolerance`` (mm).
 
