@@ -184,8 +184,8 @@ def process_log(
     """Pivot heights and probe points from a Table 3.2 log (see the module notes).
 
     Every row is tested for closure: the three lasers over-determine the pose, and a row
-    whose closure residual exceeds ``closure_tolerance`` is not turned into a point
-    (see *Closure test* below).
+    whose closure residual is too large for its readings' uncertainty is not turned into
+    a point (see *Closure test* below).
 
     Parameters
     ----------
@@ -227,7 +227,7 @@ def process_log(
     misfit the pose cannot absorb.  By default it is compared with its predicted scatter
     (laser noise plus the carried uncertainty of the held heights) and refused beyond
     :data:`CLOSURE_SIGMAS` = 6 standard deviations (a clean row: probability 1.5e-8; a 5 mm
-    fault on one laser leaves 1.5-5 mm); derivation in
+    fault on one laser leaves 0.9-5 mm); derivation in
     :mod:`pcmm_geo.machine.analysis.logproc_closure`.  A machine model that does not fit the
     machine shows up the same way: give ``closure_tolerance`` in mm for it.
 
