@@ -49,7 +49,7 @@ value from a statement; pass your sensors' own.  The lasers' count step is the f
 lasers a and b (ILD1302) report 14-bit counts of ``200 * 1.02 / 16368 = 12.46 um``,
 i.e. ``12.46 / sqrt(12) = 3.6 um`` from rounding alone (laser c, an ILD1420: 0.9 um).
 With the default, a row is refused from residuals of about 0.2-0.3 mm; a 5 mm laser
-fault leaves 1.5-5 mm.
+fault leaves 0.9-5 mm.
 
 Examples
 --------
