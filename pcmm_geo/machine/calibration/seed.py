@@ -32,20 +32,21 @@ Construction (frame of Appendix C: the probe-tip center at the origin; axes of t
    tip -> ``q`` that leaves every printed number unchanged; it is fixed by asking, with a
    small weight, that the seed's eq 7.2 construction (average of the pairwise
    closest-point midpoints of the slider lines) return ``q``.  Both are met: every
-   printed number is reproduced to 5e-5 (its last digit) and the eq 7.2 construction
+   number listed above is reproduced to 5e-5 (its last digit) and the eq 7.2 construction
    lands 2e-3 mm from ``q`` (reported by :func:`reconstruct_appendix_cd`), so the printed
    numbers are mutually consistent and determine the geometry.
 
 Handedness.  Every printed number except ``v1`` is a length or an angle, and both are the
 same for the tetrahedron and its mirror image; ``v1`` fixes the handedness only if one
 knows the frame it is written in, and the thesis does not say.  Taken as tip -> joint in a
-right-handed frame, as printed, the triad is left-turning (``det v1 = +0.84``): put into
-the machine it hangs the tip *above* the pivots (``pcmm kinematics forward --heights 400
+right-handed frame, as printed, the triad a, b, c turns counter-clockwise seen from the
+joints (``det v1 = +0.84``), the machine's turns clockwise: put into the machine, the
+printed triad hangs the tip *above* the pivots (``pcmm kinematics forward --heights 400
 400 400`` gave z = 709.4 mm with pivots at 400 mm).  The machine fixes the handedness:
 
 * thesis 2.6.4: arms a, b, c run *clockwise seen from above*; Table 4.1 and Appendix D's
-  ``pp`` put pivot a at -x, b at +y, c at -y; the probe hangs below the pivots (Figure
-  2.16, the DPKM's lower root, Appendix E's probe 80-130 mm below 380-400 mm pivots);
+  ``pp`` put pivot a at -x, b at +y, c at -y; the probe hangs below the pivots (Table
+  4.2 / Appendix E: probe at z = 126.7 mm, 79.7 mm corrected, under pivots at 381-401 mm);
   so in a right-handed frame with ``z`` up the tip -> joint triad has ``det < 0``
   (:func:`~pcmm_geo.machine.kinematics.dpkm.tetrahedron_directions` on Table 3.1:
   ``det = -0.83``);
@@ -160,7 +161,7 @@ TABLE_6_2 = {
 @renamed_fields(centres="centers")
 @dataclass(frozen=True)
 class AppendixReconstruction:
-    """Sphere centers rebuilt from Appendices C and D (tip at the origin, mm).
+    """Sphere centers rebuilt from Appendices C and D (tip at the origin, machine axes, mm).
 
     Attributes
     ----------
