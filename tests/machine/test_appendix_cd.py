@@ -73,9 +73,9 @@ def test_rebuilt_tetrahedron_has_the_machines_handedness(rebuilt):
 
 # Tip height with the same pivot heights, bundled calibration vs the thesis geometry.  The two tetrahedra
 # differ in their arm angles by up to 0.34 deg (Table 7.1 vs 3.1); on the seed's columns the tip rises by
-# 2.1-2.7 mm per degree of one beta (6.9 mm/deg for all three, measured with seed_machine), so the angles
-# account for at most 2.1 mm; 3 mm leaves room for the slider lines that miss the tip (erratum 9).  The
-# mirror image of the same tetrahedron puts the tip 619 mm higher, two hundred times the tolerance.
+# 2.1-2.7 mm per degree of one beta (6.9 mm/deg for all three, measured with seed_machine and checked in the
+# test), so the angles account for at most 2.1 mm; 3 mm leaves room for the slider lines that miss the tip
+# (erratum 9).  The mirror image of the same tetrahedron puts the tip 619 mm higher, 200 times the tolerance.
 TIP_Z_TOLERANCE_MM = 3.0
 HEIGHTS = np.array([[400.0, 400.0, 400.0], [380.0, 400.0, 420.0], [430.0, 370.0, 400.0], [370.0, 370.0, 370.0]])
 
@@ -94,6 +94,16 @@ def test_bundled_calibration_hangs_the_tip_below_the_pivots(seed_cal, tmp_path):
                              beta_deg={pair: TABLE_7_1[arm][1] for arm, pair in zip("abc", ("ab", "bc", "ca"),
                                                                                     strict=True)})
     thesis = RigidBodyMachine.from_dpkm()
+    # the tolerance's budget: tip-height sensitivity to each beta on the seed's columns times the beta differences
+    level = np.full(3, 400.0)
+    base_z = thesis.forward(heights=level).tip[2]
+    budget = 0.0
+    for pair in ("ab", "bc", "ca"):
+        nudged = {**TABLE_3_1_BETA_DEG, pair: TABLE_3_1_BETA_DEG[pair] + 0.1}
+        slope = (seed_machine(beta_deg=nudged).forward(heights=level).tip[2] - base_z) / 0.1  # mm per degree
+        assert 2.0 < slope < 2.8
+        budget += abs(slope) * abs(seed_cal.beta_deg[pair] - TABLE_3_1_BETA_DEG[pair])
+    assert budget < 0.75 * TIP_Z_TOLERANCE_MM
     for heights in HEIGHTS:
         tip = machine.forward(heights=heights).tip
         assert tip[2] < heights.min() - 250.0  # below the lowest pivot by about the arms' vertical reach
