@@ -58,7 +58,7 @@ def test_unwritable_folder_is_refused(tmp_path: Path, monkeypatch: pytest.Monkey
     monkeypatch.setattr(tempfile, "mkstemp", read_only)  # as on a read-only mount (root ignores modes)
     plan = OutputPlan()
     plan.add(tmp_path / "new" / "out.png", label="--plot")
-    with pytest.raises(InvalidInputError, match="writable folder.*Permission denied"):
+    with pytest.raises(InvalidInputError, match=r"writable folder.*Permission denied"):
         plan.check()
     assert not (tmp_path / "new").exists()
 
