@@ -67,12 +67,15 @@ class PlannedOutput:
         An existing file may be replaced.
     append : bool
         An existing file is appended to (e.g. ``pcmm acquire --resume``), never replaced.
+    folder : bool
+        The output is a folder the command writes new files into (it may exist already).
     """
 
     path: Path
     label: str
     overwrite: bool = False
     append: bool = False
+    folder: bool = False
 
 
 class OutputPlan:
@@ -102,9 +105,9 @@ class OutputPlan:
         self.notes: list[str] = []
 
     def add(self, path: str | os.PathLike[str], *, label: str, overwrite: bool = False,
-            append: bool = False) -> PlannedOutput:
+            append: bool = False, folder: bool = False) -> PlannedOutput:
         """Declare an output (nothing is checked until :meth:`check`)."""
-        planned = PlannedOutput(Path(path), label, bool(overwrite), bool(append))
+        planned = PlannedOutput(Path(path), label, bool(overwrite), bool(append), bool(folder))
         self.outputs.append(planned)
         return planned
 
@@ -132,6 +135,9 @@ class OutputPlan:
                 raise InvalidInputError(what, "a file no other output of the command names",
                                         f"the same file as {seen[key].label} {seen[key].path}")
             seen[key] = out
+            if out.folder:
+                _check_folder(out.path, what)
+                continue
             if out.path.is_dir():
                 raise InvalidInputError(what, "a file name", "an existing folder")
             if out.path.exists() and not (out.overwrite or out.append):
@@ -162,7 +168,7 @@ def _check_folder(folder: Path, what: str) -> None:
             break
         existing = existing.parent
     if not existing.is_dir():
-        raise InvalidInputError(what, "a path inside a folder", f"'{existing}', which is a file, not a folder")
+        raise InvalidInputError(what, "a path of folders", f"'{existing}', which is a file, not a folder")
     try:
         handle, name = tempfile.mkstemp(prefix=".pcmm-write-check-", dir=existing)
     except OSError as exc:

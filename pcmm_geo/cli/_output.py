@@ -69,23 +69,27 @@ class OutputOption:
     dest: str
     option: str
     append_when: str | None = None
+    folder: bool = False
+    unused_when: str | None = None
 
 
 def declare_output(parser: argparse.ArgumentParser, dest: str, option: str | None = None, *,
-                   append_when: str | None = None) -> None:
+                   append_when: str | None = None, folder: bool = False, unused_when: str | None = None) -> None:
     """Register the option stored in ``args.<dest>`` as one of the command's output files.
 
     Every declared output is checked before any work (existence, folder, writability; see
     :class:`pcmm_geo._atomic.OutputPlan`) and all of them are written all-or-nothing.
     :func:`add_overwrite_flag`, called after the declarations, adds ``--overwrite`` (all
     outputs) and one ``--overwrite-NAME`` per output.  ``append_when`` names a boolean option
-    (e.g. ``"resume"``) under which an existing file is appended to rather than refused.
+    (e.g. ``"resume"``) under which an existing file is appended to rather than refused;
+    ``folder=True`` declares a folder the command writes new files into (checked, no
+    ``--overwrite-NAME``); ``unused_when`` names a boolean option under which it is not written.
     """
     outputs = parser.get_default("output_options")
     if outputs is None:
         outputs = []
         parser.set_defaults(output_options=outputs)
-    outputs.append(OutputOption(dest, option or "--" + dest.replace("_", "-"), append_when))
+    outputs.append(OutputOption(dest, option or "--" + dest.replace("_", "-"), append_when, folder, unused_when))
 
 
 def add_plot_flag(parser: argparse.ArgumentParser, what: str) -> None:
@@ -109,7 +113,7 @@ def add_overwrite_flag(parser: argparse.ArgumentParser) -> None:
     Call it after the outputs are declared (:func:`add_plot_flag`, :func:`add_report_flag`,
     :func:`declare_output`).
     """
-    outputs = parser.get_default("output_options") or []
+    outputs = [output for output in parser.get_default("output_options") or () if not output.folder]
     names = ", ".join(output.option for output in outputs) or "the outputs"
     parser.add_argument("--overwrite", action="store_true",
                         help=f"allow replacing every existing output file ({names}); without it, or the "
@@ -127,11 +131,12 @@ def output_plan(args: argparse.Namespace) -> OutputPlan:
     everything = bool(getattr(args, "overwrite", False))
     for output in getattr(args, "output_options", None) or ():
         value = getattr(args, output.dest, None)
-        if not value:
+        if not value or (output.unused_when and getattr(args, output.unused_when, False)):
             continue
         plan.add(value, label=output.option,
                  overwrite=everything or bool(getattr(args, f"overwrite_{output.dest}", False)),
-                 append=bool(output.append_when and getattr(args, output.append_when, False)))
+                 append=bool(output.append_when and getattr(args, output.append_when, False)),
+                 folder=output.folder)
     return plan
 
 

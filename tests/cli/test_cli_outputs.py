@@ -85,3 +85,13 @@ def test_a_failure_while_writing_rolls_every_output_back(tmp_path: Path, monkeyp
                  "--plot", str(tmp_path / "out" / "cal.png"), "--report", str(tmp_path / "out" / "cal.md")]) == 0
     assert b"earlier calibration" not in (tmp_path / "cal.json").read_bytes()
     assert sorted(_tree(tmp_path)) == ["cal.json", "out", "out/cal.md", "out/cal.png"]
+
+
+def test_demo_output_folder_is_checked_before_the_run(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    (tmp_path / "blocker").write_bytes(b"a file, not a folder\n")
+    before = _tree(tmp_path)
+    assert main(["demo", "--out", str(tmp_path / "blocker" / "demo"), "--plot", str(tmp_path / "demo.png")]) == 2
+    error = capsys.readouterr().err.strip()
+    assert error == (f"pcmm demo: error: --out {tmp_path / 'blocker' / 'demo'}: expected a path of folders, "
+                     f"got '{tmp_path / 'blocker'}', which is a file, not a folder")
+    assert _tree(tmp_path) == before
