@@ -12,15 +12,12 @@ Table 6.8 prints these ratios (about 5-6) under the inverted header ``l/h``; eq 
 values (a 100 mm rise moves the laser by about 18 mm) say ``delta_h / delta_l``.  This module
 computes eq 6.3 and calls the quantity ``height_per_laser`` (mm of pivot height per mm of laser).
 
-What the geometry predicts.  The thesis expects equal ratios ("theoretically these ratios should
-be the same").  The rigid-body model (:class:`~pcmm_geo.machine.kinematics.model.RigidBodyMachine`)
-says more: starting from level pivots, the laser of the moved arm changes with the *square* of
-the rise at first (the pivot distance grows as ``sqrt(b^2 + h^2)``), so the ratio is far from
-constant -- about 20 for a 25 mm rise and 5.2-5.6 for 100 mm with the thesis geometry -- and
-depends on each arm's geometry.  :func:`laser_height_ratio` therefore predicts every run's ratio
-from the model for that arm moved alone between the same start and finish heights, and reports
-how fast the prediction changes with the travel and with an offset of the start laser reading
-(the settling scatter of Table 6.7).
+What the geometry predicts.  The thesis expects equal ratios; the rigid-body model does not
+(:mod:`~pcmm_geo.machine.analysis.laser_ratio_model`: about 20 for a 25 mm rise from level pivots,
+5.2-5.6 for 100 mm, different per arm).  :func:`laser_height_ratio` therefore predicts every run's
+ratio from the model for that arm moved alone between the same start and finish heights, and
+reports how fast the prediction changes with the travel and with an offset of the start laser
+reading (the settling scatter of Table 6.7).
 
 Splitting a record into runs (the height-gauge CSV of :mod:`pcmm_geo.machine.calibration.numcal_data`
 has no test column): consecutive rows of the same moved arm form one run while the height keeps
@@ -38,6 +35,7 @@ difference are taken as independent.  First-order propagation through eq 6.3 giv
 
 Examples
 --------
+>>> from pcmm_geo.machine.analysis.laser_ratio_model import synthesise_ratio_record
 >>> record = synthesise_ratio_record(travel=100.0, runs_per_arm=2)
 >>> result = laser_height_ratio(record)
 >>> [round(arm.mean, 2) for arm in result.arms]
@@ -54,21 +52,24 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from pcmm_geo.acquisition.drivers.lasers import ILD1302_FULL_SCALE, ILD1420_FULL_SCALE, MEASURING_RANGE_MM
-from pcmm_geo.errors import InconsistentMeasurementError, InvalidInputError
+from pcmm_geo.errors import InvalidInputError
+from pcmm_geo.machine.analysis.laser_ratio_model import (
+    DEFAULT_MODEL_NAME,
+    ArmPrediction,
+    predict_arm,
+    predicted_height_per_laser,
+)
 from pcmm_geo.machine.analysis.repeatability import ARMS, ArmStatistics, arm_statistics
 from pcmm_geo.machine.analysis.sensitivity import SEED_LASER_ACCURACY
 from pcmm_geo.machine.kinematics.model import RigidBodyMachine
 
 __all__ = [
-    "ArmPrediction",
     "HeightGaugeRecord",
     "LaserHeightRatio",
     "RatioRun",
     "ReadingLimits",
     "laser_height_ratio",
-    "predicted_height_per_laser",
     "split_runs",
-    "synthesise_ratio_record",
 ]
 
 FloatArray = NDArray[np.float64]
@@ -90,15 +91,6 @@ class HeightGaugeRecord(Protocol):
     :class:`pcmm_geo.machine.calibration.numcal_data.NumcalData` (read by
     :func:`~pcmm_geo.machine.calibration.numcal_data.read_numcal_csv`) is one.
     """
-
-    moved: tuple[str, ...]
-    lasers: FloatArray
-    heights: FloatArray
-
-
-@dataclass(frozen=True)
-class SimpleRecord:
-    """A height-gauge record in memory: ``moved`` (M,), ``lasers`` (M, 3) mm, ``heights`` (M,) mm."""
 
     moved: tuple[str, ...]
     lasers: FloatArray
@@ -190,32 +182,6 @@ class RatioRun:
 
 
 @dataclass(frozen=True)
-class ArmPrediction:
-    """The model's ratio for one arm at that arm's mean start and finish heights.
-
-    Attributes
-    ----------
-    arm : str
-    height_start, height_finish : float
-        Mean ``h_s`` and ``h_f`` of the arm's runs, mm.
-    height_per_laser : float
-        Predicted ``delta_h / delta_l``.
-    per_mm_travel : float
-        Change of the predicted ratio per mm more travel (``h_f`` moved away from ``h_s``), 1/mm.
-    per_mm_start_laser : float
-        Change of the measured ratio per mm of offset in the start laser reading
-        (``-ratio / delta_l``), 1/mm: how much a settling offset (Table 6.7) moves the ratio.
-    """
-
-    arm: str
-    height_start: float
-    height_finish: float
-    height_per_laser: float
-    per_mm_travel: float
-    per_mm_start_laser: float
-
-
-@dataclass(frozen=True)
 class LaserHeightRatio:
     """Height per laser displacement of a record (thesis Table 6.8, eq 6.3).
 
@@ -294,38 +260,6 @@ def split_runs(moved: Sequence[str], heights: ArrayLike) -> list[tuple[str, int,
     return runs
 
 
-def predicted_height_per_laser(machine: RigidBodyMachine, arm: str, height_start: ArrayLike,
-                               height_finish: ArrayLike) -> FloatArray:
-    """The model's ``delta_h / delta_l`` for ``arm`` moved alone (others at the reference heights).
-
-    Heights are relative to the machine's reference heights (the level start), mm; arrays broadcast.
-
-    Raises
-    ------
-    InconsistentMeasurementError
-        The model finds no pose for a start or finish height (out of reach).
-
-    Examples
-    --------
-    >>> machine = RigidBodyMachine.from_dpkm()
-    >>> [round(float(predicted_height_per_laser(machine, "a", 0.0, t)), 2) for t in (25.0, 50.0, 100.0)]
-    [20.24, 10.19, 5.24]
-    """
-    if arm not in ARMS:
-        raise InvalidInputError("arm", "'a', 'b' or 'c'", repr(arm))
-    start, finish = np.broadcast_arrays(np.asarray(height_start, float), np.asarray(height_finish, float))
-    index = ARMS.index(arm)
-    both = np.stack([start.ravel(), finish.ravel()])  # (2, n)
-    heights = np.broadcast_to(machine.reference_heights, (*both.shape, 3)).copy()
-    heights[..., index] += both
-    solution = machine.forward(heights=heights, lasers_hint=machine.reference_lasers)
-    if not np.all(solution.converged):
-        raise InconsistentMeasurementError(f"model pose of arm {arm} between {start.min()} and {finish.max()} mm",
-                                           "no solution", "a converged pose", detail="heights out of the model's reach")
-    laser = solution.lasers[..., index]
-    return np.asarray((both[0] - both[1]) / (laser[0] - laser[1])).reshape(start.shape)
-
-
 def laser_height_ratio(record: HeightGaugeRecord, *, machine: RigidBodyMachine | None = None,
                        limits: ReadingLimits | None = None, model_name: str = "") -> LaserHeightRatio:
     """Eqs 6.1-6.3 per run and arm, statistics per arm, and the model's expectation (Table 6.8).
@@ -349,15 +283,16 @@ def laser_height_ratio(record: HeightGaugeRecord, *, machine: RigidBodyMachine |
     Raises
     ------
     InvalidInputError
-        Bad shapes, a run of one row or without height change (see :func:`split_runs`).
-    InconsistentMeasurementError
-        A run whose laser change is not larger than the laser's resolution (eq 6.3 undefined:
-        the dead spot of thesis 6.3), or heights the model cannot reach.
+        Bad shapes, a run of one row or without height change (see :func:`split_runs`), a run
+        whose laser change is not larger than the laser's resolution (eq 6.3 undefined: the dead
+        spot of thesis 6.3).
+    NoRealSolutionError
+        Heights the model cannot reach.
     """
     limits = limits or ReadingLimits()
     if machine is None:
         machine = RigidBodyMachine.from_dpkm()
-        model_name = model_name or "thesis geometry (Table 3.1 / Appendix D, RigidBodyMachine.from_dpkm)"
+        model_name = model_name or DEFAULT_MODEL_NAME
     moved = tuple(record.moved)
     lasers = np.asarray(record.lasers, dtype=float)
     heights = np.asarray(record.heights, dtype=float)
@@ -374,9 +309,10 @@ def laser_height_ratio(record: HeightGaugeRecord, *, machine: RigidBodyMachine |
         l_s, l_f, h_s, h_f = lasers[first, k], lasers[last, k], heights[first], heights[last]
         delta_l, delta_h = l_s - l_f, h_s - h_f
         if abs(delta_l) <= max(limits.laser_resolution[k], _STEP_GUARD):
-            raise InconsistentMeasurementError(
-                f"laser {arm} change over data rows {first + 1}-{last + 1}", float(delta_l),
-                limits.laser_resolution[k], detail="not larger than the laser's resolution: eq 6.3 is undefined")
+            raise InvalidInputError(
+                f"laser {arm} change over data rows {first + 1}-{last + 1}",
+                f"more than the laser resolution {limits.laser_resolution[k]:.4g} mm (eq 6.3 is undefined otherwise: "
+                "the dead spot of thesis 6.3?)", f"{delta_l:.6g} mm")
         counts[arm] += 1
         u_l_res = np.sqrt(2.0) * limits.laser_resolution[k] / np.sqrt(12.0)
         runs.append(RatioRun(
@@ -391,77 +327,13 @@ def laser_height_ratio(record: HeightGaugeRecord, *, machine: RigidBodyMachine |
         arm_statistics([r.height_per_laser for r in runs if r.arm == arm], arm, unit="1")
         for arm in ARMS if counts[arm] >= 2
     )
-    predictions = tuple(_arm_prediction(machine, arm, [r for r in runs if r.arm == arm]) for arm in ARMS
-                        if counts[arm])
+    predictions = tuple(
+        predict_arm(machine, arm, float(np.mean([r.height_start for r in runs if r.arm == arm])),
+                    float(np.mean([r.height_finish for r in runs if r.arm == arm])),
+                    float(np.mean([r.laser_change for r in runs if r.arm == arm])))
+        for arm in ARMS if counts[arm]
+    )
     values = [p.height_per_laser for p in predictions]
     return LaserHeightRatio(tuple(runs), arms, predictions, float(max(values) - min(values)), limits, model_name)
 
 
-def _arm_prediction(machine: RigidBodyMachine, arm: str, runs: list[RatioRun]) -> ArmPrediction:
-    start = float(np.mean([r.height_start for r in runs]))
-    finish = float(np.mean([r.height_finish for r in runs]))
-    ratio = float(predicted_height_per_laser(machine, arm, start, finish))
-    step = 0.5 * float(np.sign(finish - start))  # mm of extra travel, central difference
-    more = predicted_height_per_laser(machine, arm, start, finish + step)
-    less = predicted_height_per_laser(machine, arm, start, finish - step)
-    per_travel = float((more - less) / (2.0 * abs(step)))
-    delta_l = float(np.mean([r.laser_change for r in runs]))
-    return ArmPrediction(arm, start, finish, ratio, per_travel, -ratio / delta_l)
-
-
-def synthesise_ratio_record(*, machine: RigidBodyMachine | None = None, travel: float | Sequence[float] = 100.0,
-                            runs_per_arm: int = 5, arms: Sequence[str] = ARMS, height_resolution: float = 0.0,
-                            laser_resolution: Sequence[float] | None = None,
-                            start_offsets: ArrayLike | None = None) -> SimpleRecord:
-    """A model-generated height-gauge record of known ratio (Table 6.8's experiment).
-
-    Each run of each arm has two rows: the level start (height 0) and the finish (height
-    ``travel``), all three lasers from the rigid-body model, optionally rounded to the given
-    resolutions and with the start lasers of run ``j`` shifted by ``start_offsets[j]`` (mm, a
-    settling offset that does not follow the motion; same for the finish of that run).
-
-    Parameters
-    ----------
-    machine : RigidBodyMachine, optional
-        Default: the thesis geometry.
-    travel : float or sequence of float
-        Rise of each run (one value, or one per run), mm.
-    runs_per_arm : int
-    arms : sequence of str
-    height_resolution : float
-        Round heights to this step (0: exact).
-    laser_resolution : sequence of 3 float, optional
-        Round lasers to these steps (None: exact).
-    start_offsets : array_like, shape (runs_per_arm, 3), optional
-        Settling offsets of the lasers per run, mm.
-
-    Returns
-    -------
-    SimpleRecord
-        ``moved``, ``lasers`` (M, 3), ``heights`` (M,) with ``M = 2 runs_per_arm len(arms)``.
-    """
-    machine = machine or RigidBodyMachine.from_dpkm()
-    travels = np.broadcast_to(np.asarray(travel, dtype=float), (runs_per_arm,))
-    offsets = np.zeros((runs_per_arm, 3)) if start_offsets is None else np.asarray(start_offsets, float)
-    if offsets.shape != (runs_per_arm, 3):
-        raise InvalidInputError("start_offsets", f"shape ({runs_per_arm}, 3)", f"shape {offsets.shape}")
-    moved: list[str] = []
-    rows: list[FloatArray] = []
-    heights: list[float] = []
-    for arm in arms:
-        index = ARMS.index(arm)
-        for run in range(runs_per_arm):
-            pivot = np.tile(machine.reference_heights, (2, 1))
-            pivot[1, index] += travels[run]
-            solution = machine.forward(heights=pivot, lasers_hint=machine.reference_lasers)
-            for point in range(2):
-                moved.append(arm)
-                rows.append(solution.lasers[point] + offsets[run])
-                heights.append(float(travels[run]) if point else 0.0)
-    laser_array, height_array = np.array(rows), np.array(heights)
-    if height_resolution > 0:
-        height_array = np.round(height_array / height_resolution) * height_resolution
-    if laser_resolution is not None:
-        steps = np.asarray(laser_resolution, dtype=float)
-        laser_array = np.round(laser_array / steps) * steps
-    return SimpleRecord(tuple(moved), laser_array, height_array)

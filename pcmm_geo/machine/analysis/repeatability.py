@@ -49,6 +49,7 @@ __all__ = [
     "StartReadings",
     "StartRepeatability",
     "arm_statistics",
+    "read_arm_table_csv",
     "read_start_readings_csv",
     "start_readings_from_logs",
     "start_repeatability",
@@ -360,6 +361,54 @@ def start_readings_from_logs(paths: Sequence[str | Path]) -> StartReadings:
     return StartReadings(np.array(lasers), tuple(labels), tuple(flags))
 
 
+def read_arm_table_csv(path: str | Path, header: Sequence[str]) -> tuple[tuple[str, ...], FloatArray]:
+    """Read a table of one label and three per-arm numbers per row (``#`` comments allowed).
+
+    Parameters
+    ----------
+    path : path-like
+    header : sequence of 4 str
+        The required header, e.g. ``("test", "laser_a", "laser_b", "laser_c")``.
+
+    Returns
+    -------
+    labels : tuple of str
+        First column of each row.
+    values : ndarray, shape (K, 3)
+
+    Raises
+    ------
+    FileFormatError
+        Wrong header, field count, non-finite or non-numeric values (with the line number), no rows.
+    """
+    from pcmm_geo.io._text import read_text_lines
+
+    file = Path(path)
+    expected = tuple(header)
+    lines = [(n, text.strip()) for n, text in read_text_lines(file)]
+    lines = [(n, text) for n, text in lines if text and not text.startswith("#")]
+    if not lines or tuple(f.strip().lower() for f in lines[0][1].split(",")) != expected:
+        got = lines[0][1][:80] if lines else "an empty file"
+        raise FileFormatError(str(file), f"expected header {','.join(expected)!r}, got {got!r}",
+                              lines[0][0] if lines else None)
+    labels, values = [], []
+    for number, text in lines[1:]:
+        fields = [f.strip() for f in text.split(",")]
+        if len(fields) != 4:
+            raise FileFormatError(str(file), f"expected 4 fields, got {len(fields)}", number)
+        try:
+            row = [float(f) for f in fields[1:]]
+        except ValueError:
+            raise FileFormatError(str(file), f"expected numbers, got {[f[:20] for f in fields[1:]]}", number) from None
+        if not np.all(np.isfinite(row)):
+            raise FileFormatError(str(file), "expected finite numbers", number)
+        labels.append(fields[0][:80])
+        values.append(row)
+    if not values:
+        raise FileFormatError(str(file), "expected data rows, got none")
+    return tuple(labels), np.array(values)
+
+
 def read_start_readings_csv(path: str | Path) -> StartReadings:
     """Read a table of start readings: header ``test,laser_a,laser_b,laser_c`` (mm), ``#`` comments.
 
@@ -376,28 +425,5 @@ def read_start_readings_csv(path: str | Path) -> StartReadings:
     >>> read_start_readings_csv(f).lasers[:, 0].tolist()
     [33.7, 33.41]
     """
-    from pcmm_geo.io._text import read_text_lines
-
-    file = Path(path)
-    lines = [(n, text.strip()) for n, text in read_text_lines(file)]
-    lines = [(n, text) for n, text in lines if text and not text.startswith("#")]
-    if not lines or tuple(f.strip().lower() for f in lines[0][1].split(",")) != START_READINGS_HEADER:
-        got = lines[0][1][:80] if lines else "an empty file"
-        raise FileFormatError(str(file), f"expected header {','.join(START_READINGS_HEADER)!r}, got {got!r}",
-                              lines[0][0] if lines else None)
-    labels, values = [], []
-    for number, text in lines[1:]:
-        fields = [f.strip() for f in text.split(",")]
-        if len(fields) != 4:
-            raise FileFormatError(str(file), f"expected 4 fields, got {len(fields)}", number)
-        try:
-            row = [float(f) for f in fields[1:]]
-        except ValueError:
-            raise FileFormatError(str(file), f"expected numbers, got {[f[:20] for f in fields[1:]]}", number) from None
-        if not np.all(np.isfinite(row)):
-            raise FileFormatError(str(file), "expected finite numbers", number)
-        labels.append(f"test {fields[0]}")
-        values.append(row)
-    if not values:
-        raise FileFormatError(str(file), "expected data rows, got none")
-    return StartReadings(np.array(values), tuple(labels), (None,) * len(values))
+    labels, values = read_arm_table_csv(path, START_READINGS_HEADER)
+    return StartReadings(values, tuple(f"test {label}" for label in labels), (None,) * len(labels))
