@@ -91,12 +91,11 @@ def test_simulated_settling_scatter_is_recovered() -> None:
     scatter, tests = 0.45, 300
     cmm = SimulatedMicroCMM(settle_scatter=scatter, seed=7)
     truth = cmm.true_lasers
-    span = 40_320
+    high, low = START_POSITION + 40_320, START_POSITION - 40_320
     readings = []
     for _ in range(tests):
         for motor in (1, 2, 3):  # the session's pre-sequence: start + span, start - span, start
-            for start, target in ((START_POSITION, START_POSITION + span), (START_POSITION + span, START_POSITION - span),
-                                  (START_POSITION - span, START_POSITION)):
+            for start, target in ((START_POSITION, high), (high, low), (low, START_POSITION)):
                 cmm.move(motor, start, target)
         readings.append([cmm.laser(k) for k in range(3)])
     np.testing.assert_allclose(cmm.true_lasers, truth, atol=1e-9)  # the rigid body returns to the same pose
@@ -133,7 +132,8 @@ def test_start_rows_come_from_the_first_row_of_each_log(tmp_path: Path) -> None:
     np.testing.assert_allclose(found.lasers, TABLE_6_7, atol=1e-12)
     assert found.presequence == (True,) * 6 and found.labels[0] == "run0.csv"
     # a Table 3.2 log (no positions, no metadata) gives its first row
-    table = write_log(tmp_path / "t32.csv", MeasurementLog([1, 0], [0, 0], [1, 1], [1, 1], [TABLE_6_6[1], TABLE_6_6[0]]))
+    rows = MeasurementLog([1, 0], [0, 0], [1, 1], [1, 1], [TABLE_6_6[1], TABLE_6_6[0]])
+    table = write_log(tmp_path / "t32.csv", rows)
     mixed = start_readings_from_logs([paths[0], table])
     np.testing.assert_allclose(mixed.lasers[1], TABLE_6_6[1], atol=1e-9)
     assert mixed.presequence == (True, None)
