@@ -195,6 +195,11 @@ def test_prediction_per_mm_travel_is_a_derivative() -> None:
     fine = (predicted_height_per_laser(machine, "b", 0.0, 100.01) - predicted_height_per_laser(machine, "b", 0.0,
                                                                                                 99.99)) / 0.02
     assert prediction.per_mm_travel == pytest.approx(float(fine), rel=1e-4)
+    shifted = (predicted_height_per_laser(machine, "b", 0.01, 100.01)
+               - predicted_height_per_laser(machine, "b", -0.01, 99.99)) / 0.02
+    assert prediction.per_mm_start_height == pytest.approx(float(shifted), rel=1e-3)
+    # level is not the extreme of the ratio: a start 1 mm below level raises the ratio by about 0.1
+    assert prediction.per_mm_start_height == pytest.approx(-0.1, abs=0.02)
 
 
 def test_runs_are_split_at_direction_reversals_and_arm_changes() -> None:

@@ -74,10 +74,11 @@ def _handle(args: argparse.Namespace) -> Report:
     predicted = {p.arm: p for p in result.predictions}
     rows = [[a.arm, a.count, a.mean, a.sigma_sample, a.sigma_population, a.range,
              predicted[a.arm].height_per_laser, a.mean - predicted[a.arm].height_per_laser,
-             predicted[a.arm].per_mm_travel, predicted[a.arm].per_mm_start_laser] for a in result.arms]
+             predicted[a.arm].per_mm_travel, predicted[a.arm].per_mm_start_height,
+             predicted[a.arm].per_mm_start_laser] for a in result.arms]
     tables.insert(0, Table("height_per_laser = delta_h / delta_l per arm (mm/mm)", [
         "arm", "runs", "mean", "s (ddof 1)", "sigma (ddof 0)", "range", "model", "mean - model",
-        "model per mm travel", "per mm start-laser offset"], rows))
+        "model per mm travel", "per mm start height", "per mm start-laser offset"], rows))
     lines.append("Table 6.8 prints these ratios under the inverted header l/h; eq 6.3 is delta_h / delta_l")
     data = result.as_dict()
     plots = []

@@ -75,6 +75,9 @@ class ArmPrediction:
         Predicted ``delta_h / delta_l``.
     per_mm_travel : float
         Change of the predicted ratio per mm more travel (``h_f`` moved away from ``h_s``), 1/mm.
+    per_mm_start_height : float
+        Change of the predicted ratio when the whole run starts 1 mm higher (same rise), 1/mm: how
+        much a start that is not level moves the ratio.
     per_mm_start_laser : float
         Change of the measured ratio per mm of offset in the start laser reading
         (``-ratio / delta_l``), 1/mm: how much a settling offset (Table 6.7) moves the ratio.
@@ -90,6 +93,7 @@ class ArmPrediction:
     height_finish: float
     height_per_laser: float
     per_mm_travel: float
+    per_mm_start_height: float
     per_mm_start_laser: float
 
 
@@ -129,23 +133,28 @@ def predict_arm(machine: RigidBodyMachine, arm: str, height_start: float, height
                 laser_change: float | None = None) -> ArmPrediction:
     """The model's ratio for ``arm`` moved alone from ``height_start`` to ``height_finish`` (mm).
 
-    ``per_mm_travel`` is a central difference over +-0.5 mm of the finish height;
+    ``per_mm_travel`` is a central difference over +-0.5 mm of the finish height,
+    ``per_mm_start_height`` one over +-0.5 mm of both heights;
     ``per_mm_start_laser`` uses ``laser_change`` (the measured ``delta_l``, mm) or, when None, the
     model's own.
 
     Examples
     --------
     >>> p = predict_arm(RigidBodyMachine.from_dpkm(), "a", 0.0, 100.0)
-    >>> round(p.height_per_laser, 3), round(p.per_mm_travel, 4), round(p.per_mm_start_laser, 3)
-    (5.239, -0.0487, 0.274)
+    >>> round(p.height_per_laser, 3), round(p.per_mm_travel, 4), round(p.per_mm_start_height, 3)
+    (5.239, -0.0487, -0.101)
     """
     ratio = float(predicted_height_per_laser(machine, arm, height_start, height_finish))
     step = 0.5 * float(np.sign(height_finish - height_start))
     more = predicted_height_per_laser(machine, arm, height_start, height_finish + step)
     less = predicted_height_per_laser(machine, arm, height_start, height_finish - step)
     per_travel = float((more - less) / (2.0 * abs(step)))
+    higher = predicted_height_per_laser(machine, arm, height_start + 0.5, height_finish + 0.5)
+    lower = predicted_height_per_laser(machine, arm, height_start - 0.5, height_finish - 0.5)
+    per_start = float(higher - lower)
     delta_l = (height_start - height_finish) / ratio if laser_change is None else float(laser_change)
-    return ArmPrediction(arm, float(height_start), float(height_finish), ratio, per_travel, -ratio / delta_l)
+    return ArmPrediction(arm, float(height_start), float(height_finish), ratio, per_travel, per_start,
+                         -ratio / delta_l)
 
 
 @dataclass(frozen=True)
