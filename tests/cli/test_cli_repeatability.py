@@ -40,6 +40,11 @@ def test_repeatability_of_the_printed_tables(tmp_path: Path) -> None:
     assert [seven["arms"][arm]["range"] for arm in "abc"] == pytest.approx([0.40, 0.29, 0.32], abs=1e-9)
     assert seven["outlier_limit_mm"] == pytest.approx(0.10) and len(seven["flagged"]) == 9
     assert (tmp_path / "r.png").stat().st_size > 10_000
+    report = tmp_path / "r.md"
+    proc = run("repeatability", "--readings", str(EXAMPLES / "start_readings_table_6_7.csv"), "--report", str(report))
+    assert proc.returncode == 0, proc.stderr
+    text = report.read_text(encoding="utf-8")
+    assert "start\\_readings\\_table\\_6\\_7.csv" in text and "s (ddof 1)" in text and "flagged: test 5 laser a" in text
     six = run_json("repeatability", "--readings", str(EXAMPLES / "start_readings_table_6_6.csv"))
     assert [(f["test"], f["arm"], f["value"]) for f in six["flagged"]] == [("test 2", "a", 33.41)]
     assert six["arms"]["a"]["sigma_sample"] == pytest.approx(np.std([33.70, 33.41, 33.70], ddof=1), rel=1e-12)
@@ -86,6 +91,11 @@ def test_laser_ratio_of_the_printed_table(tmp_path: Path) -> None:
     assert [out["predictions"][arm]["height_per_laser"] for arm in "abc"] == pytest.approx([5.239, 5.287, 5.553],
                                                                                           abs=1e-3)
     assert (tmp_path / "q.png").stat().st_size > 10_000
+    report = tmp_path / "q.html"
+    proc = run("laser-ratio", "--ratios", str(EXAMPLES / "laser_ratio_table_6_8.csv"), "--report", str(report))
+    assert proc.returncode == 0, proc.stderr
+    page = report.read_text(encoding="utf-8")
+    assert "laser_ratio_table_6_8.csv" in page and "6.312" in page and "mean - model" in page
 
 
 def test_laser_ratio_of_a_model_generated_height_gauge_record(tmp_path: Path) -> None:
