@@ -32,7 +32,7 @@ def register(subparsers: Any) -> None:
     )
     parser.add_argument("file", nargs="?", metavar="FILE", help="height-gauge CSV moved,laser_a,laser_b,laser_c,height")
     parser.add_argument("--ratios", metavar="FILE", help="table test,ratio_a,ratio_b,ratio_c of printed ratios")
-    parser.add_argument("--travel", type=float, default=100.0,
+    parser.add_argument("--travel", type=float, default=None,
                         help="with --ratios: rise of each run from level pivots, mm (default 100, Table 6.8)")
     add_machine_argument(parser)
     add_plot_flag(parser, "the ratio per run against the model, and the model's ratio against the rise")
@@ -48,6 +48,9 @@ def _handle(args: argparse.Namespace) -> Report:
 
     if bool(args.file) == bool(args.ratios):
         raise InvalidInputError("input", "either FILE or --ratios FILE", "both" if args.file else "neither")
+    if args.file and args.travel is not None:
+        raise InvalidInputError("--travel", "only with --ratios (a height-gauge record has its own heights)",
+                                f"{args.travel:g} with FILE")
     machine = load_machine_file(args.calibration)
     model = args.calibration or "thesis geometry (Table 3.1 / Appendix D)"
     lines: list[str] = []
@@ -56,8 +59,9 @@ def _handle(args: argparse.Namespace) -> Report:
         from pcmm_geo.machine.analysis.laser_ratio_model import ratio_table_summary, read_ratio_table_csv
 
         labels, ratios = read_ratio_table_csv(args.ratios)
-        result: Any = ratio_table_summary(ratios, labels, travel=args.travel, machine=machine, model_name=model)
-        lines.append(f"printed ratios of {len(labels)} tests; model prediction for a {args.travel:g} mm rise "
+        travel = 100.0 if args.travel is None else args.travel
+        result: Any = ratio_table_summary(ratios, labels, travel=travel, machine=machine, model_name=model)
+        lines.append(f"printed ratios of {len(labels)} tests; model prediction for a {travel:g} mm rise "
                      "from level pivots")
     else:
         from pcmm_geo.machine.analysis.laser_ratio import laser_height_ratio

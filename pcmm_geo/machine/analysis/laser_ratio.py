@@ -299,6 +299,8 @@ def laser_height_ratio(record: HeightGaugeRecord, *, machine: RigidBodyMachine |
     if lasers.shape != (len(moved), 3) or heights.shape != (len(moved),):
         raise InvalidInputError("height-gauge record", f"lasers ({len(moved)}, 3) and heights ({len(moved)},)",
                                 f"{lasers.shape} and {heights.shape}")
+    if not moved:
+        raise InvalidInputError("height-gauge record", "at least one run of two rows", "no rows")
     runs: list[RatioRun] = []
     counts = dict.fromkeys(ARMS, 0)
     u_h_res = np.sqrt(2.0) * limits.height_resolution / np.sqrt(12.0)
