@@ -218,6 +218,8 @@ def test_bad_records_are_refused(tmp_path: Path) -> None:
         laser_height_ratio(flat)
     with pytest.raises(InvalidInputError):
         laser_height_ratio(SimpleRecord(("a", "a"), np.zeros((2, 2)), np.array([0.0, 1.0])))
+    with pytest.raises(InvalidInputError, match="mirrored"):  # -50 and +50 mm give the same laser reading
+        predicted_height_per_laser(RigidBodyMachine.from_dpkm(), "a", -50.0, 50.0)
     with pytest.raises(InvalidInputError, match="travel"):
         ratio_table_summary(TABLE_6_8, travel=-1.0)
     bad = tmp_path / "ratios.csv"

@@ -107,6 +107,9 @@ def predicted_height_per_laser(machine: RigidBodyMachine, arm: str, height_start
     ------
     NoRealSolutionError
         The model finds no pose for a start or finish height (out of reach).
+    InvalidInputError
+        An unknown arm, or heights at which the model's laser is the same (equal, or mirrored
+        about level: the laser sees the square of the rise there).
 
     Examples
     --------
@@ -126,7 +129,11 @@ def predicted_height_per_laser(machine: RigidBodyMachine, arm: str, height_start
         raise NoRealSolutionError(f"model pose of arm {arm} moved from {float(start.min()):g} to "
                                   f"{float(finish.max()):g} mm", detail="heights out of the model's reach")
     laser = solution.lasers[..., index]
-    return np.asarray((both[0] - both[1]) / (laser[0] - laser[1])).reshape(start.shape)
+    change = laser[0] - laser[1]
+    if np.any(np.abs(change) < 1e-9):  # mm; far below any laser step
+        raise InvalidInputError(f"heights of arm {arm}", "a start and finish at which the model's laser differs "
+                                "(not equal, not mirrored about level)", f"{start.ravel()} and {finish.ravel()} mm")
+    return np.asarray((both[0] - both[1]) / change).reshape(start.shape)
 
 
 def predict_arm(machine: RigidBodyMachine, arm: str, height_start: float, height_finish: float,
