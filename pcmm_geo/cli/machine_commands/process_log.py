@@ -90,8 +90,8 @@ def _handle(args: argparse.Namespace) -> Report:
         "inconsistent_data_rows": (np.flatnonzero(out.inconsistent) + 1).tolist(),  # 1-based data rows
         "rejected_probe_data_rows": (out.rejected_probe_rows + 1).tolist(),
     }
-    lines = [f"{len(log)} rows, {out.probe_rows.size} probe points; max closure residual "
-             f"{data['max_residual_mm']:.3g} mm"]
+    lines = [f"{len(log)} rows, {out.probe_rows.size} probe points; largest closure residual "
+             f"{float(out.closure_residual.max()):.3g} mm (the table's closure column)"]
     if out.inconsistent.any():
         test = (f"{args.max_closure:g} mm" if args.max_closure is not None
                 else f"{CLOSURE_SIGMAS:g} standard deviations of the predicted scatter")
