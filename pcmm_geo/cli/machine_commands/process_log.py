@@ -37,6 +37,17 @@ def register(subparsers: Any) -> None:
     parser.add_argument("--keep-inconsistent", action="store_true",
                         help="keep rows beyond --max-closure, marked and left out of the probe points, instead of "
                              "refusing the log (exit 2)")
+    parser.add_argument("--max-tip-u", type=float, metavar="MM", default=None,
+                        help="largest tip standard uncertainty of a point in mm (default 1.0; 'inf' for none). Each "
+                             "point is listed with its uncertainty (first-order from --laser-sigma and the heights "
+                             "carried from earlier rows; near the level pose it reaches millimetres); rows above the "
+                             "limit are marked 'no' in the 'u ok' column and counted in one warning line. The exit "
+                             "code stays 0: a point with its stated uncertainty is a complete result, only its "
+                             "reader can decide whether it is good enough; use --refuse-uncertain where a "
+                             "pipeline must not receive such points")
+    parser.add_argument("--refuse-uncertain", action="store_true",
+                        help="refuse the log (exit 2, one stderr line, no output) when a probe point's tip "
+                             "uncertainty exceeds --max-tip-u")
     add_plot_flag(parser, "the tip path with probe points, pivot heights and closure residual per row")
     add_report_flag(parser)
     add_overwrite_flag(parser)
@@ -49,16 +60,23 @@ def _handle(args: argparse.Namespace) -> Report:
 
     from pcmm_geo.cli._progress import progress_bar, progress_wanted
     from pcmm_geo.cli.machine_commands.kinematics import load_machine_file
-    from pcmm_geo.errors import ConvergenceError, InconsistentMeasurementError
-    from pcmm_geo.machine.analysis.logproc import CLOSURE_SIGMAS, SEED_LASER_SIGMA, process_log, read_log
+    from pcmm_geo.errors import ConvergenceError, InconsistentMeasurementError, OutOfRangeError
+    from pcmm_geo.machine.analysis.logproc import (
+        CLOSURE_SIGMAS,
+        DEFAULT_MAX_TIP_UNCERTAINTY,
+        SEED_LASER_SIGMA,
+        process_log,
+        read_log,
+    )
 
     machine = load_machine_file(args.calibration)
+    limit = DEFAULT_MAX_TIP_UNCERTAINTY if args.max_tip_u is None else args.max_tip_u
     log = read_log(args.file)
     try:
         with progress_bar("processing log rows", enabled=progress_wanted(args), total=len(log)) as update:
             sigma = SEED_LASER_SIGMA if args.laser_sigma is None else args.laser_sigma
             out = process_log(machine, log, initial_heights=args.initial_heights, laser_sigma=sigma,
-                              closure_tolerance=args.max_closure, progress=update,
+                              closure_tolerance=args.max_closure, progress=update, max_tip_uncertainty=limit,
                               on_inconsistent="flag" if args.keep_inconsistent else "raise")
     except InconsistentMeasurementError as exc:
         raise InconsistentMeasurementError(
@@ -68,10 +86,17 @@ def _handle(args: argparse.Namespace) -> Report:
     except ConvergenceError as exc:
         raise ConvergenceError(f"{args.file}: {exc.element}", exc.iterations,
                                f"{exc.reason}; --keep-inconsistent keeps and marks such rows") from None
+    uncertain_probes = [int(k) for k in out.probe_rows if out.uncertain[k]]
+    if args.refuse_uncertain and uncertain_probes:
+        first = uncertain_probes[0]
+        raise OutOfRangeError(f"{args.file}: tip uncertainty of log row {first + 1} ({len(uncertain_probes)} probe "
+                              "points above the limit; --max-tip-u sets it)",
+                              float(f"{out.tip_uncertainty[first]:.4g}"), None, float(limit), "mm")
     rows_index = range(len(log)) if args.all_rows else out.probe_rows.tolist()
     rows = [
         [int(k) + 2, int(log.probe[k]), *out.tips[k].tolist(), *out.heights[k].tolist(),
-         float(out.closure_residual[k]), "no" if out.inconsistent[k] else "yes"]
+         float(out.closure_residual[k]), "no" if out.inconsistent[k] else "yes",
+         float(out.tip_uncertainty[k]), "no" if out.uncertain[k] or not np.isfinite(out.tip_uncertainty[k]) else "yes"]
         for k in rows_index
     ]
     data = {
@@ -89,9 +114,20 @@ def _handle(args: argparse.Namespace) -> Report:
         "closure_tolerance_mm": [None if not np.isfinite(v) else float(v) for v in out.closure_tolerance],
         "inconsistent_data_rows": (np.flatnonzero(out.inconsistent) + 1).tolist(),  # 1-based data rows
         "rejected_probe_data_rows": (out.rejected_probe_rows + 1).tolist(),
+        "max_tip_uncertainty_mm": float(limit) if np.isfinite(limit) else None,
+        "tip_uncertainty_mm": [None if not np.isfinite(v) else float(v) for v in out.tip_uncertainty],
+        "tip_u_mm": [[None if not np.isfinite(v) else float(v) for v in axes] for axes in out.tip_u],
+        "probe_tip_uncertainty_mm": [None if not np.isfinite(v) else float(v)
+                                     for v in out.tip_uncertainty[out.probe_rows]],
+        "uncertain_data_rows": (np.flatnonzero(out.uncertain) + 1).tolist(),
     }
     lines = [f"{len(log)} rows, {out.probe_rows.size} probe points; largest closure residual "
              f"{float(out.closure_residual.max()):.3g} mm (the table's closure column)"]
+    probe_u = out.tip_uncertainty[out.probe_rows]
+    if probe_u.size and np.isfinite(probe_u).any():
+        lines.append(f"tip uncertainty of the probe points (u, first-order, laser sigma {sigma:g} mm): median "
+                     f"{float(np.nanmedian(probe_u)):.3g} mm, largest {float(np.nanmax(probe_u)):.3g} mm; "
+                     f"{len(uncertain_probes)} above the limit {limit:g} mm")
     if out.inconsistent.any():
         test = (f"{args.max_closure:g} mm" if args.max_closure is not None
                 else f"{CLOSURE_SIGMAS:g} standard deviations of the predicted scatter")
@@ -104,7 +140,7 @@ def _handle(args: argparse.Namespace) -> Report:
     table = Table(
         "Probe points" if not args.all_rows else "Rows",
         ["line", "probe", "x / mm", "y / mm", "z / mm", "h_a / mm", "h_b / mm", "h_c / mm", "closure / mm",
-         "closes"],
+         "closes", "u / mm", "u ok"],
         rows,
     )
     plots = []

@@ -56,12 +56,14 @@ from pcmm_geo.machine.analysis.logproc_closure import (
     solve_row,
 )
 from pcmm_geo.machine.analysis.logproc_rows import LOG_COLUMNS, MeasurementLog, read_log, write_log
+from pcmm_geo.machine.analysis.logproc_uncertainty import DEFAULT_MAX_TIP_UNCERTAINTY, flag_uncertain_tips
 from pcmm_geo.machine.analysis.parameter_laws import DpkmParameterLaws
 from pcmm_geo.machine.kinematics import _pose_solver as solver
 from pcmm_geo.machine.kinematics.model import ARMS, RigidBodyMachine, as_readings
 
 __all__ = [
     "CLOSURE_SIGMAS",
+    "DEFAULT_MAX_TIP_UNCERTAINTY",
     "SEED_LASER_SIGMA",
     "LOG_COLUMNS",
     "MeasurementLog",
@@ -114,6 +116,17 @@ class ProcessedLog:
         no probe point.
     rejected_probe_rows : ndarray of int, shape (K,)
         Indices of rows with ``probe = 1`` left out of ``probe_points`` because inconsistent.
+    tip_covariance : ndarray, shape (N, 3, 3)
+        First-order (GUM) covariance of each row's tip (mm^2) from ``laser_sigma`` and the
+        carried uncertainty of the held heights, relative to the datum of row 1
+        (:mod:`~pcmm_geo.machine.analysis.logproc_uncertainty`; NaN where not computed).
+    tip_uncertainty : ndarray, shape (N,)
+        ``sqrt(trace(tip_covariance))`` (mm): the root-mean-square length of the tip's error.
+    uncertain : ndarray of bool, shape (N,)
+        Rows whose ``tip_uncertainty`` exceeds ``max_tip_uncertainty`` (or is not finite):
+        their points are kept but are not measurements at the stated limit.
+    max_tip_uncertainty : float
+        The limit used for ``uncertain`` (mm).
     """
 
     heights: FloatArray
@@ -129,6 +142,15 @@ class ProcessedLog:
     closure_tolerance: FloatArray
     inconsistent: NDArray[np.bool_]
     rejected_probe_rows: IntArray
+    tip_covariance: FloatArray
+    tip_uncertainty: FloatArray
+    uncertain: NDArray[np.bool_]
+    max_tip_uncertainty: float
+
+    @property
+    def tip_u(self) -> FloatArray:
+        """Per-axis standard uncertainty of each row's tip, shape (N, 3), mm."""
+        return np.sqrt(np.diagonal(self.tip_covariance, axis1=1, axis2=2))
 
 
 def synthesise_log(
@@ -179,6 +201,7 @@ def process_log(
     laser_sigma: float = SEED_LASER_SIGMA,
     closure_tolerance: float | None = None,
     on_inconsistent: str = "raise",
+    max_tip_uncertainty: float = DEFAULT_MAX_TIP_UNCERTAINTY,
     progress: Callable[[int, int], None] | None = None,
 ) -> ProcessedLog:
     """Pivot heights and probe points from a Table 3.2 log (see the module notes).
@@ -207,6 +230,10 @@ def process_log(
         ``"raise"`` (default): the first row beyond the tolerance raises
         :class:`~pcmm_geo.errors.InconsistentMeasurementError`.  ``"flag"``: such rows are
         kept, marked in :attr:`ProcessedLog.inconsistent` and left out of the probe points.
+    max_tip_uncertainty : float
+        Rows whose tip uncertainty (:attr:`ProcessedLog.tip_uncertainty`, mm) exceeds this are
+        marked :attr:`ProcessedLog.uncertain` (default :data:`DEFAULT_MAX_TIP_UNCERTAINTY`;
+        ``inf`` marks none); a :class:`~pcmm_geo.errors.IllConditionedWarning` counts them.
     progress : callable, optional
         ``progress(rows_done, rows_total)``, called every 100 rows and at the end.
 
@@ -272,6 +299,9 @@ def process_log(
         raise InvalidInputError("closure_tolerance", "a positive finite number of mm", str(closure_tolerance))
     if on_inconsistent not in ("raise", "flag"):
         raise InvalidInputError("on_inconsistent", "'raise' or 'flag'", repr(on_inconsistent))
+    if not max_tip_uncertainty > 0:  # NaN too; inf allowed
+        raise InvalidInputError("max_tip_uncertainty", "a positive number of mm (inf: no limit)",
+                                str(max_tip_uncertainty))
     datum = machine.reference_heights if initial_heights is None else as_readings(initial_heights, "initial_heights")
     count = len(log)
     geometry = machine.geometry
@@ -287,6 +317,7 @@ def process_log(
     trusted = np.ones(3, dtype=bool)  # heights of the last consistent state that may be held
     good: solver.PoseState | None = None  # last consistent state (start of the next solve)
     good_covariance = np.zeros((3, 3))  # covariance of its heights (mm^2)
+    tip_covariance = np.full((count, 3, 3), np.nan)
     laser_variance = laser_sigma**2 * np.eye(3)
     for row in range(count):
         if progress is not None and row % 100 == 0:
@@ -302,6 +333,7 @@ def process_log(
                 heights[row], tips[row] = heights[row - 1], tips[row - 1]
                 residuals[row], inconsistent[row] = residuals[row - 1], inconsistent[row - 1]
                 sigmas[row], tolerances[row] = sigmas[row - 1], tolerances[row - 1]
+                tip_covariance[row] = tip_covariance[row - 1]
                 continue
             arm = int(log.motor[row] if log.start_stop[row] == 0 else log.motor[row - 1]) - 1
             direction = int(log.direction[row] if log.start_stop[row] == 0 else log.direction[row - 1])
@@ -322,7 +354,8 @@ def process_log(
         tips[row] = state.rotation[0] @ geometry.tip_center + state.translation[0]
         converged[row] = bool(state.converged[0])
         closure_size = float(np.linalg.norm(residuals[row]))
-        d_residual, d_heights = row_derivatives(geometry, state, previous, solved, laser_sigma)
+        d_residual, d_heights, d_tip = row_derivatives(geometry, state, previous, solved, laser_sigma)
+        tip_covariance[row] = d_tip @ input_covariance @ d_tip.T
         sigmas[row], scale = closure_sigmas(residuals[row], d_residual @ input_covariance @ d_residual.T)
         if closure_tolerance is None:
             tolerances[row] = CLOSURE_SIGMAS * scale
@@ -348,6 +381,7 @@ def process_log(
     if progress is not None:
         progress(count, count)
     probe_rows = np.flatnonzero((log.probe == 1) & ~inconsistent)
+    tip_uncertainty, uncertain = flag_uncertain_tips(tip_covariance, max_tip_uncertainty, ~inconsistent)
     return ProcessedLog(
         heights=heights,
         tips=tips,
@@ -362,6 +396,10 @@ def process_log(
         closure_tolerance=tolerances,
         inconsistent=inconsistent,
         rejected_probe_rows=np.flatnonzero((log.probe == 1) & inconsistent),
+        tip_covariance=tip_covariance,
+        tip_uncertainty=tip_uncertainty,
+        uncertain=uncertain,
+        max_tip_uncertainty=float(max_tip_uncertainty),
     )
 
 
@@ -493,4 +531,8 @@ def process_log_dpkm(
         closure_tolerance=np.full(count, np.inf),
         inconsistent=np.zeros(count, dtype=bool),  # the seed's processing tests nothing
         rejected_probe_rows=np.zeros(0, dtype=np.int64),
+        tip_covariance=np.full((count, 3, 3), np.nan),  # not propagated: the seed's processing
+        tip_uncertainty=np.full(count, np.nan),
+        uncertain=np.zeros(count, dtype=bool),
+        max_tip_uncertainty=float("inf"),
     )

@@ -150,8 +150,8 @@ def row_derivatives(
     previous: FloatArray | None,
     solved: NDArray[np.bool_],
     laser_sigma: float,
-) -> tuple[FloatArray, FloatArray]:
-    """Derivatives of a row's closure residual ``(9, n)`` and solved heights ``(3, n)`` with respect to its inputs.
+) -> tuple[FloatArray, FloatArray, FloatArray]:
+    """Derivatives of a row's closure residual ``(9, n)``, solved heights ``(3, n)`` and tip ``(3, n)`` by its inputs.
 
     Inputs: the three lasers, and (later rows, ``previous`` ``(3,)`` given) the three heights the
     row starts from (``n = 6``); the first row's datum is a convention, not an input (``n = 3``).
@@ -170,7 +170,9 @@ def row_derivatives(
     moved = solve_row(geometry, start, lasers, np.broadcast_to(targets, (n_inputs, 3)).copy(),
                       np.ones(3, bool) if previous is None else solved, laser_sigma)
     residual = solver.closure(geometry, moved) - solver.closure(geometry, state)
-    return residual.T / STEP, (moved.heights - state.heights).T / STEP
+    tip = moved.rotation @ geometry.tip_center + moved.translation - (state.rotation[0] @ geometry.tip_center
+                                                                      + state.translation[0])
+    return residual.T / STEP, (moved.heights - state.heights).T / STEP, tip.T / STEP
 
 
 def closure_sigmas(residual: FloatArray, covariance: FloatArray) -> tuple[float, float]:
