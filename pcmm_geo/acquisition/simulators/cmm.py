@@ -36,10 +36,13 @@ from pcmm_geo.acquisition.simulators.faults import RECOVERABLE_FAULTS, FaultPlan
 from pcmm_geo.acquisition.simulators.pty import PtyServer, VirtualClock, VirtualPort
 from pcmm_geo.errors import InvalidInputError
 
-__all__ = ["START_POSITION", "GaugeBlock", "SimulatedMicroCMM", "SimulatedRig"]
+__all__ = ["OFF_LEVEL_START_OFFSETS", "START_POSITION", "GaugeBlock", "SimulatedMicroCMM", "SimulatedRig"]
 
 #: the seed's default motor position, microsteps (Appendix A step 20)
 START_POSITION = 247_500
+#: start heights relative to the reference (level) heights that keep the pivots >= 20 mm apart in height over
+#: the programme's +-20 mm pre-sequence span (a well-conditioned session; not the thesis' level start), mm
+OFF_LEVEL_START_OFFSETS = (0.0, 60.0, -60.0)
 TIP_RADIUS_MM = 1.0  # 2 mm ball tip (thesis 3.1)
 _PATH_STEP_USTEPS = 200  # sampling of a move's path for contact, ~0.1 mm of pivot travel
 
@@ -83,7 +86,14 @@ class SimulatedMicroCMM:
     microstep_mm : float
         Zaber microstep, mm.
     start_position : int
-        Motor position (microsteps) at which the pivots sit at the model's reference heights.
+        Motor position (microsteps) at which the pivots sit at ``start_heights``.
+    start_heights : array_like, shape (3,), optional
+        Pivot heights (mm) at ``start_position``; default the model's reference heights, i.e.
+        the *level* pose, as in the thesis (6.3: "each pivot point was starting at the same
+        vertical point", one encoder count for all motors).  Near level the lasers hardly see
+        the heights and processed points have millimetre uncertainties
+        (:mod:`pcmm_geo.machine.analysis.logproc_uncertainty`); an off-level start such as
+        ``reference_heights + OFF_LEVEL_START_OFFSETS`` keeps a session well conditioned.
     laser_noise, dead_spot, settle_scatter : float
         Defect model parameters, mm (see module docstring); 0 disables each.
     seed : int
@@ -96,6 +106,7 @@ class SimulatedMicroCMM:
         *,
         microstep_mm: float = T_LSR450B_MICROSTEP_MM,
         start_position: int = START_POSITION,
+        start_heights: ArrayLike | None = None,
         laser_noise: float = 0.0,
         dead_spot: float = 0.0,
         settle_scatter: float = 0.0,
@@ -111,6 +122,12 @@ class SimulatedMicroCMM:
         self.machine = machine
         self.microstep_mm = float(microstep_mm)
         self.start_position = int(start_position)
+        if start_heights is None:
+            self.start_heights = np.asarray(machine.reference_heights, dtype=float).copy()
+        else:
+            self.start_heights = np.asarray(start_heights, dtype=float)
+            if self.start_heights.shape != (3,) or not np.all(np.isfinite(self.start_heights)):
+                raise InvalidInputError("start_heights", "three finite heights in mm", repr(start_heights))
         self.laser_noise = float(laser_noise)
         self.dead_spot = float(dead_spot)
         self.settle_scatter = float(settle_scatter)
@@ -128,7 +145,7 @@ class SimulatedMicroCMM:
     def heights_for(self, positions: ArrayLike) -> NDArray[np.float64]:
         """Pivot height readings (mm) for motor positions ``(..., 3)`` in microsteps."""
         steps = np.asarray(positions, dtype=float) - self.start_position
-        return self.machine.reference_heights + steps * self.microstep_mm
+        return self.start_heights + steps * self.microstep_mm
 
     @property
     def tip(self) -> NDArray[np.float64]:

@@ -46,6 +46,13 @@ def register(subparsers: Any) -> None:
     add_overwrite_flag(parser)
     parser.add_argument("--step-mm", type=float, default=4.0, help="largest motor step of the programme, mm")
     parser.add_argument("--no-presequence", action="store_true", help="skip the settling pre-sequence")
+    parser.add_argument("--start-offsets", type=float, nargs=3, metavar=("A", "B", "C"), default=None,
+                        help="with --simulate: pivot heights at the start position relative to the level (reference) "
+                             "pose, mm. Default 0 0 0: the thesis starts level (one encoder count for all motors), "
+                             "where the lasers hardly see the heights and processed points carry millimetre "
+                             "uncertainties; e.g. 0 60 -60 keeps the pivots >= 20 mm apart in height over the "
+                             "programme's +-20 mm span (well conditioned). Recorded as start_heights_mm; pass those "
+                             "heights to process-log --initial-heights")
     parser.add_argument("--defects", action="store_true", help="simulate the thesis' dead spot and settling scatter")
     parser.add_argument("--probe-mode", choices=("pin", "text"), default="pin", help="Arduino firmware mode")
     parser.add_argument(
@@ -87,6 +94,10 @@ def _check_args(args: argparse.Namespace) -> None:
         raise InvalidInputError("--settle", "a non-negative number of seconds", str(args.settle))
     if not 0.0 <= args.fault_rate <= 1.0:
         raise InvalidInputError("--fault-rate", "a probability in [0, 1]", str(args.fault_rate))
+    if args.start_offsets is not None and not args.simulate:
+        raise InvalidInputError("--start-offsets", "only with --simulate", " ".join(map(str, args.start_offsets)))
+    if args.start_offsets is not None and not all(abs(v) <= 150.0 for v in args.start_offsets):
+        raise InvalidInputError("--start-offsets", "offsets within +-150 mm", " ".join(map(str, args.start_offsets)))
     if args.fault_rate > 0 and not args.simulate:
         raise InvalidInputError("--fault-rate", "0 unless --simulate", str(args.fault_rate))
     if not args.step_mm > 0:
@@ -110,8 +121,12 @@ def _handle(args: argparse.Namespace) -> Report:
         rig = None
         if args.simulate:
             from pcmm_geo.acquisition.simulators.cmm import SimulatedMicroCMM, SimulatedRig
+            from pcmm_geo.machine.kinematics.model import RigidBodyMachine
 
+            reference = RigidBodyMachine.from_dpkm().reference_heights
+            offsets = [0.0, 0.0, 0.0] if args.start_offsets is None else args.start_offsets
             cmm = SimulatedMicroCMM(
+                start_heights=reference + offsets,
                 laser_noise=0.002 if args.defects else 0.0, dead_spot=4.0 if args.defects else 0.0,
                 settle_scatter=0.45 if args.defects else 0.0, seed=args.seed,
             )
@@ -130,6 +145,7 @@ def _handle(args: argparse.Namespace) -> Report:
             "settle_s": args.settle, "moves_requested": args.moves, "seed": args.seed,
             "fault_rate": args.fault_rate, "probe_mode": args.probe_mode, "presequence": not args.no_presequence,
             "start_position_usteps": session.config.start_position,
+            **({} if rig is None else {"start_heights_mm": " ".join(f"{h:.6f}" for h in rig.cmm.start_heights)}),
             "microstep_mm": session.motors.microstep_mm, "laser_models": "a=ILD1302 b=ILD1302 c=ILD1420",
             **session.identify(),
         }

@@ -1,0 +1,73 @@
+"""Start pose of simulated acquisitions: level (thesis) vs off-level, processed points against simulator truth."""
+
+from __future__ import annotations
+
+import subprocess
+import sys
+import warnings
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from pcmm_geo.acquisition.acqlog import read_log as read_acquisition_log
+from pcmm_geo.acquisition.simulators.cmm import OFF_LEVEL_START_OFFSETS, START_POSITION, SimulatedMicroCMM
+from pcmm_geo.errors import InvalidInputError
+from pcmm_geo.machine.analysis.logproc import process_log, read_log
+from pcmm_geo.machine.kinematics.model import RigidBodyMachine
+
+PCMM = str(Path(sys.executable).with_name("pcmm"))
+
+
+def acquire(path: Path, *extra: str) -> subprocess.CompletedProcess[str]:
+    return subprocess.run([PCMM, "acquire", "--simulate", "--moves", "60", "--settle", "0", "--seed", "12",
+                           "--out", str(path), *extra], capture_output=True, text=True, timeout=120, check=False)
+
+
+def tip_errors(path: Path):
+    """Processed tips minus the simulator's (heights from the logged motor positions), and the result."""
+    contents = read_acquisition_log(path)
+    start_heights = np.array([float(v) for v in contents.metadata["start_heights_mm"].split()])
+    simulator = SimulatedMicroCMM(start_position=int(contents.metadata["start_position_usteps"]),
+                                  start_heights=start_heights)
+    heights = simulator.heights_for(np.array([row.pos_usteps for row in contents.rows], dtype=float))
+    machine = simulator.machine
+    truth = machine.forward(heights=heights, lasers_hint=np.broadcast_to(machine.reference_lasers, heights.shape)).tip
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        out = process_log(machine, read_log(path), initial_heights=heights[0], on_inconsistent="flag")
+    return np.linalg.norm(out.tips - truth, axis=1), out, caught
+
+
+def test_off_level_start_gives_points_within_their_uncertainty(tmp_path: Path) -> None:
+    level, off_level = tmp_path / "level.csv", tmp_path / "off.csv"
+    assert acquire(level).returncode == 0
+    proc = acquire(off_level, "--start-offsets", *map(str, OFF_LEVEL_START_OFFSETS))
+    assert proc.returncode == 0, proc.stderr
+    errors, out, caught = tip_errors(level)
+    # level start (the thesis'): millimetre errors, and the processing says so
+    assert np.median(errors) > 0.2 and out.uncertain.mean() > 0.9 and len(caught) == 1
+    errors, out, caught = tip_errors(off_level)
+    assert read_acquisition_log(off_level).metadata["start_heights_mm"].split() == ["400.000000", "460.000000",
+                                                                                   "340.000000"]
+    assert errors.max() < 0.1 and not out.uncertain.any() and not out.inconsistent.any() and not caught
+    assert np.all(errors <= 3 * out.tip_uncertainty)
+    assert np.all(out.tip_uncertainty < 0.7)  # 0.4-0.6 mm with the default 28.9 um laser sigma
+
+
+def test_start_heights_parameter() -> None:
+    machine = RigidBodyMachine.from_dpkm()
+    simulator = SimulatedMicroCMM(start_heights=machine.reference_heights + np.array([0.0, 60.0, -60.0]))
+    np.testing.assert_allclose(simulator.heights_for([START_POSITION] * 3), [400.0, 460.0, 340.0])
+    np.testing.assert_allclose(simulator.true_lasers, machine.forward(heights=[400.0, 460.0, 340.0]).lasers,
+                               atol=1e-9)
+    np.testing.assert_allclose(SimulatedMicroCMM().heights_for([START_POSITION + 2016] * 3),
+                               machine.reference_heights + 2016 * simulator.microstep_mm)
+    with pytest.raises(InvalidInputError, match="start_heights"):
+        SimulatedMicroCMM(start_heights=[1.0, 2.0])
+
+
+def test_start_offsets_need_simulate(tmp_path: Path) -> None:
+    proc = subprocess.run([PCMM, "acquire", "--start-offsets", "0", "1", "2", "--out", str(tmp_path / "x.csv")],
+                          capture_output=True, text=True, timeout=60, check=False)
+    assert proc.returncode == 2 and "--start-offsets" in proc.stderr and not (tmp_path / "x.csv").exists()
