@@ -19,7 +19,7 @@ import time
 
 import numpy as np
 
-from pcmm_geo.machine.calibration.numcal import (
+from pcmm_geo.machine.calibration.numerical.numcal import (
     NumcalParameters,
     calibrate_numerically,
     random_search,
@@ -50,7 +50,7 @@ def main() -> None:
     data = synthesise_numcal_data(truth, laser_sigma=args.noise, height_sigma=args.noise, seed=args.seed)
     _, jac = residuals_and_jacobian(data, truth.vector())
     norms = np.linalg.norm(jac, axis=0)
-    from pcmm_geo.machine.calibration.identifiability import analyse_identifiability
+    from pcmm_geo.machine.calibration.numerical.identifiability import analyse_identifiability
 
     report = analyse_identifiability(jac, [f"p{k}" for k in range(9)])
     weak = np.array(list(report.weak_combinations[0].coefficients.values()))

@@ -6,8 +6,8 @@ import numpy as np
 import pytest
 
 from pcmm_geo.errors import FileFormatError, InvalidInputError
-from pcmm_geo.machine.calibration.identifiability import analyse_identifiability, condition_number, select_poses
-from pcmm_geo.machine.calibration.numcal import (
+from pcmm_geo.machine.calibration.numerical.identifiability import analyse_identifiability, condition_number, select_poses
+from pcmm_geo.machine.calibration.numerical.numcal import (
     PARAMETER_NAMES,
     NumcalData,
     NumcalParameters,
@@ -179,7 +179,7 @@ def test_rank_deficient_data_warn_and_name_the_missing_parameters(data):
 
 def test_greedy_sample_selection_beats_random_selections_of_the_same_size(data):
     """Verl et al. 2008: the greedy choice is better conditioned than any of 200 seeded random choices."""
-    from pcmm_geo.machine.calibration.numcal import select_samples
+    from pcmm_geo.machine.calibration.numerical.numcal import select_samples
 
     _, jac = residuals_and_jacobian(data, TRUTH.vector())
     rng = np.random.default_rng(12)

@@ -37,6 +37,7 @@ __all__ = [
     "read_numcal_csv",
     "synthesise_design_data",
     "synthesise_numcal_data",
+    "write_numcal_csv",
 ]
 
 FloatArray = NDArray[np.float64]
@@ -217,6 +218,42 @@ def read_numcal_csv(path: str | Path) -> NumcalData:
         return NumcalData(tuple(moved), arr[:, :3], arr[:, 3])
     index = np.array([ARMS.index(arm) for arm in moved])
     return NumcalData(tuple(moved), arr[:, :3], arr[np.arange(len(moved)), 3 + index], arr[:, 3:6])
+
+
+def write_numcal_csv(data: NumcalData, path: str | Path, *, all_heights: bool | None = None) -> Path:
+    """Write ``data`` in the format :func:`read_numcal_csv` reads (numbers in full precision).
+
+    ``all_heights`` chooses the header with three pivot heights; default: only when a sample
+    has a pivot other than the moved one away from the level start.  An existing file is
+    refused (:class:`~pcmm_geo.errors.OutputExistsError`).
+
+    Examples
+    --------
+    >>> import tempfile, pathlib
+    >>> data = synthesise_numcal_data(NumcalParameters.from_seed_table(), samples_per_arm=2)
+    >>> path = write_numcal_csv(data, pathlib.Path(tempfile.mkdtemp()) / "n.csv")
+    >>> back = read_numcal_csv(path)
+    >>> back.moved == data.moved, bool(np.array_equal(back.lasers, data.lasers))
+    (True, True)
+    """
+    from pcmm_geo.errors import OutputExistsError
+
+    file = Path(path)
+    pivots = np.asarray(data.pivot_heights)
+    moved_index = np.array([ARMS.index(arm) for arm in data.moved], dtype=int)
+    others = pivots.copy()
+    others[np.arange(len(data.moved)), moved_index] = 0.0
+    wide = bool(np.any(others != 0.0)) if all_heights is None else all_heights
+    lines = [",".join(_HEADER_ALL if wide else _HEADER)]
+    for k, arm in enumerate(data.moved):
+        values = [*data.lasers[k].tolist(), *(pivots[k].tolist() if wide else [float(data.heights[k])])]
+        lines.append(",".join([arm, *(repr(float(v)) for v in values)]))
+    try:
+        with file.open("x", encoding="utf-8") as handle:
+            handle.write("\n".join(lines) + "\n")
+    except FileExistsError:
+        raise OutputExistsError(str(file)) from None
+    return file
 
 
 def numcal_machine(truth: NumcalParameters) -> object:

@@ -4,8 +4,8 @@
 bounds) in rounds, each followed by full Gauss-Newton steps (SVD pseudo-inverse, step halving,
 accepted only when the sum of squares falls), and stops only when the **Gauss-Newton step** at the current point, computed
 by SVD of the column-equilibrated Jacobian, is below a stated tolerance for every parameter
-(``STEP_TOLERANCE`` relative, or the step that rounding of the residuals alone can cause,
-whichever is larger).  A round that ends on scipy's evaluation limit, or on its ``ftol`` /
+(``STEP_TOLERANCE`` relative, the step that rounding of the residuals alone can cause, or
+``UNCERTAINTY_FRACTION`` of the parameter's standard uncertainty, whichever is largest).  A round that ends on scipy's evaluation limit, or on its ``ftol`` /
 ``xtol`` tests while the Gauss-Newton step is still large (a flat, ill-conditioned valley), is
 continued from where it stopped: the trust region restarts.  Nothing stops silently: the
 outcome says whether the test was met and why not.
@@ -32,7 +32,7 @@ from numpy.typing import NDArray
 
 from pcmm_geo.errors import CalibrationNotConvergedWarning
 
-__all__ = ["MAX_CONDITION", "MAX_ROUNDS", "STEP_TOLERANCE", "LocalSolution", "NumericalCalibration", "assess",
+__all__ = ["MAX_CONDITION", "MAX_ROUNDS", "STEP_TOLERANCE", "UNCERTAINTY_FRACTION", "LocalSolution", "NumericalCalibration", "assess",
            "refine"]
 
 FloatArray = NDArray[np.float64]
@@ -46,6 +46,9 @@ MAX_CONDITION = 1e8
 RANK_TOLERANCE = 1e-10
 #: Gauss-Newton step below which a parameter counts as converged, relative to ``1 + |value|``
 STEP_TOLERANCE = 1e-11
+#: Gauss-Newton step below this fraction of a parameter's standard uncertainty counts as converged
+#: (noisy data: a smaller step changes nothing a user could see)
+UNCERTAINTY_FRACTION = 1e-3
 #: rounds of least squares (each restarts the trust region from the last point)
 MAX_ROUNDS = 40
 
@@ -69,20 +72,24 @@ def _equilibrated_svd(jacobian: FloatArray) -> tuple[FloatArray, FloatArray, Flo
 
 
 def gauss_newton_step(jacobian: FloatArray, residuals: FloatArray) -> tuple[FloatArray, FloatArray]:
-    """Gauss-Newton step ``-J⁺ r`` and the step that residual rounding alone can cause, both (P,).
+    """Gauss-Newton step ``-J⁺ r`` and the smallest step worth taking, both (P,).
 
     The pseudo-inverse keeps singular values above ``RANK_TOLERANCE * s_max`` of the
-    column-equilibrated Jacobian.  The rounding floor is ``|J⁺|`` applied to residuals of
-    ``8 eps`` times the largest residual-scale quantity (taken as ``1 + max|r| + 1000``, the
-    lengths of the machine, mm).
+    column-equilibrated Jacobian.  The smallest step worth taking is the larger of the step
+    that rounding of the residuals alone can cause (``|J⁺|`` applied to ``8 eps`` times
+    ``1 + max|r| + 1000``, the machine's lengths in mm) and :data:`UNCERTAINTY_FRACTION` of
+    the parameter's standard uncertainty from the residual scale.
     """
     u, s, vt, norms = _equilibrated_svd(jacobian)
     keep = s > RANK_TOLERANCE * (s[0] if s.size and s[0] > 0 else 1.0)
     inverse = np.where(keep, 1.0 / np.where(keep, s, 1.0), 0.0)
     step = -(vt.T @ (inverse * (u.T @ residuals))) / norms
     rounding = 8.0 * np.finfo(float).eps * (1.0 + float(np.max(np.abs(residuals), initial=0.0)) + 1000.0)
-    floor = rounding * np.sqrt(len(residuals)) * np.linalg.norm(vt.T * inverse, axis=1) / norms
-    return step, floor
+    spread = np.linalg.norm(vt.T * inverse, axis=1) / norms  # sqrt(diag((JᵀJ)⁺))
+    floor = rounding * np.sqrt(len(residuals)) * spread
+    dof = max(len(residuals) - int(np.count_nonzero(keep)), 1)
+    uncertainty = np.sqrt(float(residuals @ residuals) / dof) * spread
+    return step, np.maximum(floor, UNCERTAINTY_FRACTION * uncertainty)
 
 
 def _gauss_newton_polish(
