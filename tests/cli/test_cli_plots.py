@@ -278,6 +278,7 @@ def test_numcal_progress_on_a_terminal_only(numcal_csv):
     assert code == 0 and stderr == ""  # --json: no bar even on a terminal
     assert json.loads(stdout)["global_search"] == "multistart"
     piped = subprocess.run(
-        [PCMM, "numcal", numcal_csv, "--search", "multistart", "--pairs", "all"], capture_output=True, text=True, timeout=120, check=False
+        [PCMM, "numcal", numcal_csv, "--search", "multistart", "--pairs", "all"], capture_output=True, text=True,
+        timeout=120, check=False
     )
     assert piped.returncode == 0 and piped.stderr == ""  # stderr not a terminal: no bar

@@ -43,7 +43,7 @@ Examples
 
 from __future__ import annotations
 
-from collections.abc import Callable, Sequence
+from collections.abc import Callable
 from typing import Any, Literal
 
 import numpy as np
@@ -51,18 +51,24 @@ from numpy.typing import ArrayLike, NDArray
 
 from pcmm_geo.errors import ConvergenceError, InvalidInputError
 from pcmm_geo.machine.calibration.numerical.numcal_data import (
-    _PAIR_INDEX,
-    ARMS,
     MOVED_PAIR,
-    PAIR_ARMS,
     PARAMETER_NAMES,
     SEED_BOUNDS,
-    START_OF_RANGE,
     NumcalData,
     NumcalParameters,
     read_numcal_csv,
     synthesise_design_data,
     synthesise_numcal_data,
+)
+from pcmm_geo.machine.calibration.numerical.numcal_design import design_identifiability, random_search, select_samples
+from pcmm_geo.machine.calibration.numerical.numcal_model import (
+    Pairs,
+    _check_bounds,
+    _costs,
+    equation_rows,
+    height_errors,
+    reading_whitener,
+    residuals_and_jacobian,
 )
 from pcmm_geo.machine.calibration.numerical.numcal_solver import (
     MAX_CONDITION,
@@ -82,9 +88,11 @@ __all__ = [
     "NumericalCalibration",
     "calibrate_numerically",
     "design_identifiability",
+    "equation_rows",
     "height_errors",
     "random_search",
     "read_numcal_csv",
+    "reading_whitener",
     "residuals_and_jacobian",
     "select_samples",
     "synthesise_design_data",
@@ -92,98 +100,8 @@ __all__ = [
 ]
 
 FloatArray = NDArray[np.float64]
-Pairs = Literal["moved", "all"]
 #: generations of differential evolution per search (scipy's ``maxiter``)
 DE_GENERATIONS = 1000
-
-
-def equation_rows(data: NumcalData, pairs: str = "moved") -> tuple[NDArray[np.int_], ...]:
-    """Per equation: sample index, arm i, arm in and pair index; ``pairs`` "moved" (one per sample) or "all"."""
-    count = len(data.moved)
-    if pairs == "moved":
-        sample = np.arange(count)
-        first = np.array([ARMS.index(MOVED_PAIR[m][0]) for m in data.moved], dtype=int)
-        second = np.array([ARMS.index(MOVED_PAIR[m][1]) for m in data.moved], dtype=int)
-        pair = np.array([_PAIR_INDEX[MOVED_PAIR[m][2]] for m in data.moved], dtype=int)
-        return sample, first, second, pair
-    if pairs == "all":
-        sample = np.repeat(np.arange(count), 3)
-        first = np.tile([i for i, _ in PAIR_ARMS], count)
-        second = np.tile([n for _, n in PAIR_ARMS], count)
-        return sample, first, second, np.tile([0, 1, 2], count)
-    raise InvalidInputError("pairs", "'moved' or 'all'", repr(pairs))
-
-
-def residuals_and_jacobian(
-    data: NumcalData, parameters: ArrayLike, *, pairs: Pairs = "moved", start_of_range: float = START_OF_RANGE
-) -> tuple[FloatArray, FloatArray]:
-    """Distance residuals ``L - sqrt(dz² + b²)`` (R,) and their Jacobian (R, 9) (eqs 2.5, 2.7).
-
-    Parameters are in :data:`PARAMETER_NAMES` order (beta in radians).  ``R`` is the number of
-    samples (``pairs="moved"``) or three times it (``"all"``, order ab, bc, ca per sample).
-
-    Examples
-    --------
-    >>> truth = NumcalParameters.from_seed_table()
-    >>> data = synthesise_numcal_data(truth, seed=0)
-    >>> r, jac = residuals_and_jacobian(data, truth.vector())
-    >>> bool(np.abs(r).max() < 1e-9), jac.shape
-    (True, (45, 9))
-    """
-    p = np.asarray(parameters, dtype=float)
-    sample, first, second, pair = equation_rows(data, pairs)
-    rows = np.arange(sample.size)
-    length_i = data.lasers[sample, first] + start_of_range + p[first]
-    length_n = data.lasers[sample, second] + start_of_range + p[second]
-    pivots = np.asarray(data.pivot_heights)
-    rise = pivots[sample, second] - pivots[sample, first]
-    beta = p[3 + pair]
-    base = p[6 + pair]
-    cosine, sine = np.cos(beta), np.sin(beta)
-    distance = np.sqrt(np.maximum(length_i**2 + length_n**2 - 2.0 * length_i * length_n * cosine, 1e-300))
-    implied = np.sqrt(rise**2 + base**2)
-    residuals = distance - implied
-    jac = np.zeros((rows.size, 9))
-    np.add.at(jac, (rows, first), (length_i - length_n * cosine) / distance)
-    np.add.at(jac, (rows, second), (length_n - length_i * cosine) / distance)
-    jac[rows, 3 + pair] = length_i * length_n * sine / distance
-    jac[rows, 6 + pair] = -base / implied
-    return residuals, jac
-
-
-def height_errors(data: NumcalData, parameters: ArrayLike, *, start_of_range: float = START_OF_RANGE) -> FloatArray:
-    """The seed's error ``sqrt(L² - b²) - |dz|`` per sample, moved pair (mm), NaN where the root is complex.
-
-    Examples
-    --------
-    >>> truth = NumcalParameters.from_seed_table()
-    >>> data = synthesise_numcal_data(truth)
-    >>> errors = height_errors(data, truth.vector())
-    >>> bool(np.abs(errors[data.heights > 1.0]).max() < 1e-9)  # near h = 0, L² - b² cancels
-    True
-    """
-    p = np.asarray(parameters, dtype=float)
-    residuals, _ = residuals_and_jacobian(data, p, start_of_range=start_of_range)
-    sample, first, second, pair = equation_rows(data, "moved")
-    pivots = np.asarray(data.pivot_heights)
-    rise = np.abs(pivots[sample, second] - pivots[sample, first])
-    base = p[6 + pair]
-    distance = residuals + np.sqrt(rise**2 + base**2)
-    squared = distance**2 - base**2
-    with np.errstate(invalid="ignore"):
-        return np.where(squared >= 0, np.sqrt(np.maximum(squared, 0.0)), np.nan) - rise
-
-
-def _costs(data: NumcalData, trials: FloatArray, pairs: str) -> FloatArray:
-    """Sum of squared distance residuals (mm²) for many parameter sets ``trials`` (S, 9) at once."""
-    sample, first, second, pair = equation_rows(data, pairs)
-    pivots = np.asarray(data.pivot_heights)
-    rise = pivots[sample, second] - pivots[sample, first]
-    length_i = data.lasers[sample, first] + START_OF_RANGE + trials[:, first]
-    length_n = data.lasers[sample, second] + START_OF_RANGE + trials[:, second]
-    squared = length_i**2 + length_n**2 - 2 * length_i * length_n * np.cos(trials[:, 3 + pair])
-    distance = np.sqrt(np.maximum(squared, 0.0))
-    return np.sum((distance - np.sqrt(rise**2 + trials[:, 6 + pair] ** 2)) ** 2, axis=1)
 
 
 def _solve(
@@ -198,8 +116,13 @@ def _solve(
     pairs: str,
     max_evaluations: int | None,
     report: Callable[[int], None] | None = None,
+    reading_sigma: tuple[float, float] | None = None,
 ) -> tuple[FloatArray, int, LocalSolution]:
-    """Global stage, a short least squares from each candidate, then :func:`refine` from the best."""
+    """Global stage, a short least squares from each candidate, then :func:`refine` from the best.
+
+    With ``reading_sigma`` the refinement is weighted (:func:`reading_whitener`, weights taken
+    at the screened point, then once more at the solution).
+    """
     from scipy.optimize import differential_evolution, least_squares
 
     lower, upper = bounds[0][free], bounds[1][free]
@@ -255,7 +178,9 @@ def _solve(
     for index, x0 in enumerate(candidates, start=1):
         # screening only: a short run per candidate; the best one is refined to convergence below
         found = least_squares(fun, x0, jac=jac, bounds=(lower, upper), method="trf", x_scale="jac", ftol=1e-15,
-                              xtol=1e-15, gtol=1e-15, max_nfev=50 * free.size)
+                              xtol=1e-15, gtol=1e-15,
+                              max_nfev=50 * free.size if max_evaluations is None else min(50 * free.size,
+                                                                                          max_evaluations))
         evaluations += int(found.nfev)
         if report is not None:
             report(searched + index)
@@ -263,9 +188,18 @@ def _solve(
             best_x, best_cost = found.x, float(found.cost)
     if best_x is None or not np.isfinite(best_cost):
         raise ConvergenceError("numerical calibration", evaluations, "no finite solution found")
-    local = refine(fun, jac, best_x, lower, upper, max_evaluations=max_evaluations,
-                   names=[PARAMETER_NAMES[k] for k in free])
-    return full(local.x), evaluations + local.evaluations, local
+    names = [PARAMETER_NAMES[k] for k in free]
+    if reading_sigma is None:
+        local = refine(fun, jac, best_x, lower, upper, max_evaluations=max_evaluations, names=names)
+        return full(local.x), evaluations + local.evaluations, local
+    local = LocalSolution(best_x, 0, False, "not refined", 0)
+    for _ in range(2):  # weights at the screened point, then at the weighted solution
+        whiten = reading_whitener(data, full(local.x), pairs=pairs, laser_sigma=reading_sigma[0],  # type: ignore[arg-type]
+                                  height_sigma=reading_sigma[1])
+        local = refine(lambda x, w=whiten: w(fun(x)), lambda x, w=whiten: w(jac(x)), local.x, lower, upper,
+                       max_evaluations=max_evaluations, names=names)
+        evaluations += local.evaluations
+    return full(local.x), evaluations, local
 
 
 def _units(global_search: str | None, starts: int, has_start: bool) -> int:
@@ -273,13 +207,6 @@ def _units(global_search: str | None, starts: int, has_start: bool) -> int:
     local = starts if global_search == "multistart" else (1 if global_search == "differential_evolution" else 0)
     local += int(has_start)
     return (DE_GENERATIONS if global_search == "differential_evolution" else 0) + max(local, 1)
-
-
-def _check_bounds(bounds: tuple[ArrayLike, ArrayLike] | None) -> tuple[FloatArray, FloatArray]:
-    lower, upper = (np.asarray(b, dtype=float) for b in (bounds or SEED_BOUNDS))
-    if lower.shape != (9,) or upper.shape != (9,) or np.any(lower >= upper):
-        raise InvalidInputError("bounds", "two arrays of shape (9,) with lower < upper", f"{lower} / {upper}")
-    return lower, upper
 
 
 def calibrate_numerically(
@@ -293,6 +220,8 @@ def calibrate_numerically(
     seed: int = 0,
     starts: int = 20,
     max_evaluations: int | None = None,
+    laser_sigma: float | None = None,
+    height_sigma: float | None = None,
     progress: Callable[[int, int], None] | None = None,
 ) -> NumericalCalibration:
     """Identify d, beta, b per arm from height-gauge data (thesis 6.2), with uncertainties.
@@ -316,8 +245,15 @@ def calibrate_numerically(
     starts : int
         Number of seeded starts for ``"multistart"``.
     max_evaluations : int, optional
-        Limit on the residual evaluations of the final refinement (per stage); default
-        ``2000 * P``.  Reaching it gives ``converged=False``.
+        Limit on the residual evaluations of each least-squares start and of the final
+        refinement (per stage); default ``2000 * P``.  Reaching it gives ``converged=False``.
+    laser_sigma, height_sigma : float, optional
+        Standard uncertainties of the laser and pivot-height readings (mm).  When given (either),
+        the refinement is weighted least squares with the equations' covariance from the
+        readings (:func:`~.numcal_model.reading_whitener`; the three pair equations of a
+        sample share readings) and the covariance is that of the weighted estimate.  Without
+        them the equations count as independent and equally uncertain, which misstates the
+        uncertainty by 10-25 % (measured; see ``docs/machine.md``).
     progress : callable, optional
         ``progress(done, total)``, called after every generation of differential evolution and
         after every least-squares start.  A stage counts ``1000`` units for the evolution plus
@@ -351,6 +287,8 @@ def calibrate_numerically(
     if global_search not in ("differential_evolution", "multistart", None):
         raise InvalidInputError("global_search", "'differential_evolution', 'multistart' or None", repr(global_search))
     equation_rows(data, pairs)  # validates pairs
+    reading_sigma = None if laser_sigma is None and height_sigma is None else (
+        float(laser_sigma or 0.0), float(height_sigma or 0.0))
     start_vector = None if start is None else start.vector()
     per_stage = _units(global_search, starts, start is not None)
 
@@ -361,7 +299,8 @@ def calibrate_numerically(
 
     if method == "simultaneous":
         vector, evaluations, local = _solve(data, np.arange(9), np.zeros(9), (lower, upper), start_vector,
-                                            global_search, seed, starts, pairs, max_evaluations, reporter(0, 1))
+                                            global_search, seed, starts, pairs, max_evaluations, reporter(0, 1),
+                                            reading_sigma)
     elif method == "sequential":
         if pairs != "moved":
             raise InvalidInputError("pairs", "'moved' with the sequential method (the seed's arm-by-arm stages)",
@@ -374,7 +313,8 @@ def calibrate_numerically(
             if not subset.moved:
                 raise InvalidInputError("data", f"samples with arm {arm} moved (sequential stage {arm})", "none")
             vector, used, stage = _solve(subset, np.array(free), vector, (lower, upper), start_vector, global_search,
-                                         seed, starts, pairs, max_evaluations, reporter(index, len(stages)))
+                                         seed, starts, pairs, max_evaluations, reporter(index, len(stages)),
+                                         reading_sigma)
             evaluations += used
             all_converged &= stage.converged
             messages.append(f"stage {arm}: {stage.message}")
@@ -382,147 +322,15 @@ def calibrate_numerically(
     else:
         raise InvalidInputError("method", "'simultaneous' or 'sequential'", repr(method))
     residuals, jacobian = residuals_and_jacobian(data, vector, pairs=pairs)
+    weighted = None
+    if reading_sigma is not None:
+        whiten = reading_whitener(data, vector, pairs=pairs, laser_sigma=reading_sigma[0],
+                                  height_sigma=reading_sigma[1])
+        weighted = (whiten(residuals), whiten(jacobian))
     return assess(
         parameters=NumcalParameters.from_vector(vector), names=PARAMETER_NAMES, values=vector, residuals=residuals,
         jacobian=jacobian, local=local, height_errors=height_errors(data, vector), method=method, pairs=pairs,
-        global_search=global_search, evaluations=evaluations,
+        global_search=global_search, evaluations=evaluations, weighted=weighted, reading_sigma=reading_sigma,
     )
 
 
-def design_identifiability(
-    pivot_heights: ArrayLike,
-    *,
-    truth: NumcalParameters | None = None,
-    pairs: Pairs = "all",
-    free: Sequence[str] = PARAMETER_NAMES,
-) -> Any:
-    """Identifiability of an experiment design before it is measured (physical rigid-body readings).
-
-    Parameters
-    ----------
-    pivot_heights : array_like, shape (M, 3)
-        Planned heights of pivots a, b, c relative to the level start (mm).
-    truth : NumcalParameters, optional
-        Nominal parameters (default Table 7.1's).
-    pairs : {"moved", "all"}
-    free : sequence of str
-        The parameters to be estimated.
-
-    Returns
-    -------
-    Identifiability
-
-    Examples
-    --------
-    >>> seed_design = np.zeros((15, 3)); seed_design[:, 0] = np.linspace(0, 50, 15)
-    >>> report = design_identifiability(seed_design, pairs="moved", free=("d_c", "d_a", "beta_ca", "b_ca"))
-    >>> bool(report.condition_number > 1e8)  # one arm moved: the seed's Table 6.2 experiment
-    True
-    """
-    from pcmm_geo.machine.calibration.numerical.identifiability import analyse_identifiability
-
-    nominal = NumcalParameters.from_seed_table() if truth is None else truth
-    columns = [PARAMETER_NAMES.index(name) for name in free]
-    data = synthesise_design_data(nominal, pivot_heights)
-    _, jacobian = residuals_and_jacobian(data, nominal.vector(), pairs=pairs)
-    return analyse_identifiability(jacobian[:, columns], tuple(free))
-
-
-def random_search(
-    data: NumcalData,
-    samples: int,
-    *,
-    bounds: tuple[ArrayLike, ArrayLike] | None = None,
-    seed: int = 0,
-    chunk: int = 200_000,
-    pairs: Pairs = "moved",
-) -> tuple[NumcalParameters, float]:
-    """The seed's brute force (6.2.2): uniform random parameter sets, keep the lowest sum of squares.
-
-    Evaluated in chunks of ``chunk`` samples (vectorised numpy).
-
-    Returns
-    -------
-    (NumcalParameters, float)
-        Best parameters and their sum of squared distance residuals (mm²).
-
-    Examples
-    --------
-    >>> truth = NumcalParameters.from_seed_table()
-    >>> best, cost = random_search(synthesise_numcal_data(truth), 1000, seed=3)
-    >>> bool(cost > 0)
-    True
-    """
-    lower, upper = _check_bounds(bounds)
-    rng = np.random.default_rng(seed)
-    best_vector, best_cost = lower.copy(), np.inf
-    done = 0
-    while done < samples:
-        count = min(chunk, samples - done)
-        trial = rng.uniform(lower, upper, (count, 9))
-        cost = _costs(data, trial, pairs)
-        index = int(np.argmin(cost))
-        if cost[index] < best_cost:
-            best_cost, best_vector = float(cost[index]), trial[index]
-        done += count
-    return NumcalParameters.from_vector(best_vector), best_cost
-
-
-def select_samples(
-    data: NumcalData,
-    count: int,
-    *,
-    parameters: NumcalParameters | None = None,
-    initial: Sequence[int] = (),
-    exchange_passes: int = 2,
-    pairs: Pairs = "moved",
-) -> tuple[NumcalData, Any]:
-    """Choose the ``count`` samples whose identification Jacobian is best conditioned (Verl et al. 2008).
-
-    Each sample (one height-gauge pose) contributes one row (``pairs="moved"``) or three rows
-    (``"all"``) of the Jacobian of :func:`residuals_and_jacobian` at ``parameters``;
-    :func:`pcmm_geo.machine.calibration.numerical.identifiability.select_poses` adds, one at a time, the sample
-    that lowers the condition number of the column-scaled Jacobian most and then exchanges
-    chosen samples for better ones.  Use it to plan which poses to measure: synthesise
-    candidate poses with the nominal parameters, select, and measure only those.
-
-    Parameters
-    ----------
-    data : NumcalData
-        Candidate samples (M of them).
-    count : int
-        Number of samples to keep (9 or more for all nine parameters).
-    parameters : NumcalParameters, optional
-        Where the Jacobian is evaluated; default Table 7.1's values.
-    initial : sequence of int
-        Samples that must be kept.
-    exchange_passes : int
-        Passes of the exchange step.
-
-    Returns
-    -------
-    subset : NumcalData
-        The chosen samples, in the order they were chosen.
-    selection : PoseSelection
-        Indices into ``data``, condition number after each addition and at the end.
-
-    Raises
-    ------
-    InvalidInputError
-        ``count`` not in 1..M.
-
-    Examples
-    --------
-    >>> data = synthesise_numcal_data(NumcalParameters.from_seed_table())
-    >>> subset, selection = select_samples(data, 12, pairs="all")
-    >>> len(subset.moved), bool(selection.final_condition_number < 1e8)
-    (12, True)
-    """
-    from pcmm_geo.machine.calibration.numerical.identifiability import select_poses
-
-    at = NumcalParameters.from_seed_table() if parameters is None else parameters
-    _, jacobian = residuals_and_jacobian(data, at.vector(), pairs=pairs)
-    per_sample = 1 if pairs == "moved" else 3
-    blocks = [jacobian[per_sample * k : per_sample * (k + 1)] for k in range(len(data.moved))]
-    selection = select_poses(blocks, count, initial=initial, exchange_passes=exchange_passes)
-    return data.take(selection.indices), selection

@@ -2,11 +2,12 @@
 
 :func:`refine` runs :func:`scipy.optimize.least_squares` (trust-region reflective, within
 bounds) in rounds, each followed by full Gauss-Newton steps (SVD pseudo-inverse, step halving,
-accepted only when the sum of squares falls), and stops only when the **Gauss-Newton step** at the current point, computed
-by SVD of the column-equilibrated Jacobian, is below a stated tolerance for every parameter
-(``STEP_TOLERANCE`` relative, the step that rounding of the residuals alone can cause, or
-``UNCERTAINTY_FRACTION`` of the parameter's standard uncertainty, whichever is largest).  A round that ends on scipy's evaluation limit, or on its ``ftol`` /
-``xtol`` tests while the Gauss-Newton step is still large (a flat, ill-conditioned valley), is
+accepted only when the sum of squares falls), and stops only when the **Gauss-Newton step**
+at the current point, computed by SVD of the column-equilibrated Jacobian, is below a stated
+tolerance for every parameter (``STEP_TOLERANCE`` relative, the step that rounding of the
+residuals alone can cause, or ``UNCERTAINTY_FRACTION`` of the parameter's standard
+uncertainty, whichever is largest).  A round that ends on scipy's evaluation limit, or on its
+``ftol`` / ``xtol`` tests while the Gauss-Newton step is still large (a flat, ill-conditioned valley), is
 continued from where it stopped: the trust region restarts.  Nothing stops silently: the
 outcome says whether the test was met and why not.
 
@@ -32,8 +33,8 @@ from numpy.typing import NDArray
 
 from pcmm_geo.errors import CalibrationNotConvergedWarning
 
-__all__ = ["MAX_CONDITION", "MAX_ROUNDS", "STEP_TOLERANCE", "UNCERTAINTY_FRACTION", "LocalSolution", "NumericalCalibration", "assess",
-           "refine"]
+__all__ = ["MAX_CONDITION", "MAX_ROUNDS", "STEP_TOLERANCE", "UNCERTAINTY_FRACTION", "LocalSolution",
+           "NumericalCalibration", "assess", "refine"]
 
 FloatArray = NDArray[np.float64]
 
@@ -98,6 +99,7 @@ def _gauss_newton_polish(
     x: FloatArray,
     lower: FloatArray,
     upper: FloatArray,
+    max_evaluations: int,
     iterations: int = 30,
 ) -> tuple[FloatArray, int]:
     """Full Gauss-Newton steps (SVD pseudo-inverse) with step halving, kept inside the bounds.
@@ -113,6 +115,8 @@ def _gauss_newton_polish(
         step, _ = gauss_newton_step(jac(x), residuals)
         scale, accepted = 1.0, False
         for _ in range(12):
+            if used >= max_evaluations:
+                return x, used
             trial = np.clip(x + scale * step, lower, upper)
             trial_residuals = fun(trial)
             used += 1
@@ -168,7 +172,7 @@ def refine(
         last = str(found.message)
         if found.status < 0:
             return LocalSolution(x, used, False, f"least squares failed: {last}", rounds)
-        x, polish_evaluations = _gauss_newton_polish(fun, jac, x, lower, upper)
+        x, polish_evaluations = _gauss_newton_polish(fun, jac, x, lower, upper, budget - used)
         used += polish_evaluations
         step, floor = gauss_newton_step(jac(x), fun(x))
         tolerance = np.maximum(STEP_TOLERANCE * (1.0 + np.abs(x)), floor)
@@ -191,7 +195,7 @@ def refine(
 
 @dataclass(frozen=True)
 class NumericalCalibration:
-    """Result of a numerical calibration (:func:`~.numcal.calibrate_numerically`, :func:`~.numcal_single_arm.calibrate_single_arm`).
+    """Result of a numerical calibration (``calibrate_numerically``, ``calibrate_single_arm``).
 
     Attributes
     ----------
@@ -230,6 +234,9 @@ class NumericalCalibration:
         Objective evaluations used (global search plus local refinement).
     identifiability : Identifiability
         Singular-value analysis of the Jacobian of the estimated parameters at the solution.
+    reading_sigma : (float, float) or None
+        ``(laser_sigma, height_sigma)`` (mm) of a weighted fit; None for unweighted (equations
+        taken as independent and equally uncertain).
     """
 
     parameters: Any
@@ -249,6 +256,7 @@ class NumericalCalibration:
     global_search: str | None
     evaluations: int
     identifiability: Any
+    reading_sigma: tuple[float, float] | None = None
 
     @property
     def standard_uncertainties(self) -> dict[str, float]:
@@ -277,6 +285,7 @@ class NumericalCalibration:
                                               if name.startswith("beta")},
             "covariance": [[number(v) for v in row] for row in self.covariance.tolist()],
             "dof": self.dof,
+            "reading_sigma": None if self.reading_sigma is None else list(self.reading_sigma),
             "rms": self.rms,
             "condition_number": number(self.condition_number),
             "rank": self.rank,
@@ -299,20 +308,27 @@ def assess(
     pairs: str,
     global_search: str | None,
     evaluations: int,
+    weighted: tuple[FloatArray, FloatArray] | None = None,
+    reading_sigma: tuple[float, float] | None = None,
     stacklevel: int = 3,
 ) -> NumericalCalibration:
-    """Build the result from the solution; flag and warn when it is not a determined, converged calibration."""
+    """Build the result from the solution; flag and warn when it is not a determined, converged calibration.
+
+    ``weighted`` holds the whitened residuals and Jacobian of a weighted fit; the covariance and
+    the identifiability then come from them, the residuals and rms stay in mm.
+    """
     from pcmm_geo.machine.calibration.numerical.identifiability import analyse_identifiability
 
-    identifiability = analyse_identifiability(jacobian, names, tolerance=RANK_TOLERANCE)
+    fit_residuals, fit_jacobian = (residuals, jacobian) if weighted is None else weighted
+    identifiability = analyse_identifiability(fit_jacobian, names, tolerance=RANK_TOLERANCE)
     count, width = jacobian.shape
     dof = count - width
     rank = identifiability.rank
     condition = identifiability.condition_number
     covariance = np.full((width, width), np.nan)
     if rank == width and dof > 0:
-        _, s, vt, norms = _equilibrated_svd(jacobian)
-        scale = float(np.sum(residuals**2)) / dof
+        _, s, vt, norms = _equilibrated_svd(fit_jacobian)
+        scale = float(np.sum(fit_residuals**2)) / dof
         covariance = scale * (vt.T / s**2) @ vt / np.outer(norms, norms)
     problems = []
     if dof < 0:
@@ -335,7 +351,7 @@ def assess(
         rms=float(np.sqrt(np.mean(residuals**2))) if residuals.size else 0.0, covariance=covariance, dof=dof,
         converged=converged, message=message, condition_number=float(condition), rank=rank,
         height_errors=height_errors, method=method, pairs=pairs, global_search=global_search,
-        evaluations=evaluations, identifiability=identifiability,
+        evaluations=evaluations, identifiability=identifiability, reading_sigma=reading_sigma,
     )
     if not converged:
         warnings.warn(f"numerical calibration ({method}) not converged: {message}", CalibrationNotConvergedWarning,
