@@ -40,6 +40,10 @@ def register(subparsers: Any) -> None:
     parser.add_argument("--search", choices=("differential_evolution", "multistart", "none"),
                         default="differential_evolution", help="global search before least squares")
     parser.add_argument("--seed", type=int, default=0, help="seed of the global search (default 0)")
+    parser.add_argument("--laser-u", type=float, default=None, metavar="MM",
+                        help="standard uncertainty of the laser readings (mm): weighted fit and its covariance")
+    parser.add_argument("--height-u", type=float, default=None, metavar="MM",
+                        help="standard uncertainty of the pivot heights (mm): weighted fit and its covariance")
     add_plot_flag(parser, "the distance residual of every sample and the singular values")
     add_report_flag(parser)
     add_overwrite_flag(parser)
@@ -60,13 +64,15 @@ def _handle(args: argparse.Namespace) -> Report:
 
         with progress_bar(f"single-arm calibration (arm {args.single_arm}, {args.search})",
                           enabled=progress_wanted(args)):
-            result = calibrate_single_arm(data, args.single_arm, global_search=search, seed=args.seed)
+            result = calibrate_single_arm(data, args.single_arm, global_search=search, seed=args.seed,
+                                          laser_sigma=args.laser_u, height_sigma=args.height_u)
     else:
         # calibrate_numerically calls progress(done, total) from the global search (generations, starts)
         with progress_bar(f"numerical calibration ({args.method}, {args.search})",
                           enabled=progress_wanted(args)) as update:
             result = calibrate_numerically(data, method=args.method, pairs=args.pairs, global_search=search,
-                                           seed=args.seed, progress=update)
+                                           seed=args.seed, laser_sigma=args.laser_u, height_sigma=args.height_u,
+                                           progress=update)
     params = result.parameters
     uncertainty = result.standard_uncertainties
 

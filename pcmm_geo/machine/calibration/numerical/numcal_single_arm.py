@@ -41,7 +41,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from pcmm_geo.errors import InvalidInputError
-from pcmm_geo.machine.calibration.numerical.numcal import _check_bounds, _solve, height_errors, residuals_and_jacobian
+from pcmm_geo.machine.calibration.numerical.numcal import _solve
 from pcmm_geo.machine.calibration.numerical.numcal_data import (
     ARMS,
     MOVED_PAIR,
@@ -49,6 +49,12 @@ from pcmm_geo.machine.calibration.numerical.numcal_data import (
     NumcalData,
     NumcalParameters,
     synthesise_numcal_data,
+)
+from pcmm_geo.machine.calibration.numerical.numcal_model import (
+    _check_bounds,
+    height_errors,
+    reading_whitener,
+    residuals_and_jacobian,
 )
 from pcmm_geo.machine.calibration.numerical.numcal_solver import NumericalCalibration, assess
 
@@ -95,6 +101,8 @@ def calibrate_single_arm(
     seed: int = 0,
     starts: int = 20,
     max_evaluations: int | None = None,
+    laser_sigma: float | None = None,
+    height_sigma: float | None = None,
 ) -> NumericalCalibration:
     """Fit ``d_i, d_in, beta_in, b_in`` of one arm's pair to the samples where ``arm`` was moved (6.2.1).
 
@@ -104,7 +112,7 @@ def calibrate_single_arm(
         Only the samples with ``moved == arm`` are used.
     arm : {"a", "b", "c"}
         The moved arm ``in``; its pair is (previous arm, ``arm``) as in :data:`MOVED_PAIR`.
-    global_search, start, bounds, seed, starts, max_evaluations
+    global_search, start, bounds, seed, starts, max_evaluations, laser_sigma, height_sigma
         As :func:`~pcmm_geo.machine.calibration.numerical.numcal.calibrate_numerically`; the
         five parameters not fitted stay at ``start`` (default mid-bounds) and do not enter the
         residuals.
@@ -133,15 +141,22 @@ def calibrate_single_arm(
         raise InvalidInputError("data", f"samples with arm {arm} moved", "none")
     free = np.array([PARAMETER_NAMES.index(name) for name in names], dtype=int)
     fixed = 0.5 * (lower + upper) if start is None else start.vector()
+    reading_sigma = None if laser_sigma is None and height_sigma is None else (
+        float(laser_sigma or 0.0), float(height_sigma or 0.0))
     vector, evaluations, local = _solve(
         subset, free, fixed.copy(), (lower, upper), None if start is None else start.vector(), global_search, seed,
-        starts, "moved", max_evaluations,
+        starts, "moved", max_evaluations, None, reading_sigma,
     )
     residuals, jacobian = residuals_and_jacobian(subset, vector)
+    weighted = None
+    if reading_sigma is not None:
+        whiten = reading_whitener(subset, vector, laser_sigma=reading_sigma[0], height_sigma=reading_sigma[1])
+        weighted = (whiten(residuals), whiten(jacobian[:, free]))
     return assess(
         parameters=NumcalParameters.from_vector(vector), names=names, values=vector[free], residuals=residuals,
         jacobian=jacobian[:, free], local=local, height_errors=height_errors(subset, vector), method="single-arm",
-        pairs="moved", global_search=global_search, evaluations=evaluations,
+        pairs="moved", global_search=global_search, evaluations=evaluations, weighted=weighted,
+        reading_sigma=reading_sigma,
     )
 
 
