@@ -81,6 +81,7 @@ def random_search(
 
     Examples
     --------
+    >>> from pcmm_geo.machine.calibration.numerical.numcal_data import NumcalParameters, synthesise_numcal_data
     >>> truth = NumcalParameters.from_seed_table()
     >>> best, cost = random_search(synthesise_numcal_data(truth), 1000, seed=3)
     >>> bool(cost > 0)
@@ -146,6 +147,7 @@ def select_samples(
 
     Examples
     --------
+    >>> from pcmm_geo.machine.calibration.numerical.numcal_data import NumcalParameters, synthesise_numcal_data
     >>> data = synthesise_numcal_data(NumcalParameters.from_seed_table())
     >>> subset, selection = select_samples(data, 12, pairs="all")
     >>> len(subset.moved), bool(selection.final_condition_number < 1e8)

@@ -55,6 +55,7 @@ def residuals_and_jacobian(
 
     Examples
     --------
+    >>> from pcmm_geo.machine.calibration.numerical.numcal_data import NumcalParameters, synthesise_numcal_data
     >>> truth = NumcalParameters.from_seed_table()
     >>> data = synthesise_numcal_data(truth, seed=0)
     >>> r, jac = residuals_and_jacobian(data, truth.vector())
@@ -87,6 +88,7 @@ def height_errors(data: NumcalData, parameters: ArrayLike, *, start_of_range: fl
 
     Examples
     --------
+    >>> from pcmm_geo.machine.calibration.numerical.numcal_data import NumcalParameters, synthesise_numcal_data
     >>> truth = NumcalParameters.from_seed_table()
     >>> data = synthesise_numcal_data(truth)
     >>> errors = height_errors(data, truth.vector())
@@ -144,6 +146,7 @@ def reading_whitener(
 
     Examples
     --------
+    >>> from pcmm_geo.machine.calibration.numerical.numcal_data import NumcalParameters, synthesise_numcal_data
     >>> truth = NumcalParameters.from_seed_table()
     >>> data = synthesise_numcal_data(truth, samples_per_arm=3)
     >>> whiten = reading_whitener(data, truth.vector(), laser_sigma=1e-3, height_sigma=1e-3)
