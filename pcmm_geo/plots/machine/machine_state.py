@@ -102,12 +102,14 @@ def plot_numerical_calibration(
     relative = values / values[0] if values.size and values[0] > 0 else values
     right.bar(np.arange(1, len(values) + 1), np.where(relative > 0, relative, np.nan), color="tab:blue")
     right.set_yscale("log")
+    right.set_xticks(np.arange(1, len(values) + 1))
     right.set_xlabel("singular value index")
     right.set_ylabel("s / s_max")
     right.set_title(f"Identifiability: rank {ident.rank} of {len(values)}, "
                     f"condition number {ident.condition_number:.3g}", fontsize=9)
     right.grid(alpha=0.3, axis="y")
-    figure.suptitle(f"Numerical calibration ({result.method}, {result.pairs} pairs): {len(data.moved)} samples, "
+    equations = "all pairs" if result.pairs == "all" else "moved pair"
+    figure.suptitle(f"Numerical calibration ({result.method}, {equations}): {len(data.moved)} samples, "
                     f"rms {three_digits(factor * result.rms)} {unit}")
     return save_figure(figure, path, overwrite=overwrite)
 
