@@ -18,8 +18,9 @@ Residuals.  The seed minimised ``sqrt(L² - b²) - h`` (Appendix B), which is co
 smooth distance residual ``L - sqrt(dz² + b²)`` (mm) and also report the seed's height
 errors.  Solvers: a global stage -- :func:`scipy.optimize.differential_evolution` or a seeded
 multi-start, in place of the seed's GA and 8e7-sample brute force (:func:`random_search`
-reproduces the latter) -- then :func:`~.numcal_solver.refine`: least squares within bounds
-until the Gauss-Newton step test is met.  Both of the seed's strategies are available:
+reproduces the latter) -- then
+:func:`~pcmm_geo.machine.calibration.numerical.numcal_solver.refine`: least squares within
+bounds until the Gauss-Newton step test is met.  Both of the seed's strategies are available:
 **simultaneous** (all nine parameters on all data, 6.2.2) and **sequential** (arm a:
 ``d_c, d_a, beta_ca, b_ca``; arm b: ``d_b, beta_ab, b_ab``; arm c: ``beta_bc, b_bc``).
 
@@ -250,10 +251,11 @@ def calibrate_numerically(
     laser_sigma, height_sigma : float, optional
         Standard uncertainties of the laser and pivot-height readings (mm).  When given (either),
         the refinement is weighted least squares with the equations' covariance from the
-        readings (:func:`~.numcal_model.reading_whitener`; the three pair equations of a
-        sample share readings) and the covariance is that of the weighted estimate.  Without
-        them the equations count as independent and equally uncertain, which misstates the
-        uncertainty by 10-25 % (measured; see ``docs/machine.md``).
+        readings (:func:`~pcmm_geo.machine.calibration.numerical.numcal_model.reading_whitener`;
+        the three pair equations of a sample share readings) and the covariance is that of the
+        weighted estimate.  Without them the equations count as independent and equally
+        uncertain, which misstates the uncertainty by 10-25 % (measured; see
+        ``docs/machine.md``).
     progress : callable, optional
         ``progress(done, total)``, called after every generation of differential evolution and
         after every least-squares start.  A stage counts ``1000`` units for the evolution plus

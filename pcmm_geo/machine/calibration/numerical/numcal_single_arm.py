@@ -13,12 +13,14 @@ in mm).  The raw laser data of those tests are not in the thesis; only the heigh
 What this experiment can determine.  With physical data (the rigid-body model) the stationary
 laser ``l_i`` changes by about 1.6 um while pivot ``in`` rises 50 mm.  If ``L_i`` were
 constant, ``L² = L_i² + L_in² - 2 L_i L_in cos(beta)`` would be a quadratic in the moved laser
-reading with only two free coefficients: two combinations of the four parameters are seen
-only through that 1.6 um change.  The column-equilibrated Jacobian has relative singular
-values of about ``1, 3e-3, 3e-9, 1e-9`` (condition about 8e8): :func:`calibrate_single_arm`
-reports ``converged=False`` for it, and with a 0.01 mm height gauge the fitted parameters
-can land anywhere in the bounds -- the mechanism behind Table 6.2's spread.  Test 3's three
-points cannot determine four parameters at all (``dof = -1``).
+reading with only two free coefficients: of the four parameters, two combinations are seen
+well, a third only through that 1.6 um change, and the fourth not at all.  The
+column-equilibrated Jacobian has relative singular values of about ``1, 1e-3, 3e-9, 1e-16``
+(rank 3): :func:`calibrate_single_arm` reports ``converged=False`` for it, and with a 0.01 mm
+height gauge the fitted parameters can land anywhere in the bounds -- the mechanism behind
+Table 6.2's spread.  Test 3's three points cannot determine four parameters at all
+(``dof = -1``).  Moving both pivots of the pair independently over 0-200 mm determines all
+four (condition number about 150).
 
 Examples
 --------
@@ -123,7 +125,8 @@ def calibrate_single_arm(
         ``method="single-arm"``, ``names`` the four fitted parameters, covariance 4 x 4.
         ``converged=False`` (with a warning) when the step test fails, when there are fewer
         than four samples, or when the four parameters are not determined (condition number
-        above :data:`~.numcal_solver.MAX_CONDITION` -- the usual case, see the module docstring).
+        above :data:`~pcmm_geo.machine.calibration.numerical.numcal_solver.MAX_CONDITION` -- the
+        usual case, see the module docstring).
 
     Raises
     ------

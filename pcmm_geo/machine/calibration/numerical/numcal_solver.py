@@ -202,7 +202,7 @@ class NumericalCalibration:
     parameters : NumcalParameters
         All nine parameters (fixed ones at their start values).
     names : tuple of str
-        The parameters that were estimated (P of them), in :data:`~.numcal_data.PARAMETER_NAMES` order.
+        The parameters that were estimated (P of them), in ``PARAMETER_NAMES`` order.
     values : ndarray, shape (P,)
         Their values (mm, rad).
     residuals : ndarray, shape (R,)
