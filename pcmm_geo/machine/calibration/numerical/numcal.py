@@ -267,6 +267,9 @@ def calibrate_numerically(
     NumericalCalibration
         ``converged`` False (with ``message``) when the Gauss-Newton step test was not met,
         the Jacobian is rank deficient or its condition number exceeds :data:`MAX_CONDITION`.
+        The covariance is that of all nine parameters from the full Jacobian at the solution:
+        exact to first order for ``"simultaneous"``, an approximation for ``"sequential"``
+        (whose stages each see only part of the data).
 
     Raises
     ------
