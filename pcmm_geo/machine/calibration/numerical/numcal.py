@@ -17,8 +17,8 @@ Residuals.  The seed minimised ``sqrt(L² - b²) - h`` (Appendix B), which is co
 ``L < b`` and has an infinite slope at the level start point.  We minimise the equivalent
 smooth distance residual ``L - sqrt(dz² + b²)`` (mm) and also report the seed's height
 errors.  Solvers: a global stage -- :func:`scipy.optimize.differential_evolution` or a seeded
-multi-start, in place of the seed's GA and 8e7-sample brute force (:func:`random_search`
-reproduces the latter) -- then
+multi-start, in place of the seed's GA and brute force (8e6 samples per stage as Appendix F
+codes it; the text says 80e6, erratum F12; :func:`random_search` reproduces it) -- then
 :func:`~pcmm_geo.machine.calibration.numerical.numcal_solver.refine`: least squares within
 bounds until the Gauss-Newton step test is met.  Both of the seed's strategies are available:
 **simultaneous** (all nine parameters on all data, 6.2.2) and **sequential** (arm a:
