@@ -1,52 +1,104 @@
 """Decoding text files line by line with errors that name the file and the line.
 
-Every text reader of pcmm_geo goes through :func:`read_text_lines`, so a binary file,
-bytes that are not UTF-8, a directory or an empty file give one :class:`FileFormatError`
-(``path:line: reason``) instead of a bare ``UnicodeDecodeError``.
+Every text reader of pcmm_geo goes through :func:`read_text_lines` (or :func:`read_csv_rows`,
+built on it), so a binary file, bytes that are not UTF-8, a directory, an over-long line or a
+bad quote give one :class:`FileFormatError` (``path:line: reason``) instead of a bare
+``UnicodeDecodeError`` or ``_csv.Error``.  Messages quote at most a short :func:`excerpt`
+of the offending text, however long the line is.
+
+A leading UTF-8 byte-order mark (as Excel and Windows Notepad write) is dropped here, so
+every reader accepts such files.  JSON is read by :func:`pcmm_geo.io._json.read_json_file`
+(re-exported here).
 """
 
 from __future__ import annotations
 
+import csv
+import re
+from dataclasses import dataclass
 from pathlib import Path
 
 from pcmm_geo.errors import FileFormatError
 
-__all__ = ["read_json_file", "read_text_file", "read_text_lines"]
+__all__ = [
+    "EXCERPT_CHARS",
+    "MAX_FIELD_CHARS",
+    "MAX_LINE_CHARS",
+    "CsvRows",
+    "excerpt",
+    "parse_decimal",
+    "read_csv_rows",
+    "read_json_file",
+    "read_text_file",
+    "read_text_lines",
+]
+
+#: longest line (characters) a text reader accepts; data rows are far shorter
+MAX_LINE_CHARS = 65_536
+#: longest CSV field (characters) :func:`read_csv_rows` accepts
+MAX_FIELD_CHARS = 4_096
+#: characters of offending text an error message quotes at most
+EXCERPT_CHARS = 60
+
+_BOM = b"\xef\xbb\xbf"
+_DECIMAL = re.compile(r"[+-]?(?:\d+\.?\d*|\.\d+)(?:[eE][+-]?\d+)?|[+-]?(?:nan|inf|infinity)", re.IGNORECASE | re.ASCII)
 
 
-def read_text_lines(path: str | Path) -> list[tuple[int, str]]:
-    """The lines of a UTF-8 text file as ``(line_number, text)``, line numbers from 1.
+def excerpt(text: str, limit: int = EXCERPT_CHARS) -> str:
+    """``repr(text)``, shortened to its first ``limit`` characters and its length when longer.
 
-    A leading byte-order mark is dropped; line ends (``\\n``, ``\\r\\n``) are removed.
-
-    Raises
-    ------
-    FileFormatError
-        The path is a directory, the file holds NUL bytes (binary data), or a line is not
-        valid UTF-8; the message names the line and the offending byte.
-    FileNotFoundError
-        The file does not exist.
+    Error messages quote offending file content through this, so that a damaged 100 MB line
+    gives a message of a few dozen characters.
 
     Examples
     --------
-    >>> import os, tempfile
-    >>> path = os.path.join(tempfile.mkdtemp(), "t.csv")
-    >>> _ = open(path, "wb").write(b"x,y,z\\r\\n1,2,3\\n")
-    >>> read_text_lines(path)
-    [(1, 'x,y,z'), (2, '1,2,3')]
-    >>> _ = open(path, "wb").write(b"x,y,z\\n1,2,\\xb53\\n")
-    >>> try:
-    ...     read_text_lines(path)
-    ... except FileFormatError as exc:
-    ...     print(exc.line, exc.reason)
-    2 not UTF-8 text: byte 0xb5 at column 5
+    >>> excerpt("1,2,3")
+    "'1,2,3'"
+    >>> excerpt("7" * 1_000_000, limit=8)
+    "'77777777'... (1000000 characters)"
     """
+    if len(text) <= limit:
+        return repr(text)
+    return f"{text[:limit]!r}... ({len(text)} characters)"
+
+
+def parse_decimal(text: str) -> float:
+    """An ASCII decimal number (``-1.5``, ``2e-3``, ``nan``, ``inf``) as float; anything else raises ValueError.
+
+    Stricter than :class:`float`, which also takes ``1_000``, full-width or Arabic-Indic
+    digits: a file holding those is refused rather than read as numbers nobody wrote.
+
+    Examples
+    --------
+    >>> parse_decimal(" 12.5 ")
+    12.5
+    >>> float("1_0"), float("\\uff11\\uff12")
+    (10.0, 12.0)
+    >>> for bad in ("1_0", "\\uff11\\uff12", "2\\u00b2", "1,5"):
+    ...     try:
+    ...         parse_decimal(bad)
+    ...     except ValueError:
+    ...         print("refused", ascii(bad))
+    refused '1_0'
+    refused '\\uff11\\uff12'
+    refused '2\\xb2'
+    refused '1,5'
+    """
+    stripped = text.strip()
+    if not _DECIMAL.fullmatch(stripped):
+        raise ValueError(f"expected a decimal number, got {excerpt(stripped)}")
+    return float(stripped)
+
+
+def _decode(path: str | Path, max_line: int | None = MAX_LINE_CHARS) -> tuple[list[tuple[int, str]], bool]:
+    """Lines of ``path`` and whether the last one ends with a line end (see :func:`read_text_lines`)."""
     file = Path(path)
     if file.is_dir():
         raise FileFormatError(str(file), "is a directory, expected a text file")
     data = file.read_bytes()
-    if data.startswith(b"\xef\xbb\xbf"):
-        data = data[3:]
+    if data.startswith(_BOM):
+        data = data[len(_BOM):]
+    terminated = not data or data.endswith(b"\n")
     lines: list[tuple[int, str]] = []
     for number, raw in enumerate(data.split(b"\n"), start=1):
         if b"\x00" in raw:
@@ -57,32 +109,161 @@ def read_text_lines(path: str | Path) -> list[tuple[int, str]]:
             raise FileFormatError(
                 str(file), f"not UTF-8 text: byte 0x{raw[exc.start]:02x} at column {exc.start + 1}", line=number
             ) from None
+        if max_line is not None and len(text) > max_line:
+            raise FileFormatError(
+                str(file), f"line of {len(text)} characters (at most {max_line} accepted): {excerpt(text)}",
+                line=number,
+            )
         lines.append((number, text.rstrip("\r")))
-    if lines and lines[-1][1] == "":
+    if lines and lines[-1][1] == "" and terminated:
         lines.pop()  # the newline that ends the last line
-    return lines
+    return lines, terminated
 
 
-def read_text_file(path: str | Path) -> str:
-    """The whole text of a UTF-8 file (BOM dropped, ``\\r\\n`` as ``\\n``), checked as :func:`read_text_lines` does.
+def read_text_lines(path: str | Path) -> list[tuple[int, str]]:
+    """The lines of a UTF-8 text file as ``(line_number, text)``, line numbers from 1.
+
+    A leading byte-order mark is dropped; line ends (``\\n``, ``\\r\\n``) are removed.
 
     Raises
     ------
     FileFormatError
-        Directory, binary data or non-UTF-8 bytes (the message names the line).
+        The path is a directory, the file holds NUL bytes (binary data), a line is not
+        valid UTF-8 or longer than :data:`MAX_LINE_CHARS`; the message names the line and
+        quotes at most an excerpt.
+    FileNotFoundError
+        The file does not exist.
+
+    Examples
+    --------
+    >>> import os, tempfile
+    >>> path = os.path.join(tempfile.mkdtemp(), "t.csv")
+    >>> _ = open(path, "wb").write(b"\\xef\\xbb\\xbfx,y,z\\r\\n1,2,3\\n")
+    >>> read_text_lines(path)
+    [(1, 'x,y,z'), (2, '1,2,3')]
+    >>> _ = open(path, "wb").write(b"x,y,z\\n1,2,\\xb53\\n")
+    >>> try:
+    ...     read_text_lines(path)
+    ... except FileFormatError as exc:
+    ...     print(exc.line, exc.reason)
+    2 not UTF-8 text: byte 0xb5 at column 5
+    """
+    return _decode(path)[0]
+
+
+def read_text_file(path: str | Path, *, max_line: int | None = MAX_LINE_CHARS) -> str:
+    """The whole text of a UTF-8 file (BOM dropped, ``\\r\\n`` as ``\\n``), checked as :func:`read_text_lines` does.
+
+    ``max_line=None`` lifts the line-length bound (JSON may be written on one line).
+
+    Raises
+    ------
+    FileFormatError
+        Directory, binary data, non-UTF-8 bytes or an over-long line (the message names the line).
     FileNotFoundError
         The file does not exist.
     """
-    return "".join(text + "\n" for _, text in read_text_lines(path))
+    return "".join(text + "\n" for _, text in _decode(path, max_line)[0])
 
 
-def read_json_file(path: str | Path) -> object:
-    """Parse a UTF-8 JSON file strictly: ``NaN``/``Infinity`` (not JSON, though Python writes them) are refused.
+@dataclass(frozen=True)
+class CsvRows:
+    """The data of a CSV file as read by :func:`read_csv_rows`.
+
+    Attributes
+    ----------
+    rows : tuple of (int, tuple of str)
+        ``(line_number, cells)`` for every line that is neither blank nor a ``#`` comment;
+        cells are not stripped.
+    terminated : bool
+        Whether the file's last line ends with a line end.  A file written row by row that
+        was cut off (power loss, a copy in progress) usually is not, and its last value may
+        be torn mid-number: ``12.34`` where ``12.3456`` was being written.
+    path : str
+        The file, for messages.
+    line_count : int
+        Lines in the file (the last one counted also without a line end).
+    """
+
+    rows: tuple[tuple[int, tuple[str, ...]], ...]
+    terminated: bool
+    path: str
+    line_count: int = 0
+
+    @property
+    def unterminated_row(self) -> int | None:
+        """Line number of the last row when it is the file's last line and has no line end, else None."""
+        if self.terminated or not self.rows or self.rows[-1][0] != self.line_count:
+            return None
+        return self.rows[-1][0]
+
+
+def _split_line(path: str, number: int, text: str) -> tuple[str, ...]:
+    if '"' not in text:  # the csv module would split such a line at the commas too
+        cells = tuple(text.split(","))
+    else:
+        try:
+            cells = tuple(next(csv.reader([text], strict=True)))
+        except csv.Error as exc:
+            raise FileFormatError(path, f"bad CSV quoting ({exc}): {excerpt(text)}", line=number) from None
+    for column, cell in enumerate(cells, start=1):
+        if len(cell) > MAX_FIELD_CHARS:
+            raise FileFormatError(
+                path, f"field {column} has {len(cell)} characters (at most {MAX_FIELD_CHARS} accepted): "
+                f"{excerpt(cell)}", line=number,
+            )
+    return cells
+
+
+def read_csv_rows(path: str | Path) -> CsvRows:
+    """Rows of a comma-separated UTF-8 file, each with its line number; blank and ``#`` lines skipped.
+
+    The one CSV tokenizer of pcmm_geo: bounded line and field sizes (:data:`MAX_LINE_CHARS`,
+    :data:`MAX_FIELD_CHARS`), double-quoted fields within one line (RFC 4180 without
+    line breaks inside quotes), every problem a :class:`FileFormatError` naming the line.
 
     Raises
     ------
     FileFormatError
-        Not text, a syntax error or a non-finite number; the message names the file and line.
+        Directory, binary or non-UTF-8 content, an over-long line or field, bad quoting.
+    FileNotFoundError
+        The file does not exist.
+
+    Examples
+    --------
+    >>> import os, tempfile
+    >>> path = os.path.join(tempfile.mkdtemp(), "t.csv")
+    >>> _ = open(path, "w").write('# note\\nname,x\\n"a, b",1\\n\\nc,2')
+    >>> table = read_csv_rows(path)
+    >>> table.rows
+    ((2, ('name', 'x')), (3, ('a, b', '1')), (5, ('c', '2')))
+    >>> table.terminated
+    False
+    >>> _ = open(path, "w").write('x\\n"1\\n')
+    >>> try:
+    ...     read_csv_rows(path)
+    ... except FileFormatError as exc:
+    ...     print(exc.line, exc.reason)
+    2 bad CSV quoting (unexpected end of data): '"1'
+    """
+    name = str(path)
+    lines, terminated = _decode(path)
+    rows = tuple(
+        (number, _split_line(name, number, text))
+        for number, text in lines
+        if text.strip() and not text.lstrip().startswith("#")
+    )
+    return CsvRows(rows, terminated, name, lines[-1][0] if lines else 0)
+
+
+def read_json_file(path: str | Path) -> object:
+    """Parse a JSON file strictly: see :func:`pcmm_geo.io._json.read_json_file`.
+
+    Raises
+    ------
+    FileFormatError
+        Not text, a syntax error, a non-finite or overflowing number, a duplicate key or
+        nesting deeper than :data:`pcmm_geo.io._json.MAX_JSON_DEPTH`.
 
     Examples
     --------
@@ -95,18 +276,6 @@ def read_json_file(path: str | Path) -> object:
     ...     print(exc.line, exc.reason)
     2 expected JSON, got the non-finite number NaN
     """
-    import json
+    from pcmm_geo.io._json import read_json_file as read_strict
 
-    text = read_text_file(path)
-
-    def refuse(token: str) -> None:
-        raise ValueError(token)
-
-    try:
-        return json.loads(text, parse_constant=refuse)
-    except json.JSONDecodeError as exc:
-        raise FileFormatError(str(path), f"expected JSON, got {exc.msg}", line=exc.lineno) from None
-    except ValueError as exc:
-        token = str(exc)
-        line = next((n for n, t in enumerate(text.splitlines(), 1) if token in t), None)
-        raise FileFormatError(str(path), f"expected JSON, got the non-finite number {token}", line=line) from None
+    return read_strict(path)

@@ -23,11 +23,13 @@ def register(subparsers: Any) -> None:
         help="Table 3.2 log (start_stop,probe,motor,direction,laser_a,laser_b,laser_c) -> probe points",
         description="Process a measurement log with the rigid-body model (row logic of thesis Appendix D).",
     )
-    parser.add_argument("file", metavar="FILE", help="log CSV with header")
+    parser.add_argument("file", metavar="FILE", help="log CSV, with header or headerless as the seed wrote it")
     add_machine_argument(parser)
     parser.add_argument("--initial-heights", type=float, nargs=3, metavar=("A", "B", "C"),
                         help="pivot heights of the first row (datum; default: the machine's reference heights)")
     parser.add_argument("--all-rows", action="store_true", help="list every row, not only the probe points")
+    parser.add_argument("--allow-unterminated", action="store_true",
+                        help="accept a last row without a line end (refused by default: it may be torn mid-number)")
     add_plot_flag(parser, "the tip path with probe points, pivot heights and closure residual per row")
     add_report_flag(parser)
     add_overwrite_flag(parser)
@@ -41,7 +43,7 @@ def _handle(args: argparse.Namespace) -> Report:
     from pcmm_geo.machine.analysis.logproc import process_log, read_log
 
     machine = load_machine_file(args.calibration)
-    log = read_log(args.file)
+    log = read_log(args.file, allow_unterminated=args.allow_unterminated)
     with progress_bar("processing log rows", enabled=progress_wanted(args), total=len(log)) as update:
         out = process_log(machine, log, initial_heights=args.initial_heights, progress=update)
     rows_index = range(len(log)) if args.all_rows else out.probe_rows.tolist()

@@ -1,0 +1,308 @@
+"""Strict JSON reading: one loader that refuses what ``json`` lets through, and typed field access.
+
+:func:`read_json_file` parses a UTF-8 JSON file (BOM dropped) and refuses, each with a
+:class:`~pcmm_geo.errors.FileFormatError` naming the file and the line:
+
+* ``NaN`` / ``Infinity`` (Python writes them, JSON has none);
+* numbers that overflow a float (``1e400`` would silently become ``inf``) and integers of
+  more than 308 digits;
+* the same key twice in one object (the ``json`` module keeps the last one silently);
+* nesting deeper than :data:`MAX_JSON_DEPTH` (``json`` would end in ``RecursionError``).
+
+:class:`JsonNode` then walks the document with checked accessors whose errors name the JSON
+path, e.g. ``cal.json: inputs.tip: expected an object, got a list``.
+"""
+
+from __future__ import annotations
+
+import math
+import re
+from collections.abc import Iterator
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from pcmm_geo.errors import FileFormatError
+
+__all__ = ["MAX_JSON_DEPTH", "JsonNode", "describe_json", "read_json_file"]
+
+#: deepest nesting of arrays and objects accepted (pcmm_geo's own files need fewer than 8)
+MAX_JSON_DEPTH = 64
+_MAX_INT_DIGITS = 308
+_STRING = re.compile(r'"(?:[^"\\\n]|\\.)*"')
+
+
+class _Refused(Exception):
+    """Raised inside the ``json`` hooks; carries the token to locate and the reason."""
+
+    def __init__(self, token: str, reason: str) -> None:
+        super().__init__(reason)
+        self.token, self.reason = token, reason
+
+
+def _parse_float(token: str) -> float:
+    value = float(token)
+    if not math.isfinite(value):
+        raise _Refused(token, f"expected a finite number, got {token} (beyond the float range, it would read as inf)")
+    return value
+
+
+def _parse_int(token: str) -> int:
+    if len(token.lstrip("-")) > _MAX_INT_DIGITS:
+        raise _Refused(token[:20], f"expected a number, got an integer of {len(token.lstrip('-'))} digits")
+    return int(token)
+
+
+def _parse_constant(token: str) -> float:
+    raise _Refused(token, f"expected JSON, got the non-finite number {token}")
+
+
+def _unique_keys(pairs: list[tuple[str, Any]]) -> dict[str, Any]:
+    result: dict[str, Any] = {}
+    for key, value in pairs:
+        if key in result:
+            from pcmm_geo.io._text import excerpt
+
+            raise _Refused(f'"{key}"', f"key {excerpt(key)} appears twice in one object (which one is meant?)")
+        result[key] = value
+    return result
+
+
+def _line_of(text: str, position: int) -> int:
+    return text.count("\n", 0, position) + 1
+
+
+def _check_depth(path: str, text: str, limit: int) -> None:
+    """Refuse nesting deeper than ``limit`` before ``json`` recurses into it."""
+    if text.count("[") + text.count("{") <= limit:
+        return
+    skeleton = _STRING.sub('""', text)  # brackets inside strings do not nest
+    codes = np.frombuffer(skeleton.encode("utf-8"), dtype=np.uint8)
+    step = np.isin(codes, (ord("["), ord("{"))).astype(np.int64) - np.isin(codes, (ord("]"), ord("}")))
+    depth = np.cumsum(step)
+    if depth.size and depth.max() > limit:
+        first = int(np.argmax(depth > limit))
+        line = skeleton.encode("utf-8")[:first].count(b"\n") + 1
+        raise FileFormatError(path, f"expected JSON nested at most {limit} deep, got deeper nesting", line=line)
+
+
+def read_json_file(path: str | Path, *, max_depth: int = MAX_JSON_DEPTH) -> Any:
+    """Parse a UTF-8 JSON file strictly (see the module docstring for what is refused).
+
+    Parameters
+    ----------
+    path : str or Path
+    max_depth : int
+        Deepest nesting of arrays/objects accepted.
+
+    Returns
+    -------
+    object
+        ``dict``, ``list``, ``str``, ``int``, ``float``, ``bool`` or None, as :func:`json.loads`.
+
+    Raises
+    ------
+    FileFormatError
+        Not text, a syntax error, a non-finite or overflowing number, a duplicate key or too
+        deep nesting; the message names the file and, where it can, the line.
+    FileNotFoundError
+        The file does not exist.
+
+    Examples
+    --------
+    >>> import os, tempfile
+    >>> path = os.path.join(tempfile.mkdtemp(), "c.json")
+    >>> _ = open(path, "w").write('{"radius": 5.0,\\n "form": 1e400}')
+    >>> try:
+    ...     read_json_file(path)
+    ... except FileFormatError as exc:
+    ...     print(exc.line, exc.reason)
+    2 expected a finite number, got 1e400 (beyond the float range, it would read as inf)
+    >>> _ = open(path, "w").write("[" * 10_000 + "]" * 10_000)
+    >>> try:
+    ...     read_json_file(path)
+    ... except FileFormatError as exc:
+    ...     print(exc.reason)
+    expected JSON nested at most 64 deep, got deeper nesting
+    """
+    import json
+
+    from pcmm_geo.io._text import read_text_file
+
+    name = str(path)
+    text = read_text_file(path, max_line=None)
+    _check_depth(name, text, max_depth)
+    try:
+        return json.loads(text, parse_float=_parse_float, parse_int=_parse_int, parse_constant=_parse_constant,
+                          object_pairs_hook=_unique_keys)
+    except json.JSONDecodeError as exc:
+        raise FileFormatError(name, f"expected JSON, got {exc.msg}", line=exc.lineno) from None
+    except _Refused as exc:
+        found = re.search(rf"(?<![\w.+\-\"]){re.escape(exc.token)}", text)
+        if exc.token.startswith('"'):  # a duplicate key: its second occurrence
+            hits = [m.start() for m in re.finditer(re.escape(exc.token) + r"\s*:", text)]
+            line = _line_of(text, hits[1]) if len(hits) > 1 else None
+        else:
+            line = _line_of(text, found.start()) if found else None
+        raise FileFormatError(name, exc.reason, line=line) from None
+    except RecursionError:  # pragma: no cover - _check_depth stops this first
+        raise FileFormatError(name, "expected JSON, got nesting too deep to read") from None
+
+
+def describe_json(value: Any) -> str:
+    """What a JSON value is, for "expected ..., got ..." messages (``a list``, ``the number 3``...).
+
+    Examples
+    --------
+    >>> describe_json([1, 2]), describe_json(None), describe_json(2.5)
+    ('a list', 'null', 'the number 2.5')
+    >>> describe_json("x" * 100)
+    "the string 'xxxxxxxxxxxxxxxxxxxxxxxxxxxxxxxxxxxxxxxxxxxxxxxxxxxxxxxxxxxx'... (100 characters)"
+    """
+    from pcmm_geo.io._text import excerpt
+
+    if value is None:
+        return "null"
+    if isinstance(value, bool):
+        return f"{str(value).lower()}"
+    if isinstance(value, dict):
+        return "an object"
+    if isinstance(value, list):
+        return "a list"
+    if isinstance(value, (int, float)):
+        return f"the number {value!r}"
+    if isinstance(value, str):
+        return f"the string {excerpt(value)}"
+    return type(value).__name__
+
+
+class JsonNode:
+    """A value inside a JSON document, with its path, and accessors that check its type.
+
+    Every failed check raises :class:`FileFormatError` ``path: <json path>: expected ..., got ...``.
+
+    Parameters
+    ----------
+    value : object
+        The parsed JSON value.
+    file : str
+        The file, for messages.
+    where : str
+        JSON path of ``value`` (``""`` for the document).
+
+    Examples
+    --------
+    >>> doc = JsonNode({"inputs": {"tip": [1, 2], "n": 3}}, "cal.json")
+    >>> doc["inputs"]["n"].integer(low=0)
+    3
+    >>> try:
+    ...     doc["inputs"]["tip"].object()
+    ... except FileFormatError as exc:
+    ...     print(exc)
+    cal.json: inputs.tip: expected an object, got a list
+    >>> try:
+    ...     doc["inputs"]["tip"].vector(3)
+    ... except FileFormatError as exc:
+    ...     print(exc)
+    cal.json: inputs.tip: expected a list of 3 numbers, got a list of 2
+    """
+
+    def __init__(self, value: Any, file: str, where: str = "") -> None:
+        self.value, self.file, self.where = value, str(file), where
+
+    def __repr__(self) -> str:
+        return f"JsonNode({self.where or '<document>'} in {self.file})"
+
+    def fail(self, expected: str, got: str | None = None) -> FileFormatError:
+        """The error to raise for this node: ``expected ...``, ``got`` described from the value by default."""
+        got = describe_json(self.value) if got is None else got
+        prefix = f"{self.where}: " if self.where else ""
+        return FileFormatError(self.file, f"{prefix}expected {expected}, got {got}")
+
+    def _child(self, key: str | int) -> str:
+        if isinstance(key, int):
+            return f"{self.where}[{key}]"
+        return f"{self.where}.{key}" if self.where else key
+
+    # --- containers -----------------------------------------------------------------------
+    def object(self) -> JsonNode:
+        """This node, checked to be an object."""
+        if not isinstance(self.value, dict):
+            raise self.fail("an object")
+        return self
+
+    def __getitem__(self, key: str) -> JsonNode:
+        """The member ``key`` of this object (which must exist)."""
+        members = self.object().value
+        if key not in members:
+            raise FileFormatError(self.file, f"{self._child(key)}: expected a value, got none (missing)")
+        return JsonNode(members[key], self.file, self._child(key))
+
+    def get(self, key: str) -> JsonNode | None:
+        """The member ``key``, or None when it is missing or null."""
+        members = self.object().value
+        if members.get(key) is None:
+            return None
+        return JsonNode(members[key], self.file, self._child(key))
+
+    def items(self) -> Iterator[tuple[str, JsonNode]]:
+        """``(key, node)`` of every member of this object."""
+        for key, value in self.object().value.items():
+            yield key, JsonNode(value, self.file, self._child(key))
+
+    def list(self, length: int | None = None) -> list[JsonNode]:
+        """The elements of this list (exactly ``length`` of them when given)."""
+        if not isinstance(self.value, list):
+            raise self.fail("a list" if length is None else f"a list of {length}")
+        if length is not None and len(self.value) != length:
+            raise self.fail(f"a list of {length}", f"a list of {len(self.value)}")
+        return [JsonNode(v, self.file, self._child(k)) for k, v in enumerate(self.value)]
+
+    # --- scalars --------------------------------------------------------------------------
+    def number(self, *, low: float | None = None, high: float | None = None, allow_null: bool = False) -> float:
+        """A finite number in ``[low, high]`` (NaN for null when ``allow_null``)."""
+        if self.value is None and allow_null:
+            return math.nan
+        if isinstance(self.value, bool) or not isinstance(self.value, (int, float)):
+            raise self.fail("a number" + (" or null" if allow_null else ""))
+        value = float(self.value)
+        if not math.isfinite(value) or (low is not None and value < low) or (high is not None and value > high):
+            bounds = f"[{'-inf' if low is None else low}, {'inf' if high is None else high}]"
+            raise self.fail(f"a finite number in {bounds}")
+        return value
+
+    def integer(self, *, low: int | None = None, high: int | None = None) -> int:
+        """An integer in ``[low, high]`` (``3.0`` counts; ``3.5`` and ``true`` do not)."""
+        value = self.value
+        if isinstance(value, float) and value.is_integer() and abs(value) < 2**53:
+            value = int(value)
+        if isinstance(value, bool) or not isinstance(value, int) or (low is not None and value < low) or (
+                high is not None and value > high):
+            bounds = "" if low is None and high is None else f" in [{low}, {high}]"
+            raise self.fail(f"an integer{bounds}")
+        return value
+
+    def string(self, choices: tuple[str, ...] | None = None) -> str:
+        """A string (one of ``choices`` when given)."""
+        if not isinstance(self.value, str) or (choices is not None and self.value not in choices):
+            raise self.fail("a string" if choices is None else f"one of {', '.join(map(repr, choices))}")
+        return self.value
+
+    def matrix(self, rows: int | None, columns: int) -> NDArray[np.float64]:
+        """``rows`` lists (any number when None) of ``columns`` finite numbers each, as an array ``(rows, columns)``."""
+        expected = f"a list of {'' if rows is None else f'{rows} '}lists of {columns} numbers"
+        if not isinstance(self.value, list):
+            raise self.fail(expected)
+        if rows is not None and len(self.value) != rows:
+            raise self.fail(expected, f"a list of {len(self.value)}")
+        vectors = [child.vector(columns) for child in self.list()]
+        return np.array(vectors, dtype=float).reshape(len(vectors), columns)
+
+    def vector(self, length: int) -> NDArray[np.float64]:
+        """A list of ``length`` finite numbers as an array ``(length,)``."""
+        if not isinstance(self.value, list) or len(self.value) != length:
+            got = f"a list of {len(self.value)}" if isinstance(self.value, list) else None
+            raise self.fail(f"a list of {length} numbers", got)
+        return np.array([child.number() for child in self.list()], dtype=float)
