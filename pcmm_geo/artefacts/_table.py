@@ -32,7 +32,8 @@ def read_rows(path: str | Path, required: Sequence[str]) -> list[tuple[int, dict
     header = [name.strip().lower() for name in lines[0][1]]
     missing = [name for name in required if name not in header]
     if missing:
-        hint = "; fields must be separated by ',' with '.' as decimal mark" if any(";" in c for c in lines[0][1]) else ""
+        semicolons = any(";" in cell for cell in lines[0][1])
+        hint = "; fields must be separated by ',' with '.' as decimal mark" if semicolons else ""
         raise FileFormatError(
             text_path, f"expected columns {', '.join(required)}; missing {', '.join(missing)}{hint}", line=lines[0][0]
         )

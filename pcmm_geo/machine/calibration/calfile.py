@@ -335,8 +335,6 @@ def load_machine(path: str | Path) -> RigidBodyMachine:
     >>> bool(np.allclose(machine.tetrahedron.tip_center, cal.tip_center))
     True
     """
-    from pcmm_geo.machine.kinematics.model import RigidBodyMachine
-
     file, document = _read_document(path)
     if "machine" not in document:
         raise FileFormatError(str(file), "expected a 'machine' entry (saved with columns=...), got none")
