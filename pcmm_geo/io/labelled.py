@@ -145,6 +145,8 @@ def read_labelled_points(path: str | Path) -> LabelledPoints:
         text = raw.strip()
         if not text or text.startswith("#"):
             continue
+        if text.count('"') % 2:
+            raise FileFormatError(str(file), f"unbalanced double quote in {excerpt(text)}", number)
         fields = _fields(text)
         if label_column is None:
             if sum(_is_number(f) for f in fields) < 3:  # the header

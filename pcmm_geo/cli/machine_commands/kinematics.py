@@ -34,7 +34,6 @@ def load_machine_file(path: str | None) -> Any:
     then the thesis' (Appendix D, vertical).
     """
 
-    from pcmm_geo.errors import FileFormatError
     from pcmm_geo.machine.kinematics.model import MODEL_SCHEMA, RigidBodyMachine
 
     if path is None:
@@ -45,7 +44,7 @@ def load_machine_file(path: str | None) -> Any:
 
     document = read_json_file(path)
     if not isinstance(document, dict):
-        raise FileFormatError(path, f"expected a JSON object, got {type(document).__name__}")
+        raise JsonNode(document, path).fail("a JSON object")
     if document.get("schema") == MODEL_SCHEMA:
         return machine_from_json(JsonNode(document, path))
     if isinstance(document.get("machine"), dict) and document["machine"].get("schema") == MODEL_SCHEMA:

@@ -220,14 +220,12 @@ def _read_document(path: str | Path) -> tuple[Path, dict[str, Any]]:
 
     document = read_json_file(file)
     if not isinstance(document, dict):
-        raise FileFormatError(str(file), f"expected a JSON object, got {type(document).__name__}")
+        raise JsonNode(document, str(file)).fail("a JSON object")
     schema = document.get("schema")
     if not isinstance(schema, str) or not schema.startswith("pcmm_geo.machine.calibration/"):
-        raise FileFormatError(str(file), f"expected schema {CALIBRATION_SCHEMA!r}, got {schema!r}")
+        raise JsonNode(schema, str(file), "schema").fail(repr(CALIBRATION_SCHEMA))
     if schema != CALIBRATION_SCHEMA:
-        raise FileFormatError(
-            str(file), f"expected schema version {SCHEMA_VERSION} ({CALIBRATION_SCHEMA!r}), got {schema!r}"
-        )
+        raise JsonNode(schema, str(file), "schema").fail(f"version {SCHEMA_VERSION} ({CALIBRATION_SCHEMA!r})")
     return file, document
 
 
