@@ -233,8 +233,13 @@ class JsonNode:
             raise self.fail("an object")
         return self
 
-    def __getitem__(self, key: str) -> JsonNode:
-        """The member ``key`` of this object (which must exist)."""
+    def __getitem__(self, key: str | int) -> JsonNode:
+        """The member ``key`` of this object (which must exist), or element ``key`` of this list."""
+        if isinstance(key, int):
+            elements = self.list()
+            if not -len(elements) <= key < len(elements):
+                raise self.fail(f"a list of more than {key} elements", f"a list of {len(elements)}")
+            return elements[key]
         members = self.object().value
         if key not in members:
             raise FileFormatError(self.file, f"{self._child(key)}: expected a value, got none (missing)")
