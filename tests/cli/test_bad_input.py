@@ -460,3 +460,23 @@ def test_a_log_torn_mid_number_is_refused_unless_asked(tmp_path: Path, capsys: p
     whole.write_text(torn.read_text() + "1234")
     assert main(["process-log", str(whole)]) == 2
     capsys.readouterr()
+
+
+@pytest.mark.parametrize(("change", "expected"), [
+    (lambda doc: _set(doc, "cases.1.location", {"x": 1}),
+     "cases[1].location: expected a list of 3 numbers, got an object"),
+    (lambda doc: _set(doc, "cases.0.size", "12"), "cases[0].size: expected a number, got the string '12'"),
+    (lambda doc: _set(doc, "cases.2.name", ["c"]), "cases[2].name: expected a string, got a list"),
+    (lambda doc: _set(doc, "cases", {"a": 1}), "cases: expected a list of cases"),
+    (lambda doc: _set(doc, "cases.0.element", None), "cases[0].element: expected a string, got null"),
+])
+def test_corrupt_iso10360_6_results_json_names_the_json_path(tmp_path: Path, capsys: pytest.CaptureFixture[str],
+                                                             change: Callable[[dict], dict], expected: str) -> None:
+    import json
+
+    results = DATA / "examples" / "iso10360_6_results.json"
+    bad = tmp_path / "results.json"
+    bad.write_text(_dump(change(json.loads(results.read_text()))))
+    assert main(["iso10360-6", str(DATA / "examples" / "iso10360_6_reference.csv"), str(bad)]) == 2
+    lines = capsys.readouterr().err.strip().splitlines()
+    assert len(lines) == 1 and str(bad) in lines[0] and expected in lines[0], lines
