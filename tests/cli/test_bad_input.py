@@ -229,7 +229,10 @@ def _set(document: dict, dotted: str, value: object) -> dict:
     *parents, last = dotted.split(".")
     for key in parents:
         node = node[int(key)] if isinstance(node, list) else node[key]
-    node[last] = value
+    if isinstance(node, list):
+        node[int(last)] = value
+    else:
+        node[last] = value
     return document
 
 
@@ -478,5 +481,54 @@ def test_corrupt_iso10360_6_results_json_names_the_json_path(tmp_path: Path, cap
     bad = tmp_path / "results.json"
     bad.write_text(_dump(change(json.loads(results.read_text()))))
     assert main(["iso10360-6", str(DATA / "examples" / "iso10360_6_reference.csv"), str(bad)]) == 2
+    lines = capsys.readouterr().err.strip().splitlines()
+    assert len(lines) == 1 and str(bad) in lines[0] and expected in lines[0], lines
+
+
+@pytest.fixture(scope="module")
+def calibration_with_covariance(tmp_path_factory: pytest.TempPathFactory) -> dict:
+    import json
+
+    import numpy as np
+
+    from pcmm_geo.demo import CALIBRATION_LASERS, DemoSettings, simulate_probings, true_machine
+    from pcmm_geo.machine.calibration.probings import write_lasers_csv, write_probings_csv
+
+    folder = tmp_path_factory.mktemp("raw")
+    settings = DemoSettings(seed=7)
+    probings = simulate_probings(true_machine(settings), settings, np.random.default_rng(7))
+    points = {("tip", None): probings["tip"]}
+    for arm in "abc":
+        for position, pts in probings[f"joint_{arm}"].items():
+            points[(f"joint_{arm}", position)] = pts
+    probe_file = write_probings_csv(folder / "probings.csv", points)
+    laser_file = write_lasers_csv(folder / "lasers.csv", [1, 2, 3], CALIBRATION_LASERS)
+    out = folder / "cal.json"
+    assert main(["calibrate", str(probe_file), str(laser_file), "--probing-u", "0.0005", "--laser-u", "0.0005",
+                 "--out", str(out)]) == 0
+    return json.loads(out.read_text())
+
+
+@pytest.mark.parametrize(("change", "expected"), [
+    (lambda doc: _set(doc, "covariance.matrix.2", [0.0]), "covariance.matrix[2]: expected a list of"),
+    (lambda doc: _set(doc, "covariance.names.0", 7), "covariance.names[0]: expected a string, got the number 7"),
+    (lambda doc: _set(doc, "covariance.laser_sigma_mm", -1), "covariance.laser_sigma_mm: expected a finite number"),
+    (lambda doc: _set(doc, "covariance", [1, 2]), "covariance: expected an object, got a list"),
+    (lambda doc: _set(doc, "machine", _set(_model(), "columns.c.direction", [0, 1])),
+     "machine.columns.c.direction: expected a list of 3 numbers, got a list of 2"),  # not replaced by nominal columns
+])
+def test_uncertainty_refuses_a_damaged_covariance_or_machine_entry(
+        tmp_path: Path, capsys: pytest.CaptureFixture[str], calibration_with_covariance: dict,
+        change: Callable[[dict], dict], expected: str) -> None:
+    import copy
+
+    capsys.readouterr()
+    good = tmp_path / "good.json"
+    good.write_text(_dump(calibration_with_covariance))
+    assert main(["uncertainty", "distance", "--calibration", str(good), "--trials", "200", "--length", "50"]) == 0
+    capsys.readouterr()
+    bad = tmp_path / "bad.json"
+    bad.write_text(_dump(change(copy.deepcopy(calibration_with_covariance))))
+    assert main(["uncertainty", "distance", "--calibration", str(bad), "--trials", "200", "--length", "50"]) == 2
     lines = capsys.readouterr().err.strip().splitlines()
     assert len(lines) == 1 and str(bad) in lines[0] and expected in lines[0], lines

@@ -62,6 +62,7 @@ __all__ = [
     "load_calibration",
     "load_covariance",
     "load_machine",
+    "load_stored_machine",
     "machine_from_json",
     "save_calibration",
 ]
@@ -305,11 +306,41 @@ def load_covariance(path: str | Path) -> dict[str, Any] | None:
     Raises
     ------
     FileFormatError
-        Not a calibration file of a known schema version.
+        Not a calibration file of a known schema version, or an entry of the wrong layout
+        (the message names the JSON path, e.g. ``covariance.matrix[2]``).
     """
-    _, document = _read_document(path)
-    entry = document.get("covariance")
-    return dict(entry) if isinstance(entry, Mapping) else None
+    file, document = _read_document(path)
+    node = JsonNode(document, str(file)).get("covariance")
+    if node is None:
+        return None
+    names = [name.string() for name in node["names"].list()]
+    count = len(names)
+    for value in node["values"].list(count):
+        value.number(allow_null=True)
+    for row in node["matrix"].list(count):
+        for value in row.list(count):
+            value.number(allow_null=True)
+    node["method"].string()
+    node["probing_sigma_mm"].number(low=0.0)
+    node["laser_sigma_mm"].number(low=0.0)
+    if node.get("n_trials") is not None:
+        node["n_trials"].integer(low=0)
+    return dict(node.value)
+
+
+def load_stored_machine(path: str | Path) -> RigidBodyMachine | None:
+    """The rigid-body machine stored in a calibration file, or None when the file stores none.
+
+    Raises
+    ------
+    FileFormatError
+        Not a calibration file, or a ``"machine"`` entry that is damaged (never silently
+        replaced by a default).
+    """
+    file, document = _read_document(path)
+    if "machine" not in document:
+        return None
+    return machine_from_json(JsonNode(document, str(file))["machine"])
 
 
 def load_machine(path: str | Path) -> RigidBodyMachine:
@@ -333,10 +364,10 @@ def load_machine(path: str | Path) -> RigidBodyMachine:
     >>> bool(np.allclose(machine.tetrahedron.tip_center, cal.tip_center))
     True
     """
-    file, document = _read_document(path)
-    if "machine" not in document:
-        raise FileFormatError(str(file), "expected a 'machine' entry (saved with columns=...), got none")
-    return machine_from_json(JsonNode(document, str(file))["machine"])
+    machine = load_stored_machine(path)
+    if machine is None:
+        raise FileFormatError(str(path), "expected a 'machine' entry (saved with columns=...), got none")
+    return machine
 
 
 def machine_from_json(node: JsonNode) -> RigidBodyMachine:
