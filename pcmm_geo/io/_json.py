@@ -1,154 +1,23 @@
-"""Strict JSON reading: one loader that refuses what ``json`` lets through, and typed field access.
+"""Typed access to parsed JSON documents: checks whose errors name the JSON path.
 
-:func:`read_json_file` parses a UTF-8 JSON file (BOM dropped) and refuses, each with a
-:class:`~pcmm_geo.errors.FileFormatError` naming the file and the line:
-
-* ``NaN`` / ``Infinity`` (Python writes them, JSON has none);
-* numbers that overflow a float (``1e400`` would silently become ``inf``) and integers of
-  more than 308 digits;
-* the same key twice in one object (the ``json`` module keeps the last one silently);
-* nesting deeper than :data:`MAX_JSON_DEPTH` (``json`` would end in ``RecursionError``).
-
-:class:`JsonNode` then walks the document with checked accessors whose errors name the JSON
-path, e.g. ``cal.json: inputs.tip: expected an object, got a list``.
+Documents are parsed by :func:`read_json_file` (strict: no NaN, overflow, duplicate keys or deep
+nesting; defined in :mod:`pcmm_geo.io._text` and re-exported here).  :class:`JsonNode` then
+walks them with checked accessors, e.g. ``cal.json: inputs.tip: expected an object, got a list``.
 """
 
 from __future__ import annotations
 
 import math
-import re
 from collections.abc import Iterator
-from pathlib import Path
 from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
 
 from pcmm_geo.errors import FileFormatError
+from pcmm_geo.io._text import MAX_JSON_DEPTH, excerpt, read_json_file
 
 __all__ = ["MAX_JSON_DEPTH", "JsonNode", "describe_json", "read_json_file"]
-
-#: deepest nesting of arrays and objects accepted (pcmm_geo's own files need fewer than 8)
-MAX_JSON_DEPTH = 64
-_MAX_INT_DIGITS = 308
-_STRING = re.compile(r'"(?:[^"\\\n]|\\.)*"')
-
-
-class _Refused(Exception):
-    """Raised inside the ``json`` hooks; carries the token to locate and the reason."""
-
-    def __init__(self, token: str, reason: str) -> None:
-        super().__init__(reason)
-        self.token, self.reason = token, reason
-
-
-def _parse_float(token: str) -> float:
-    value = float(token)
-    if not math.isfinite(value):
-        raise _Refused(token, f"expected a finite number, got {token} (beyond the float range, it would read as inf)")
-    return value
-
-
-def _parse_int(token: str) -> int:
-    if len(token.lstrip("-")) > _MAX_INT_DIGITS:
-        raise _Refused(token[:20], f"expected a number, got an integer of {len(token.lstrip('-'))} digits")
-    return int(token)
-
-
-def _parse_constant(token: str) -> float:
-    raise _Refused(token, f"expected JSON, got the non-finite number {token}")
-
-
-def _unique_keys(pairs: list[tuple[str, Any]]) -> dict[str, Any]:
-    result: dict[str, Any] = {}
-    for key, value in pairs:
-        if key in result:
-            from pcmm_geo.io._text import excerpt
-
-            raise _Refused(f'"{key}"', f"key {excerpt(key)} appears twice in one object (which one is meant?)")
-        result[key] = value
-    return result
-
-
-def _line_of(text: str, position: int) -> int:
-    return text.count("\n", 0, position) + 1
-
-
-def _check_depth(path: str, text: str, limit: int) -> None:
-    """Refuse nesting deeper than ``limit`` before ``json`` recurses into it."""
-    if text.count("[") + text.count("{") <= limit:
-        return
-    skeleton = _STRING.sub('""', text)  # brackets inside strings do not nest
-    codes = np.frombuffer(skeleton.encode("utf-8"), dtype=np.uint8)
-    step = np.isin(codes, (ord("["), ord("{"))).astype(np.int64) - np.isin(codes, (ord("]"), ord("}")))
-    depth = np.cumsum(step)
-    if depth.size and depth.max() > limit:
-        first = int(np.argmax(depth > limit))
-        line = skeleton.encode("utf-8")[:first].count(b"\n") + 1
-        raise FileFormatError(path, f"expected JSON nested at most {limit} deep, got deeper nesting", line=line)
-
-
-def read_json_file(path: str | Path, *, max_depth: int = MAX_JSON_DEPTH) -> Any:
-    """Parse a UTF-8 JSON file strictly (see the module docstring for what is refused).
-
-    Parameters
-    ----------
-    path : str or Path
-    max_depth : int
-        Deepest nesting of arrays/objects accepted.
-
-    Returns
-    -------
-    object
-        ``dict``, ``list``, ``str``, ``int``, ``float``, ``bool`` or None, as :func:`json.loads`.
-
-    Raises
-    ------
-    FileFormatError
-        Not text, a syntax error, a non-finite or overflowing number, a duplicate key or too
-        deep nesting; the message names the file and, where it can, the line.
-    FileNotFoundError
-        The file does not exist.
-
-    Examples
-    --------
-    >>> import os, tempfile
-    >>> path = os.path.join(tempfile.mkdtemp(), "c.json")
-    >>> _ = open(path, "w").write('{"radius": 5.0,\\n "form": 1e400}')
-    >>> try:
-    ...     read_json_file(path)
-    ... except FileFormatError as exc:
-    ...     print(exc.line, exc.reason)
-    2 expected a finite number, got 1e400 (beyond the float range, it would read as inf)
-    >>> _ = open(path, "w").write("[" * 10_000 + "]" * 10_000)
-    >>> try:
-    ...     read_json_file(path)
-    ... except FileFormatError as exc:
-    ...     print(exc.reason)
-    expected JSON nested at most 64 deep, got deeper nesting
-    """
-    import json
-
-    from pcmm_geo.io._text import read_text_file
-
-    name = str(path)
-    text = read_text_file(path, max_line=None)
-    _check_depth(name, text, max_depth)
-    try:
-        return json.loads(text, parse_float=_parse_float, parse_int=_parse_int, parse_constant=_parse_constant,
-                          object_pairs_hook=_unique_keys)
-    except json.JSONDecodeError as exc:
-        raise FileFormatError(name, f"expected JSON, got {exc.msg}", line=exc.lineno) from None
-    except _Refused as exc:
-        found = re.search(rf"(?<![\w.+\-\"]){re.escape(exc.token)}", text)
-        if exc.token.startswith('"'):  # a duplicate key: its second occurrence
-            hits = [m.start() for m in re.finditer(re.escape(exc.token) + r"\s*:", text)]
-            line = _line_of(text, hits[1]) if len(hits) > 1 else None
-        else:
-            line = _line_of(text, found.start()) if found else None
-        raise FileFormatError(name, exc.reason, line=line) from None
-    except RecursionError:  # pragma: no cover - _check_depth stops this first
-        raise FileFormatError(name, "expected JSON, got nesting too deep to read") from None
 
 
 def describe_json(value: Any) -> str:
@@ -161,8 +30,6 @@ def describe_json(value: Any) -> str:
     >>> describe_json("x" * 100)
     "the string 'xxxxxxxxxxxxxxxxxxxxxxxxxxxxxxxxxxxxxxxxxxxxxxxxxxxxxxxxxxxx'... (100 characters)"
     """
-    from pcmm_geo.io._text import excerpt
-
     if value is None:
         return "null"
     if isinstance(value, bool):
