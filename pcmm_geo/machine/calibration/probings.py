@@ -129,11 +129,10 @@ class LaserTable:
 
 
 def _data_lines(path: Path) -> list[tuple[int, list[str]]]:
-    from pcmm_geo.io._text import read_text_file
+    from pcmm_geo.io._text import read_text_lines
 
-    text = read_text_file(path)
     rows = []
-    for number, raw in enumerate(text.splitlines(), start=1):
+    for number, raw in read_text_lines(path):
         line = raw.strip()
         if not line or line.startswith("#"):
             continue
