@@ -215,6 +215,8 @@ def _split_line(path: str, number: int, text: str) -> tuple[str, ...]:
             cells = tuple(next(csv.reader([text], strict=True)))
         except csv.Error as exc:
             raise FileFormatError(path, f"bad CSV quoting ({exc}): {excerpt(text)}", line=number) from None
+    if len(text) <= MAX_FIELD_CHARS:  # no field can be longer than its line
+        return cells
     for column, cell in enumerate(cells, start=1):
         if len(cell) > MAX_FIELD_CHARS:
             raise FileFormatError(

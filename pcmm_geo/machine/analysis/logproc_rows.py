@@ -155,10 +155,23 @@ def read_log(path: str | Path, *, allow_unterminated: bool = False) -> Measureme
             "pcmm process-log --allow-unterminated)", line=torn,
         )
     note = " (read as a headerless Table 3.2 log)" if headerless else ""
-    rows = [_log_values(name, line, cells, n_columns, note) for line, cells in data_rows]
-    if not rows:
+    if not data_rows:
         raise FileFormatError(name, "expected at least one data row, got none")
-    data = np.array(rows)
+    values = [_row_numbers(name, line, cells, n_columns, note) for line, cells in data_rows]
+    data = np.array(values, dtype=float)
+    lines = np.array([line for line, _ in data_rows])
+    not_finite = ~np.isfinite(data).all(axis=1)
+    if not_finite.any():
+        row = int(np.argmax(not_finite))
+        column = int(np.argmax(~np.isfinite(data[row])))
+        raise FileFormatError(name, f"{LOG_COLUMNS[column]}: expected a finite number, got "
+                              f"{excerpt(data_rows[row][1][column].strip())}", line=int(lines[row]))
+    for column, options in enumerate(_FLAG_VALUES):
+        wrong = ~np.isin(data[:, column], options)
+        if wrong.any():
+            row = int(np.argmax(wrong))
+            raise FileFormatError(name, f"{LOG_COLUMNS[column]}: expected one of {options}, got "
+                                  f"{data[row, column]:g}{note}", line=int(lines[row]))
     flags_int = data[:, :4].astype(np.int64)
     return MeasurementLog(flags_int[:, 0], flags_int[:, 1], flags_int[:, 2], flags_int[:, 3], data[:, 4:])
 
@@ -175,26 +188,26 @@ def _all_numbers(cells: tuple[str, ...]) -> bool:
         return False
 
 
-def _log_values(name: str, line: int, cells: tuple[str, ...], n_columns: int, note: str) -> list[float]:
-    """The seven numbers of one log row, checked (flags in their sets, finite lasers)."""
-    from pcmm_geo.io._text import excerpt, parse_decimal
-
+def _row_numbers(name: str, line: int, cells: tuple[str, ...], n_columns: int, note: str) -> list[float]:
+    """The seven numbers of one log row (ASCII decimals only; finiteness and flags are checked by the caller)."""
     if len(cells) != n_columns:
         raise FileFormatError(name, f"expected {n_columns} fields, got {len(cells)}{note}", line=line)
-    values = []
-    for column, cell in zip(LOG_COLUMNS, cells, strict=False):
+    row = cells[: len(LOG_COLUMNS)]
+    joined = "".join(row)
+    if joined.isascii() and "_" not in joined:  # then float() takes exactly the ASCII decimals
         try:
-            value = parse_decimal(cell)
+            return [float(cell) for cell in row]
+        except ValueError:
+            pass
+    from pcmm_geo.io._text import excerpt, parse_decimal
+
+    values = []
+    for column, cell in zip(LOG_COLUMNS, row, strict=True):
+        try:
+            values.append(parse_decimal(cell))
         except ValueError:
             raise FileFormatError(name, f"{column}: expected a number, got {excerpt(cell.strip())}{note}",
                                   line=line) from None
-        if not np.isfinite(value):
-            raise FileFormatError(name, f"{column}: expected a finite number, got {excerpt(cell.strip())}",
-                                  line=line)
-        values.append(value)
-    for column, value, options in zip(LOG_COLUMNS[:4], values, _FLAG_VALUES, strict=False):
-        if value not in options:
-            raise FileFormatError(name, f"{column}: expected one of {options}, got {value:g}{note}", line=line)
     return values
 
 
