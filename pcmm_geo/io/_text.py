@@ -50,6 +50,9 @@ MAX_FIELD_CHARS = 4_096
 EXCERPT_CHARS = 60
 
 _BOM = b"\xef\xbb\xbf"
+# C0 control characters other than tab, line feed and carriage return, and DEL: never in a text
+# data file, and str.strip() would silently remove some of them (0x0b, 0x1c-0x1f) from a number
+_CONTROL = re.compile(rb"[\x00-\x08\x0b\x0c\x0e-\x1f\x7f]")
 _DECIMAL = re.compile(r"[+-]?(?:\d+\.?\d*|\.\d+)(?:[eE][+-]?\d+)?|[+-]?(?:nan|inf|infinity)", re.IGNORECASE | re.ASCII)
 
 
@@ -108,10 +111,18 @@ def _decode(path: str | Path, max_line: int | None = MAX_LINE_CHARS) -> tuple[li
     if data.startswith(_BOM):
         data = data[len(_BOM):]
     terminated = not data or data.endswith(b"\n")
+    control = _CONTROL.search(data)
+    if control is not None:  # one scan of the whole file; the line is counted only when needed
+        number = data.count(b"\n", 0, control.start()) + 1
+        code = data[control.start()]
+        if code == 0:
+            raise FileFormatError(str(file), "binary data (NUL byte), expected a text file", line=number)
+        column = control.start() - data.rfind(b"\n", 0, control.start())
+        raise FileFormatError(
+            str(file), f"control character 0x{code:02x} at column {column}, expected text", line=number
+        )
     lines: list[tuple[int, str]] = []
     for number, raw in enumerate(data.split(b"\n"), start=1):
-        if b"\x00" in raw:
-            raise FileFormatError(str(file), "binary data (NUL byte), expected a text file", line=number)
         try:
             text = raw.decode("utf-8")
         except UnicodeDecodeError as exc:
@@ -137,9 +148,9 @@ def read_text_lines(path: str | Path) -> list[tuple[int, str]]:
     Raises
     ------
     FileFormatError
-        The path is a directory, the file holds NUL bytes (binary data), a line is not
-        valid UTF-8 or longer than :data:`MAX_LINE_CHARS`; the message names the line and
-        quotes at most an excerpt.
+        The path is a directory, the file holds NUL bytes (binary data) or other control
+        characters (not tab, CR, LF), a line is not valid UTF-8 or longer than
+        :data:`MAX_LINE_CHARS`; the message names the line and quotes at most an excerpt.
     FileNotFoundError
         The file does not exist.
 

@@ -95,6 +95,7 @@ def _corpus(header: str, row: str) -> dict[str, bytes | None]:
         "superscript": f"{header}\n{row}\n{row}\u00b2\n".encode(),
         "superscript-line": f"\u00b2\n{header}\n{row}\n".encode(),
         "bad-quote": f'{header}\n{row}\n"{row}\n{row}\n'.encode(),
+        "control-char": f"{header}\n{row}\n\x1c{row}\n".encode(),  # str.strip() would drop it silently
         "directory": None,
         "missing": None,
     }

@@ -174,3 +174,16 @@ def test_json_node_accessors_name_the_path() -> None:
             call()
         assert str(info.value) == message
     assert np.isnan(JsonNode(None, "f.json").number(allow_null=True))
+
+
+@pytest.mark.parametrize("code", [0x00, 0x01, 0x0B, 0x0C, 0x1A, 0x1C, 0x1F, 0x7F])
+def test_control_characters_are_refused_with_line_and_column(tmp_path: Path, code: int) -> None:
+    path = _file(tmp_path, b"x,y\n1,2\n3," + bytes([code]) + b"4\n")
+    with pytest.raises(FileFormatError) as info:
+        read_text_lines(path)
+    assert info.value.line == 3
+    assert ("NUL byte" if code == 0 else f"control character 0x{code:02x} at column 3") in info.value.reason
+
+
+def test_tabs_and_carriage_returns_are_text(tmp_path: Path) -> None:
+    assert read_text_lines(_file(tmp_path, b"x\ty\r\n1\t2\r\n")) == [(1, "x\ty"), (2, "1\t2")]
