@@ -367,13 +367,13 @@ BOM = b"\xef\xbb\xbf"
     (lambda f: ["thermal", "thermistor", "--calibration", f, "--resistance", "10000", "--json"],
      DATA / "examples" / "thermistor_calibration.csv"),
     (lambda f: ["calibrate", f, str(LASERS), "--json"], EXPORT),
-    (lambda f: ["process-log", f, "--json"], None),
+    (lambda f: ["process-log", f, "--json", "--initial-heights", *START_HEIGHTS], None),  # the seed-style log
 ])
 def test_a_utf8_bom_is_read_like_the_same_file_without_it(tmp_path: Path, capsys: pytest.CaptureFixture[str],
                                                           argv: Callable[[str], list[str]], file: Path | None) -> None:
     import json
 
-    plain = file if file is not None else _valid_log(tmp_path)
+    plain = file if file is not None else _seed_style_log(tmp_path)[0]
     with_bom = tmp_path / f"bom_{plain.name}"
     with_bom.write_bytes(BOM + plain.read_bytes())
     capsys.readouterr()
@@ -387,22 +387,25 @@ def test_a_utf8_bom_is_read_like_the_same_file_without_it(tmp_path: Path, capsys
     assert got == expected
 
 
-def _seed_style_lasers() -> Any:
-    """Laser readings (4, 3) of the thesis machine moved from its reference heights by arm a, b, c in turn."""
-    import numpy as np
+# away from the level (singular) pose of equal heights, as in tests/machine/test_logproc.py
+START_HEIGHTS = ("400", "460", "350")
 
+
+def _seed_style_measurement() -> Any:
+    """A noise-free Table 3.2 log of the thesis machine: arms a, b, c moved in turn from :data:`START_HEIGHTS`."""
+    from pcmm_geo.machine.analysis.logproc import synthesise_log
     from pcmm_geo.machine.kinematics.model import RigidBodyMachine
 
     machine = RigidBodyMachine.from_dpkm()
-    heights = machine.reference_heights + np.array([[0, 0, 0], [1.5, 0, 0], [1.5, -2.0, 0], [1.5, -2.0, 0.75]])
-    return machine.forward(heights=heights).lasers
+    return synthesise_log(machine, [float(h) for h in START_HEIGHTS], [(1, 1.5, False), (2, -2.0, True),
+                                                                       (3, 0.75, False)])
 
 
 def _seed_style_log(tmp: Path) -> tuple[Path, Path, Path]:
-    """A simulated Table 3.2 log written with header, without (as the seed's LabVIEW), and torn."""
-    from pcmm_geo.machine.analysis.logproc import MeasurementLog, write_log
+    """The log of :func:`_seed_style_measurement` written with header, without (as the seed's LabVIEW), and torn."""
+    from pcmm_geo.machine.analysis.logproc import write_log
 
-    log = MeasurementLog([1, 0, 0, 0], [0, 0, 1, 0], [1, 1, 2, 3], [1, 1, -1, 1], _seed_style_lasers())
+    log = _seed_style_measurement()
     headed = write_log(tmp / "headed.csv", log)
     text = headed.read_text().splitlines()
     headerless = tmp / "headerless.csv"
@@ -421,17 +424,19 @@ def test_a_headerless_seed_log_reads_to_the_numbers_of_the_headed_one(tmp_path: 
     headed, headerless, _ = _seed_style_log(tmp_path)
     results = []
     for path in (headed, headerless):
-        assert main(["process-log", str(path), "--all-rows", "--json"]) == 0
+        assert main(["process-log", str(path), "--all-rows", "--json", "--initial-heights", *START_HEIGHTS]) == 0
         results.append(json.loads(capsys.readouterr().out))
-    assert results[0]["rows"] == results[1]["rows"] == 4
+    assert results[0]["rows"] == results[1]["rows"] == 6
     for key in ("heights", "tips", "probe_points"):
         np.testing.assert_allclose(results[1][key], results[0][key], rtol=0, atol=1e-9)
     # and the rows read are the simulated ones (lasers written with 9 decimals)
     from pcmm_geo.machine.analysis.logproc import read_log
 
     log = read_log(headerless)
-    np.testing.assert_allclose(log.lasers, _seed_style_lasers(), rtol=0, atol=1e-9)
-    assert log.motor.tolist() == [1, 1, 2, 3] and log.direction.tolist() == [1, 1, -1, 1]
+    truth = _seed_style_measurement()
+    np.testing.assert_allclose(log.lasers, truth.lasers, rtol=0, atol=1e-9)
+    for flags in ("start_stop", "probe", "motor", "direction"):
+        assert getattr(log, flags).tolist() == getattr(truth, flags).tolist()
 
 
 @pytest.mark.parametrize(("content", "expected"), [
@@ -454,11 +459,14 @@ def test_a_log_torn_mid_number_is_refused_unless_asked(tmp_path: Path, capsys: p
     import json
 
     _, _, torn = _seed_style_log(tmp_path)
-    assert main(["process-log", str(torn), "--json"]) == 2
+    assert main(["process-log", str(torn), "--json", "--initial-heights", *START_HEIGHTS]) == 2
     lines = capsys.readouterr().err.strip().splitlines()
-    assert len(lines) == 1 and f"{torn}:5: last row has no line end" in lines[0], lines
-    assert main(["process-log", str(torn), "--allow-unterminated", "--json"]) == 0
-    assert json.loads(capsys.readouterr().out)["rows"] == 4
+    assert len(lines) == 1 and f"{torn}:7: last row has no line end" in lines[0], lines
+    # told the file is complete, the torn value is read as written: here it is 4 digits short, so the
+    # closure test of the row catches it (at 1e-5 mm it would not: hence the refusal by default)
+    code = main(["process-log", str(torn), "--allow-unterminated", "--json", "--keep-inconsistent",
+                 "--initial-heights", *START_HEIGHTS])
+    assert code == 0 and json.loads(capsys.readouterr().out)["rows"] == 6
     # a complete file whose last line merely lacks the line end is refused the same way, never guessed
     whole = tmp_path / "whole.csv"
     whole.write_text(torn.read_text() + "1234")
