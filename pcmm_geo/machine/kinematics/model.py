@@ -382,7 +382,9 @@ class RigidBodyMachine:
                 reference_lasers=data.get("reference_lasers", np.full(3, 100.0)),
                 reference_heights=data.get("reference_heights", np.zeros(3)),
             )
-        except (KeyError, TypeError) as exc:
+        except InvalidInputError:
+            raise
+        except (KeyError, TypeError, AttributeError, IndexError, ValueError, OverflowError) as exc:
             expected = "tetrahedron/sliders/columns for arms a, b, c"
             raise InvalidInputError("machine model", expected, repr(exc)) from None
 
