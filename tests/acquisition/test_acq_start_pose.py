@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import json
 import subprocess
 import sys
 import warnings
@@ -53,6 +54,13 @@ def test_off_level_start_gives_points_within_their_uncertainty(tmp_path: Path) -
     assert errors.max() < 0.1 and not out.uncertain.any() and not out.inconsistent.any() and not caught
     assert np.all(errors <= 3 * out.tip_uncertainty)
     assert np.all(out.tip_uncertainty < 0.7)  # 0.4-0.6 mm with the default 28.9 um laser sigma
+    # the command takes the datum from the log's metadata (without it: the level heights, a mirrored branch)
+    proc = subprocess.run([PCMM, "process-log", str(off_level), "--json"], capture_output=True, text=True,
+                          timeout=120, check=False)
+    assert proc.returncode == 0 and proc.stderr == "", proc.stderr
+    data = json.loads(proc.stdout)
+    assert data["initial_heights"] == [400.0, 460.0, 340.0] and data["uncertain_data_rows"] == []
+    np.testing.assert_allclose(data["tips"], out.tips, atol=1e-9)  # = the library with the true start (< 0.1 mm)
 
 
 def test_start_heights_parameter() -> None:

@@ -51,8 +51,8 @@ def register(subparsers: Any) -> None:
                              "pose, mm. Default 0 0 0: the thesis starts level (one encoder count for all motors), "
                              "where the lasers hardly see the heights and processed points carry millimetre "
                              "uncertainties; e.g. 0 60 -60 keeps the pivots >= 20 mm apart in height over the "
-                             "programme's +-20 mm span (well conditioned). Recorded as start_heights_mm; pass those "
-                             "heights to process-log --initial-heights")
+                             "programme's +-20 mm span (well conditioned). Recorded as start_heights_mm, which "
+                             "process-log takes as its datum")
     parser.add_argument("--defects", action="store_true", help="simulate the thesis' dead spot and settling scatter")
     parser.add_argument("--probe-mode", choices=("pin", "text"), default="pin", help="Arduino firmware mode")
     parser.add_argument(

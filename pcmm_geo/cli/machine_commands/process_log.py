@@ -26,7 +26,8 @@ def register(subparsers: Any) -> None:
     parser.add_argument("file", metavar="FILE", help="log CSV, with header or headerless as the seed wrote it")
     add_machine_argument(parser)
     parser.add_argument("--initial-heights", type=float, nargs=3, metavar=("A", "B", "C"),
-                        help="pivot heights of the first row (datum; default: the machine's reference heights)")
+                        help="pivot heights of the first row (datum; default: the log's start_heights_mm, written "
+                             "by pcmm acquire --simulate, else the machine's reference heights)")
     parser.add_argument("--all-rows", action="store_true", help="list every row, not only the probe points")
     parser.add_argument("--allow-unterminated", action="store_true",
                         help="accept a last row without a line end (refused by default: it may be torn mid-number)")
@@ -74,10 +75,13 @@ def _handle(args: argparse.Namespace) -> Report:
     machine = load_machine_file(args.calibration)
     limit = DEFAULT_MAX_TIP_UNCERTAINTY if args.max_tip_u is None else args.max_tip_u
     log = read_log(args.file, allow_unterminated=args.allow_unterminated)
+    initial_heights = args.initial_heights
+    if initial_heights is None:
+        initial_heights = _logged_start_heights(args.file, args.allow_unterminated)
     try:
         with progress_bar("processing log rows", enabled=progress_wanted(args), total=len(log)) as update:
             sigma = SEED_LASER_SIGMA if args.laser_sigma is None else args.laser_sigma
-            out = process_log(machine, log, initial_heights=args.initial_heights, laser_sigma=sigma,
+            out = process_log(machine, log, initial_heights=initial_heights, laser_sigma=sigma,
                               closure_tolerance=args.max_closure, progress=update, max_tip_uncertainty=limit,
                               on_inconsistent="flag" if args.keep_inconsistent else "raise")
     except InconsistentMeasurementError as exc:
@@ -116,6 +120,7 @@ def _handle(args: argparse.Namespace) -> Report:
         "closure_tolerance_mm": [None if not np.isfinite(v) else float(v) for v in out.closure_tolerance],
         "inconsistent_data_rows": (np.flatnonzero(out.inconsistent) + 1).tolist(),  # 1-based data rows
         "rejected_probe_data_rows": (out.rejected_probe_rows + 1).tolist(),
+        "initial_heights": None if initial_heights is None else [float(h) for h in initial_heights],
         "max_tip_uncertainty_mm": float(limit) if np.isfinite(limit) else None,
         "tip_uncertainty_mm": [None if not np.isfinite(v) else float(v) for v in out.tip_uncertainty],
         "tip_u_mm": [[None if not np.isfinite(v) else float(v) for v in axes] for axes in out.tip_u],
@@ -125,6 +130,9 @@ def _handle(args: argparse.Namespace) -> Report:
     }
     lines = [f"{len(log)} rows, {out.probe_rows.size} probe points; largest closure residual "
              f"{float(out.closure_residual.max()):.3g} mm (the table's closure column)"]
+    if args.initial_heights is None and initial_heights is not None:
+        lines.append("initial heights (datum) from the log's start_heights_mm: "
+                     + " ".join(f"{h:g}" for h in initial_heights) + " mm")
     probe_u = out.tip_uncertainty[out.probe_rows]
     if probe_u.size and np.isfinite(probe_u).any():
         lines.append(f"tip uncertainty of the probe points (u, first-order, laser sigma {sigma:g} mm): median "
@@ -154,3 +162,14 @@ def _handle(args: argparse.Namespace) -> Report:
         plots.append(str(written))
         lines.append(f"plot written to {written}")
     return Report(data=data, tables=[table], lines=lines, plots=plots)
+
+
+def _logged_start_heights(path: str, allow_partial: bool) -> list[float] | None:
+    """The ``start_heights_mm`` of an acquisition log's metadata (simulated sessions), else None."""
+    from pcmm_geo.acquisition.acqlog import read_log as read_acquisition_log
+
+    with open(path, "rb") as handle:
+        if not handle.read(64).startswith(b"# pcmm_geo acquisition log"):
+            return None
+    value = read_acquisition_log(path, allow_partial=allow_partial).metadata.get("start_heights_mm")
+    return None if value is None else [float(v) for v in value.split()]
