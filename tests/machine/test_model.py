@@ -99,7 +99,7 @@ def test_forward_recovers_constructed_pose_both_readings() -> None:
 
 def test_inverse_satisfies_closure_equations_over_working_cube() -> None:
     machine = skewed_machine()
-    centre = machine.forward(lasers=machine.reference_lasers, heights=machine.reference_heights).tip
+    centre = machine.forward(heights=machine.reference_heights).tip
     grid = np.stack(np.meshgrid(*[np.linspace(-50, 50, 5)] * 3, indexing="ij"), axis=-1).reshape(-1, 3) + centre
     inv = machine.inverse(grid)
     assert inv.converged.all()
@@ -114,7 +114,7 @@ def test_inverse_satisfies_closure_equations_over_working_cube() -> None:
 def test_round_trip_forward_inverse_skewed_lines() -> None:
     machine = skewed_machine()
     rng = np.random.default_rng(11)
-    centre = machine.forward(lasers=machine.reference_lasers, heights=machine.reference_heights).tip
+    centre = machine.forward(heights=machine.reference_heights).tip
     tips = centre + rng.uniform(-50, 50, (200, 3))
     inv = machine.inverse(tips)
     both = machine.forward(lasers=inv.lasers, heights=inv.heights)
@@ -172,7 +172,11 @@ def test_both_readings_weighted_least_squares() -> None:
     # inconsistent data: a laser disagrees by 0.05 mm.  Trusting the heights 1000x more (lasers 1e5x) gives the
     # heights-only solution; trusting the lasers gives the lasers-only (least-squares) solution.
     lasers = inv.lasers + np.array([0.05, 0.0, 0.0])
-    trust_lasers = machine.forward(lasers=lasers, heights=inv.heights, laser_sigma=1e-8, height_sigma=1e-3)
+    # trusting the lasers 1e5x pushes the whole disagreement onto the heights (about 10 mm near level pivots,
+    # far beyond the closure tolerance): an analysis of the weighting, hence check_limits=False
+    trust_lasers = machine.forward(
+        lasers=lasers, heights=inv.heights, laser_sigma=1e-8, height_sigma=1e-3, check_limits=False
+    )
     trust_heights = machine.forward(lasers=lasers, heights=inv.heights, laser_sigma=1e-3, height_sigma=1e-6)
     heights_only = machine.forward(heights=inv.heights)
     lasers_only = machine.forward(lasers=lasers, heights_hint=inv.heights)

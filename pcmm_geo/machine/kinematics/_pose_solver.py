@@ -35,6 +35,9 @@ UNOBSERVABLE = 1e-9
 #: convergence: largest parameter step (mm, or rad times 1000 mm) below this
 STEP_TOLERANCE = 1e-11
 MAX_ITERATIONS = 60
+#: a solve counts as converged only if its hard equations close to this (mm): closure, tip, and
+#: with one kind of reading, the measured readings themselves
+SOLVED_TOLERANCE = 1e-6
 MAX_ROTATION_STEP = 0.1
 MAX_LINEAR_STEP = 50.0
 
@@ -192,3 +195,30 @@ def solve_pose(
         if done.all():
             break
     return PoseState(rotation, translation, lasers, heights, done, iteration)
+
+
+def closest_readings(
+    geometry: Geometry, rotation: FloatArray, translation: FloatArray, hint: FloatArray
+) -> tuple[FloatArray, FloatArray]:
+    """Readings where each moved slider line comes closest to its column line ``(K, 3)`` each."""
+    count = rotation.shape[0]
+    lasers = np.empty((count, 3))
+    heights = np.empty((count, 3))
+    for arm in range(3):
+        origin = np.einsum("kij,j->ki", rotation, geometry.slider_points[arm]) + translation
+        direction = rotation @ geometry.slider_directions[arm]
+        col_dir = geometry.column_directions[arm]
+        col_point = geometry.column_points[arm]
+        # minimise |origin + s d - (col_point + z v)| over s, z
+        cross = direction @ col_dir
+        denom = 1.0 - cross**2
+        diff = col_point - origin
+        s_val = np.where(denom > 1e-12, (diff @ col_dir * -cross + np.einsum("ki,ki->k", diff, direction)) / denom, 0)
+        z_val = np.where(
+            denom > 1e-12,
+            (diff @ col_dir * -1 + cross * np.einsum("ki,ki->k", diff, direction)) / denom,
+            hint[:, arm] * geometry.encoder_scale[arm],
+        )
+        lasers[:, arm] = (s_val - geometry.laser_offset[arm]) / geometry.laser_scale[arm]
+        heights[:, arm] = z_val / geometry.encoder_scale[arm]
+    return lasers, heights

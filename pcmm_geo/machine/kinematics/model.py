@@ -40,7 +40,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from pcmm_geo.errors import InvalidInputError
+from pcmm_geo.errors import InvalidInputError, NoRealSolutionError
 from pcmm_geo.machine.kinematics import _pose_solver as solver
 from pcmm_geo.machine.kinematics.dpkm import (
     APPENDIX_D_COLUMN_POINTS,
@@ -50,6 +50,7 @@ from pcmm_geo.machine.kinematics.dpkm import (
     TABLE_3_1_DEAD_DISTANCE,
     tetrahedron_directions,
 )
+from pcmm_geo.machine.kinematics.limits import MachineLimits, check_reach, closure_norms, index_label
 from pcmm_geo.machine.kinematics.model_parts import (
     ARMS,
     ColumnLine,
@@ -68,6 +69,7 @@ __all__ = [
     "ColumnLine",
     "ForwardSolution",
     "InverseSolution",
+    "MachineLimits",
     "RigidBodyMachine",
     "SliderLine",
     "Tetrahedron",
@@ -94,18 +96,28 @@ class RigidBodyMachine:
     reference_lasers, reference_heights : ndarray, shape (3,)
         A configuration near the middle of the working range used as starting values
         and as the hint for readings the data cannot determine.
+    limits : MachineLimits
+        Column travel, laser measuring range and closure tolerance
+        (:mod:`~pcmm_geo.machine.kinematics.limits`).  Default (``None`` given):
+        :meth:`MachineLimits.seed` of the reference heights -- 450 mm travel with the
+        reference heights at the park position, lasers 0-200 mm, closure 0.25 mm.
     """
 
     tetrahedron: Tetrahedron
     columns: Mapping[str, ColumnLine]
     reference_lasers: FloatArray = field(default_factory=lambda: np.full(3, 100.0))
     reference_heights: FloatArray = field(default_factory=lambda: np.zeros(3))
+    limits: MachineLimits = None  # type: ignore[assignment]  # None -> MachineLimits.seed(reference_heights)
 
     def __post_init__(self) -> None:
         check_arm_keys(self.columns, "columns")
         object.__setattr__(self, "columns", {arm: self.columns[arm] for arm in ARMS})
         object.__setattr__(self, "reference_lasers", as_vector3(self.reference_lasers, "reference_lasers"))
         object.__setattr__(self, "reference_heights", as_vector3(self.reference_heights, "reference_heights"))
+        if self.limits is None:
+            object.__setattr__(self, "limits", MachineLimits.seed(self.reference_heights))
+        elif not isinstance(self.limits, MachineLimits):
+            raise InvalidInputError("limits", "a MachineLimits or None", type(self.limits).__name__)
 
     # ------------------------------------------------------------------ geometry
     @property
@@ -144,6 +156,7 @@ class RigidBodyMachine:
         height_sigma: float = 1e-3,
         heights_hint: ArrayLike | None = None,
         lasers_hint: ArrayLike | None = None,
+        check_limits: bool = True,
     ) -> ForwardSolution:
         """Forward kinematics: readings -> pose and probe-tip centre.
 
@@ -163,15 +176,32 @@ class RigidBodyMachine:
             Starting values for readings not measured (default: the reference readings).
             With parallel columns and lasers only, the common height of the pivots is not
             observable; the solution then takes the heights nearest the hint.
+        check_limits : bool
+            Check the readings against :attr:`limits` (default).  ``False`` is for analyses
+            that probe the model beyond the machine (simulators, sensitivity studies):
+            nothing is raised for range or consistency, ``converged`` stays truthful and
+            ``residuals`` show any inconsistency.
 
         Returns
         -------
         ForwardSolution
+            ``converged`` is True only where the iteration converged *and* the loop closes
+            to 1e-6 mm (with one kind of reading: also reproducing the measured readings).
 
         Raises
         ------
         InvalidInputError
             No readings, mismatched shapes, non-finite values, non-positive sigma.
+        OutOfRangeError
+            (``check_limits``) A measured reading outside the column travel or laser range,
+            or a reading the solve implies for the other kind outside it (e.g. heights whose
+            pose needs a laser beyond 200 mm).  ``quantity`` names the index, e.g.
+            ``"lasers[4, 1] (laser b)"``; fields ``index``, ``low``, ``high``.
+        InconsistentMeasurementError
+            (``check_limits``) The largest loop-closure residual with the measured readings
+            exceeds ``limits.closure_tolerance``: lasers and heights disagree, or no pose
+            realises the given lasers (e.g. lasers 200, 200, 200).  Fields ``residual``,
+            ``tolerance``, ``index``.
 
         Notes
         -----
@@ -206,6 +236,10 @@ class RigidBodyMachine:
         height_arr = None if heights is None else as_readings(heights, "heights")
         if laser_arr is not None and height_arr is not None and laser_arr.shape != height_arr.shape:
             raise InvalidInputError("heights", f"the shape of lasers {laser_arr.shape}", f"shape {height_arr.shape}")
+        if check_limits and laser_arr is not None:
+            self.limits.check_lasers(laser_arr)
+        if check_limits and height_arr is not None:
+            self.limits.check_heights(height_arr)
         shape = (laser_arr if laser_arr is not None else height_arr).shape  # type: ignore[union-attr]
         lead = shape[:-1]
         count = int(np.prod(lead, dtype=int))
@@ -243,6 +277,18 @@ class RigidBodyMachine:
             state.iterations,
         )
         residuals = solver.closure(geometry, reported)
+        closed = closure_norms(solver.closure(geometry, state)) <= solver.SOLVED_TOLERANCE
+        if laser_arr is None or height_arr is None:  # square system: the measured readings must be met
+            closed &= closure_norms(residuals) <= solver.SOLVED_TOLERANCE
+        if check_limits:
+            measured = " and ".join(n for n, a in (("lasers", laser_arr), ("heights", height_arr)) if a is not None)
+            self.limits.check_closure(residuals.reshape(*lead, 9), what=measured)
+            if laser_arr is None:
+                self.limits.check_lasers(state.lasers.reshape(*lead, 3), context="implied by the heights")
+            if height_arr is None:
+                self.limits.check_heights(
+                    state.heights.reshape(*lead, 3), context="implied by the lasers and the heights hint"
+                )
         tip = np.einsum("kij,j->ki", state.rotation, geometry.tip_center) + state.translation
         return ForwardSolution(
             tip=tip.reshape(*lead, 3),
@@ -251,11 +297,13 @@ class RigidBodyMachine:
             lasers=state.lasers.reshape(*lead, 3),
             heights=state.heights.reshape(*lead, 3),
             residuals=residuals.reshape(*lead, 9),
-            converged=state.converged.reshape(lead),
+            converged=(state.converged & closed).reshape(lead),
             iterations=state.iterations,
         )
 
-    def inverse(self, tip: ArrayLike, *, heights_hint: ArrayLike | None = None) -> InverseSolution:
+    def inverse(
+        self, tip: ArrayLike, *, heights_hint: ArrayLike | None = None, check_limits: bool = True
+    ) -> InverseSolution:
         """Inverse kinematics: probe-tip centre -> heights, lasers and pose.
 
         Solves the nine loop-closure equations plus ``R p + t = tip`` (12 equations,
@@ -267,15 +315,29 @@ class RigidBodyMachine:
             Target probe-tip centres in the machine frame (mm).
         heights_hint : array_like, shape (..., 3) or (3,), optional
             Starting height readings (default: the reference heights).
+        check_limits : bool
+            Refuse targets the machine cannot reach (default).  ``False`` returns the
+            solution of the equations whatever the readings (for analyses beyond the
+            machine); ``converged`` then says whether the equations were solved.
 
         Returns
         -------
         InverseSolution
+            ``converged`` is True only where the loop and the tip equations close to 1e-6 mm.
 
         Raises
         ------
         InvalidInputError
             Wrong shape or non-finite target.
+        OutOfRangeError
+            (``check_limits``) The target is farther from (or closer to) a column's pivot
+            travel than its arm can span within the laser range (``quantity`` "distance of
+            tip[i] from column a"), or the readings that put the tip there lie outside the
+            column travel or laser range (``quantity`` e.g. "heights[2, 0] (column a,
+            needed for the tip)").  Fields ``index``, ``value``, ``low``, ``high``.
+        NoRealSolutionError
+            (``check_limits``) Otherwise no pose of the rigid body puts the tip there (the
+            Newton iteration does not close the equations); field ``index``.
 
         Examples
         --------
@@ -289,26 +351,33 @@ class RigidBodyMachine:
         count = int(np.prod(lead, dtype=int))
         flat_target = target.reshape(count, 3)
         geometry = self.geometry
-        ref = self.forward(lasers=self.reference_lasers, heights_hint=self.reference_heights)
+        if check_limits:
+            check_reach(geometry, self.limits, target)
+        ref = self.forward(lasers=self.reference_lasers, heights_hint=self.reference_heights, check_limits=False)
         hint = np.broadcast_to(
             ref.heights if heights_hint is None else as_readings(heights_hint, "heights_hint"), (*lead, 3)
         ).reshape(count, 3)
         rotation = np.broadcast_to(ref.rotation, (count, 3, 3)).copy()
         translation = flat_target - rotation @ geometry.tip_center
         # readings nearest to the shifted reference pose: joint line vs column line closest points
-        lasers, heights = _closest_readings(geometry, rotation, translation, hint)
+        lasers, heights = solver.closest_readings(geometry, rotation, translation, hint)
         start = solver.PoseState(rotation, translation, lasers, heights, np.zeros(count, bool), 0)
         zeros = np.zeros((count, 3))
         state = solver.solve_pose(
             geometry, start, laser_weight=zeros, height_weight=zeros, laser_target=zeros, height_target=zeros,
             tip_target=flat_target,
         )
+        tip_error = np.linalg.norm(state.rotation @ geometry.tip_center + state.translation - flat_target, axis=1)
+        error = np.maximum(closure_norms(solver.closure(geometry, state)), tip_error)
+        converged = state.converged & (error <= solver.SOLVED_TOLERANCE)
+        if check_limits:
+            _check_inverse(self.limits, target, converged.reshape(lead), error.reshape(lead), state, lead)
         return InverseSolution(
             heights=state.heights.reshape(*lead, 3),
             lasers=state.lasers.reshape(*lead, 3),
             rotation=state.rotation.reshape(*lead, 3, 3),
             translation=state.translation.reshape(*lead, 3),
-            converged=state.converged.reshape(lead),
+            converged=converged.reshape(lead),
             iterations=state.iterations,
         )
 
@@ -358,11 +427,15 @@ class RigidBodyMachine:
             },
             "reference_lasers": self.reference_lasers.tolist(),
             "reference_heights": self.reference_heights.tolist(),
+            "limits": self.limits.to_dict(),
         }
 
     @classmethod
     def from_dict(cls, data: Mapping[str, Any]) -> RigidBodyMachine:
         """Rebuild a machine written by :meth:`to_dict`.
+
+        A document without ``"limits"`` (written before limits existed) gets the default
+        :meth:`MachineLimits.seed` of its reference heights.
 
         Raises
         ------
@@ -381,37 +454,36 @@ class RigidBodyMachine:
                 columns,
                 reference_lasers=data.get("reference_lasers", np.full(3, 100.0)),
                 reference_heights=data.get("reference_heights", np.zeros(3)),
+                limits=None if data.get("limits") is None else MachineLimits.from_dict(data["limits"]),
             )
         except (KeyError, TypeError) as exc:
             expected = "tetrahedron/sliders/columns for arms a, b, c"
             raise InvalidInputError("machine model", expected, repr(exc)) from None
 
 
-def _closest_readings(
-    geometry: solver.Geometry, rotation: FloatArray, translation: FloatArray, hint: FloatArray
-) -> tuple[FloatArray, FloatArray]:
-    """Readings where each moved slider line comes closest to its column line ``(K, 3)`` each."""
-    count = rotation.shape[0]
-    lasers = np.empty((count, 3))
-    heights = np.empty((count, 3))
-    for arm in range(3):
-        origin = np.einsum("kij,j->ki", rotation, geometry.slider_points[arm]) + translation
-        direction = rotation @ geometry.slider_directions[arm]
-        col_dir = geometry.column_directions[arm]
-        col_point = geometry.column_points[arm]
-        # minimise |origin + s d - (col_point + z v)| over s, z
-        cross = direction @ col_dir
-        denom = 1.0 - cross**2
-        diff = col_point - origin
-        s_val = np.where(denom > 1e-12, (diff @ col_dir * -cross + np.einsum("ki,ki->k", diff, direction)) / denom, 0)
-        z_val = np.where(
-            denom > 1e-12,
-            (diff @ col_dir * -1 + cross * np.einsum("ki,ki->k", diff, direction)) / denom,
-            hint[:, arm] * geometry.encoder_scale[arm],
+def _check_inverse(
+    limits: MachineLimits,
+    target: FloatArray,
+    converged: NDArray[np.bool_],
+    error: FloatArray,
+    state: solver.PoseState,
+    lead: tuple[int, ...],
+) -> None:
+    """Raise for targets whose solve failed or whose readings lie outside the limits."""
+    if not np.all(converged):
+        first = tuple(int(k) for k in np.argwhere(~converged)[0]) if lead else ()
+        point = ", ".join(f"{v:.6g}" for v in target[first])
+        failed = int((~converged).sum())
+        exc = NoRealSolutionError(
+            f"inverse kinematics of tip{index_label(first) if first else ''} = ({point}) mm",
+            detail=f"the Newton iteration found no pose that puts the tip there (equations left open by {float(error[first]):.3g} mm)"
+            + (f"; {failed} of {converged.size} targets" if failed > 1 else ""),
         )
-        lasers[:, arm] = (s_val - geometry.laser_offset[arm]) / geometry.laser_scale[arm]
-        heights[:, arm] = z_val / geometry.encoder_scale[arm]
-    return lasers, heights
+        exc.fields.update(index=first, count=failed)
+        exc.index, exc.count = first, failed  # type: ignore[attr-defined]
+        raise exc
+    limits.check_heights(state.heights.reshape(*lead, 3), context="needed for the tip")
+    limits.check_lasers(state.lasers.reshape(*lead, 3), context="needed for the tip")
 
 
 def seed_machine(
@@ -423,6 +495,7 @@ def seed_machine(
     start_of_range: float = START_OF_RANGE,
     reference_lasers: ArrayLike | None = None,
     reference_height: float = 400.0,
+    limits: MachineLimits | None = None,
 ) -> RigidBodyMachine:
     """Rigid-body machine with the seed's geometry: slider lines meeting at the tip.
 
@@ -445,6 +518,9 @@ def seed_machine(
     reference_height : float
         Pivot height of the reference configuration (mm); with explicit
         ``reference_lasers`` it is the starting height only.
+    limits : MachineLimits, optional
+        Default :meth:`MachineLimits.seed` of the reference heights (travel 277.22-727.22 mm
+        for ``reference_height`` 400, lasers 0-200 mm).
 
     Returns
     -------
@@ -481,11 +557,13 @@ def seed_machine(
         Tetrahedron(sliders, tip), columns, reference_lasers=guess, reference_heights=np.full(3, reference_height)
     )
     if reference_lasers is None:  # level pivots at reference_height
-        solved = provisional.forward(heights=np.full(3, reference_height))
+        solved = provisional.forward(heights=np.full(3, reference_height), check_limits=False)
     else:
         solved = provisional.forward(
-            lasers=np.asarray(reference_lasers, dtype=float), heights_hint=np.full(3, reference_height)
+            lasers=np.asarray(reference_lasers, dtype=float), heights_hint=np.full(3, reference_height),
+            check_limits=False,
         )
     return RigidBodyMachine(
-        provisional.tetrahedron, columns, reference_lasers=solved.lasers, reference_heights=solved.heights
+        provisional.tetrahedron, columns, reference_lasers=solved.lasers, reference_heights=solved.heights,
+        limits=limits,
     )
