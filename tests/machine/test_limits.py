@@ -112,10 +112,10 @@ def test_unreachable_lasers_are_out_of_range_or_inconsistent() -> None:
 
 def test_closure_tolerance_separates_consistent_from_inconsistent_readings() -> None:
     inv = SEED.inverse(reference_tip() + np.array([10.0, -15.0, 5.0]))
-    ok = SEED.forward(lasers=inv.lasers + [0.05, 0.0, 0.0], heights=inv.heights)  # the lasers' accuracy
+    ok = SEED.forward(lasers=inv.lasers + np.array([0.05, 0.0, 0.0]), heights=inv.heights)  # the lasers' accuracy
     assert ok.converged and 0.0 < np.abs(ok.residuals).max() < 0.25
     with pytest.raises(InconsistentMeasurementError) as info:
-        SEED.forward(lasers=inv.lasers + [5.0, 0.0, 0.0], heights=inv.heights)
+        SEED.forward(lasers=inv.lasers + np.array([5.0, 0.0, 0.0]), heights=inv.heights)
     assert info.value.residual > 0.25 and "lasers and heights" in info.value.what
 
 
@@ -128,7 +128,7 @@ def test_batch_errors_name_the_offending_index() -> None:
         SEED.forward(heights=heights)
     assert info.value.index == (3, 1, 2) and info.value.quantity.startswith("heights[3, 1, 2] (column c")
     lasers = inv.lasers.copy()
-    lasers[2, 0] += [0.0, 3.0, 0.0]
+    lasers[2, 0, 1] += 3.0
     with pytest.raises(InconsistentMeasurementError) as bad:
         SEED.forward(lasers=lasers, heights=inv.heights)
     assert bad.value.index == (2, 0) and "[2, 0]" in bad.value.what

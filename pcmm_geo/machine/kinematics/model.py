@@ -476,7 +476,8 @@ def _check_inverse(
         failed = int((~converged).sum())
         exc = NoRealSolutionError(
             f"inverse kinematics of tip{index_label(first) if first else ''} = ({point}) mm",
-            detail=f"the Newton iteration found no pose that puts the tip there (equations left open by {float(error[first]):.3g} mm)"
+            detail="the Newton iteration found no pose that puts the tip there "
+            f"(equations left open by {float(error[first]):.3g} mm)"
             + (f"; {failed} of {converged.size} targets" if failed > 1 else ""),
         )
         exc.fields.update(index=first, count=failed)
