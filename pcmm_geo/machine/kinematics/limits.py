@@ -31,7 +31,7 @@ Boundary values are inside (closed intervals); computed readings may exceed a li
 Examples
 --------
 >>> limits = MachineLimits.seed()
->>> limits.laser_range[0].tolist(), [round(v, 4) for v in limits.height_travel[0]]
+>>> limits.laser_range[0].tolist(), limits.height_travel[0].round(4).tolist()
 ([0.0, 200.0], [277.2168, 727.2168])
 >>> try:
 ...     limits.check_lasers([[10.0, 20.0, 30.0], [10.0, 250.0, 30.0]])
@@ -49,7 +49,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from pcmm_geo.errors import InconsistentMeasurementError, InvalidInputError, OutOfRangeError
+from pcmm_geo.errors import InconsistentMeasurementError, InvalidInputError, NoRealSolutionError, OutOfRangeError
 
 __all__ = [
     "BOUNDARY_SLACK",
@@ -59,7 +59,9 @@ __all__ = [
     "PARK_ABOVE_HOME",
     "MachineLimits",
     "arm_spans",
+    "check_inverse",
     "check_reach",
+    "check_readings",
     "closure_norms",
     "index_label",
 ]
@@ -150,7 +152,7 @@ class MachineLimits:
 
         Examples
         --------
-        >>> [round(v, 4) for v in MachineLimits.seed([0.0, 0.0, 10.0]).height_travel[2]]
+        >>> MachineLimits.seed([0.0, 0.0, 10.0]).height_travel[2].round(4).tolist()
         [-112.7832, 337.2168]
         """
         heights = np.asarray(reference_heights, dtype=float)
@@ -213,11 +215,11 @@ class MachineLimits:
         ``"heights[4, 1] (column b)"``, and carries ``index`` (a tuple) and ``count`` (how
         many readings are outside).
         """
-        _check(np.asarray(heights, dtype=float), self.height_travel, name, "column", context)
+        check_readings(heights, self.height_travel, name, "column", context)
 
     def check_lasers(self, lasers: ArrayLike, *, name: str = "lasers", context: str = "") -> None:
         """Raise :class:`OutOfRangeError` for the first laser reading outside the measuring range."""
-        _check(np.asarray(lasers, dtype=float), self.laser_range, name, "laser", context)
+        check_readings(lasers, self.laser_range, name, "laser", context)
 
     def check_closure(self, residuals: ArrayLike, *, what: str, detail: str = "") -> None:
         """Raise :class:`InconsistentMeasurementError` where a closure residual exceeds the tolerance.
@@ -260,7 +262,22 @@ def _attach(error: Exception, **fields: Any) -> None:
         setattr(error, key, value)
 
 
-def _check(values: FloatArray, interval: FloatArray, name: str, part: str, context: str) -> None:
+def check_readings(values: ArrayLike, interval: ArrayLike, name: str, part: str, context: str = "") -> None:
+    """Raise :class:`OutOfRangeError` for the first reading ``(..., 3)`` outside ``[low, high]`` of its arm.
+
+    ``interval`` is ``(2,)`` or one row per arm ``(3, 2)``; ``part`` is ``"laser"`` or
+    ``"column"`` (used in the message).  Fields ``index`` (tuple) and ``count`` are attached.
+
+    Examples
+    --------
+    >>> try:
+    ...     check_readings([10.0, 20.0, -3.0], [0.0, 200.0], "lasers", "laser")
+    ... except OutOfRangeError as exc:
+    ...     print(exc)
+    lasers[2] (laser c): expected a value in [0.0, 200.0] mm, got -3.0 mm
+    """
+    values = np.asarray(values, dtype=float)
+    interval = np.broadcast_to(np.asarray(interval, dtype=float), (3, 2))
     low, high = interval[:, 0], interval[:, 1]
     bad = (values < low - BOUNDARY_SLACK) | (values > high + BOUNDARY_SLACK)
     if not np.any(bad):
@@ -313,7 +330,7 @@ def check_reach(geometry: Any, limits: MachineLimits, tips: ArrayLike) -> None:
     ...     check_reach(m.geometry, m.limits, [2000.0, 0.0, 90.0])
     ... except OutOfRangeError as exc:
     ...     print(exc.quantity, round(exc.value, 1), round(exc.high, 2))
-    distance of tip from column a 2268.2 554.02
+    distance of tip from column a 2275.9 554.02
     """
     points = np.asarray(tips, dtype=float)
     lead = points.shape[:-1]
@@ -343,3 +360,39 @@ def check_reach(geometry: Any, limits: MachineLimits, tips: ArrayLike) -> None:
         _attach(error, index=first, count=int(bad.sum()), arm=_ARMS[arm])
         raise error
 
+
+def check_inverse(
+    limits: MachineLimits,
+    target: FloatArray,
+    converged: NDArray[np.bool_],
+    error: FloatArray,
+    state: Any,
+    lead: tuple[int, ...],
+) -> None:
+    """Raise for inverse solutions that failed or need readings outside the limits.
+
+    ``converged`` and ``error`` (largest open equation, mm) have the leading shape ``lead``
+    of the targets ``(..., 3)``; ``state`` holds the solved ``heights`` and ``lasers`` ``(K, 3)``.
+
+    Raises
+    ------
+    NoRealSolutionError
+        A target whose equations were not closed (field ``index``).
+    OutOfRangeError
+        A needed height or laser reading outside the limits.
+    """
+    if not np.all(converged):
+        first = tuple(int(k) for k in np.argwhere(~converged)[0]) if lead else ()
+        point = ", ".join(f"{v:.6g}" for v in target[first])
+        failed = int((~converged).sum())
+        exc = NoRealSolutionError(
+            f"inverse kinematics of tip{index_label(first) if first else ''} = ({point}) mm",
+            detail="the Newton iteration found no pose that puts the tip there "
+            f"(equations left open by {float(error[first]):.3g} mm)"
+            + (f"; {failed} of {converged.size} targets" if failed > 1 else ""),
+        )
+        exc.fields.update(index=first, count=failed)
+        exc.index, exc.count = first, failed  # type: ignore[attr-defined]
+        raise exc
+    limits.check_heights(state.heights.reshape(*lead, 3), context="needed for the tip")
+    limits.check_lasers(state.lasers.reshape(*lead, 3), context="needed for the tip")

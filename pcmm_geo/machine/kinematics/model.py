@@ -24,9 +24,9 @@ Examples
 >>> import numpy as np
 >>> from pcmm_geo.machine.kinematics.model import RigidBodyMachine
 >>> machine = RigidBodyMachine.from_dpkm()
->>> inv = machine.inverse([0.0, 0.0, -380.0])
+>>> inv = machine.inverse([0.0, 0.0, 90.0])
 >>> fwd = machine.forward(lasers=inv.lasers, heights=inv.heights)
->>> bool(np.allclose(fwd.tip, [0.0, 0.0, -380.0], atol=1e-9))
+>>> bool(np.allclose(fwd.tip, [0.0, 0.0, 90.0], atol=1e-9))
 True
 """
 
@@ -40,17 +40,10 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from pcmm_geo.errors import InvalidInputError, NoRealSolutionError
+from pcmm_geo.errors import InvalidInputError
 from pcmm_geo.machine.kinematics import _pose_solver as solver
-from pcmm_geo.machine.kinematics.dpkm import (
-    APPENDIX_D_COLUMN_POINTS,
-    PAIRS,
-    START_OF_RANGE,
-    TABLE_3_1_BETA_DEG,
-    TABLE_3_1_DEAD_DISTANCE,
-    tetrahedron_directions,
-)
-from pcmm_geo.machine.kinematics.limits import MachineLimits, check_reach, closure_norms, index_label
+from pcmm_geo.machine.kinematics.dpkm import START_OF_RANGE, seed_parts
+from pcmm_geo.machine.kinematics.limits import MachineLimits, check_inverse, check_reach, closure_norms
 from pcmm_geo.machine.kinematics.model_parts import (
     ARMS,
     ColumnLine,
@@ -177,10 +170,9 @@ class RigidBodyMachine:
             With parallel columns and lasers only, the common height of the pivots is not
             observable; the solution then takes the heights nearest the hint.
         check_limits : bool
-            Check the readings against :attr:`limits` (default).  ``False`` is for analyses
-            that probe the model beyond the machine (simulators, sensitivity studies):
-            nothing is raised for range or consistency, ``converged`` stays truthful and
-            ``residuals`` show any inconsistency.
+            Check the readings against :attr:`limits` (default).  ``False`` (analyses beyond
+            the machine: simulators, finite differences) raises nothing for range or
+            consistency; ``converged`` and ``residuals`` stay truthful.
 
         Returns
         -------
@@ -193,15 +185,13 @@ class RigidBodyMachine:
         InvalidInputError
             No readings, mismatched shapes, non-finite values, non-positive sigma.
         OutOfRangeError
-            (``check_limits``) A measured reading outside the column travel or laser range,
-            or a reading the solve implies for the other kind outside it (e.g. heights whose
-            pose needs a laser beyond 200 mm).  ``quantity`` names the index, e.g.
-            ``"lasers[4, 1] (laser b)"``; fields ``index``, ``low``, ``high``.
+            A measured reading outside the column travel or laser range, or one the solve
+            implies (heights whose pose needs a laser beyond 200 mm).  ``quantity`` names the
+            index, e.g. ``"lasers[4, 1] (laser b)"``; fields ``index``, ``low``, ``high``.
         InconsistentMeasurementError
-            (``check_limits``) The largest loop-closure residual with the measured readings
-            exceeds ``limits.closure_tolerance``: lasers and heights disagree, or no pose
-            realises the given lasers (e.g. lasers 200, 200, 200).  Fields ``residual``,
-            ``tolerance``, ``index``.
+            The largest loop-closure residual with the measured readings exceeds
+            ``limits.closure_tolerance`` (lasers and heights disagree, or no pose realises
+            the lasers, e.g. 200, 200, 200).  Fields ``residual``, ``tolerance``, ``index``.
 
         Notes
         -----
@@ -221,7 +211,7 @@ class RigidBodyMachine:
         Examples
         --------
         >>> machine = RigidBodyMachine.from_dpkm()
-        >>> target = [[10.0, -20.0, -360.0], [-30.0, 25.0, -400.0]]
+        >>> target = [[10.0, -20.0, 110.0], [-30.0, 25.0, 70.0]]
         >>> inv = machine.inverse(target)
         >>> sol = machine.forward(lasers=inv.lasers, heights=inv.heights)
         >>> bool(np.allclose(sol.tip, target, atol=1e-9)), sol.residuals.shape
@@ -330,19 +320,18 @@ class RigidBodyMachine:
         InvalidInputError
             Wrong shape or non-finite target.
         OutOfRangeError
-            (``check_limits``) The target is farther from (or closer to) a column's pivot
-            travel than its arm can span within the laser range (``quantity`` "distance of
-            tip[i] from column a"), or the readings that put the tip there lie outside the
-            column travel or laser range (``quantity`` e.g. "heights[2, 0] (column a,
-            needed for the tip)").  Fields ``index``, ``value``, ``low``, ``high``.
+            The target is farther from (or nearer to) a column's travel than the arm spans
+            within the laser range ("distance of tip[i] from column a", see
+            :func:`~pcmm_geo.machine.kinematics.limits.check_reach`), or the readings that
+            put the tip there lie outside the limits ("heights[2, 0] (column a, needed for
+            the tip)").  Fields ``index``, ``value``, ``low``, ``high``.
         NoRealSolutionError
-            (``check_limits``) Otherwise no pose of the rigid body puts the tip there (the
-            Newton iteration does not close the equations); field ``index``.
+            The Newton iteration found no pose for the target; field ``index``.
 
         Examples
         --------
         >>> machine = RigidBodyMachine.from_dpkm()
-        >>> inv = machine.inverse([5.0, 5.0, -370.0])
+        >>> inv = machine.inverse([5.0, 5.0, 100.0])
         >>> inv.heights.shape, bool(inv.converged)
         ((3,), True)
         """
@@ -371,7 +360,7 @@ class RigidBodyMachine:
         error = np.maximum(closure_norms(solver.closure(geometry, state)), tip_error)
         converged = state.converged & (error <= solver.SOLVED_TOLERANCE)
         if check_limits:
-            _check_inverse(self.limits, target, converged.reshape(lead), error.reshape(lead), state, lead)
+            check_inverse(self.limits, target, converged.reshape(lead), error.reshape(lead), state, lead)
         return InverseSolution(
             heights=state.heights.reshape(*lead, 3),
             lasers=state.lasers.reshape(*lead, 3),
@@ -461,32 +450,6 @@ class RigidBodyMachine:
             raise InvalidInputError("machine model", expected, repr(exc)) from None
 
 
-def _check_inverse(
-    limits: MachineLimits,
-    target: FloatArray,
-    converged: NDArray[np.bool_],
-    error: FloatArray,
-    state: solver.PoseState,
-    lead: tuple[int, ...],
-) -> None:
-    """Raise for targets whose solve failed or whose readings lie outside the limits."""
-    if not np.all(converged):
-        first = tuple(int(k) for k in np.argwhere(~converged)[0]) if lead else ()
-        point = ", ".join(f"{v:.6g}" for v in target[first])
-        failed = int((~converged).sum())
-        exc = NoRealSolutionError(
-            f"inverse kinematics of tip{index_label(first) if first else ''} = ({point}) mm",
-            detail="the Newton iteration found no pose that puts the tip there "
-            f"(equations left open by {float(error[first]):.3g} mm)"
-            + (f"; {failed} of {converged.size} targets" if failed > 1 else ""),
-        )
-        exc.fields.update(index=first, count=failed)
-        exc.index, exc.count = first, failed  # type: ignore[attr-defined]
-        raise exc
-    limits.check_heights(state.heights.reshape(*lead, 3), context="needed for the tip")
-    limits.check_lasers(state.lasers.reshape(*lead, 3), context="needed for the tip")
-
-
 def seed_machine(
     *,
     dead_distance: Mapping[str, float] | None = None,
@@ -515,7 +478,7 @@ def seed_machine(
         Laser start of range (60 mm).
     reference_lasers : array_like, shape (3,), optional
         Laser readings of the reference configuration.  Default: the configuration with
-        all three pivots level at ``reference_height`` (the middle of the working volume).
+        all three pivots level at ``reference_height`` (the park position, see ``limits``).
     reference_height : float
         Pivot height of the reference configuration (mm); with explicit
         ``reference_lasers`` it is the starting height only.
@@ -533,29 +496,12 @@ def seed_machine(
     >>> sorted(m.columns), round(float(m.reference_heights.mean()), 6)
     (['a', 'b', 'c'], 400.0)
     """
-    dead = dict(TABLE_3_1_DEAD_DISTANCE if dead_distance is None else dead_distance)
-    beta = dict(TABLE_3_1_BETA_DEG if beta_deg is None else beta_deg)
-    points = dict(APPENDIX_D_COLUMN_POINTS if column_points is None else column_points)
-    slopes = {arm: (0.0, 0.0) for arm in ARMS} if column_slopes is None else dict(column_slopes)
-    directions = tetrahedron_directions(beta)
-    tip = np.zeros(3)
-    sliders = {
-        arm: SliderLine(tip, directions[k], 1.0, start_of_range + float(dead[arm])) for k, arm in enumerate(ARMS)
-    }
-    columns = {}
-    for arm in ARMS:
-        xyz = np.zeros(3)
-        given = np.asarray(points[arm], dtype=float)
-        xyz[: given.size] = given
-        slope = np.asarray(slopes[arm], dtype=float)
-        along = np.array([slope[0], slope[1], 1.0])
-        columns[arm] = ColumnLine(xyz, along, float(np.linalg.norm(along)))
-    base = [np.linalg.norm(columns[i].point[:2] - columns[j].point[:2]) for i, j in ("ab", "bc", "ca")]
-    chord = [2.0 * np.sin(np.radians(beta[pair]) / 2.0) for pair in PAIRS]
-    level_length = float(np.mean(base) / np.mean(chord))
-    guess = np.array([level_length - sliders[arm].laser_offset for arm in ARMS])
+    tetrahedron, columns, guess = seed_parts(
+        dead_distance=dead_distance, beta_deg=beta_deg, column_points=column_points, column_slopes=column_slopes,
+        start_of_range=start_of_range,
+    )
     provisional = RigidBodyMachine(
-        Tetrahedron(sliders, tip), columns, reference_lasers=guess, reference_heights=np.full(3, reference_height)
+        tetrahedron, columns, reference_lasers=guess, reference_heights=np.full(3, reference_height)
     )
     if reference_lasers is None:  # level pivots at reference_height
         solved = provisional.forward(heights=np.full(3, reference_height), check_limits=False)
