@@ -100,7 +100,7 @@ def test_unchecked_inverse_of_an_unreachable_target_never_says_converged() -> No
 def test_unreachable_lasers_are_out_of_range_or_inconsistent() -> None:
     with pytest.raises(OutOfRangeError) as info:
         SEED.forward(lasers=[250.0, 250.0, 250.0])
-    assert info.value.quantity.startswith("lasers[0] (laser a)") and info.value.high == 200.0
+    assert info.value.quantity.startswith("lasers[0] (laser a measuring range)") and info.value.high == 200.0
     # in range, but no pose has all three arms this long: the solve would move the lasers by ~150 mm
     with pytest.raises(InconsistentMeasurementError) as bad:
         SEED.forward(lasers=[200.0, 200.0, 200.0])
@@ -207,8 +207,8 @@ def run_cli(*args: str) -> subprocess.CompletedProcess[str]:
 @pytest.mark.parametrize(
     ("args", "text"),
     [
-        (["forward", "--heights", "5000", "5000", "5000"], "heights[0] (column a) [3 readings outside]: expected a "
-                                                           "value in [277.216796875, 727.216796875] mm"),
+        (["forward", "--heights", "5000", "5000", "5000"],
+         "heights[0] (column a travel) [3 readings outside]: expected a value in [277.216796875, 727.216796875] mm"),
         (["forward", "--lasers", "250", "250", "250"], "expected a value in [0.0, 200.0] mm, got 250.0 mm"),
         (["forward", "--lasers", "200", "200", "200"], "exceeds the tolerance 0.25 mm"),
         (["inverse", "--tip", "2000", "0", "90"], "distance of tip from column a: expected a value in "
@@ -220,3 +220,15 @@ def test_cli_refuses_with_exit_2_and_one_line(args: list[str], text: str) -> Non
     assert proc.returncode == 2 and proc.stdout == ""
     lines = proc.stderr.strip().splitlines()
     assert len(lines) == 1 and text in lines[0], proc.stderr
+
+
+def test_dpkm_arm_lengths_refuse_lasers_outside_the_measuring_range() -> None:
+    from pcmm_geo.machine.kinematics.dpkm import arm_lengths
+
+    lasers = np.array([[0.0, 100.0, 200.0], [10.0, 200.5, 30.0]])
+    with pytest.raises(OutOfRangeError) as info:
+        arm_lengths(lasers, TABLE_3_1_DEAD_DISTANCE)
+    assert info.value.index == (1, 1) and info.value.high == 200.0
+    # the ends of the range are inside; the check can be switched off for analyses
+    np.testing.assert_allclose(arm_lengths(lasers[0], TABLE_3_1_DEAD_DISTANCE), [354.02, 449.90, 549.40], atol=1e-12)
+    assert arm_lengths(lasers, TABLE_3_1_DEAD_DISTANCE, measuring_range=None)[1, 1] == pytest.approx(550.40)

@@ -147,7 +147,7 @@ def arm_lengths(
     ------
     OutOfRangeError
         A reading outside the measuring range; ``quantity`` names its index, e.g.
-        ``"lasers[7, 2] (laser c)"``.
+        ``"lasers[7, 2] (laser c measuring range)"``.
 
     Examples
     --------

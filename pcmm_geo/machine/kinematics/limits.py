@@ -37,7 +37,7 @@ Examples
 ...     limits.check_lasers([[10.0, 20.0, 30.0], [10.0, 250.0, 30.0]])
 ... except OutOfRangeError as exc:
 ...     print(exc.quantity, exc.high, exc.index)
-lasers[1, 1] (laser b) 200.0 (1, 1)
+lasers[1, 1] (laser b measuring range) 200.0 (1, 1)
 """
 
 from __future__ import annotations
@@ -212,7 +212,7 @@ class MachineLimits:
         """Raise :class:`OutOfRangeError` for the first height reading outside the column travel.
 
         ``heights`` has shape ``(..., 3)``; the error's ``quantity`` names the index, e.g.
-        ``"heights[4, 1] (column b)"``, and carries ``index`` (a tuple) and ``count`` (how
+        ``"heights[4, 1] (column b travel)"``, and carries ``index`` (a tuple) and ``count`` (how
         many readings are outside).
         """
         check_readings(heights, self.height_travel, name, "column", context)
@@ -274,7 +274,7 @@ def check_readings(values: ArrayLike, interval: ArrayLike, name: str, part: str,
     ...     check_readings([10.0, 20.0, -3.0], [0.0, 200.0], "lasers", "laser")
     ... except OutOfRangeError as exc:
     ...     print(exc)
-    lasers[2] (laser c): expected a value in [0.0, 200.0] mm, got -3.0 mm
+    lasers[2] (laser c measuring range): expected a value in [0.0, 200.0] mm, got -3.0 mm
     """
     values = np.asarray(values, dtype=float)
     interval = np.broadcast_to(np.asarray(interval, dtype=float), (3, 2))
@@ -284,7 +284,8 @@ def check_readings(values: ArrayLike, interval: ArrayLike, name: str, part: str,
         return
     first = tuple(int(k) for k in np.argwhere(bad)[0])
     arm = first[-1]
-    quantity = f"{name}{index_label(first)} ({part} {_ARMS[arm]}{', ' + context if context else ''})"
+    kind = {"column": " travel", "laser": " measuring range"}.get(part, "")
+    quantity = f"{name}{index_label(first)} ({part} {_ARMS[arm]}{kind}{', ' + context if context else ''})"
     if int(bad.sum()) > 1:
         quantity += f" [{int(bad.sum())} readings outside]"
     error = OutOfRangeError(

@@ -187,7 +187,7 @@ class RigidBodyMachine:
         OutOfRangeError
             A measured reading outside the column travel or laser range, or one the solve
             implies (heights whose pose needs a laser beyond 200 mm).  ``quantity`` names the
-            index, e.g. ``"lasers[4, 1] (laser b)"``; fields ``index``, ``low``, ``high``.
+            index, e.g. ``"lasers[4, 1] (laser b measuring range)"``; fields ``index``, ``low``, ``high``.
         InconsistentMeasurementError
             The largest loop-closure residual with the measured readings exceeds
             ``limits.closure_tolerance`` (lasers and heights disagree, or no pose realises
@@ -323,8 +323,8 @@ class RigidBodyMachine:
             The target is farther from (or nearer to) a column's travel than the arm spans
             within the laser range ("distance of tip[i] from column a", see
             :func:`~pcmm_geo.machine.kinematics.limits.check_reach`), or the readings that
-            put the tip there lie outside the limits ("heights[2, 0] (column a, needed for
-            the tip)").  Fields ``index``, ``value``, ``low``, ``high``.
+            put the tip there lie outside the limits ("heights[2, 0] (column a travel,
+            needed for the tip)").  Fields ``index``, ``value``, ``low``, ``high``.
         NoRealSolutionError
             The Newton iteration found no pose for the target; field ``index``.
 
