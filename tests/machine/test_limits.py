@@ -182,7 +182,9 @@ def test_limits_serialise_with_the_machine_and_old_files_get_the_default() -> No
     assert again.limits == custom
     old = machine.to_dict()
     del old["limits"]
-    assert RigidBodyMachine.from_dict(old).limits == MachineLimits.seed(SEED.reference_heights)
+    assert RigidBodyMachine.from_dict(old).limits == MachineLimits.seed()
+    # calibration files wrote their machine with placeholder reference heights 0: same default
+    assert RigidBodyMachine.from_dict({**old, "reference_heights": [0.0, 0.0, 0.0]}).limits == MachineLimits.seed()
     broken = {**machine.to_dict(), "limits": {"height_travel": [5.0, 1.0], "laser_range": [0.0, 200.0]}}
     with pytest.raises(InvalidInputError, match="height_travel"):
         RigidBodyMachine.from_dict(broken)

@@ -73,28 +73,28 @@ def test_from_dpkm_reproduces_table_3_1_geometry() -> None:
 def test_forward_recovers_constructed_pose_both_readings() -> None:
     base, rotations, translations, lasers, pivots, tips = constructed_case()
     # one machine per sample is not needed: give every column the same direction per arm and place its
-    # foot so the known pivot sits at height reading 250
+    # foot so the known pivot sits at height reading 400 (inside the seed's column travel)
     for k in range(3):
         columns = {
             arm: ColumnLine(
-                pivots[k, i] - 250.0 * 1.01 * base.columns[arm].direction, base.columns[arm].direction, 1.01
+                pivots[k, i] - 400.0 * 1.01 * base.columns[arm].direction, base.columns[arm].direction, 1.01
             )
             for i, arm in enumerate(ARMS)
         }
-        machine = RigidBodyMachine(base.tetrahedron, columns, base.reference_lasers, np.full(3, 250.0))
-        sol = machine.forward(lasers=lasers[k], heights=[250.0, 250.0, 250.0])
+        machine = RigidBodyMachine(base.tetrahedron, columns, base.reference_lasers, np.full(3, 400.0))
+        sol = machine.forward(lasers=lasers[k], heights=[400.0, 400.0, 400.0])
         assert sol.converged
         np.testing.assert_allclose(sol.tip, tips[k], atol=1e-9)
         np.testing.assert_allclose(sol.rotation, rotations[k], atol=1e-12)
         np.testing.assert_allclose(sol.translation, translations[k], atol=1e-9)
         assert np.abs(sol.residuals).max() < 1e-9
         # heights alone and lasers alone (columns inclined, so the common height is observable)
-        by_heights = machine.forward(heights=[250.0, 250.0, 250.0], lasers_hint=lasers[k] + 3.0)
+        by_heights = machine.forward(heights=[400.0, 400.0, 400.0], lasers_hint=lasers[k] + 3.0)
         np.testing.assert_allclose(by_heights.tip, tips[k], atol=1e-9)
         np.testing.assert_allclose(by_heights.lasers, lasers[k], atol=1e-9)
-        by_lasers = machine.forward(lasers=lasers[k], heights_hint=[252.0, 248.0, 251.0])
+        by_lasers = machine.forward(lasers=lasers[k], heights_hint=[402.0, 398.0, 401.0])
         np.testing.assert_allclose(by_lasers.tip, tips[k], atol=1e-7)
-        np.testing.assert_allclose(by_lasers.heights, 250.0, atol=1e-7)
+        np.testing.assert_allclose(by_lasers.heights, 400.0, atol=1e-7)
 
 
 def test_inverse_satisfies_closure_equations_over_working_cube() -> None:

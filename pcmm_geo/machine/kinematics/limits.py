@@ -9,9 +9,12 @@ every reading it is given or computes against it:
   450 mm* (thesis 3.1).  The stages home at the bottom (Appendix A step 14) and park at
   *247 500 microsteps* (Appendix A step 20), which is ``247500 * 6.35 mm / 12800`` =
   122.78 mm above home (T-LSR450B: 6.35 mm lead, 12 800 microsteps per turn,
-  docs/protocols.md section 1).  The model's reference heights are the park position (the
-  acquisition simulator maps them so), hence the default travel of column ``i`` is
-  ``[reference_height_i - 122.78, reference_height_i + 327.22]`` in height-reading units;
+  docs/protocols.md section 1).  In the seed's height frame (height reading = pivot ``z``)
+  the pivots stand near 400 mm at the start position (Appendix E's absolute heights
+  381-401 mm; :func:`~pcmm_geo.machine.kinematics.model.seed_machine` and the acquisition
+  simulator put the park position at 400 mm), hence the default travel
+  ``[400 - 122.78, 400 + 327.22]`` = 277.22-727.22 mm for every column.  A machine whose
+  height readings use another datum needs its own :class:`MachineLimits`;
 * **laser measuring range** -- the optoNCDT sensors (ILD1302 on arms a and b, ILD1420 on arm
   c, thesis Appendix A) have a *200 mm measuring range* (thesis 3.1) that starts *60 mm*
   from the sensor (start of measuring range, thesis 5.3 and Appendix D line 37).  The reading
@@ -144,20 +147,23 @@ class MachineLimits:
 
     # ------------------------------------------------------------------ construction
     @classmethod
-    def seed(cls, reference_heights: ArrayLike = (400.0, 400.0, 400.0)) -> MachineLimits:
-        """The seed machine's limits with the reference heights at the park position.
+    def seed(cls, park_heights: ArrayLike = (400.0, 400.0, 400.0)) -> MachineLimits:
+        """The seed machine's limits, with the park position at ``park_heights``.
 
         Travel ``[h - 122.78, h + 327.22]`` per column (450 mm, park 247 500 microsteps above
-        home), lasers ``[0, 200]`` mm, closure tolerance 0.25 mm (module notes).
+        home), lasers ``[0, 200]`` mm, closure tolerance 0.25 mm (module notes).  The default
+        park heights (400 mm) are the seed's height frame; this is the default of every
+        :class:`~pcmm_geo.machine.kinematics.model.RigidBodyMachine` and of machine files
+        written before limits existed.
 
         Examples
         --------
         >>> MachineLimits.seed([0.0, 0.0, 10.0]).height_travel[2].round(4).tolist()
         [-112.7832, 337.2168]
         """
-        heights = np.asarray(reference_heights, dtype=float)
+        heights = np.asarray(park_heights, dtype=float)
         if heights.shape != (3,) or not np.all(np.isfinite(heights)):
-            raise InvalidInputError("reference_heights", "3 finite heights (mm)", repr(reference_heights))
+            raise InvalidInputError("park_heights", "3 finite heights (mm)", repr(park_heights))
         low = heights - PARK_ABOVE_HOME
         return cls(np.column_stack([low, low + COLUMN_TRAVEL]))
 

@@ -92,15 +92,15 @@ class RigidBodyMachine:
     limits : MachineLimits
         Column travel, laser measuring range and closure tolerance
         (:mod:`~pcmm_geo.machine.kinematics.limits`).  Default (``None`` given):
-        :meth:`MachineLimits.seed` of the reference heights -- 450 mm travel with the
-        reference heights at the park position, lasers 0-200 mm, closure 0.25 mm.
+        :meth:`MachineLimits.seed` -- the seed's height frame: 450 mm travel from 277.22 to
+        727.22 mm (park position at 400 mm), lasers 0-200 mm, closure tolerance 0.25 mm.
     """
 
     tetrahedron: Tetrahedron
     columns: Mapping[str, ColumnLine]
     reference_lasers: FloatArray = field(default_factory=lambda: np.full(3, 100.0))
     reference_heights: FloatArray = field(default_factory=lambda: np.zeros(3))
-    limits: MachineLimits = None  # type: ignore[assignment]  # None -> MachineLimits.seed(reference_heights)
+    limits: MachineLimits = None  # type: ignore[assignment]  # None -> MachineLimits.seed()
 
     def __post_init__(self) -> None:
         check_arm_keys(self.columns, "columns")
@@ -108,7 +108,7 @@ class RigidBodyMachine:
         object.__setattr__(self, "reference_lasers", as_vector3(self.reference_lasers, "reference_lasers"))
         object.__setattr__(self, "reference_heights", as_vector3(self.reference_heights, "reference_heights"))
         if self.limits is None:
-            object.__setattr__(self, "limits", MachineLimits.seed(self.reference_heights))
+            object.__setattr__(self, "limits", MachineLimits.seed())
         elif not isinstance(self.limits, MachineLimits):
             raise InvalidInputError("limits", "a MachineLimits or None", type(self.limits).__name__)
 
@@ -424,7 +424,7 @@ class RigidBodyMachine:
         """Rebuild a machine written by :meth:`to_dict`.
 
         A document without ``"limits"`` (written before limits existed) gets the default
-        :meth:`MachineLimits.seed` of its reference heights.
+        :meth:`MachineLimits.seed` (the seed's height frame).
 
         Raises
         ------
@@ -483,8 +483,8 @@ def seed_machine(
         Pivot height of the reference configuration (mm); with explicit
         ``reference_lasers`` it is the starting height only.
     limits : MachineLimits, optional
-        Default :meth:`MachineLimits.seed` of the reference heights (travel 277.22-727.22 mm
-        for ``reference_height`` 400, lasers 0-200 mm).
+        Default :meth:`MachineLimits.seed` (travel 277.22-727.22 mm, lasers 0-200 mm); pass
+        ``MachineLimits.seed([h] * 3)`` when ``reference_height`` h is the park position.
 
     Returns
     -------
