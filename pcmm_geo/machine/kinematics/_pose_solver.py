@@ -119,6 +119,22 @@ def closure(geometry: Geometry, state: PoseState) -> FloatArray:
     return (moved - pivots_in_machine(geometry, state.heights)).reshape(-1, 9)
 
 
+def kabsch_start(geometry: Geometry, lasers: FloatArray, heights: FloatArray) -> PoseState:
+    """Starting pose ``(K,)``: the rigid fit of the joints for ``lasers`` onto the pivots for ``heights``."""
+    rotation, translation = kabsch(joints_in_tetrahedron(geometry, lasers), pivots_in_machine(geometry, heights))
+    return PoseState(rotation, translation, lasers.copy(), heights.copy(), np.zeros(len(lasers), bool), 0)
+
+
+def open_equations(geometry: Geometry, state: PoseState, tip_target: FloatArray | None = None) -> FloatArray:
+    """Largest residual of the hard equations per sample ``(K,)`` in mm: the three loop closures
+    (distance joint-pivot per arm) and, with ``tip_target`` ``(K, 3)``, the tip equation."""
+    loops = np.linalg.norm(closure(geometry, state).reshape(-1, 3, 3), axis=-1).max(axis=-1)
+    if tip_target is None:
+        return loops
+    tip = np.einsum("kij,j->ki", state.rotation, geometry.tip_center) + state.translation
+    return np.maximum(loops, np.linalg.norm(tip - tip_target, axis=-1))
+
+
 def solve_pose(
     geometry: Geometry,
     start: PoseState,

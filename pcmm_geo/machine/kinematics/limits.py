@@ -227,6 +227,26 @@ class MachineLimits:
         """Raise :class:`OutOfRangeError` for the first laser reading outside the measuring range."""
         check_readings(lasers, self.laser_range, name, "laser", context)
 
+    def check_readings(self, lasers: ArrayLike | None, heights: ArrayLike | None) -> None:
+        """Check measured laser and height readings ``(..., 3)`` (either may be None)."""
+        if lasers is not None:
+            self.check_lasers(lasers)
+        if heights is not None:
+            self.check_heights(heights)
+
+    def check_solution(self, residuals: ArrayLike, lasers: ArrayLike | None, heights: ArrayLike | None) -> None:
+        """Check a forward solution: closure of the measured readings, then the implied ones.
+
+        ``lasers`` / ``heights`` are the *solved* readings of the kind that was **not**
+        measured, ``None`` for the kind that was (at least one is None).
+        """
+        measured = " and ".join(name for name, implied in (("lasers", lasers), ("heights", heights)) if implied is None)
+        self.check_closure(residuals, what=measured)
+        if lasers is not None:
+            self.check_lasers(lasers, context="implied by the heights")
+        if heights is not None:
+            self.check_heights(heights, context="implied by the lasers and the heights hint")
+
     def check_closure(self, residuals: ArrayLike, *, what: str, detail: str = "") -> None:
         """Raise :class:`InconsistentMeasurementError` where a closure residual exceeds the tolerance.
 

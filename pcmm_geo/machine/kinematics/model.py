@@ -177,8 +177,8 @@ class RigidBodyMachine:
         Returns
         -------
         ForwardSolution
-            ``converged`` is True only where the iteration converged *and* the loop closes
-            to 1e-6 mm (with one kind of reading: also reproducing the measured readings).
+            ``converged`` only where the loops close to 1e-6 mm with the solved readings
+            (with one kind of reading also with the measured ones).
 
         Raises
         ------
@@ -186,8 +186,8 @@ class RigidBodyMachine:
             No readings, mismatched shapes, non-finite values, non-positive sigma.
         OutOfRangeError
             A measured reading outside the column travel or laser range, or one the solve
-            implies (heights whose pose needs a laser beyond 200 mm).  ``quantity`` names the
-            index, e.g. ``"lasers[4, 1] (laser b measuring range)"``; fields ``index``, ``low``, ``high``.
+            implies (heights whose pose needs a laser beyond 200 mm).  ``quantity`` names
+            the index, e.g. ``"lasers[4, 1] (laser b measuring range)"``; fields ``index``.
         InconsistentMeasurementError
             The largest loop-closure residual with the measured readings exceeds
             ``limits.closure_tolerance`` (lasers and heights disagree, or no pose realises
@@ -203,10 +203,9 @@ class RigidBodyMachine:
         two-fold branch (tetrahedron tilted one way or its mirror).  ``heights_hint`` picks
         the branch and the datum; ``converged`` is False where the lasers are blind.
 
-        *Noise.*  Errors grow linearly with reading noise, as the first-order Jacobian
-        predicts (see :mod:`pcmm_geo.machine.analysis.sensitivity`).  Seed geometry, 100 mm cube:
-        height noise ``sigma`` gives an RMS tip error of about ``1.5 sigma`` (3-D); laser
-        noise is amplified about 4x (median, lasers-only) and without bound near level pivots.
+        *Noise* grows linearly, as the Jacobian predicts (:mod:`pcmm_geo.machine.analysis.sensitivity`):
+        seed geometry, 100 mm cube, about ``1.5 sigma`` RMS tip error for height noise, laser
+        noise amplified about 4x (median, lasers only) and without bound near level pivots.
 
         Examples
         --------
@@ -226,10 +225,8 @@ class RigidBodyMachine:
         height_arr = None if heights is None else as_readings(heights, "heights")
         if laser_arr is not None and height_arr is not None and laser_arr.shape != height_arr.shape:
             raise InvalidInputError("heights", f"the shape of lasers {laser_arr.shape}", f"shape {height_arr.shape}")
-        if check_limits and laser_arr is not None:
-            self.limits.check_lasers(laser_arr)
-        if check_limits and height_arr is not None:
-            self.limits.check_heights(height_arr)
+        if check_limits:
+            self.limits.check_readings(laser_arr, height_arr)
         shape = (laser_arr if laser_arr is not None else height_arr).shape  # type: ignore[union-attr]
         lead = shape[:-1]
         count = int(np.prod(lead, dtype=int))
@@ -245,7 +242,7 @@ class RigidBodyMachine:
         w_l = np.full((count, 3), 1.0 / laser_sigma if laser_arr is not None else weak / laser_sigma)
         w_h = np.full((count, 3), 1.0 / height_sigma if height_arr is not None else weak / height_sigma)
         geometry = self.geometry
-        start = self._start(geometry, meas_l, meas_h)
+        start = solver.kabsch_start(geometry, meas_l, meas_h)
         state = solver.solve_pose(
             geometry, start, laser_weight=w_l, height_weight=w_h, laser_target=meas_l, height_target=meas_h
         )
@@ -267,18 +264,13 @@ class RigidBodyMachine:
             state.iterations,
         )
         residuals = solver.closure(geometry, reported)
-        closed = closure_norms(solver.closure(geometry, state)) <= solver.SOLVED_TOLERANCE
+        closed = solver.open_equations(geometry, state) <= solver.SOLVED_TOLERANCE
         if laser_arr is None or height_arr is None:  # square system: the measured readings must be met
             closed &= closure_norms(residuals) <= solver.SOLVED_TOLERANCE
         if check_limits:
-            measured = " and ".join(n for n, a in (("lasers", laser_arr), ("heights", height_arr)) if a is not None)
-            self.limits.check_closure(residuals.reshape(*lead, 9), what=measured)
-            if laser_arr is None:
-                self.limits.check_lasers(state.lasers.reshape(*lead, 3), context="implied by the heights")
-            if height_arr is None:
-                self.limits.check_heights(
-                    state.heights.reshape(*lead, 3), context="implied by the lasers and the heights hint"
-                )
+            implied_lasers = state.lasers.reshape(*lead, 3) if laser_arr is None else None
+            implied_heights = state.heights.reshape(*lead, 3) if height_arr is None else None
+            self.limits.check_solution(residuals.reshape(*lead, 9), implied_lasers, implied_heights)
         tip = np.einsum("kij,j->ki", state.rotation, geometry.tip_center) + state.translation
         return ForwardSolution(
             tip=tip.reshape(*lead, 3),
@@ -307,8 +299,7 @@ class RigidBodyMachine:
             Starting height readings (default: the reference heights).
         check_limits : bool
             Refuse targets the machine cannot reach (default).  ``False`` returns the
-            solution of the equations whatever the readings (for analyses beyond the
-            machine); ``converged`` then says whether the equations were solved.
+            solution of the equations whatever the readings; ``converged`` stays truthful.
 
         Returns
         -------
@@ -320,11 +311,10 @@ class RigidBodyMachine:
         InvalidInputError
             Wrong shape or non-finite target.
         OutOfRangeError
-            The target is farther from (or nearer to) a column's travel than the arm spans
-            within the laser range ("distance of tip[i] from column a", see
-            :func:`~pcmm_geo.machine.kinematics.limits.check_reach`), or the readings that
-            put the tip there lie outside the limits ("heights[2, 0] (column a travel,
-            needed for the tip)").  Fields ``index``, ``value``, ``low``, ``high``.
+            The target lies beyond an arm's span from its column's travel ("distance of
+            tip[i] from column a", :func:`~pcmm_geo.machine.kinematics.limits.check_reach`)
+            or needs readings outside the limits ("heights[2, 0] (column a travel, needed
+            for the tip)").  Fields ``index``, ``value``, ``low``, ``high``.
         NoRealSolutionError
             The Newton iteration found no pose for the target; field ``index``.
 
@@ -356,8 +346,7 @@ class RigidBodyMachine:
             geometry, start, laser_weight=zeros, height_weight=zeros, laser_target=zeros, height_target=zeros,
             tip_target=flat_target,
         )
-        tip_error = np.linalg.norm(state.rotation @ geometry.tip_center + state.translation - flat_target, axis=1)
-        error = np.maximum(closure_norms(solver.closure(geometry, state)), tip_error)
+        error = solver.open_equations(geometry, state, flat_target)
         converged = state.converged & (error <= solver.SOLVED_TOLERANCE)
         if check_limits:
             check_inverse(self.limits, target, converged.reshape(lead), error.reshape(lead), state, lead)
@@ -370,11 +359,6 @@ class RigidBodyMachine:
             iterations=state.iterations,
         )
 
-    def _start(self, geometry: solver.Geometry, lasers: FloatArray, heights: FloatArray) -> solver.PoseState:
-        joints = solver.joints_in_tetrahedron(geometry, lasers)
-        pivots = solver.pivots_in_machine(geometry, heights)
-        rotation, translation = solver.kabsch(joints, pivots)
-        return solver.PoseState(rotation, translation, lasers.copy(), heights.copy(), np.zeros(len(lasers), bool), 0)
 
     # ------------------------------------------------------------------ construction / serialisation
     @classmethod
