@@ -42,6 +42,7 @@ from datetime import UTC, datetime
 from pathlib import Path
 from typing import IO, Any
 
+from pcmm_geo._atomic import current_transaction, fsync_folder
 from pcmm_geo.errors import InvalidInputError, LogIntegrityError, OutputExistsError
 
 __all__ = [
@@ -81,6 +82,8 @@ COLUMN_UNITS: dict[str, str] = {
     "laser_b_raw": "sensor output value, counts",
     "laser_c_raw": "sensor output value, counts",
 }
+_TITLE = b"# pcmm_geo acquisition log\n"
+_COLUMN_LINE = (",".join(LOG_COLUMNS) + "\n").encode()
 _INT_COLUMNS = {"start_stop", "probe", "motor", "direction", "seq", *EXTRA_COLUMNS[2:]}
 
 
@@ -169,6 +172,10 @@ class LogRecovery:
         Length of that partial line, bytes.
     dropped_text : str
         The partial line itself (for the record).
+    header_completed_bytes : int
+        Bytes of a torn column line restored when repairing (0: the header was whole); only a
+        column line torn after a provably whole comment header is restored (see
+        :meth:`AcquisitionLog.check_resumable`).
     """
 
     path: str
@@ -176,6 +183,7 @@ class LogRecovery:
     truncated: bool
     dropped_bytes: int
     dropped_text: str
+    header_completed_bytes: int = 0
 
 
 @dataclass(frozen=True)
@@ -219,9 +227,30 @@ def _scan(path: Path) -> tuple[dict[str, str], tuple[str, ...], list[LogRow], by
             rows.append(LogRow.from_cells(cells))
         except ValueError as exc:
             raise LogIntegrityError(str(path), f"row is not a whole numeric row: {exc}", number) from exc
-    if not columns and not tail.startswith(b"#"):
-        raise LogIntegrityError(str(path), "no column header line: not an acquisition log")
+    if not columns:
+        comments = data[:whole_end].count(b"\n")
+        if data.startswith(_TITLE) or _TITLE.startswith(data):  # our header, torn (an empty file too)
+            raise LogIntegrityError(
+                str(path), f"incomplete header: the file ends after {comments} comment lines without the column "
+                "line (torn while the log was created); no row was recorded, start a new log", comments + 1)
+        raise LogIntegrityError(str(path), "no column header line: not an acquisition log", comments + 1)
     return metadata, columns, rows, tail, whole_end
+
+
+def _torn_column_line(data: bytes) -> int:
+    """Bytes missing from a column line torn at its end, when the rest of the header is provably whole.
+
+    The header (comment lines, then the column line) is written by one ``write``; a tail that
+    is a non-empty strict prefix of the column line therefore follows every comment line whole,
+    and the schema line fixes what the column line is.  Returns 0 in any other case.
+    """
+    whole_end = data.rfind(b"\n") + 1
+    tail, lines = data[whole_end:], data[:whole_end].split(b"\n")[:-1]
+    provable = (
+        bool(tail) and _COLUMN_LINE.startswith(tail) and data.startswith(_TITLE)
+        and all(line.startswith(b"#") for line in lines) and f"# schema: {LOG_SCHEMA}".encode() in lines
+    )
+    return len(_COLUMN_LINE) - len(tail) if provable else 0
 
 
 def read_log(path: str | os.PathLike[str], *, allow_partial: bool = False) -> LogContents:
@@ -309,48 +338,84 @@ class AcquisitionLog:
             entries[str(key)] = text
         header = "# pcmm_geo acquisition log\n" + "".join(f"# {k}: {v}\n" for k, v in entries.items())
         header += ",".join(LOG_COLUMNS) + "\n"
+        transaction = current_transaction()
+        if transaction is not None:  # a command's outputs: an allowed old file is moved aside, restorable
+            transaction.claim(path, overwrite=overwrite)
+            overwrite = False
         path.parent.mkdir(parents=True, exist_ok=True)  # README: missing folders are created
         try:
             handle = open(path, "w" if overwrite else "x", encoding="utf-8", newline="")
         except FileExistsError as exc:
             raise OutputExistsError(str(path)) from exc
         log = cls(path, handle, LogRecovery(str(path), 0, False, 0, ""))
+        if transaction is not None:  # measured rows are a record: a failing command keeps them
+            transaction.keep_on_failure(path, log._kept_rows)
         log._write(header)
-        _fsync_directory(path.parent)
+        fsync_folder(path.parent)
         return log
+
+    def _kept_rows(self) -> str | None:
+        """Why a failing command keeps this log (it holds measured rows), or None (nothing recorded)."""
+        new = self.rows_written - self.recovery.rows
+        return f"{new} measured row(s) are a record (continue it with --resume)" if new > 0 else None
+
+    @staticmethod
+    def check_resumable(path: str | os.PathLike[str], *, repair: bool = False) -> LogRecovery:
+        """Check, without changing the file, that :meth:`resume` would accept it; returns what it found.
+
+        Raises
+        ------
+        LogIntegrityError
+            As :meth:`resume`.
+        FileNotFoundError
+            No such file.
+        """
+        path = Path(path)
+        completed = _torn_column_line(path.read_bytes()) if repair else 0
+        if completed:
+            return LogRecovery(str(path), 0, False, 0, "", completed)
+        _, _, rows, tail, _ = _scan(path)
+        if tail and not repair:
+            raise LogIntegrityError(
+                str(path), f"partial last row ({len(tail)} bytes without a line end); resume with repair to cut it",
+                len(rows) + 1,
+            )
+        return LogRecovery(str(path), len(rows), bool(tail), len(tail), tail.decode("utf-8", "replace"))
 
     @classmethod
     def resume(cls, path: str | os.PathLike[str], *, repair: bool = False) -> AcquisitionLog:
         """Reopen an existing log to append to it after checking every line.
 
         A partial last line raises unless ``repair``; then it is cut off (fsync'ed), reported in
-        :attr:`recovery` and recorded as ``# truncated_bytes: N`` before new rows.
+        :attr:`recovery` and recorded as ``# truncated_bytes: N`` before new rows.  A header torn
+        while the log was created is refused (no row was recorded yet), except, with
+        ``repair``, a column line torn after the whole comment header: being fixed by the
+        schema it is completed (``# header_completed_bytes: N``).
 
         Raises
         ------
         LogIntegrityError
-            Damaged header/rows, or a partial last line without ``repair``.
+            Damaged header/rows, an incomplete header, or a partial last line without ``repair``.
         FileNotFoundError
             No such file.
         """
         path = Path(path)
-        _, _, rows, tail, whole_end = _scan(path)
-        if tail and not repair:
-            raise LogIntegrityError(
-                str(path), f"partial last row ({len(tail)} bytes without a line end); resume with repair to cut it",
-                len(rows) + 1,
-            )
-        if tail:
+        recovery = cls.check_resumable(path, repair=repair)
+        if recovery.truncated or recovery.header_completed_bytes:  # cut a torn row / finish the column line
             with open(path, "r+b") as raw:
-                raw.truncate(whole_end)
+                raw.truncate(path.stat().st_size - recovery.dropped_bytes)
+                raw.seek(0, os.SEEK_END)
+                raw.write(_COLUMN_LINE[len(_COLUMN_LINE) - recovery.header_completed_bytes:])
                 raw.flush()
                 os.fsync(raw.fileno())
-        recovery = LogRecovery(str(path), len(rows), bool(tail), len(tail), tail.decode("utf-8", "replace"))
+        _scan(path)  # the repaired file reads whole
         handle = open(path, "a", encoding="utf-8", newline="")
         log = cls(path, handle, recovery)
         note = f"# resumed_utc: {utc_now()}\n"
-        if tail:
-            note += f"# truncated_bytes: {len(tail)}\n"
+        if recovery.truncated:
+            note += f"# truncated_bytes: {recovery.dropped_bytes}\n"
+        if recovery.header_completed_bytes:
+            note += f"# header_completed_bytes: {recovery.header_completed_bytes}\n"
         log._write(note)
         return log
 
@@ -429,16 +494,3 @@ def export_table_3_2(
 
     return write_atomic(destination, "\n".join(lines) + "\n", overwrite=overwrite)
 
-
-def _fsync_directory(directory: Path) -> None:
-    """fsync a directory so a new file's entry survives a power cut (POSIX; no-op elsewhere)."""
-    try:
-        fd = os.open(directory, os.O_RDONLY)
-    except OSError:
-        return
-    try:
-        os.fsync(fd)
-    except OSError:
-        pass
-    finally:
-        os.close(fd)

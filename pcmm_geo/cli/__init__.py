@@ -25,6 +25,7 @@ COMMAND_MODULES = (
     "machine_commands.process_log",
     "machine_commands.numcal",
     "machine_commands.sensitivity",
+    "machine_commands.repeatability", "machine_commands.laser_ratio",
     "measurement_commands.gauge_block",
     "measurement_commands.iso10360",
     "measurement_commands.micrometer",

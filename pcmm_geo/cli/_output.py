@@ -8,9 +8,12 @@ import math
 import sys
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from pcmm_geo.cli._record import CovarianceBlock, Provenance, UncertaintyEntry, Verdict
+
+if TYPE_CHECKING:
+    from pcmm_geo._atomic import OutputPlan
 
 REPORT_SUFFIXES = (".md", ".html", ".htm")
 
@@ -59,10 +62,41 @@ def add_decimal_flag(parser: argparse.ArgumentParser) -> None:
                              "default: detected, an ambiguous file is refused")
 
 
+@dataclass(frozen=True)
+class OutputOption:
+    """A command-line option naming a file the command writes (see :func:`declare_output`)."""
+
+    dest: str
+    option: str
+    append_when: str | None = None
+    folder: bool = False
+    unused_when: str | None = None
+
+
+def declare_output(parser: argparse.ArgumentParser, dest: str, option: str | None = None, *,
+                   append_when: str | None = None, folder: bool = False, unused_when: str | None = None) -> None:
+    """Register the option stored in ``args.<dest>`` as one of the command's output files.
+
+    Every declared output is checked before any work (existence, folder, writability; see
+    :class:`pcmm_geo._atomic.OutputPlan`) and all of them are written all-or-nothing.
+    :func:`add_overwrite_flag`, called after the declarations, adds ``--overwrite`` (all
+    outputs) and one ``--overwrite-NAME`` per output.  ``append_when`` names a boolean option
+    (e.g. ``"resume"``) under which an existing file is appended to rather than refused;
+    ``folder=True`` declares a folder the command writes new files into (checked, no
+    ``--overwrite-NAME``); ``unused_when`` names a boolean option under which it is not written.
+    """
+    outputs = parser.get_default("output_options")
+    if outputs is None:
+        outputs = []
+        parser.set_defaults(output_options=outputs)
+    outputs.append(OutputOption(dest, option or "--" + dest.replace("_", "-"), append_when, folder, unused_when))
+
+
 def add_plot_flag(parser: argparse.ArgumentParser, what: str) -> None:
     """Add ``--plot FILE.png`` (``what`` says what is drawn); the file is checked before any work."""
     parser.add_argument("--plot", metavar="FILE.png", help=f"write {what} (.png, .svg or .pdf)")
-    parser.set_defaults(shared_plot_flag=True)  # run_handler checks the path before the handler runs
+    parser.set_defaults(shared_plot_flag=True)  # run_handler checks the suffix before the handler runs
+    declare_output(parser, "plot")
 
 
 def add_report_flag(parser: argparse.ArgumentParser) -> None:
@@ -70,32 +104,67 @@ def add_report_flag(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--report", metavar="FILE.md|FILE.html",
                         help="also write the result as Markdown (.md) or a self-contained HTML page (.html)")
     parser.set_defaults(shared_report_flag=True)  # run_handler writes the report after the handler
+    declare_output(parser, "report")
 
 
 def add_overwrite_flag(parser: argparse.ArgumentParser) -> None:
-    parser.add_argument("--overwrite", action="store_true", help="replace existing --plot/--report files")
+    """Add ``--overwrite`` (every declared output) and ``--overwrite-NAME`` for each declared output.
+
+    Call it after the outputs are declared (:func:`add_plot_flag`, :func:`add_report_flag`,
+    :func:`declare_output`).
+    """
+    outputs = [output for output in parser.get_default("output_options") or () if not output.folder]
+    names = ", ".join(output.option for output in outputs) or "the outputs"
+    parser.add_argument("--overwrite", action="store_true",
+                        help=f"allow replacing every existing output file ({names}); without it, or the "
+                             "per-output flags, an existing file is refused before any work")
+    for output in outputs:
+        parser.add_argument(f"--overwrite-{output.option.removeprefix('--')}", dest=f"overwrite_{output.dest}",
+                            action="store_true", help=f"allow replacing an existing {output.option} file only")
 
 
-def check_output_paths(args: argparse.Namespace) -> None:
-    """Refuse, before any work, a ``--plot``/``--report`` path that exists (unless ``--overwrite``).
+def output_plan(args: argparse.Namespace) -> OutputPlan:
+    """The :class:`~pcmm_geo._atomic.OutputPlan` of the outputs ``args`` names, with their permissions."""
+    from pcmm_geo._atomic import OutputPlan
 
-    Only flags added by :func:`add_plot_flag` / :func:`add_report_flag` are checked, so a
-    sub-command may define its own ``--report`` with another meaning.
+    plan = OutputPlan()
+    everything = bool(getattr(args, "overwrite", False))
+    for output in getattr(args, "output_options", None) or ():
+        value = getattr(args, output.dest, None)
+        if not value or (output.unused_when and getattr(args, output.unused_when, False)):
+            continue
+        plan.add(value, label=output.option,
+                 overwrite=everything or bool(getattr(args, f"overwrite_{output.dest}", False)),
+                 append=bool(output.append_when and getattr(args, output.append_when, False)),
+                 folder=output.folder)
+    return plan
+
+
+def check_output_paths(args: argparse.Namespace, plan: OutputPlan | None = None) -> OutputPlan:
+    """Check, before any work, every output the command declared; returns the plan to write them under.
+
+    Suffixes of ``--plot``/``--report`` (when added by :func:`add_plot_flag` /
+    :func:`add_report_flag`, so a sub-command may define its own ``--report``), then every
+    declared output: an existing file is refused unless ``--overwrite`` or its own
+    ``--overwrite-NAME`` allows it, two outputs may not name one file, and each folder must
+    exist or be creatable and be writable.  ``plan`` defaults to :func:`output_plan` of ``args``.
 
     Raises
     ------
     OutputExistsError
-        The file exists and ``args.overwrite`` is not set.
+        An output exists and may not be replaced.
     InvalidInputError
-        A suffix the writer does not know.
+        A suffix the writer does not know, two outputs naming one file, or an unusable folder.
     """
-    overwrite = bool(getattr(args, "overwrite", False))
     if getattr(args, "shared_plot_flag", False) and getattr(args, "plot", None):
         from pcmm_geo.plots import check_plot_path
 
-        check_plot_path(args.plot, overwrite=overwrite)
+        check_plot_path(args.plot, overwrite=True)  # the suffix; existence is the plan's
     if getattr(args, "shared_report_flag", False) and getattr(args, "report", None):
-        check_report_path(args.report, overwrite=overwrite)
+        check_report_path(args.report, overwrite=True)
+    plan = output_plan(args) if plan is None else plan
+    plan.check()
+    return plan
 
 
 def format_cell(value: Any, digits: int = 6) -> str:
@@ -218,11 +287,12 @@ def check_report_path(path: str | Path, *, overwrite: bool = False) -> Path:
     >>> check_report_path("summary.html").suffix
     '.html'
     """
+    from pcmm_geo._atomic import may_overwrite
     from pcmm_geo.errors import InvalidInputError, OutputExistsError
 
     target = Path(path)
     if target.suffix.lower() not in REPORT_SUFFIXES:
         raise InvalidInputError("report file", "a name ending in .md or .html", repr(str(target)))
-    if target.exists() and not overwrite:
+    if target.exists() and not may_overwrite(target, overwrite):
         raise OutputExistsError(str(target))
     return target

@@ -178,12 +178,13 @@ def input_paths(args: argparse.Namespace) -> list[str]:
     """Values of ``args`` that name existing files or folders, outputs excluded.
 
     Every argument is considered (positional files, ``--calibration``, ...) except the
-    destinations in :data:`OUTPUT_DESTINATIONS`; call it before the handler runs so that the
+    destinations in :data:`OUTPUT_DESTINATIONS` and the declared outputs; call it before the handler runs so that the
     files a command writes do not exist yet.
     """
     found: list[str] = []
+    declared = {output.dest for output in getattr(args, "output_options", None) or ()}  # declare_output's
     for dest, value in sorted(vars(args).items()):
-        if dest in OUTPUT_DESTINATIONS or callable(value):
+        if dest in OUTPUT_DESTINATIONS or dest in declared or callable(value):
             continue
         values: Iterable[Any] = value if isinstance(value, (list, tuple)) else (value,)
         for item in values:

@@ -9,11 +9,23 @@ from __future__ import annotations
 import argparse
 import sys
 import warnings
+from typing import TYPE_CHECKING
 
-from pcmm_geo.cli._output import EXIT_USAGE, check_output_paths, print_report
+from pcmm_geo.cli._output import EXIT_USAGE, check_output_paths, output_plan, print_report
 from pcmm_geo.cli._record import input_paths, software_versions, start_provenance
 from pcmm_geo.cli._report import write_report
 from pcmm_geo.errors import OutputExistsError, PcmmGeoError, PcmmGeoWarning
+
+if TYPE_CHECKING:
+    from pcmm_geo._atomic import OutputPlan
+
+
+def _fail(args: argparse.Namespace, plan: OutputPlan | None, message: str) -> int:
+    """Print ``message`` as the command's one error line (with what a rollback kept); exit code 2."""
+    if plan is not None and plan.notes:
+        message += "; " + "; ".join(plan.notes)
+    print(f"pcmm {args.command}: error: {message}", file=sys.stderr)
+    return EXIT_USAGE
 
 
 def report_title(args: argparse.Namespace) -> str:
@@ -32,42 +44,58 @@ def _print_warnings(args: argparse.Namespace, caught: list[warnings.WarningMessa
             warnings.showwarning(record.message, record.category, record.filename, record.lineno)
 
 
+def _refusal(args: argparse.Namespace, plan: OutputPlan | None, exc: OutputExistsError) -> str:
+    """The one-line refusal of an existing output, naming the flags that would allow replacing it."""
+    planned = None if plan is None else plan.find(exc.path)
+    if planned is not None and hasattr(args, f"overwrite_{planned.label.removeprefix('--').replace('-', '_')}"):
+        how = f"use --overwrite-{planned.label.removeprefix('--')} to replace it, or --overwrite for every output"
+    elif hasattr(args, "overwrite"):
+        how = "use --overwrite to replace it"
+    else:
+        how = "choose another name"
+    return f"{exc.path}: already exists; refusing to overwrite ({how})"
+
+
 def run_handler(args: argparse.Namespace) -> int:
+    """Check every output, run the handler and write the report as one transaction; print the result.
+
+    The outputs are checked before any work (:func:`~pcmm_geo.cli._output.check_output_paths`);
+    if the handler or the report fails, every file this run wrote is removed and every file it
+    replaced is put back (:class:`pcmm_geo._atomic.OutputPlan`), and the error is one line.
+    """
     wants_report = bool(getattr(args, "shared_report_flag", False) and getattr(args, "report", None))
+    plan = output_plan(args)
     try:
-        check_output_paths(args)
+        check_output_paths(args, plan)
         if wants_report:  # inputs are hashed before the handler reads them, outputs do not exist yet
             provenance = start_provenance(getattr(args, "command_line", None) or ["pcmm", args.command],
                                           input_paths(args))
-        with warnings.catch_warnings(record=True) as caught:
-            warnings.simplefilter("always", PcmmGeoWarning)
-            report = args.handler(args)
-        _print_warnings(args, caught)
-        if wants_report:
-            provenance.versions = software_versions()
-            report.provenance = provenance
-            written = write_report(report, args.report, title=report_title(args),
-                                   command=getattr(args, "command_line", None),
-                                   overwrite=bool(getattr(args, "overwrite", False)))
-            report.data["report"] = str(written)
-            report.lines.append(f"report written to {written}")
+        with plan.transaction():
+            with warnings.catch_warnings(record=True) as caught:
+                warnings.simplefilter("always", PcmmGeoWarning)
+                report = args.handler(args)
+            _print_warnings(args, caught)
+            if wants_report:
+                provenance.versions = software_versions()
+                report.provenance = provenance
+                written = write_report(report, args.report, title=report_title(args),
+                                       command=getattr(args, "command_line", None),
+                                       overwrite=bool(getattr(args, "overwrite", False)))
+                report.data["report"] = str(written)
+                report.lines.append(f"report written to {written}")
     except OutputExistsError as exc:
-        how = "use --overwrite to replace it" if hasattr(args, "overwrite") else "choose another name"
-        print(f"pcmm {args.command}: error: {exc.path}: already exists; refusing to overwrite ({how})",
-              file=sys.stderr)
-        return EXIT_USAGE
+        return _fail(args, plan, _refusal(args, plan, exc))
     except PcmmGeoError as exc:
-        print(f"pcmm {args.command}: error: {' '.join(str(exc).split())}", file=sys.stderr)
-        return EXIT_USAGE
+        return _fail(args, plan, " ".join(str(exc).split()))
     except (OSError, ValueError) as exc:
         if isinstance(exc, OSError) and exc.filename is not None and exc.strerror:
             message = f"{exc.filename}: {exc.strerror}"  # e.g. "run.csv: No such file or directory"
         else:
             message = " ".join(str(exc).split())  # one line, whatever the library put in it
-        print(f"pcmm {args.command}: error: {message}", file=sys.stderr)
-        return EXIT_USAGE
+        return _fail(args, plan, message)
     except KeyboardInterrupt:
-        print(f"pcmm {args.command}: interrupted", file=sys.stderr)
+        notes = "" if plan is None or not plan.notes else " (" + "; ".join(plan.notes) + ")"
+        print(f"pcmm {args.command}: interrupted{notes}", file=sys.stderr)
         return 130
     try:
         print_report(report, bool(getattr(args, "json", False)))

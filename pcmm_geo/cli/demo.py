@@ -13,6 +13,7 @@ from pcmm_geo.cli._output import (
     add_overwrite_flag,
     add_plot_flag,
     add_report_flag,
+    declare_output,
 )
 
 
@@ -33,6 +34,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         help="folder for the plots; each run writes a fresh time-stamped sub-folder (default: %(default)s)",
     )
     parser.add_argument("--no-plots", action="store_true", help="skip the plots in the --out folder")
+    declare_output(parser, "out", folder=True, unused_when="no_plots")  # checked before the run
     add_plot_flag(parser, "one overview figure: the calibration (fig 7.2) and the tip error per contact")
     add_report_flag(parser)
     add_overwrite_flag(parser)

@@ -50,10 +50,12 @@ def check_plot_path(path: str | Path, *, overwrite: bool = False) -> Path:
     >>> check_plot_path("residuals.png").suffix
     '.png'
     """
+    from pcmm_geo._atomic import may_overwrite
+
     target = Path(path)
     if target.suffix.lower() not in PLOT_SUFFIXES:
         raise InvalidInputError("plot file", f"a name ending in {', '.join(PLOT_SUFFIXES)}", repr(str(target)))
-    if target.exists() and not overwrite:
+    if target.exists() and not may_overwrite(target, overwrite):  # a command's --overwrite-plot counts too
         raise OutputExistsError(str(target))
     return target
 
@@ -98,8 +100,7 @@ def save_figure(figure: Figure, path: str | Path, *, overwrite: bool = False) ->
     """
     from pcmm_geo._atomic import write_atomic
 
-    target = check_plot_path(path, overwrite=overwrite)
-    target.parent.mkdir(parents=True, exist_ok=True)
+    target = check_plot_path(path, overwrite=overwrite)  # write_atomic creates missing folders
     return write_atomic(target, lambda stream: figure.savefig(stream, format=target.suffix[1:].lower(), dpi=PLOT_DPI),
                         overwrite=overwrite)
 

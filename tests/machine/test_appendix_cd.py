@@ -2,7 +2,11 @@
 
 from __future__ import annotations
 
+import json
 import math
+import subprocess
+import sys
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -15,10 +19,17 @@ from pcmm_geo.machine.calibration.seed import (
     APPENDIX_D,
     TABLE_6_2,
     TABLE_7_1,
+    V1_MACHINE_AXES,
     appendix_cd_files,
     build_appendix_cd,
     reconstruct_appendix_cd,
 )
+from pcmm_geo.machine.kinematics.dpkm import (
+    APPENDIX_D_COLUMN_POINTS,
+    TABLE_3_1_BETA_DEG,
+    tetrahedron_directions,
+)
+from pcmm_geo.machine.kinematics.model import RigidBodyMachine, seed_machine
 
 
 @pytest.fixture(scope="module")
@@ -36,9 +47,106 @@ def test_reconstruction_matches_every_printed_number(rebuilt):
     assert rebuilt.max_printed_residual < 6e-5
     # the seed's eq 7.2 construction on the rebuilt lines lands on the same theoretical point
     assert rebuilt.eq_7_2_gap < 0.01
-    # position-1 directions agree with Appendix D's v1 (4 decimals)
+    # position-1 directions agree with Appendix D's v1 (4 decimals) read in the machine's axes (z reversed)
     units = rebuilt.centers[0] / np.linalg.norm(rebuilt.centers[0], axis=1, keepdims=True)
-    np.testing.assert_allclose(units, APPENDIX_D["v1"], atol=1e-4)
+    np.testing.assert_allclose(units, APPENDIX_D["v1"] * V1_MACHINE_AXES, atol=1e-4)
+    np.testing.assert_allclose(units[:, :2], APPENDIX_D["v1"][:, :2], atol=1e-4)
+
+
+def test_rebuilt_tetrahedron_has_the_machines_handedness(rebuilt):
+    # thesis 2.6.4: a, b, c clockwise seen from above, probe below the pivots -> the tip -> joint triad has
+    # det < 0 in a right-handed z-up frame, as the seed geometry (Table 3.1 angles) has
+    seed_det = np.linalg.det(tetrahedron_directions(TABLE_3_1_BETA_DEG))
+    assert seed_det == pytest.approx(-0.834, abs=1e-3)
+    units = rebuilt.centers / np.linalg.norm(rebuilt.centers, axis=2, keepdims=True)
+    for k in range(2):
+        assert np.linalg.det(units[k]) < -0.8
+        assert np.all(rebuilt.centers[k, :, 2] > 250.0)  # joints above the tip (machine axes)
+    assert np.linalg.det(APPENDIX_D["v1"]) == pytest.approx(0.84, abs=0.01)  # printed v1: the mirror image
+    # Appendix D's pp puts the pivots on v1's plan directions: x/y ratios equal to 9 digits, r = 404-408 mm
+    for k, arm in enumerate("abc"):
+        point = np.array(APPENDIX_D_COLUMN_POINTS[arm])
+        radius = point / APPENDIX_D["v1"][k, :2]
+        assert radius[0] == pytest.approx(radius[1], rel=1e-8)
+        assert 404.0 < radius[0] < 408.0
+
+
+# Tip height with the same pivot heights, bundled calibration vs the thesis geometry.  The two tetrahedra
+# differ in their arm angles by up to 0.34 deg (Table 7.1 vs 3.1); on the seed's columns the tip rises by
+# 2.1-2.7 mm per degree of one beta (6.9 mm/deg for all three, measured with seed_machine and checked in the
+# test), so the angles account for at most 2.1 mm; 3 mm leaves room for the slider lines that miss the tip
+# (erratum 9).  The mirror image of the same tetrahedron puts the tip 619 mm higher, 200 times the tolerance.
+TIP_Z_TOLERANCE_MM = 3.0
+HEIGHTS = np.array([[400.0, 400.0, 400.0], [380.0, 400.0, 420.0], [430.0, 370.0, 400.0], [370.0, 370.0, 370.0]])
+
+
+def _machine_on_seed_columns(tetrahedron):
+    """The calibrated tetrahedron on the thesis' columns, as ``pcmm kinematics --calibration`` builds it."""
+    seed = RigidBodyMachine.from_dpkm()
+    provisional = RigidBodyMachine(tetrahedron, seed.columns, seed.reference_lasers, seed.reference_heights)
+    reference = provisional.forward(heights=seed.reference_heights)
+    return RigidBodyMachine(tetrahedron, seed.columns, reference.lasers, seed.reference_heights)
+
+
+def test_bundled_calibration_hangs_the_tip_below_the_pivots(seed_cal, tmp_path):
+    machine = _machine_on_seed_columns(seed_cal.tetrahedron)
+    table_7_1 = seed_machine(dead_distance={arm: TABLE_7_1[arm][0] for arm in "abc"},
+                             beta_deg={pair: TABLE_7_1[arm][1] for arm, pair in zip("abc", ("ab", "bc", "ca"),
+                                                                                    strict=True)})
+    thesis = RigidBodyMachine.from_dpkm()
+    # the tolerance's budget: tip-height sensitivity to each beta on the seed's columns times the beta differences
+    level = np.full(3, 400.0)
+    base_z = thesis.forward(heights=level).tip[2]
+    budget = 0.0
+    for pair in ("ab", "bc", "ca"):
+        nudged = {**TABLE_3_1_BETA_DEG, pair: TABLE_3_1_BETA_DEG[pair] + 0.1}
+        slope = (seed_machine(beta_deg=nudged).forward(heights=level).tip[2] - base_z) / 0.1  # mm per degree
+        assert 2.0 < slope < 2.8
+        budget += abs(slope) * abs(seed_cal.beta_deg[pair] - TABLE_3_1_BETA_DEG[pair])
+    assert budget < 0.75 * TIP_Z_TOLERANCE_MM
+    for heights in HEIGHTS:
+        tip = machine.forward(heights=heights).tip
+        assert tip[2] < heights.min() - 250.0  # below the lowest pivot by about the arms' vertical reach
+        for reference in (thesis, table_7_1):  # the seed's DPKM with Table 3.1 and with Table 7.1 parameters
+            assert abs(tip[2] - reference.forward(heights=heights).tip[2]) < TIP_Z_TOLERANCE_MM
+    # the files as shipped before (the mirror image, z reversed) put the tip 309 mm above the pivots
+    export, lasers = appendix_cd_files()
+    rows = [line.split(",") for line in export.read_text().splitlines()]
+    mirrored = tmp_path / "mirrored.csv"
+    mirrored.write_text("\n".join([",".join(rows[0])] + [",".join([x, y, repr(-float(z)), *rest])
+                                                          for x, y, z, *rest in rows[1:]]) + "\n")
+    mirror_cal = calibrate_tetrahedron(mirrored, lasers)
+    assert mirror_cal.dead_distance == pytest.approx(seed_cal.dead_distance, abs=1e-9)  # lengths and angles
+    assert mirror_cal.beta_deg == pytest.approx(seed_cal.beta_deg, abs=1e-9)  # cannot tell the two apart
+    mirror_tip = _machine_on_seed_columns(mirror_cal.tetrahedron).forward(heights=HEIGHTS[0]).tip
+    assert mirror_tip[2] == pytest.approx(709.4, abs=0.1)
+    assert mirror_tip[2] - thesis.forward(heights=HEIGHTS[0]).tip[2] > 600.0
+
+
+def test_issue_commands_calibrate_then_forward(tmp_path):
+    # the two commands of the report: pcmm calibrate on the bundled data, then kinematics forward at 400 mm
+    export, lasers = appendix_cd_files()
+    cal = tmp_path / "cal.json"
+    done = _pcmm("calibrate", str(export), str(lasers), "--out", str(cal))
+    assert done.returncode == 0, done.stderr
+    done = _pcmm("kinematics", "forward", "--heights", "400", "400", "400", "--calibration", str(cal), "--json")
+    assert done.returncode == 0, done.stderr
+    tip_z = _tip_z(json.loads(done.stdout))
+    thesis = _pcmm("kinematics", "forward", "--heights", "400", "400", "400", "--json")
+    assert thesis.returncode == 0, thesis.stderr
+    thesis_z = _tip_z(json.loads(thesis.stdout))
+    assert thesis_z == pytest.approx(90.18, abs=0.01)
+    assert tip_z == pytest.approx(90.63, abs=0.01)
+    assert abs(tip_z - thesis_z) < TIP_Z_TOLERANCE_MM
+
+
+def _pcmm(*args: str) -> subprocess.CompletedProcess[str]:
+    return subprocess.run([str(Path(sys.executable).with_name("pcmm")), *args], capture_output=True, text=True,
+                          timeout=120, check=False)
+
+
+def _tip_z(document: dict) -> float:
+    return float(document["tip"][2])
 
 
 # The reconstruction is an iterative least-squares solve: other BLAS kernels (OPENBLAS_CORETYPE=Haswell,

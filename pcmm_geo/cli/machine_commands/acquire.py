@@ -5,7 +5,7 @@ from __future__ import annotations
 import argparse
 from typing import Any
 
-from pcmm_geo.cli._output import Report, Table, add_json_flag
+from pcmm_geo.cli._output import Report, Table, add_json_flag, add_overwrite_flag, declare_output
 
 _ARMS = ("a", "b", "c")
 
@@ -17,7 +17,9 @@ def register(subparsers: Any) -> None:
         description=(
             "Drive the three Zaber stages, read lasers a, b, c and the probe after each move and append thesis "
             "Table 3.2 rows (plus raw values) to an fsync'ed CSV log. --simulate runs the simulated micro-CMM on "
-            "pseudo-terminals, optionally with injected faults."
+            "pseudo-terminals, optionally with injected faults. Every output (--out, --table-3-2) is checked "
+            "before any device is touched; if the command fails, the files it wrote are removed and the ones it "
+            "replaced restored, except a log holding measured rows, which is kept (continue it with --resume)."
         ),
     )
     parser.add_argument("--simulate", action="store_true", help="use the simulated machine (pseudo-terminals)")
@@ -29,12 +31,19 @@ def register(subparsers: Any) -> None:
     parser.add_argument("--transport", choices=("virtual", "pty"), default="virtual",
                         help="with --simulate: in-process devices on a simulated clock (virtual, repeatable, "
                              "default) or real pseudo-terminals served in real time (pty)")
-    parser.add_argument("--out", required=True, help="CSV log to create (refuses to overwrite)")
-    parser.add_argument("--overwrite", action="store_true", help="replace an existing log")
+    parser.add_argument("--out", required=True, metavar="LOG.csv",
+                        help="durable CSV log to create (an existing one is refused unless --overwrite-out, "
+                             "--overwrite or --resume)")
     parser.add_argument("--table-3-2", dest="table_3_2", metavar="FILE",
-                        help="also write the plain 7-column Table 3.2 view (for pcmm process_log) to FILE")
+                        help="also write the plain 7-column Table 3.2 view (for pcmm process-log) to FILE "
+                             "(an existing one is refused unless --overwrite-table-3-2 or --overwrite)")
     parser.add_argument("--resume", action="store_true", help="append to an existing log instead of creating one")
-    parser.add_argument("--repair", action="store_true", help="with --resume: cut a partial last row and report it")
+    parser.add_argument("--repair", action="store_true",
+                        help="with --resume: cut a partial last row and report it (a log torn in its header is "
+                             "refused, except a column line torn after the whole comment header, which is completed)")
+    declare_output(parser, "out", append_when="resume")
+    declare_output(parser, "table_3_2", "--table-3-2")
+    add_overwrite_flag(parser)
     parser.add_argument("--step-mm", type=float, default=4.0, help="largest motor step of the programme, mm")
     parser.add_argument("--no-presequence", action="store_true", help="skip the settling pre-sequence")
     parser.add_argument("--defects", action="store_true", help="simulate the thesis' dead spot and settling scatter")
@@ -60,6 +69,7 @@ def _open_log(args: argparse.Namespace, metadata: dict[str, Any]) -> Any:
 
     if args.resume and Path(args.out).exists():
         return AcquisitionLog.resume(args.out, repair=args.repair)
+    # the permission is the command's (--overwrite or --overwrite-out), checked before any work
     return AcquisitionLog.create(args.out, metadata, overwrite=args.overwrite)
 
 
@@ -89,8 +99,13 @@ def _check_args(args: argparse.Namespace) -> None:
 
 def _handle(args: argparse.Namespace) -> Report:
     import contextlib
+    from pathlib import Path
 
     _check_args(args)
+    if args.resume and Path(args.out).exists():  # a log resume would refuse is refused before homing
+        from pcmm_geo.acquisition.acqlog import AcquisitionLog
+
+        AcquisitionLog.check_resumable(args.out, repair=args.repair)
     with contextlib.ExitStack() as stack:
         rig = None
         if args.simulate:

@@ -5,7 +5,15 @@ from __future__ import annotations
 import argparse
 from typing import Any
 
-from pcmm_geo.cli._output import Report, Table, add_json_flag, add_plot_flag, add_report_flag
+from pcmm_geo.cli._output import (
+    Report,
+    Table,
+    add_json_flag,
+    add_overwrite_flag,
+    add_plot_flag,
+    add_report_flag,
+    declare_output,
+)
 from pcmm_geo.cli._record import UncertaintyEntry
 
 
@@ -23,7 +31,6 @@ def register(subparsers: Any) -> None:
     parser.add_argument("probings", help="probings CSV (raw points or element-level export)")
     parser.add_argument("lasers", help="laser readings CSV position,laser_a,laser_b,laser_c")
     parser.add_argument("--out", metavar="CAL.json", help="write the versioned calibration file")
-    parser.add_argument("--overwrite", action="store_true", help="replace existing --out, --plot and --report files")
     parser.add_argument("--sweep", metavar="SWEEP.csv", help="laser sweep (position,laser_a,laser_b,laser_c) for b")
     parser.add_argument("--start-of-range", type=float, default=60.0, help="laser start of range in mm (default 60)")
     parser.add_argument("--probing-u", type=float, metavar="MM",
@@ -31,21 +38,18 @@ def register(subparsers: Any) -> None:
                              "covariance of the calibrated parameters (table, JSON, --out file)")
     parser.add_argument("--laser-u", type=float, metavar="MM",
                         help="standard uncertainty of one laser reading at a calibration position (mm)")
+    declare_output(parser, "out")
     add_plot_flag(parser, "a 3-D plot of slider lines, joint centres, tip and probe points (fig 7.2)")
     add_report_flag(parser)
+    add_overwrite_flag(parser)
     add_json_flag(parser)
     parser.set_defaults(handler=_handle)
 
 
 def _handle(args: argparse.Namespace) -> Report:
-    from pathlib import Path
-
-    from pcmm_geo.errors import OutputExistsError
     from pcmm_geo.machine.calibration import PAIRS, calibrate_tetrahedron, save_calibration
     from pcmm_geo.machine.calibration.probings import read_lasers
 
-    if args.out and Path(args.out).exists() and not args.overwrite:
-        raise OutputExistsError(str(args.out))
     sweep = None if args.sweep is None else read_lasers(args.sweep).readings
     cal = calibrate_tetrahedron(
         args.probings, args.lasers, laser_start_of_range=args.start_of_range, laser_sweep=sweep

@@ -5,7 +5,7 @@ from __future__ import annotations
 import argparse
 from typing import Any
 
-from pcmm_geo.cli._output import Report, Table, add_json_flag, add_plot_flag, add_report_flag
+from pcmm_geo.cli._output import Report, Table, add_json_flag, add_overwrite_flag, add_plot_flag, add_report_flag
 
 
 def register(subparsers: Any) -> None:
@@ -24,7 +24,7 @@ def register(subparsers: Any) -> None:
     parser.add_argument("--laser-accuracy", type=float, default=0.05, help="laser accuracy in mm (default 0.05)")
     add_plot_flag(parser, "the sensitivity map (laser gain over the grid, probe/laser ratio per motor)")
     add_report_flag(parser)
-    parser.add_argument("--overwrite", action="store_true", help="replace existing --plot/--report files")
+    add_overwrite_flag(parser)
     add_json_flag(parser)
     parser.set_defaults(handler=_handle)
 

@@ -1,4 +1,4 @@
-"""What the machine measured and how sensitive it is: log processing and sensitivity.
+"""What the machine measured and how sensitive it is: log processing, sensitivity, error investigation.
 
 What lives here:
 
@@ -8,7 +8,12 @@ What lives here:
 - :mod:`~pcmm_geo.machine.analysis.logproc_rows` -- the log's rows: array type, CSV reader
   and writer;
 - :mod:`~pcmm_geo.machine.analysis.sensitivity` -- sensitivity of the tip to laser and encoder
-  readings over the working cube.
+  readings over the working cube;
+- :mod:`~pcmm_geo.machine.analysis.repeatability` -- start-position repeatability of the lasers
+  (thesis 6.3, Tables 6.6, 6.7);
+- :mod:`~pcmm_geo.machine.analysis.laser_ratio` and
+  :mod:`~pcmm_geo.machine.analysis.laser_ratio_model` -- height per laser displacement of measured
+  data (eqs 6.1-6.3, Table 6.8) and what the rigid-body geometry predicts for it.
 
 May import: :mod:`pcmm_geo.machine.kinematics`, :mod:`pcmm_geo.acquisition` (to read its logs),
 :mod:`pcmm_geo.errors` and the lower layers (:mod:`pcmm_geo.fit`, :mod:`pcmm_geo.io`,

@@ -38,8 +38,6 @@ from __future__ import annotations
 
 import json
 import math
-import os
-import tempfile
 from collections.abc import Mapping
 from datetime import UTC, datetime
 from pathlib import Path
@@ -148,10 +146,11 @@ def save_calibration(
     --------
     See the module docstring.
     """
+    from pcmm_geo._atomic import may_overwrite
     from pcmm_geo.machine.kinematics.model import RigidBodyMachine
 
     target = Path(path)
-    if target.exists() and not overwrite:
+    if target.exists() and not may_overwrite(target, overwrite):  # pcmm calibrate --overwrite-out counts too
         raise OutputExistsError(str(target))
     tetrahedron = cal.tetrahedron
     document: dict[str, Any] = {
@@ -184,17 +183,9 @@ def save_calibration(
         text = json.dumps(_jsonable(document), indent=2, allow_nan=False)
     except (TypeError, ValueError) as exc:
         raise InvalidInputError("extra", "JSON-serialisable values", str(exc)) from None
-    handle, temporary = tempfile.mkstemp(prefix=".cal-", suffix=".json", dir=target.parent or Path("."))
-    try:
-        with os.fdopen(handle, "w", encoding="utf-8") as stream:
-            stream.write(text + "\n")
-        if not overwrite and target.exists():  # appeared meanwhile
-            raise OutputExistsError(str(target))
-        os.replace(temporary, target)
-    finally:
-        if os.path.exists(temporary):
-            os.unlink(temporary)
-    return target
+    from pcmm_geo._atomic import write_atomic
+
+    return write_atomic(target, text + "\n", overwrite=overwrite)  # whole or not at all; folders created
 
 
 def _tetrahedron_dict(tetrahedron: Any) -> dict[str, Any]:

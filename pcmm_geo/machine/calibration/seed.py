@@ -1,9 +1,9 @@
 """The seed's external-CMM calibration rebuilt from the numbers printed in Appendices C and D.
 
 The thesis does not print its CMM₁ file (``CMM.csv``), only numbers derived from it.
-This module rebuilds sphere centers that are consistent with every printed number, so
-that :func:`~pcmm_geo.machine.calibration.calibrate_tetrahedron` can be checked against
-Table 7.1.  The derived files ship in ``pcmm_geo/data/appendix_cd/`` and
+This module rebuilds sphere centers that are consistent with every printed number but one
+(``probe2``, see below), so that :func:`~pcmm_geo.machine.calibration.calibrate_tetrahedron`
+can be checked against Table 7.1.  The derived files ship in ``pcmm_geo/data/appendix_cd/`` and
 :func:`build_appendix_cd` regenerates them.
 
 Printed inputs (all in :data:`APPENDIX_C` / :data:`APPENDIX_D`):
@@ -16,28 +16,63 @@ Printed inputs (all in :data:`APPENDIX_C` / :data:`APPENDIX_D`):
   (``beta_ca`` on ``la``, ``beta_ab`` on ``lb``, ``beta_bc`` on ``lc``); Appendix D's
   ``Beta`` rows 1-2 print them to 4 decimals.
 * Appendix D line 33: ``v1``, the unit vectors from the tip to the joints at position 1
-  (4 decimals); their pairwise angles equal ``Beta`` row 1, which identifies them.
+  (4 decimals); their pairwise angles equal ``Beta`` row 1, which identifies them.  Used
+  with its ``z`` reversed (:data:`V1_MACHINE_AXES`, see "Handedness" below).
 * Appendix D ``D2`` and ``Beta`` rows 4-5: dead distances and angles seen from the
   theoretical probe point (eq 7.2).
 
-Construction (frame of Appendix C: the probe-tip center at the origin):
+Construction (frame of Appendix C: the probe-tip center at the origin; axes of the machine):
 
 1. joint ``i`` at position ``k`` lies at distance ``L_ik = l_ik + 60 + d_ik`` from the tip;
 2. position 1: the three unit vectors with the exact printed angles, rotated onto
-   ``v1`` (orthogonal Procrustes; they then agree with ``v1`` to 6e-5);
+   ``v1`` with its ``z`` reversed (orthogonal Procrustes; they then agree with it to 6e-5);
 3. position 2 and the theoretical probe point ``q`` (6 unknowns: rotation of the
    position-2 unit-vector triad and ``q``): least squares on ``D2`` and Beta rows 4-5
    (12 equations).  These fix ``q`` and the triad except for one rotation about the axis
    tip -> ``q`` that leaves every printed number unchanged; it is fixed by asking, with a
    small weight, that the seed's eq 7.2 construction (average of the pairwise
    closest-point midpoints of the slider lines) return ``q``.  Both are met: every
-   printed number is reproduced to 5e-5 (its last digit) and the eq 7.2 construction
+   number listed above is reproduced to 5e-5 (its last digit) and the eq 7.2 construction
    lands 2e-3 mm from ``q`` (reported by :func:`reconstruct_appendix_cd`), so the printed
    numbers are mutually consistent and determine the geometry.
+
+Handedness.  Every printed number except ``v1`` is a length or an angle, and both are the
+same for the tetrahedron and its mirror image; ``v1`` fixes the handedness only if one
+knows the frame it is written in, and the thesis does not say.  Taken as tip -> joint in a
+right-handed frame, as printed, the triad a, b, c turns counter-clockwise seen from the
+joints (``det v1 = +0.84``), the machine's turns clockwise: put into the machine, the
+printed triad hangs the tip *above* the pivots (``pcmm kinematics forward --heights 400
+400 400`` gave z = 709.4 mm with pivots at 400 mm).  The machine fixes the handedness:
+
+* thesis 2.6.4: arms a, b, c run *clockwise seen from above*; Table 4.1 and Appendix D's
+  ``pp`` put pivot a at -x, b at +y, c at -y; the probe hangs below the pivots (Table
+  4.2 / Appendix E: probe at z = 126.7 mm, 79.7 mm corrected, under pivots at 381-401 mm);
+  so in a right-handed frame with ``z`` up the tip -> joint triad has ``det < 0``
+  (:func:`~pcmm_geo.machine.kinematics.dpkm.tetrahedron_directions` on Table 3.1:
+  ``det = -0.83``);
+* Appendix D's ``pp`` places each pivot at ``r_i (v1_x, v1_y)`` (the printed x/y ratios
+  agree with ``v1``'s to 9 digits, ``r`` = 404-408 mm) with heights upward and the probe
+  below: the seed's own machine frame reads ``v1``'s ``x, y`` as the plan directions of
+  the arms and its ``z`` downward.
+
+So the tip -> joint directions in the machine's right-handed frame are ``v1`` with ``z``
+reversed (``det = -0.84``), which is what is used.  (CMM₁'s frame was presumably another
+orientation of the part; only its handedness matters, and no right-handed frame can hold
+the printed ``v1`` as tip -> joint vectors of this machine.)  The shipped files are in the
+machine's axes: tip at the origin, joints above it, arm a towards -x, b towards +y.
 
 Sphere sizes and roundness were not printed; the export gives them as ``nan``.
 Table 7.1's ``b_in`` needs the laser sweep of section 7.2 (not printed) and is not
 reproduced.
+
+``probe2`` (Appendix C line 79, "value determined from Equation 7.2") is *not* reproduced
+and cannot be: it lies 302.1 mm from the tip in the tip-at-origin frame of Appendix C
+lines 29-39 where lines 106-111 use it, but the only points at the ``D2`` row-1 distances
+from the position-1 joints (fixed, up to rotation and reflection, by ``D1`` and Beta row 1)
+lie 38.87 mm and 692.5 mm from the tip (row 2: 38.87 and 548.6 mm).  Evaluated with
+``probe2``, lines 106-111 would give ``D2`` 201-304 mm larger than printed.  ``probe2`` must
+have been written in another frame (e.g. CMM₁'s, before the translation of lines 36-39);
+it is kept in :data:`APPENDIX_C` for reference only (``tests/machine/test_errata.py``).
 
 Examples
 --------
@@ -63,6 +98,7 @@ __all__ = [
     "DATA_FOLDER",
     "TABLE_6_2",
     "TABLE_7_1",
+    "V1_MACHINE_AXES",
     "AppendixReconstruction",
     "appendix_cd_files",
     "build_appendix_cd",
@@ -82,6 +118,7 @@ APPENDIX_C = {
     "beta_slope": np.array([-0.002311030128832, 0.010869972519353, 0.014048554826179]),
     "beta_intercept": np.array([68.407001290625388, 68.266075710813610, 68.257395830445560]),
     "start_of_range": 60.0,
+    # line 79, "value determined from Equation 7.2": not in the tip-at-origin frame (see the module notes)
     "probe2": np.array([195.5720, -1.3245, 230.3101]),
 }
 
@@ -104,6 +141,10 @@ APPENDIX_D = {
     "v1": np.array([[-0.6578, 0.0019, -0.7532], [0.3050, 0.5733, -0.7604], [0.3193, -0.5705, -0.7567]]),
 }
 
+#: Factors taking Appendix D's printed ``v1`` to tip -> joint directions in the machine's
+#: right-handed frame (``z`` up, probe below the pivots): ``z`` reversed (module notes, "Handedness").
+V1_MACHINE_AXES = np.array([1.0, 1.0, -1.0])
+
 #: Table 7.1: arm -> (d_i mm, beta_in degrees, b_in mm).
 TABLE_7_1 = {"a": (314.48, 68.25, 454.17), "b": (312.74, 69.03, 462.47), "c": (309.42, 68.70, 461.67)}
 
@@ -120,7 +161,7 @@ TABLE_6_2 = {
 @renamed_fields(centres="centers")
 @dataclass(frozen=True)
 class AppendixReconstruction:
-    """Sphere centers rebuilt from Appendices C and D (tip at the origin, mm).
+    """Sphere centers rebuilt from Appendices C and D (tip at the origin, machine axes, mm).
 
     Attributes
     ----------
@@ -150,14 +191,18 @@ class AppendixReconstruction:
     eq_7_2_gap: float
 
 
-def _triad(beta_ab: float, beta_bc: float, beta_ca: float) -> FloatArray:
-    """Three unit vectors (rows a, b, c) with the given pairwise angles (degrees), right-handed."""
+def _triad(beta_ab: float, beta_bc: float, beta_ca: float, handedness: float = 1.0) -> FloatArray:
+    """Three unit vectors (rows a, b, c) with the given pairwise angles (degrees).
+
+    ``det`` of the rows has the sign of ``handedness`` (+1: ``a, b, c`` turn counter-clockwise
+    seen from where they point; -1: clockwise, as the machine's arms seen from above).
+    """
     cos_ab, cos_bc, cos_ca = np.cos(np.radians([beta_ab, beta_bc, beta_ca]))
     unit_a = np.array([1.0, 0.0, 0.0])
     unit_b = np.array([cos_ab, np.sqrt(1.0 - cos_ab**2), 0.0])
     c_x = cos_ca
     c_y = (cos_bc - unit_b[0] * c_x) / unit_b[1]
-    unit_c = np.array([c_x, c_y, np.sqrt(1.0 - c_x**2 - c_y**2)])
+    unit_c = np.array([c_x, c_y, np.copysign(np.sqrt(1.0 - c_x**2 - c_y**2), handedness)])
     return np.array([unit_a, unit_b, unit_c])
 
 
@@ -170,7 +215,7 @@ def _rotate_onto(rows: FloatArray, target: FloatArray) -> FloatArray:
 
 
 def reconstruct_appendix_cd(seed: int = 0) -> AppendixReconstruction:
-    """Rebuild joint centers consistent with every number printed in Appendices C and D.
+    """Rebuild joint centers consistent with the numbers printed in Appendices C and D (not ``probe2``).
 
     Parameters
     ----------
@@ -199,9 +244,11 @@ def reconstruct_appendix_cd(seed: int = 0) -> AppendixReconstruction:
     # beta pairs ab, bc, ca regressed on lasers b, c, a
     beta = APPENDIX_C["beta_slope"] * lasers[:, [1, 2, 0]] + APPENDIX_C["beta_intercept"]
     reach = lasers + APPENDIX_C["start_of_range"] + dead  # (2, 3) tip-to-joint distances
-    units_1 = _rotate_onto(_triad(*beta[0]), APPENDIX_D["v1"])
+    directions_1 = APPENDIX_D["v1"] * V1_MACHINE_AXES  # machine axes: z up, tip below the joints
+    handedness = float(np.sign(np.linalg.det(directions_1)))  # -1: a, b, c clockwise seen from above
+    units_1 = _rotate_onto(_triad(*beta[0], handedness), directions_1)
     centres_1 = reach[0][:, None] * units_1
-    base_2 = _rotate_onto(_triad(*beta[1]), APPENDIX_D["v1"])
+    base_2 = _rotate_onto(_triad(*beta[1], handedness), directions_1)
     d2 = APPENDIX_D["D2"]
     beta_t = APPENDIX_D["Beta"][3:5]
 
