@@ -167,7 +167,7 @@ def test_round_trip_inside_the_workspace_to_1e9() -> None:
 
 
 def test_thesis_working_volume_lies_inside_the_workspace() -> None:
-    """The thesis' 100 x 100 x 100 mm working volume (thesis 2.6) around the reference tip is reachable."""
+    """The thesis' 100 x 100 x 100 mm working volume (thesis 2.6.3) around the reference tip is reachable."""
     grid = np.stack(np.meshgrid(*[np.linspace(-50.0, 50.0, 5)] * 3, indexing="ij"), axis=-1).reshape(-1, 3)
     inv = SEED.inverse(reference_tip() + grid)
     assert inv.converged.all()
