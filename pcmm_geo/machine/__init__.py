@@ -80,6 +80,11 @@ _LAZY = {
     "process_log": "analysis.logproc",
     "process_log_dpkm": "analysis.logproc",
     "synthesise_log": "analysis.logproc",
+    # variable DPKM parameters (thesis 8.2)
+    "DpkmParameterLaws": "analysis.parameter_laws",
+    "LinearLaw": "analysis.parameter_laws",
+    "fit_parameter_laws": "analysis.parameter_laws",
+    "synthesise_log_dpkm": "analysis.parameter_laws",
     # sensitivity
     "Sensitivity": "analysis.sensitivity",
     "tip_jacobian": "analysis.sensitivity",

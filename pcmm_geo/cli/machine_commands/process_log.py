@@ -28,6 +28,15 @@ def register(subparsers: Any) -> None:
     parser.add_argument("--initial-heights", type=float, nargs=3, metavar=("A", "B", "C"),
                         help="pivot heights of the first row (datum; default: the machine's reference heights)")
     parser.add_argument("--all-rows", action="store_true", help="list every row, not only the probe points")
+    parser.add_argument("--laser-sigma", type=float, metavar="MM",
+                        help="standard uncertainty of a laser reading (default 0.0289 mm: the thesis' 50 um laser "
+                             "accuracy as rectangular bounds): scale of the closure test")
+    parser.add_argument("--max-closure", type=float, metavar="MM",
+                        help="largest accepted closure residual of a row in mm, instead of the default test "
+                             "(within 6 standard deviations of the scatter predicted from --laser-sigma)")
+    parser.add_argument("--keep-inconsistent", action="store_true",
+                        help="keep rows beyond --max-closure, marked and left out of the probe points, instead of "
+                             "refusing the log (exit 2)")
     add_plot_flag(parser, "the tip path with probe points, pivot heights and closure residual per row")
     add_report_flag(parser)
     add_overwrite_flag(parser)
@@ -36,17 +45,34 @@ def register(subparsers: Any) -> None:
 
 
 def _handle(args: argparse.Namespace) -> Report:
+    import numpy as np
+
     from pcmm_geo.cli._progress import progress_bar, progress_wanted
     from pcmm_geo.cli.machine_commands.kinematics import load_machine_file
-    from pcmm_geo.machine.analysis.logproc import process_log, read_log
+    from pcmm_geo.errors import ConvergenceError, InconsistentMeasurementError
+    from pcmm_geo.machine.analysis.logproc import CLOSURE_SIGMAS, SEED_LASER_SIGMA, process_log, read_log
 
     machine = load_machine_file(args.calibration)
     log = read_log(args.file)
-    with progress_bar("processing log rows", enabled=progress_wanted(args), total=len(log)) as update:
-        out = process_log(machine, log, initial_heights=args.initial_heights, progress=update)
+    try:
+        with progress_bar("processing log rows", enabled=progress_wanted(args), total=len(log)) as update:
+            sigma = SEED_LASER_SIGMA if args.laser_sigma is None else args.laser_sigma
+            out = process_log(machine, log, initial_heights=args.initial_heights, laser_sigma=sigma,
+                              closure_tolerance=args.max_closure, progress=update,
+                              on_inconsistent="flag" if args.keep_inconsistent else "raise")
+    except InconsistentMeasurementError as exc:
+        raise InconsistentMeasurementError(
+            f"{args.file}: {exc.what}", exc.residual, exc.tolerance, exc.unit,
+            f"{exc.detail}; --keep-inconsistent keeps and marks such rows, --max-closure sets the tolerance",
+        ) from None
+    except ConvergenceError as exc:
+        raise ConvergenceError(f"{args.file}: {exc.element}", exc.iterations,
+                               f"{exc.reason}; --keep-inconsistent keeps and marks such rows") from None
     rows_index = range(len(log)) if args.all_rows else out.probe_rows.tolist()
     rows = [
-        [int(k) + 2, int(log.probe[k]), *out.tips[k].tolist(), *out.heights[k].tolist()] for k in rows_index
+        [int(k) + 2, int(log.probe[k]), *out.tips[k].tolist(), *out.heights[k].tolist(),
+         float(out.closure_residual[k]), "no" if out.inconsistent[k] else "yes"]
+        for k in rows_index
     ]
     data = {
         "file": args.file,
@@ -58,15 +84,27 @@ def _handle(args: argparse.Namespace) -> Report:
         "direction_consistent": out.direction_consistent.tolist(),
         "converged": out.converged.tolist(),
         "max_residual_mm": float(abs(out.residuals).max()),
+        "closure_residual_mm": out.closure_residual.tolist(),
+        "closure_sigmas": [None if not np.isfinite(v) else float(v) for v in out.closure_sigmas],
+        "closure_tolerance_mm": [None if not np.isfinite(v) else float(v) for v in out.closure_tolerance],
+        "inconsistent_data_rows": (np.flatnonzero(out.inconsistent) + 1).tolist(),  # 1-based data rows
+        "rejected_probe_data_rows": (out.rejected_probe_rows + 1).tolist(),
     }
-    lines = [f"{len(log)} rows, {out.probe_rows.size} probe points; max closure residual "
-             f"{data['max_residual_mm']:.3g} mm"]
+    lines = [f"{len(log)} rows, {out.probe_rows.size} probe points; largest closure residual "
+             f"{float(out.closure_residual.max()):.3g} mm (the table's closure column)"]
+    if out.inconsistent.any():
+        test = (f"{args.max_closure:g} mm" if args.max_closure is not None
+                else f"{CLOSURE_SIGMAS:g} standard deviations of the predicted scatter")
+        lines.append(f"warning: {int(out.inconsistent.sum())} rows do not close within {test} "
+                     f"(data rows {data['inconsistent_data_rows']}); "
+                     f"{out.rejected_probe_rows.size} probe points left out")
     bad = [int(k) + 2 for k in range(len(log)) if not out.direction_consistent[k]]
     if bad:
         lines.append(f"warning: direction flag contradicts the solved height change on lines {bad}")
     table = Table(
         "Probe points" if not args.all_rows else "Rows",
-        ["line", "probe", "x / mm", "y / mm", "z / mm", "h_a / mm", "h_b / mm", "h_c / mm"],
+        ["line", "probe", "x / mm", "y / mm", "z / mm", "h_a / mm", "h_b / mm", "h_c / mm", "closure / mm",
+         "closes"],
         rows,
     )
     plots = []

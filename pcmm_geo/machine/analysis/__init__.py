@@ -7,6 +7,10 @@ What lives here:
   or the seed's DPKM;
 - :mod:`~pcmm_geo.machine.analysis.logproc_rows` -- the log's rows: array type, CSV reader
   and writer;
+- :mod:`~pcmm_geo.machine.analysis.logproc_closure` -- the closure test of each log row and the
+  derivation of its default tolerance;
+- :mod:`~pcmm_geo.machine.analysis.parameter_laws` -- the seed DPKM's ``d_i`` and ``beta_in`` as
+  linear laws of the lasers (thesis 8.2, Table 8.2), fitted from calibration positions;
 - :mod:`~pcmm_geo.machine.analysis.sensitivity` -- sensitivity of the tip to laser and encoder
   readings over the working cube;
 - :mod:`~pcmm_geo.machine.analysis.repeatability` -- start-position repeatability of the lasers

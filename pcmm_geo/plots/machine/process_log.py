@@ -84,10 +84,21 @@ def plot_processed_log(processed: ProcessedLog, path: str | Path, *, overwrite: 
     height_axes.legend(fontsize=8)
 
     residual_axes = figure.add_subplot(grid[1, 1], sharex=height_axes)
-    closure_um = 1000.0 * np.max(np.abs(np.asarray(processed.residuals, dtype=float)), axis=1)
-    residual_axes.plot(rows, np.maximum(closure_um, 1e-9), color="tab:purple", linewidth=0.8)
+    closure_um = 1000.0 * np.asarray(processed.closure_residual, dtype=float)
+    residual_axes.plot(rows, np.maximum(closure_um, 1e-9), color="tab:purple", linewidth=0.8, label="closure")
+    limit_um = 1000.0 * np.asarray(processed.closure_tolerance, dtype=float)
+    if np.isfinite(limit_um).any():
+        residual_axes.plot(rows, limit_um, color="tab:grey", linewidth=0.8, linestyle="--", label="refused above")
+    refused = np.asarray(processed.inconsistent, dtype=bool)
+    if refused.any():
+        residual_axes.scatter(rows[refused], np.maximum(closure_um[refused], 1e-9), color="red", marker="x", s=24,
+                              label=f"inconsistent ({int(refused.sum())})")
+        path_axes.scatter(*tips[refused].T, color="red", marker="x", s=30, depthshade=False,
+                          label=f"inconsistent rows ({int(refused.sum())})")
+        path_axes.legend(loc="upper left", fontsize=8)
     residual_axes.set_yscale("log")
     residual_axes.set_xlabel("log row")
-    residual_axes.set_ylabel("largest closure / µm")
+    residual_axes.set_ylabel("closure residual / µm")
     residual_axes.set_title("Loop-closure residual per row", fontsize=10)
+    residual_axes.legend(fontsize=8)
     return save_figure(figure, path, overwrite=overwrite)
