@@ -2,7 +2,9 @@
 
 Until release 0.2 ``pcmm_geo.machine`` was one folder of modules.  Its modules now live in
 :mod:`pcmm_geo.machine.kinematics`, :mod:`pcmm_geo.machine.calibration`,
-:mod:`pcmm_geo.machine.analysis` and :mod:`pcmm_geo.acquisition`.  Importing an old path
+:mod:`pcmm_geo.machine.analysis` and :mod:`pcmm_geo.acquisition`; the numerical calibration
+(ch. 6) later moved on from ``pcmm_geo.machine.calibration`` to
+:mod:`pcmm_geo.machine.calibration.numerical`.  Importing an old path
 (``import pcmm_geo.machine.dpkm``, ``from pcmm_geo.machine.drivers.zaber import ZaberChain``)
 still works for one release: a meta-path finder, installed when :mod:`pcmm_geo.machine` is
 imported, serves a small alias module whose names are the new module's objects, and emits a
@@ -40,9 +42,13 @@ MOVED: dict[str, str] = {
     "pcmm_geo.machine.calibration_result": "pcmm_geo.machine.calibration.result",
     "pcmm_geo.machine.calibration_seed": "pcmm_geo.machine.calibration.seed",
     "pcmm_geo.machine.calfile": "pcmm_geo.machine.calibration.calfile",
-    "pcmm_geo.machine.numcal": "pcmm_geo.machine.calibration.numcal",
-    "pcmm_geo.machine.numcal_data": "pcmm_geo.machine.calibration.numcal_data",
-    "pcmm_geo.machine.identifiability": "pcmm_geo.machine.calibration.identifiability",
+    "pcmm_geo.machine.numcal": "pcmm_geo.machine.calibration.numerical.numcal",
+    "pcmm_geo.machine.numcal_data": "pcmm_geo.machine.calibration.numerical.numcal_data",
+    "pcmm_geo.machine.identifiability": "pcmm_geo.machine.calibration.numerical.identifiability",
+    # issue 16: the numerical calibration left the full calibration/ folder for its own sub-package
+    "pcmm_geo.machine.calibration.numcal": "pcmm_geo.machine.calibration.numerical.numcal",
+    "pcmm_geo.machine.calibration.numcal_data": "pcmm_geo.machine.calibration.numerical.numcal_data",
+    "pcmm_geo.machine.calibration.identifiability": "pcmm_geo.machine.calibration.numerical.identifiability",
     "pcmm_geo.machine.logproc": "pcmm_geo.machine.analysis.logproc",
     "pcmm_geo.machine.logproc_rows": "pcmm_geo.machine.analysis.logproc_rows",
     "pcmm_geo.machine.sensitivity": "pcmm_geo.machine.analysis.sensitivity",

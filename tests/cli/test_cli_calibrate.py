@@ -10,7 +10,12 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from pcmm_geo.machine.calibration.numcal import NumcalParameters, synthesise_numcal_data
+from pcmm_geo.machine.calibration.numerical.numcal_data import (
+    NumcalParameters,
+    synthesise_design_data,
+    synthesise_numcal_data,
+    write_numcal_csv,
+)
 from pcmm_geo.machine.calibration.seed import TABLE_7_1, appendix_cd_files
 
 PCMM = str(Path(sys.executable).with_name("pcmm"))
@@ -58,20 +63,25 @@ def test_calibrate_bad_file_is_one_line_error(tmp_path, files):
 
 
 def test_numcal_json(tmp_path):
-    data = synthesise_numcal_data(NumcalParameters.from_seed_table(), seed=2)
-    path = tmp_path / "numcal.csv"
-    rows = ["moved,laser_a,laser_b,laser_c,height"]
-    rows += [f"{m},{a!r},{b!r},{c!r},{h!r}" for m, (a, b, c), h in
-             zip(data.moved, data.lasers.tolist(), data.heights.tolist(), strict=True)]
-    path.write_text("\n".join(rows) + "\n")
-    done = run("numcal", str(path), "--json", "--method", "sequential")
+    truth = NumcalParameters.from_seed_table()
+    design = np.random.default_rng(2).uniform(0.0, 200.0, (24, 3))  # pivots together over 200 mm
+    path = write_numcal_csv(synthesise_design_data(truth, design), tmp_path / "numcal.csv")
+    done = run("numcal", str(path), "--json", "--pairs", "all", "--search", "multistart")
     assert done.returncode == 0, done.stderr
     result = json.loads(done.stdout)
-    assert result["method"] == "sequential"
-    assert result["rms"] < 1e-4
-    assert result["identifiability"]["condition_number"] > 1e5
-    assert len(result["height_errors"]) == 45
-    assert set(result["d"]) == {"a", "b", "c"} and all(300 <= v <= 400 for v in result["d"].values())
-    text = run("numcal", str(path), "--search", "none")
-    assert text.returncode == 0 and "weak combination" in text.stdout
-    assert np.isfinite(float(text.stdout.split("rms distance residual: ")[1].split()[0]))
+    assert result["converged"] is True and result["pairs"] == "all"
+    assert result["rms"] < 1e-9 and result["dof"] == 3 * 24 - 9
+    assert result["condition_number"] < 1e5
+    for arm in "abc":
+        assert abs(result["d"][arm] - truth.d[arm]) < 1e-6
+    assert len(result["height_errors"]) == 24
+    # the seed's own design (one pivot at a time, 50 mm, one pair per sample) is not determined: exit 1, one warning
+    seed_path = write_numcal_csv(synthesise_numcal_data(truth, seed=2), tmp_path / "seed.csv")
+    text = run("numcal", str(seed_path), "--search", "none", "--method", "sequential")
+    assert text.returncode == 1 and "converged: NO" in text.stdout and "weak combination" in text.stdout
+    warning_lines = [line for line in text.stderr.splitlines() if "CalibrationNotConvergedWarning" in line]
+    assert len(warning_lines) == 1
+    arm = run("numcal", str(seed_path), "--single-arm", "a", "--search", "none", "--json")
+    single = json.loads(arm.stdout)
+    assert arm.returncode == 1 and single["method"] == "single-arm" and single["converged"] is False
+    assert single["estimated"] == ["d_a", "d_c", "beta_ca", "b_ca"]

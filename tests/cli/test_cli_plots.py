@@ -14,7 +14,11 @@ import numpy as np
 import pytest
 
 from pcmm_geo.machine.analysis.logproc import synthesise_log, write_log
-from pcmm_geo.machine.calibration.numcal import NumcalParameters, synthesise_numcal_data
+from pcmm_geo.machine.calibration.numerical.numcal_data import (
+    NumcalParameters,
+    synthesise_design_data,
+    write_numcal_csv,
+)
 from pcmm_geo.machine.calibration.seed import TABLE_7_1, appendix_cd_files
 from pcmm_geo.machine.kinematics.model import RigidBodyMachine
 
@@ -259,27 +263,22 @@ def test_demo_and_acquire_progress_on_a_terminal(tmp_path: Path) -> None:
 
 @pytest.fixture(scope="module")
 def numcal_csv(tmp_path_factory) -> str:
-    truth = NumcalParameters.from_seed_table()
-    data = synthesise_numcal_data(truth, seed=1)
-    rows = ["moved,laser_a,laser_b,laser_c,height"]
-    rows += [
-        f"{m},{a!r},{b!r},{c!r},{h!r}"
-        for m, (a, b, c), h in zip(data.moved, data.lasers.tolist(), data.heights.tolist(), strict=True)
-    ]
-    path = tmp_path_factory.mktemp("numcal") / "numcal.csv"
-    path.write_text("\n".join(rows) + "\n")
-    return str(path)
+    design = np.random.default_rng(1).uniform(0.0, 200.0, (24, 3))  # determines all nine parameters
+    data = synthesise_design_data(NumcalParameters.from_seed_table(), design)
+    return str(write_numcal_csv(data, tmp_path_factory.mktemp("numcal") / "numcal.csv"))
 
 
 def test_numcal_progress_on_a_terminal_only(numcal_csv):
-    code, stdout, stderr = run_with_terminal_stderr("numcal", numcal_csv, "--search", "multistart")
+    code, stdout, stderr = run_with_terminal_stderr("numcal", numcal_csv, "--search", "multistart", "--pairs", "all")
     assert code == 0 and "\x1b" not in stdout and "Numerical calibration" in stdout
     # 20 seeded starts, one least-squares refinement each: the last state is always drawn
     assert "numerical calibration (simultaneous, multistart)" in stderr and "20/20" in stderr
-    code, stdout, stderr = run_with_terminal_stderr("numcal", numcal_csv, "--search", "multistart", "--json")
+    code, stdout, stderr = run_with_terminal_stderr("numcal", numcal_csv, "--search", "multistart", "--json", "--pairs",
+                                                    "all")
     assert code == 0 and stderr == ""  # --json: no bar even on a terminal
     assert json.loads(stdout)["global_search"] == "multistart"
     piped = subprocess.run(
-        [PCMM, "numcal", numcal_csv, "--search", "none"], capture_output=True, text=True, timeout=120, check=False
+        [PCMM, "numcal", numcal_csv, "--search", "multistart", "--pairs", "all"], capture_output=True, text=True,
+        timeout=120, check=False
     )
     assert piped.returncode == 0 and piped.stderr == ""  # stderr not a terminal: no bar

@@ -17,7 +17,11 @@ import numpy as np
 import pytest
 
 from pcmm_geo.cli import main
-from pcmm_geo.machine.calibration.numcal import NumcalParameters, synthesise_numcal_data
+from pcmm_geo.machine.calibration.numerical.numcal_data import (
+    NumcalParameters,
+    synthesise_design_data,
+    write_numcal_csv,
+)
 
 EXAMPLES = Path(__file__).parents[2] / "pcmm_geo" / "data" / "examples"
 NIST_SPHERE = Path(__file__).parents[1] / "data" / "nist" / "Sphere" / "sph20.ds"
@@ -25,13 +29,10 @@ NIST_SPHERE = Path(__file__).parents[1] / "data" / "nist" / "Sphere" / "sph20.ds
 
 @pytest.fixture(scope="module")
 def numcal_file(tmp_path_factory: pytest.TempPathFactory) -> Path:
-    data = synthesise_numcal_data(NumcalParameters.from_seed_table(), samples_per_arm=8, laser_sigma=1e-3, seed=3)
-    rows = ["moved,laser_a,laser_b,laser_c,height"]
-    rows += [f"{m},{a!r},{b!r},{c!r},{h!r}"
-             for m, (a, b, c), h in zip(data.moved, data.lasers.tolist(), data.heights.tolist(), strict=True)]
-    path = tmp_path_factory.mktemp("numcal") / "numcal.csv"
-    path.write_text("\n".join(rows) + "\n", encoding="utf-8")
-    return path
+    # a design that determines all nine parameters (pivots moved together over 200 mm, all pairs)
+    design = np.random.default_rng(3).uniform(0.0, 200.0, (24, 3))
+    data = synthesise_design_data(NumcalParameters.from_seed_table(), design, laser_sigma=1e-3, seed=3)
+    return write_numcal_csv(data, tmp_path_factory.mktemp("numcal") / "numcal.csv")
 
 
 def command_lines(numcal: Path) -> dict[str, list[str]]:
@@ -43,7 +44,7 @@ def command_lines(numcal: Path) -> dict[str, list[str]]:
         "iso10360-6": ["iso10360-6", str(EXAMPLES / "iso10360_6_reference.csv"),
                        str(EXAMPLES / "iso10360_6_results.json")],
         "micrometer": ["micrometer", str(EXAMPLES / "micrometer_stage.csv")],
-        "numcal": ["numcal", str(numcal), "--search", "none"],
+        "numcal": ["numcal", str(numcal), "--search", "multistart", "--pairs", "all"],
         "kinematics-forward": ["kinematics", "forward", "--heights", "410", "395", "420"],
         "kinematics-inverse": ["kinematics", "inverse", "--tip", "0", "0", "80"],
         "kinematics-trilaterate": ["kinematics", "trilaterate", "--pivots", "0", "0", "0", "100", "0", "0", "0", "100",

@@ -21,7 +21,7 @@ from pcmm_geo.machine.analysis.laser_ratio_model import (
     read_ratio_table_csv,
     synthesise_ratio_record,
 )
-from pcmm_geo.machine.calibration.numcal_data import read_numcal_csv
+from pcmm_geo.machine.calibration.numerical.numcal_data import read_numcal_csv
 from pcmm_geo.machine.kinematics.model import RigidBodyMachine
 
 EXAMPLES = Path(__file__).resolve().parents[2] / "pcmm_geo" / "data" / "examples"

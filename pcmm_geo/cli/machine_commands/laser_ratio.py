@@ -65,7 +65,7 @@ def _handle(args: argparse.Namespace) -> Report:
                      "from level pivots")
     else:
         from pcmm_geo.machine.analysis.laser_ratio import laser_height_ratio
-        from pcmm_geo.machine.calibration.numcal_data import read_numcal_csv
+        from pcmm_geo.machine.calibration.numerical.numcal_data import read_numcal_csv
 
         result = laser_height_ratio(read_numcal_csv(args.file), machine=machine, model_name=model)
         tables.append(Table("Runs (eqs 6.1-6.3)", [

@@ -19,7 +19,7 @@ ratio from the model for that arm moved alone between the same start and finish 
 reports how fast the prediction changes with the travel and with an offset of the start laser
 reading (the settling scatter of Table 6.7).
 
-Splitting a record into runs (the height-gauge CSV of :mod:`pcmm_geo.machine.calibration.numcal_data`
+Splitting a record into runs (the height-gauge CSV of :mod:`pcmm_geo.machine.calibration.numerical.numcal_data`
 has no test column): consecutive rows of the same moved arm form one run while the height keeps
 moving in one direction; a row that reverses the direction (the return to the start) or names
 another arm starts a new run.  A run needs at least two rows; its first and last rows are ``s``
@@ -88,8 +88,8 @@ _STEP_GUARD = 1e-9  # mm: a height step smaller than this does not set or revers
 class HeightGaugeRecord(Protocol):
     """What the analysis needs of a height-gauge record.
 
-    :class:`pcmm_geo.machine.calibration.numcal_data.NumcalData` (read by
-    :func:`~pcmm_geo.machine.calibration.numcal_data.read_numcal_csv`) is one.
+    :class:`pcmm_geo.machine.calibration.numerical.numcal_data.NumcalData` (read by
+    :func:`~pcmm_geo.machine.calibration.numerical.numcal_data.read_numcal_csv`) is one.
     """
 
     moved: tuple[str, ...]
@@ -268,7 +268,7 @@ def laser_height_ratio(record: HeightGaugeRecord, *, machine: RigidBodyMachine |
     ----------
     record : HeightGaugeRecord
         ``moved`` (M,), ``lasers`` (M, 3) mm, ``heights`` (M,) mm relative to the level start, e.g.
-        the :class:`~pcmm_geo.machine.calibration.numcal_data.NumcalData` of ``read_numcal_csv``.
+        the :class:`~pcmm_geo.machine.calibration.numerical.numcal_data.NumcalData` of ``read_numcal_csv``.
     machine : RigidBodyMachine, optional
         Geometry of the prediction (default: the thesis geometry, :meth:`RigidBodyMachine.from_dpkm`).
     limits : ReadingLimits, optional

@@ -18,11 +18,11 @@ What lives here:
   Appendices C and D;
 - :mod:`~pcmm_geo.machine.calibration.noise` -- seeded study of how calibration errors grow
   with probing noise;
-- :mod:`~pcmm_geo.machine.calibration.numcal` and
-  :mod:`~pcmm_geo.machine.calibration.numcal_data` -- numerical calibration of d, beta, b from
-  height-gauge experiments (ch. 6);
-- :mod:`~pcmm_geo.machine.calibration.identifiability` -- identifiability of calibration
-  parameters and pose selection.
+- :mod:`~pcmm_geo.machine.calibration.numerical` -- numerical calibration of d, beta, b from
+  height-gauge experiments (ch. 6), single-arm calibration (Table 6.2), identifiability of
+  calibration parameters and pose selection (the old paths ``calibration.numcal``,
+  ``calibration.numcal_data``, ``calibration.identifiability`` still import, with a
+  DeprecationWarning).
 
 May import: :mod:`pcmm_geo.machine.kinematics`, :mod:`pcmm_geo.acquisition`,
 :mod:`pcmm_geo.errors` and the lower layers (:mod:`pcmm_geo.fit`, :mod:`pcmm_geo.io`,

@@ -25,8 +25,8 @@ from pcmm_geo.plots._figure import (
 )
 
 if TYPE_CHECKING:
-    from pcmm_geo.machine.calibration.numcal import NumericalCalibration
-    from pcmm_geo.machine.calibration.numcal_data import NumcalData
+    from pcmm_geo.machine.calibration.numerical.numcal import NumericalCalibration
+    from pcmm_geo.machine.calibration.numerical.numcal_data import NumcalData
     from pcmm_geo.machine.kinematics.model import RigidBodyMachine
 
 __all__ = ["plot_numerical_calibration", "plot_pose", "plot_trilateration"]
@@ -42,9 +42,10 @@ def plot_numerical_calibration(
     Parameters
     ----------
     result : NumericalCalibration
-        Result of :func:`pcmm_geo.machine.numcal.calibrate_numerically`.
+        Result of :func:`pcmm_geo.machine.calibration.numerical.numcal.calibrate_numerically`.
     data : NumcalData
-        The samples it was computed from (``result.residuals`` follows their order).
+        The samples it was computed from (``result.residuals`` follows their order: one per
+        sample, or three per sample -- pairs ab, bc, ca -- with ``pairs="all"``).
     path : str or Path
         Destination, ``.png``, ``.svg`` or ``.pdf``.
     overwrite : bool
@@ -62,26 +63,37 @@ def plot_numerical_calibration(
     Examples
     --------
     >>> import os, tempfile
-    >>> from pcmm_geo.machine.calibration.numcal import NumcalParameters, calibrate_numerically, synthesise_numcal_data
+    >>> from pcmm_geo.machine.calibration.numerical.numcal import calibrate_numerically
+    >>> from pcmm_geo.machine.calibration.numerical.numcal_data import NumcalParameters, synthesise_design_data
     >>> truth = NumcalParameters.from_seed_table()
-    >>> data = synthesise_numcal_data(truth, samples_per_arm=6, laser_sigma=1e-3, seed=1)
-    >>> result = calibrate_numerically(data, global_search=None, start=truth)
+    >>> design = np.random.default_rng(1).uniform(0.0, 200.0, (18, 3))
+    >>> data = synthesise_design_data(truth, design, laser_sigma=1e-3, seed=1)
+    >>> result = calibrate_numerically(data, pairs="all", global_search=None, start=truth)
     >>> plot_numerical_calibration(result, data, os.path.join(tempfile.mkdtemp(), "n.png")).suffix
     '.png'
     """
     check_plot_path(path, overwrite=overwrite)
     residuals = np.asarray(result.residuals, dtype=float)
     factor, unit = length_unit(residuals)
-    moved = np.asarray(data.moved)
     figure = new_figure(12.0, 4.6)
     left, right = figure.subplots(1, 2, width_ratios=(1.7, 1.0))
     left.axhline(0.0, color="black", linewidth=0.6)
-    for arm in ARMS:
-        chosen = moved == arm
-        if chosen.any():
-            left.plot(np.asarray(data.heights)[chosen], factor * residuals[chosen], marker="o", markersize=4,
-                      linewidth=0.8, color=ARM_COLOURS[arm], label=f"arm {arm} moved ({int(chosen.sum())} samples)")
-    left.set_xlabel("height-gauge reading of the moved pivot / mm")
+    if residuals.size == len(data.moved):  # the seed's one equation per sample: by moved arm
+        moved = np.asarray(data.moved)
+        for arm in ARMS:
+            chosen = moved == arm
+            if chosen.any():
+                left.plot(np.asarray(data.heights)[chosen], factor * residuals[chosen], marker="o", markersize=4,
+                          linewidth=0.8, color=ARM_COLOURS[arm],
+                          label=f"arm {arm} moved ({int(chosen.sum())} samples)")
+        left.set_xlabel("height-gauge reading of the moved pivot / mm")
+    else:  # all three pair equations per sample (order ab, bc, ca): by pair, against the pair's height difference
+        pivots = np.asarray(data.pivot_heights)
+        for k, (pair, (first, second)) in enumerate(zip(("ab", "bc", "ca"), ((0, 1), (1, 2), (2, 0)), strict=True)):
+            rise = pivots[:, second] - pivots[:, first]
+            left.plot(rise, factor * residuals[k::3], marker="o", markersize=4, linestyle="none",
+                      color=ARM_COLOURS[pair[1]], label=f"pair {pair} ({len(rise)} samples)")
+        left.set_xlabel("height difference of the pair's pivots / mm")
     left.set_ylabel(f"distance residual / {unit}")
     left.legend(fontsize=8)
     left.grid(alpha=0.3)
@@ -90,12 +102,14 @@ def plot_numerical_calibration(
     relative = values / values[0] if values.size and values[0] > 0 else values
     right.bar(np.arange(1, len(values) + 1), np.where(relative > 0, relative, np.nan), color="tab:blue")
     right.set_yscale("log")
+    right.set_xticks(np.arange(1, len(values) + 1))
     right.set_xlabel("singular value index")
     right.set_ylabel("s / s_max")
     right.set_title(f"Identifiability: rank {ident.rank} of {len(values)}, "
                     f"condition number {ident.condition_number:.3g}", fontsize=9)
     right.grid(alpha=0.3, axis="y")
-    figure.suptitle(f"Numerical calibration ({result.method}): {len(residuals)} samples, "
+    equations = "all pairs" if result.pairs == "all" else "moved pair"
+    figure.suptitle(f"Numerical calibration ({result.method}, {equations}): {len(data.moved)} samples, "
                     f"rms {three_digits(factor * result.rms)} {unit}")
     return save_figure(figure, path, overwrite=overwrite)
 
