@@ -48,6 +48,22 @@ __all__ = [
 ]
 
 
+#: longest text from a file or an argument an error message repeats (see :func:`_bounded`)
+_MAX_QUOTED_CHARS = 480
+
+
+def _bounded(text: str) -> str:
+    """``text`` cut in the middle when longer than :data:`_MAX_QUOTED_CHARS`.
+
+    A last line of defence: readers quote short excerpts of bad input, but a message must never
+    grow with the input (a 100 MB damaged line must not become 100 MB of stderr).
+    """
+    if len(text) <= _MAX_QUOTED_CHARS:
+        return text
+    head, tail = text[:400], text[-60:]
+    return f"{head} ... [{len(text) - len(head) - len(tail)} characters left out] ... {tail}"
+
+
 class PcmmGeoError(Exception):
     """Base class of every error raised by pcmm_geo."""
 
@@ -66,6 +82,7 @@ class InvalidInputError(PcmmGeoError, ValueError):
     """
 
     def __init__(self, what: str, expected: str, got: str) -> None:
+        got = _bounded(str(got))
         super().__init__(f"{what}: expected {expected}, got {got}", what=what, expected=expected, got=got)
 
 
@@ -136,6 +153,7 @@ class FileFormatError(PcmmGeoError, ValueError):
 
     def __init__(self, path: str, reason: str, line: int | None = None) -> None:
         where = f"{path}:{line}" if line is not None else f"{path}"
+        reason = _bounded(reason)
         super().__init__(f"{where}: {reason}", path=path, line=line, reason=reason)
 
 
@@ -175,6 +193,7 @@ class LogIntegrityError(PcmmGeoError, ValueError):
 
     def __init__(self, path: str, reason: str, line: int | None = None) -> None:
         where = f"{path}:{line}" if line is not None else f"{path}"
+        reason = _bounded(reason)
         super().__init__(f"{where}: {reason}", path=path, reason=reason, line=line)
 
 

@@ -2,8 +2,8 @@
 
 from __future__ import annotations
 
-import csv
 import math
+import re
 from collections.abc import Sequence
 from pathlib import Path
 
@@ -18,28 +18,31 @@ def read_rows(path: str | Path, required: Sequence[str]) -> list[tuple[int, dict
     Raises
     ------
     FileFormatError
-        No header, missing required columns, no data rows, a row with the wrong number of cells,
-        binary or non-UTF-8 content, a directory.
+        No header, missing or repeated columns, no data rows, a row with the wrong number of
+        cells, binary or non-UTF-8 content, an over-long field, bad quoting, a directory.
     OSError
         The file cannot be read.
     """
-    from pcmm_geo.io._text import read_text_lines
+    from pcmm_geo.io._text import read_csv_rows
 
     text_path = str(path)
-    lines = [(n, line) for n, line in read_text_lines(path) if line.strip() and not line.lstrip().startswith("#")]
+    lines = read_csv_rows(path).rows
     if not lines:
         raise FileFormatError(text_path, "empty file: expected a CSV header and data rows")
-    reader = csv.reader([line for _, line in lines])
-    rows = list(reader)
-    header = [name.strip().lower() for name in rows[0]]
+    header = [name.strip().lower() for name in lines[0][1]]
     missing = [name for name in required if name not in header]
     if missing:
-        hint = "; fields must be separated by ',' with '.' as decimal mark" if ";" in lines[0][1] else ""
+        semicolons = any(";" in cell for cell in lines[0][1])
+        hint = "; fields must be separated by ',' with '.' as decimal mark" if semicolons else ""
         raise FileFormatError(
             text_path, f"expected columns {', '.join(required)}; missing {', '.join(missing)}{hint}", line=lines[0][0]
         )
+    twice = sorted({name for name in header if name and header.count(name) > 1})
+    if twice:
+        raise FileFormatError(text_path, f"column {twice[0]!r} appears twice in the header (which one is meant?)",
+                              line=lines[0][0])
     out: list[tuple[int, dict[str, str]]] = []
-    for (number, _), cells in zip(lines[1:], rows[1:], strict=True):
+    for number, cells in lines[1:]:
         if len(cells) != len(header):
             raise FileFormatError(text_path, f"expected {len(header)} cells, got {len(cells)}", line=number)
         out.append((number, {name: cell.strip() for name, cell in zip(header, cells, strict=True)}))
@@ -53,22 +56,27 @@ def cell_float(path: str | Path, line: int, row: dict[str, str], column: str, *,
     text = row.get(column, "")
     if text == "" and allow_empty:
         return math.nan
+    from pcmm_geo.io._text import excerpt, parse_decimal
+
     try:
-        value = float(text)
+        value = parse_decimal(text)
     except ValueError:
-        raise FileFormatError(str(path), f"column {column!r}: expected a number, got {text!r}", line=line) from None
+        raise FileFormatError(str(path), f"column {column!r}: expected a number, got {excerpt(text)}",
+                              line=line) from None
     if not math.isfinite(value):
-        raise FileFormatError(str(path), f"column {column!r}: expected a finite number, got {text!r}", line=line)
+        raise FileFormatError(str(path), f"column {column!r}: expected a finite number, got {excerpt(text)}",
+                              line=line)
     return value
 
 
 def cell_int(path: str | Path, line: int, row: dict[str, str], column: str) -> int:
     """The cell as an integer."""
+    from pcmm_geo.io._text import excerpt
+
     text = row.get(column, "")
-    try:
-        return int(text)
-    except ValueError:
-        raise FileFormatError(str(path), f"column {column!r}: expected an integer, got {text!r}", line=line) from None
+    if not re.fullmatch(r"[+-]?[0-9]{1,18}", text):
+        raise FileFormatError(str(path), f"column {column!r}: expected an integer, got {excerpt(text)}", line=line)
+    return int(text)
 
 
 def cell_text(path: str | Path, line: int, row: dict[str, str], column: str) -> str:

@@ -116,30 +116,40 @@ def read_element_parameters(path: str | Path) -> dict[str, ElementParameters]:
     file = Path(path)
     out: dict[str, ElementParameters] = {}
     if file.suffix.lower() == ".json":
+        from pcmm_geo.io._json import JsonNode
         from pcmm_geo.io._text import read_json_file
 
         data = read_json_file(file)
-        items = data.get("cases") if isinstance(data, dict) else data
-        if not isinstance(items, list):
-            raise FileFormatError(str(file), "expected a list of cases or {\"cases\": [...]}")
-        for index, item in enumerate(items):
+        root = JsonNode(data, str(file))
+        items = root["cases"] if isinstance(data, dict) else root
+        if not isinstance(items.value, list):
+            raise items.fail('a list of cases or {"cases": [...]}')
+        for index, item in enumerate(items.list()):
+            name = item.object()["name"].string()
             where = f"case {index}"
-            if not isinstance(item, dict) or "name" not in item or "element" not in item:
-                raise FileFormatError(str(file), f"{where}: expected an object with 'name' and 'element'")
+
+            def optional_vector(key: str, case: JsonNode = item) -> FloatArray | None:
+                node = case.get(key)
+                return None if node is None else node.vector(3)
+
+            def optional_number(key: str, case: JsonNode = item) -> float:
+                node = case.get(key)
+                return math.nan if node is None else node.number()
+
             try:
                 params = ElementParameters(
-                    str(item["element"]).lower(),
-                    _vector(file, where, item.get("location")),  # type: ignore[arg-type]
-                    _vector(file, where, item.get("direction")),
-                    size=float(item.get("size", math.nan)),
-                    size2=float(item.get("size2", math.nan)),
-                    half_angle=float(item.get("half_angle", math.nan)),
+                    item["element"].string().lower(),
+                    optional_vector("location"),  # type: ignore[arg-type]
+                    optional_vector("direction"),
+                    size=optional_number("size"),
+                    size2=optional_number("size2"),
+                    half_angle=optional_number("half_angle"),
                 )
-            except (InvalidInputError, TypeError, ValueError) as exc:
-                raise FileFormatError(str(file), f"{where} ({item.get('name')}): {exc}") from None
-            if str(item["name"]) in out:
-                raise FileFormatError(str(file), f"{where}: duplicate case name {item['name']!r}")
-            out[str(item["name"])] = params
+            except InvalidInputError as exc:
+                raise FileFormatError(str(file), f"{where} ({name}): {exc}") from None
+            if name in out:
+                raise FileFormatError(str(file), f"{item.where}.name: duplicate case name {name!r}")
+            out[name] = params
     else:
         columns = ("name", "element", "x", "y", "z", "i", "j", "k", "size", "size2", "half_angle")
         for line, row in read_rows(file, columns):

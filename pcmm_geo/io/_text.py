@@ -1,17 +1,143 @@
 """Decoding text files line by line with errors that name the file and the line.
 
-Every text reader of pcmm_geo goes through :func:`read_text_lines`, so a binary file,
-bytes that are not UTF-8, a directory or an empty file give one :class:`FileFormatError`
-(``path:line: reason``) instead of a bare ``UnicodeDecodeError``.
+Every text reader of pcmm_geo goes through :func:`read_text_lines` (or :func:`read_csv_rows`,
+built on it), so a binary file, bytes that are not UTF-8, a directory, an over-long line or a
+bad quote give one :class:`FileFormatError` (``path:line: reason``) instead of a bare
+``UnicodeDecodeError`` or ``_csv.Error``.  Messages quote at most a short :func:`excerpt`
+of the offending text, however long the line is.
+
+A leading UTF-8 byte-order mark (as Excel and Windows Notepad write) is dropped here, so
+every reader accepts such files.
+
+:func:`read_json_file` parses JSON strictly and refuses, each with a :class:`FileFormatError`
+naming the file and the line: ``NaN`` / ``Infinity`` (Python writes them, JSON has none);
+numbers that overflow a float (``1e400`` would silently become ``inf``) and integers of more
+than 308 digits; the same key twice in one object (``json`` keeps the last one silently);
+nesting deeper than :data:`MAX_JSON_DEPTH` (``json`` would end in ``RecursionError``).
+:class:`pcmm_geo.io._json.JsonNode` then checks the fields of the parsed document.
 """
 
 from __future__ import annotations
 
+import csv
+import math
+import re
+from dataclasses import dataclass
 from pathlib import Path
+from typing import Any
 
 from pcmm_geo.errors import FileFormatError
 
-__all__ = ["read_json_file", "read_text_file", "read_text_lines"]
+__all__ = [
+    "EXCERPT_CHARS",
+    "MAX_FIELD_CHARS",
+    "MAX_JSON_DEPTH",
+    "MAX_LINE_CHARS",
+    "CsvRows",
+    "excerpt",
+    "parse_decimal",
+    "read_csv_rows",
+    "read_json_file",
+    "read_text_file",
+    "read_text_lines",
+]
+
+#: longest line (characters) a text reader accepts; data rows are far shorter
+MAX_LINE_CHARS = 65_536
+#: longest CSV field (characters) :func:`read_csv_rows` accepts
+MAX_FIELD_CHARS = 4_096
+#: characters of offending text an error message quotes at most
+EXCERPT_CHARS = 60
+
+_BOM = b"\xef\xbb\xbf"
+# C0 control characters other than tab, line feed and carriage return, and DEL: never in a text
+# data file, and str.strip() would silently remove some of them (0x0b, 0x1c-0x1f) from a number
+_CONTROL = re.compile(rb"[\x00-\x08\x0b\x0c\x0e-\x1f\x7f]")
+_DECIMAL = re.compile(r"[+-]?(?:\d+\.?\d*|\.\d+)(?:[eE][+-]?\d+)?|[+-]?(?:nan|inf|infinity)", re.IGNORECASE | re.ASCII)
+
+
+def excerpt(text: str, limit: int = EXCERPT_CHARS) -> str:
+    """``repr(text)``, shortened to its first ``limit`` characters and its length when longer.
+
+    Error messages quote offending file content through this, so that a damaged 100 MB line
+    gives a message of a few dozen characters.
+
+    Examples
+    --------
+    >>> excerpt("1,2,3")
+    "'1,2,3'"
+    >>> excerpt("7" * 1_000_000, limit=8)
+    "'77777777'... (1000000 characters)"
+    """
+    if len(text) <= limit:
+        return repr(text)
+    return f"{text[:limit]!r}... ({len(text)} characters)"
+
+
+def parse_decimal(text: str) -> float:
+    """An ASCII decimal number (``-1.5``, ``2e-3``, ``nan``, ``inf``) as float; anything else raises ValueError.
+
+    Stricter than :class:`float`, which also takes ``1_000``, full-width or Arabic-Indic
+    digits: a file holding those is refused rather than read as numbers nobody wrote.
+
+    Examples
+    --------
+    >>> parse_decimal(" 12.5 ")
+    12.5
+    >>> float("1_0"), float("\\uff11\\uff12")
+    (10.0, 12.0)
+    >>> for bad in ("1_0", "\\uff11\\uff12", "2\\u00b2", "1,5"):
+    ...     try:
+    ...         parse_decimal(bad)
+    ...     except ValueError:
+    ...         print("refused", ascii(bad))
+    refused '1_0'
+    refused '\\uff11\\uff12'
+    refused '2\\xb2'
+    refused '1,5'
+    """
+    stripped = text.strip()
+    if not _DECIMAL.fullmatch(stripped):
+        raise ValueError(f"expected a decimal number, got {excerpt(stripped)}")
+    return float(stripped)
+
+
+def _decode(path: str | Path, max_line: int | None = MAX_LINE_CHARS) -> tuple[list[tuple[int, str]], bool]:
+    """Lines of ``path`` and whether the last one ends with a line end (see :func:`read_text_lines`)."""
+    file = Path(path)
+    if file.is_dir():
+        raise FileFormatError(str(file), "is a directory, expected a text file")
+    data = file.read_bytes()
+    if data.startswith(_BOM):
+        data = data[len(_BOM):]
+    terminated = not data or data.endswith(b"\n")
+    control = _CONTROL.search(data)
+    if control is not None:  # one scan of the whole file; the line is counted only when needed
+        number = data.count(b"\n", 0, control.start()) + 1
+        code = data[control.start()]
+        if code == 0:
+            raise FileFormatError(str(file), "binary data (NUL byte), expected a text file", line=number)
+        column = control.start() - data.rfind(b"\n", 0, control.start())
+        raise FileFormatError(
+            str(file), f"control character 0x{code:02x} at column {column}, expected text", line=number
+        )
+    lines: list[tuple[int, str]] = []
+    for number, raw in enumerate(data.split(b"\n"), start=1):
+        try:
+            text = raw.decode("utf-8")
+        except UnicodeDecodeError as exc:
+            raise FileFormatError(
+                str(file), f"not UTF-8 text: byte 0x{raw[exc.start]:02x} at column {exc.start + 1}", line=number
+            ) from None
+        if max_line is not None and len(text) > max_line:
+            raise FileFormatError(
+                str(file), f"line of {len(text)} characters (at most {max_line} accepted): {excerpt(text)}",
+                line=number,
+            )
+        lines.append((number, text.rstrip("\r")))
+    if lines and lines[-1][1] == "" and terminated:
+        lines.pop()  # the newline that ends the last line
+    return lines, terminated
 
 
 def read_text_lines(path: str | Path) -> list[tuple[int, str]]:
@@ -22,8 +148,9 @@ def read_text_lines(path: str | Path) -> list[tuple[int, str]]:
     Raises
     ------
     FileFormatError
-        The path is a directory, the file holds NUL bytes (binary data), or a line is not
-        valid UTF-8; the message names the line and the offending byte.
+        The path is a directory, the file holds NUL bytes (binary data) or other control
+        characters (not tab, CR, LF), a line is not valid UTF-8 or longer than
+        :data:`MAX_LINE_CHARS`; the message names the line and quotes at most an excerpt.
     FileNotFoundError
         The file does not exist.
 
@@ -31,7 +158,7 @@ def read_text_lines(path: str | Path) -> list[tuple[int, str]]:
     --------
     >>> import os, tempfile
     >>> path = os.path.join(tempfile.mkdtemp(), "t.csv")
-    >>> _ = open(path, "wb").write(b"x,y,z\\r\\n1,2,3\\n")
+    >>> _ = open(path, "wb").write(b"\\xef\\xbb\\xbfx,y,z\\r\\n1,2,3\\n")
     >>> read_text_lines(path)
     [(1, 'x,y,z'), (2, '1,2,3')]
     >>> _ = open(path, "wb").write(b"x,y,z\\n1,2,\\xb53\\n")
@@ -41,72 +168,232 @@ def read_text_lines(path: str | Path) -> list[tuple[int, str]]:
     ...     print(exc.line, exc.reason)
     2 not UTF-8 text: byte 0xb5 at column 5
     """
-    file = Path(path)
-    if file.is_dir():
-        raise FileFormatError(str(file), "is a directory, expected a text file")
-    data = file.read_bytes()
-    if data.startswith(b"\xef\xbb\xbf"):
-        data = data[3:]
-    lines: list[tuple[int, str]] = []
-    for number, raw in enumerate(data.split(b"\n"), start=1):
-        if b"\x00" in raw:
-            raise FileFormatError(str(file), "binary data (NUL byte), expected a text file", line=number)
-        try:
-            text = raw.decode("utf-8")
-        except UnicodeDecodeError as exc:
-            raise FileFormatError(
-                str(file), f"not UTF-8 text: byte 0x{raw[exc.start]:02x} at column {exc.start + 1}", line=number
-            ) from None
-        lines.append((number, text.rstrip("\r")))
-    if lines and lines[-1][1] == "":
-        lines.pop()  # the newline that ends the last line
-    return lines
+    return _decode(path)[0]
 
 
-def read_text_file(path: str | Path) -> str:
+def read_text_file(path: str | Path, *, max_line: int | None = MAX_LINE_CHARS) -> str:
     """The whole text of a UTF-8 file (BOM dropped, ``\\r\\n`` as ``\\n``), checked as :func:`read_text_lines` does.
+
+    ``max_line=None`` lifts the line-length bound (JSON may be written on one line).
 
     Raises
     ------
     FileFormatError
-        Directory, binary data or non-UTF-8 bytes (the message names the line).
+        Directory, binary data, non-UTF-8 bytes or an over-long line (the message names the line).
     FileNotFoundError
         The file does not exist.
     """
-    return "".join(text + "\n" for _, text in read_text_lines(path))
+    return "".join(text + "\n" for _, text in _decode(path, max_line)[0])
 
 
-def read_json_file(path: str | Path) -> object:
-    """Parse a UTF-8 JSON file strictly: ``NaN``/``Infinity`` (not JSON, though Python writes them) are refused.
+@dataclass(frozen=True)
+class CsvRows:
+    """The data of a CSV file as read by :func:`read_csv_rows`.
+
+    Attributes
+    ----------
+    rows : tuple of (int, tuple of str)
+        ``(line_number, cells)`` for every line that is neither blank nor a ``#`` comment;
+        cells are not stripped.
+    terminated : bool
+        Whether the file's last line ends with a line end.  A file written row by row that
+        was cut off (power loss, a copy in progress) usually is not, and its last value may
+        be torn mid-number: ``12.34`` where ``12.3456`` was being written.
+    path : str
+        The file, for messages.
+    line_count : int
+        Lines in the file (the last one counted also without a line end).
+    """
+
+    rows: tuple[tuple[int, tuple[str, ...]], ...]
+    terminated: bool
+    path: str
+    line_count: int = 0
+
+    @property
+    def unterminated_row(self) -> int | None:
+        """Line number of the last row when it is the file's last line and has no line end, else None."""
+        if self.terminated or not self.rows or self.rows[-1][0] != self.line_count:
+            return None
+        return self.rows[-1][0]
+
+
+def _split_line(path: str, number: int, text: str) -> tuple[str, ...]:
+    if '"' not in text:  # the csv module would split such a line at the commas too
+        cells = tuple(text.split(","))
+    else:
+        try:
+            cells = tuple(next(csv.reader([text], strict=True)))
+        except csv.Error as exc:
+            raise FileFormatError(path, f"bad CSV quoting ({exc}): {excerpt(text)}", line=number) from None
+    if len(text) <= MAX_FIELD_CHARS:  # no field can be longer than its line
+        return cells
+    for column, cell in enumerate(cells, start=1):
+        if len(cell) > MAX_FIELD_CHARS:
+            raise FileFormatError(
+                path, f"field {column} has {len(cell)} characters (at most {MAX_FIELD_CHARS} accepted): "
+                f"{excerpt(cell)}", line=number,
+            )
+    return cells
+
+
+def read_csv_rows(path: str | Path) -> CsvRows:
+    """Rows of a comma-separated UTF-8 file, each with its line number; blank and ``#`` lines skipped.
+
+    The one CSV tokenizer of pcmm_geo: bounded line and field sizes (:data:`MAX_LINE_CHARS`,
+    :data:`MAX_FIELD_CHARS`), double-quoted fields within one line (RFC 4180 without
+    line breaks inside quotes), every problem a :class:`FileFormatError` naming the line.
 
     Raises
     ------
     FileFormatError
-        Not text, a syntax error or a non-finite number; the message names the file and line.
+        Directory, binary or non-UTF-8 content, an over-long line or field, bad quoting.
+    FileNotFoundError
+        The file does not exist.
+
+    Examples
+    --------
+    >>> import os, tempfile
+    >>> path = os.path.join(tempfile.mkdtemp(), "t.csv")
+    >>> _ = open(path, "w").write('# note\\nname,x\\n"a, b",1\\n\\nc,2')
+    >>> table = read_csv_rows(path)
+    >>> table.rows
+    ((2, ('name', 'x')), (3, ('a, b', '1')), (5, ('c', '2')))
+    >>> table.terminated
+    False
+    >>> _ = open(path, "w").write('x\\n"1\\n')
+    >>> try:
+    ...     read_csv_rows(path)
+    ... except FileFormatError as exc:
+    ...     print(exc.line, exc.reason)
+    2 bad CSV quoting (unexpected end of data): '"1'
+    """
+    name = str(path)
+    lines, terminated = _decode(path)
+    rows = tuple(
+        (number, _split_line(name, number, text))
+        for number, text in lines
+        if text.strip() and not text.lstrip().startswith("#")
+    )
+    return CsvRows(rows, terminated, name, lines[-1][0] if lines else 0)
+
+
+#: deepest nesting of arrays and objects accepted (pcmm_geo's own files need fewer than 8)
+MAX_JSON_DEPTH = 64
+_MAX_INT_DIGITS = 308
+_STRING = re.compile(r'"(?:[^"\\\n]|\\.)*"')
+
+
+class _Refused(Exception):
+    """Raised inside the ``json`` hooks; carries the token to locate and the reason."""
+
+    def __init__(self, token: str, reason: str) -> None:
+        super().__init__(reason)
+        self.token, self.reason = token, reason
+
+
+def _parse_float(token: str) -> float:
+    value = float(token)
+    if not math.isfinite(value):
+        raise _Refused(token, f"expected a finite number, got {token} (beyond the float range, it would read as inf)")
+    return value
+
+
+def _parse_int(token: str) -> int:
+    if len(token.lstrip("-")) > _MAX_INT_DIGITS:
+        raise _Refused(token[:20], f"expected a number, got an integer of {len(token.lstrip('-'))} digits")
+    return int(token)
+
+
+def _parse_constant(token: str) -> float:
+    raise _Refused(token, f"expected JSON, got the non-finite number {token}")
+
+
+def _unique_keys(pairs: list[tuple[str, Any]]) -> dict[str, Any]:
+    result: dict[str, Any] = {}
+    for key, value in pairs:
+        if key in result:
+            raise _Refused(f'"{key}"', f"key {excerpt(key)} appears twice in one object (which one is meant?)")
+        result[key] = value
+    return result
+
+
+def _line_of(text: str, position: int) -> int:
+    return text.count("\n", 0, position) + 1
+
+
+def _check_depth(path: str, text: str, limit: int) -> None:
+    """Refuse nesting deeper than ``limit`` before ``json`` recurses into it."""
+    if text.count("[") + text.count("{") <= limit:
+        return
+    import numpy as np
+
+    skeleton = _STRING.sub('""', text)  # brackets inside strings do not nest
+    codes = np.frombuffer(skeleton.encode("utf-8"), dtype=np.uint8)
+    step = np.isin(codes, (ord("["), ord("{"))).astype(np.int64) - np.isin(codes, (ord("]"), ord("}")))
+    depth = np.cumsum(step)
+    if depth.size and depth.max() > limit:
+        first = int(np.argmax(depth > limit))
+        line = skeleton.encode("utf-8")[:first].count(b"\n") + 1
+        raise FileFormatError(path, f"expected JSON nested at most {limit} deep, got deeper nesting", line=line)
+
+
+def read_json_file(path: str | Path, *, max_depth: int = MAX_JSON_DEPTH) -> Any:
+    """Parse a UTF-8 JSON file strictly (see the module docstring for what is refused).
+
+    Parameters
+    ----------
+    path : str or Path
+    max_depth : int
+        Deepest nesting of arrays/objects accepted.
+
+    Returns
+    -------
+    object
+        ``dict``, ``list``, ``str``, ``int``, ``float``, ``bool`` or None, as :func:`json.loads`.
+
+    Raises
+    ------
+    FileFormatError
+        Not text, a syntax error, a non-finite or overflowing number, a duplicate key or too
+        deep nesting; the message names the file and, where it can, the line.
+    FileNotFoundError
+        The file does not exist.
 
     Examples
     --------
     >>> import os, tempfile
     >>> path = os.path.join(tempfile.mkdtemp(), "c.json")
-    >>> _ = open(path, "w").write('{"radius": 5.0,\\n "form": NaN}')
+    >>> _ = open(path, "w").write('{"radius": 5.0,\\n "form": 1e400}')
     >>> try:
     ...     read_json_file(path)
     ... except FileFormatError as exc:
     ...     print(exc.line, exc.reason)
-    2 expected JSON, got the non-finite number NaN
+    2 expected a finite number, got 1e400 (beyond the float range, it would read as inf)
+    >>> _ = open(path, "w").write("[" * 10_000 + "]" * 10_000)
+    >>> try:
+    ...     read_json_file(path)
+    ... except FileFormatError as exc:
+    ...     print(exc.reason)
+    expected JSON nested at most 64 deep, got deeper nesting
     """
     import json
 
-    text = read_text_file(path)
-
-    def refuse(token: str) -> None:
-        raise ValueError(token)
-
+    name = str(path)
+    text = read_text_file(path, max_line=None)
+    _check_depth(name, text, max_depth)
     try:
-        return json.loads(text, parse_constant=refuse)
+        return json.loads(text, parse_float=_parse_float, parse_int=_parse_int, parse_constant=_parse_constant,
+                          object_pairs_hook=_unique_keys)
     except json.JSONDecodeError as exc:
-        raise FileFormatError(str(path), f"expected JSON, got {exc.msg}", line=exc.lineno) from None
-    except ValueError as exc:
-        token = str(exc)
-        line = next((n for n, t in enumerate(text.splitlines(), 1) if token in t), None)
-        raise FileFormatError(str(path), f"expected JSON, got the non-finite number {token}", line=line) from None
+        raise FileFormatError(name, f"expected JSON, got {exc.msg}", line=exc.lineno) from None
+    except _Refused as exc:
+        found = re.search(rf"(?<![\w.+\-\"]){re.escape(exc.token)}", text)
+        if exc.token.startswith('"'):  # a duplicate key: its second occurrence
+            hits = [m.start() for m in re.finditer(re.escape(exc.token) + r"\s*:", text)]
+            line = _line_of(text, hits[1]) if len(hits) > 1 else None
+        else:
+            line = _line_of(text, found.start()) if found else None
+        raise FileFormatError(name, exc.reason, line=line) from None
+    except RecursionError:  # pragma: no cover - _check_depth stops this first
+        raise FileFormatError(name, "expected JSON, got nesting too deep to read") from None

@@ -31,6 +31,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from pcmm_geo.errors import FileFormatError
+from pcmm_geo.io._text import excerpt, parse_decimal, read_text_lines
 
 __all__ = ["LABEL_COLUMNS", "LabelledPoints", "read_labelled_points"]
 
@@ -85,7 +86,7 @@ def _fields(text: str) -> list[str]:
 
 def _is_number(text: str) -> bool:
     try:
-        float(text)
+        parse_decimal(text)
     except ValueError:
         return False
     return True
@@ -96,7 +97,8 @@ def _header_columns(file: Path, names: list[str], line: int) -> tuple[int, tuple
     missing = [axis for axis in ("x", "y", "z") if axis not in lowered]
     if missing:
         raise FileFormatError(
-            str(file), f"expected a header with x, y, z and a label column, got {names} (missing {', '.join(missing)})",
+            str(file), f"expected a header with x, y, z and a label column, got "
+            f"{excerpt(','.join(names))} (missing {', '.join(missing)})",
             line,
         )
     others = [k for k, n in enumerate(lowered) if n not in ("x", "y", "z")]
@@ -107,7 +109,8 @@ def _header_columns(file: Path, names: list[str], line: int) -> tuple[int, tuple
         label = others[0]
     else:
         raise FileFormatError(
-            str(file), f"expected exactly one label column ({', '.join(LABEL_COLUMNS)}), got columns {names}", line
+            str(file), f"expected exactly one label column ({', '.join(LABEL_COLUMNS)}), got columns "
+            f"{excerpt(','.join(names))}", line
         )
     return label, (lowered.index("x"), lowered.index("y"), lowered.index("z"))
 
@@ -138,14 +141,12 @@ def read_labelled_points(path: str | Path) -> LabelledPoints:
     points: list[list[float]] = []
     labels: list[str] = []
     lines: list[int] = []
-    try:
-        text_lines = file.read_text(encoding="utf-8-sig").splitlines()
-    except UnicodeDecodeError as exc:
-        raise FileFormatError(str(file), f"expected UTF-8 text, got undecodable bytes at byte {exc.start}") from None
-    for number, raw in enumerate(text_lines, start=1):
+    for number, raw in read_text_lines(file):
         text = raw.strip()
         if not text or text.startswith("#"):
             continue
+        if text.count('"') % 2:
+            raise FileFormatError(str(file), f"unbalanced double quote in {excerpt(text)}", number)
         fields = _fields(text)
         if label_column is None:
             if sum(_is_number(f) for f in fields) < 3:  # the header
@@ -154,18 +155,18 @@ def read_labelled_points(path: str | Path) -> LabelledPoints:
                 continue
             if len(fields) != 4 or _is_number(fields[0]):
                 raise FileFormatError(
-                    str(file), f"expected a header, or rows 'name,x,y,z' with a non-numeric name, got {text!r}",
+                    str(file), f"expected a header, or rows 'name,x,y,z' with a non-numeric name, got {excerpt(text)}",
                     number,
                 )
             label_column, width = 0, 4
         if len(fields) != width:
-            raise FileFormatError(str(file), f"expected {width} fields, got {len(fields)}: {text!r}", number)
+            raise FileFormatError(str(file), f"expected {width} fields, got {len(fields)}: {excerpt(text)}", number)
         try:
-            point = [float(fields[k]) for k in xyz]
+            point = [parse_decimal(fields[k]) for k in xyz]
         except ValueError:
-            raise FileFormatError(str(file), f"expected numbers for x, y, z, got {text!r}", number) from None
+            raise FileFormatError(str(file), f"expected numbers for x, y, z, got {excerpt(text)}", number) from None
         if not all(np.isfinite(point)):
-            raise FileFormatError(str(file), f"expected finite coordinates, got {text!r}", number)
+            raise FileFormatError(str(file), f"expected finite coordinates, got {excerpt(text)}", number)
         if not fields[label_column]:
             raise FileFormatError(str(file), "expected a label, got an empty field", number)
         points.append(point)

@@ -45,6 +45,7 @@ Examples
 from __future__ import annotations
 
 import math
+import re
 from collections.abc import Iterator
 from dataclasses import dataclass
 from pathlib import Path
@@ -54,6 +55,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from pcmm_geo.errors import FileFormatError, InvalidInputError
+from pcmm_geo.io._text import excerpt, parse_decimal
 
 __all__ = ["NIST_ELEMENTS", "NistPair", "iter_nist_pairs", "read_nist_fit", "read_nist_pair", "read_nist_points"]
 
@@ -128,11 +130,11 @@ class NistPair:
 
 def _number(text: str, path: Path, line: int) -> float:
     try:
-        value = float(text)
+        value = parse_decimal(text)
     except ValueError:
-        raise FileFormatError(str(path), f"expected a number, got {text!r}", line) from None
+        raise FileFormatError(str(path), f"expected a number, got {excerpt(text)}", line) from None
     if not math.isfinite(value):
-        raise FileFormatError(str(path), f"expected a finite number, got {text!r}", line)
+        raise FileFormatError(str(path), f"expected a finite number, got {excerpt(text)}", line)
     return value
 
 
@@ -171,8 +173,8 @@ def read_nist_points(path: str | Path) -> FloatArray:
     if not lines or not lines[0].strip():
         raise FileFormatError(str(path), "expected the number of points on the first line, got an empty line", 1)
     head = lines[0].split()
-    if len(head) != 1 or not head[0].isdigit():
-        raise FileFormatError(str(path), f"expected the number of points on the first line, got {lines[0]!r}", 1)
+    if len(head) != 1 or not re.fullmatch(r"[0-9]{1,12}", head[0]):
+        raise FileFormatError(str(path), f"expected the number of points on the first line, got {excerpt(lines[0])}", 1)
     count = int(head[0])
     body = [(number, text) for number, text in enumerate(lines[1:], start=2) if text.strip()]
     if len(body) != count:
@@ -181,7 +183,7 @@ def read_nist_points(path: str | Path) -> FloatArray:
     for row, (number, text) in enumerate(body):
         fields = text.split()
         if len(fields) != 3:
-            raise FileFormatError(str(path), f"expected 3 coordinates, got {len(fields)}: {text!r}", number)
+            raise FileFormatError(str(path), f"expected 3 coordinates, got {len(fields)}: {excerpt(text)}", number)
         points[row] = [_number(value, path, number) for value in fields]
     return points
 
@@ -222,7 +224,7 @@ def read_nist_fit(path: str | Path, expected_count: int | None = None) -> FloatA
             continue
         fields = text.split()
         if len(fields) != 1:
-            raise FileFormatError(str(path), f"expected one number per line, got {text!r}", number)
+            raise FileFormatError(str(path), f"expected one number per line, got {excerpt(text)}", number)
         values.append(_number(fields[0], path, number))
     if expected_count is not None and len(values) != expected_count:
         raise FileFormatError(str(path), f"expected {expected_count} values, got {len(values)}")

@@ -21,6 +21,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from pcmm_geo._optional import require
 from pcmm_geo.errors import FileFormatError, InvalidInputError, OutputExistsError
+from pcmm_geo.io._text import excerpt
 
 __all__ = ["read_points", "write_points", "POINT_CLOUD_SUFFIXES", "TEXT_SUFFIXES"]
 
@@ -91,7 +92,7 @@ def _read_text(file: Path, decimal: str | None) -> FloatArray:
     if not lines:
         raise FileFormatError(str(file), "no points in the file")
     expected_count: int | None = None
-    if lines[0][1].isdigit():  # NIST .ds: point count first
+    if re.fullmatch(r"[0-9]{1,12}", lines[0][1]):  # NIST .ds: point count first
         expected_count = int(lines[0][1])
         lines = lines[1:]
     header: tuple[int, str] | None = None
@@ -99,7 +100,7 @@ def _read_text(file: Path, decimal: str | None) -> FloatArray:
         header, lines = lines[0], lines[1:]
     if not lines:
         if header is not None and not {"x", "y", "z"} <= _header_tokens(header[1]):
-            raise FileFormatError(str(file), f"header without x, y, z columns: {header[1]!r}", line=header[0])
+            raise FileFormatError(str(file), f"header without x, y, z columns: {excerpt(header[1])}", line=header[0])
         raise FileFormatError(str(file), "no points in the file (a header only)")
     layout = _Layout.detect(file, lines[0], decimal)
     columns = None if header is None else layout.xyz_columns(*header)
@@ -111,12 +112,12 @@ def _read_text(file: Path, decimal: str | None) -> FloatArray:
         raise FileFormatError(str(file), f"header announces {expected_count} points, found {len(points)}", line=1)
     if not np.all(np.isfinite(points)):
         row = int(np.argwhere(~np.isfinite(points))[0, 0])
-        raise FileFormatError(str(file), f"non-finite coordinate {lines[row][1]!r}", line=lines[row][0])
+        raise FileFormatError(str(file), f"non-finite coordinate {excerpt(lines[row][1])}", line=lines[row][0])
     return points
 
 
-_POINT_NUMBER = re.compile(r"[+-]?(\d+\.?\d*|\.\d+)([eE][+-]?\d+)?|[+-]?(nan|inf|infinity)", re.IGNORECASE)
-_COMMA_NUMBER = re.compile(r"[+-]?(\d+,?\d*|,\d+)([eE][+-]?\d+)?|[+-]?(nan|inf|infinity)", re.IGNORECASE)
+_POINT_NUMBER = re.compile(r"[+-]?(\d+\.?\d*|\.\d+)([eE][+-]?\d+)?|[+-]?(nan|inf|infinity)", re.IGNORECASE | re.ASCII)
+_COMMA_NUMBER = re.compile(r"[+-]?(\d+,?\d*|,\d+)([eE][+-]?\d+)?|[+-]?(nan|inf|infinity)", re.IGNORECASE | re.ASCII)
 _SEPARATOR_NAMES = {";": "';'", "\t": "tab", ",": "','", " ": "spaces"}
 
 
@@ -160,7 +161,7 @@ class _Layout:
             decimal = "," if separator != "," and any("," in f for f in fields) else "."
         if separator == "," and decimal == ",":
             raise FileFormatError(
-                str(file), f"ambiguous line {text!r}: ',' cannot be both separator and decimal mark", line=number
+                str(file), f"ambiguous line {excerpt(text)}: ',' cannot be both separator and decimal mark", line=number
             )
         layout = cls(file, separator, decimal, len(fields))
         layout.parse(number, text)
@@ -178,10 +179,10 @@ class _Layout:
         if len(names) != self.width and {"x", "y", "z"} <= _header_tokens(text):
             raise FileFormatError(
                 str(self.file), f"header has {len(names)} columns separated by {_SEPARATOR_NAMES[self.separator]}, "
-                f"the first data line {self.width}: {text!r}", line=line,
+                f"the first data line {self.width}: {excerpt(text)}", line=line,
             )
         if not {"x", "y", "z"} <= set(names):
-            raise FileFormatError(str(self.file), f"header without x, y, z columns: {text!r}", line=line)
+            raise FileFormatError(str(self.file), f"header without x, y, z columns: {excerpt(text)}", line=line)
         return names.index("x"), names.index("y"), names.index("z")
 
     def parse(self, number: int, text: str) -> list[float]:
@@ -189,21 +190,21 @@ class _Layout:
         sep = _SEPARATOR_NAMES[self.separator]
         if len(fields) != self.width:
             raise FileFormatError(
-                str(self.file), f"expected {self.width} values separated by {sep}, got {len(fields)} in {text!r}",
-                line=number,
+                str(self.file),
+                f"expected {self.width} values separated by {sep}, got {len(fields)} in {excerpt(text)}", line=number,
             )
         pattern = _COMMA_NUMBER if self.decimal == "," else _POINT_NUMBER
         values = []
         for field in fields:
             if not pattern.fullmatch(field):
                 if self.decimal == "," and _POINT_NUMBER.fullmatch(field) and "." in field:
-                    reason = f"decimal point in {field!r}, but this file uses decimal commas"
+                    reason = f"decimal point in {excerpt(field)}, but this file uses decimal commas"
                 elif self.decimal == "." and _COMMA_NUMBER.fullmatch(field) and "," in field:
-                    reason = f"decimal comma in {field!r}, but this file uses decimal points"
+                    reason = f"decimal comma in {excerpt(field)}, but this file uses decimal points"
                 elif "," in field and self.decimal == ",":
-                    reason = f"ambiguous number {field!r}: ',' as decimal mark and separator"
+                    reason = f"ambiguous number {excerpt(field)}: ',' as decimal mark and separator"
                 else:
-                    reason = f"expected numbers separated by {sep}, got {field!r}"
+                    reason = f"expected numbers separated by {sep}, got {excerpt(field)}"
                 raise FileFormatError(str(self.file), reason, line=number)
             values.append(float(field.replace(",", ".")))
         return values

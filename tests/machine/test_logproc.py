@@ -105,10 +105,10 @@ def test_csv_round_trip(tmp_path: Path) -> None:
 @pytest.mark.parametrize(
     ("text", "line", "match"),
     [
-        ("1,0,1,1,50,51,52\n", 1, "header"),
+        ("1,0,1,1,50,51\n", 1, "header"),  # 7 numbers would be a headerless seed log
         ("start_stop,probe,motor,direction,laser_a,laser_b,laser_c\n1,0,1,1,50,51\n", 2, "7 fields"),
         ("start_stop,probe,motor,direction,laser_a,laser_b,laser_c\n1,0,1,1,50,51,52\n0,0,4,1,50,51,52\n", 3, "motor"),
-        ("start_stop,probe,motor,direction,laser_a,laser_b,laser_c\n1,0,1,1,5x,51,52\n", 2, "numbers"),
+        ("start_stop,probe,motor,direction,laser_a,laser_b,laser_c\n1,0,1,1,5x,51,52\n", 2, "laser_a: expected a"),
         ("start_stop,probe,motor,direction,laser_a,laser_b,laser_c\n1,0,1,2,50,51,52\n", 2, "direction"),
         ("start_stop,probe,motor,direction,laser_a,laser_b,laser_c\n1,0,1,1,nan,51,52\n", 2, "finite"),
     ],

@@ -34,23 +34,21 @@ def load_machine_file(path: str | None) -> Any:
     then the thesis' (Appendix D, vertical).
     """
 
-    from pcmm_geo.errors import FileFormatError, InvalidInputError
     from pcmm_geo.machine.kinematics.model import MODEL_SCHEMA, RigidBodyMachine
 
     if path is None:
         return RigidBodyMachine.from_dpkm()
+    from pcmm_geo.io._json import JsonNode
     from pcmm_geo.io._text import read_json_file
+    from pcmm_geo.machine.calibration.calfile import machine_from_json
 
     document = read_json_file(path)
     if not isinstance(document, dict):
-        raise FileFormatError(path, f"expected a JSON object, got {type(document).__name__}")
-    try:
-        if document.get("schema") == MODEL_SCHEMA:
-            return RigidBodyMachine.from_dict(document)
-        if isinstance(document.get("machine"), dict) and document["machine"].get("schema") == MODEL_SCHEMA:
-            return RigidBodyMachine.from_dict(document["machine"])
-    except InvalidInputError as exc:
-        raise FileFormatError(path, f"machine model: {exc}") from None
+        raise JsonNode(document, path).fail("a JSON object")
+    if document.get("schema") == MODEL_SCHEMA:
+        return machine_from_json(JsonNode(document, path))
+    if isinstance(document.get("machine"), dict) and document["machine"].get("schema") == MODEL_SCHEMA:
+        return machine_from_json(JsonNode(document, path)["machine"])
     from pcmm_geo.machine.calibration import load_calibration
 
     tetrahedron = load_calibration(path).tetrahedron

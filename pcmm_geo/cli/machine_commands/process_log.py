@@ -23,11 +23,13 @@ def register(subparsers: Any) -> None:
         help="Table 3.2 log (start_stop,probe,motor,direction,laser_a,laser_b,laser_c) -> probe points",
         description="Process a measurement log with the rigid-body model (row logic of thesis Appendix D).",
     )
-    parser.add_argument("file", metavar="FILE", help="log CSV with header")
+    parser.add_argument("file", metavar="FILE", help="log CSV, with header or headerless as the seed wrote it")
     add_machine_argument(parser)
     parser.add_argument("--initial-heights", type=float, nargs=3, metavar=("A", "B", "C"),
                         help="pivot heights of the first row (datum; default: the machine's reference heights)")
     parser.add_argument("--all-rows", action="store_true", help="list every row, not only the probe points")
+    parser.add_argument("--allow-unterminated", action="store_true",
+                        help="accept a last row without a line end (refused by default: it may be torn mid-number)")
     parser.add_argument("--laser-sigma", type=float, metavar="MM",
                         help="standard uncertainty of a laser reading (default 0.0289 mm: the thesis' 50 um laser "
                              "accuracy as rectangular bounds): scale of the closure test")
@@ -53,7 +55,7 @@ def _handle(args: argparse.Namespace) -> Report:
     from pcmm_geo.machine.analysis.logproc import CLOSURE_SIGMAS, SEED_LASER_SIGMA, process_log, read_log
 
     machine = load_machine_file(args.calibration)
-    log = read_log(args.file)
+    log = read_log(args.file, allow_unterminated=args.allow_unterminated)
     try:
         with progress_bar("processing log rows", enabled=progress_wanted(args), total=len(log)) as update:
             sigma = SEED_LASER_SIGMA if args.laser_sigma is None else args.laser_sigma

@@ -172,14 +172,14 @@ def read_transform(path: Path) -> Any:
     from pcmm_geo.errors import FileFormatError, InvalidInputError
 
     numbers: list[float] = []
-    from pcmm_geo.io._text import read_text_lines
+    from pcmm_geo.io._text import excerpt, parse_decimal, read_text_lines
 
     for line_number, line in read_text_lines(path):
         text = line.split("#", 1)[0].replace(",", " ").split()
         try:
-            numbers.extend(float(field) for field in text)
+            numbers.extend(parse_decimal(field) for field in text)
         except ValueError:
-            raise FileFormatError(str(path), f"expected numbers, got {line.strip()!r}", line_number) from None
+            raise FileFormatError(str(path), f"expected numbers, got {excerpt(line.strip())}", line_number) from None
     if len(numbers) != 16:
         raise FileFormatError(str(path), f"expected 16 numbers (a 4x4 transform), got {len(numbers)}")
     try:

@@ -60,7 +60,7 @@ def _machine(args: argparse.Namespace) -> tuple[Any, float, Any, Any, str]:
 
         machine, radius, covariance, center = demo_calibrated_machine()
         return machine, radius, covariance.model_covariance()[1], center, "demo's simulated calibration"
-    from pcmm_geo.errors import FileFormatError
+    from pcmm_geo.errors import FileFormatError, InvalidInputError
     from pcmm_geo.machine.calibration.calfile import load_calibration, load_covariance
     from pcmm_geo.machine.kinematics.model import RigidBodyMachine
     from pcmm_geo.uncertainty.calibration import CalibrationCovariance
@@ -72,19 +72,21 @@ def _machine(args: argparse.Namespace) -> tuple[Any, float, Any, Any, str]:
     if entry is None:
         raise FileFormatError(str(args.calibration), "expected a 'covariance' entry (pcmm calibrate --probing-u "
                               "U --laser-u U --out FILE), got none")
-    try:
-        from pcmm_geo.machine.calibration.calfile import load_machine
+    from pcmm_geo.machine.calibration.calfile import load_stored_machine
 
-        machine = load_machine(args.calibration)
-        source = f"{args.calibration}"
-    except FileFormatError:
+    machine = load_stored_machine(args.calibration)  # a damaged machine entry is an error, not a fallback
+    source = f"{args.calibration}"
+    if machine is None:
         nominal = RigidBodyMachine.from_dpkm()
         machine = RigidBodyMachine(cal.tetrahedron, nominal.columns, nominal.reference_lasers,
                                    nominal.reference_heights)
         source = f"{args.calibration} (tetrahedron) on the seed's nominal columns"
     center = machine.forward(heights=machine.reference_heights, lasers_hint=machine.reference_lasers).tip
-    return machine, float(cal.tip.radius), CalibrationCovariance.from_dict(entry).model_covariance()[1], \
-        np.asarray(center), source
+    try:
+        covariance = CalibrationCovariance.from_dict(entry).model_covariance()[1]
+    except InvalidInputError as exc:
+        raise FileFormatError(str(args.calibration), str(exc)) from None
+    return machine, float(cal.tip.radius), covariance, np.asarray(center), source
 
 
 def _handle(args: argparse.Namespace) -> Report:

@@ -1,6 +1,6 @@
 """Rows of the seed's measurement log (thesis 3.6, Table 3.2): the array type, CSV reader and writer.
 
-Log format (CSV, header required)::
+Log format (CSV; header as below, or none as the seed's LabVIEW wrote it)::
 
     start_stop,probe,motor,direction,laser_a,laser_b,laser_c
 
@@ -79,14 +79,29 @@ class MeasurementLog:
         return int(self.lasers.shape[0])
 
 
-def read_log(path: str | Path) -> MeasurementLog:
-    """Read a Table 3.2 log CSV (header :data:`LOG_COLUMNS` required).
+def read_log(path: str | Path, *, allow_unterminated: bool = False) -> MeasurementLog:
+    """Read a Table 3.2 log CSV: with the header :data:`LOG_COLUMNS`, or headerless as the seed wrote it.
+
+    A file whose first row is seven numbers is read as the seed's LabVIEW wrote it (thesis 3.6,
+    Table 3.2: no header, the seven columns in the order of :data:`LOG_COLUMNS`); every row
+    must then have exactly seven numeric cells with valid flags, otherwise the file is refused
+    rather than guessed at.  A UTF-8 byte-order mark is ignored.
+
+    Parameters
+    ----------
+    path : str or Path
+    allow_unterminated : bool
+        Accept a last row without a line end.  By default it is refused: a log cut off while
+        being written ends without one, and its last value may be torn mid-number (``52.1``
+        of ``52.1375``), which no check on the value can detect.  Pass True only for a file
+        known to be complete (e.g. written by an editor that drops the final line end).
 
     Raises
     ------
     FileFormatError
-        Missing/different header, wrong number of fields, or a value that is not a
-        number of the allowed set; ``line`` is the 1-based line number.
+        Missing/different header (and not seven numbers either), wrong number of fields, a
+        value that is not a number of the allowed set, an unterminated last row (unless
+        ``allow_unterminated``), or no data row; ``line`` is the 1-based line number.
     OSError
         The file cannot be read.
 
@@ -98,44 +113,102 @@ def read_log(path: str | Path) -> MeasurementLog:
     >>> _ = open(path, "w").write("start_stop,probe,motor,direction,laser_a,laser_b,laser_c\\n1,0,1,1,50,51,52\\n")
     >>> read_log(path).lasers.tolist()
     [[50.0, 51.0, 52.0]]
+    >>> _ = open(path, "w").write("1,0,1,1,50,51,52\\n0,0,1,1,50.5,51,52\\n")  # headerless, as the seed wrote
+    >>> read_log(path).lasers[:, 0].tolist()
+    [50.0, 50.5]
+    >>> _ = open(path, "w").write("1,0,1,1,50,51,52\\n0,0,1,1,50.5,51,5")  # cut off while writing
+    >>> try:
+    ...     read_log(path)
+    ... except FileFormatError as exc:
+    ...     print(exc.line, exc.reason[:44])
+    2 last row has no line end: its last value may
     """
-    name = str(path)
-    rows: list[list[float]] = []
-    from pcmm_geo.io._text import read_text_lines
+    from pcmm_geo.io._text import excerpt, read_csv_rows
 
-    # ``# key: value`` metadata lines (written by pcmm_geo.acquisition.acqlog) are skipped;
-    # columns after the seven Table 3.2 columns (sequence number, time, raw counts) are ignored.
-    numbered = [(number, text) for number, text in read_text_lines(path) if not text.startswith("#")]
-    reader = csv.reader(text for _, text in numbered)
-    header = next(reader, None)
-    header_line = numbered[0][0] if numbered else 1
-    if header is None or [h.strip().lower() for h in header[: len(LOG_COLUMNS)]] != list(LOG_COLUMNS):
-        raise FileFormatError(name, f"expected header {','.join(LOG_COLUMNS)}, got {header}", line=header_line)
-    n_columns = len(header)
-    for index, row in enumerate(reader, start=1):
-        line = numbered[index][0] if index < len(numbered) else None
-        if not row or all(not cell.strip() for cell in row):
-            continue
-        if len(row) != n_columns:
-            raise FileFormatError(name, f"expected {n_columns} fields, got {len(row)}", line=line)
-        row = row[: len(LOG_COLUMNS)]
-        try:
-            values = [float(cell) for cell in row]
-        except ValueError:
-            raise FileFormatError(name, f"expected numbers, got {row}", line=line) from None
-        if not all(np.isfinite(values)):
-            raise FileFormatError(name, f"expected finite numbers, got {row}", line=line)
-        flags = values[:4]
-        allowed = ((0, 1), (0, 1), (1, 2, 3), (-1, 0, 1))
-        for column, value, options in zip(LOG_COLUMNS[:4], flags, allowed, strict=True):
-            if value not in options:
-                raise FileFormatError(name, f"{column}: expected one of {options}, got {value:g}", line=line)
-        rows.append(values)
-    if not rows:
+    name = str(path)
+    table = read_csv_rows(path)
+    # ``# key: value`` metadata lines (written by pcmm_geo.acquisition.acqlog) are skipped by
+    # read_csv_rows; columns after the seven Table 3.2 columns (sequence number, time, raw counts)
+    # are ignored.
+    if not table.rows:
+        raise FileFormatError(name, f"expected header {','.join(LOG_COLUMNS)} and data rows, got no rows")
+    header_line, header = table.rows[0]
+    if [h.strip().lower() for h in header[: len(LOG_COLUMNS)]] == list(LOG_COLUMNS):
+        data_rows, n_columns, headerless = table.rows[1:], len(header), False
+    elif _all_numbers(header):
+        if len(header) != len(LOG_COLUMNS):
+            raise FileFormatError(
+                name, f"expected header {','.join(LOG_COLUMNS)}, or {len(LOG_COLUMNS)} numeric columns without "
+                f"header (seed Table 3.2), got {len(header)} numeric columns", line=header_line,
+            )
+        data_rows, n_columns, headerless = table.rows, len(LOG_COLUMNS), True
+    else:
+        raise FileFormatError(
+            name, f"expected header {','.join(LOG_COLUMNS)} (or {len(LOG_COLUMNS)} numeric columns without header), "
+            f"got {excerpt(','.join(header))}", line=header_line,
+        )
+    torn = table.unterminated_row
+    if torn is not None and not allow_unterminated:
+        raise FileFormatError(
+            name, "last row has no line end: its last value may be torn mid-number (a log cut off while being "
+            "written); end the file with a line end if it is complete (or pass allow_unterminated=True, "
+            "pcmm process-log --allow-unterminated)", line=torn,
+        )
+    note = " (read as a headerless Table 3.2 log)" if headerless else ""
+    if not data_rows:
         raise FileFormatError(name, "expected at least one data row, got none")
-    data = np.array(rows)
+    values = [_row_numbers(name, line, cells, n_columns, note) for line, cells in data_rows]
+    data = np.array(values, dtype=float)
+    lines = np.array([line for line, _ in data_rows])
+    not_finite = ~np.isfinite(data).all(axis=1)
+    if not_finite.any():
+        row = int(np.argmax(not_finite))
+        column = int(np.argmax(~np.isfinite(data[row])))
+        raise FileFormatError(name, f"{LOG_COLUMNS[column]}: expected a finite number, got "
+                              f"{excerpt(data_rows[row][1][column].strip())}", line=int(lines[row]))
+    for column, options in enumerate(_FLAG_VALUES):
+        wrong = ~np.isin(data[:, column], options)
+        if wrong.any():
+            row = int(np.argmax(wrong))
+            raise FileFormatError(name, f"{LOG_COLUMNS[column]}: expected one of {options}, got "
+                                  f"{data[row, column]:g}{note}", line=int(lines[row]))
     flags_int = data[:, :4].astype(np.int64)
     return MeasurementLog(flags_int[:, 0], flags_int[:, 1], flags_int[:, 2], flags_int[:, 3], data[:, 4:])
+
+
+_FLAG_VALUES = ((0, 1), (0, 1), (1, 2, 3), (-1, 0, 1))
+
+
+def _all_numbers(cells: tuple[str, ...]) -> bool:
+    from pcmm_geo.io._text import parse_decimal
+
+    try:
+        return all(np.isfinite(parse_decimal(cell)) for cell in cells)
+    except ValueError:
+        return False
+
+
+def _row_numbers(name: str, line: int, cells: tuple[str, ...], n_columns: int, note: str) -> list[float]:
+    """The seven numbers of one log row (ASCII decimals only; finiteness and flags are checked by the caller)."""
+    if len(cells) != n_columns:
+        raise FileFormatError(name, f"expected {n_columns} fields, got {len(cells)}{note}", line=line)
+    row = cells[: len(LOG_COLUMNS)]
+    joined = "".join(row)
+    if joined.isascii() and "_" not in joined:  # then float() takes exactly the ASCII decimals
+        try:
+            return [float(cell) for cell in row]
+        except ValueError:
+            pass
+    from pcmm_geo.io._text import excerpt, parse_decimal
+
+    values = []
+    for column, cell in zip(LOG_COLUMNS, row, strict=True):
+        try:
+            values.append(parse_decimal(cell))
+        except ValueError:
+            raise FileFormatError(name, f"{column}: expected a number, got {excerpt(cell.strip())}{note}",
+                                  line=line) from None
+    return values
 
 
 def write_log(path: str | Path, log: MeasurementLog, *, overwrite: bool = False) -> Path:

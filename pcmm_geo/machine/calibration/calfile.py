@@ -45,7 +45,8 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from pcmm_geo.errors import FileFormatError, InvalidInputError, OutputExistsError
+from pcmm_geo.errors import FileFormatError, InvalidInputError, OutputExistsError, PcmmGeoError
+from pcmm_geo.io._json import JsonNode
 from pcmm_geo.machine.calibration.geometry import FittedSphere
 from pcmm_geo.machine.calibration.probings import ARMS, ProbedFeatures
 
@@ -59,6 +60,8 @@ __all__ = [
     "load_calibration",
     "load_covariance",
     "load_machine",
+    "load_stored_machine",
+    "machine_from_json",
     "save_calibration",
 ]
 
@@ -80,14 +83,14 @@ def _sphere_dict(sphere: FittedSphere) -> dict[str, Any]:
     }
 
 
-def _sphere_from(data: Mapping[str, Any]) -> FittedSphere:
-    radius = data.get("radius")
-    form = data.get("form")
+def _sphere_from(node: JsonNode) -> FittedSphere:
+    node.object()
+    n_points = node.get("n_points")
     return FittedSphere(
-        center=np.array(data["centre"], dtype=float).reshape(3),
-        radius=math.nan if radius is None else float(radius),
-        form=math.nan if form is None else float(form),
-        n_points=int(data.get("n_points", 0)),
+        center=node["centre"].vector(3),
+        radius=node["radius"].number(low=0.0, allow_null=True),
+        form=node["form"].number(low=0.0, allow_null=True),
+        n_points=0 if n_points is None else n_points.integer(low=0),
     )
 
 
@@ -209,14 +212,12 @@ def _read_document(path: str | Path) -> tuple[Path, dict[str, Any]]:
 
     document = read_json_file(file)
     if not isinstance(document, dict):
-        raise FileFormatError(str(file), f"expected a JSON object, got {type(document).__name__}")
+        raise JsonNode(document, str(file)).fail("a JSON object")
     schema = document.get("schema")
     if not isinstance(schema, str) or not schema.startswith("pcmm_geo.machine.calibration/"):
-        raise FileFormatError(str(file), f"expected schema {CALIBRATION_SCHEMA!r}, got {schema!r}")
+        raise JsonNode(schema, str(file), "schema").fail(repr(CALIBRATION_SCHEMA))
     if schema != CALIBRATION_SCHEMA:
-        raise FileFormatError(
-            str(file), f"expected schema version {SCHEMA_VERSION} ({CALIBRATION_SCHEMA!r}), got {schema!r}"
-        )
+        raise JsonNode(schema, str(file), "schema").fail(f"version {SCHEMA_VERSION} ({CALIBRATION_SCHEMA!r})")
     return file, document
 
 
@@ -242,38 +243,49 @@ def load_calibration(path: str | Path) -> TetrahedronCalibration:
     from pcmm_geo.machine.calibration.tetrahedron import _calibrate
 
     file, document = _read_document(path)
+    root = JsonNode(document, str(file))
+    inputs = root["inputs"].object()
+    positions = tuple(node.integer() for node in inputs["positions"].list())
+    if len(set(positions)) != len(positions):
+        raise inputs["positions"].fail("distinct slider positions")
+    spheres = inputs["joint_spheres"].object()
+    joints = {
+        arm: {pos: _sphere_from(node) for pos, node in zip(positions, spheres[arm].list(len(positions)), strict=True)}
+        for arm in ARMS
+    }
+    features = ProbedFeatures(joints=joints, tip=_sphere_from(inputs["tip"]), points={},
+                              source=inputs["source"].string())
+    lasers = inputs["lasers"].matrix(len(positions), 3)
+    sweep = inputs["sweep"].matrix(None, 3)
+    start_of_range = inputs["laser_start_of_range"].number()
+    scale_node = inputs.get("laser_scale")
+    scale = None if scale_node is None else scale_node.number()
+    stored = root["results"].object()
+    datum = None
     try:
-        inputs = document["inputs"]
-        positions = tuple(int(p) for p in inputs["positions"])
-        joints = {
-            arm: {pos: _sphere_from(s) for pos, s in zip(positions, inputs["joint_spheres"][arm], strict=True)}
-            for arm in ARMS
-        }
-        features = ProbedFeatures(joints=joints, tip=_sphere_from(inputs["tip"]), points={}, source=inputs["source"])
-        lasers = np.array(inputs["lasers"], dtype=float).reshape(len(positions), 3)
-        sweep = np.array(inputs["sweep"], dtype=float).reshape(-1, 3)
-        datum = None
-        if inputs.get("datum") is not None:
+        datum_node = inputs.get("datum")
+        if datum_node is not None:
             from pcmm_geo.machine.calibration.datum import DatumFrame
 
-            datum = DatumFrame.from_dict(inputs["datum"])
-        scale = inputs.get("laser_scale")
-        cal = _calibrate(
-            features, lasers, sweep, float(inputs["laser_start_of_range"]), None if scale is None else float(scale),
-            datum,
-        )
-        stored = document["results"]
-        for key, values in (("dead_distance", cal.dead_distance), ("beta_deg", cal.beta_deg), ("b_in", cal.b_in)):
-            for name, value in values.items():
-                if abs(float(stored[key][name]) - value) > _AGREEMENT * max(1.0, abs(value)):
-                    raise FileFormatError(
-                        str(file), f"results.{key}.{name}: expected {value!r} (recomputed from inputs), "
-                        f"got {stored[key][name]!r}; the file was edited or damaged"
-                    )
+            datum_node["rotation"].matrix(3, 3)
+            datum_node["origin"].vector(3)
+            for key in ("plane_form", "hole_radius"):
+                if datum_node.get(key) is not None:
+                    datum_node[key].number()
+            datum = DatumFrame.from_dict(datum_node.value)
+        cal = _calibrate(features, lasers, sweep, start_of_range, scale, datum)
     except FileFormatError:
         raise
-    except (KeyError, TypeError, ValueError, IndexError) as exc:
-        raise FileFormatError(str(file), f"expected calibration inputs and results, got a problem: {exc!r}") from None
+    except (PcmmGeoError, ArithmeticError, ValueError) as exc:  # inputs that parse but do not calibrate
+        raise FileFormatError(str(file), f"inputs: expected calibration inputs that calibrate, got: {exc}") from None
+    for key, values in (("dead_distance", cal.dead_distance), ("beta_deg", cal.beta_deg), ("b_in", cal.b_in)):
+        for name, value in values.items():
+            got = stored[key][name].number()
+            if abs(got - value) > _AGREEMENT * max(1.0, abs(value)):
+                raise FileFormatError(
+                    str(file), f"results.{key}.{name}: expected {value!r} (recomputed from inputs), "
+                    f"got {got!r}; the file was edited or damaged"
+                )
     return cal
 
 
@@ -285,11 +297,41 @@ def load_covariance(path: str | Path) -> dict[str, Any] | None:
     Raises
     ------
     FileFormatError
-        Not a calibration file of a known schema version.
+        Not a calibration file of a known schema version, or an entry of the wrong layout
+        (the message names the JSON path, e.g. ``covariance.matrix[2]``).
     """
-    _, document = _read_document(path)
-    entry = document.get("covariance")
-    return dict(entry) if isinstance(entry, Mapping) else None
+    file, document = _read_document(path)
+    node = JsonNode(document, str(file)).get("covariance")
+    if node is None:
+        return None
+    names = [name.string() for name in node["names"].list()]
+    count = len(names)
+    for value in node["values"].list(count):
+        value.number(allow_null=True)
+    for row in node["matrix"].list(count):
+        for value in row.list(count):
+            value.number(allow_null=True)
+    node["method"].string()
+    node["probing_sigma_mm"].number(low=0.0)
+    node["laser_sigma_mm"].number(low=0.0)
+    if node.get("n_trials") is not None:
+        node["n_trials"].integer(low=0)
+    return dict(node.value)
+
+
+def load_stored_machine(path: str | Path) -> RigidBodyMachine | None:
+    """The rigid-body machine stored in a calibration file, or None when the file stores none.
+
+    Raises
+    ------
+    FileFormatError
+        Not a calibration file, or a ``"machine"`` entry that is damaged (never silently
+        replaced by a default).
+    """
+    file, document = _read_document(path)
+    if "machine" not in document:
+        return None
+    return machine_from_json(JsonNode(document, str(file))["machine"])
 
 
 def load_machine(path: str | Path) -> RigidBodyMachine:
@@ -313,12 +355,60 @@ def load_machine(path: str | Path) -> RigidBodyMachine:
     >>> bool(np.allclose(machine.tetrahedron.tip_center, cal.tip_center))
     True
     """
-    from pcmm_geo.machine.kinematics.model import RigidBodyMachine
+    machine = load_stored_machine(path)
+    if machine is None:
+        raise FileFormatError(str(path), "expected a 'machine' entry (saved with columns=...), got none")
+    return machine
 
-    file, document = _read_document(path)
-    if "machine" not in document:
-        raise FileFormatError(str(file), "expected a 'machine' entry (saved with columns=...), got none")
+
+def machine_from_json(node: JsonNode) -> RigidBodyMachine:
+    """A :class:`RigidBodyMachine` from its :meth:`~RigidBodyMachine.to_dict` layout, every field checked.
+
+    Parameters
+    ----------
+    node : JsonNode
+        The machine object inside a JSON document (a model file or a calibration's ``machine``).
+
+    Raises
+    ------
+    FileFormatError
+        A missing or mistyped field, named by its JSON path (``machine.columns.b.direction:
+        expected a list of 3 numbers, got a list of 2``), or values the model refuses
+        (e.g. a zero direction).
+
+    Examples
+    --------
+    >>> from pcmm_geo.machine.kinematics.model import RigidBodyMachine
+    >>> layout = RigidBodyMachine.from_dpkm().to_dict()
+    >>> layout["columns"]["b"]["direction"] = [0, 1]
+    >>> try:
+    ...     machine_from_json(JsonNode({"machine": layout}, "cal.json")["machine"])
+    ... except FileFormatError as exc:
+    ...     print(exc)
+    cal.json: machine.columns.b.direction: expected a list of 3 numbers, got a list of 2
+    """
+    from pcmm_geo.machine.kinematics.model import MODEL_SCHEMA, RigidBodyMachine
+
+    node.object()
+    node["schema"].string((MODEL_SCHEMA,))
+    tetrahedron = node["tetrahedron"]
+    tetrahedron["tip_centre"].vector(3)
+    for arm in ARMS:
+        slider = tetrahedron["sliders"][arm]
+        slider["point"].vector(3)
+        slider["direction"].vector(3)
+        slider["laser_scale"].number()
+        slider["laser_offset"].number()
+        column = node["columns"][arm]
+        column["point"].vector(3)
+        column["direction"].vector(3)
+        if column.get("encoder_scale") is not None:
+            column["encoder_scale"].number()
+    for key in ("reference_lasers", "reference_heights"):
+        if node.get(key) is not None:
+            node[key].vector(3)
     try:
-        return RigidBodyMachine.from_dict(document["machine"])
-    except InvalidInputError as exc:
-        raise FileFormatError(str(file), f"machine: {exc}") from None
+        return RigidBodyMachine.from_dict(node.value)
+    except (PcmmGeoError, ArithmeticError, ValueError, TypeError, KeyError) as exc:
+        where = f"{node.where}: " if node.where else ""
+        raise FileFormatError(node.file, f"{where}expected a valid machine model, got: {exc}") from None

@@ -31,6 +31,7 @@ Examples
 from __future__ import annotations
 
 import math
+import re
 from collections.abc import Mapping
 from dataclasses import dataclass
 from pathlib import Path
@@ -41,6 +42,7 @@ from numpy.typing import NDArray
 from pcmm_geo._atomic import write_atomic
 from pcmm_geo._deprecation import renamed_fields, renamed_parameters
 from pcmm_geo.errors import FileFormatError, PcmmGeoError
+from pcmm_geo.io._text import excerpt, parse_decimal
 from pcmm_geo.machine.calibration.geometry import FittedSphere, fit_probed_sphere
 
 __all__ = [
@@ -127,11 +129,10 @@ class LaserTable:
 
 
 def _data_lines(path: Path) -> list[tuple[int, list[str]]]:
-    from pcmm_geo.io._text import read_text_file
+    from pcmm_geo.io._text import read_text_lines
 
-    text = read_text_file(path)
     rows = []
-    for number, raw in enumerate(text.splitlines(), start=1):
+    for number, raw in read_text_lines(path):
         line = raw.strip()
         if not line or line.startswith("#"):
             continue
@@ -141,15 +142,22 @@ def _data_lines(path: Path) -> list[tuple[int, list[str]]]:
     return rows
 
 
+def _integer(text: str) -> int:
+    """An ASCII integer (``int`` would also take ``1_0`` or non-ASCII digits); ValueError otherwise."""
+    if not re.fullmatch(r"[+-]?[0-9]{1,18}", text.strip()):
+        raise ValueError(text)
+    return int(text)
+
+
 def _number(text: str, path: Path, line: int, column: str, *, allow_missing: bool = False) -> float:
     if allow_missing and text.lower() in ("", "nan"):
         return math.nan
     try:
-        value = float(text)
+        value = parse_decimal(text)
     except ValueError:
-        raise FileFormatError(str(path), f"column {column}: expected a number, got {text!r}", line) from None
+        raise FileFormatError(str(path), f"column {column}: expected a number, got {excerpt(text)}", line) from None
     if not math.isfinite(value):
-        raise FileFormatError(str(path), f"column {column}: expected a finite number, got {text!r}", line)
+        raise FileFormatError(str(path), f"column {column}: expected a finite number, got {excerpt(text)}", line)
     return value
 
 
@@ -203,7 +211,7 @@ def read_probings(path: str | Path) -> ProbedFeatures:
     raise FileFormatError(
         str(file),
         f"expected header {','.join(RAW_HEADER)!r} or {','.join(EXPORT_HEADER)!r} (or 5 numbers per row), "
-        f"got {','.join(first)!r}",
+        f"got {excerpt(','.join(first))}",
         first_line,
     )
 
@@ -216,18 +224,20 @@ def _read_raw(file: Path, rows: list[tuple[int, list[str]]]) -> ProbedFeatures:
             raise FileFormatError(str(file), f"expected 5 fields (feature,position,x,y,z), got {len(fields)}", line)
         feature = fields[0].lower()
         if feature not in FEATURES:
-            raise FileFormatError(str(file), f"feature: expected one of {', '.join(FEATURES)}, got {fields[0]!r}", line)
+            expected = ", ".join(FEATURES)
+            raise FileFormatError(str(file), f"feature: expected one of {expected}, got {excerpt(fields[0])}", line)
         position: int | None
         if feature == "tip":
             if fields[1] != "":
-                raise FileFormatError(str(file), f"position: expected empty for the tip, got {fields[1]!r}", line)
+                raise FileFormatError(str(file), f"position: expected empty for the tip, got {excerpt(fields[1])}",
+                                      line)
             position = None
         else:
             try:
-                position = int(fields[1])
+                position = _integer(fields[1])
             except ValueError:
                 raise FileFormatError(
-                    str(file), f"position: expected an integer slider position, got {fields[1]!r}", line
+                    str(file), f"position: expected an integer slider position, got {excerpt(fields[1])}", line
                 ) from None
         xyz = [_number(fields[k], file, line, name) for k, name in zip((2, 3, 4), "xyz", strict=True)]
         key = (feature, position)
@@ -355,9 +365,9 @@ def read_lasers(path: str | Path) -> LaserTable:
             raise FileFormatError(str(file), f"expected 4 fields (position,laser_a,laser_b,laser_c), got {len(fields)}",
                                   line)
         try:
-            position = int(fields[0])
+            position = _integer(fields[0])
         except ValueError:
-            raise FileFormatError(str(file), f"position: expected an integer, got {fields[0]!r}", line) from None
+            raise FileFormatError(str(file), f"position: expected an integer, got {excerpt(fields[0])}", line) from None
         if position in positions:
             raise FileFormatError(str(file), f"position: expected each position once, got {position} again", line)
         positions.append(position)

@@ -429,7 +429,9 @@ class RigidBodyMachine:
                 reference_heights=data.get("reference_heights", np.zeros(3)),
                 limits=None if data.get("limits") is None else MachineLimits.from_dict(data["limits"]),
             )
-        except (KeyError, TypeError) as exc:
+        except InvalidInputError:
+            raise
+        except (KeyError, TypeError, AttributeError, IndexError, ValueError, OverflowError) as exc:
             expected = "tetrahedron/sliders/columns for arms a, b, c"
             raise InvalidInputError("machine model", expected, repr(exc)) from None
 

@@ -24,6 +24,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from pcmm_geo.errors import FileFormatError, InvalidInputError
+from pcmm_geo.io._text import excerpt, parse_decimal
 
 __all__ = [
     "APPENDIX_B_BOUNDS_AS_PRINTED",
@@ -202,13 +203,13 @@ def read_numcal_csv(path: str | Path) -> NumcalData:
         if len(fields) != width:
             raise FileFormatError(str(file), f"expected {width} fields, got {len(fields)}", number)
         if fields[0].lower() not in ARMS:
-            raise FileFormatError(str(file), f"moved: expected a, b or c, got {fields[0][:40]!r}", number)
+            raise FileFormatError(str(file), f"moved: expected a, b or c, got {excerpt(fields[0])}", number)
         try:
-            row = [float(f) for f in fields[1:]]
+            row = [parse_decimal(f) for f in fields[1:]]
         except ValueError:
-            raise FileFormatError(str(file), f"expected numbers, got {str(fields[1:])[:200]}", number) from None
+            raise FileFormatError(str(file), f"expected numbers, got {excerpt(','.join(fields[1:]))}", number) from None
         if not np.all(np.isfinite(row)):
-            raise FileFormatError(str(file), f"expected finite numbers, got {str(fields[1:])[:200]}", number)
+            raise FileFormatError(str(file), f"expected finite numbers, got {excerpt(','.join(fields[1:]))}", number)
         moved.append(fields[0].lower())
         values.append(row)
     if not values:
