@@ -54,6 +54,7 @@ _LAZY = {
     "RigidBodyMachine": "kinematics.model",
     "ForwardSolution": "kinematics.model",
     "InverseSolution": "kinematics.model",
+    "MachineLimits": "kinematics.limits",
     # seed DPKM
     "START_OF_RANGE": "kinematics.dpkm",
     "DpkmProbe": "kinematics.dpkm",

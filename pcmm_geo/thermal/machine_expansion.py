@@ -170,7 +170,7 @@ def rigid_body_tip_displacement(
     --------
     >>> from pcmm_geo.machine.kinematics.model import RigidBodyMachine
     >>> machine = RigidBodyMachine.from_dpkm()
-    >>> d = rigid_body_tip_displacement(machine, [0.0, 0.0, -380.0])
+    >>> d = rigid_body_tip_displacement(machine, [0.0, 0.0, 90.0])
     >>> bool(np.abs(d).max() < 1e-9)
     True
     """

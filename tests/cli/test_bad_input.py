@@ -323,7 +323,8 @@ def test_the_valid_calibration_and_model_files_of_the_json_corpus_load(tmp_path:
     good_model.write_text(_dump(_model()))
     capsys.readouterr()
     for path in (good_cal, good_model):
-        assert main(["kinematics", "forward", "--heights", "0", "0", "0", "--calibration", str(path), "--json"]) == 0
+        assert main(["kinematics", "forward", "--heights", "400", "400", "400", "--calibration", str(path),
+                     "--json"]) == 0  # heights inside the column travel (machine.limits)
         assert len(json.loads(capsys.readouterr().out)["tip"]) == 3
 
 

@@ -247,9 +247,10 @@ def test_calibrated_tetrahedron_drives_the_rigid_body_model(skewed):
         for k, arm in enumerate(ARMS)
     }
     columns = RigidBodyMachine.from_dpkm().columns
-    true_machine = RigidBodyMachine(Tetrahedron(sliders, TIP), columns)
-    calibrated = RigidBodyMachine(cal.tetrahedron, columns)
-    tips = np.array([[0.0, 0.0, -380.0], [-20.0, 30.0, -400.0]])
+    level = np.full(3, 400.0)  # pivots about 400 mm up: inside the seed's column travel (277-727 mm)
+    true_machine = RigidBodyMachine(Tetrahedron(sliders, TIP), columns, reference_heights=level)
+    calibrated = RigidBodyMachine(cal.tetrahedron, columns, reference_heights=level)
+    tips = np.array([[0.0, 0.0, 50.0], [-20.0, 30.0, 30.0]])
     readings = true_machine.inverse(tips)
     assert np.all(readings.converged)
     solved = calibrated.forward(lasers=readings.lasers, heights=readings.heights)

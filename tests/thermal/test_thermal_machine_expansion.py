@@ -7,7 +7,7 @@ import math
 import numpy as np
 import pytest
 
-from pcmm_geo.machine.kinematics.model import ColumnLine, RigidBodyMachine, SliderLine, Tetrahedron
+from pcmm_geo.machine.kinematics.model import ColumnLine, MachineLimits, RigidBodyMachine, SliderLine, Tetrahedron
 from pcmm_geo.thermal import (
     ThermalMachineGeometry,
     deform_triangle,
@@ -21,7 +21,11 @@ SIDE = 265.0 * math.sqrt(3.0)  # the column triangle of ThermalMachineGeometry's
 
 
 def machine_for(geometry: ThermalMachineGeometry, tip: np.ndarray, heights: np.ndarray) -> RigidBodyMachine:
-    """Vertical columns on the geometry's column feet (base z = 0), arms meeting at the tip."""
+    """Vertical columns on the geometry's column feet (base z = 0), arms meeting at the tip.
+
+    The "laser reading" of this model is the whole arm length (no offset), so its laser range is the
+    seed's 200 mm range moved to the arm lengths around the reference.
+    """
     pivots = np.column_stack([geometry.column_xy, heights])
     lengths = np.linalg.norm(pivots - tip, axis=1)
     sliders = {
@@ -34,6 +38,7 @@ def machine_for(geometry: ThermalMachineGeometry, tip: np.ndarray, heights: np.n
         columns=columns,
         reference_lasers=lengths,
         reference_heights=heights,
+        limits=MachineLimits(height_travel=[-450.0, 450.0], laser_range=[lengths.min() - 100, lengths.max() + 100]),
     )
 
 

@@ -135,10 +135,10 @@ class SimulatedMicroCMM:
         self.gauge_block: GaugeBlock | None = None
         self.positions = np.full(3, self.start_position, dtype=np.int64)
         self._settled_heights = self.heights_for(self.positions)
-        start = machine.forward(heights=self._settled_heights, lasers_hint=machine.reference_lasers)
-        self._lasers = np.asarray(start.lasers, dtype=float)
-        self._tip = np.asarray(start.tip, dtype=float)
-        self._reachable = bool(start.converged)
+        tip, lasers, converged = self._solve(self._settled_heights[None, :], machine.reference_lasers)
+        self._lasers = lasers[0]
+        self._tip = tip[0]
+        self._reachable = bool(converged[0])
         self._offsets = np.zeros(3)
 
     # ------------------------------------------------------------------ state
@@ -182,10 +182,24 @@ class SimulatedMicroCMM:
         return GaugeBlock.aligned(center, size)
 
     # ------------------------------------------------------------------ motion
-    def _solve(self, heights: NDArray[np.float64]) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[Any]]:
-        hint = np.broadcast_to(self._lasers, heights.shape)
-        solution = self.machine.forward(heights=heights, lasers_hint=hint)
-        return np.asarray(solution.tip), np.asarray(solution.lasers), np.asarray(solution.converged)
+    def _solve(
+        self, heights: NDArray[np.float64], hint: ArrayLike | None = None
+    ) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[Any]]:
+        """Tips, lasers and reachability for heights ``(K, 3)``.
+
+        The model is solved without its limits (a simulated motor may be driven anywhere); a
+        pose counts as reachable only where every laser reading lies in the machine's measuring
+        range, as a real sensor reports an error value beyond it.
+        """
+        hint = np.broadcast_to(self._lasers if hint is None else hint, heights.shape)
+        solution = self.machine.forward(heights=heights, lasers_hint=hint, check_limits=False)
+        lasers = np.asarray(solution.lasers)
+        limits = getattr(self.machine, "limits", None)
+        reachable = np.asarray(solution.converged)
+        if limits is not None:
+            low, high = limits.laser_range[:, 0], limits.laser_range[:, 1]
+            reachable = reachable & np.all((lasers >= low) & (lasers <= high), axis=-1)
+        return np.asarray(solution.tip), lasers, reachable
 
     def move(self, device: int, start: int, target: int) -> int:
         """Move motor ``device`` (1..3) from ``start`` towards ``target``; returns where it stops.

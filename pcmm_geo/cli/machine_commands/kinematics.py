@@ -54,7 +54,7 @@ def load_machine_file(path: str | None) -> Any:
     tetrahedron = load_calibration(path).tetrahedron
     seed = RigidBodyMachine.from_dpkm()
     provisional = RigidBodyMachine(tetrahedron, seed.columns, seed.reference_lasers, seed.reference_heights)
-    reference = provisional.forward(heights=seed.reference_heights)
+    reference = provisional.forward(heights=seed.reference_heights, check_limits=False)  # a starting pose only
     return RigidBodyMachine(tetrahedron, seed.columns, reference.lasers, seed.reference_heights)
 
 

@@ -154,8 +154,9 @@ def tip_jacobian(
     for arm in range(3):
         offsets[2 * arm, arm] = step
         offsets[2 * arm + 1, arm] = -step
-    perturbed = machine.forward(heights=base[:, None, :] + offsets)
-    center = machine.forward(heights=base)
+    center = machine.forward(heights=base)  # checks the heights against the machine's limits
+    # the +-step differences may step just past a travel end: they probe the model, not the machine
+    perturbed = machine.forward(heights=base[:, None, :] + offsets, check_limits=False)
     tip_per_height = np.swapaxes(perturbed.tip[:, 0::2] - perturbed.tip[:, 1::2], 1, 2) / (2 * step)
     laser_per_height = np.swapaxes(perturbed.lasers[:, 0::2] - perturbed.lasers[:, 1::2], 1, 2) / (2 * step)
     return tip_per_height, laser_per_height, center.tip, center.lasers
@@ -196,6 +197,9 @@ def sensitivity_over_cube(
     ------
     InvalidInputError
         Non-positive size or accuracy, fewer than 2 points per axis.
+    OutOfRangeError, NoRealSolutionError
+        The cube leaves the machine's workspace (column travel, laser range; see
+        :mod:`pcmm_geo.machine.kinematics.limits`).
 
     Examples
     --------

@@ -7,6 +7,9 @@ What lives here:
   solutions) and :func:`~pcmm_geo.machine.kinematics.model.seed_machine`;
 - :mod:`~pcmm_geo.machine.kinematics.model_parts` -- its building blocks (slider lines,
   tetrahedron, column lines, input checks);
+- :mod:`~pcmm_geo.machine.kinematics.limits` -- what the machine can read and reach
+  (:class:`~pcmm_geo.machine.kinematics.limits.MachineLimits`: 450 mm column travel, 0-200 mm
+  laser range, loop-closure tolerance) and the checks behind the typed range errors;
 - :mod:`~pcmm_geo.machine.kinematics.dpkm` -- the seed's direct parallel kinematic model with
   errata 1-4 fixed and the thesis' Table 3.1 / Appendix D / E values;
 - :mod:`~pcmm_geo.machine.kinematics.trilateration` -- robust trilateration of the tip;

@@ -35,6 +35,9 @@ UNOBSERVABLE = 1e-9
 #: convergence: largest parameter step (mm, or rad times 1000 mm) below this
 STEP_TOLERANCE = 1e-11
 MAX_ITERATIONS = 60
+#: a solve counts as converged only if its hard equations close to this (mm): closure, tip, and
+#: with one kind of reading, the measured readings themselves
+SOLVED_TOLERANCE = 1e-6
 MAX_ROTATION_STEP = 0.1
 MAX_LINEAR_STEP = 50.0
 
@@ -116,6 +119,22 @@ def closure(geometry: Geometry, state: PoseState) -> FloatArray:
     return (moved - pivots_in_machine(geometry, state.heights)).reshape(-1, 9)
 
 
+def kabsch_start(geometry: Geometry, lasers: FloatArray, heights: FloatArray) -> PoseState:
+    """Starting pose ``(K,)``: the rigid fit of the joints for ``lasers`` onto the pivots for ``heights``."""
+    rotation, translation = kabsch(joints_in_tetrahedron(geometry, lasers), pivots_in_machine(geometry, heights))
+    return PoseState(rotation, translation, lasers.copy(), heights.copy(), np.zeros(len(lasers), bool), 0)
+
+
+def open_equations(geometry: Geometry, state: PoseState, tip_target: FloatArray | None = None) -> FloatArray:
+    """Largest residual of the hard equations per sample ``(K,)`` in mm: the three loop closures
+    (distance joint-pivot per arm) and, with ``tip_target`` ``(K, 3)``, the tip equation."""
+    loops = np.linalg.norm(closure(geometry, state).reshape(-1, 3, 3), axis=-1).max(axis=-1)
+    if tip_target is None:
+        return loops
+    tip = np.einsum("kij,j->ki", state.rotation, geometry.tip_center) + state.translation
+    return np.maximum(loops, np.linalg.norm(tip - tip_target, axis=-1))
+
+
 def solve_pose(
     geometry: Geometry,
     start: PoseState,
@@ -192,3 +211,30 @@ def solve_pose(
         if done.all():
             break
     return PoseState(rotation, translation, lasers, heights, done, iteration)
+
+
+def closest_readings(
+    geometry: Geometry, rotation: FloatArray, translation: FloatArray, hint: FloatArray
+) -> tuple[FloatArray, FloatArray]:
+    """Readings where each moved slider line comes closest to its column line ``(K, 3)`` each."""
+    count = rotation.shape[0]
+    lasers = np.empty((count, 3))
+    heights = np.empty((count, 3))
+    for arm in range(3):
+        origin = np.einsum("kij,j->ki", rotation, geometry.slider_points[arm]) + translation
+        direction = rotation @ geometry.slider_directions[arm]
+        col_dir = geometry.column_directions[arm]
+        col_point = geometry.column_points[arm]
+        # minimise |origin + s d - (col_point + z v)| over s, z
+        cross = direction @ col_dir
+        denom = 1.0 - cross**2
+        diff = col_point - origin
+        s_val = np.where(denom > 1e-12, (diff @ col_dir * -cross + np.einsum("ki,ki->k", diff, direction)) / denom, 0)
+        z_val = np.where(
+            denom > 1e-12,
+            (diff @ col_dir * -1 + cross * np.einsum("ki,ki->k", diff, direction)) / denom,
+            hint[:, arm] * geometry.encoder_scale[arm],
+        )
+        lasers[:, arm] = (s_val - geometry.laser_offset[arm]) / geometry.laser_scale[arm]
+        heights[:, arm] = z_val / geometry.encoder_scale[arm]
+    return lasers, heights

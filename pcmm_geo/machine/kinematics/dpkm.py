@@ -41,7 +41,8 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from pcmm_geo.errors import DegenerateGeometryError, InvalidInputError, NoRealSolutionError
-from pcmm_geo.machine.kinematics.model_parts import ARMS, as_readings
+from pcmm_geo.machine.kinematics.limits import LASER_MEASURING_RANGE, check_readings
+from pcmm_geo.machine.kinematics.model_parts import ARMS, ColumnLine, SliderLine, Tetrahedron, as_readings
 
 __all__ = [
     "APPENDIX_D_COLUMN_POINTS",
@@ -58,6 +59,7 @@ __all__ = [
     "height_difference",
     "pivot_distance",
     "relative_pivot_heights",
+    "seed_parts",
     "sphere_constants",
     "tetrahedron_directions",
 ]
@@ -121,9 +123,31 @@ class DpkmProbe:
 
 
 def arm_lengths(
-    lasers: ArrayLike, dead_distance: Mapping[str, float], *, start_of_range: float = START_OF_RANGE
+    lasers: ArrayLike,
+    dead_distance: Mapping[str, float],
+    *,
+    start_of_range: float = START_OF_RANGE,
+    measuring_range: float | None = LASER_MEASURING_RANGE,
 ) -> FloatArray:
     """Pivot-to-tip lengths ``L_i = laser_i + start_of_range + d_i`` (mm), shape ``(..., 3)``.
+
+    Parameters
+    ----------
+    lasers : array_like, shape (..., 3)
+        Laser readings (mm from the start of measuring range).
+    dead_distance : mapping arm -> mm
+        ``d_i`` without the start of range.
+    start_of_range : float
+        60 mm (thesis 5.3).
+    measuring_range : float or None
+        Readings must lie in ``[0, measuring_range]`` (200 mm, thesis 3.1); ``None`` skips
+        the check (for analyses beyond the sensors).
+
+    Raises
+    ------
+    OutOfRangeError
+        A reading outside the measuring range; ``quantity`` names its index, e.g.
+        ``"lasers[7, 2] (laser c measuring range)"``.
 
     Examples
     --------
@@ -131,6 +155,8 @@ def arm_lengths(
     [410.0, 410.0, 410.0]
     """
     readings = as_readings(lasers, "lasers")
+    if measuring_range is not None:
+        check_readings(readings, [0.0, measuring_range], "lasers", "laser")
     return readings + start_of_range + np.array([dead_distance[arm] for arm in ARMS])
 
 
@@ -396,3 +422,50 @@ def tetrahedron_directions(beta_deg: Mapping[str, float]) -> FloatArray:
     e_x /= np.linalg.norm(e_x)
     e_y = np.cross(axis, e_x)
     return directions @ np.array([e_x, e_y, axis]).T
+
+
+def seed_parts(
+    *,
+    dead_distance: Mapping[str, float] | None = None,
+    beta_deg: Mapping[str, float] | None = None,
+    column_points: Mapping[str, ArrayLike] | None = None,
+    column_slopes: Mapping[str, ArrayLike] | None = None,
+    start_of_range: float = START_OF_RANGE,
+) -> tuple[Tetrahedron, dict[str, ColumnLine], FloatArray]:
+    """Tetrahedron, column lines and approximate level-pose lasers of the seed geometry.
+
+    The building blocks of :func:`pcmm_geo.machine.kinematics.model.seed_machine` (see there
+    for the parameters): slider lines from the tip along :func:`tetrahedron_directions` with
+    offset ``start_of_range + d_i``; column lines through ``(g_i, m_i)`` with slopes
+    ``(h_i, n_i)`` (eqs 2.19-2.20) and the encoder scale that makes the height reading the
+    pivot's ``z``.  The third item is a first guess of the laser readings with level pivots.
+
+    Examples
+    --------
+    >>> tetra, columns, guess = seed_parts()
+    >>> round(float(tetra.sliders["a"].laser_offset), 2), columns["b"].direction.tolist()
+    (354.02, [0.0, 0.0, 1.0])
+    """
+    dead = dict(TABLE_3_1_DEAD_DISTANCE if dead_distance is None else dead_distance)
+    beta = dict(TABLE_3_1_BETA_DEG if beta_deg is None else beta_deg)
+    points = dict(APPENDIX_D_COLUMN_POINTS if column_points is None else column_points)
+    slopes = {arm: (0.0, 0.0) for arm in ARMS} if column_slopes is None else dict(column_slopes)
+    directions = tetrahedron_directions(beta)
+    tip = np.zeros(3)
+    sliders = {
+        arm: SliderLine(tip, directions[k], 1.0, start_of_range + float(dead[arm])) for k, arm in enumerate(ARMS)
+    }
+    columns = {}
+    for arm in ARMS:
+        xyz = np.zeros(3)
+        given = np.asarray(points[arm], dtype=float)
+        xyz[: given.size] = given
+        slope = np.asarray(slopes[arm], dtype=float)
+        along = np.array([slope[0], slope[1], 1.0])
+        columns[arm] = ColumnLine(xyz, along, float(np.linalg.norm(along)))
+    base = [np.linalg.norm(columns[i].point[:2] - columns[j].point[:2]) for i, j in ("ab", "bc", "ca")]
+    chord = [2.0 * np.sin(np.radians(beta[pair]) / 2.0) for pair in PAIRS]
+    level_length = float(np.mean(base) / np.mean(chord))
+    guess = np.array([level_length - sliders[arm].laser_offset for arm in ARMS])
+    return Tetrahedron(sliders, tip), columns, guess
+

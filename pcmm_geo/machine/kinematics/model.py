@@ -24,9 +24,9 @@ Examples
 >>> import numpy as np
 >>> from pcmm_geo.machine.kinematics.model import RigidBodyMachine
 >>> machine = RigidBodyMachine.from_dpkm()
->>> inv = machine.inverse([0.0, 0.0, -380.0])
+>>> inv = machine.inverse([0.0, 0.0, 90.0])
 >>> fwd = machine.forward(lasers=inv.lasers, heights=inv.heights)
->>> bool(np.allclose(fwd.tip, [0.0, 0.0, -380.0], atol=1e-9))
+>>> bool(np.allclose(fwd.tip, [0.0, 0.0, 90.0], atol=1e-9))
 True
 """
 
@@ -42,14 +42,8 @@ from numpy.typing import ArrayLike, NDArray
 
 from pcmm_geo.errors import InvalidInputError
 from pcmm_geo.machine.kinematics import _pose_solver as solver
-from pcmm_geo.machine.kinematics.dpkm import (
-    APPENDIX_D_COLUMN_POINTS,
-    PAIRS,
-    START_OF_RANGE,
-    TABLE_3_1_BETA_DEG,
-    TABLE_3_1_DEAD_DISTANCE,
-    tetrahedron_directions,
-)
+from pcmm_geo.machine.kinematics.dpkm import START_OF_RANGE, seed_parts
+from pcmm_geo.machine.kinematics.limits import MachineLimits, check_inverse, check_reach, closure_norms
 from pcmm_geo.machine.kinematics.model_parts import (
     ARMS,
     ColumnLine,
@@ -68,6 +62,7 @@ __all__ = [
     "ColumnLine",
     "ForwardSolution",
     "InverseSolution",
+    "MachineLimits",
     "RigidBodyMachine",
     "SliderLine",
     "Tetrahedron",
@@ -94,18 +89,28 @@ class RigidBodyMachine:
     reference_lasers, reference_heights : ndarray, shape (3,)
         A configuration near the middle of the working range used as starting values
         and as the hint for readings the data cannot determine.
+    limits : MachineLimits
+        Column travel, laser measuring range and closure tolerance
+        (:mod:`~pcmm_geo.machine.kinematics.limits`).  Default (``None`` given):
+        :meth:`MachineLimits.seed` -- the seed's height frame: 450 mm travel from 277.22 to
+        727.22 mm (park position at 400 mm), lasers 0-200 mm, closure tolerance 0.25 mm.
     """
 
     tetrahedron: Tetrahedron
     columns: Mapping[str, ColumnLine]
     reference_lasers: FloatArray = field(default_factory=lambda: np.full(3, 100.0))
     reference_heights: FloatArray = field(default_factory=lambda: np.zeros(3))
+    limits: MachineLimits = None  # type: ignore[assignment]  # None -> MachineLimits.seed()
 
     def __post_init__(self) -> None:
         check_arm_keys(self.columns, "columns")
         object.__setattr__(self, "columns", {arm: self.columns[arm] for arm in ARMS})
         object.__setattr__(self, "reference_lasers", as_vector3(self.reference_lasers, "reference_lasers"))
         object.__setattr__(self, "reference_heights", as_vector3(self.reference_heights, "reference_heights"))
+        if self.limits is None:
+            object.__setattr__(self, "limits", MachineLimits.seed())
+        elif not isinstance(self.limits, MachineLimits):
+            raise InvalidInputError("limits", "a MachineLimits or None", type(self.limits).__name__)
 
     # ------------------------------------------------------------------ geometry
     @property
@@ -144,6 +149,7 @@ class RigidBodyMachine:
         height_sigma: float = 1e-3,
         heights_hint: ArrayLike | None = None,
         lasers_hint: ArrayLike | None = None,
+        check_limits: bool = True,
     ) -> ForwardSolution:
         """Forward kinematics: readings -> pose and probe-tip centre.
 
@@ -163,15 +169,29 @@ class RigidBodyMachine:
             Starting values for readings not measured (default: the reference readings).
             With parallel columns and lasers only, the common height of the pivots is not
             observable; the solution then takes the heights nearest the hint.
+        check_limits : bool
+            Check the readings against :attr:`limits` (default).  ``False`` (analyses beyond
+            the machine: simulators, finite differences) raises nothing for range or
+            consistency; ``converged`` and ``residuals`` stay truthful.
 
         Returns
         -------
         ForwardSolution
+            ``converged`` only where the loops close to 1e-6 mm with the solved readings
+            (with one kind of reading also with the measured ones).
 
         Raises
         ------
         InvalidInputError
             No readings, mismatched shapes, non-finite values, non-positive sigma.
+        OutOfRangeError
+            A measured reading outside the column travel or laser range, or one the solve
+            implies (heights whose pose needs a laser beyond 200 mm).  ``quantity`` names
+            the index, e.g. ``"lasers[4, 1] (laser b measuring range)"``; fields ``index``.
+        InconsistentMeasurementError
+            The largest loop-closure residual with the measured readings exceeds
+            ``limits.closure_tolerance`` (lasers and heights disagree, or no pose realises
+            the lasers, e.g. 200, 200, 200).  Fields ``residual``, ``tolerance``, ``index``.
 
         Notes
         -----
@@ -183,15 +203,14 @@ class RigidBodyMachine:
         two-fold branch (tetrahedron tilted one way or its mirror).  ``heights_hint`` picks
         the branch and the datum; ``converged`` is False where the lasers are blind.
 
-        *Noise.*  Errors grow linearly with reading noise, as the first-order Jacobian
-        predicts (see :mod:`pcmm_geo.machine.analysis.sensitivity`).  Seed geometry, 100 mm cube:
-        height noise ``sigma`` gives an RMS tip error of about ``1.5 sigma`` (3-D); laser
-        noise is amplified about 4x (median, lasers-only) and without bound near level pivots.
+        *Noise* grows linearly, as the Jacobian predicts (:mod:`pcmm_geo.machine.analysis.sensitivity`):
+        seed geometry, 100 mm cube, about ``1.5 sigma`` RMS tip error for height noise, laser
+        noise amplified about 4x (median, lasers only) and without bound near level pivots.
 
         Examples
         --------
         >>> machine = RigidBodyMachine.from_dpkm()
-        >>> target = [[10.0, -20.0, -360.0], [-30.0, 25.0, -400.0]]
+        >>> target = [[10.0, -20.0, 110.0], [-30.0, 25.0, 70.0]]
         >>> inv = machine.inverse(target)
         >>> sol = machine.forward(lasers=inv.lasers, heights=inv.heights)
         >>> bool(np.allclose(sol.tip, target, atol=1e-9)), sol.residuals.shape
@@ -206,6 +225,8 @@ class RigidBodyMachine:
         height_arr = None if heights is None else as_readings(heights, "heights")
         if laser_arr is not None and height_arr is not None and laser_arr.shape != height_arr.shape:
             raise InvalidInputError("heights", f"the shape of lasers {laser_arr.shape}", f"shape {height_arr.shape}")
+        if check_limits:
+            self.limits.check_readings(laser_arr, height_arr)
         shape = (laser_arr if laser_arr is not None else height_arr).shape  # type: ignore[union-attr]
         lead = shape[:-1]
         count = int(np.prod(lead, dtype=int))
@@ -221,7 +242,7 @@ class RigidBodyMachine:
         w_l = np.full((count, 3), 1.0 / laser_sigma if laser_arr is not None else weak / laser_sigma)
         w_h = np.full((count, 3), 1.0 / height_sigma if height_arr is not None else weak / height_sigma)
         geometry = self.geometry
-        start = self._start(geometry, meas_l, meas_h)
+        start = solver.kabsch_start(geometry, meas_l, meas_h)
         state = solver.solve_pose(
             geometry, start, laser_weight=w_l, height_weight=w_h, laser_target=meas_l, height_target=meas_h
         )
@@ -243,6 +264,13 @@ class RigidBodyMachine:
             state.iterations,
         )
         residuals = solver.closure(geometry, reported)
+        closed = solver.open_equations(geometry, state) <= solver.SOLVED_TOLERANCE
+        if laser_arr is None or height_arr is None:  # square system: the measured readings must be met
+            closed &= closure_norms(residuals) <= solver.SOLVED_TOLERANCE
+        if check_limits:
+            implied_lasers = state.lasers.reshape(*lead, 3) if laser_arr is None else None
+            implied_heights = state.heights.reshape(*lead, 3) if height_arr is None else None
+            self.limits.check_solution(residuals.reshape(*lead, 9), implied_lasers, implied_heights)
         tip = np.einsum("kij,j->ki", state.rotation, geometry.tip_center) + state.translation
         return ForwardSolution(
             tip=tip.reshape(*lead, 3),
@@ -251,11 +279,13 @@ class RigidBodyMachine:
             lasers=state.lasers.reshape(*lead, 3),
             heights=state.heights.reshape(*lead, 3),
             residuals=residuals.reshape(*lead, 9),
-            converged=state.converged.reshape(lead),
+            converged=(state.converged & closed).reshape(lead),
             iterations=state.iterations,
         )
 
-    def inverse(self, tip: ArrayLike, *, heights_hint: ArrayLike | None = None) -> InverseSolution:
+    def inverse(
+        self, tip: ArrayLike, *, heights_hint: ArrayLike | None = None, check_limits: bool = True
+    ) -> InverseSolution:
         """Inverse kinematics: probe-tip centre -> heights, lasers and pose.
 
         Solves the nine loop-closure equations plus ``R p + t = tip`` (12 equations,
@@ -267,20 +297,31 @@ class RigidBodyMachine:
             Target probe-tip centres in the machine frame (mm).
         heights_hint : array_like, shape (..., 3) or (3,), optional
             Starting height readings (default: the reference heights).
+        check_limits : bool
+            Refuse targets the machine cannot reach (default).  ``False`` returns the
+            solution of the equations whatever the readings; ``converged`` stays truthful.
 
         Returns
         -------
         InverseSolution
+            ``converged`` is True only where the loop and the tip equations close to 1e-6 mm.
 
         Raises
         ------
         InvalidInputError
             Wrong shape or non-finite target.
+        OutOfRangeError
+            The target lies beyond an arm's span from its column's travel ("distance of
+            tip[i] from column a", :func:`~pcmm_geo.machine.kinematics.limits.check_reach`)
+            or needs readings outside the limits ("heights[2, 0] (column a travel, needed
+            for the tip)").  Fields ``index``, ``value``, ``low``, ``high``.
+        NoRealSolutionError
+            The Newton iteration found no pose for the target; field ``index``.
 
         Examples
         --------
         >>> machine = RigidBodyMachine.from_dpkm()
-        >>> inv = machine.inverse([5.0, 5.0, -370.0])
+        >>> inv = machine.inverse([5.0, 5.0, 100.0])
         >>> inv.heights.shape, bool(inv.converged)
         ((3,), True)
         """
@@ -289,34 +330,35 @@ class RigidBodyMachine:
         count = int(np.prod(lead, dtype=int))
         flat_target = target.reshape(count, 3)
         geometry = self.geometry
-        ref = self.forward(lasers=self.reference_lasers, heights_hint=self.reference_heights)
+        if check_limits:
+            check_reach(geometry, self.limits, target)
+        ref = self.forward(lasers=self.reference_lasers, heights_hint=self.reference_heights, check_limits=False)
         hint = np.broadcast_to(
             ref.heights if heights_hint is None else as_readings(heights_hint, "heights_hint"), (*lead, 3)
         ).reshape(count, 3)
         rotation = np.broadcast_to(ref.rotation, (count, 3, 3)).copy()
         translation = flat_target - rotation @ geometry.tip_center
         # readings nearest to the shifted reference pose: joint line vs column line closest points
-        lasers, heights = _closest_readings(geometry, rotation, translation, hint)
+        lasers, heights = solver.closest_readings(geometry, rotation, translation, hint)
         start = solver.PoseState(rotation, translation, lasers, heights, np.zeros(count, bool), 0)
         zeros = np.zeros((count, 3))
         state = solver.solve_pose(
             geometry, start, laser_weight=zeros, height_weight=zeros, laser_target=zeros, height_target=zeros,
             tip_target=flat_target,
         )
+        error = solver.open_equations(geometry, state, flat_target)
+        converged = state.converged & (error <= solver.SOLVED_TOLERANCE)
+        if check_limits:
+            check_inverse(self.limits, target, converged.reshape(lead), error.reshape(lead), state, lead)
         return InverseSolution(
             heights=state.heights.reshape(*lead, 3),
             lasers=state.lasers.reshape(*lead, 3),
             rotation=state.rotation.reshape(*lead, 3, 3),
             translation=state.translation.reshape(*lead, 3),
-            converged=state.converged.reshape(lead),
+            converged=converged.reshape(lead),
             iterations=state.iterations,
         )
 
-    def _start(self, geometry: solver.Geometry, lasers: FloatArray, heights: FloatArray) -> solver.PoseState:
-        joints = solver.joints_in_tetrahedron(geometry, lasers)
-        pivots = solver.pivots_in_machine(geometry, heights)
-        rotation, translation = solver.kabsch(joints, pivots)
-        return solver.PoseState(rotation, translation, lasers.copy(), heights.copy(), np.zeros(len(lasers), bool), 0)
 
     # ------------------------------------------------------------------ construction / serialisation
     @classmethod
@@ -358,11 +400,15 @@ class RigidBodyMachine:
             },
             "reference_lasers": self.reference_lasers.tolist(),
             "reference_heights": self.reference_heights.tolist(),
+            "limits": self.limits.to_dict(),
         }
 
     @classmethod
     def from_dict(cls, data: Mapping[str, Any]) -> RigidBodyMachine:
         """Rebuild a machine written by :meth:`to_dict`.
+
+        A document without ``"limits"`` (written before limits existed) gets the default
+        :meth:`MachineLimits.seed` (the seed's height frame).
 
         Raises
         ------
@@ -381,39 +427,13 @@ class RigidBodyMachine:
                 columns,
                 reference_lasers=data.get("reference_lasers", np.full(3, 100.0)),
                 reference_heights=data.get("reference_heights", np.zeros(3)),
+                limits=None if data.get("limits") is None else MachineLimits.from_dict(data["limits"]),
             )
         except InvalidInputError:
             raise
         except (KeyError, TypeError, AttributeError, IndexError, ValueError, OverflowError) as exc:
             expected = "tetrahedron/sliders/columns for arms a, b, c"
             raise InvalidInputError("machine model", expected, repr(exc)) from None
-
-
-def _closest_readings(
-    geometry: solver.Geometry, rotation: FloatArray, translation: FloatArray, hint: FloatArray
-) -> tuple[FloatArray, FloatArray]:
-    """Readings where each moved slider line comes closest to its column line ``(K, 3)`` each."""
-    count = rotation.shape[0]
-    lasers = np.empty((count, 3))
-    heights = np.empty((count, 3))
-    for arm in range(3):
-        origin = np.einsum("kij,j->ki", rotation, geometry.slider_points[arm]) + translation
-        direction = rotation @ geometry.slider_directions[arm]
-        col_dir = geometry.column_directions[arm]
-        col_point = geometry.column_points[arm]
-        # minimise |origin + s d - (col_point + z v)| over s, z
-        cross = direction @ col_dir
-        denom = 1.0 - cross**2
-        diff = col_point - origin
-        s_val = np.where(denom > 1e-12, (diff @ col_dir * -cross + np.einsum("ki,ki->k", diff, direction)) / denom, 0)
-        z_val = np.where(
-            denom > 1e-12,
-            (diff @ col_dir * -1 + cross * np.einsum("ki,ki->k", diff, direction)) / denom,
-            hint[:, arm] * geometry.encoder_scale[arm],
-        )
-        lasers[:, arm] = (s_val - geometry.laser_offset[arm]) / geometry.laser_scale[arm]
-        heights[:, arm] = z_val / geometry.encoder_scale[arm]
-    return lasers, heights
 
 
 def seed_machine(
@@ -425,6 +445,7 @@ def seed_machine(
     start_of_range: float = START_OF_RANGE,
     reference_lasers: ArrayLike | None = None,
     reference_height: float = 400.0,
+    limits: MachineLimits | None = None,
 ) -> RigidBodyMachine:
     """Rigid-body machine with the seed's geometry: slider lines meeting at the tip.
 
@@ -443,10 +464,13 @@ def seed_machine(
         Laser start of range (60 mm).
     reference_lasers : array_like, shape (3,), optional
         Laser readings of the reference configuration.  Default: the configuration with
-        all three pivots level at ``reference_height`` (the middle of the working volume).
+        all three pivots level at ``reference_height`` (the park position, see ``limits``).
     reference_height : float
         Pivot height of the reference configuration (mm); with explicit
         ``reference_lasers`` it is the starting height only.
+    limits : MachineLimits, optional
+        Default :meth:`MachineLimits.seed` (travel 277.22-727.22 mm, lasers 0-200 mm); pass
+        ``MachineLimits.seed([h] * 3)`` when ``reference_height`` h is the park position.
 
     Returns
     -------
@@ -458,36 +482,21 @@ def seed_machine(
     >>> sorted(m.columns), round(float(m.reference_heights.mean()), 6)
     (['a', 'b', 'c'], 400.0)
     """
-    dead = dict(TABLE_3_1_DEAD_DISTANCE if dead_distance is None else dead_distance)
-    beta = dict(TABLE_3_1_BETA_DEG if beta_deg is None else beta_deg)
-    points = dict(APPENDIX_D_COLUMN_POINTS if column_points is None else column_points)
-    slopes = {arm: (0.0, 0.0) for arm in ARMS} if column_slopes is None else dict(column_slopes)
-    directions = tetrahedron_directions(beta)
-    tip = np.zeros(3)
-    sliders = {
-        arm: SliderLine(tip, directions[k], 1.0, start_of_range + float(dead[arm])) for k, arm in enumerate(ARMS)
-    }
-    columns = {}
-    for arm in ARMS:
-        xyz = np.zeros(3)
-        given = np.asarray(points[arm], dtype=float)
-        xyz[: given.size] = given
-        slope = np.asarray(slopes[arm], dtype=float)
-        along = np.array([slope[0], slope[1], 1.0])
-        columns[arm] = ColumnLine(xyz, along, float(np.linalg.norm(along)))
-    base = [np.linalg.norm(columns[i].point[:2] - columns[j].point[:2]) for i, j in ("ab", "bc", "ca")]
-    chord = [2.0 * np.sin(np.radians(beta[pair]) / 2.0) for pair in PAIRS]
-    level_length = float(np.mean(base) / np.mean(chord))
-    guess = np.array([level_length - sliders[arm].laser_offset for arm in ARMS])
+    tetrahedron, columns, guess = seed_parts(
+        dead_distance=dead_distance, beta_deg=beta_deg, column_points=column_points, column_slopes=column_slopes,
+        start_of_range=start_of_range,
+    )
     provisional = RigidBodyMachine(
-        Tetrahedron(sliders, tip), columns, reference_lasers=guess, reference_heights=np.full(3, reference_height)
+        tetrahedron, columns, reference_lasers=guess, reference_heights=np.full(3, reference_height)
     )
     if reference_lasers is None:  # level pivots at reference_height
-        solved = provisional.forward(heights=np.full(3, reference_height))
+        solved = provisional.forward(heights=np.full(3, reference_height), check_limits=False)
     else:
         solved = provisional.forward(
-            lasers=np.asarray(reference_lasers, dtype=float), heights_hint=np.full(3, reference_height)
+            lasers=np.asarray(reference_lasers, dtype=float), heights_hint=np.full(3, reference_height),
+            check_limits=False,
         )
     return RigidBodyMachine(
-        provisional.tetrahedron, columns, reference_lasers=solved.lasers, reference_heights=solved.heights
+        provisional.tetrahedron, columns, reference_lasers=solved.lasers, reference_heights=solved.heights,
+        limits=limits,
     )

@@ -277,6 +277,7 @@ def numcal_machine(truth: NumcalParameters) -> object:
     >>> round(float(np.linalg.norm(pivots[0] - pivots[1])), 6)  # b_ab of Table 7.1
     454.17
     """
+    from pcmm_geo.machine.kinematics.limits import COLUMN_TRAVEL, MachineLimits
     from pcmm_geo.machine.kinematics.model import seed_machine
 
     ab, bc, ca = (truth.b[pair] for pair in ("ab", "bc", "ca"))
@@ -289,6 +290,8 @@ def numcal_machine(truth: NumcalParameters) -> object:
         dead_distance=dict(truth.d), beta_deg=truth.beta_deg,
         column_points={arm: tuple(corners[k]) for k, arm in enumerate(ARMS)},
         reference_height=LEVEL_START_HEIGHT,
+        # the synthetic experiments count heights from home: travel 0-450 mm (thesis 3.1)
+        limits=MachineLimits(height_travel=[0.0, COLUMN_TRAVEL]),
     )
 
 
