@@ -16,8 +16,7 @@ The seed DPKM (eqs 2.3-2.21) is the special case where the three slider lines me
 the tip; :meth:`RigidBodyMachine.from_dpkm` builds that geometry and both agree there.
 Nothing here assumes the lines meet, which removes erratum 9 of DESIGN.md.
 
-Arms are always ordered ``a, b, c`` (:data:`ARMS`), clockwise seen from above
-(thesis 2.6.4).  Millimetres and radians throughout.
+Arms are ordered ``a, b, c`` (:data:`ARMS`), clockwise seen from above (thesis 2.6.4); mm and rad throughout.
 
 Examples
 --------
@@ -358,7 +357,6 @@ class RigidBodyMachine:
             converged=converged.reshape(lead),
             iterations=state.iterations,
         )
-
 
     # ------------------------------------------------------------------ construction / serialisation
     @classmethod
