@@ -20,8 +20,9 @@ The machine may import :mod:`pcmm_geo.acquisition`, :mod:`pcmm_geo.fit`, :mod:`p
 The most used names are re-exported here, loaded lazily on first access (PEP 562) so that
 ``import pcmm_geo.machine`` stays fast and free of scipy until something is computed:
 :class:`RigidBodyMachine`, :class:`Tetrahedron`, :class:`SliderLine`, :class:`ColumnLine`,
-``ARMS``, the DPKM functions, :func:`trilaterate`, the log processing, the sensitivity and
-:func:`calibrate_tetrahedron` with its calibration files.
+``ARMS``, the DPKM functions, :func:`trilaterate`, the log processing (with its closure test and
+tip uncertainty constants), the variable DPKM parameters, the start-position repeatability, the
+laser/height ratio, the sensitivity and :func:`calibrate_tetrahedron` with its calibration files.
 
 The modules' former flat paths (``pcmm_geo.machine.dpkm``, ``pcmm_geo.machine.drivers.zaber``,
 ...) still import for one release with a :class:`DeprecationWarning`
@@ -85,6 +86,25 @@ _LAZY = {
     "LinearLaw": "analysis.parameter_laws",
     "fit_parameter_laws": "analysis.parameter_laws",
     "synthesise_log_dpkm": "analysis.parameter_laws",
+    "ParameterLawFit": "analysis.parameter_laws",
+    "table_8_errors": "analysis.parameter_laws",
+    # log processing: closure test and tip uncertainty
+    "CLOSURE_SIGMAS": "analysis.logproc_closure",
+    "SEED_LASER_SIGMA": "analysis.logproc_closure",
+    "DEFAULT_MAX_TIP_UNCERTAINTY": "analysis.logproc_uncertainty",
+    # start-position repeatability (thesis 6.3, Tables 6.6/6.7)
+    "StartReadings": "analysis.repeatability",
+    "StartRepeatability": "analysis.repeatability",
+    "start_repeatability": "analysis.repeatability",
+    "start_readings_from_logs": "analysis.repeatability",
+    "read_start_readings_csv": "analysis.repeatability",
+    # laser/height ratio of measured data (eqs 6.1-6.3, Table 6.8)
+    "HeightGaugeRecord": "analysis.laser_ratio",
+    "LaserHeightRatio": "analysis.laser_ratio",
+    "laser_height_ratio": "analysis.laser_ratio",
+    "predicted_height_per_laser": "analysis.laser_ratio_model",
+    "ratio_table_summary": "analysis.laser_ratio_model",
+    "read_ratio_table_csv": "analysis.laser_ratio_model",
     # sensitivity
     "Sensitivity": "analysis.sensitivity",
     "tip_jacobian": "analysis.sensitivity",

@@ -56,6 +56,8 @@ def command_lines(numcal: Path) -> dict[str, list[str]]:
                                    "--alpha", "11.5e-6", "--u-temperature", "0.05", "--u-alpha", "1e-6"],
         "thermal-triangle": ["thermal", "triangle", "--temperatures", "21", "20.5", "20"],
         "thermal-table": ["thermal", "table", "--points-per-axis", "2"],
+        "repeatability": ["repeatability", "--readings", str(EXAMPLES / "start_readings_table_6_7.csv")],
+        "laser-ratio": ["laser-ratio", "--ratios", str(EXAMPLES / "laser_ratio_table_6_8.csv")],
         "fit": ["fit", "sphere", str(NIST_SPHERE)],
         "form": ["form", str(EXAMPLES / "roundness_ring.csv"), "--element", "circle", "--two-d",
                  "--tolerance", "0.010"],

@@ -111,29 +111,36 @@ def test_well_conditioned_log_is_not_flagged_and_uncertainty_grows_along_the_log
     assert np.all(np.linalg.eigvalsh(out.tip_covariance) > -1e-12)  # positive semi-definite
 
 
-def test_slanted_columns_first_row_uncertainty_matches_perturbation() -> None:
-    """Appendix E column slopes: the first row's lasers set the common height, 87 mm per 29 um."""
-    machine = RigidBodyMachine.from_dpkm(column_slopes={"a": (0.0075, 0.0201), "b": (0.0082, 0.0192),
-                                                        "c": (0.0069, 0.0153)})
+@pytest.mark.parametrize("slopes", [None, {"a": (0.0075, 0.0201), "b": (0.0082, 0.0192), "c": (0.0069, 0.0153)}])
+def test_first_row_uncertainty_matches_perturbation(slopes) -> None:
+    """The first row holds the datum's common height; its u matches central differences (Appendix E slopes too).
+
+    Before issue 16i, slanted columns let row 1's lasers set the common height: 87.7 mm z
+    uncertainty, 27 mm per 10 um on laser a.
+    """
+    machine = RigidBodyMachine.from_dpkm(column_slopes=slopes)
     start = machine.reference_heights + np.array([0.0, 60.0, -50.0])
     log = synthesise_log(machine, start, [(1, 3.0, True)])
-    out = process_log(machine, log, initial_heights=start, max_tip_uncertainty=np.inf)
+    out = process_log(machine, log, initial_heights=start)  # no warning
     step = 0.002
     columns = []
     for arm in range(3):  # central differences of the whole processing, independent of the solver's derivatives
         shifted = []
         for sign in (1.0, -1.0):
             lasers = log.lasers.copy()
-            lasers[:, arm] += sign * step  # row 1 and its copy (the start row of move 1 is row 0 itself)
-            lasers[1:] = log.lasers[1:]
+            lasers[0, arm] += sign * step  # row 1 only
             moved = MeasurementLog(log.start_stop, log.probe, log.motor, log.direction, lasers)
-            shifted.append(process_log(machine, moved, initial_heights=start, on_inconsistent="flag",
-                                       max_tip_uncertainty=np.inf).tips[0])
+            processed = process_log(machine, moved, initial_heights=start, on_inconsistent="flag",
+                                    max_tip_uncertainty=np.inf)
+            # the datum's common height (mean of the heights: encoder scales 1, columns within 1.3 deg of
+            # vertical) moves by less than 1e-6 mm per 2 um of laser (was 5.5 mm with slanted columns)
+            assert abs(np.mean(processed.heights[0] - start)) < 1e-6
+            shifted.append(processed.tips[0])
         columns.append((shifted[0] - shifted[1]) / (2 * step))
     jacobian = np.array(columns).T
     expected = SEED_LASER_SIGMA**2 * jacobian @ jacobian.T
     np.testing.assert_allclose(np.sqrt(np.diag(out.tip_covariance[0])), np.sqrt(np.diag(expected)), rtol=0.05)
-    assert 50.0 < out.tip_u[0, 2] < 150.0  # 87.7 mm: the datum is not held by slanted columns
+    assert np.all(out.tip_u[0] < 0.1)  # 81/59/15 um (slanted), 85/63/15 um (parallel); was 87.7 mm in z
 
 
 def test_flag_uncertain_tips_rules() -> None:

@@ -8,7 +8,9 @@ What lives here:
 - :mod:`~pcmm_geo.machine.analysis.logproc_rows` -- the log's rows: array type, CSV reader
   and writer;
 - :mod:`~pcmm_geo.machine.analysis.logproc_closure` -- the closure test of each log row and the
-  derivation of its default tolerance;
+  derivation of its default tolerance, the first row's datum and the level-pose mirror;
+- :mod:`~pcmm_geo.machine.analysis.logproc_uncertainty` -- the tip uncertainty of every log row;
+- :mod:`~pcmm_geo.machine.analysis.logproc_synthesis` -- synthetic logs from known heights;
 - :mod:`~pcmm_geo.machine.analysis.parameter_laws` -- the seed DPKM's ``d_i`` and ``beta_in`` as
   linear laws of the lasers (thesis 8.2, Table 8.2), fitted from calibration positions;
 - :mod:`~pcmm_geo.machine.analysis.sensitivity` -- sensitivity of the tip to laser and encoder

@@ -53,7 +53,7 @@ from pcmm_geo.machine.analysis.logproc_closure import (
     first_row_pose,
     row_closure_error,
     row_derivatives,
-    solve_row,
+    solve_moved_row,
 )
 from pcmm_geo.machine.analysis.logproc_rows import LOG_COLUMNS, MeasurementLog, read_log, write_log
 from pcmm_geo.machine.analysis.logproc_synthesis import synthesise_log
@@ -207,8 +207,8 @@ def process_log(
     With level pivots the lasers do not see the pivot heights to first order (the pivot
     distances change only with the square of a height difference), see
     :mod:`pcmm_geo.machine.analysis.sensitivity`.  A log that starts in or passes through the
-    level pose is therefore poorly determined there (``converged`` False or branch
-    changes); keep the pivots a few tens of millimetres apart in height.
+    level pose is poorly determined there (mirror poses: the motor ``direction`` picks
+    one, ``solve_moved_row``); keep the pivots a few tens of millimetres apart in height.
 
     *Closure test.*  The three lasers over-determine each row (two redundant combinations
     on a row that moved one motor, one on the first row); the closure residual is the laser
@@ -306,7 +306,7 @@ def process_log(
             start = solver.PoseState(
                 good.rotation, good.translation, lasers.copy(), previous[None].copy(), good.converged, 0
             )
-            state = solve_row(geometry, start, lasers, previous[None], solved, laser_sigma)
+            state = solve_moved_row(geometry, start, lasers, previous[None], solved, arm, direction, laser_sigma)
             change = state.heights[0, arm] - previous[arm]
             consistent[row] = direction == 0 or abs(change) <= 1e-3 or np.sign(change) == direction
             input_covariance = np.block([[laser_variance, np.zeros((3, 3))], [np.zeros((3, 3)), good_covariance]])

@@ -149,7 +149,9 @@ def solve_pose(
     """Run the constrained Gauss-Newton iteration on a batch of ``K`` samples.
 
     ``laser_weight`` / ``height_weight`` ``(K, 3)`` are ``1/sigma`` of the soft rows pulling
-    the readings towards ``laser_target`` / ``height_target``.  With ``tip_target``
+    the readings towards ``laser_target`` / ``height_target``; ``height_weight`` may also be a
+    square-root information matrix ``(K, 3, 3)`` (rows ``W (H - target)``, e.g. one row on the
+    mean height only).  With ``tip_target``
     ``(K, 3)`` the tip equation is added to the hard constraints (inverse kinematics).
     """
     rotation = start.rotation.copy()
@@ -183,11 +185,15 @@ def solve_pose(
             step = -np.einsum("kij,kj->ki", np.linalg.pinv(hard, rcond=1e-13), value)
         else:
             soft = np.zeros((n_samples, 6, 12))
-            idx = np.arange(6)
-            soft[:, idx, 6 + idx] = np.concatenate([laser_weight, height_weight], axis=1)
-            soft_value = np.concatenate(
-                [laser_weight * (lasers - laser_target), height_weight * (heights - height_target)], axis=1
-            )
+            idx = np.arange(3)
+            soft[:, idx, 6 + idx] = laser_weight
+            if height_weight.ndim == 3:  # full square-root information matrix of the heights
+                soft[:, 3:, 9:] = height_weight
+                height_misfit = np.einsum("kij,kj->ki", height_weight, heights - height_target)
+            else:
+                soft[:, 3 + idx, 9 + idx] = height_weight
+                height_misfit = height_weight * (heights - height_target)
+            soft_value = np.concatenate([laser_weight * (lasers - laser_target), height_misfit], axis=1)
             u, sing, vt = np.linalg.svd(hard, full_matrices=True)
             particular = -np.einsum("kji,kj->ki", vt[:, :9, :], np.einsum("kji,kj->ki", u, value) / sing)
             null = np.swapaxes(vt[:, 9:, :], 1, 2)  # (K, 12, 3)
