@@ -28,7 +28,7 @@ _STYLE = (
     "body{font-family:sans-serif;margin:2em;max-width:70em}"
     "table{border-collapse:collapse;margin:0.5em 0 1.5em}"
     "th,td{border:1px solid #bbb;padding:0.25em 0.6em}th{background:#eee}"
-    "td.num{text-align:right;font-family:monospace}code{background:#f4f4f4}img{max-width:100%}"
+    "td.num{text-align:right;font-family:monospace;white-space:nowrap;overflow-wrap:normal}code{background:#f4f4f4}img{max-width:100%}"
     "td{overflow-wrap:anywhere}td.hash{font-family:monospace;font-size:0.8em;overflow-wrap:normal;white-space:nowrap}"
     ".verdict{font-size:1.4em;font-weight:bold;padding:0.3em 0.6em;display:inline-block}"
     ".pass{background:#d8f0d8;color:#145214}.fail{background:#f6d5d5;color:#7a1010}.none{background:#eee}"
