@@ -47,6 +47,10 @@ EXTRAS_NEEDED = {
     "io/test_points.py::test_round_trip": "cad",
     "machine/test_sensitivity.py::test_plot_and_errors": "plots",
     "machine/test_logproc.py::test_read_log_accepts_acquisition_logs_with_metadata_and_extra_columns": "acquire",
+    "cli/test_cli_outputs.py::test_per_output_overwrite": "plots",
+    "cli/test_cli_outputs.py::test_a_failure_while_writing_rolls_every_output_back": "plots",
+    "cli/test_cli_repeatability.py::test_repeatability_of_the_printed_tables": "plots",
+    "cli/test_cli_repeatability.py::test_laser_ratio_of_the_printed_table": "plots",
     "test_docs.py": "docs",
 }
 
