@@ -28,6 +28,7 @@ from numpy.typing import ArrayLike
 
 from pcmm_geo.errors import InvalidInputError
 from pcmm_geo.fit.reference import ReferenceDataSet, make_reference_data
+from pcmm_geo.fit.skew import angle_between
 from pcmm_geo.io.nist import NistPair, iter_nist_pairs, read_nist_pair
 
 __all__ = [
@@ -45,13 +46,13 @@ _SIZE_NAMES = ("radius", "major_radius", "minor_radius")
 
 
 def _angle_between(first: ArrayLike, second: ArrayLike, *, signed: bool) -> float:
-    """Angle between two directions, rad; with ``signed=False`` the sign of either is ignored."""
+    """Angle between two directions (2-D or 3-D), rad; with ``signed=False`` the sign of either is ignored."""
     a = np.asarray(first, dtype=float)
     b = np.asarray(second, dtype=float)
-    a, b = a / np.linalg.norm(a), b / np.linalg.norm(b)
-    cross = np.linalg.norm(np.cross(a, b)) if a.size == 3 else abs(float(a[0] * b[1] - a[1] * b[0]))
-    dot = float(a @ b)
-    return float(np.arctan2(cross, dot if signed else abs(dot)))
+    if a.size == 2:  # a 2-D direction is the 3-D one in the z = 0 plane
+        a, b = np.append(a, 0.0), np.append(b, 0.0)
+    angle = float(angle_between(a, b))
+    return angle if signed else min(angle, float(np.pi) - angle)
 
 
 def _distance_to_line(point: ArrayLike, line_point: ArrayLike, direction: ArrayLike) -> float:

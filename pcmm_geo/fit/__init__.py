@@ -45,6 +45,7 @@ _LAZY = {
     "fit_torus": "torus",
     "TorusFit": "torus",
     "closest_points": "skew",
+    "angle_between": "skew",
     "LinePair": "skew",
     "nearest_point_to_lines": "skew",
     "LinesNearestPoint": "skew",

@@ -66,6 +66,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from pcmm_geo.errors import ConvergenceError, InvalidInputError
+from pcmm_geo.fit.skew import angle_between
 from pcmm_geo.machine.analysis.logproc_rows import MeasurementLog
 from pcmm_geo.machine.kinematics.dpkm import PAIRS, START_OF_RANGE
 from pcmm_geo.machine.kinematics.model_parts import ARMS, as_readings, check_arm_keys
@@ -289,13 +290,9 @@ def parameter_samples(
     vectors = centers - origin
     lengths = np.linalg.norm(vectors, axis=-1)
     dead = lengths - readings - start_of_range
-    units = vectors / lengths[..., None]
     beta = np.empty_like(dead)
     for k, (i, n) in enumerate(PAIRS):
-        first, second = units[:, ARMS.index(i)], units[:, ARMS.index(n)]
-        # atan2 of |cross| and dot: accurate at every angle (acos loses digits near 0 and 180 degrees)
-        beta[:, k] = np.degrees(np.arctan2(np.linalg.norm(np.cross(first, second), axis=-1),
-                                           np.einsum("kj,kj->k", first, second)))
+        beta[:, k] = np.degrees(angle_between(vectors[:, ARMS.index(i)], vectors[:, ARMS.index(n)]))
     return dead, beta
 
 

@@ -29,6 +29,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from pcmm_geo._deprecation import module_aliases, renamed_fields, renamed_parameters
 from pcmm_geo.errors import DegenerateGeometryError, InvalidInputError, TooFewPointsError
+from pcmm_geo.fit.skew import angle_between as skew_angle_between
 
 __all__ = [
     "FittedLine",
@@ -183,32 +184,29 @@ def fit_center_line(centers: ArrayLike, *, what: str) -> FittedLine:
 def angle_between(vector_1: ArrayLike, vector_2: ArrayLike) -> FloatArray:
     """Angle between vectors in radians, eq 7.4 corrected (erratum 6): ``acos(P_i.P_in / (|P_i| |P_in|))``.
 
-    Vectorised over leading dimensions ``(..., 3)``; computed as ``atan2(|a x b|, a.b)``.
+    Vectorised over leading dimensions ``(..., 3)``; computed by :func:`pcmm_geo.fit.skew.angle_between`
+    as ``atan2(|a x b|, a.b)``.
 
     Examples
     --------
     >>> round(float(angle_between([1, 0, 0], [0, 1, 0])), 12)
     1.570796326795
     """
-    return np.radians(angle_between_deg(vector_1, vector_2))
+    return skew_angle_between(vector_1, vector_2)
 
 
 def angle_between_deg(vector_1: ArrayLike, vector_2: ArrayLike) -> FloatArray:
     """Angle between vectors in degrees, eq 7.4 corrected (erratum 6): ``acos(P_i.P_in / (|P_i| |P_in|))``.
 
-    Vectorised over leading dimensions ``(..., 3)``; uses ``atan2(|a x b|, a.b)`` which is
-    accurate at all angles and equals the arccos form.
+    Vectorised over leading dimensions ``(..., 3)``; the degrees of
+    :func:`pcmm_geo.fit.skew.angle_between` (``atan2(|a x b|, a.b)``, accurate at all angles).
 
     Examples
     --------
     >>> float(angle_between_deg([1, 0, 0], [1, 1, 0]))
     45.0
     """
-    a = np.asarray(vector_1, dtype=float)
-    b = np.asarray(vector_2, dtype=float)
-    cross = np.linalg.norm(np.cross(a, b), axis=-1)
-    dot = np.einsum("...i,...i->...", a, b)
-    return np.degrees(np.arctan2(cross, dot))
+    return np.degrees(skew_angle_between(vector_1, vector_2))
 
 
 def seed_printed_angle_deg(vector_1: ArrayLike, vector_2: ArrayLike) -> FloatArray:
