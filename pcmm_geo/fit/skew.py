@@ -120,10 +120,11 @@ def accurate_cross(first: FloatArray, second: FloatArray) -> FloatArray:
 
 
 def angle_between(first: ArrayLike, second: ArrayLike) -> FloatArray:
-    """Angle between vectors, rad, in ``[0, pi]``: ``atan2(|a x b|, a . b)``.
+    """Angle between vectors in radians, in the closed interval from 0 to pi.
 
-    The one implementation of the vector angle in pcmm_geo (the arm angles of thesis eq 7.4,
-    corrected by erratum 6, use it).  The ``atan2`` form is accurate at every angle, where
+    Computed as ``atan2(|a x b|, a·b)``.  The one implementation of the vector angle in
+    pcmm_geo (the arm angles of thesis eq 7.4, corrected by erratum 6, use it).  The ``atan2``
+    form is accurate at every angle, where
     ``acos`` of the normalised dot product loses half the digits near 0 and pi; the cross
     product is the error-free one (:func:`accurate_cross`) of the vectors scaled by powers of
     two, so nearly parallel vectors keep a relatively accurate angle.
