@@ -334,6 +334,23 @@ class Certificate:
         Multipliers non-negative, ``kkt_residual`` and ``feasibility`` within tolerance.
     method : str
         How the optimum was found (e.g. ``"slp+kkt-newton"``).
+    scope : {"global", "local"}
+        ``"global"``: the value is proven optimal over the stated domain (all elements of
+        that type, or for axial elements the stated axis region), to ``gap_mm``.
+        ``"local"``: only local optimality (KKT, second order) is proven; ``bound_mm`` then
+        holds the best proven bound, if any.
+    bound_mm : float
+        Proven bound of the optimum over the domain (mm): a lower bound of the zone width
+        (Chebyshev) or of the radius (MCC), an upper bound of the radius (MIC).  NaN when
+        nothing is proven beyond the local conditions.
+    gap_mm : float
+        ``|value - bound_mm|`` (mm; NaN when ``bound_mm`` is NaN).
+    on_region_boundary : bool
+        Axial elements only: the optimum found lies on the boundary of the searched axis
+        region, so a better element may exist outside it.
+    domain : str
+        Plain-language statement of the domain the scope refers to (e.g. ``"all planes"``,
+        ``"axes within 45 deg of the least-squares axis and within 2R of it"``).
     """
 
     multipliers: FloatArray
@@ -341,6 +358,11 @@ class Certificate:
     feasibility: float
     certified: bool
     method: str
+    scope: str = "local"
+    bound_mm: float = float("nan")
+    gap_mm: float = float("nan")
+    on_region_boundary: bool = False
+    domain: str = ""
 
 
 @dataclass(frozen=True, kw_only=True, eq=False)
