@@ -1,0 +1,270 @@
+"""Axis cells and the rigorous bounds of the point distances over a cell.
+
+An axis is ``X + s d`` with ``X = (x0, y0, 0)`` and ``d = (a, b, 1) / q`` in a chart
+frame; a *cell* is a box of ``(x0, y0, a, b)`` around a centre axis ``(X_c, d_c)``.  For
+a point ``P`` with height ``h = (P - X_c) . d_c``, distance ``rho = |(P - X_c) x d_c|``
+and unit radial vector ``beta`` (from the centre axis to the point), every axis of the
+cell satisfies (``phi``: largest angle between ``d_c`` and a direction of the cell,
+``delta = 2 sin(phi / 2)``, ``hx, hy``: the half widths in ``x0, y0``, ``eps = |(hx, hy)|``)::
+
+    rho(X, d) >= rho - |h| sin(phi) - rho (1 - cos(phi)) - |beta_x| hx - |beta_y| hy - eps delta
+    rho(X, d) <= rho + |h| sin(phi) + |beta_x| hx + |beta_y| hy + eps delta + D^2 / (2 rho)
+
+with ``D = |h| sin(phi) + rho delta + eps (1 + delta)`` (and always ``rho(X, d) <= rho + D``).
+Proof: write ``(P - X) x d = m + delta_m`` with ``m = (P - X_c) x d_c``; then
+``|m + delta_m| >= u . (m + delta_m)`` for the unit ``u = m / |m|`` (Cauchy-Schwarz), and
+``u . delta_m = (d - d_c) . alpha - (X - X_c) . beta - u . ((X - X_c) x (d - d_c))``
+with ``alpha = rho d_c - h beta``; the component of ``d - d_c`` normal to ``d_c`` is at
+most ``sin(phi)`` long, the one along it lies in ``[cos(phi) - 1, 0]``.  The upper bound
+follows from ``|m + delta_m| <= |m| + u . delta_m + |delta_m|^2 / (2 |m|)``.
+
+The same inequalities summed with non-negative weights ``lambda`` (the multipliers of
+the incumbent's contact points) bound the Lagrangian ``sum s lambda rho``; its
+first-order terms nearly cancel near a KKT point, so this bound is accurate to second
+order in the cell size there (the per-point bound only to first order).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import NDArray
+
+FloatArray = NDArray[np.float64]
+
+#: relative rounding allowance of a computed distance (times the coordinate scale)
+ROUNDING = 64 * np.finfo(float).eps
+
+
+def directions(tilt: FloatArray) -> FloatArray:
+    """Unit directions ``(a, b, 1) / q`` of tilts ``(K, 2)``, shape (K, 3)."""
+    q = np.sqrt(1.0 + tilt[:, 0] ** 2 + tilt[:, 1] ** 2)
+    return np.column_stack([tilt[:, 0] / q, tilt[:, 1] / q, 1.0 / q])
+
+
+def _cross(u: FloatArray, v: FloatArray) -> FloatArray:
+    """Row-wise cross products of (K, 3) arrays."""
+    return np.column_stack([
+        u[:, 1] * v[:, 2] - u[:, 2] * v[:, 1],
+        u[:, 2] * v[:, 0] - u[:, 0] * v[:, 2],
+        u[:, 0] * v[:, 1] - u[:, 1] * v[:, 0],
+    ])
+
+
+def angular_radius(centre: FloatArray, half: FloatArray, axis: FloatArray) -> FloatArray:
+    """Largest angle (rad) between each cell's centre direction and a direction of the cell, shape (K,).
+
+    In the gnomonic chart ``(a, b)`` the directions within an angle of ``d_c`` form a
+    convex set (a conic's interior), so the largest angle over the square is at a corner.
+    """
+    largest = np.zeros(len(centre))
+    for sign_a in (-1.0, 1.0):
+        for sign_b in (-1.0, 1.0):
+            corner_tilt = np.column_stack([centre[:, 2] + sign_a * half[:, 2], centre[:, 3] + sign_b * half[:, 3]])
+            corner = directions(corner_tilt)
+            sine = np.linalg.norm(_cross(corner, axis), axis=1)
+            cosine = np.einsum("kj,kj->k", corner, axis)
+            largest = np.maximum(largest, np.arctan2(sine, cosine))
+    return largest
+
+
+def plane_basis(axis: FloatArray) -> tuple[FloatArray, FloatArray]:
+    """Two unit vectors completing each axis (K, 3) to a right-handed orthonormal frame."""
+    helper = np.zeros_like(axis)
+    helper[np.arange(len(axis)), np.argmin(np.abs(axis), axis=1)] = 1.0
+    first = _cross(helper, axis)
+    first /= np.linalg.norm(first, axis=1, keepdims=True)
+    return first, _cross(axis, first)
+
+
+@dataclass(frozen=True)
+class CellTerms:
+    """Distances of points from the centre axes of cells and the cells' sizes.
+
+    Attributes
+    ----------
+    rho, height : ndarray, shape (K, S)
+        Distance from / height along each cell's centre axis.
+    radial : ndarray, shape (K, S, 3) or None
+        Unit radial vectors (only when asked for; without them the position term of the
+        margins is its Cauchy-Schwarz bound ``eps``).
+    sin_phi, one_minus_cos, chord, eps : ndarray, shape (K,)
+        ``sin(phi)``, ``1 - cos(phi)``, ``2 sin(phi / 2)``, ``|(hx, hy)|``.
+    half : ndarray, shape (K, 4)
+        The cells' half widths.
+    axis, foot : ndarray, shape (K, 3)
+        Centre directions and crossing points ``X_c``.
+    slack : float
+        Rounding allowance (mm).
+    """
+
+    rho: FloatArray
+    height: FloatArray
+    radial: FloatArray | None
+    sin_phi: FloatArray
+    one_minus_cos: FloatArray
+    chord: FloatArray
+    eps: FloatArray
+    half: FloatArray
+    axis: FloatArray
+    foot: FloatArray
+    slack: float
+
+    def lower_margin(self) -> FloatArray:
+        """Per-point ``rho - min rho(cell)`` bound, shape (K, S)."""
+        constant = (self.eps * (1.0 + self.chord))[:, None] + self.slack
+        return np.abs(self.height) * self.sin_phi[:, None] + self.rho * self.one_minus_cos[:, None] + constant
+
+    def upper_margin(self) -> FloatArray:
+        """Per-point ``max rho(cell) - rho`` bound, shape (K, S): ``D = |h| sin(phi) + rho delta + eps (1 + delta)``.
+
+        (The sharper second-order form serves the multiplier bound, where it matters.)
+        """
+        constant = (self.eps * (1.0 + self.chord))[:, None] + self.slack
+        return np.abs(self.height) * self.sin_phi[:, None] + self.rho * self.chord[:, None] + constant
+
+
+def cell_terms(points: FloatArray, centre: FloatArray, half: FloatArray, *, radial: bool = False) -> CellTerms:
+    """Distances of ``points`` (S, 3) from the centre axes of cells ``centre``/``half`` (K, 4).
+
+    Each point is written in the frame ``(e1, e2, d)`` of the axis with one matrix product,
+    minus the foot ``X``'s coordinates: the radial coordinates are then accurate to the
+    rounding of the coordinates, even for points on the axis.
+    """
+    k = len(centre)
+    axis = directions(centre[:, 2:4])
+    first, second = plane_basis(axis)
+    frames = np.concatenate([axis, first, second])  # (3K, 3)
+    coords = frames @ points.T  # (3K, S)
+    foot = np.zeros((k, 3))
+    foot[:, :2] = centre[:, :2]
+    shift = np.einsum("kj,kj->k", np.tile(foot, (3, 1)), frames)
+    coords -= shift[:, None]
+    height, u, v = coords[:k], coords[k : 2 * k], coords[2 * k :]
+    rho = np.hypot(u, v)
+    radial_unit = None
+    if radial:  # unit vector (u e1 + v e2) / rho from the axis to each point (any unit vector on the axis)
+        safe = np.where(rho > 0, rho, 1.0)
+        radial_unit = (u[..., None] * first[:, None, :] + v[..., None] * second[:, None, :]) / safe[..., None]
+        on_axis = np.nonzero(rho == 0)
+        radial_unit[on_axis] = first[on_axis[0]]
+    phi = np.minimum(angular_radius(centre, half, axis), np.pi / 2)
+    scale = float(np.abs(points).max(initial=0.0)) + float(np.abs(centre[:, :2]).max(initial=0.0))
+    return CellTerms(
+        rho=rho,
+        height=height,
+        radial=radial_unit,
+        sin_phi=np.sin(phi),
+        one_minus_cos=2.0 * np.sin(phi / 2) ** 2,
+        chord=2.0 * np.sin(phi / 2),
+        eps=np.hypot(half[:, 0], half[:, 1]),
+        half=half,
+        axis=axis,
+        foot=foot,
+        slack=ROUNDING * max(scale, 1.0),
+    )
+
+
+def axis_distances(points: FloatArray, x: FloatArray) -> FloatArray:
+    """Distances (M, S) of ``points`` (S, 3) from the axes ``x`` (M, 4), accurate to coordinate rounding."""
+    axis = directions(x[:, 2:4])
+    first, second = plane_basis(axis)
+    foot = np.zeros((len(x), 3))
+    foot[:, :2] = x[:, :2]
+    u = first @ points.T - np.einsum("kj,kj->k", foot, first)[:, None]
+    v = second @ points.T - np.einsum("kj,kj->k", foot, second)[:, None]
+    return np.hypot(u, v)
+
+
+def centre_values(rho: FloatArray, mode: str) -> FloatArray:
+    """Objective (to minimise) at the centre axes: ``max``, ``max - min`` or ``-min`` of ``rho`` (K,)."""
+    if mode == "mcc":
+        return rho.max(axis=1)
+    if mode == "zone":
+        return rho.max(axis=1) - rho.min(axis=1)
+    return -rho.min(axis=1)
+
+
+def point_bounds(terms: CellTerms, mode: str) -> tuple[FloatArray, FloatArray | None, FloatArray | None]:
+    """Lower bound of the objective over each cell from the per-point margins, shape (K,).
+
+    Also returns the per-point lower / upper distance bounds used (for the working set).
+    """
+    low = high = None
+    if mode in ("mcc", "zone"):
+        low = terms.rho - terms.lower_margin()
+    if mode in ("zone", "mic"):
+        high = terms.rho + terms.upper_margin()
+    if mode == "mcc":
+        bound = np.maximum(low.max(axis=1), 0.0)
+    elif mode == "zone":
+        bound = np.maximum(low.max(axis=1) - high.min(axis=1), 0.0)
+    else:
+        bound = -high.min(axis=1)
+    return bound, low, high
+
+
+@dataclass(frozen=True)
+class Multipliers:
+    """Weights of the incumbent's contact points and of the region's active edges.
+
+    ``signs`` +1 (outer level) / -1 (inner level); ``weights`` >= 0 summing to 1 per level;
+    ``cone`` (>= 0) weights the tilt constraint ``cos(cone) - d . e_z <= 0``, ``ring`` (>= 0)
+    the crossing constraint ``|X| - offset <= 0``.
+    """
+
+    contacts: NDArray[np.intp]
+    signs: FloatArray
+    weights: FloatArray
+    cone: float = 0.0
+    ring: float = 0.0
+
+
+def multiplier_bound(
+    terms: CellTerms, multipliers: Multipliers, mode: str, *, cone_cos: float = 0.0, offset: float = np.inf
+) -> FloatArray:
+    """Lower bound of the objective over each cell from the Lagrangian of the contacts, shape (K,).
+
+    ``terms``: those of the contact points (with ``radial``).  Over the region,
+    ``f >= F = sum s w rho + cone (cos(cone) - d . e_z) + ring (|X| - offset)``, and ``F``
+    is bounded below by the linear inequalities of the module docstring (for the inner
+    level with the second-order upper bound), the edge terms being linear in ``d`` and
+    convex in ``X``.
+    """
+    signs, weights = multipliers.signs, multipliers.weights
+    signed = signs * weights
+    value = terms.rho @ signed
+    # A = sum s w alpha - cone e_z  with alpha = rho d_c - h beta;  B = sum s w beta - ring n
+    tilt_vec = -np.einsum("ks,ksj->kj", signed * terms.height, terms.radial) + value[:, None] * terms.axis
+    position = np.einsum("ks,ksj->kj", np.broadcast_to(signed, terms.rho.shape), terms.radial)
+    edges = np.zeros(len(value))
+    if multipliers.cone > 0.0:
+        tilt_vec[:, 2] -= multipliers.cone
+        edges += multipliers.cone * (cone_cos - terms.axis[:, 2])
+    if multipliers.ring > 0.0:
+        foot = terms.foot
+        length = np.hypot(foot[:, 0], foot[:, 1])
+        normal = foot / np.where(length > 0, length, 1.0)[:, None]
+        position[:, :2] -= multipliers.ring * normal[:, :2]
+        edges += multipliers.ring * (length - offset)
+    along = np.einsum("kj,kj->k", tilt_vec, terms.axis)
+    across = np.linalg.norm(tilt_vec - along[:, None] * terms.axis, axis=1)
+    first_order = (
+        across * terms.sin_phi
+        + np.maximum(along, 0.0) * terms.one_minus_cos
+        + np.abs(position[:, 0]) * terms.half[:, 0]
+        + np.abs(position[:, 1]) * terms.half[:, 1]
+    )
+    inner = signs < 0
+    total = (
+        np.abs(terms.height[:, inner]) * terms.sin_phi[:, None]
+        + terms.rho[:, inner] * terms.chord[:, None]
+        + (terms.eps * (1.0 + terms.chord))[:, None]
+    )
+    with np.errstate(divide="ignore", invalid="ignore"):
+        curvature = np.where(terms.rho[:, inner] > 0, total**2 / (2.0 * terms.rho[:, inner]), np.inf)
+    correction = np.minimum(curvature, 1e300) @ weights[inner] if inner.any() else 0.0
+    bound = value + edges - first_order - weights.sum() * terms.eps * terms.chord - correction
+    bound = bound - terms.slack * (1.0 + weights.sum())
+    return np.maximum(bound, 0.0) if mode in ("mcc", "zone") else bound
