@@ -26,6 +26,7 @@ order in the cell size there (the per-point bound only to first order).
 
 from __future__ import annotations
 
+import dataclasses
 from dataclasses import dataclass
 
 import numpy as np
@@ -111,6 +112,11 @@ class CellTerms:
     foot: FloatArray
     slack: float
 
+    def select(self, columns: NDArray[np.intp]) -> CellTerms:
+        """The terms of a subset of the points (columns)."""
+        radial = None if self.radial is None else self.radial[:, columns]
+        return dataclasses.replace(self, rho=self.rho[:, columns], height=self.height[:, columns], radial=radial)
+
     def lower_margin(self) -> FloatArray:
         """Per-point ``rho - min rho(cell)`` bound, shape (K, S)."""
         constant = (self.eps * (1.0 + self.chord))[:, None] + self.slack
@@ -125,32 +131,54 @@ class CellTerms:
         return np.abs(self.height) * self.sin_phi[:, None] + self.rho * self.chord[:, None] + constant
 
 
-def cell_terms(points: FloatArray, centre: FloatArray, half: FloatArray, *, radial: bool = False) -> CellTerms:
-    """Distances of ``points`` (S, 3) from the centre axes of cells ``centre``/``half`` (K, 4).
+@dataclass(frozen=True)
+class CellShape:
+    """Centre axes and sizes of cells (K,): what the bounds need besides the points."""
+
+    centre: FloatArray
+    half: FloatArray
+    axis: FloatArray
+    first: FloatArray
+    second: FloatArray
+    foot: FloatArray
+    phi: FloatArray
+
+    @classmethod
+    def of(cls, centre: FloatArray, half: FloatArray) -> CellShape:
+        axis = directions(centre[:, 2:4])
+        first, second = plane_basis(axis)
+        foot = np.zeros((len(centre), 3))
+        foot[:, :2] = centre[:, :2]
+        phi = np.minimum(angular_radius(centre, half, axis), np.pi / 2)
+        return cls(centre, half, axis, first, second, foot, phi)
+
+
+def cell_terms(
+    points: FloatArray, centre: FloatArray | CellShape, half: FloatArray | None = None, *, radial: bool = False
+) -> CellTerms:
+    """Distances of ``points`` (S, 3) from the centre axes of cells ``centre``/``half`` (K, 4) or a :class:`CellShape`.
 
     Each point is written in the frame ``(e1, e2, d)`` of the axis with one matrix product,
     minus the foot ``X``'s coordinates: the radial coordinates are then accurate to the
     rounding of the coordinates, even for points on the axis.
     """
-    k = len(centre)
-    axis = directions(centre[:, 2:4])
-    first, second = plane_basis(axis)
-    frames = np.concatenate([axis, first, second])  # (3K, 3)
+    shape = centre if isinstance(centre, CellShape) else CellShape.of(centre, half)  # type: ignore[arg-type]
+    k = len(shape.centre)
+    frames = np.concatenate([shape.axis, shape.first, shape.second])  # (3K, 3)
     coords = frames @ points.T  # (3K, S)
-    foot = np.zeros((k, 3))
-    foot[:, :2] = centre[:, :2]
-    shift = np.einsum("kj,kj->k", np.tile(foot, (3, 1)), frames)
+    shift = np.einsum("kj,kj->k", np.tile(shape.foot, (3, 1)), frames)
     coords -= shift[:, None]
     height, u, v = coords[:k], coords[k : 2 * k], coords[2 * k :]
     rho = np.hypot(u, v)
     radial_unit = None
     if radial:  # unit vector (u e1 + v e2) / rho from the axis to each point (any unit vector on the axis)
         safe = np.where(rho > 0, rho, 1.0)
-        radial_unit = (u[..., None] * first[:, None, :] + v[..., None] * second[:, None, :]) / safe[..., None]
+        radial_unit = u[..., None] * shape.first[:, None, :] + v[..., None] * shape.second[:, None, :]
+        radial_unit /= safe[..., None]
         on_axis = np.nonzero(rho == 0)
-        radial_unit[on_axis] = first[on_axis[0]]
-    phi = np.minimum(angular_radius(centre, half, axis), np.pi / 2)
-    scale = float(np.abs(points).max(initial=0.0)) + float(np.abs(centre[:, :2]).max(initial=0.0))
+        radial_unit[on_axis] = shape.first[on_axis[0]]
+    phi = shape.phi
+    scale = float(np.abs(points).max(initial=0.0)) + float(np.abs(shape.centre[:, :2]).max(initial=0.0))
     return CellTerms(
         rho=rho,
         height=height,
@@ -158,10 +186,10 @@ def cell_terms(points: FloatArray, centre: FloatArray, half: FloatArray, *, radi
         sin_phi=np.sin(phi),
         one_minus_cos=2.0 * np.sin(phi / 2) ** 2,
         chord=2.0 * np.sin(phi / 2),
-        eps=np.hypot(half[:, 0], half[:, 1]),
-        half=half,
-        axis=axis,
-        foot=foot,
+        eps=np.hypot(shape.half[:, 0], shape.half[:, 1]),
+        half=shape.half,
+        axis=shape.axis,
+        foot=shape.foot,
         slack=ROUNDING * max(scale, 1.0),
     )
 

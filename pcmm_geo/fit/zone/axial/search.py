@@ -5,7 +5,7 @@ The objective ``f`` (minimised) of an axis is ``max rho`` (``mcc``), ``max rho -
 axes are cut into cells (boxes of ``(x0, y0, a, b)`` in a chart, see
 :mod:`~pcmm_geo.fit.zone.axial.bounds`); each generation bounds ``f`` from below on every
 live cell, evaluates ``f`` exactly at the most promising cell centres (the incumbent is
-the best axis found, polished by the local minimax solver), discards the cells whose bound
+the best axis found; the search starts from a local solver's optimum), discards the cells whose bound
 is within ``tolerance`` of the incumbent and halves the others along their widest
 dimensions.  When no cell is left, the incumbent is within ``tolerance`` of the optimum
 over the whole domain: a *global* result.  When the budget runs out first, the smallest
@@ -26,6 +26,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from pcmm_geo.fit.zone.axial.bounds import (
+    CellShape,
     CellTerms,
     Multipliers,
     axis_distances,
@@ -44,7 +45,9 @@ _NET_POINTS = 400  # points of the second-tier (covering) subset
 _CANDIDATES = 4  # cell centres evaluated on all points per generation
 _CHUNK = 1_500_000  # cells x points per vectorised block
 _MAX_LIVE = 400_000  # live cells kept in memory at most
-_MAX_POLISH = 6
+_MAX_POLISH = 12  # local solves from improved incumbents per search
+_EXPLORE_LIVE = 32  # more live cells than this: polish from the lowest-bound one (another basin?)
+_MAX_KNOWN = 12  # local solutions whose multipliers bound the cells
 
 
 @dataclass(frozen=True)
@@ -136,7 +139,8 @@ class _Search:
         mode: str,
         incumbent: Incumbent,
         evaluate: Callable[[int, FloatArray], FloatArray],
-        polish: Callable[[int, FloatArray], Incumbent | None],
+        polish: Callable[[int, FloatArray, float | None], Incumbent | None],
+        balance: Callable[[int, FloatArray], Multipliers | None],
         surround: Surround | None,
         tolerance: float,
     ) -> None:
@@ -144,13 +148,18 @@ class _Search:
         self.mode = mode
         self.incumbent = incumbent
         self.evaluate = evaluate
+        self.balance = balance
         self.polish = polish
+        self.polishes = 0
+        self.polished_at = np.inf  # the margin at the last local solve
+        self.margin = np.inf  # largest per-point margin of the live cells (mm)
         self.surround = surround
         self.tolerance = tolerance
         self.n_points = domain.charts[0].shape[0]
         self.working = self._initial_working_set()
         self.proven = np.inf
-        self.polishes = 0
+        self.known: list[tuple[int, FloatArray, Multipliers]] = []
+        self._remember(incumbent)
         self._tier: IndexArray | None = None
         self._net: tuple[IndexArray, float] | None = None
         self._net_of = -1
@@ -165,18 +174,37 @@ class _Search:
 
     # -- incumbent ---------------------------------------------------------------------
     def offer(self, chart: int, x: FloatArray) -> None:
-        """Evaluate axes ``x`` (M, 4) of one chart on all points; keep the best; polish a clear gain."""
+        """Evaluate axes ``x`` (M, 4) of one chart on all points; the best becomes the incumbent if better.
+
+        A clear gain is polished by the local solver, with the points within the live
+        cells' margin of the levels as its contacts.
+        """
         values = self.evaluate(chart, x)
         best = int(np.argmin(values))
         if values[best] < self.incumbent.value:
             gain = self.incumbent.value - float(values[best])
-            self.incumbent = Incumbent(float(values[best]), chart, np.array(x[best], dtype=float))
-            self._tier = None
-            if gain > self.tolerance and self.polishes < _MAX_POLISH:
+            self._accept(Incumbent(float(values[best]), chart, np.array(x[best], dtype=float)))
+            if (gain > self.tolerance and self.polishes < _MAX_POLISH and np.isfinite(self.margin)
+                    and self.margin <= 0.1 * self.polished_at):
                 self.polishes += 1
-                polished = self.polish(chart, self.incumbent.x)
-                if polished is not None and polished.value <= self.incumbent.value:
-                    self.incumbent = polished
+                self.polished_at = self.margin
+                found = self.polish(chart, self.incumbent.x, 2.0 * self.margin)
+                if found is not None:
+                    self._remember(found)
+                    if found.value <= self.incumbent.value:
+                        self._accept(found)
+
+    def _remember(self, solution: Incumbent) -> None:
+        if solution.multipliers is not None:
+            self.known = [*self.known, (solution.chart, solution.x, solution.multipliers)][-_MAX_KNOWN:]
+
+    def _accept(self, incumbent: Incumbent) -> None:
+        self.incumbent = incumbent
+        self._tier = None
+        if incumbent.multipliers is None:
+            found = self.balance(incumbent.chart, incumbent.x)
+            if found is not None:
+                self.known = [*self.known, (incumbent.chart, incumbent.x, found)][-_MAX_KNOWN:]
 
     def tier_points(self) -> IndexArray:
         """A few of the most extreme points about the incumbent axis (first-tier bounds)."""
@@ -203,19 +231,25 @@ class _Search:
         values = np.empty(len(centre))
         active = np.zeros(len(subset), dtype=bool)
         inc = self.incumbent
-        multipliers = inc.multipliers if inc.chart == chart else None
-        if multipliers is not None:
-            contact_points = self.domain.charts[chart][multipliers.contacts]
+        known = [multipliers for k, _, multipliers in self.known if k == chart]
+        if known:
+            contact_index, slots = np.unique(np.concatenate([m.contacts for m in known]), return_inverse=True)
+            contact_points = self.domain.charts[chart][contact_index]
+            bounds_of = np.cumsum([0] + [len(m.contacts) for m in known])
         for start in range(0, len(centre), step):
             block = slice(start, start + step)
-            terms = cell_terms(points, centre[block], half[block])
+            shape = CellShape.of(centre[block], half[block])
+            terms = cell_terms(points, shape)
             bound, low, high = point_bounds(terms, self.mode)
-            if multipliers is not None:
-                contact_terms = cell_terms(contact_points, centre[block], half[block], radial=True)
-                bound = np.maximum(bound, multiplier_bound(contact_terms, multipliers, self.mode,
-                                                           cone_cos=self.cone_cos, offset=self.domain.offset))
+            if known:
+                contact_terms = cell_terms(contact_points, shape, radial=True)
+                for j, multipliers in enumerate(known):
+                    own = contact_terms.select(slots[bounds_of[j] : bounds_of[j + 1]])
+                    bound = np.maximum(bound, multiplier_bound(own, multipliers, self.mode,
+                                                               cone_cos=self.cone_cos, offset=self.domain.offset))
             lower[block] = bound
             values[block] = centre_values(terms.rho, self.mode)
+            self._margins.append(float(np.median(terms.eps + self.extent * terms.sin_phi)))
             live = bound < inc.value - self.tolerance
             if live.any():
                 active |= self._activity(terms, low, high, live)
@@ -259,6 +293,7 @@ class _Search:
         values = np.full(len(cells), np.inf)
         active = np.zeros(len(self.working), dtype=bool)
         coarse_live = False
+        self._margins: list[float] = []
         for k in np.unique(cells.chart):
             rows = np.flatnonzero(cells.chart == k)
             tiers: list[tuple[IndexArray, float]] = []
@@ -286,6 +321,8 @@ class _Search:
             lower[rows] = np.maximum(lower[rows], bound)
             values[rows] = value
             active |= act
+        if self._margins:
+            self.margin = max(self._margins)
         self._candidates(cells, values)
         live = lower < self.incumbent.value - self.tolerance
         if (~live).any():
@@ -293,7 +330,21 @@ class _Search:
         if active.any() and live.any() and not coarse_live:
             self.working = self.working[active]
             self._tier = None
+        if live.sum() > _EXPLORE_LIVE:
+            self._explore_lowest(cells.take(live), lower[live])
         return cells.take(live), lower[live]
+
+    def _explore_lowest(self, cells: Cells, lower: FloatArray) -> None:
+        """Weights that balance the extreme points at the live cell of least bound, unless known there already."""
+        row = int(np.argmin(lower))
+        chart, centre, half = int(cells.chart[row]), cells.centre[row], cells.half[row]
+        for k, x, _ in self.known:
+            if k == chart and np.all(np.abs(x - centre) <= 2.0 * half):
+                return
+        x = clip_to_region(centre[None, :], self.domain)[0]
+        found = self.balance(chart, x)
+        if found is not None:
+            self.known = [*self.known, (chart, x, found)][-_MAX_KNOWN:]
 
     def _surround(self, cells: Cells) -> Cells:
         """MIC: drop cells whose axes the data cannot surround; mark cells whose axes they all surround."""
@@ -364,7 +415,8 @@ def branch_and_bound(
     incumbent: Incumbent,
     *,
     evaluate: Callable[[int, FloatArray], FloatArray],
-    polish: Callable[[int, FloatArray], Incumbent | None],
+    polish: Callable[[int, FloatArray, float | None], Incumbent | None],
+    balance: Callable[[int, FloatArray], Multipliers | None],
     surround: Surround | None = None,
     tolerance: float,
     max_cells: int,
@@ -372,12 +424,13 @@ def branch_and_bound(
 ) -> SearchOutcome:
     """Minimise the objective of ``mode`` over the axes of ``domain`` to within ``tolerance``.
 
-    ``evaluate(chart, x (M, 4)) -> f (M,)`` on all points; ``polish(chart, x)`` a local
-    solve returning a better feasible incumbent or None; ``surround`` (MIC, one chart):
-    restricts the search to axes the data surround.
+    ``evaluate(chart, x (M, 4)) -> f (M,)`` on all points; ``polish(chart, x, margin)`` a
+    local solve from ``x`` with the points within ``margin`` of the levels as contacts;
+    ``balance(chart, x)`` weights of the extreme points at ``x`` for the Lagrangian bound (or
+    None); ``surround`` (MIC, one chart) restricts the search to axes the data surround.
     """
     started = time.perf_counter()
-    search = _Search(domain, mode, incumbent, evaluate, polish, surround, tolerance)
+    search = _Search(domain, mode, incumbent, evaluate, polish, balance, surround, tolerance)
     cells = Cells(
         chart=np.array([root[0] for root in domain.roots], dtype=np.intp),
         centre=np.array([root[1] for root in domain.roots], dtype=float),

@@ -9,7 +9,7 @@ from numpy.typing import NDArray
 
 from pcmm_geo.fit.zone._solver import ZoneSolution
 from pcmm_geo.fit.zone.axial.bounds import axis_distances, centre_values
-from pcmm_geo.fit.zone.axial.polish import make_polisher, on_edge
+from pcmm_geo.fit.zone.axial.polish import balanced_multipliers, make_polisher, on_edge
 from pcmm_geo.fit.zone.axial.region import ResolvedRegion, SearchBudget
 from pcmm_geo.fit.zone.axial.search import Domain, Incumbent, branch_and_bound, clip_to_region
 from pcmm_geo.fit.zone.axial.surround import Surround
@@ -82,8 +82,8 @@ def _run(
 
     local_polish = make_polisher(domain, mode, size)
 
-    def polish(chart: int, x: FloatArray) -> Incumbent | None:
-        found = local_polish(chart, x)
+    def polish(chart: int, x: FloatArray, margin: float | None = None) -> Incumbent | None:
+        found = local_polish(chart, x, margin)
         if found is not None and surround is not None and not surround.surrounded(found.x[None, :])[0]:
             return None
         return found
@@ -103,6 +103,7 @@ def _run(
         incumbent,
         evaluate=evaluate,
         polish=polish,
+        balance=lambda chart, x: balanced_multipliers(domain, chart, x, mode),
         surround=surround,
         tolerance=tolerance,
         max_cells=budget.max_cells,
@@ -110,9 +111,12 @@ def _run(
     )
     best = outcome.incumbent
     if best.polished is None and np.isfinite(best.value):
-        # the best axis is a cell centre: a last local solve from it
-        again = polish(best.chart, best.x)
-        if again is not None and again.value <= best.value:
+        # the best axis is a cell centre: a local solve from it gives the contacts and multipliers
+        spread = float(np.ptp(axis_distances(points_by_chart[best.chart], best.x[None, :])))
+        again = polish(best.chart, best.x, 1e-6 * max(spread, size))
+        if again is None or not again.polished.certified:  # type: ignore[union-attr]
+            again = polish(best.chart, best.x)
+        if again is not None and again.value <= best.value + tolerance:
             best = again
     frame = frames[best.chart]
     x = best.x
