@@ -18,10 +18,8 @@ with ``alpha = rho d_c - h beta``; the component of ``d - d_c`` normal to ``d_c`
 most ``sin(phi)`` long, the one along it lies in ``[cos(phi) - 1, 0]``.  The upper bound
 follows from ``|m + delta_m| <= |m| + u . delta_m + |delta_m|^2 / (2 |m|)``.
 
-The same inequalities summed with non-negative weights ``lambda`` (the multipliers of
-the incumbent's contact points) bound the Lagrangian ``sum s lambda rho``; its
-first-order terms nearly cancel near a KKT point, so this bound is accurate to second
-order in the cell size there (the per-point bound only to first order).
+The same inequalities summed with non-negative weights bound a Lagrangian of the
+distances (:mod:`~pcmm_geo.fit.zone.axial.lagrange`).
 """
 
 from __future__ import annotations
@@ -231,68 +229,3 @@ def point_bounds(terms: CellTerms, mode: str) -> tuple[FloatArray, FloatArray | 
     else:
         bound = -high.min(axis=1)
     return bound, low, high
-
-
-@dataclass(frozen=True)
-class Multipliers:
-    """Weights of the incumbent's contact points and of the region's active edges.
-
-    ``signs`` +1 (outer level) / -1 (inner level); ``weights`` >= 0 summing to 1 per level;
-    ``cone`` (>= 0) weights the tilt constraint ``cos(cone) - d . e_z <= 0``, ``ring`` (>= 0)
-    the crossing constraint ``|X| - offset <= 0``.
-    """
-
-    contacts: NDArray[np.intp]
-    signs: FloatArray
-    weights: FloatArray
-    cone: float = 0.0
-    ring: float = 0.0
-
-
-def multiplier_bound(
-    terms: CellTerms, multipliers: Multipliers, mode: str, *, cone_cos: float = 0.0, offset: float = np.inf
-) -> FloatArray:
-    """Lower bound of the objective over each cell from the Lagrangian of the contacts, shape (K,).
-
-    ``terms``: those of the contact points (with ``radial``).  Over the region,
-    ``f >= F = sum s w rho + cone (cos(cone) - d . e_z) + ring (|X| - offset)``, and ``F``
-    is bounded below by the linear inequalities of the module docstring (for the inner
-    level with the second-order upper bound), the edge terms being linear in ``d`` and
-    convex in ``X``.
-    """
-    signs, weights = multipliers.signs, multipliers.weights
-    signed = signs * weights
-    value = terms.rho @ signed
-    # A = sum s w alpha - cone e_z  with alpha = rho d_c - h beta;  B = sum s w beta - ring n
-    tilt_vec = -np.einsum("ks,ksj->kj", signed * terms.height, terms.radial) + value[:, None] * terms.axis
-    position = np.einsum("ks,ksj->kj", np.broadcast_to(signed, terms.rho.shape), terms.radial)
-    edges = np.zeros(len(value))
-    if multipliers.cone > 0.0:
-        tilt_vec[:, 2] -= multipliers.cone
-        edges += multipliers.cone * (cone_cos - terms.axis[:, 2])
-    if multipliers.ring > 0.0:
-        foot = terms.foot
-        length = np.hypot(foot[:, 0], foot[:, 1])
-        normal = foot / np.where(length > 0, length, 1.0)[:, None]
-        position[:, :2] -= multipliers.ring * normal[:, :2]
-        edges += multipliers.ring * (length - offset)
-    along = np.einsum("kj,kj->k", tilt_vec, terms.axis)
-    across = np.linalg.norm(tilt_vec - along[:, None] * terms.axis, axis=1)
-    first_order = (
-        across * terms.sin_phi
-        + np.maximum(along, 0.0) * terms.one_minus_cos
-        + np.abs(position[:, 0]) * terms.half[:, 0]
-        + np.abs(position[:, 1]) * terms.half[:, 1]
-    )
-    inner = signs < 0
-    total = (
-        np.abs(terms.height[:, inner]) * terms.sin_phi[:, None]
-        + terms.rho[:, inner] * terms.chord[:, None]
-        + (terms.eps * (1.0 + terms.chord))[:, None]
-    )
-    with np.errstate(divide="ignore", invalid="ignore"):
-        curvature = np.where(terms.rho[:, inner] > 0, total**2 / (2.0 * terms.rho[:, inner]), np.inf)
-    correction = np.minimum(curvature, 1e300) @ weights[inner] if inner.any() else 0.0
-    bound = value + edges - first_order - weights.sum() * terms.eps * terms.chord - correction
-    bound = bound - terms.slack * (1.0 + weights.sum())
-    return np.maximum(bound, 0.0) if mode in ("mcc", "zone") else bound

@@ -18,7 +18,8 @@ from numpy.typing import NDArray
 
 from pcmm_geo.fit.zone._models import axis_distance
 from pcmm_geo.fit.zone._solver import ZoneSolution, solve_minimax
-from pcmm_geo.fit.zone.axial.bounds import Multipliers, cell_terms
+from pcmm_geo.fit.zone.axial.bounds import cell_terms
+from pcmm_geo.fit.zone.axial.lagrange import Multipliers
 from pcmm_geo.fit.zone.axial.search import Domain, Incumbent
 
 FloatArray = NDArray[np.float64]

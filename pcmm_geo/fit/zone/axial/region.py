@@ -110,9 +110,9 @@ class SearchBudget:
     Parameters
     ----------
     max_cells : int
-        Largest number of axis cells evaluated (deterministic; default 4 000 000).
+        Largest number of axis cells evaluated (deterministic; default 2 000 000).
     max_seconds : float, optional
-        Wall-clock limit of the search (default 20 s; None: no limit).  A time limit
+        Wall-clock limit of the search (default 5 s; None: no limit).  A time limit
         makes the outcome depend on the machine: give ``max_cells`` alone for repeatable runs.
 
     Examples
@@ -121,8 +121,8 @@ class SearchBudget:
     SearchBudget(max_cells=100000, max_seconds=None)
     """
 
-    max_cells: int = 4_000_000
-    max_seconds: float | None = 20.0
+    max_cells: int = 2_000_000
+    max_seconds: float | None = 5.0
 
     def __post_init__(self) -> None:
         if isinstance(self.max_cells, bool) or not isinstance(self.max_cells, (int, np.integer)) or self.max_cells < 1:

@@ -25,16 +25,8 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
-from pcmm_geo.fit.zone.axial.bounds import (
-    CellShape,
-    CellTerms,
-    Multipliers,
-    axis_distances,
-    cell_terms,
-    centre_values,
-    multiplier_bound,
-    point_bounds,
-)
+from pcmm_geo.fit.zone.axial.bounds import CellShape, CellTerms, axis_distances, cell_terms, centre_values, point_bounds
+from pcmm_geo.fit.zone.axial.lagrange import Multipliers, balanced_bound, multiplier_bound
 from pcmm_geo.fit.zone.axial.surround import Surround
 
 FloatArray = NDArray[np.float64]
@@ -124,6 +116,17 @@ def clip_to_region(x: FloatArray, domain: Domain) -> FloatArray:
         out[:, slots[0]] *= scale
         out[:, slots[1]] *= scale
     return out
+
+
+def _rows(item: CellShape | CellTerms, rows: NDArray[np.bool_]) -> CellShape | CellTerms:
+    """The cells ``rows`` of a shape or of terms (every per-cell array sliced)."""
+    import dataclasses
+
+    sliced = {}
+    for f in dataclasses.fields(item):
+        value = getattr(item, f.name)
+        sliced[f.name] = value[rows] if isinstance(value, np.ndarray) and value.ndim >= 1 else value
+    return dataclasses.replace(item, **sliced)
 
 
 def _touches_region(cells: Cells, domain: Domain) -> NDArray[np.bool_]:
@@ -247,6 +250,10 @@ class _Search:
                     own = contact_terms.select(slots[bounds_of[j] : bounds_of[j + 1]])
                     bound = np.maximum(bound, multiplier_bound(own, multipliers, self.mode,
                                                                cone_cos=self.cone_cos, offset=self.domain.offset))
+            live = bound < inc.value - self.tolerance
+            if live.any():
+                balanced = balanced_bound(points, _rows(shape, live), _rows(terms, live), self.mode)
+                bound[live] = np.maximum(bound[live], balanced)
             lower[block] = bound
             values[block] = centre_values(terms.rho, self.mode)
             self._margins.append(float(np.median(terms.eps + self.extent * terms.sin_phi)))

@@ -29,8 +29,8 @@ FloatArray = NDArray[np.float64]
 IndexArray = NDArray[np.intp]
 
 _SECTORS = 16
-_GRID = 32  # support-table cells per cube-face side
-_PROBES = 8  # directions normal to the axis tried for the upper bound
+_GRID = 64  # support-table cells per cube-face side
+_PROBES = 32  # directions normal to the axis tried for the upper bound
 
 
 def _cube_directions(grid: int) -> FloatArray:
