@@ -61,6 +61,8 @@ _LAZY = {
     "PlaneBatchFit": "batch",
     "LineBatchFit": "batch",
     "reference": "reference",
+    "AxisRegion": "zone.axial.region",
+    "SearchBudget": "zone.axial.region",
 }
 
 __all__ = ["FitResult", "Tolerances", "TOL", *sorted(_LAZY)]
