@@ -280,7 +280,7 @@ def test_unknown_and_unsupported_criteria() -> None:
 def test_mic_of_an_arc_is_refused() -> None:
     angles = np.linspace(0, np.pi / 2, 30)
     points = np.c_[10 * np.cos(angles), 10 * np.sin(angles)] + 100.0
-    with pytest.raises(DegenerateGeometryError, match="not bounded") as info:
+    with pytest.raises(DegenerateGeometryError, match="do not surround") as info:
         fit_circle(points, criterion="mic")
     assert isinstance(info.value, PcmmGeoError)
 
