@@ -158,3 +158,30 @@ def _affine_circumcentres(points: FloatArray, subsets: IndexArray) -> FloatArray
         coefficients = np.linalg.solve(gram[ok], rhs[ok][..., None])[..., 0]
         centres[ok] = base[ok] + np.einsum("ki,kid->kd", coefficients, edges[ok])
     return centres
+
+
+def minimum_width_small(points: FloatArray) -> tuple[float, FloatArray]:
+    """Exact minimum width and its unit normal of a small ``(M, 2)`` or ``(M, 3)`` point set, by enumeration.
+
+    The narrowest strip has a side through two of the points (normal perpendicular to their
+    difference); the narrowest slab a side through three (a facet normal) or one edge on each side
+    (normal perpendicular to two differences).  Every such normal is tried.  Returns ``(0, normal)``
+    for points on one line / plane.
+    """
+    count, dim = points.shape
+    pairs = np.array(list(combinations(range(count), 2)), dtype=np.intp).reshape(-1, 2)
+    differences = points[pairs[:, 1]] - points[pairs[:, 0]]
+    if dim == 2:
+        normals = np.column_stack([-differences[:, 1], differences[:, 0]])
+    else:
+        i, j = np.triu_indices(len(differences), k=1)
+        normals = np.cross(differences[i], differences[j])
+    lengths = np.linalg.norm(normals, axis=1)
+    scale = float(np.abs(points - points.mean(axis=0)).max()) ** (dim - 1)
+    usable = lengths > 1e-13 * max(scale, 1e-300)
+    if not usable.any():
+        return 0.0, np.eye(dim)[-1]
+    normals = normals[usable] / lengths[usable, None]
+    widths = np.ptp(points @ normals.T, axis=0)
+    k = int(np.argmin(widths))
+    return float(widths[k]), normals[k]

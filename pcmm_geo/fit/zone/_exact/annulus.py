@@ -36,6 +36,7 @@ from pcmm_geo.fit.zone._exact._geometry import (
     circumcentre_pairs,
     enclosing_ball,
     equidistant_centres,
+    minimum_width_small,
     split_pairs,
     subsets_with_new,
 )
@@ -43,6 +44,8 @@ from pcmm_geo.fit.zone._exact._optimum import ExactOptimum
 from pcmm_geo.fit.zone._exact.slab import minimum_width
 
 _MAX_ROUNDS = 100
+#: subsets up to this size have their minimum width enumerated, larger ones use the convex hull
+_SMALL = {2: 60, 3: 16}
 #: relative rounding allowance (times the data size) when comparing zone widths and radii
 _TIE = 1e-13
 
@@ -135,7 +138,7 @@ def zone_annulus(points: FloatArray, seed: FloatArray, *, element: str) -> Exact
         subset = points[chosen]
         candidates.extend(subset, first_new)
         candidates.keep_below(best_width)
-        width_far, normal_far = minimum_width(subset)
+        width_far, normal_far = minimum_width_small(subset) if len(subset) <= _SMALL[dim] else minimum_width(subset)
         values = candidates.far - candidates.near
         finite_low = float(values.min()) if values.size else np.inf
         bound = min(finite_low, width_far)

@@ -177,17 +177,16 @@ def largest_empty_ball(points: FloatArray, *, element: str) -> ExactOptimum:
     size = float(np.sqrt(np.mean(np.einsum("nd,nd->n", points, points))))
     tie = 1e-9 * size
     support = None
-    interior, ceiling, k = -np.inf, -np.inf, -1
+    interior, k = -np.inf, -1
     candidates = np.flatnonzero(valid)
     # radius of a Voronoi vertex: its distance to its Delaunay simplex (no point is nearer); the few
     # largest inside the hull are measured against all points, so a rounded circumcentre cannot inflate one
     circumradii = np.linalg.norm(centres[candidates] - points[simplices[candidates, 0]], axis=1)
-    top = _largest_inside(points[tri.convex_hull], centres, candidates[np.argsort(-circumradii)], 8, tie)
+    top = _largest_inside(points[tri.convex_hull], centres, candidates[np.argsort(-circumradii)], 32, tie)
     if top.size:
         nearest = tree.query(centres[top])[0]
         k = int(top[int(np.argmax(nearest))])
         interior = float(nearest.max())
-        ceiling = max(interior, float(np.linalg.norm(centres[top[0]] - points[simplices[top[0], 0]])))
         near = np.asarray(tree.query_ball_point(centres[k], interior + tie), dtype=np.intp)
         held = _surrounding(points[near], centres[k])
         support = None if held is None else np.union1d(near[held], simplices[k])
@@ -208,7 +207,7 @@ def largest_empty_ball(points: FloatArray, *, element: str) -> ExactOptimum:
         x=centres[k],
         lower=float(distances.min()),
         upper=float(distances.max()),
-        bound=ceiling,
+        bound=interior,
         contacts={int(i): -1.0 for i in support},
         iterations=1,
         method="Voronoi vertices in the convex hull (Qhull)",

@@ -26,10 +26,10 @@ def polish(
     else the exact optimum itself is returned with its multipliers (exact data, whose contact system
     is degenerate, end here).
     """
-    at_exact = assess(points, x0, exact.contacts, model, mode, size=size, iterations=exact.iterations,
-                      message=exact.method)
     refined = solve_minimax(points, x0, model, mode, size=size, start=(x0, dict(exact.contacts), exact.iterations,
                                                                          exact.method))
-    if refined.certified and objective(refined, mode) <= objective(at_exact, mode) + _ROUNDING * size:
+    exact_value = exact.upper - exact.lower if mode == "zone" else (exact.upper if mode == "mcc" else -exact.lower)
+    if refined.certified and objective(refined, mode) <= exact_value + _ROUNDING * size:
         return refined
-    return at_exact
+    return assess(points, x0, exact.contacts, model, mode, size=size, iterations=exact.iterations,
+                  message=exact.method)
