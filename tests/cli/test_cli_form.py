@@ -34,7 +34,7 @@ def test_form_roundness_pass_and_fail_with_plot(tmp_path: Path) -> None:
     )
     assert done.returncode == 0, done.stderr
     result = json.loads(done.stdout)
-    assert result["characteristic"] == "roundness" and result["verdict"] == "pass" and result["certified"]
+    assert result["characteristic"] == "roundness" and result["verdict"] == "PASS" and result["certified"]
     assert abs(result["deviation_mm"] - 0.008) < 1e-9
     assert set(data.contacts.tolist()) <= set(result["contacts"])
     import matplotlib.image
@@ -43,7 +43,7 @@ def test_form_roundness_pass_and_fail_with_plot(tmp_path: Path) -> None:
     assert image.shape[0] > 100 and float(np.std(image[..., :3])) > 0.01
     failed = _run("form", str(file), "--element", "circle", "--two-d", "--tolerance", "0.005")
     assert failed.returncode == 1
-    assert "fail" in failed.stdout and "roundness" in failed.stdout
+    assert "roundness: FAIL" in failed.stdout and "scope" in failed.stdout
 
 
 def test_form_flatness_json(tmp_path: Path) -> None:
