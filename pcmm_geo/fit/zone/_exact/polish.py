@@ -22,9 +22,10 @@ def polish(
     """The exact optimum ``x0`` (model parameters) refined on its contact set, never worse than it.
 
     The KKT-Newton finish of :func:`~pcmm_geo.fit.zone._solver.solve_minimax` starts from the exact
-    optimum and its contacts; its answer is kept when it is certified and not worse (to rounding),
-    else the exact optimum itself is returned with its multipliers (exact data, whose contact system
-    is degenerate, end here).
+    optimum and its contacts (a circumcentre of nearly collinear contacts, for instance, is exact only
+    to a few digits); its answer is kept when it is certified and not worse (to rounding), else the
+    exact optimum itself is returned with its multipliers (exact data, whose contact system is
+    degenerate, end here).
     """
     refined = solve_minimax(points, x0, model, mode, size=size, start=(x0, dict(exact.contacts), exact.iterations,
                                                                          exact.method))
