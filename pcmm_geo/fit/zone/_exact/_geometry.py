@@ -101,14 +101,17 @@ def split_pairs(count: int, first_new: int, dim: int) -> IndexArray:
         )
         return np.stack([left[keep], right[keep]], axis=1)
     triples = np.array(list(combinations(range(count), 3)), dtype=np.intp).reshape(-1, 3)
-    i, j = np.meshgrid(np.arange(len(triples)), np.arange(len(pairs)), indexing="ij")
-    i, j = i.ravel(), j.ravel()
-    triple, pair = triples[i], pairs[j]
-    disjoint = ~((triple[:, :, None] == pair[:, None, :]).any(axis=(1, 2)))
-    new = np.maximum(triple.max(axis=1), pair.max(axis=1)) >= first_new
-    keep = disjoint & new
-    triple, pair = triple[keep], pair[keep]
-    return np.stack([triple[:, [0, 1]], triple[:, [0, 2]], pair], axis=1)
+    fresh_triples = triples.max(axis=1) >= first_new
+    fresh_pairs = pairs.max(axis=1) >= first_new
+    parts = []
+    # a triple with a new index and any pair; an old triple and a pair with a new index
+    for triple_set, pair_set in ((triples[fresh_triples], pairs), (triples[~fresh_triples], pairs[fresh_pairs])):
+        i, j = np.meshgrid(np.arange(len(triple_set)), np.arange(len(pair_set)), indexing="ij")
+        triple, pair = triple_set[i.ravel()], pair_set[j.ravel()]
+        disjoint = ~((triple[:, :, None] == pair[:, None, :]).any(axis=(1, 2)))
+        triple, pair = triple[disjoint], pair[disjoint]
+        parts.append(np.stack([triple[:, [0, 1]], triple[:, [0, 2]], pair], axis=1))
+    return np.concatenate(parts)
 
 
 def enclosing_ball(points: FloatArray) -> tuple[FloatArray, float, IndexArray]:

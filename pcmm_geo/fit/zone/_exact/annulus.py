@@ -46,6 +46,8 @@ from pcmm_geo.fit.zone._exact.slab import minimum_width
 _MAX_ROUNDS = 100
 #: subsets up to this size have their minimum width enumerated, larger ones use the convex hull
 _SMALL = {2: 60, 3: 16}
+#: a subset never grows beyond this (the candidates grow as its 4th / 5th power): the answer is then local
+_LARGEST = {2: 120, 3: 40}
 #: relative rounding allowance (times the data size) when comparing zone widths and radii
 _TIE = 1e-13
 
@@ -167,7 +169,7 @@ def zone_annulus(points: FloatArray, seed: FloatArray, *, element: str) -> Exact
                 break
             extremes = np.array([int(np.argmax(distances)), int(np.argmin(distances))])
         fresh = np.setdiff1d(extremes, chosen)
-        if fresh.size == 0:  # rounding: the subset already holds the extremes
+        if fresh.size == 0 or len(chosen) + fresh.size > _LARGEST[dim]:  # rounding stall, or too large a subset
             break
         first_new = len(chosen)
         chosen = np.concatenate([chosen, fresh])
