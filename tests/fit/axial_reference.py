@@ -19,6 +19,7 @@ polished by Nelder-Mead on the direction with the exact 2-D solve inside.
 
 from __future__ import annotations
 
+import functools
 import itertools
 from dataclasses import dataclass
 
@@ -101,22 +102,40 @@ def enclosing_circle(q: np.ndarray, seed: int = 0) -> tuple[np.ndarray, float]:
     return centre, radius
 
 
+def _circumcentres(q: np.ndarray, triples: np.ndarray) -> np.ndarray:
+    """Centres (T, 2) of the circles through point triples (NaN for collinear ones)."""
+    a, b, c = q[triples[:, 0]], q[triples[:, 1]], q[triples[:, 2]]
+    b, c = b - a, c - a
+    det = 2.0 * (b[:, 0] * c[:, 1] - b[:, 1] * c[:, 0])
+    bb, cc = (b * b).sum(axis=1), (c * c).sum(axis=1)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        ux = (c[:, 1] * bb - b[:, 1] * cc) / det
+        uy = (b[:, 0] * cc - c[:, 0] * bb) / det
+    return a + np.c_[ux, uy]
+
+
+@functools.lru_cache(maxsize=64)
+def _subsets(n: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Index triples (T, 3) and pairs of pairs (P, 4) of ``n`` points."""
+    triples = np.array(list(itertools.combinations(range(n), 3)), dtype=int).reshape(-1, 3)
+    pairs = np.array(list(itertools.combinations(range(n), 2)), dtype=int).reshape(-1, 2)
+    first, second = np.triu_indices(len(pairs), k=1)
+    return triples, np.hstack([pairs[first], pairs[second]]), pairs
+
+
 def _zone_candidates(q: np.ndarray) -> np.ndarray:
-    """Candidate centres (C, 2) of the minimum-zone annulus."""
-    n = len(q)
-    out = []
-    for i, j, k in itertools.combinations(range(n), 3):
-        centre, radius = _circle3(q[i], q[j], q[k])
-        if np.isfinite(radius):
-            out.append(centre)
-    pairs = list(itertools.combinations(range(n), 2))
-    for (i, j), (k, m) in itertools.combinations(pairs, 2):
-        # |c - qi| = |c - qj| and |c - qk| = |c - qm|: two linear equations
-        a = np.array([2 * (q[j] - q[i]), 2 * (q[m] - q[k])])
-        b = np.array([q[j] @ q[j] - q[i] @ q[i], q[m] @ q[m] - q[k] @ q[k]])
-        if abs(np.linalg.det(a)) > 1e-12 * (1.0 + np.abs(a).max()) ** 2:
-            out.append(np.linalg.solve(a, b))
-    return np.array(out)
+    """Candidate centres (C, 2) of the minimum-zone annulus: 3 points on one circle, or 2 + 2 on the two."""
+    triples, quads, _ = _subsets(len(q))
+    i, j, k, m = quads.T
+    # |c - qi| = |c - qj| and |c - qk| = |c - qm|: two linear equations A c = b
+    a1, a2 = 2 * (q[j] - q[i]), 2 * (q[m] - q[k])
+    b1 = (q[j] * q[j]).sum(axis=1) - (q[i] * q[i]).sum(axis=1)
+    b2 = (q[m] * q[m]).sum(axis=1) - (q[k] * q[k]).sum(axis=1)
+    det = a1[:, 0] * a2[:, 1] - a1[:, 1] * a2[:, 0]
+    with np.errstate(divide="ignore", invalid="ignore"):
+        split = np.c_[(b1 * a2[:, 1] - b2 * a1[:, 1]) / det, (a1[:, 0] * b2 - a2[:, 0] * b1) / det]
+    out = np.vstack([_circumcentres(q, triples), split])
+    return out[np.all(np.isfinite(out), axis=1)]
 
 
 def _hull_contains(q: np.ndarray, c: np.ndarray) -> np.ndarray:
@@ -148,12 +167,12 @@ def solve_direction(points: np.ndarray, d: np.ndarray, criterion: str, region: R
         if criterion == "chebyshev":
             centres = _zone_candidates(q)
         else:
-            triples = itertools.combinations(range(len(q)), 3)
-            centres = np.array([_circle3(q[i], q[j], q[k])[0] for i, j, k in triples])
+            centres = _circumcentres(q, _subsets(len(q))[0])
+            centres = centres[np.all(np.isfinite(centres), axis=1)]
             centres = centres[_hull_contains(q, centres)]
         if len(centres) == 0:
             return np.inf if criterion != "mic" else -np.inf
-        dist = np.linalg.norm(q[None, :, :] - centres[:, None, :], axis=2)
+        dist = np.hypot(q[None, :, 0] - centres[:, 0:1], q[None, :, 1] - centres[:, 1:2])
         values = np.ptp(dist, axis=1) if criterion == "chebyshev" else dist.min(axis=1)
     foot = centres[:, 0:1] * e1 + centres[:, 1:2] * e2
     inside = np.linalg.norm(_crossing(d, foot, region), axis=1) <= region.offset * (1 + 1e-12)
@@ -168,7 +187,7 @@ class Reference:
     direction: np.ndarray
 
 
-def best_axis(points: np.ndarray, criterion: str, region: Region, *, count: int = 1500, polish: int = 4) -> Reference:
+def best_axis(points: np.ndarray, criterion: str, region: Region, *, count: int = 1500, polish: int = 3) -> Reference:
     """Dense direction grid in the region's cone, exact 2-D solves, then Nelder-Mead from the best directions."""
     sign = 1.0 if criterion != "mic" else -1.0
     directions = cap_directions(region.axis, min(region.cone_deg, 89.999), count)
@@ -177,7 +196,8 @@ def best_axis(points: np.ndarray, criterion: str, region: Region, *, count: int 
 
     def objective(tilt: np.ndarray, start: np.ndarray, s1: np.ndarray, s2: np.ndarray) -> float:
         d = start + tilt[0] * s1 + tilt[1] * s2
-        return sign * solve_direction(points, d, criterion, region)
+        value = sign * solve_direction(points, d, criterion, region)
+        return value if np.isfinite(value) else 1e12  # outside the region: a finite wall for the simplex
 
     best_value, best_direction = float(values[order[0]]), directions[order[0]]
     for k in order:
@@ -185,8 +205,8 @@ def best_axis(points: np.ndarray, criterion: str, region: Region, *, count: int 
         s1, s2 = basis(start)
         result = minimize(
             objective, np.zeros(2), args=(start, s1, s2), method="Nelder-Mead",
-            options={"xatol": 1e-13, "fatol": 1e-15, "initial_simplex": np.array([[0, 0], [0.02, 0], [0, 0.02]]),
-                     "maxiter": 4000},
+            options={"xatol": 1e-12, "fatol": 1e-14, "initial_simplex": np.array([[0, 0], [0.02, 0], [0, 0.02]]),
+                     "maxiter": 300},
         )
         if result.fun < best_value:
             best_value = float(result.fun)
@@ -199,7 +219,7 @@ def hemisphere_directions(count: int) -> np.ndarray:
     return cap_directions(np.array([0.0, 0.0, 1.0]), 90.0, count)
 
 
-def best_line(points: np.ndarray, *, count: int = 4000, polish: int = 4) -> Reference:
+def best_line(points: np.ndarray, *, count: int = 4000, polish: int = 3) -> Reference:
     """Smallest enclosing cylinder over all directions: the diameter (``value``) and its direction."""
     centred = points - points.mean(axis=0)
     directions = hemisphere_directions(count)
@@ -216,7 +236,7 @@ def best_line(points: np.ndarray, *, count: int = 4000, polish: int = 4) -> Refe
             return enclosing_circle(np.c_[centred @ e1, centred @ e2])[1]
 
         result = minimize(objective, np.zeros(2), method="Nelder-Mead",
-                          options={"xatol": 1e-13, "fatol": 1e-15, "maxiter": 4000,
+                          options={"xatol": 1e-12, "fatol": 1e-14, "maxiter": 300,
                                    "initial_simplex": np.array([[0, 0], [0.03, 0], [0, 0.03]])})
         if result.fun < best_value:
             best_value = float(result.fun)

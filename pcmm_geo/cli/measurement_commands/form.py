@@ -15,6 +15,7 @@ from pcmm_geo.cli._output import (
     add_plot_flag,
     add_report_flag,
 )
+from pcmm_geo.cli.measurement_commands.fit import add_axis_region_options
 
 ELEMENTS = ("line", "plane", "circle", "sphere", "cylinder", "cone")
 
@@ -35,6 +36,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     parser.add_argument("--element", choices=ELEMENTS, required=True)
     parser.add_argument("--tolerance", type=float, metavar="MM", help="form tolerance in mm")
     parser.add_argument("--two-d", action="store_true", help="line/circle: use only the x and y columns")
+    add_axis_region_options(parser)
     add_plot_flag(parser, "the zone with the deviations and contact points")
     add_report_flag(parser)
     add_overwrite_flag(parser)
@@ -44,6 +46,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
 
 
 def handle(args: argparse.Namespace) -> Report:
+    from pcmm_geo.cli.measurement_commands.fit import axis_search_options
     from pcmm_geo.errors import InvalidInputError
     from pcmm_geo.fit.zone.form import evaluate_form
     from pcmm_geo.io.points import read_points
@@ -53,7 +56,8 @@ def handle(args: argparse.Namespace) -> Report:
         if args.element not in ("line", "circle"):
             raise InvalidInputError("--two-d", "element line or circle", args.element)
         points = points[:, :2]
-    evaluation = evaluate_form(points, args.element, tolerance=args.tolerance)
+    search = axis_search_options(args, args.element, "chebyshev", points.shape[1])
+    evaluation = evaluate_form(points, args.element, tolerance=args.tolerance, **search)
     fit = evaluation.fit
     data = evaluation.to_dict()
     data["file"] = str(args.file)

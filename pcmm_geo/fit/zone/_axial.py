@@ -23,18 +23,21 @@ import numpy as np
 
 from pcmm_geo.errors import DegenerateGeometryError
 from pcmm_geo.fit._kernels._axial import canonical_axis
-from pcmm_geo.fit._kernels._core import Certificate, FitResult, rotation_to_z
+from pcmm_geo.fit._kernels._core import FitResult, rotation_to_z
 from pcmm_geo.fit._kernels._linear import frozen, sign_convention
-from pcmm_geo.fit.zone._common import mode_of, shared_fields
+from pcmm_geo.fit.zone._common import Proof, mode_of, shared_fields
 from pcmm_geo.fit.zone._models import FloatArray, cone_distance
-from pcmm_geo.fit.zone._solver import ZoneSolution, solve_minimax
+from pcmm_geo.fit.zone._solver import solve_minimax
 from pcmm_geo.fit.zone.axial.region import AxisRegion, SearchBudget, as_budget, resolve_region
 from pcmm_geo.fit.zone.axial.solve import AxialOptimum, cylinder_search, line_search
 
 _RUNAWAY = 2.0
-METHOD = "branch-and-bound+slp-kkt"
-#: contacts reported without a local solution: points this close (relative) to an extreme level
-_LEVEL = 1e-9
+METHOD = "branch-and-bound+kkt-polish"
+#: what a cone's certificate refers to (no global search this round)
+CONE_DOMAIN = (
+    "local: cones near the least-squares cone (the axis is not searched globally; for a fixed axis the "
+    "cone zone would still not be exact, its half angle and apex being free)"
+)
 
 ResultT = TypeVar("ResultT", bound=FitResult)
 
@@ -51,52 +54,18 @@ def _axis_frame(
     return axis_raw, axis_point + height * axis_raw, height
 
 
-def _solution_of(optimum: AxialOptimum, mode: str) -> ZoneSolution:
-    """The local solution at the optimum, or one that reports the extreme points as contacts."""
-    d = optimum.distances
-    if optimum.solution is not None:
-        return dataclasses.replace(optimum.solution, distances=d, lower=float(d.min()), upper=float(d.max()))
-    scale = _LEVEL * max(float(d.max()), 1e-300)
-    extreme = np.zeros(len(d), dtype=bool)
-    if mode in ("mcc", "zone"):
-        extreme |= d >= d.max() - scale
-    if mode in ("zone", "mic"):
-        extreme |= d <= d.min() + scale
-    return ZoneSolution(
-        x=np.zeros(4), lower=float(d.min()), upper=float(d.max()), distances=d,
-        contacts=np.flatnonzero(extreme).astype(np.intp), multipliers=np.zeros(0), kkt_residual=float("nan"),
-        feasibility=0.0, certified=False, iterations=0, message="no local solution at this axis",
-    )
-
-
-def _certify(fields: dict[str, Any], optimum: AxialOptimum, solution: ZoneSolution, *, value: float, bound: float,
-             domain: str, what: str) -> dict[str, Any]:
-    """Replace the local certificate of ``fields`` by the search's (scope, bound, gap, region edge) and say so."""
-    scope = optimum.scope
-    certified = scope == "global" or bool(solution.certified)
-    gap = abs(value - bound) if np.isfinite(bound) else float("nan")
+def _axial_fields(
+    fields: dict[str, Any], optimum: AxialOptimum, *, what: str, bound: float, value: float
+) -> dict[str, Any]:
+    """The search's method, effort and (for a local answer) why it stopped, in the result's fields."""
     effort = f"branch and bound: {optimum.cells} cells, {optimum.generations} generations"
-    if scope == "global":
-        message = f"global optimum {domain}, proven to {gap:.2g} mm ({effort})"
-    else:
-        message = (f"local: {optimum.stop_reason} before the proof closed; the {what} is proven "
-                   f"{'>=' if what != 'inscribed radius' else '<='} {bound:.12g} mm, gap {gap:.3g} mm ({effort}); "
-                   f"local solver: {solution.message}")
+    message = f"{fields['message']} ({effort})"
+    if fields["certificate"].scope != "global":
+        relation = "<=" if what == "inscribed radius" else ">="
+        message = (f"local: {optimum.stop_reason} before the proof closed; the {what} is proven {relation} "
+                   f"{bound:.12g} mm (value {value:.12g} mm); {message}")
     if optimum.on_boundary:
         message += "; the optimum lies on the edge of the searched axis region: a better one may lie outside it"
-    fields["certificate"] = Certificate(
-        multipliers=frozen(solution.multipliers),
-        kkt_residual=solution.kkt_residual,
-        feasibility=solution.feasibility,
-        certified=certified,
-        method=METHOD,
-        scope=scope,
-        bound_mm=float(bound),
-        gap_mm=float(gap),
-        on_region_boundary=bool(optimum.on_boundary),
-        domain=domain,
-    )
-    fields["converged"] = certified
     fields["message"] = message
     fields["method"] = METHOD
     return fields
@@ -128,9 +97,12 @@ def cylinder_minimax(
     budget = as_budget(search_budget)
     optimum = cylinder_search(points, mode, region, gauss.point, gauss.axis, budget)
     if not np.isfinite(optimum.value):
-        raise DegenerateGeometryError(
-            "cylinder", "the points surround no axis of the region: no inscribed cylinder exists"
+        reason = (
+            "the points surround no axis of the region: there is no inscribed cylinder"
+            if optimum.finished
+            else f"no axis of the region that the points surround was found ({optimum.stop_reason})"
         )
+        raise DegenerateGeometryError("cylinder", reason)
     if mode == "mic":
         from pcmm_geo.fit.zone.axial.surround import Surround
 
@@ -140,8 +112,8 @@ def cylinder_minimax(
         if depth <= 1e-9 * max(float(optimum.distances.min()), 1e-300):
             raise DegenerateGeometryError(
                 "cylinder",
-                "the maximum inscribed cylinder is not defined: the largest empty cylinder of the region "
-                "is not surrounded by the points (its axis reaches the edge of their projection)",
+                "the points do not surround an empty cylinder: the largest empty cylinder of the region "
+                "has its axis on the edge of the points' projection",
             )
     axis = canonical_axis(optimum.direction)
     point = optimum.point + float((centroid - optimum.point) @ axis) * axis
@@ -158,18 +130,20 @@ def cylinder_minimax(
         r_in, r_out = float(d.min()), float(d.max())
         radius = r_in
         value, bound, what = r_in, -optimum.bound, "inscribed radius"
-    solution = _solution_of(optimum, mode)
+    assert optimum.solution is not None
     residuals = d - radius
+    proof = Proof(bound, value, region.domain, "branch and bound over the axis region", optimum.on_boundary)
     fields = shared_fields(
         residuals,
-        solution,
+        optimum.solution,
         criterion=criterion,
         parameter_names=gauss.parameter_names,
         parameters=np.concatenate([point, axis, [radius]]),
         form=r_out - r_in,
         n_free=6 if criterion == "chebyshev" else 5,
+        proof=proof,
     )
-    fields = _certify(fields, optimum, solution, value=value, bound=bound, domain=region.domain, what=what)
+    fields = _axial_fields(fields, optimum, what=what, bound=bound, value=value)
     return result_type(point=frozen(point), axis=frozen(axis), radius=radius, r_in=r_in, r_out=r_out, **fields)
 
 
@@ -206,20 +180,22 @@ def line3d_minimax(
     helper = rotation_to_z(direction)
     components = perpendicular @ helper[:2].T
     residuals = optimum.distances
-    solution = _solution_of(optimum, "mcc")
+    assert optimum.solution is not None
     form = 2.0 * float(residuals.max())
+    bound = 2.0 * optimum.bound
+    proof = Proof(bound, form, "all straight lines (every axis direction)", "branch and bound over all directions")
     fields = shared_fields(
         residuals,
-        solution,
+        optimum.solution,
         criterion=criterion,
         parameter_names=gauss.parameter_names,
         parameters=np.concatenate([point, direction]),
         form=form,
         n_free=5,
         n_residuals=len(points) * 2,
+        proof=proof,
     )
-    fields = _certify(fields, optimum, solution, value=form, bound=2.0 * optimum.bound,
-                      domain="all straight lines (every axis direction)", what="enclosing diameter")
+    fields = _axial_fields(fields, optimum, what="enclosing diameter", bound=bound, value=form)
     fields["extra"] = {"residual_components": frozen(components)}
     return result_type(point=frozen(point), direction=frozen(direction), **fields)
 
@@ -259,6 +235,8 @@ def cone_minimax(points: FloatArray, criterion: str, *, gauss: Any, result_type:
         form=solution.upper - solution.lower,
         n_free=7,
     )
+    fields["certificate"] = dataclasses.replace(fields["certificate"], scope="local", domain=CONE_DOMAIN)
+    fields["message"] = f"{fields['message']} (scope local: {CONE_DOMAIN})"
     return result_type(
         apex=frozen(apex),
         axis=frozen(axis_raw),

@@ -105,7 +105,7 @@ def _weighted_bound(
 def multiplier_bound(
     terms: CellTerms, multipliers: Multipliers, mode: str, *, cone_cos: float = 0.0, offset: float = np.inf
 ) -> FloatArray:
-    """Lower bound (K,) of the objective over each cell from fixed weights; ``terms`` of the contacts (with ``radial``)."""
+    """Lower bound (K,) of the objective over each cell from fixed weights (``terms`` of the contacts, with radial)."""
     assert terms.radial is not None
     k = terms.rho.shape[0]
     signs = np.broadcast_to(multipliers.signs, terms.rho.shape)
@@ -116,7 +116,25 @@ def multiplier_bound(
     )
 
 
-def balanced_bound(points: FloatArray, shape: CellShape, terms: CellTerms, mode: str, *, count: int = 4) -> FloatArray:
+#: points per level tried for the balanced weights (each gives a valid bound; the best is kept)
+BALANCE_COUNTS = {"zone": (2, 3, 4), "mcc": (3, 4, 6), "mic": (3, 4, 6)}
+
+
+def balanced_bound(points: FloatArray, shape: CellShape, terms: CellTerms, mode: str) -> FloatArray:
+    """Lower bound (K,) of the objective over each cell with weights balanced at the cell's own centre axis.
+
+    The best of :func:`balanced_weights_bound` over the point counts of :data:`BALANCE_COUNTS`
+    (a least-squares balance is not the best weighting, and fewer points sometimes do better).
+    """
+    best = np.full(terms.rho.shape[0], -np.inf)
+    for count in BALANCE_COUNTS[mode]:
+        best = np.maximum(best, balanced_weights_bound(points, shape, terms, mode, count=count))
+    return best
+
+
+def balanced_weights_bound(
+    points: FloatArray, shape: CellShape, terms: CellTerms, mode: str, *, count: int
+) -> FloatArray:
     """Lower bound (K,) of the objective over each cell with weights balanced at the cell's own centre axis.
 
     The ``count`` most extreme points of each level at the centre axis (``terms`` are those
@@ -127,11 +145,11 @@ def balanced_bound(points: FloatArray, shape: CellShape, terms: CellTerms, mode:
     k, n = terms.rho.shape
     picks, signs = [], []
     if mode in ("mcc", "zone"):
-        m = min(count if mode == "zone" else count + 2, n)
+        m = min(count, n)
         picks.append(np.argpartition(-terms.rho, m - 1, axis=1)[:, :m])
         signs.append(np.ones(m))
     if mode in ("zone", "mic"):
-        m = min(count if mode == "zone" else count + 2, n)
+        m = min(count, n)
         picks.append(np.argpartition(terms.rho, m - 1, axis=1)[:, :m])
         signs.append(-np.ones(m))
     index = np.concatenate(picks, axis=1)

@@ -181,13 +181,13 @@ def resolve_region(
     origin = through + float((centroid - through) @ axis) * axis
     if region.offset_mm is None:
         offset = DEFAULT_OFFSET_RADII * float(ls_radius)
-        offset_text = f"2R = {offset:.6g} mm (R the least-squares radius)"
+        offset_text = f"2R = {offset:.4g} mm"
     else:
         offset = float(region.offset_mm)
-        offset_text = f"{offset:.6g} mm"
+        offset_text = f"{offset:.4g} mm"
     domain = (
-        f"axes within {region.cone_deg:g} deg of {reference}, crossing the plane normal to it through "
-        f"the data centroid within {offset_text} of it"
+        f"axes within {region.cone_deg:g} deg of {reference}, crossing its normal plane at the data centroid "
+        f"within {offset_text} of it"
     )
     return ResolvedRegion(
         frame=rotation_to_z(axis),

@@ -7,7 +7,9 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
-from pcmm_geo.fit.zone._solver import ZoneSolution
+from pcmm_geo.fit.zone._common import GLOBAL_GAP_MM
+from pcmm_geo.fit.zone._models import axis_distance
+from pcmm_geo.fit.zone._solver import ZoneSolution, assess
 from pcmm_geo.fit.zone.axial.bounds import axis_distances, centre_values
 from pcmm_geo.fit.zone.axial.polish import balanced_multipliers, make_polisher, on_edge
 from pcmm_geo.fit.zone.axial.region import ResolvedRegion, SearchBudget
@@ -16,8 +18,6 @@ from pcmm_geo.fit.zone.axial.surround import Surround
 
 FloatArray = NDArray[np.float64]
 
-#: the search stops when the proven bound is within this of the value (mm): a global result
-GLOBAL_GAP_MM = 1e-9
 
 
 @dataclass(frozen=True)
@@ -32,8 +32,8 @@ class AxialOptimum:
         Distances of the points from the axis (mm).
     value, bound : float
         Objective (``max rho``, ``max rho - min rho`` or ``-min rho``) and its proven lower bound.
-    scope : str
-        ``"global"`` when ``value - bound <= GLOBAL_GAP_MM`` (the search finished), else ``"local"``.
+    finished : bool
+        Every cell was discarded: the gap is within the tolerance.
     on_boundary : bool
         The axis lies on the edge of the searched region.
     solution : ZoneSolution or None
@@ -47,13 +47,24 @@ class AxialOptimum:
     distances: FloatArray
     value: float
     bound: float
-    scope: str
+    finished: bool
     on_boundary: bool
     solution: ZoneSolution | None
     cells: int
     generations: int
     seconds: float
     stop_reason: str
+
+
+def _extreme_contacts(distances: FloatArray, mode: str) -> dict[int, float]:
+    """The points at the extreme levels (to rounding) as contacts, +1 outer, -1 inner."""
+    scale = 1e-9 * max(float(distances.max()), 1e-300)
+    contacts: dict[int, float] = {}
+    if mode in ("mcc", "zone"):
+        contacts.update({int(i): 1.0 for i in np.flatnonzero(distances >= distances.max() - scale)})
+    if mode in ("zone", "mic"):
+        contacts.update({int(i): -1.0 for i in np.flatnonzero(distances <= distances.min() + scale)})
+    return contacts
 
 
 def _hull_vertices(points: FloatArray) -> NDArray[np.intp]:
@@ -116,7 +127,7 @@ def _run(
         again = polish(best.chart, best.x, 1e-6 * max(spread, size))
         if again is None or not again.polished.certified:  # type: ignore[union-attr]
             again = polish(best.chart, best.x)
-        if again is not None and again.value <= best.value + tolerance:
+        if again is not None and again.value <= best.value:
             best = again
     frame = frames[best.chart]
     x = best.x
@@ -125,13 +136,17 @@ def _run(
     value = float(centre_values(distances[None, :], mode)[0]) if np.isfinite(best.value) else np.inf
     bound = min(outcome.bound, value)
     solution = best.polished if isinstance(best.polished, ZoneSolution) else None
+    if solution is None and np.isfinite(value):
+        # no local solution at this axis (exact data: a degenerate contact system): assess its extreme points
+        solution = assess(points_by_chart[best.chart], x, _extreme_contacts(distances, mode), axis_distance, mode,
+                          size=size, message="the search's axis, not a local solver's")
     return AxialOptimum(
         point=origin + np.array([x[0], x[1], 0.0]) @ frame,
         direction=direction_local @ frame,
         distances=distances,
         value=value,
         bound=bound,
-        scope="global" if outcome.finished and value - bound <= tolerance else "local",
+        finished=outcome.finished,
         on_boundary=on_edge(x, domain),
         solution=solution,
         cells=outcome.cells,
