@@ -7,19 +7,21 @@ and unit radial vector ``beta`` (from the centre axis to the point), every axis 
 cell satisfies (``phi``: largest angle between ``d_c`` and a direction of the cell,
 ``delta = 2 sin(phi / 2)``, ``hx, hy``: the half widths in ``x0, y0``, ``eps = |(hx, hy)|``)::
 
-    rho(X, d) >= rho - |h| sin(phi) - rho (1 - cos(phi)) - |beta_x| hx - |beta_y| hy - eps delta
-    rho(X, d) <= rho + |h| sin(phi) + |beta_x| hx + |beta_y| hy + eps delta + D^2 / (2 rho)
+    rho(X, d) >= rho + (d - d_c) . alpha - (X - X_c) . beta - eps delta
+    rho(X, d) <= rho + (d - d_c) . alpha - (X - X_c) . beta + eps delta + D^2 / (2 rho)
 
-with ``D = |h| sin(phi) + rho delta + eps (1 + delta)`` (and always ``rho(X, d) <= rho + D``).
-Proof: write ``(P - X) x d = m + delta_m`` with ``m = (P - X_c) x d_c``; then
-``|m + delta_m| >= u . (m + delta_m)`` for the unit ``u = m / |m|`` (Cauchy-Schwarz), and
-``u . delta_m = (d - d_c) . alpha - (X - X_c) . beta - u . ((X - X_c) x (d - d_c))``
-with ``alpha = rho d_c - h beta``; the component of ``d - d_c`` normal to ``d_c`` is at
-most ``sin(phi)`` long, the one along it lies in ``[cos(phi) - 1, 0]``.  The upper bound
-follows from ``|m + delta_m| <= |m| + u . delta_m + |delta_m|^2 / (2 |m|)``.
+with ``alpha = rho d_c - h beta`` and ``D = |h| sin(phi) + rho delta + eps (1 + delta)``.
+Proof: write ``(P - X) x d = m + dm`` with ``m = (P - X_c) x d_c``; then
+``|m + dm| >= u . (m + dm)`` for the unit ``u = m / |m|`` (Cauchy-Schwarz) and
+``|m + dm| <= |m| + u . dm + |dm|^2 / (2 |m|)``, where
+``u . dm = (d - d_c) . alpha - (X - X_c) . beta - u . ((X - X_c) x (d - d_c))`` and ``|dm| <= D``.
+The component of ``d - d_c`` normal to ``d_c`` is at most ``sin(phi)`` long, the one along it
+lies in ``[cos(phi) - 1, 0]``, and ``|(X - X_c) . beta| <= eps``, so per point::
 
-The same inequalities summed with non-negative weights bound a Lagrangian of the
-distances (:mod:`~pcmm_geo.fit.zone.axial.lagrange`).
+    rho - |h| sin(phi) - rho (1 - cos(phi)) - eps (1 + delta)  <=  rho(X, d)  <=  rho + D
+
+(:meth:`CellTerms.lower_margin`, :meth:`CellTerms.upper_margin`).  Summed with weights the
+linear terms can cancel: :mod:`~pcmm_geo.fit.zone.axial.lagrange`.
 """
 
 from __future__ import annotations

@@ -123,35 +123,38 @@ BALANCE_COUNTS = {"zone": (2, 3, 4), "mcc": (3, 4, 6), "mic": (3, 4, 6)}
 def balanced_bound(points: FloatArray, shape: CellShape, terms: CellTerms, mode: str) -> FloatArray:
     """Lower bound (K,) of the objective over each cell with weights balanced at the cell's own centre axis.
 
-    The best of :func:`balanced_weights_bound` over the point counts of :data:`BALANCE_COUNTS`
-    (a least-squares balance is not the best weighting, and fewer points sometimes do better).
+    The most extreme points of each level at the centre axis (``terms`` are those of
+    ``points``) get the weights minimising, per cell, the squared first-order terms of the
+    bound plus the squared value loss ``sum w |level - rho|`` under the level sums (a batched
+    equality-constrained least-squares solve; negative weights clipped).  A least-squares
+    balance is not the best weighting, and fewer points sometimes do better: the best bound
+    over the point counts of :data:`BALANCE_COUNTS` is kept.
     """
-    best = np.full(terms.rho.shape[0], -np.inf)
-    for count in BALANCE_COUNTS[mode]:
-        best = np.maximum(best, balanced_weights_bound(points, shape, terms, mode, count=count))
+    k, n = terms.rho.shape
+    largest = min(max(BALANCE_COUNTS[mode]), n)
+    ranked = []
+    if mode in ("mcc", "zone"):
+        top = np.argpartition(-terms.rho, largest - 1, axis=1)[:, :largest]
+        ranked.append(np.take_along_axis(top, np.argsort(-np.take_along_axis(terms.rho, top, axis=1), axis=1), axis=1))
+    if mode in ("zone", "mic"):
+        low = np.argpartition(terms.rho, largest - 1, axis=1)[:, :largest]
+        ranked.append(np.take_along_axis(low, np.argsort(np.take_along_axis(terms.rho, low, axis=1), axis=1), axis=1))
+    best = np.full(k, -np.inf)
+    for count in sorted({min(c, n) for c in BALANCE_COUNTS[mode]}):
+        best = np.maximum(best, _balanced_weights_bound(points, shape, terms, mode, [r[:, :count] for r in ranked]))
     return best
 
 
-def balanced_weights_bound(
-    points: FloatArray, shape: CellShape, terms: CellTerms, mode: str, *, count: int
+def _balanced_weights_bound(
+    points: FloatArray, shape: CellShape, terms: CellTerms, mode: str, picks: list[NDArray[np.intp]]
 ) -> FloatArray:
-    """Lower bound (K,) of the objective over each cell with weights balanced at the cell's own centre axis.
-
-    The ``count`` most extreme points of each level at the centre axis (``terms`` are those
-    of ``points``) get the weights minimising, per cell, the squared first-order terms of
-    the bound plus the squared value loss ``sum w |level - rho|`` under the level sums (a
-    batched equality-constrained least-squares solve); negative weights are clipped.
-    """
-    k, n = terms.rho.shape
-    picks, signs = [], []
+    """The Lagrangian bound (K,) with least-squares balanced weights on the picked points of each level."""
+    k = terms.rho.shape[0]
+    signs = []
     if mode in ("mcc", "zone"):
-        m = min(count, n)
-        picks.append(np.argpartition(-terms.rho, m - 1, axis=1)[:, :m])
-        signs.append(np.ones(m))
+        signs.append(np.ones(picks[0].shape[1]))
     if mode in ("zone", "mic"):
-        m = min(count, n)
-        picks.append(np.argpartition(terms.rho, m - 1, axis=1)[:, :m])
-        signs.append(-np.ones(m))
+        signs.append(-np.ones(picks[-1].shape[1]))
     index = np.concatenate(picks, axis=1)
     sign = np.concatenate(signs)
     m_total = index.shape[1]
