@@ -161,7 +161,7 @@ def add_axis_region_options(parser: argparse.ArgumentParser) -> None:
     group.add_argument("--axis-nominal", type=float, nargs=3, metavar=("X", "Y", "Z"),
                        help="nominal axis direction: the reference axis instead of the least-squares one")
     group.add_argument("--axis-nominal-point-mm", type=float, nargs=3, metavar=("X", "Y", "Z"),
-                       help="a point of the nominal axis in mm (default: the data centroid)")
+                       help="a point of the nominal axis in mm (default: the least-squares axis point)")
     group.add_argument("--search-seconds", type=float, metavar="S",
                        help="time budget of the global search (default 5 s); the answer is local when it runs out")
     group.add_argument("--search-cells", type=int, metavar="N",

@@ -51,7 +51,8 @@ class AxisRegion:
     axis : array_like, shape (3,), optional
         Nominal axis direction (either sign).  Default: the least-squares axis.
     point : array_like, shape (3,), optional
-        A point of the nominal axis (mm); only with ``axis``.  Default: the data centroid.
+        A point of the nominal axis (mm); only with ``axis``.  Default: the point of the
+        least-squares axis nearest the data centroid.
 
     Raises
     ------
@@ -175,7 +176,7 @@ def resolve_region(
         axis, through, reference = np.asarray(ls_axis, float), np.asarray(ls_point, float), "the least-squares axis"
     else:
         axis = region.axis
-        through = centroid if region.point is None else region.point
+        through = ls_point if region.point is None else region.point
         reference = "the nominal axis"
     axis = axis / np.linalg.norm(axis)
     origin = through + float((centroid - through) @ axis) * axis
