@@ -35,7 +35,7 @@ _RUNAWAY = 2.0
 METHOD = "branch-and-bound+kkt-polish"
 #: what a cone's certificate refers to (no global search this round)
 CONE_DOMAIN = (
-    "local: cones near the least-squares cone (the axis is not searched globally; for a fixed axis the "
+    "cones near the least-squares cone (local: the axis is not searched globally, and for a fixed axis the "
     "cone zone would still not be exact, its half angle and apex being free)"
 )
 
@@ -236,7 +236,7 @@ def cone_minimax(points: FloatArray, criterion: str, *, gauss: Any, result_type:
         n_free=7,
     )
     fields["certificate"] = dataclasses.replace(fields["certificate"], scope="local", domain=CONE_DOMAIN)
-    fields["message"] = f"{fields['message']} (scope local: {CONE_DOMAIN})"
+    fields["message"] = f"{fields['message']}; scope local over {CONE_DOMAIN}"
     return result_type(
         apex=frozen(apex),
         axis=frozen(axis_raw),
