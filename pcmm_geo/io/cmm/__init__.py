@@ -31,7 +31,7 @@ from typing import Any
 _LAZY = {
     "FEATURE_TYPES": "model",
     "Characteristic": "model",
-    "CmmDocument": "model",
+    "CmmDocument": "document",
     "CoordinateSystem": "model",
     "FeatureDefinition": "model",
     "FeatureGeometry": "model",

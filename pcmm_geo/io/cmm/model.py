@@ -16,7 +16,7 @@ class                      QIF element(s)
                             flattened into one record per measurement
 :class:`Transform`          ``Transform`` / ``ActualTransforms/Transform`` / ``NominalTransform``
 :class:`Units`              ``FileUnits/PrimaryUnits`` (what the file used)
-:class:`CmmDocument`        ``QIFDocument`` (or the whole DMIS / CALYPSO file)
+:class:`~pcmm_geo.io.cmm.document.CmmDocument`  ``QIFDocument`` (or the whole DMIS / CALYPSO file)
 =========================  ===========================================================
 
 Units inside are always millimetres and radians: readers convert (inch files, degrees) and
@@ -54,7 +54,6 @@ from pcmm_geo.errors import InvalidInputError
 __all__ = [
     "FEATURE_TYPES",
     "Characteristic",
-    "CmmDocument",
     "CoordinateSystem",
     "FeatureDefinition",
     "FeatureGeometry",
@@ -475,106 +474,3 @@ class MeasurementResults(_Record):
     characteristics: tuple[Characteristic, ...] = ()
     actual_transforms: Mapping[int, Transform] = field(default_factory=dict)
     inspection_status: str | None = None
-
-
-@dataclass(frozen=True, eq=False, repr=False)
-class CmmDocument(_Record):
-    """A CMM results file (QIF document, DMIS output, CALYPSO table) in mm and rad.
-
-    Attributes
-    ----------
-    source : str
-        The file read ('' for a document built in memory).
-    format : str
-        ``"qif"``, ``"dmis"``, ``"calypso"`` or ``"pcdmis"``.
-    version : str or None
-        QIF ``versionQIF`` (e.g. ``"3.0.0"``).
-    units : Units
-    feature_definitions, feature_nominals, feature_items : dict id -> record, in file order
-    results : tuple of MeasurementResults
-    transforms : dict id -> Transform
-        Document-level QIF ``Transforms``.
-    coordinate_systems : dict id -> CoordinateSystem
-    application : str or None
-        Software that wrote the file.
-    problems : tuple of str
-        Everything the reader left out, each naming the QIF id and element path.
-    """
-
-    source: str
-    format: str
-    units: Units = field(default_factory=Units)
-    version: str | None = None
-    feature_definitions: Mapping[int, FeatureDefinition] = field(default_factory=dict)
-    feature_nominals: Mapping[int, FeatureNominal] = field(default_factory=dict)
-    feature_items: Mapping[int, FeatureItem] = field(default_factory=dict)
-    results: tuple[MeasurementResults, ...] = ()
-    transforms: Mapping[int, Transform] = field(default_factory=dict)
-    coordinate_systems: Mapping[int, CoordinateSystem] = field(default_factory=dict)
-    application: str | None = None
-    problems: tuple[str, ...] = ()
-
-    @property
-    def measured_features(self) -> tuple[MeasuredFeature, ...]:
-        """Every feature measurement of every results set, in file order."""
-        return tuple(f for r in self.results for f in r.features)
-
-    @property
-    def characteristics(self) -> tuple[Characteristic, ...]:
-        """Every characteristic measurement of every results set, in file order."""
-        return tuple(c for r in self.results for c in r.characteristics)
-
-    @property
-    def point_sets(self) -> dict[int, MeasuredPointSet]:
-        """Every measured point set by id."""
-        return {k: v for r in self.results for k, v in r.point_sets.items()}
-
-    def feature(self, key: int | str) -> MeasuredFeature:
-        """The feature measurement with QIF id ``key`` (int) or name ``key`` (str; must be unique)."""
-        found = [f for f in self.measured_features if (f.id == key if isinstance(key, int) else f.name == key)]
-        if len(found) != 1:
-            names = ", ".join(str(f.name if isinstance(key, str) else f.id) for f in self.measured_features)
-            raise InvalidInputError("feature", f"one feature measurement {key!r} (one of: {names})",
-                                    f"{len(found)} matches")
-        return found[0]
-
-    def item_of(self, feature: MeasuredFeature) -> FeatureItem | None:
-        """The feature item a measurement refers to (None when it names none)."""
-        return None if feature.item_id is None else self.feature_items.get(feature.item_id)
-
-    def nominal_of(self, feature: MeasuredFeature) -> FeatureNominal | None:
-        """The nominal of a measurement (through its item), or None."""
-        item = self.item_of(feature)
-        return None if item is None or item.nominal_id is None else self.feature_nominals.get(item.nominal_id)
-
-    def definition_of(self, feature: MeasuredFeature) -> FeatureDefinition | None:
-        """The definition of a measurement (through item and nominal), or None."""
-        nominal = self.nominal_of(feature)
-        if nominal is None or nominal.definition_id is None:
-            return None
-        return self.feature_definitions.get(nominal.definition_id)
-
-    def characteristics_of(self, feature: MeasuredFeature) -> tuple[Characteristic, ...]:
-        """Characteristic measurements that name this feature measurement."""
-        return tuple(c for c in self.characteristics if feature.id in c.feature_measurement_ids)
-
-    def points_of(self, feature: MeasuredFeature, *, frame: str = "common") -> MeasuredPointSet | None:
-        """The points a feature measurement used (its ``PointList`` joined in order), or None.
-
-        Parameters
-        ----------
-        feature : MeasuredFeature
-        frame : {"common", "stored"}
-            ``"common"`` maps points and normals of a set with a ``TranformId`` or
-            ``CoordinateSystemId`` into the document's common frame (the frame of the actuals);
-            ``"stored"`` returns them as written.
-
-        Returns
-        -------
-        MeasuredPointSet or None
-            The set itself when the feature uses one whole set; else a new set with ``id=None``
-            and per-point flags / radii where the parts differ.  None when the feature has no points.
-        """
-        from pcmm_geo.io.cmm._frames import feature_points  # numpy-only helper, kept apart for size
-
-        return feature_points(self, feature, frame)
