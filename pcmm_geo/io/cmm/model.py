@@ -104,6 +104,9 @@ class _Record:
             value = getattr(self, item.name)
             if value is None or (isinstance(value, tuple | dict) and not value) or not item.repr:
                 continue
+            if isinstance(value, bool | str | int | float) and value == item.default and type(value) is type(
+                    item.default):
+                continue  # an unchanged default (quantity="linear", defined_as_limit=False, ...)
             shown.append(f"{item.name}={_shown(value)}")
         return f"{type(self).__name__}({', '.join(shown)})"
 
