@@ -161,7 +161,8 @@ def _choose(document: CmmDocument, element: str | None, key: str | None) -> Meas
 
 
 def _from_document(document: CmmDocument, *, element: str | None, feature: str | None) -> FeaturePoints:
-    from pcmm_geo.cmm.refit import NotRefitted, _context, _prepare_points
+    from pcmm_geo.cmm.refit import _context, _prepare_points
+    from pcmm_geo.errors import NotRefittedError
 
     chosen = _choose(document, element, feature)
     point_set = document.points_of(chosen, frame="common")
@@ -173,7 +174,7 @@ def _from_document(document: CmmDocument, *, element: str | None, feature: str |
     if point_set.compensated_per_point is not None or (compensated is False and point_set.probe_radii is not None):
         try:  # flags or radii that differ from point to point: compensated here, one by one
             points, _, _, normals = _prepare_points(point_set, None, None)
-        except NotRefitted as exc:
+        except NotRefittedError as exc:
             raise FileFormatError(document.source, f"feature {chosen.id}: {exc}") from None
         compensated, radius = True, None
     context = _context(document, chosen)

@@ -15,7 +15,8 @@ The refit follows what a CMM does with the same points, so that a disagreement m
   compensation flags differ), with the material side from the file's ``InternalExternal``, the
   point normals, or inferred from the nominal size (flagged), else refused.
 
-A feature that cannot be refitted raises :class:`NotRefitted` with the reason in plain words.
+A feature that cannot be refitted raises :class:`~pcmm_geo.errors.NotRefittedError` with the reason in plain
+words.
 """
 
 from __future__ import annotations
@@ -26,13 +27,13 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 from numpy.typing import NDArray
 
-from pcmm_geo.errors import InvalidInputError
+from pcmm_geo.errors import InvalidInputError, NotRefittedError
 
 if TYPE_CHECKING:
     from pcmm_geo.fit import FitResult
     from pcmm_geo.io.cmm import CmmDocument, FeatureGeometry, MeasuredFeature, MeasuredPointSet
 
-__all__ = ["CRITERIA_BY_ALGORITHM", "Compensation", "NotRefitted", "Refit", "refit_feature"]
+__all__ = ["CRITERIA_BY_ALGORITHM", "Compensation", "Refit", "refit_feature"]
 
 FloatArray = NDArray[np.float64]
 
@@ -47,10 +48,6 @@ CRITERIA_BY_ALGORITHM = {
 _DEFAULT_ALGORITHMS = ("DEFAULT", "UNDEFINED", "")
 REFITTED_TYPES = ("circle", "cylinder", "sphere", "plane", "line", "point", "cone")
 CIRCLE_PLANES = ("least-squares", "reported")
-
-
-class NotRefitted(Exception):  # noqa: N818 (a reason, not an error: the feature is listed with agrees null)
-    """A feature that cannot be refitted; ``str(exc)`` says why."""
 
 
 @dataclass(frozen=True, eq=False)
@@ -142,7 +139,7 @@ def _criterion(feature: MeasuredFeature, requested: str | None) -> tuple[str, st
         return CRITERIA_BY_ALGORITHM[algorithm], f"file ({algorithm})"
     if algorithm in _DEFAULT_ALGORITHMS:
         return "gaussian", "default"
-    raise NotRefitted(f"the file's fitting algorithm {feature.substitute_algorithm!r} is not one pcmm_geo offers "
+    raise NotRefittedError(f"the file's fitting algorithm {feature.substitute_algorithm!r} is not one pcmm_geo offers "
                       "(least squares, minimum zone, MCC, MIC): give --criterion to refit anyway")
 
 
@@ -197,7 +194,7 @@ def _prepare_points(point_set: MeasuredPointSet, compensated: bool | None,
     normals = None if point_set.normals is None else np.asarray(point_set.normals, dtype=float)
     if point_set.compensated is True:
         if compensated is False:
-            raise NotRefitted("--compensated no contradicts the file, which says Compensated=true")
+            raise NotRefittedError("--compensated no contradicts the file, which says Compensated=true")
         return points, 0.0, NO_COMPENSATION_NEEDED, normals
     if point_set.compensated_per_point is not None:
         flags = np.asarray(point_set.compensated_per_point, dtype=bool)
@@ -205,24 +202,25 @@ def _prepare_points(point_set: MeasuredPointSet, compensated: bool | None,
             "per-point compensation flags: probe centres compensated along their normals", normals
     if point_set.compensated is None:
         if compensated is None:
-            raise NotRefitted("the file does not say whether the points are probe centres or surface points: "
+            raise NotRefittedError("the file does not say whether the points are probe centres or surface points: "
                               "give --compensated yes|no")
         if compensated:
             return points, 0.0, "the points are surface points (--compensated yes)", normals
         radius = probe_radius if probe_radius is not None else point_set.probe_radius
         if radius is None:
-            raise NotRefitted("probe centres (--compensated no) need a probe radius: give --probe-radius")
+            raise NotRefittedError("probe centres (--compensated no) need a probe radius: give --probe-radius")
         return points, float(radius), "probe radius " + ("--probe-radius" if probe_radius is not None else
                                                          "from the file"), normals
     if compensated is True:
-        raise NotRefitted("--compensated yes contradicts the file, which says Compensated=false")
+        raise NotRefittedError("--compensated yes contradicts the file, which says Compensated=false")
     if probe_radius is not None:
         return points, float(probe_radius), "probe centres (Compensated=false), radius --probe-radius", normals
     if point_set.probe_radii is not None:
-        surface = _per_point(points, normals, point_set, np.ones(len(points), dtype=bool), "per-point ProbeRadii differ")
+        surface = _per_point(points, normals, point_set, np.ones(len(points), dtype=bool),
+                             "per-point ProbeRadii differ")
         return surface, 0.0, "per-point ProbeRadii: probe centres compensated along their normals", normals
     if point_set.probe_radius is None:
-        raise NotRefitted("the points are probe centres (Compensated=false) but the file gives no ProbeRadius: "
+        raise NotRefittedError("the points are probe centres (Compensated=false) but the file gives no ProbeRadius: "
                           "give --probe-radius")
     return points, float(point_set.probe_radius), "probe centres (Compensated=false), ProbeRadius from the file", \
         normals
@@ -233,10 +231,10 @@ def _per_point(points: FloatArray, normals: FloatArray | None, point_set: Measur
     from pcmm_geo.fit.probe import compensate_points
 
     if normals is None:
-        raise NotRefitted(f"{why} and the points carry no normals to compensate them one by one")
+        raise NotRefittedError(f"{why} and the points carry no normals to compensate them one by one")
     radii = point_set.probe_radii if point_set.probe_radii is not None else point_set.probe_radius
     if radii is None:
-        raise NotRefitted(f"{why} but the file gives no probe radius")
+        raise NotRefittedError(f"{why} but the file gives no probe radius")
     radii = np.broadcast_to(np.asarray(radii, dtype=float), (len(points),))
     return compensate_points(points, normals, np.where(which, radii, 0.0))
 
@@ -276,7 +274,7 @@ def refit_feature(
 
     Raises
     ------
-    NotRefitted
+    NotRefittedError
         No points, a type not refitted, unknown compensation or material side, a fit that fails
         (its message).
     """
@@ -285,11 +283,11 @@ def refit_feature(
     if circle_plane not in CIRCLE_PLANES:
         raise InvalidInputError("circle_plane", "'least-squares' or 'reported'", repr(circle_plane))
     if feature.type not in REFITTED_TYPES:
-        raise NotRefitted(f"features of type {feature.type} are not refitted")
+        raise NotRefittedError(f"features of type {feature.type} are not refitted")
     point_set = document.points_of(feature, frame="common")
     if point_set is None or len(point_set) == 0:
         why = "; ".join(feature.problems)
-        raise NotRefitted("the file holds no measured points for this feature" + (f" ({why})" if why else ""))
+        raise NotRefittedError("the file holds no measured points for this feature" + (f" ({why})" if why else ""))
     method, method_source = _criterion(feature, criterion)
     points, radius, radius_source, normals = _prepare_points(point_set, compensated, probe_radius)
     context = _context(document, feature)
@@ -297,7 +295,7 @@ def refit_feature(
         return _REFITTERS[feature.type](points, normals, radius, radius_source, context, method, method_source,
                                         circle_plane=circle_plane, material_side=material_side)
     except PcmmGeoError as exc:
-        raise NotRefitted(" ".join(str(exc).split())) from None
+        raise NotRefittedError(" ".join(str(exc).split())) from None
 
 
 def _side_arguments(context: _Context, material_side: str | None, normals: FloatArray | None,
@@ -313,7 +311,7 @@ def _side_arguments(context: _Context, material_side: str | None, normals: Float
         return {"nominal_diameter": context.nominal_diameter}, \
             f"inferred from the nominal diameter {context.nominal_diameter:.6g} mm"
     stated = context.internal_external or "nothing"
-    raise NotRefitted(f"material side unknown: the file states {stated} for InternalExternal, the points carry no "
+    raise NotRefittedError(f"material side unknown: the file states {stated} for InternalExternal, the points carry no "
                       "normals and no nominal size decides it")
 
 
@@ -330,7 +328,7 @@ def _round_compensation(fit: FitResult, radius: float, radius_source: str, conte
     try:
         result = compensate_probe(fit, radius, **kwargs)
     except InvalidInputError as exc:
-        raise NotRefitted(" ".join(str(exc).split())) from None
+        raise NotRefittedError(" ".join(str(exc).split())) from None
     return result.surface, Compensation(radius, result.side, result.inferred, f"{radius_source}; side {side_source}",
                                         "element offset")
 
@@ -387,7 +385,7 @@ def _circle(points: FloatArray, normals: FloatArray | None, radius: float, radiu
         origin = context.actual.location if context.actual.location is not None else \
             (None if context.nominal is None else context.nominal.location)
         if normal is None or origin is None:
-            raise NotRefitted("--circle-plane reported needs the circle's reported (or nominal) normal and centre")
+            raise NotRefittedError("--circle-plane reported needs the circle's reported (or nominal) normal and centre")
         frame = _plane_frame(normal)
         in_plane = (points - origin) @ frame[:2].T
         normals_2d = None if normals is None else normals @ frame[:2].T
@@ -431,12 +429,12 @@ def _flat_compensation(fit: FitResult, kind: str, radius: float, radius_source: 
         return fit, Compensation(0.0, "none", False, radius_source, "none")
     outward, source = _outward(context, normals, kind)
     if outward is None:
-        raise NotRefitted(f"the {kind}'s points are probe centres but neither the points nor the {kind} carry a "
+        raise NotRefittedError(f"the {kind}'s points are probe centres but neither the points nor the {kind} carry a "
                           "normal saying where the material is")
     try:
         result = compensate_probe(fit, radius, outward=outward)
     except InvalidInputError as exc:
-        raise NotRefitted(f"{' '.join(str(exc).split())} (from {source})") from None
+        raise NotRefittedError(f"{' '.join(str(exc).split())} (from {source})") from None
     method = "element offset" if kind == "plane" else "points along normals"
     return result.surface, Compensation(radius, "external", False, f"{radius_source}; outward normal from {source}",
                                         method, result.outward)
@@ -467,13 +465,13 @@ def _point(points: FloatArray, normals: FloatArray | None, radius: float, radius
     from pcmm_geo.fit.probe import compensate_points
 
     if method != "gaussian":
-        raise NotRefitted(f"a point feature is the mean of its points; criterion {method} does not apply")
+        raise NotRefittedError(f"a point feature is the mean of its points; criterion {method} does not apply")
     comp = Compensation(0.0, "none", False, radius_source, "none")
     surface = points
     if radius > 0:
         outward, source = _outward(context, normals, "point")
         if outward is None:
-            raise NotRefitted("the point is a probe centre but neither the point set nor the feature (reported or "
+            raise NotRefittedError("the point is a probe centre but neither the point set nor the feature (reported or "
                               "nominal) gives the surface normal to compensate it along")
         surface = compensate_points(points, outward, radius)
         mean_normal = np.mean(np.atleast_2d(outward) / np.linalg.norm(np.atleast_2d(outward), axis=1, keepdims=True),

@@ -41,8 +41,8 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 from numpy.typing import NDArray
 
-from pcmm_geo.cmm.refit import Compensation, NotRefitted, Refit, refit_feature
-from pcmm_geo.errors import InvalidInputError
+from pcmm_geo.cmm.refit import Compensation, Refit, refit_feature
+from pcmm_geo.errors import InvalidInputError, NotRefittedError
 
 if TYPE_CHECKING:
     from pcmm_geo.io.cmm import CmmDocument, FeatureGeometry, MeasuredFeature
@@ -203,7 +203,7 @@ def verify_document(
         try:
             refit = refit_feature(document, feature, criterion=criterion, circle_plane=circle_plane,
                                   compensated=compensated, probe_radius=probe_radius)
-        except NotRefitted as exc:
+        except NotRefittedError as exc:
             points = _count_points(document, feature)
             checks.append(FeatureCheck(feature.id, feature.type, feature.name, points, None, str(exc),
                                        reported=_reported(feature.type, feature.actual)))
@@ -213,9 +213,11 @@ def verify_document(
 
 
 def _count_points(document: CmmDocument, feature: MeasuredFeature) -> int:
+    from pcmm_geo.errors import PcmmGeoError
+
     try:
         points = document.points_of(feature, frame="stored")
-    except Exception:  # noqa: BLE001 (a reference the reader could not resolve: no usable points)
+    except PcmmGeoError:  # a reference the reader could not resolve: no usable points
         return 0
     return 0 if points is None else len(points)
 

@@ -108,6 +108,34 @@ class ProbeCompensation:
         """How the surface was obtained: always ``"element offset"`` (see the module notes)."""
         return "element offset"
 
+    def surface_points(self, points: ArrayLike) -> FloatArray:
+        """The probe centres ``points`` (``(N, D)``) moved onto the surface along the element's normals.
+
+        The point-wise picture of the element offset: each centre moves by the probe radius
+        toward the material, along the normal of the probe-centre element through it (radial for
+        spheres, circles and cylinders, the cone's surface normal, ``-outward`` for planes and
+        lines).  Their fit is :attr:`surface`.
+
+        Examples
+        --------
+        >>> from pcmm_geo.fit import fit_sphere
+        >>> d = np.array([[1, 0, 0], [-1, 0, 0], [0, 1, 0], [0, -1, 0], [0, 0, 1.0]])
+        >>> comp = compensate_probe(fit_sphere(12 * d), 2.0, side="external")
+        >>> (comp.surface_points(12 * d)[:2] + 0.0).tolist()
+        [[10.0, 0.0, 0.0], [-10.0, 0.0, 0.0]]
+        """
+        element = _element(self.probe_centre)
+        dims = 2 if element == "circle" and self.probe_centre.normal is None else 3
+        pts = as_points(points, element=element, dims=(dims,))
+        if self.outward is not None:
+            return compensate_points(pts, self.outward, self.probe_radius)
+        away = _radial_directions(self.probe_centre, element, pts)
+        if element == "cone":
+            alpha = float(self.probe_centre.half_angle)
+            away = np.cos(alpha) * away - np.sin(alpha) * self.probe_centre.axis
+        outward = -away if self.side == "internal" else away
+        return compensate_points(pts, outward, self.probe_radius)
+
     def __repr__(self) -> str:
         parts = [f"surface={self.surface!r}", f"probe_radius={self.probe_radius:.12g}", f"side={self.side!r}",
                  f"side_source={self.side_source!r}", f"inferred={self.inferred}"]
@@ -368,7 +396,8 @@ def compensate_probe(
 
 
 def _with_parameters(fit: FitResult, changes: dict[str, object], values: dict[str, float],
-                     variance: dict[str, float] | None = None, block: tuple[list[int], FloatArray] | None = None) -> FitResult:
+                     variance: dict[str, float] | None = None,
+                     block: tuple[list[int], FloatArray] | None = None) -> FitResult:
     names = list(fit.parameter_names)
     parameters = np.array(fit.parameters, dtype=float)
     covariance = np.array(fit.covariance, dtype=float)

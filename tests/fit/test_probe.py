@@ -55,6 +55,7 @@ def test_sphere_centres_give_back_the_reference_sphere(side: str) -> None:
     assert (from_normals.side, from_normals.side_source, from_normals.inferred) == (side, "normals", False)
     # per-point compensation along the exact normals gives the surface points themselves
     assert np.allclose(compensate_points(centres, outward, R_PROBE), data.points, atol=1e-12)
+    assert np.allclose(comp.surface_points(centres), data.points, atol=1e-9)
 
 
 @pytest.mark.parametrize("side", ["internal", "external"])
@@ -120,6 +121,8 @@ def test_cone_apex_moves_by_r_over_sin_alpha(side: str) -> None:
     expected_radius = data.parameters["radius_at_point"] + (fit.point - data.parameters["point"]) @ axis * np.tan(alpha)
     assert comp.surface.radius_at_point == pytest.approx(expected_radius, abs=1e-8)
     assert np.max(np.abs(comp.surface.distance(data.points))) < 1e-8
+    # point by point along the centre cone's normals: the touched points themselves
+    assert np.allclose(comp.surface_points(centres), data.points, atol=1e-8)
 
 
 def test_plane_moves_into_the_material_whatever_the_fit_normal_sign() -> None:
