@@ -77,8 +77,10 @@ def read_characteristics(
             designator = item.child("CharacteristicDesignator")
             name = context.text(item.child("Name")) or (
                 None if designator is None else context.text(designator.child("Designator")))
+        shape = None if definition is None else definition.child("ZoneShape")
         records.append(Characteristic(
             id=context.id_of(node), type=kind, name=name, qif_element=node.tag, quantity=quantity,
+            zone_shape=None if shape is None or not shape.children else snake_type(shape.children[0].tag, "Zone"),
             value=None if value is None else context.value(value, quantity, pmi=True),
             uncertainty=None if value is None else context.uncertainty(value, quantity, pmi=True),
             nominal=None if target is None else context.value(target, quantity, pmi=True),

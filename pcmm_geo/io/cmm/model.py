@@ -388,6 +388,10 @@ class Characteristic(_Record):
         ``combinedUncertainty`` of the value (mm / rad).
     quantity : str
         ``"linear"``, ``"angular"`` or ``"other"`` (how the value was converted).
+    zone_shape : str or None
+        snake_case of the definition's ``ZoneShape`` child (``"diametrical"``, ``"non_diametrical"``,
+        ``"planar"``, ...); the writer needs it for straightness (a 3-D line's cylinder zone is
+        ``"diametrical"``, two parallel lines ``"non_diametrical"``).
     feature_measurement_ids, feature_item_ids : tuple of int
     item_id, nominal_id, definition_id, results_id : int or None
     """
@@ -401,6 +405,7 @@ class Characteristic(_Record):
     status: str | None = None
     uncertainty: float | None = None
     quantity: str = "linear"
+    zone_shape: str | None = None
     feature_measurement_ids: tuple[int, ...] = ()
     feature_item_ids: tuple[int, ...] = ()
     qif_element: str = ""
