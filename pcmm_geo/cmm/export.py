@@ -35,9 +35,9 @@ FloatArray = NDArray[np.float64]
 
 #: fit criterion -> QIF SubstituteFeatureAlgorithmEnum
 ALGORITHMS = {"gaussian": "LEASTSQUARES", "chebyshev": "MINMAX", "mcc": "MINCIRCUMSCRIBED", "mic": "MAXINSCRIBED"}
-#: element -> QIF form characteristic (a cone's conicity has no writer record)
+#: element -> QIF form characteristic (written with a tolerance; without one the form is the feature's ``Form``)
 FORM_CHARACTERISTICS = {"circle": "circularity", "plane": "flatness", "cylinder": "cylindricity",
-                        "sphere": "sphericity", "line": "straightness"}
+                        "sphere": "sphericity", "line": "straightness", "cone": "conicity"}
 _SIZE_CHARACTERISTICS = {"circle": "diameter", "cylinder": "diameter", "sphere": "spherical_diameter"}
 ELEMENTS = ("circle", "cylinder", "sphere", "plane", "line", "cone")
 
@@ -87,8 +87,6 @@ def _geometry(fit: FitResult, element: str, form: float | None, outward: FloatAr
 
 
 def _status(evaluation: FormEvaluation) -> str:
-    if evaluation.tolerance is None:
-        return "NOT_ANALYZED"
     return {True: "PASS", False: "FAIL", None: "INDETERMINATE"}[evaluation.passed]
 
 
@@ -124,7 +122,9 @@ def feature_report(
     compensation : ProbeCompensation, optional
         How the radius was applied (material side, outward normals).
     evaluation : FormEvaluation, optional
-        Minimum-zone form evaluation: form characteristic with tolerance and verdict.
+        Minimum-zone form evaluation: the feature's form, and with a tolerance the form
+        characteristic with its verdict (PASS, FAIL, INDETERMINATE when an uncertified zone
+        exceeds the tolerance).
     name : str, optional
         Feature name (default: the element type in capitals).
     nominal : FeatureGeometry, optional
@@ -171,12 +171,13 @@ def feature_report(
         size_u = actual.uncertainty.get("diameter")
         characteristics.append(Characteristic(id=0, type=_SIZE_CHARACTERISTICS[element], value=actual.diameter,
                                               status="NOT_ANALYZED", uncertainty=size_u))
-    if evaluation is not None and element in FORM_CHARACTERISTICS:
-        tolerance = None if evaluation.tolerance is None else Tolerance(value=float(evaluation.tolerance))
+    if evaluation is not None and evaluation.tolerance is not None:
         characteristics.append(Characteristic(id=0, type=FORM_CHARACTERISTICS[element],
-                                              value=float(evaluation.deviation), tolerance=tolerance,
+                                              value=float(evaluation.deviation),
+                                              tolerance=Tolerance(value=float(evaluation.tolerance)),
                                               status=_status(evaluation)))
-    if internal_external is None and nominal is not None and compensation is not None and element in _SIZE_CHARACTERISTICS:
+    if internal_external is None and nominal is not None and compensation is not None \
+            and element in ("circle", "cylinder", "sphere", "cone"):
         internal_external = compensation.side.upper()
     return FeatureReport(type=element, name=name or element.upper(), actual=actual, nominal=nominal,
                          internal_external=internal_external if nominal is not None else None, points=point_set,

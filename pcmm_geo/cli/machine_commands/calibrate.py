@@ -130,9 +130,11 @@ def _probings(args: argparse.Namespace) -> tuple[Any, list[str], dict[str, Any]]
     from pcmm_geo.machine.calibration.qif_probings import read_qif_probings
 
     read = read_qif_probings(path, feature_map=args.feature_map)
-    lines = [f"QIF probings: {len(read.refitted)} sphere centres refitted from their points"
-             + (f", {len(read.reported)} taken as the CMM reported them (no points): {', '.join(read.reported)}"
-                if read.reported else "")]
+    parts = [f"{len(read.refitted)} sphere centres refitted from their points"] if read.refitted else []
+    if read.reported:
+        parts.append(f"{len(read.reported)} centres as the CMM reported them (the file holds no points for them): "
+                     + ", ".join(read.reported))
+    lines = ["QIF probings: " + "; ".join(parts)]
     lines += list(read.notes)
     if read.ignored:
         lines.append(f"sphere features without a role, ignored: {', '.join(read.ignored)}")

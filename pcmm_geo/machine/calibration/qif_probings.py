@@ -40,7 +40,7 @@ from pcmm_geo.errors import FileFormatError, PcmmGeoError
 from pcmm_geo.machine.calibration.geometry import FittedSphere, fit_probed_sphere
 from pcmm_geo.machine.calibration.probings import ProbedFeatures, _assemble
 
-__all__ = ["QifProbings", "read_feature_map", "read_qif_probings", "role_of"]
+__all__ = ["QifProbings", "read_feature_map", "read_qif_probings", "role_of", "write_qif_probings"]
 
 Role = tuple[str, int | None]
 _JOINT = re.compile(r"^joint[ _.\-]?([abc])[ _.\-]?(\d{1,6})$", re.IGNORECASE)
@@ -217,6 +217,53 @@ def read_qif_probings(path: str | Path, *, feature_map: Mapping[str, Role] | str
     ignored = tuple(str(f.name) for f in spheres if str(f.name) not in chosen)
     return QifProbings(features, {name: role for name, (_, role) in chosen.items()}, tuple(refitted),
                        tuple(reported), ignored, tuple(notes))
+
+
+def write_qif_probings(features: ProbedFeatures, path: str | Path, *, overwrite: bool = False,
+                       probe_radius: float | None = None, linear_unit: str = "mm") -> Path:
+    """Write probed calibration balls as a QIF results file under the default naming.
+
+    Each ball becomes a sphere feature measurement ``joint_<arm>_<position>`` or ``tip`` with the
+    centre (and diameter and form where known) as actuals, and its raw points, where the probings
+    have them, as a measured point set -- surface points, or probe centres when ``probe_radius`` is
+    given (then written ``Compensated=false`` with that ``ProbeRadius``).
+
+    Parameters
+    ----------
+    features : ProbedFeatures
+        E.g. from :func:`~pcmm_geo.machine.calibration.probings.read_probings`.
+    path : str or Path
+    overwrite : bool
+    probe_radius : float, optional
+        The raw points are probe centres of this radius (mm).
+    linear_unit : {"mm", "inch"}
+
+    Returns
+    -------
+    Path
+
+    Raises
+    ------
+    OutputExistsError
+        ``path`` exists and ``overwrite`` is False.
+    """
+    from pcmm_geo.io.cmm import FeatureGeometry, FeatureReport, MeasuredPointSet, results_document, write_qif
+
+    balls: list[tuple[Role, FittedSphere]] = [((f"joint_{arm}", position), features.joints[arm][position])
+                                              for position in features.positions for arm in ("a", "b", "c")]
+    balls.append((("tip", None), features.tip))
+    reports = []
+    for (feature, position), sphere in balls:
+        name = feature if position is None else f"{feature}_{position}"
+        raw = features.points.get((feature, position))
+        points = None if raw is None else MeasuredPointSet(
+            id=0, points=np.asarray(raw, dtype=float), compensated=probe_radius is None, probe_radius=probe_radius)
+        diameter = None if not math.isfinite(sphere.radius) else 2.0 * sphere.radius
+        form = None if not math.isfinite(sphere.form) else float(sphere.form)
+        actual = FeatureGeometry(location=np.asarray(sphere.center, dtype=float), diameter=diameter, form=form)
+        reports.append(FeatureReport(type="sphere", name=name, actual=actual, points=points))
+    document = results_document(reports, source=str(path))
+    return write_qif(document, path, overwrite=overwrite, linear_unit=linear_unit)
 
 
 def _ball_radius(centre_radius: float, points: Any) -> tuple[float, str]:
