@@ -102,7 +102,7 @@ def test_feature_map_names_the_roles(tmp_path: Path) -> None:
     read = read_qif_probings(renamed, feature_map=map_file)
     np.testing.assert_array_equal(read.features.centers(), read_probings(EXPORT).centers())
     assert read.ignored == ("REFERENCE_BALL",)
-    with pytest.raises(FileFormatError, match="joint_a_1 ... joint_c_K and tip"):
+    with pytest.raises(FileFormatError, match=r"joint_a_1 \.\.\. joint_c_K and tip"):
         read_qif_probings(renamed)  # the default naming finds none
     bad = tmp_path / "bad_map.json"
     for content, message in ((json.dumps({"SPH1": "joint_d:1"}), "expected a role"),
