@@ -348,7 +348,8 @@ def _cylinder(points: FloatArray, normals: FloatArray | None, radius: float, rad
     from pcmm_geo.fit import fit_cylinder
 
     hint = _first(context.actual.direction, None if context.nominal is None else context.nominal.direction)
-    fit, comp = _round_compensation(fit_cylinder(points, criterion=method, axis_hint=hint), radius, radius_source,
+    hinted = {"axis_hint": hint} if method == "gaussian" else {}  # the minimax fits search their own axes
+    fit, comp = _round_compensation(fit_cylinder(points, criterion=method, **hinted), radius, radius_source,
                                     context, options["material_side"], normals, points)
     return Refit("cylinder", len(points), method, method_source, comp, points, location=fit.point,
                  direction=fit.axis, diameter=2.0 * fit.radius, fit=fit)
@@ -360,7 +361,7 @@ def _cone(points: FloatArray, normals: FloatArray | None, radius: float, radius_
 
     nominal = context.nominal
     hint = _first(context.actual.direction, None if nominal is None else nominal.direction)
-    fit = fit_cone(points, criterion=method, axis_hint=hint)
+    fit = fit_cone(points, criterion=method, **({"axis_hint": hint} if method == "gaussian" else {}))
     nominal_diameter = None
     if nominal is not None and nominal.location is not None and context.nominal_diameter is not None \
             and context.nominal_half_angle is not None:
