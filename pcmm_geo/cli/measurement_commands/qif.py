@@ -165,6 +165,15 @@ def _micro(value: Any, factor: float = 1000.0) -> Any:
     return "-" if value is None else factor * float(value)
 
 
+def _shown(check: Any, name: str, factor: float) -> Any:
+    """A difference in µm / µrad; in parentheses when it did not decide the feature's agreement."""
+    value = check.difference.get(name)
+    if value is None:
+        return "-"
+    scaled = factor * float(value)
+    return scaled if name in check.compared else f"({scaled:.6g})"
+
+
 def _handle_verify(args: argparse.Namespace) -> Report:
     from pcmm_geo.cli._record import Verdict
     from pcmm_geo.cmm.verify import DEFAULT_TOLERANCE_MM, verify_document
@@ -178,15 +187,23 @@ def _handle_verify(args: argparse.Namespace) -> Report:
     for check in result.features:
         difference = check.difference
         compensation = check.compensation
-        side = "-" if compensation is None else compensation.side + (" (inferred)" if compensation.inferred else "")
-        rows.append([check.id, check.name or "-", check.type, check.n_points, check.method or "-", side,
-                     _micro(difference.get("diameter_mm")), _micro(difference.get("location_distance_mm")),
-                     _micro(difference.get("direction_angle_rad"), 1e6),
+        if compensation is None or compensation.side == "none":
+            side = "-" if compensation is None else "none (surface points)"
+        elif compensation.outward is not None:
+            side = "along its normal"
+        else:
+            side = compensation.side + (" (inferred)" if compensation.inferred else "")
+        cells = [_shown(check, name, factor) for name, factor in (("diameter_mm", 1000.0),
+                                                                  ("location_distance_mm", 1000.0),
+                                                                  ("direction_angle_rad", 1e6))]
+        rows.append([check.id, check.name or "-", check.type, check.n_points, check.method or "-", side, *cells,
                      {True: "yes", False: "NO", None: "not checked"}[check.agrees]])
     table = Table(f"Second opinion on {document.source} (tolerance {1000 * tolerance:g} µm; angles tolerance / size)",
-                  ["id", "name", "type", "points", "method", "material side", "Δ diameter / µm", "Δ location / µm",
+                  ["id", "name", "type", "points", "method", "compensation", "Δ diameter / µm", "Δ location / µm",
                    "Δ direction / µrad", "agrees"], rows)
-    lines = [f"{check.id} {check.name or ''}: {check.reason}" for check in result.features]
+    lines = ["(values in parentheses: reported, not compared)"] if any(
+        "(" in str(cell) for row in rows for cell in row[6:9]) else []
+    lines += [f"{check.id} {check.name or ''}: {check.reason}" for check in result.features]
     summary = result.summary()
     statement = (f"{summary['agree']} features agree, {summary['disagree']} disagree, "
                  f"{summary['not_checked']} not checked")
