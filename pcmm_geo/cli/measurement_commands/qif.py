@@ -185,7 +185,6 @@ def _handle_verify(args: argparse.Namespace) -> Report:
                              circle_plane=args.circle_plane, compensated=compensated, probe_radius=args.probe_radius)
     rows = []
     for check in result.features:
-        difference = check.difference
         compensation = check.compensation
         if compensation is None or compensation.side == "none":
             side = "-" if compensation is None else "none (surface points)"
