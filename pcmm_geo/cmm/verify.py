@@ -289,6 +289,8 @@ def _compare(document: CmmDocument, feature: MeasuredFeature, refit: Refit, tole
         if kind == "cone":
             along = float((location - refit.location) @ refit.direction)
             diameter = refit.diameter + 2.0 * along * np.tan(refit.half_angle)
+    elif kind == "cone":
+        diameter = None  # a cone's diameter is only defined at a stated locating point
     elif kind == "plane" and reported_location is not None:
         location = reported_location - float((reported_location - refit.location) @ refit.direction) * refit.direction
     if diameter is not None:
