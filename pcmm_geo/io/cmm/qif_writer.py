@@ -58,6 +58,8 @@ __all__ = ["FORM_CHARACTERISTICS", "SIZE_CHARACTERISTICS", "write_qif"]
 
 SIZE_CHARACTERISTICS = ("diameter", "spherical_diameter", "radius", "spherical_radius", "length", "width")
 FORM_CHARACTERISTICS = ("flatness", "circularity", "cylindricity", "sphericity", "straightness", "conicity")
+_INSPECTION_STATUSES = ("PASS", "FAIL", "REWORK", "SYSERROR", "UNKNOWN", "NOT_CALCULATED", "NOT_MEASURED",
+                        "UNDEFINED")
 _STATUSES = ("PASS", "FAIL", "REWORK", "SYSERROR", "INDETERMINATE", "NOT_ANALYZED", "BASIC_OR_TED", "UNDEFINED")
 _LINEAR_UNITS = {"mm": ("mm", 1.0), "inch": ("inch", 25.4)}
 _POINTS_PER_LINE = 1
@@ -413,8 +415,12 @@ class _Writer:
                 self._char_measurement(characteristic)
             xml.close("CharacteristicMeasurements")
             xml.close("MeasuredCharacteristics")
+        status = results.inspection_status or "UNDEFINED"
+        if status not in _INSPECTION_STATUSES:
+            raise InvalidInputError(f"results {results.id}.inspection_status",
+                                    f"one of {', '.join(_INSPECTION_STATUSES)}", repr(status))
         xml.open("InspectionStatus")
-        xml.leaf("InspectionStatusEnum", results.inspection_status or "UNDEFINED")
+        xml.leaf("InspectionStatusEnum", status)
         xml.close("InspectionStatus")
         xml.close("MeasurementResults")
 
@@ -440,7 +446,7 @@ class _Writer:
                     xml.leaf("RangePointSetId", str(ref.point_set_id),
                              range=f"{ref.start + 1} {count if ref.stop is None else ref.stop}")
             xml.close("PointList")
-        if feature.type != "point" and feature.substitute_algorithm:
+        if feature.substitute_algorithm:
             xml.open("SubstituteFeatureAlgorithm")
             known = feature.substitute_algorithm in _ALGORITHMS
             xml.leaf("SubstituteFeatureAlgorithmEnum" if known else "OtherSubstituteFeatureAlgorithm",
