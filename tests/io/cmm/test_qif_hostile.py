@@ -12,7 +12,7 @@ import pytest
 
 from pcmm_geo.errors import FileFormatError, MissingDependencyError, PcmmGeoError, QifError, UnsafeXmlError
 from pcmm_geo.io.cmm import read_qif, validate_qif
-from pcmm_geo.io.cmm._xml import MAX_TEXT_CHARS
+from pcmm_geo.io.cmm.qif._xml import MAX_TEXT_CHARS
 
 DATA = Path(__file__).resolve().parents[2] / "data" / "qif"
 HOSTILE = DATA / "hostile"
