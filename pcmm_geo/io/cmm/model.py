@@ -380,6 +380,9 @@ class Characteristic(_Record):
         The measured value (mm, or rad for angular types).
     nominal : float or None
         QIF ``TargetValue``.
+    deviation : float or None
+        The deviation from nominal where the file states it (CALYPSO's ``deviation`` column, a
+        DMIS size tolerance read with ``size_values="deviation"``); None where it is not stated.
     tolerance : Tolerance or None
     status : str or None
         QIF ``CharacteristicStatusEnum`` verbatim (``"PASS"``, ``"FAIL"``, ``"INDETERMINATE"``,
@@ -401,6 +404,7 @@ class Characteristic(_Record):
     name: str | None = None
     value: float | None = None
     nominal: float | None = None
+    deviation: float | None = None
     tolerance: Tolerance | None = None
     status: str | None = None
     uncertainty: float | None = None

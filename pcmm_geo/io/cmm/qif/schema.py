@@ -19,7 +19,7 @@ from typing import Any
 
 from pcmm_geo._optional import require
 from pcmm_geo.errors import FileFormatError, InvalidInputError, UnsafeXmlError
-from pcmm_geo.io.cmm._xml import DEFAULT_MAX_BYTES
+from pcmm_geo.io.cmm.qif._xml import DEFAULT_MAX_BYTES
 
 __all__ = ["validate_qif"]
 

@@ -2,9 +2,9 @@
 
 from __future__ import annotations
 
-from pcmm_geo.io.cmm._qif_values import QifContext, snake_type
-from pcmm_geo.io.cmm._xml import Node
 from pcmm_geo.io.cmm.model import Characteristic, Tolerance
+from pcmm_geo.io.cmm.qif._values import QifContext, snake_type
+from pcmm_geo.io.cmm.qif._xml import Node
 
 __all__ = ["ANGULAR_CHARACTERISTICS", "OTHER_CHARACTERISTICS", "quantity_of", "read_characteristics"]
 

@@ -22,8 +22,8 @@ plus one parser buffer, never the text of the whole list.
 
 from __future__ import annotations
 
-import math
 import os
+import re
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -60,64 +60,82 @@ class NumberList:
 
     ``expected`` numbers are preallocated when the file states how many (QIF ``count``);
     otherwise the list grows.  ``boolean`` lists accept ``true``/``false``/``1``/``0``.
+    ``first_line`` is the line the text starts on; errors name the line of the offending token.
     """
 
     expected: int | None
     boolean: bool = False
+    first_line: int = 1
     values: np.ndarray = field(init=False)
     filled: int = 0
     _tail: str = ""
+    _newlines: int = 0
     _parts: list[np.ndarray] = field(default_factory=list)
 
     def __post_init__(self) -> None:
         self.values = np.empty(self.expected if self.expected is not None else 0, dtype=np.float64)
 
-    def feed(self, text: str, line: int | None) -> None:
+    def feed(self, text: str) -> None:
         text = self._tail + text
         cut = len(text)
         while cut and not text[cut - 1].isspace():
             cut -= 1
         self._tail = text[cut:]
         if len(self._tail) > 4096:
-            raise NumberListError(f"a number of more than 4096 characters ({self._tail[:40]!r}...)", line)
-        self._store(text[:cut].split(), line)
+            raise NumberListError(f"a number of more than 4096 characters ({self._tail[:40]!r}...)",
+                                  self.first_line + self._newlines + text[:cut].count("\n"))
+        segment = text[:cut]
+        self._store(segment)
+        self._newlines += segment.count("\n")
 
     def finish(self, line: int | None) -> np.ndarray:
         if self._tail:
-            self._store([self._tail], line)
+            self._store(self._tail)
             self._tail = ""
         if self.expected is None:
             return np.concatenate(self._parts) if self._parts else np.empty(0)
         return self.values[: self.filled]
 
-    def _store(self, tokens: list[str], line: int | None) -> None:
+    def _line_of_token(self, segment: str, index: int) -> int:
+        """Line of the ``index``-th token of ``segment`` (slow path, errors only)."""
+        for number, match in enumerate(re.finditer(r"\S+", segment)):
+            if number == index:
+                return self.first_line + self._newlines + segment[: match.start()].count("\n")
+        return self.first_line + self._newlines + segment.count("\n")
+
+    def _store(self, segment: str) -> None:
+        tokens = segment.split()
         if not tokens:
             return
-        numbers = self._convert(tokens, line)
+        numbers = self._convert(tokens, segment)
         if self.expected is None:
             self._parts.append(numbers)
             self.filled += len(numbers)
             return
         end = self.filled + len(numbers)
         if end > self.expected:
-            raise NumberListError(f"more than the {self.expected} numbers stated", line)
+            raise NumberListError(f"more than the {self.expected} numbers stated",
+                                  self._line_of_token(segment, self.expected - self.filled))
         self.values[self.filled:end] = numbers
         self.filled = end
 
-    def _convert(self, tokens: list[str], line: int | None) -> np.ndarray:
+    def _convert(self, tokens: list[str], segment: str) -> np.ndarray:
         if self.boolean:
-            try:
-                return np.array([_BOOLEAN_WORDS[t] for t in tokens])
-            except KeyError as exc:
-                raise NumberListError(f"expected true or false, got {str(exc.args[0])[:40]!r}", line) from None
+            bad = next((k for k, t in enumerate(tokens) if t not in _BOOLEAN_WORDS), None)
+            if bad is not None:
+                raise NumberListError(f"expected true or false, got {tokens[bad][:40]!r}",
+                                      self._line_of_token(segment, bad))
+            return np.array([_BOOLEAN_WORDS[t] for t in tokens])
         try:
             numbers = np.array(tokens, dtype=np.float64)
         except ValueError:
-            bad = next(t for t in tokens if not _is_float(t))
-            raise NumberListError(f"expected a number, got {bad[:40]!r}", line) from None
+            bad = next(k for k, t in enumerate(tokens) if not _is_float(t))
+            raise NumberListError(f"expected a number, got {tokens[bad][:40]!r}",
+                                  self._line_of_token(segment, bad)) from None
         if not np.isfinite(numbers).all():
-            bad = next(t for t, v in zip(tokens, numbers, strict=True) if not math.isfinite(v))
-            raise NumberListError(f"expected a finite number, got {bad[:40]!r}", line)
+            bad = int(np.flatnonzero(~np.isfinite(numbers))[0])
+            raise NumberListError(f"expected a finite number, got {tokens[bad][:40]!r}",
+                                  self._line_of_token(segment, bad))
         return numbers
 
 
@@ -206,6 +224,8 @@ class _Target:
             self.current.children.append(node)
         self.current = node
         node.stream = self.stream_rule(node)
+        if node.stream is not None:
+            node.stream.first_line = node.line
 
     def end(self, tag: str) -> None:
         node = self.current
@@ -214,6 +234,7 @@ class _Target:
             try:
                 node.numbers = node.stream.finish(self.line())
             except NumberListError as exc:
+                exc.line = exc.line or self.line()
                 raise _StreamFailure(node, exc) from None
             node.stream = None
         self.current = node.parent
@@ -225,7 +246,7 @@ class _Target:
             return
         if node.stream is not None:
             try:
-                node.stream.feed(text, self.line())
+                node.stream.feed(text)
             except NumberListError as exc:
                 raise _StreamFailure(node, exc) from None
             return

@@ -7,10 +7,7 @@ form, ``combinedUncertainty``), the measured point sets (points, normals, ``Comp
 ``Compensations``, ``ProbeRadius`` or ``ProbeRadii``), the characteristic measurements (status,
 value, uncertainty) and the inspection status.
 
-Numbers are written so that they read back exactly: coordinates (``xs:double``) as Python's
-shortest round-trip repr, decimals (``xs:decimal``: sizes, tolerances, uncertainties, probe
-radii) in positional notation with the same digits.  Point lists are written in blocks, so a
-large cloud is never held as one text.
+Numbers read back exactly (:mod:`~pcmm_geo.io.cmm.qif._xml_out`); point lists are written in blocks.
 
 Feature types written: circle, cylinder, sphere, plane, line, point, cone.  Characteristic types
 written: diameter, spherical_diameter, radius, spherical_radius, length, width (size: tolerance
@@ -32,10 +29,9 @@ from __future__ import annotations
 
 import math
 import uuid
-from collections.abc import Callable, Iterable
+from collections.abc import Callable
 from pathlib import Path
 from typing import IO
-from xml.sax.saxutils import escape, quoteattr
 
 import numpy as np
 
@@ -53,96 +49,49 @@ from pcmm_geo.io.cmm.model import (
     MeasuredPointSet,
     MeasurementResults,
 )
+from pcmm_geo.io.cmm.qif._xml_out import (
+    ALGORITHMS,
+    CHARACTERISTIC_STATUSES,
+    INSPECTION_STATUSES,
+    XmlText,
+    camel,
+    decimal_text,
+    double_text,
+)
 
 __all__ = ["FORM_CHARACTERISTICS", "SIZE_CHARACTERISTICS", "write_qif"]
 
 SIZE_CHARACTERISTICS = ("diameter", "spherical_diameter", "radius", "spherical_radius", "length", "width")
 FORM_CHARACTERISTICS = ("flatness", "circularity", "cylindricity", "sphericity", "straightness", "conicity")
-_STATUSES = ("PASS", "FAIL", "REWORK", "SYSERROR", "INDETERMINATE", "NOT_ANALYZED", "BASIC_OR_TED", "UNDEFINED")
 _LINEAR_UNITS = {"mm": ("mm", 1.0), "inch": ("inch", 25.4)}
-_POINTS_PER_LINE = 1
 _BLOCK = 4096  # points formatted at a time
 
 
-def _camel(snake: str) -> str:
-    return "".join(part.capitalize() for part in snake.split("_"))
-
-
-def _double(value: float) -> str:
-    if not math.isfinite(value):
-        raise InvalidInputError("value", "a finite number", repr(value))
-    return repr(float(value))
-
-
-def _decimal(value: float) -> str:
-    """``xs:decimal`` text (no exponent) with the shortest digits that read back as ``value``."""
-    if not math.isfinite(value):
-        raise InvalidInputError("value", "a finite number", repr(value))
-    return np.format_float_positional(float(value), unique=True, trim="-")
-
-
-class _Xml:
-    """Indented XML text into a binary stream."""
-
-    def __init__(self, stream: IO[bytes]) -> None:
-        self.stream = stream
-        self.depth = 0
-
-    def raw(self, text: str) -> None:
-        self.stream.write(text.encode("utf-8"))
-
-    def open(self, tag: str, **attributes: object) -> None:
-        self.raw(f"{'  ' * self.depth}<{tag}{_attributes(attributes)}>\n")
-        self.depth += 1
-
-    def close(self, tag: str) -> None:
-        self.depth -= 1
-        self.raw(f"{'  ' * self.depth}</{tag}>\n")
-
-    def leaf(self, tag: str, text: str | None = None, **attributes: object) -> None:
-        pad = "  " * self.depth
-        if text is None:
-            self.raw(f"{pad}<{tag}{_attributes(attributes)}/>\n")
-        else:
-            self.raw(f"{pad}<{tag}{_attributes(attributes)}>{escape(text)}</{tag}>\n")
-
-    def ids(self, tag: str, ids: Iterable[int]) -> None:
-        ids = list(ids)
-        self.open(tag, n=len(ids))
-        for key in ids:
-            self.leaf("Id", str(key))
-        self.close(tag)
-
-
-def _attributes(attributes: dict[str, object]) -> str:
-    return "".join(f" {name}={quoteattr(str(value))}" for name, value in attributes.items() if value is not None)
-
-
 class _Writer:
-    def __init__(self, document: CmmDocument, xml: _Xml, linear_unit: str) -> None:
+    def __init__(self, document: CmmDocument, xml: XmlText, linear_unit: str) -> None:
         self.document = document
         self.xml = xml
         self.unit_name, self.mm_per_unit = _LINEAR_UNITS[linear_unit]
 
     # -- values in the file's units ------------------------------------------------------------
     def length(self, value: float) -> str:
-        return _decimal(value / self.mm_per_unit)
+        return decimal_text(value / self.mm_per_unit)
 
     def angle(self, value: float) -> str:
-        return _decimal(math.degrees(value))
+        return decimal_text(math.degrees(value))
 
     def point(self, values: np.ndarray) -> str:
-        return " ".join(_double(v / self.mm_per_unit) for v in values)
+        return " ".join(double_text(v / self.mm_per_unit) for v in values)
 
     @staticmethod
     def vector(values: np.ndarray) -> str:
-        return " ".join(_double(v) for v in values)
+        return " ".join(double_text(v) for v in values)
 
     def measured(self, tag: str, value: float, uncertainty: float | None, quantity: str = "linear") -> None:
         text = self.angle(value) if quantity == "angular" else self.length(value) if quantity == "linear" else (
-            _decimal(value))
+            decimal_text(value))
         u = None if uncertainty is None else (self.angle(uncertainty) if quantity == "angular" else self.length(
-            uncertainty) if quantity == "linear" else _decimal(uncertainty))
+            uncertainty) if quantity == "linear" else decimal_text(uncertainty))
         self.xml.leaf(tag, text, combinedUncertainty=u)
 
     # -- document ------------------------------------------------------------------------------
@@ -202,14 +151,14 @@ class _Writer:
         xml.leaf("SIUnitName", "radian")
         xml.leaf("UnitName", "degree")
         xml.open("UnitConversion")
-        xml.leaf("Factor", _decimal(math.pi / 180.0))
+        xml.leaf("Factor", decimal_text(math.pi / 180.0))
         xml.close("UnitConversion")
         xml.close("AngularUnit")
         xml.open("LinearUnit")
         xml.leaf("SIUnitName", "meter")
         xml.leaf("UnitName", self.unit_name)
         xml.open("UnitConversion")
-        xml.leaf("Factor", _decimal(self.mm_per_unit / 1000.0))
+        xml.leaf("Factor", decimal_text(self.mm_per_unit / 1000.0))
         xml.close("UnitConversion")
         xml.close("LinearUnit")
         xml.close("PrimaryUnits")
@@ -232,7 +181,7 @@ class _Writer:
         xml.close("Features")
 
     def _definition(self, definition: FeatureDefinition) -> None:
-        tag = f"{_camel(definition.type)}FeatureDefinition"
+        tag = f"{camel(definition.type)}FeatureDefinition"
         xml = self.xml
         if definition.type not in ("circle", "cylinder", "sphere", "cone"):
             xml.leaf(tag, id=definition.id)
@@ -252,7 +201,7 @@ class _Writer:
         xml.close(tag)
 
     def _nominal(self, nominal: FeatureNominal) -> None:
-        tag = f"{_camel(nominal.type)}FeatureNominal"
+        tag = f"{camel(nominal.type)}FeatureNominal"
         xml, geometry = self.xml, nominal.geometry
         xml.open(tag, id=nominal.id)
         if nominal.definition_id is None:
@@ -295,7 +244,7 @@ class _Writer:
             xml.leaf("Normal", self.vector(geometry.normal))
 
     def _item(self, item: FeatureItem) -> None:
-        tag = f"{_camel(item.type)}FeatureItem"
+        tag = f"{camel(item.type)}FeatureItem"
         xml = self.xml
         xml.open(tag, id=item.id)
         if item.nominal_id is None:
@@ -348,7 +297,7 @@ class _Writer:
                                      ("CharacteristicItems", "CharacteristicItem", self._char_item)):
             xml.open(group, n=len(characteristics))
             for characteristic in characteristics:
-                tag = f"{_camel(characteristic.type)}{suffix}"
+                tag = f"{camel(characteristic.type)}{suffix}"
                 write(tag, characteristic)
             xml.close(group)
         xml.close("Characteristics")
@@ -360,7 +309,7 @@ class _Writer:
             xml.leaf("ToleranceValue", self.length(tolerance.value))  # type: ignore[union-attr,arg-type]
             if characteristic.type == "straightness":
                 xml.open("ZoneShape")
-                xml.leaf(f"{_camel(characteristic.zone_shape)}Zone")  # type: ignore[arg-type]
+                xml.leaf(f"{camel(characteristic.zone_shape)}Zone")  # type: ignore[arg-type]
                 xml.close("ZoneShape")
         elif tolerance is None or (tolerance.max_value is None and tolerance.min_value is None):
             xml.leaf("NonTolerance", "MEASURED")
@@ -413,14 +362,18 @@ class _Writer:
                 self._char_measurement(characteristic)
             xml.close("CharacteristicMeasurements")
             xml.close("MeasuredCharacteristics")
+        status = results.inspection_status or "UNDEFINED"
+        if status not in INSPECTION_STATUSES:
+            raise InvalidInputError(f"results {results.id}.inspection_status",
+                                    f"one of {', '.join(INSPECTION_STATUSES)}", repr(status))
         xml.open("InspectionStatus")
-        xml.leaf("InspectionStatusEnum", results.inspection_status or "UNDEFINED")
+        xml.leaf("InspectionStatusEnum", status)
         xml.close("InspectionStatus")
         xml.close("MeasurementResults")
 
     def _measurement(self, feature: MeasuredFeature) -> None:
         _check_type(feature.type, f"feature measurement {feature.id}")
-        tag = f"{_camel(feature.type)}FeatureMeasurement"
+        tag = f"{camel(feature.type)}FeatureMeasurement"
         xml, actual = self.xml, feature.actual
         u = actual.uncertainty
         xml.open(tag, id=feature.id)
@@ -440,9 +393,9 @@ class _Writer:
                     xml.leaf("RangePointSetId", str(ref.point_set_id),
                              range=f"{ref.start + 1} {count if ref.stop is None else ref.stop}")
             xml.close("PointList")
-        if feature.type != "point" and feature.substitute_algorithm:
+        if feature.substitute_algorithm:
             xml.open("SubstituteFeatureAlgorithm")
-            known = feature.substitute_algorithm in _ALGORITHMS
+            known = feature.substitute_algorithm in ALGORITHMS
             xml.leaf("SubstituteFeatureAlgorithmEnum" if known else "OtherSubstituteFeatureAlgorithm",
                      feature.substitute_algorithm)
             xml.close("SubstituteFeatureAlgorithm")
@@ -454,7 +407,7 @@ class _Writer:
         for name in sizes:
             value = getattr(actual, name)
             if value is not None:
-                self.measured(_camel(name), value, u.get(name))
+                self.measured(camel(name), value, u.get(name))
         if feature.type == "cone" and actual.half_angle is not None:
             self.measured("HalfAngle", actual.half_angle, u.get("half_angle"), "angular")
         if feature.type != "point" and actual.form is not None:
@@ -492,11 +445,12 @@ class _Writer:
 
     def _char_measurement(self, characteristic: Characteristic) -> None:
         xml = self.xml
-        tag = f"{_camel(characteristic.type)}CharacteristicMeasurement"
+        tag = f"{camel(characteristic.type)}CharacteristicMeasurement"
         xml.open(tag, id=characteristic.id)
         xml.open("Status")
         status = characteristic.status or "NOT_ANALYZED"
-        xml.leaf("CharacteristicStatusEnum" if status in _STATUSES else "OtherCharacteristicStatus", status)
+        known = status in CHARACTERISTIC_STATUSES
+        xml.leaf("CharacteristicStatusEnum" if known else "OtherCharacteristicStatus", status)
         xml.close("Status")
         xml.leaf("CharacteristicItemId", str(characteristic.item_id))
         if characteristic.feature_measurement_ids:
@@ -504,11 +458,6 @@ class _Writer:
         if characteristic.value is not None:
             self.measured("Value", characteristic.value, characteristic.uncertainty)
         xml.close(tag)
-
-
-_ALGORITHMS = ("BEZIER", "BSPLINE", "DEFAULT", "LEASTSQUARES", "MAXINSCRIBED", "MAXINNERLOCALSIZE",
-               "MAXOUTERLOCALSIZE", "MINCIRCUMSCRIBED", "MININNERLOCALSIZE", "MINOUTERLOCALSIZE", "MINMAX", "NURBS",
-               "ONESIDED", "UNDEFINED")
 
 
 def _check_type(kind: str, what: str) -> None:
@@ -550,6 +499,6 @@ def write_qif(document: CmmDocument, path: str | Path, *, overwrite: bool = Fals
     qpid = str(uuid.UUID(qpid)) if qpid is not None else str(uuid.uuid4())
 
     def content(stream: IO[bytes]) -> None:
-        _Writer(document, _Xml(stream), linear_unit).write(qpid)
+        _Writer(document, XmlText(stream), linear_unit).write(qpid)
 
     return write_atomic(path, content, overwrite=overwrite)

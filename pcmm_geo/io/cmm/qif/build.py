@@ -130,8 +130,9 @@ def results_document(features: Sequence[FeatureReport], *, application: str = "p
     application : str
         Written as the QIF ``Header/Application/Name``.
     inspection_status : str or None
-        QIF ``InspectionStatusEnum`` of the whole results (``"PASS"``, ``"FAIL"``, ...); default:
-        ``"FAIL"`` when any characteristic failed, ``"PASS"`` when all passed, else ``"UNDEFINED"``.
+        QIF ``InspectionStatusEnum`` of the whole results (``"PASS"``, ``"FAIL"``, ``"UNKNOWN"``, ...);
+        default: ``"FAIL"`` when any characteristic failed, ``"PASS"`` when all passed, ``"UNKNOWN"``
+        when some are indeterminate or not analysed, ``"UNDEFINED"`` without characteristics.
     source : str
         Recorded as the document's ``source``.
 
@@ -182,7 +183,8 @@ def results_document(features: Sequence[FeatureReport], *, application: str = "p
                 item_id=char_item_id, nominal_id=nominal_id, definition_id=definition_id, results_id=results_id))
     if inspection_status is None:
         statuses = {c.status for c in characteristics}
-        inspection_status = "FAIL" if "FAIL" in statuses else "PASS" if statuses == {"PASS"} else "UNDEFINED"
+        inspection_status = ("UNDEFINED" if not statuses else "FAIL" if "FAIL" in statuses
+                             else "PASS" if statuses == {"PASS"} else "UNKNOWN")
     results = MeasurementResults(id=results_id, features=tuple(measured), point_sets=point_sets,
                                  characteristics=tuple(characteristics), inspection_status=inspection_status)
     return CmmDocument(source=source, format="qif", units=Units(), version="3.0.0", feature_definitions=definitions,

@@ -13,7 +13,7 @@ naming the QIF id, the element path and the line.  A reference to an element of 
 (schema-valid, since QIF keys only check that the id exists) is left out and recorded in
 ``problems``, never guessed.
 
-The file is untrusted: :mod:`pcmm_geo.io.cmm._xml` refuses DTDs, entities and external
+The file is untrusted: :mod:`pcmm_geo.io.cmm.qif._xml` refuses DTDs, entities and external
 references (nothing is fetched), nesting deeper than ``max_depth`` and files over ``max_bytes``,
 and streams point lists straight into one float64 array each.
 
@@ -48,9 +48,6 @@ from pathlib import Path
 import numpy as np
 
 from pcmm_geo.errors import QifError
-from pcmm_geo.io.cmm._qif_characteristics import read_characteristics
-from pcmm_geo.io.cmm._qif_values import QifContext, snake_type
-from pcmm_geo.io.cmm._xml import DEFAULT_MAX_BYTES, DEFAULT_MAX_DEPTH, Node, NumberList, NumberListFailure, parse_xml
 from pcmm_geo.io.cmm.document import CmmDocument
 from pcmm_geo.io.cmm.model import (
     CoordinateSystem,
@@ -62,6 +59,16 @@ from pcmm_geo.io.cmm.model import (
     MeasurementResults,
     PointSetReference,
     Transform,
+)
+from pcmm_geo.io.cmm.qif._characteristics import read_characteristics
+from pcmm_geo.io.cmm.qif._values import QifContext, snake_type
+from pcmm_geo.io.cmm.qif._xml import (
+    DEFAULT_MAX_BYTES,
+    DEFAULT_MAX_DEPTH,
+    Node,
+    NumberList,
+    NumberListFailure,
+    parse_xml,
 )
 
 __all__ = ["QIF3_NAMESPACE", "read_qif"]

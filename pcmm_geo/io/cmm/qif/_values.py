@@ -9,8 +9,8 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from pcmm_geo.errors import QifError
-from pcmm_geo.io.cmm._xml import Node
 from pcmm_geo.io.cmm.model import FeatureGeometry, Units
+from pcmm_geo.io.cmm.qif._xml import Node
 
 __all__ = ["QifContext", "snake_type"]
 
