@@ -9,18 +9,18 @@ from __future__ import annotations
 
 import argparse
 import dataclasses
+from collections.abc import Iterator
+from contextlib import contextmanager
 from typing import Any
 
 from pcmm_geo.cli._output import declare_output
 
 
 def add_cmm_input_flags(parser: argparse.ArgumentParser) -> None:
-    """Add ``--feature``, ``--xyzijk``, ``--probe-radius``, ``--material-side``, ``--compensated`` and ``--qif``."""
+    """Add ``--feature``, ``--probe-radius``, ``--material-side``, ``--compensated`` and ``--qif``."""
     parser.add_argument("--feature", metavar="ID|NAME",
                         help="QIF file: the feature measurement (QIF id or name) whose points are used, when the file "
                              "holds several")
-    parser.add_argument("--xyzijk", action="store_true",
-                        help="FILE is a PC-DMIS XYZIJK export (points and surface normals); needs --compensated")
     parser.add_argument("--probe-radius", type=float, metavar="MM",
                         help="the points are probe-ball centres of this radius (mm): the fitted element is offset "
                              "onto the touched surface (a fixed --radius is the surface radius)")
@@ -29,9 +29,25 @@ def add_cmm_input_flags(parser: argparse.ArgumentParser) -> None:
                              "from the file (InternalExternal, point normals, nominal size)")
     parser.add_argument("--compensated", choices=("yes", "no"),
                         help="are the points surface points (yes) or probe centres (no)? Required for formats that "
-                             "do not say (PC-DMIS XYZIJK); checked against QIF's Compensated flag")
+                             "do not say (a PC-DMIS XYZIJK export, recognised by its first line); checked against "
+                             "QIF's Compensated flag")
     parser.add_argument("--qif", metavar="OUT.qif", help="also write the result as a QIF 3.0 results document")
     declare_output(parser, "qif")
+
+
+@contextmanager
+def naming_the_file(path: Any) -> Iterator[None]:
+    """Library errors raised inside (a fit of too few points, degenerate data) name ``path`` first."""
+    from pcmm_geo.errors import PcmmGeoError
+
+    try:
+        yield
+    except PcmmGeoError as exc:
+        text = str(exc)
+        if str(path) not in text:
+            exc.args = (f"{path}: {text}",)
+            exc.message = exc.args[0]
+        raise
 
 
 @dataclasses.dataclass
@@ -49,8 +65,7 @@ def read_fit_input(args: argparse.Namespace, element: str) -> FitInput:
     from pcmm_geo.cmm.points import load_feature_points, probe_radius_to_apply
     from pcmm_geo.errors import InvalidInputError
 
-    data = load_feature_points(args.file, element=element, feature=args.feature, decimal=args.decimal,
-                               pcdmis=args.xyzijk)
+    data = load_feature_points(args.file, element=element, feature=args.feature, decimal=args.decimal)
     radius, source = probe_radius_to_apply(data, compensated=args.compensated, probe_radius=args.probe_radius)
     if args.material_side is not None and radius == 0:
         raise InvalidInputError("--material-side", "a probe radius to apply (--probe-radius or probe centres in the "

@@ -35,6 +35,8 @@ _LAZY = {
     "feature_report": "export",
     "fit_results_document": "export",
     "FeaturePoints": "points",
+    "detect_format": "files",
+    "read_cmm_document": "files",
     "load_feature_points": "points",
 }
 

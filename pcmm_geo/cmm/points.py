@@ -5,7 +5,8 @@
 * a QIF results document (``.qif``): the points of one measured feature (chosen by QIF id or
   name when the file holds several), in the document's common frame, with the file's
   ``Compensated`` flag, ``ProbeRadius``, point normals, ``InternalExternal`` and nominal size;
-* a PC-DMIS ``XYZIJK`` export: points with normals, no compensation flag;
+* a PC-DMIS ``XYZIJK`` export (recognised by its first line): points with normals, no
+  compensation flag;
 * plain point files (CSV, XYZ, PLY, ...): points only.
 
 :func:`probe_radius_to_apply` decides from the file and the user's ``--compensated`` /
@@ -35,7 +36,6 @@ if TYPE_CHECKING:
 __all__ = ["FeaturePoints", "compensate_fit", "load_feature_points", "probe_radius_to_apply", "side_before_fit"]
 
 FloatArray = NDArray[np.float64]
-QIF_SUFFIXES = (".qif", ".xml")
 #: formats whose points carry no compensation flag: the user must say
 UNFLAGGED_FORMATS = ("pcdmis", "dmis")
 
@@ -86,17 +86,8 @@ class FeaturePoints:
         return f"{self.source} feature {self.feature.id} ({self.feature.name or 'unnamed'}, {self.feature.type})"
 
 
-def _is_qif(path: Path) -> bool:
-    if path.suffix.lower() == ".qif":
-        return True
-    if path.suffix.lower() != ".xml" or not path.is_file():
-        return False
-    with path.open("rb") as handle:
-        return b"QIFDocument" in handle.read(4096)
-
-
 def load_feature_points(path: str | Path, *, element: str | None = None, feature: str | None = None,
-                        decimal: str | None = None, pcdmis: bool = False) -> FeaturePoints:
+                        decimal: str | None = None) -> FeaturePoints:
     """Read the points of one feature from a QIF document, a PC-DMIS XYZIJK export or a point file.
 
     Parameters
@@ -109,8 +100,6 @@ def load_feature_points(path: str | Path, *, element: str | None = None, feature
         QIF id (digits) or name of the feature measurement; needed when the choice is not unique.
     decimal : {".", ","}, optional
         Decimal mark of a text point file.
-    pcdmis : bool
-        Read ``path`` as a PC-DMIS XYZIJK export (points and normals).
 
     Returns
     -------
@@ -119,19 +108,25 @@ def load_feature_points(path: str | Path, *, element: str | None = None, feature
     Raises
     ------
     QifError, UnsafeXmlError, FileFormatError
-        From the readers; a QIF file without points, or several candidates and no ``feature``
-        (the candidates are listed).
+        From the readers; a QIF file without points, a DMIS output or CALYPSO table (no points),
+        or several candidates and no ``feature`` (the candidates are listed).
     InvalidInputError
         ``feature`` given for a file that is not QIF.
     """
+    from pcmm_geo.cmm.files import detect_format
+
     file = Path(path)
-    if _is_qif(file):
+    kind = detect_format(file)
+    if kind == "qif":
         from pcmm_geo.io.cmm import read_qif
 
         return _from_document(read_qif(file), element=element, feature=feature)
+    if kind in ("dmis", "calypso"):
+        raise FileFormatError(str(file), f"expected measured points, got a {kind.upper()} results file (feature "
+                              "actuals and characteristics, no points): see pcmm qif show")
     if feature is not None:
         raise InvalidInputError("--feature", "a QIF file to choose a feature from", str(file))
-    if pcdmis:
+    if kind == "pcdmis":
         from pcmm_geo.io.cmm import read_pcdmis_xyzijk
 
         point_set = read_pcdmis_xyzijk(file)

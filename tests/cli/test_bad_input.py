@@ -24,6 +24,8 @@ EXPORT = DATA / "appendix_cd" / "cmm_export.csv"
 LASERS = DATA / "appendix_cd" / "lasers.csv"
 STL = DATA / "examples" / "gauge_block_nominal.stl"
 
+CALYPSO_HEADER = "planid\tpartnb\tid\ttype\tidsymbol\tactual\tnominal\tuppertol\tlowertol\tdeviation\texceed"
+CALYPSO_ROW = "P\t1\tFlatness A\tFlatness\tgdtFlat\t0.004\t0\t0.01\t0\t0.004\t"
 # name -> (argv for a bad FILE, header of the file type, one valid row, suffix of the file)
 Argv = Callable[[str, Path], list[str]]
 COMMANDS: dict[str, tuple[Argv, str, str, str]] = {
@@ -72,6 +74,11 @@ COMMANDS: dict[str, tuple[Argv, str, str, str]] = {
                  "<QIFDocument>", "</QIFDocument>", ".qif"),
     "calibrate qif probings": (lambda f, tmp: ["calibrate", f, str(LASERS)], "<QIFDocument>", "</QIFDocument>",
                                ".qif"),
+    "qif show dmis": (lambda f, tmp: ["qif", "show", f, "--units", "mm", "--angle-unit", "degree"],
+                      "DMISMN/'bad',05.2", "FA(P1)=FEAT/POINT,CART,1,2,3,0,0,1", ".dmo"),
+    "qif show calypso": (lambda f, tmp: ["qif", "show", f, "--units", "mm"], CALYPSO_HEADER, CALYPSO_ROW, "_chr.txt"),
+    "fit xyzijk": (lambda f, tmp: ["fit", "plane", f, "--compensated", "no", "--probe-radius", "1", "--qif",
+                                   str(tmp / "out" / "plane.qif")], "XYZIJK    METRIC", "1,2,3,0,0,1", ".xyz"),
     "calibrate feature map": (lambda f, tmp: ["calibrate", str(EXPORT.with_suffix(".qif")), str(LASERS),
                                               "--feature-map", f], '{"joint_a_1": "joint_a:1"', "}", ".json"),
 }

@@ -6,7 +6,13 @@ import argparse
 from pathlib import Path
 from typing import Any
 
-from pcmm_geo.cli._cmm_input import add_cmm_input_flags, compensation_summary, read_fit_input, write_qif_result
+from pcmm_geo.cli._cmm_input import (
+    add_cmm_input_flags,
+    compensation_summary,
+    naming_the_file,
+    read_fit_input,
+    write_qif_result,
+)
 from pcmm_geo.cli._output import (
     Report,
     Table,
@@ -89,28 +95,8 @@ def handle(args: argparse.Namespace) -> Report:
     if args.criterion != "gaussian":
         kwargs["criterion"] = args.criterion
     fit_element = getattr(fit, f"fit_{args.element}")
-    lines: list[str] = []
-    compensation = None
-    if source.probe_radius:
-        from pcmm_geo.cmm.points import compensate_fit, side_before_fit
-
-        if args.radius is not None:  # the surface radius: the centres lie probe_radius inside or outside it
-            free = {key: value for key, value in kwargs.items() if key != "radius"}
-            side = side_before_fit(source.data, args.element, source.probe_radius, args.material_side,
-                                   lambda p: fit_element(p, **free))
-            kwargs["radius"] = args.radius + (-source.probe_radius if side == "internal" else source.probe_radius)
-            if kwargs["radius"] <= 0:
-                raise InvalidInputError("--radius", f"a surface radius larger than the probe radius "
-                                        f"{source.probe_radius:g} mm for an internal feature", repr(args.radius))
-            args.material_side = side if args.material_side is None else args.material_side
-        centre_fit = fit_element(points, **kwargs)
-        compensation, side_source = compensate_fit(centre_fit, args.element, source.data, source.probe_radius,
-                                                   material_side=args.material_side)
-        result = compensation.surface
-        summary, line = compensation_summary(compensation, side_source, source.radius_source)
-        lines.append(line)
-    else:
-        result = fit_element(points, **kwargs)
+    with naming_the_file(args.file):
+        result, compensation, lines, summary = _fit(args, source, fit_element, kwargs)
 
     data = result.to_dict()
     if compensation is not None:
@@ -189,3 +175,33 @@ def _geometry_rows(result: Any) -> list[tuple[str, float]]:
         rows.extend((f"{name}_{axis}", float(v)) for axis, v in zip("xyz", vector, strict=False))
     return rows
 
+def _fit(args: argparse.Namespace, source: Any, fit_element: Any,
+         kwargs: dict[str, Any]) -> tuple[Any, Any, list[str], dict[str, Any]]:
+    """Fit the points; probe centres are fitted, then the element is offset onto the surface."""
+    from pcmm_geo.errors import InvalidInputError
+
+    points = source.points
+    lines: list[str] = []
+    summary: dict[str, Any] = {}
+    compensation = None
+    if source.probe_radius:
+        from pcmm_geo.cmm.points import compensate_fit, side_before_fit
+
+        if args.radius is not None:  # the surface radius: the centres lie probe_radius inside or outside it
+            free = {key: value for key, value in kwargs.items() if key != "radius"}
+            side = side_before_fit(source.data, args.element, source.probe_radius, args.material_side,
+                                   lambda p: fit_element(p, **free))
+            kwargs["radius"] = args.radius + (-source.probe_radius if side == "internal" else source.probe_radius)
+            if kwargs["radius"] <= 0:
+                raise InvalidInputError("--radius", f"a surface radius larger than the probe radius "
+                                        f"{source.probe_radius:g} mm for an internal feature", repr(args.radius))
+            args.material_side = side if args.material_side is None else args.material_side
+        centre_fit = fit_element(points, **kwargs)
+        compensation, side_source = compensate_fit(centre_fit, args.element, source.data, source.probe_radius,
+                                                   material_side=args.material_side)
+        result = compensation.surface
+        summary, line = compensation_summary(compensation, side_source, source.radius_source)
+        lines.append(line)
+    else:
+        result = fit_element(points, **kwargs)
+    return result, compensation, lines, summary

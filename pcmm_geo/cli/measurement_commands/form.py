@@ -5,7 +5,13 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from pcmm_geo.cli._cmm_input import add_cmm_input_flags, compensation_summary, read_fit_input, write_qif_result
+from pcmm_geo.cli._cmm_input import (
+    add_cmm_input_flags,
+    compensation_summary,
+    naming_the_file,
+    read_fit_input,
+    write_qif_result,
+)
 from pcmm_geo.cli._output import (
     EXIT_FAILURE,
     Report,
@@ -49,15 +55,16 @@ def handle(args: argparse.Namespace) -> Report:
     from pcmm_geo.fit.zone.form import evaluate_form
 
     source = read_fit_input(args, args.element)
-    evaluation = evaluate_form(source.points, args.element, tolerance=args.tolerance)
     compensation = None
-    if source.probe_radius:  # the zone width stays; the zone's element moves onto the surface
-        from pcmm_geo.cmm.points import compensate_fit
+    with naming_the_file(args.file):
+        evaluation = evaluate_form(source.points, args.element, tolerance=args.tolerance)
+        if source.probe_radius:  # the zone width stays; the zone's element moves onto the surface
+            from pcmm_geo.cmm.points import compensate_fit
 
-        compensation, side_source = compensate_fit(evaluation.fit, args.element, source.data, source.probe_radius,
-                                                   material_side=args.material_side)
-        evaluation = dataclasses.replace(evaluation, fit=compensation.surface,
-                                         points=compensation.surface_points(source.points))
+            compensation, side_source = compensate_fit(evaluation.fit, args.element, source.data,
+                                                       source.probe_radius, material_side=args.material_side)
+            evaluation = dataclasses.replace(evaluation, fit=compensation.surface,
+                                             points=compensation.surface_points(source.points))
     fit = evaluation.fit
     data = evaluation.to_dict()
     data["file"] = str(args.file)

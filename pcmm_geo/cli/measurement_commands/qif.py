@@ -23,8 +23,9 @@ def register(subparsers: Any) -> None:
                     "entities and external references are refused, depth and size are bounded.",
     )
     actions = parser.add_subparsers(dest="action", metavar="ACTION", required=True)
-    show = actions.add_parser("show", help="list the features, point sets and characteristics of a QIF file")
-    show.add_argument("file", help="QIF results file")
+    show = actions.add_parser("show", help="list the features, point sets and characteristics of a QIF file "
+                              "(or a DMIS output, a CALYPSO table)")
+    show.add_argument("file", help="QIF results file (or DMIS output .dmo, CALYPSO *_chr.txt)")
     _add_limits(show)
     add_json_flag(show)
     show.set_defaults(handler=_handle_show)
@@ -58,19 +59,26 @@ def register(subparsers: Any) -> None:
 
 def _add_limits(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--max-mb", type=float, metavar="MB", default=None,
-                        help="largest file read, in MB (default 1024; scanner point clouds may need more)")
+                        help="largest QIF file read, in MB (default 1024; scanner point clouds may need more)")
+    text = parser.add_argument_group("DMIS output and CALYPSO tables (which may not state their units)")
+    text.add_argument("--units", choices=("mm", "cm", "m", "inch", "feet"), help="length unit of the file")
+    text.add_argument("--angle-unit", choices=("degree", "radian"), help="angle unit of the file")
+    text.add_argument("--size-values", choices=("actual", "deviation"),
+                      help="DMIS: the number of a size tolerance result is the actual size or its deviation")
+    text.add_argument("--encoding", default="utf-8", help="text encoding (Windows software: often cp1252)")
 
 
 def _read(args: argparse.Namespace) -> Any:
+    from pcmm_geo.cmm.files import read_cmm_document
     from pcmm_geo.errors import InvalidInputError
-    from pcmm_geo.io.cmm import DEFAULT_MAX_BYTES, read_qif
 
-    limit = DEFAULT_MAX_BYTES
+    limit = None
     if args.max_mb is not None:
         if not (args.max_mb > 0 and args.max_mb < 1e9):
             raise InvalidInputError("--max-mb", "a positive size in MB", repr(args.max_mb))
         limit = int(args.max_mb * 1024 * 1024)
-    return read_qif(args.file, max_bytes=limit)
+    return read_cmm_document(args.file, units=args.units, angle_unit=args.angle_unit, size_values=args.size_values,
+                             encoding=args.encoding, max_bytes=limit)
 
 
 def _vector(value: Any) -> list[float]:
@@ -151,8 +159,10 @@ def _handle_show(args: argparse.Namespace) -> Report:
               ["id", "name", "type", "value", "nominal", "lower limit", "upper limit", "quantity", "status",
                "features"], char_rows),
     ]
-    lines = [f"QIF {document.version or '(version not stated)'} written by {document.application or 'unknown'}; "
-             f"file units {units.linear_unit}" + ("" if units.mm_per_linear_unit == 1.0 else " (converted to mm)")]
+    origin = f"QIF {document.version or '(version not stated)'}" if document.format == "qif" else \
+        document.format.upper()
+    lines = [f"{origin} written by {document.application or 'unknown'}; file units {units.linear_unit}"
+             + ("" if units.mm_per_linear_unit == 1.0 else " (converted to mm)")]
     lines += [f"left out: {problem}" for problem in document.problems]
     return Report(data=data, tables=[t for t in tables if t.rows], lines=lines)
 
