@@ -162,3 +162,43 @@ def test_a_failed_run_writes_no_qif(tmp_path: Path, capsys: pytest.CaptureFixtur
     code, _, err = run(["fit", "torus", str(SAMPLE), "--feature", "CYL_1", "--qif", str(out_file)], capsys)
     assert code == 2 and len(err.strip().splitlines()) == 1
     assert not out_file.exists() and list(tmp_path.iterdir()) == []
+
+
+def test_xyzijk_export_needs_the_compensation_stated(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    from pcmm_geo.fit.reference import make_reference_data
+
+    data = make_reference_data("cylinder", n_points=40, radius=6.0, length=20.0, form=0.002, offset=50.0, rng=8)
+    axis, point = data.parameters["axis"], data.parameters["point"]
+    radial = data.points - point - np.outer((data.points - point) @ axis, axis)
+    outward = -radial / np.linalg.norm(radial, axis=1, keepdims=True)  # a bore: normals toward the axis
+    centres = data.points + 0.5 * outward
+    export = tmp_path / "bore.txt"
+    export.write_text("XYZIJK    METRIC\n" + "".join(",".join(repr(float(v)) for v in (*c, *n)) + "\n"
+                                                  for c, n in zip(centres, outward, strict=True)))
+    code, _, err = run(["fit", "cylinder", str(export)], capsys)
+    assert code == 2 and "--compensated" in err and "bore.txt" in err
+    code, out, err = run(["fit", "cylinder", str(export), "--compensated", "no", "--probe-radius", "0.5", "--json"],
+                         capsys)
+    assert code == 0, err
+    fitted = json.loads(out)
+    assert fitted["radius"] == pytest.approx(6.0, abs=1e-9)  # the known least-squares bore
+    assert (fitted["probe_compensation"]["side"], fitted["probe_compensation"]["side_source"]) == (
+        "internal", "the point normals")
+    code, out, _ = run(["fit", "cylinder", str(export), "--compensated", "yes", "--json"], capsys)
+    assert json.loads(out)["radius"] == pytest.approx(5.5, abs=1e-9)
+
+
+def test_show_reads_dmis_output_and_calypso_tables(capsys: pytest.CaptureFixture[str]) -> None:
+    cmm = Path(__file__).parents[1] / "data" / "cmm"
+    code, out, err = run(["qif", "show", str(cmm / "standard.dmo"), "--json"], capsys)
+    assert code == 0, err
+    data = json.loads(out)
+    assert data["format"] == "dmis" and {f["type"] for f in data["features"]} >= {"circle", "sphere", "plane"}
+    code, _, err = run(["qif", "show", str(cmm / "flange_chr.txt")], capsys)
+    assert code == 2 and "units" in err  # a CALYPSO table does not state its unit: never guessed
+    code, out, _ = run(["qif", "show", str(cmm / "flange_chr.txt"), "--units", "mm", "--json"], capsys)
+    assert code == 0 and json.loads(out)["format"] == "calypso"
+    code, _, err = run(["qif", "show", str(SAMPLE), "--units", "inch"], capsys)
+    assert code == 2 and "states its units" in err
+    code, _, err = run(["fit", "plane", str(cmm / "standard.dmo")], capsys)
+    assert code == 2 and "no points" in err
