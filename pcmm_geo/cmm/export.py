@@ -172,10 +172,12 @@ def feature_report(
         characteristics.append(Characteristic(id=0, type=_SIZE_CHARACTERISTICS[element], value=actual.diameter,
                                               status="NOT_ANALYZED", uncertainty=size_u))
     if evaluation is not None and evaluation.tolerance is not None:
+        # straightness of a 3-D line: the smallest enclosing cylinder; of a 2-D line: two parallel lines
+        zone = None if element != "line" else "diametrical" if np.size(fit.point) == 3 else "non_diametrical"
         characteristics.append(Characteristic(id=0, type=FORM_CHARACTERISTICS[element],
                                               value=float(evaluation.deviation),
                                               tolerance=Tolerance(value=float(evaluation.tolerance)),
-                                              status=_status(evaluation)))
+                                              status=_status(evaluation), zone_shape=zone))
     if internal_external is None and nominal is not None and compensation is not None \
             and element in ("circle", "cylinder", "sphere", "cone"):
         internal_external = compensation.side.upper()

@@ -177,3 +177,26 @@ def test_written_fit_validates_and_reads_back_to_1e_12(tmp_path: Path, kind: str
     assert feature.substitute_algorithm == "LEASTSQUARES"
     (check,) = verify_qif(path, tolerance_mm=1e-9).features
     assert check.agrees is True, check.reason
+
+
+@pytest.mark.parametrize("kind", ["circle", "plane", "cylinder", "sphere", "cone", "line"])
+def test_form_evaluation_is_written_with_its_verdict(tmp_path: Path, kind: str) -> None:
+    from pcmm_geo.fit.zone.form import evaluate_form
+
+    if kind == "line":
+        data = make_reference_data("line3d", n_points=15, length=40.0, form=0.004, offset=20.0, rng=16)
+        surface = data.points
+    else:
+        surface, _, _ = _case(kind, "external")
+    evaluation = evaluate_form(surface, kind, tolerance=0.004)
+    document = fit_results_document(evaluation.fit, kind, points=surface, evaluation=evaluation, name="F1")
+    path = write_qif(document, tmp_path / f"{kind}_form.qif")
+    assert validate_qif(path, XSD) == ()
+    back = read_qif(path)
+    feature = back.feature("F1")
+    assert feature.substitute_algorithm == "MINMAX"
+    assert abs(feature.actual.form - evaluation.deviation) <= 1e-15
+    (form,) = [c for c in back.characteristics if c.type not in ("diameter", "spherical_diameter")]
+    expected = {True: "PASS", False: "FAIL", None: "INDETERMINATE"}[evaluation.passed]
+    assert (form.value, form.tolerance.value, form.status) == (pytest.approx(evaluation.deviation, abs=1e-15),
+                                                               0.004, expected)
