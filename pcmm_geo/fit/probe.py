@@ -72,10 +72,10 @@ class ProbeCompensation:
     Attributes
     ----------
     surface : FitResult
-        The element of the touched surface, of the same type as ``probe_centre`` (its
+        The element of the touched surface, of the same type as ``probe_center`` (its
         ``residuals``, ``rms`` and ``form`` are those of the centres, which the offset keeps;
         its covariance is the centres' plus ``probe_radius_u**2`` on the size or position).
-    probe_centre : FitResult
+    probe_center : FitResult
         The element fitted to the probe-ball centres.
     probe_radius : float
         Effective probe-ball radius (mm).
@@ -95,7 +95,7 @@ class ProbeCompensation:
     """
 
     surface: FitResult
-    probe_centre: FitResult
+    probe_center: FitResult
     probe_radius: float
     side: str
     side_source: str
@@ -124,15 +124,15 @@ class ProbeCompensation:
         >>> (comp.surface_points(12 * d)[:2] + 0.0).tolist()
         [[10.0, 0.0, 0.0], [-10.0, 0.0, 0.0]]
         """
-        element = _element(self.probe_centre)
-        dims = 2 if element == "circle" and self.probe_centre.normal is None else 3
+        element = _element(self.probe_center)
+        dims = 2 if element == "circle" and self.probe_center.normal is None else 3
         pts = as_points(points, element=element, dims=(dims,))
         if self.outward is not None:
             return compensate_points(pts, self.outward, self.probe_radius)
-        away = _radial_directions(self.probe_centre, element, pts)
+        away = _radial_directions(self.probe_center, element, pts)
         if element == "cone":
-            alpha = float(self.probe_centre.half_angle)
-            away = np.cos(alpha) * away - np.sin(alpha) * self.probe_centre.axis
+            alpha = float(self.probe_center.half_angle)
+            away = np.cos(alpha) * away - np.sin(alpha) * self.probe_center.axis
         outward = -away if self.side == "internal" else away
         return compensate_points(pts, outward, self.probe_radius)
 
@@ -237,7 +237,7 @@ def material_side_from_normals(fit: FitResult, points: ArrayLike, outward: Array
 
 
 def material_side_from_nominal(
-    centre_diameter: float, nominal_diameter: float, probe_radius: float, *, cone_half_angle: float = 0.0
+    center_diameter: float, nominal_diameter: float, probe_radius: float, *, cone_half_angle: float = 0.0
 ) -> Side:
     """Material side inferred from the nominal size, when unambiguous.
 
@@ -248,7 +248,7 @@ def material_side_from_nominal(
 
     Parameters
     ----------
-    centre_diameter : float
+    center_diameter : float
         Diameter of the element fitted to the probe centres (mm).
     nominal_diameter : float
         Nominal diameter of the feature at the same place (mm).
@@ -270,8 +270,8 @@ def material_side_from_nominal(
     'external'
     """
     k = 1.0 / np.cos(cone_half_angle)
-    internal = centre_diameter + 2.0 * probe_radius * k
-    external = centre_diameter - 2.0 * probe_radius * k
+    internal = center_diameter + 2.0 * probe_radius * k
+    external = center_diameter - 2.0 * probe_radius * k
     margin = INFERENCE_MARGIN * 4.0 * probe_radius * k
     if abs(internal - nominal_diameter) < margin:
         return "internal"

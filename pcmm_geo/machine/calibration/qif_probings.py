@@ -266,12 +266,12 @@ def write_qif_probings(features: ProbedFeatures, path: str | Path, *, overwrite:
     return write_qif(document, path, overwrite=overwrite, linear_unit=linear_unit)
 
 
-def _ball_radius(centre_radius: float, points: Any) -> tuple[float, str]:
+def _ball_radius(center_radius: float, points: Any) -> tuple[float, str]:
     """The ball's radius from the probe-centre sphere (a ball is external: radius - probe radius)."""
     if points.compensated is True:
-        return centre_radius, ""
+        return center_radius, ""
     if points.compensated is False and points.probe_radius is not None:
-        return centre_radius - float(points.probe_radius), \
+        return center_radius - float(points.probe_radius), \
             f"ball radius compensated by the probe radius {float(points.probe_radius):g} mm (external sphere)"
-    return centre_radius, "radius of the probe centres (the file gives no compensation or probe radius); " \
+    return center_radius, "radius of the probe centres (the file gives no compensation or probe radius); " \
         "the centre is the same either way"
