@@ -140,7 +140,7 @@ def _criterion(feature: MeasuredFeature, requested: str | None) -> tuple[str, st
     if algorithm in _DEFAULT_ALGORITHMS:
         return "gaussian", "default"
     raise NotRefittedError(f"the file's fitting algorithm {feature.substitute_algorithm!r} is not one pcmm_geo offers "
-                      "(least squares, minimum zone, MCC, MIC): give --criterion to refit anyway")
+                           "(least squares, minimum zone, MCC, MIC): give --criterion to refit anyway")
 
 
 def _unit(vector: Any) -> FloatArray | None:
@@ -203,7 +203,7 @@ def _prepare_points(point_set: MeasuredPointSet, compensated: bool | None,
     if point_set.compensated is None:
         if compensated is None:
             raise NotRefittedError("the file does not say whether the points are probe centres or surface points: "
-                              "give --compensated yes|no")
+                                   "give --compensated yes|no")
         if compensated:
             return points, 0.0, "the points are surface points (--compensated yes)", normals
         radius = probe_radius if probe_radius is not None else point_set.probe_radius
@@ -221,7 +221,7 @@ def _prepare_points(point_set: MeasuredPointSet, compensated: bool | None,
         return surface, 0.0, "per-point ProbeRadii: probe centres compensated along their normals", normals
     if point_set.probe_radius is None:
         raise NotRefittedError("the points are probe centres (Compensated=false) but the file gives no ProbeRadius: "
-                          "give --probe-radius")
+                               "give --probe-radius")
     return points, float(point_set.probe_radius), "probe centres (Compensated=false), ProbeRadius from the file", \
         normals
 
@@ -284,7 +284,10 @@ def refit_feature(
         raise InvalidInputError("circle_plane", "'least-squares' or 'reported'", repr(circle_plane))
     if feature.type not in REFITTED_TYPES:
         raise NotRefittedError(f"features of type {feature.type} are not refitted")
-    point_set = document.points_of(feature, frame="common")
+    try:
+        point_set = document.points_of(feature, frame="common")
+    except PcmmGeoError as exc:  # e.g. a point set whose frame cannot be put into the common one
+        raise NotRefittedError(" ".join(str(exc).split())) from None
     if point_set is None or len(point_set) == 0:
         why = "; ".join(feature.problems)
         raise NotRefittedError("the file holds no measured points for this feature" + (f" ({why})" if why else ""))
@@ -312,7 +315,7 @@ def _side_arguments(context: _Context, material_side: str | None, normals: Float
             f"inferred from the nominal diameter {context.nominal_diameter:.6g} mm"
     stated = context.internal_external or "nothing"
     raise NotRefittedError(f"material side unknown: the file states {stated} for InternalExternal, the points carry no "
-                      "normals and no nominal size decides it")
+                           "normals and no nominal size decides it")
 
 
 def _round_compensation(fit: FitResult, radius: float, radius_source: str, context: _Context,
@@ -431,7 +434,7 @@ def _flat_compensation(fit: FitResult, kind: str, radius: float, radius_source: 
     outward, source = _outward(context, normals, kind)
     if outward is None:
         raise NotRefittedError(f"the {kind}'s points are probe centres but neither the points nor the {kind} carry a "
-                          "normal saying where the material is")
+                               "normal saying where the material is")
     try:
         result = compensate_probe(fit, radius, outward=outward)
     except InvalidInputError as exc:
@@ -473,7 +476,7 @@ def _point(points: FloatArray, normals: FloatArray | None, radius: float, radius
         outward, source = _outward(context, normals, "point")
         if outward is None:
             raise NotRefittedError("the point is a probe centre but neither the point set nor the feature (reported or "
-                              "nominal) gives the surface normal to compensate it along")
+                                   "nominal) gives the surface normal to compensate it along")
         surface = compensate_points(points, outward, radius)
         mean_normal = np.mean(np.atleast_2d(outward) / np.linalg.norm(np.atleast_2d(outward), axis=1, keepdims=True),
                               axis=0)
