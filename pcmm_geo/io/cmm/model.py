@@ -239,7 +239,7 @@ class MeasuredPointSet(_Record):
     id : int or None
         QIF id (None for points combined from several sets by :meth:`~pcmm_geo.io.cmm.document.CmmDocument.points_of`).
     points : ndarray (N, 3)
-        mm, as stored (probe-ball centres when ``compensated`` is False).
+        mm, as stored (probe-ball centers when ``compensated`` is False).
     normals : ndarray (N, 3) or None
         Unit vectors per point (QIF ``Normals``, PC-DMIS IJK), where given.
     compensated : bool or None

@@ -61,7 +61,7 @@ def test_pts_sample_circles_and_cylinder_with_their_points() -> None:
         assert not points.points.flags.writeable
 
 
-def test_pts_sample_points_are_probe_centres_of_the_reported_internal_circles() -> None:
+def test_pts_sample_points_are_probe_centers_of_the_reported_internal_circles() -> None:
     """Independent truth: the CMM's own report. The probe-ball centres of an internal circle lie on a
     circle of radius D/2 - r_probe about the reported centre, in the reported plane."""
     document = read_qif(PTS_SAMPLE)
