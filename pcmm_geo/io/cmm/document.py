@@ -158,7 +158,7 @@ def transform_of_point_set(document: CmmDocument, point_set: MeasuredPointSet) -
 
 
 def feature_points(document: CmmDocument, feature: MeasuredFeature, frame: str) -> MeasuredPointSet | None:
-    """See :meth:`pcmm_geo.io.cmm.model.CmmDocument.points_of`."""
+    """See :meth:`CmmDocument.points_of`."""
     if frame not in ("common", "stored"):
         raise ValueError(f"frame: expected 'common' or 'stored', got {frame!r}")
     if not feature.point_set_refs:

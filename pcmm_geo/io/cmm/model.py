@@ -4,20 +4,16 @@ One set of frozen dataclasses for every CMM format pcmm_geo reads (QIF 3.0, DMIS
 CALYPSO characteristic tables, PC-DMIS XYZIJK text) and for the QIF writer.  The classes
 follow QIF 3.0 (ISO 23952) where QIF has a concept and keep its vocabulary:
 
-=========================  ===========================================================
-class                      QIF element(s)
-=========================  ===========================================================
-:class:`FeatureDefinition`  ``<Type>FeatureDefinition`` (``InternalExternal``, nominal size)
-:class:`FeatureNominal`     ``<Type>FeatureNominal`` (nominal location, normal, axis)
-:class:`FeatureItem`        ``<Type>FeatureItem`` (``FeatureName``)
-:class:`MeasuredFeature`    ``<Type>FeatureMeasurement`` (the CMM's actuals, ``PointList``)
-:class:`MeasuredPointSet`   ``MeasuredPointSet`` (points, normals, ``Compensated``, ``ProbeRadius``)
-:class:`Characteristic`     ``<Type>Characteristic{Definition,Nominal,Item,Measurement}``
-                            flattened into one record per measurement
-:class:`Transform`          ``Transform`` / ``ActualTransforms/Transform`` / ``NominalTransform``
-:class:`Units`              ``FileUnits/PrimaryUnits`` (what the file used)
-:class:`~pcmm_geo.io.cmm.document.CmmDocument`  ``QIFDocument`` (or the whole DMIS / CALYPSO file)
-=========================  ===========================================================
+- :class:`FeatureDefinition`: ``<Type>FeatureDefinition`` (``InternalExternal``, nominal size);
+- :class:`FeatureNominal`: ``<Type>FeatureNominal`` (nominal location, normal, axis);
+- :class:`FeatureItem`: ``<Type>FeatureItem`` (``FeatureName``);
+- :class:`MeasuredFeature`: ``<Type>FeatureMeasurement`` (the CMM's actuals, ``PointList``);
+- :class:`MeasuredPointSet`: ``MeasuredPointSet`` (points, normals, ``Compensated``, ``ProbeRadius``);
+- :class:`Characteristic`: ``<Type>Characteristic{Definition,Nominal,Item,Measurement}`` flattened
+  into one record per measurement;
+- :class:`Transform`: ``Transform``, ``ActualTransforms/Transform``, ``NominalTransform``;
+- :class:`Units`: ``FileUnits/PrimaryUnits`` (what the file used);
+- :class:`~pcmm_geo.io.cmm.document.CmmDocument`: ``QIFDocument`` (or a whole DMIS / CALYPSO file).
 
 Units inside are always millimetres and radians: readers convert (inch files, degrees) and
 :class:`Units` records what the file said.  Vectors are ``(3,)`` float64 arrays, point sets
@@ -241,9 +237,9 @@ class MeasuredPointSet(_Record):
     Attributes
     ----------
     id : int or None
-        QIF id (None for points combined from several sets by :meth:`CmmDocument.points_of`).
+        QIF id (None for points combined from several sets by :meth:`~pcmm_geo.io.cmm.document.CmmDocument.points_of`).
     points : ndarray (N, 3)
-        mm, as stored (probe-ball centres when ``compensated`` is False).
+        mm, as stored (probe-ball centers when ``compensated`` is False).
     normals : ndarray (N, 3) or None
         Unit vectors per point (QIF ``Normals``, PC-DMIS IJK), where given.
     compensated : bool or None

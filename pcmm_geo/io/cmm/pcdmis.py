@@ -16,7 +16,7 @@ numbers  meaning
 
 :func:`read_pcdmis_xyzijk` returns a :class:`~pcmm_geo.io.cmm.MeasuredPointSet` in mm with
 the unit normals, ``compensated=None`` (the format does not say whether the points are probe
-centres or surface points: the user must).  Either every point has a vector or none has one.
+centers or surface points: the user must).  Either every point has a vector or none has one.
 :func:`is_pcdmis_xyzijk` tells such a file by its first line (for
 :func:`pcmm_geo.io.read_points`, which returns the points alone).  The file is streamed.
 

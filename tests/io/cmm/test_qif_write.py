@@ -226,3 +226,21 @@ def test_the_pts_sample_characteristics_are_not_all_writable() -> None:
     with pytest.raises(InvalidInputError, match="'linear_coordinate'"):
         write_qif(document, DATA / "never_written.qif")
     assert not (DATA / "never_written.qif").exists()
+
+
+def test_missing_lxml_names_the_extra(monkeypatch: pytest.MonkeyPatch) -> None:
+    import sys
+
+    from pcmm_geo.errors import MissingDependencyError
+    from pcmm_geo.io.cmm.qif import schema
+
+    schema._schema.cache_clear()
+    for module in [m for m in sys.modules if m == "lxml" or m.startswith("lxml.")]:
+        monkeypatch.delitem(sys.modules, module)
+    monkeypatch.setitem(sys.modules, "lxml", None)
+    try:
+        with pytest.raises(MissingDependencyError, match=r"pip install 'pcmm_geo\[qif\]'") as caught:
+            validate_qif(DATA / "samples" / "QIF_PTS_SAMPLE.QIF", XSD)
+        assert (caught.value.package, caught.value.extra) == ("lxml", "qif")
+    finally:
+        schema._schema.cache_clear()

@@ -73,6 +73,14 @@ class XmlText:
         else:
             self.raw(f"{pad}<{tag}{attributes_text(attributes)}>{escape(text)}</{tag}>\n")
 
+    def chain(self, *tags: str, text: str | None = None) -> None:
+        """Nested elements ``tags[0]/tags[1]/.../tags[-1]``, the last a leaf holding ``text``."""
+        for tag in tags[:-1]:
+            self.open(tag)
+        self.leaf(tags[-1], text)
+        for tag in reversed(tags[:-1]):
+            self.close(tag)
+
     def ids(self, tag: str, ids: Iterable[int]) -> None:
         ids = list(ids)
         self.open(tag, n=len(ids))

@@ -113,9 +113,7 @@ class _Writer:
         if standard_id is not None:  # QIF characteristics name the standard they follow
             xml.open("StandardsDefinitions", n=1)
             xml.open("Standard", id=standard_id)
-            xml.open("Organization")
-            xml.leaf("StandardsOrganizationEnum", "ISO")
-            xml.close("Organization")
+            xml.chain("Organization", "StandardsOrganizationEnum", text="ISO")
             xml.leaf("Designator", "1101")
             xml.leaf("Year", "2017")
             xml.close("Standard")
@@ -150,16 +148,12 @@ class _Writer:
         xml.open("AngularUnit")
         xml.leaf("SIUnitName", "radian")
         xml.leaf("UnitName", "degree")
-        xml.open("UnitConversion")
-        xml.leaf("Factor", decimal_text(math.pi / 180.0))
-        xml.close("UnitConversion")
+        xml.chain("UnitConversion", "Factor", text=decimal_text(math.pi / 180.0))
         xml.close("AngularUnit")
         xml.open("LinearUnit")
         xml.leaf("SIUnitName", "meter")
         xml.leaf("UnitName", self.unit_name)
-        xml.open("UnitConversion")
-        xml.leaf("Factor", decimal_text(self.mm_per_unit / 1000.0))
-        xml.close("UnitConversion")
+        xml.chain("UnitConversion", "Factor", text=decimal_text(self.mm_per_unit / 1000.0))
         xml.close("LinearUnit")
         xml.close("PrimaryUnits")
         xml.close("FileUnits")
@@ -251,13 +245,7 @@ class _Writer:
             raise InvalidInputError(f"feature item {item.id}", "a nominal id (QIF requires it)", "None")
         xml.leaf("FeatureNominalId", str(item.nominal_id))
         xml.leaf("FeatureName", item.name or f"F{item.id}")
-        xml.open("DeterminationMode")
-        xml.open("Checked")
-        xml.open("CheckDetails")
-        xml.leaf("Measured")
-        xml.close("CheckDetails")
-        xml.close("Checked")
-        xml.close("DeterminationMode")
+        xml.chain("DeterminationMode", "Checked", "CheckDetails", "Measured")
         xml.close(tag)
 
     # -- characteristics --------------------------------------------------------------------------
@@ -308,9 +296,7 @@ class _Writer:
         if characteristic.type in FORM_CHARACTERISTICS:
             xml.leaf("ToleranceValue", self.length(tolerance.value))  # type: ignore[union-attr,arg-type]
             if characteristic.type == "straightness":
-                xml.open("ZoneShape")
-                xml.leaf(f"{camel(characteristic.zone_shape)}Zone")  # type: ignore[arg-type]
-                xml.close("ZoneShape")
+                xml.chain("ZoneShape", f"{camel(characteristic.zone_shape)}Zone")  # type: ignore[arg-type]
         elif tolerance is None or (tolerance.max_value is None and tolerance.min_value is None):
             xml.leaf("NonTolerance", "MEASURED")
         else:
@@ -366,9 +352,7 @@ class _Writer:
         if status not in INSPECTION_STATUSES:
             raise InvalidInputError(f"results {results.id}.inspection_status",
                                     f"one of {', '.join(INSPECTION_STATUSES)}", repr(status))
-        xml.open("InspectionStatus")
-        xml.leaf("InspectionStatusEnum", status)
-        xml.close("InspectionStatus")
+        xml.chain("InspectionStatus", "InspectionStatusEnum", text=status)
         xml.close("MeasurementResults")
 
     def _measurement(self, feature: MeasuredFeature) -> None:
@@ -394,11 +378,9 @@ class _Writer:
                              range=f"{ref.start + 1} {count if ref.stop is None else ref.stop}")
             xml.close("PointList")
         if feature.substitute_algorithm:
-            xml.open("SubstituteFeatureAlgorithm")
             known = feature.substitute_algorithm in ALGORITHMS
-            xml.leaf("SubstituteFeatureAlgorithmEnum" if known else "OtherSubstituteFeatureAlgorithm",
-                     feature.substitute_algorithm)
-            xml.close("SubstituteFeatureAlgorithm")
+            xml.chain("SubstituteFeatureAlgorithm", "SubstituteFeatureAlgorithmEnum" if known
+                      else "OtherSubstituteFeatureAlgorithm", text=feature.substitute_algorithm)
         self._placement(feature.type, actual, nominal=False)
         sizes = {"circle": ("diameter", "diameter_min", "diameter_max"),
                  "cylinder": ("diameter", "length", "diameter_min", "diameter_max"),
@@ -447,11 +429,9 @@ class _Writer:
         xml = self.xml
         tag = f"{camel(characteristic.type)}CharacteristicMeasurement"
         xml.open(tag, id=characteristic.id)
-        xml.open("Status")
         status = characteristic.status or "NOT_ANALYZED"
         known = status in CHARACTERISTIC_STATUSES
-        xml.leaf("CharacteristicStatusEnum" if known else "OtherCharacteristicStatus", status)
-        xml.close("Status")
+        xml.chain("Status", "CharacteristicStatusEnum" if known else "OtherCharacteristicStatus", text=status)
         xml.leaf("CharacteristicItemId", str(characteristic.item_id))
         if characteristic.feature_measurement_ids:
             xml.ids("FeatureMeasurementIds", characteristic.feature_measurement_ids)
