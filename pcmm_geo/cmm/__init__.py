@@ -4,18 +4,21 @@ The readers and the writer (:mod:`pcmm_geo.io.cmm`) know plain dataclasses and n
 (:mod:`pcmm_geo.fit`, with probe compensation in :mod:`pcmm_geo.fit.probe`) know no files.  This
 package joins them:
 
-======================================  ===========================================================
-name                                    what it does
-======================================  ===========================================================
-:func:`verify_document`, :func:`verify_qif`  refit every measured feature of a results file from its
-                                        points (compensated, common frame, the file's criterion)
-                                        and compare with the CMM's actuals (``pcmm qif verify``)
-:func:`refit_feature`                   the refit of one feature
-:func:`feature_report`,                 a fit (with form evaluation, verdict, uncertainty) as the
-:func:`fit_results_document`            QIF writer's records (``pcmm fit|form --qif``)
-:func:`load_feature_points`             the points of one feature of a CMM file, with what the
-                                        file says about their compensation (``pcmm fit FILE.qif``)
-======================================  ===========================================================
+================================  =================================================================
+name                              what it does
+================================  =================================================================
+:func:`verify_document`           refit every measured feature of a results file from its points
+                                  (compensated, common frame, the file's criterion) and compare
+                                  with the CMM's actuals (``pcmm qif verify``); :func:`verify_qif`
+                                  reads the file first
+:func:`refit_feature`             the refit of one feature
+:func:`fit_results_document`      a fit (with form evaluation, verdict, uncertainty) as the QIF
+                                  writer's records (``pcmm fit|form --qif``); one feature:
+                                  :func:`feature_report`
+:func:`load_feature_points`       the points of one feature of a CMM file, with what the file
+                                  says about their compensation (``pcmm fit FILE.qif``)
+:func:`read_cmm_document`         a QIF document, DMIS output or CALYPSO table, format detected
+================================  =================================================================
 """
 
 from __future__ import annotations

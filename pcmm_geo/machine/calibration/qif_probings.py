@@ -65,7 +65,7 @@ def role_of(name: str | None) -> Role | None:
 
 
 def read_feature_map(path: str | Path) -> dict[str, Role]:
-    """Read ``{"QIF feature name": "joint_a:1" | ... | "tip"}`` from a JSON file.
+    """Read a feature map: a JSON object from QIF feature names to roles ``joint_a:1`` or ``tip``.
 
     Raises
     ------
