@@ -42,6 +42,7 @@ __all__ = [
     "IncompleteTestError",
     "OutOfRangeError",
     "InconsistentMeasurementError",
+    "NotRefittedError",
     "CalibrationNotConvergedWarning",
     "IllConditionedWarning",
     "AmbiguousFitWarning",
@@ -304,6 +305,17 @@ class InconsistentMeasurementError(PcmmGeoError, ValueError):
         if detail:
             text += f" ({detail})"
         super().__init__(text, what=what, residual=residual, tolerance=tolerance, unit=unit, detail=detail)
+
+
+class NotRefittedError(PcmmGeoError, ValueError):
+    """A feature of a CMM results file that cannot be refitted from its points (no points, compensation
+    or material side unknown, a type or fitting algorithm not offered, a fit that fails).
+
+    Fields: ``reason``.
+    """
+
+    def __init__(self, reason: str) -> None:
+        super().__init__(_bounded(reason), reason=reason)
 
 
 class PcmmGeoWarning(UserWarning):
