@@ -103,8 +103,8 @@ class _Candidates:
 
 
 def _seed_subset(distances: FloatArray, per_level: int) -> IndexArray:
-    """The ``per_level`` nearest and farthest points."""
-    if distances.size <= 2 * per_level:
+    """The ``per_level`` nearest and farthest points (all points of a set of at most ten)."""
+    if distances.size <= max(2 * per_level, 10):
         return np.arange(distances.size)
     near = np.argpartition(distances, per_level)[:per_level]
     far = np.argpartition(-distances, per_level)[:per_level]
