@@ -52,6 +52,9 @@ EXTRAS_NEEDED = {
     "cli/test_cli_repeatability.py::test_repeatability_of_the_printed_tables": "plots",
     "cli/test_cli_repeatability.py::test_laser_ratio_of_the_printed_table": "plots",
     "test_docs.py": "docs",
+    "io/cmm/test_qif_read.py": "qif",
+    "io/cmm/test_qif_hostile.py": "qif",
+    "io/cmm/test_qif_write.py": "qif",
 }
 
 
