@@ -32,8 +32,10 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         help="straightness/flatness/roundness/sphericity/cylindricity by minimum zone, with pass/fail",
         description=(
             "Evaluate the form deviation of the points in FILE as the width of the minimum zone "
-            "(Chebyshev fit with an optimality certificate). With --tolerance, exit status 1 on fail "
-            "(and when an uncertified zone exceeds the tolerance: no verdict)."
+            "(Chebyshev fit with an optimality certificate stating its scope: global over all elements, "
+            "or local with a proven lower bound). With --tolerance the verdict is PASS (the zone is within "
+            "the tolerance), FAIL (the proven lower bound exceeds it) or NOT PROVEN; exit status 0 on PASS, "
+            "1 on FAIL or NOT PROVEN, 2 on bad input."
         ),
     )
     parser.add_argument("file", type=Path)
@@ -75,6 +77,12 @@ def handle(args: argparse.Namespace) -> Report:
         [evaluation.characteristic, 1000.0 * evaluation.deviation, "µm"],
         ["tolerance", "-" if evaluation.tolerance is None else 1000.0 * evaluation.tolerance, "µm"],
         ["verdict", evaluation.verdict, ""],
+        ["scope", f"{evaluation.scope} ({evaluation.domain})" if evaluation.domain else evaluation.scope, ""],
+    ]
+    if evaluation.scope != "global":
+        bound = evaluation.bound
+        rows.append(["proven lower bound", "none" if bound != bound else 1000.0 * bound, "µm"])
+    rows += [
         ["certified", evaluation.certified, ""],
         ["points", fit.n, ""],
         ["contacts", " ".join(str(i) for i in fit.contacts.tolist()), "index"],
@@ -103,8 +111,10 @@ def handle(args: argparse.Namespace) -> Report:
     verdict = None
     if evaluation.tolerance is not None:
         from pcmm_geo.cli._record import Verdict
+        from pcmm_geo.fit.zone.form import FORM_DECISION_RULE
 
-        verdict = Verdict(evaluation.passed, f"{evaluation.characteristic}: {evaluation.verdict}",
-                          f"minimum-zone width <= {1000.0 * evaluation.tolerance:g} µm; a zone within the tolerance "
-                          "proves pass even uncertified, fail needs a certified zone")
+        statement = f"{evaluation.characteristic}: {evaluation.verdict}"
+        verdict = Verdict(evaluation.passed, statement,
+                          f"{FORM_DECISION_RULE}; tolerance {1000.0 * evaluation.tolerance:g} µm")
+        lines.insert(0, f"{statement} (tolerance {1000.0 * evaluation.tolerance:g} µm)")
     return Report(data=data, tables=tables, lines=lines, plots=plots, exit_code=exit_code, verdict=verdict)
