@@ -5,6 +5,13 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
+from pcmm_geo.cli._cmm_input import (
+    add_cmm_input_flags,
+    compensation_summary,
+    naming_the_file,
+    read_fit_input,
+    write_qif_result,
+)
 from pcmm_geo.cli._output import (
     EXIT_FAILURE,
     Report,
@@ -36,6 +43,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     parser.add_argument("--element", choices=ELEMENTS, required=True)
     parser.add_argument("--tolerance", type=float, metavar="MM", help="form tolerance in mm")
     parser.add_argument("--two-d", action="store_true", help="line/circle: use only the x and y columns")
+    add_cmm_input_flags(parser)
     add_axis_region_options(parser)
     add_plot_flag(parser, "the zone with the deviations and contact points")
     add_report_flag(parser)
@@ -46,21 +54,29 @@ def register(subparsers: argparse._SubParsersAction) -> None:
 
 
 def handle(args: argparse.Namespace) -> Report:
-    from pcmm_geo.cli.measurement_commands.fit import axis_search_options
-    from pcmm_geo.errors import InvalidInputError
-    from pcmm_geo.fit.zone.form import evaluate_form
-    from pcmm_geo.io.points import read_points
+    import dataclasses
 
-    points = read_points(args.file, decimal=args.decimal)
-    if args.two_d:
-        if args.element not in ("line", "circle"):
-            raise InvalidInputError("--two-d", "element line or circle", args.element)
-        points = points[:, :2]
-    search = axis_search_options(args, args.element, "chebyshev", points.shape[1])
-    evaluation = evaluate_form(points, args.element, tolerance=args.tolerance, **search)
+    from pcmm_geo.cli.measurement_commands.fit import axis_search_options
+    from pcmm_geo.fit.zone.form import evaluate_form
+
+    source = read_fit_input(args, args.element)
+    compensation = None
+    search = axis_search_options(args, args.element, "chebyshev", source.points.shape[1])
+    with naming_the_file(args.file):
+        evaluation = evaluate_form(source.points, args.element, tolerance=args.tolerance, **search)
+        if source.probe_radius:  # the zone width stays; the zone's element moves onto the surface
+            from pcmm_geo.cmm.points import compensate_fit
+
+            compensation, side_source = compensate_fit(evaluation.fit, args.element, source.data,
+                                                       source.probe_radius, material_side=args.material_side)
+            evaluation = dataclasses.replace(evaluation, fit=compensation.surface,
+                                             points=compensation.surface_points(source.points))
     fit = evaluation.fit
     data = evaluation.to_dict()
     data["file"] = str(args.file)
+    if compensation is not None:
+        data["probe_compensation"], compensation_line = compensation_summary(compensation, side_source,
+                                                                             source.radius_source)
     rows = [
         [evaluation.characteristic, 1000.0 * evaluation.deviation, "µm"],
         ["tolerance", "-" if evaluation.tolerance is None else 1000.0 * evaluation.tolerance, "µm"],
@@ -82,7 +98,7 @@ def handle(args: argparse.Namespace) -> Report:
         if value is not None:
             rows.append([name + (" (mid-zone)" if name == "radius" else ""), float(value), "mm"])
     tables = [Table(f"{evaluation.characteristic} of {args.file} (minimum zone)", ["quantity", "value", "unit"], rows)]
-    lines = [fit.message]
+    lines = [fit.message] + ([] if compensation is None else [compensation_line])
     plots = []
     if args.plot is not None:
         from pcmm_geo.plots.form_zone import plot_form_zone
@@ -91,6 +107,10 @@ def handle(args: argparse.Namespace) -> Report:
         data["plot"] = str(written)
         plots.append(str(written))
         lines.append(f"plot: {written}")
+    if args.qif:
+        data["qif"] = write_qif_result(args, fit, args.element, source.data, radius=source.probe_radius,
+                                       compensation=compensation, evaluation=evaluation)
+        lines.append(f"QIF results written to {data['qif']}")
     exit_code = EXIT_FAILURE if evaluation.tolerance is not None and evaluation.passed is not True else 0
     verdict = None
     if evaluation.tolerance is not None:

@@ -103,8 +103,12 @@ class _Candidates:
 
 
 def _seed_subset(distances: FloatArray, per_level: int) -> IndexArray:
-    order = np.argsort(distances)
-    return np.unique(np.concatenate([order[:per_level], order[-per_level:]]))
+    """The ``per_level`` nearest and farthest points (all points of a set of at most ten)."""
+    if distances.size <= max(2 * per_level, 10):
+        return np.arange(distances.size)
+    near = np.argpartition(distances, per_level)[:per_level]
+    far = np.argpartition(-distances, per_level)[:per_level]
+    return np.unique(np.concatenate([near, far]))
 
 
 def _contacts(distances: FloatArray, index: IndexArray) -> dict[int, float]:
