@@ -11,13 +11,14 @@ audit's value or better within the default region.
 from __future__ import annotations
 
 import csv
+import warnings
 from pathlib import Path
 
 import numpy as np
 import pytest
 from axial_reference import Region, best_axis, best_line
 
-from pcmm_geo.errors import DegenerateGeometryError, InvalidInputError
+from pcmm_geo.errors import AmbiguousFitWarning, DegenerateGeometryError, InvalidInputError
 from pcmm_geo.fit import AxisRegion, SearchBudget, fit_cone, fit_cylinder, fit_line
 
 AUDIT = Path(__file__).resolve().parents[1] / "data" / "zone_audit"
@@ -44,6 +45,18 @@ def _sparse_cylinder(rng: np.random.Generator, n: int, arc: float) -> np.ndarray
     rho = radius + rng.normal(0, noise, n)
     local = np.c_[rho * np.cos(angles), rho * np.sin(angles), rng.uniform(0, length, n)]
     return local @ _rotation(rng).T + rng.uniform(-500, 500, 3)
+
+
+def _unambiguous(rng: np.random.Generator, smallest: int, largest: int, arc: float) -> tuple[np.ndarray, object]:
+    """A sparse set whose least-squares cylinder (the default region's reference) is unambiguous, and that cylinder."""
+    while True:
+        points = _sparse_cylinder(rng, int(rng.integers(smallest, largest)), arc)
+        with warnings.catch_warnings():
+            warnings.simplefilter("error", AmbiguousFitWarning)
+            try:
+                return points, fit_cylinder(points)
+            except AmbiguousFitWarning:
+                continue
 
 
 def _check_against(fit, reference: float, criterion: str, region: Region) -> None:
@@ -106,8 +119,8 @@ def test_audit_cylinder_cases(name: str, audit_value: float) -> None:
 def test_random_sparse_cylinders(seed: int, criterion: str) -> None:
     rng = np.random.default_rng(500 + seed + (100 if criterion == "mcc" else 0))
     for _ in range(1):
-        points = _sparse_cylinder(rng, int(rng.integers(7, 13)), rng.uniform(np.pi / 2, 2 * np.pi))
-        gauss = fit_cylinder(points)
+        arc = rng.uniform(np.pi / 2, 2 * np.pi)
+        points, gauss = _unambiguous(rng, 7, 13, arc)
         axis = gauss.axis + rng.normal(0, 0.05, 3)  # a nominal axis near the LS one
         cone, offset = float(rng.uniform(10, 45)), float(gauss.radius * rng.uniform(0.2, 2.0))
         region_spec = AxisRegion(cone_deg=cone, offset_mm=offset, axis=axis, point=gauss.point)
@@ -117,21 +130,20 @@ def test_random_sparse_cylinders(seed: int, criterion: str) -> None:
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize("seed", range(12))
+@pytest.mark.parametrize("seed", range(8))
 @pytest.mark.parametrize("criterion", ["chebyshev", "mcc", "mic"])
 def test_many_random_sparse_cylinders(seed: int, criterion: str) -> None:
     rng = np.random.default_rng(9000 + seed + {"chebyshev": 0, "mcc": 100, "mic": 200}[criterion])
     for _ in range(3):
         arc = 2 * np.pi if criterion == "mic" else rng.uniform(np.pi / 3, 2 * np.pi)
-        points = _sparse_cylinder(rng, int(rng.integers(6, 16)), arc)
-        gauss = fit_cylinder(points)
+        points, gauss = _unambiguous(rng, 6, 13, arc)
         region = Region.around(points, gauss.axis, gauss.point, 45.0, 2 * gauss.radius)
         try:
             fit = fit_cylinder(points, criterion=criterion, search_budget=BUDGET)
         except DegenerateGeometryError:
             assert criterion == "mic"  # sparse rings may surround no empty cylinder
             continue
-        _check_against(fit, best_axis(points, criterion, region, count=1200).value, criterion, region)
+        _check_against(fit, best_axis(points, criterion, region, count=800, polish=2).value, criterion, region)
 
 
 @pytest.mark.parametrize("seed", range(3))
