@@ -18,6 +18,7 @@ extreme in some live cell, and evaluates candidate axes on all points.
 
 from __future__ import annotations
 
+import dataclasses
 import time
 from collections.abc import Callable
 from dataclasses import dataclass
@@ -25,6 +26,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
+from pcmm_geo.fit.zone._solver import ZoneSolution
 from pcmm_geo.fit.zone.axial.bounds import CellShape, CellTerms, axis_distances, cell_terms, centre_values, point_bounds
 from pcmm_geo.fit.zone.axial.lagrange import Multipliers, balanced_bound, multiplier_bound
 from pcmm_geo.fit.zone.axial.surround import Surround
@@ -36,7 +38,7 @@ _TIER_POINTS = 48  # points per level in the first-tier bound of large working s
 _NET_POINTS = 400  # points of the second-tier (covering) subset
 _CANDIDATES = 4  # cell centres evaluated on all points per generation
 _CHUNK = 1_500_000  # cells x points per vectorised block
-_MAX_LIVE = 400_000  # live cells kept in memory at most
+_MAX_LIVE = 2_000_000  # cells of one generation kept in memory at most
 _MAX_POLISH = 12  # local solves from improved incumbents per search
 _EXPLORE_LIVE = 32  # more live cells than this: polish from the lowest-bound one (another basin?)
 _MAX_KNOWN = 12  # local solutions whose multipliers bound the cells
@@ -55,7 +57,7 @@ class Incumbent:
     chart: int
     x: FloatArray
     multipliers: Multipliers | None = None
-    polished: object = None
+    polished: ZoneSolution | None = None
 
 
 @dataclass(frozen=True)
@@ -120,8 +122,6 @@ def clip_to_region(x: FloatArray, domain: Domain) -> FloatArray:
 
 def _rows(item: CellShape | CellTerms, rows: NDArray[np.bool_]) -> CellShape | CellTerms:
     """The cells ``rows`` of a shape or of terms (every per-cell array sliced)."""
-    import dataclasses
-
     sliced = {}
     for f in dataclasses.fields(item):
         value = getattr(item, f.name)
@@ -135,29 +135,36 @@ def _touches_region(cells: Cells, domain: Domain) -> NDArray[np.bool_]:
     return (np.hypot(gap[:, 0], gap[:, 1]) <= domain.offset) & (np.hypot(gap[:, 2], gap[:, 3]) <= domain.tan_max)
 
 
+@dataclass(frozen=True)
+class Hooks:
+    """What the search calls on the problem.
+
+    ``evaluate(chart, x (M, 4)) -> f (M,)`` on all points; ``polish(chart, x, margin)`` a local
+    solve from ``x`` with the points within ``margin`` of the levels as contacts (or None);
+    ``balance(chart, x)`` weights of the extreme points at ``x`` for the Lagrangian bound (or
+    None); ``surround`` (MIC, one chart) restricts the search to axes the data surround.
+    """
+
+    evaluate: Callable[[int, FloatArray], FloatArray]
+    polish: Callable[[int, FloatArray, float | None], Incumbent | None]
+    balance: Callable[[int, FloatArray], Multipliers | None]
+    surround: Surround | None = None
+
+
 class _Search:
-    def __init__(
-        self,
-        domain: Domain,
-        mode: str,
-        incumbent: Incumbent,
-        evaluate: Callable[[int, FloatArray], FloatArray],
-        polish: Callable[[int, FloatArray, float | None], Incumbent | None],
-        balance: Callable[[int, FloatArray], Multipliers | None],
-        surround: Surround | None,
-        tolerance: float,
-    ) -> None:
+    def __init__(self, domain: Domain, mode: str, incumbent: Incumbent, hooks: Hooks, tolerance: float) -> None:
         self.domain = domain
         self.mode = mode
         self.incumbent = incumbent
-        self.evaluate = evaluate
-        self.balance = balance
-        self.polish = polish
+        self.evaluate = hooks.evaluate
+        self.balance = hooks.balance
+        self.polish = hooks.polish
+        self.surround = hooks.surround
         self.polishes = 0
         self.polished_at = np.inf  # the margin at the last local solve
         self.margin = np.inf  # largest per-point margin of the live cells (mm)
-        self.surround = surround
         self.tolerance = tolerance
+        self._margins: list[float] = []
         self.n_points = domain.charts[0].shape[0]
         self.working = self._initial_working_set()
         self.proven = np.inf
@@ -300,7 +307,7 @@ class _Search:
         values = np.full(len(cells), np.inf)
         active = np.zeros(len(self.working), dtype=bool)
         coarse_live = False
-        self._margins: list[float] = []
+        self._margins = []
         for k in np.unique(cells.chart):
             rows = np.flatnonzero(cells.chart == k)
             tiers: list[tuple[IndexArray, float]] = []
@@ -420,24 +427,15 @@ def branch_and_bound(
     domain: Domain,
     mode: str,
     incumbent: Incumbent,
+    hooks: Hooks,
     *,
-    evaluate: Callable[[int, FloatArray], FloatArray],
-    polish: Callable[[int, FloatArray, float | None], Incumbent | None],
-    balance: Callable[[int, FloatArray], Multipliers | None],
-    surround: Surround | None = None,
     tolerance: float,
     max_cells: int,
     max_seconds: float | None,
 ) -> SearchOutcome:
-    """Minimise the objective of ``mode`` over the axes of ``domain`` to within ``tolerance``.
-
-    ``evaluate(chart, x (M, 4)) -> f (M,)`` on all points; ``polish(chart, x, margin)`` a
-    local solve from ``x`` with the points within ``margin`` of the levels as contacts;
-    ``balance(chart, x)`` weights of the extreme points at ``x`` for the Lagrangian bound (or
-    None); ``surround`` (MIC, one chart) restricts the search to axes the data surround.
-    """
+    """Minimise the objective of ``mode`` over the axes of ``domain`` to within ``tolerance``, from ``incumbent``."""
     started = time.perf_counter()
-    search = _Search(domain, mode, incumbent, evaluate, polish, balance, surround, tolerance)
+    search = _Search(domain, mode, incumbent, hooks, tolerance)
     cells = Cells(
         chart=np.array([root[0] for root in domain.roots], dtype=np.intp),
         centre=np.array([root[1] for root in domain.roots], dtype=float),

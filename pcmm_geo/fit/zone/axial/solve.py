@@ -13,7 +13,7 @@ from pcmm_geo.fit.zone._solver import ZoneSolution, assess
 from pcmm_geo.fit.zone.axial.bounds import axis_distances, centre_values
 from pcmm_geo.fit.zone.axial.polish import balanced_multipliers, make_polisher, on_edge
 from pcmm_geo.fit.zone.axial.region import ResolvedRegion, SearchBudget
-from pcmm_geo.fit.zone.axial.search import Domain, Incumbent, branch_and_bound, clip_to_region
+from pcmm_geo.fit.zone.axial.search import Domain, Hooks, Incumbent, branch_and_bound, clip_to_region
 from pcmm_geo.fit.zone.axial.surround import Surround
 
 FloatArray = NDArray[np.float64]
@@ -108,24 +108,21 @@ def _run(
     polished = polish(chart0, x0)
     if polished is not None and polished.value <= incumbent.value:
         incumbent = polished
-    outcome = branch_and_bound(
-        domain,
-        mode,
-        incumbent,
+    hooks = Hooks(
         evaluate=evaluate,
         polish=polish,
         balance=lambda chart, x: balanced_multipliers(domain, chart, x, mode),
         surround=surround,
-        tolerance=tolerance,
-        max_cells=budget.max_cells,
-        max_seconds=budget.max_seconds,
+    )
+    outcome = branch_and_bound(
+        domain, mode, incumbent, hooks, tolerance=tolerance, max_cells=budget.max_cells, max_seconds=budget.max_seconds
     )
     best = outcome.incumbent
     if best.polished is None and np.isfinite(best.value):
         # the best axis is a cell centre: a local solve from it gives the contacts and multipliers
         spread = float(np.ptp(axis_distances(points_by_chart[best.chart], best.x[None, :])))
         again = polish(best.chart, best.x, 1e-6 * max(spread, size))
-        if again is None or not again.polished.certified:  # type: ignore[union-attr]
+        if again is None or again.polished is None or not again.polished.certified:
             again = polish(best.chart, best.x)
         if again is not None and again.value <= best.value:
             best = again
@@ -135,7 +132,7 @@ def _run(
     distances = axis_distances(points_by_chart[best.chart], x[None, :])[0]
     value = float(centre_values(distances[None, :], mode)[0]) if np.isfinite(best.value) else np.inf
     bound = min(outcome.bound, value)
-    solution = best.polished if isinstance(best.polished, ZoneSolution) else None
+    solution = best.polished
     if solution is None and np.isfinite(value):
         # no local solution at this axis (exact data: a degenerate contact system): assess its extreme points
         solution = assess(points_by_chart[best.chart], x, _extreme_contacts(distances, mode), axis_distance, mode,
