@@ -259,7 +259,12 @@ class _Search:
                                                                cone_cos=self.cone_cos, offset=self.domain.offset))
             live = bound < inc.value - self.tolerance
             if live.any():
-                balanced = balanced_bound(points, _rows(shape, live), _rows(terms, live), self.mode)
+                # balanced weights among the incumbent's extreme points when the subset is large (any subset is valid)
+                pool, pool_terms = points, _rows(terms, live)
+                if len(subset) > 4 * _TIER_POINTS:
+                    pool = self.domain.charts[chart][self.tier_points()]
+                    pool_terms = cell_terms(pool, _rows(shape, live))
+                balanced = balanced_bound(pool, _rows(shape, live), pool_terms, self.mode)
                 bound[live] = np.maximum(bound[live], balanced)
             lower[block] = bound
             values[block] = centre_values(terms.rho, self.mode)
