@@ -22,7 +22,7 @@ import re
 from collections.abc import Iterator
 from dataclasses import dataclass
 from pathlib import Path
-from typing import TYPE_CHECKING
+from typing import IO, TYPE_CHECKING
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -246,5 +246,11 @@ def write_points(path: str | Path, points: ArrayLike, *, overwrite: bool = False
             if not o3d.io.write_point_cloud(str(temporary), cloud, write_ascii=False):
                 raise OSError(f"{file}: open3d could not write the point cloud")
         return file
-    text = "x,y,z\n" + "".join(f"{float(x)!r},{float(y)!r},{float(z)!r}\n" for x, y, z in pts)
-    return write_atomic(file, text, overwrite=overwrite)
+
+    def rows(stream: IO[bytes]) -> None:  # in slices: no text of the whole file in memory
+        stream.write(b"x,y,z\n")
+        for start in range(0, len(pts), 65_536):
+            rows = pts[start:start + 65_536].tolist()
+            stream.write("".join(f"{x!r},{y!r},{z!r}\n" for x, y, z in rows).encode("ascii"))
+
+    return write_atomic(file, rows, overwrite=overwrite)
