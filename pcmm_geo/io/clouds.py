@@ -81,7 +81,7 @@ def _ply_body(file: Path) -> CloudBody | None:
     lines, offset = _header_lines(file, b"ply")
     name = str(file)
     fmt = next((t.split() for _, t in lines if t.startswith("format ")), None)
-    if fmt is None or len(fmt) != 3:
+    if fmt is None or len(fmt) != 3 or fmt[1] not in ("ascii", "binary_little_endian", "binary_big_endian"):
         raise FileFormatError(name, "expected a 'format ascii|binary_little_endian|binary_big_endian 1.0' line")
     if fmt[1] != "ascii":
         return None
@@ -127,6 +127,9 @@ def _pcd_body(file: Path) -> CloudBody | None:
     if missing:
         raise FileFormatError(name, f"expected a PCD header with {', '.join(missing)}")
     data = fields["DATA"][1]
+    if data not in (["ascii"], ["binary"], ["binary_compressed"]):
+        raise FileFormatError(name, f"expected 'DATA ascii|binary|binary_compressed', got {excerpt(' '.join(data))}",
+                              line=fields["DATA"][0])
     if data != ["ascii"]:
         return None
     names = fields["FIELDS"][1]
