@@ -105,6 +105,7 @@ def recover(target: Path) -> list[str]:
         return []
     temporary = re.compile(rf"\.{re.escape(target.stem)}-{_OWNER}-[A-Za-z0-9_]+\.tmp{re.escape(target.suffix)}")
     backup = re.compile(rf"\.{re.escape(target.name)}\.{_OWNER}-(?P<id>[0-9a-f]+)\.replaced")
+    note = re.compile(rf"\.{re.escape(target.name)}\.{_OWNER}-(?P<id>[0-9a-f]+)\.keep")
     notes: list[str] = []
     for name in sorted(names):
         found = temporary.fullmatch(name)
@@ -117,6 +118,12 @@ def recover(target: Path) -> list[str]:
         found = backup.fullmatch(name)
         if found and not _alive(int(found["pid"]), int(found["start"]), found["host"]):
             notes.append(_restore(target, folder / name, found["id"]))
+    for name in sorted(names):  # a note whose backup is gone (restored, then the run died again)
+        found = note.fullmatch(name)
+        if found and not (folder / (name.removesuffix(".keep") + ".replaced")).exists() and not _alive(
+                int(found["pid"]), int(found["start"]), found["host"]):
+            with contextlib.suppress(FileNotFoundError):
+                (folder / name).unlink()
     return notes
 
 
