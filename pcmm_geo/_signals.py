@@ -8,7 +8,8 @@ acquisition log keeps its rows, whichever signal ended it.  Only the first signa
 later ones are held while the command cleans up (a second Ctrl-C must not cut a rollback in
 half).  Inside :func:`deferred` (creating a temporary file and journaling it, writing one log
 row) a signal is held and raised when the section ends, so such a step is done whole or not
-at all.  Outside the command line nothing is installed: a library caller keeps its own
+at all.  A signal that was ignored when the command started stays ignored (``nohup`` ignores
+SIGHUP).  Outside the command line nothing is installed: a library caller keeps its own
 handlers.  SIGKILL cannot be caught; what it leaves is found by the next run
 (:meth:`pcmm_geo._atomic.OutputPlan.recover`).
 
@@ -91,8 +92,10 @@ def interrupt_on_signals() -> Iterator[None]:
         yield
         return
     previous = {signum: signal.getsignal(signum) for signum in HANDLED_SIGNALS}
+    # a signal the caller ignores stays ignored (``nohup`` ignores SIGHUP, a shell's ``&`` SIGINT)
+    previous = {signum: handler for signum, handler in previous.items() if handler is not signal.SIG_IGN}
     _State.installed, _State.raised, _State.pending = True, False, None
-    for signum in HANDLED_SIGNALS:
+    for signum in previous:
         signal.signal(signum, _handler)
     try:
         yield

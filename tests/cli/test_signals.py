@@ -225,3 +225,21 @@ def test_signals_are_held_inside_a_deferred_section_and_raised_after_it() -> Non
             steps.append("section finished")
         steps.append("not reached")
     assert steps == ["section finished"] and info.value.exit_code == 143
+
+
+def test_a_signal_ignored_at_start_stays_ignored(tmp_path: Path) -> None:
+    """``nohup pcmm ...``: SIGHUP is ignored before the command starts and must stay so."""
+    _points(tmp_path)
+    env = dict(os.environ, PYTHONPATH=str(ROOT) + os.pathsep + os.environ.get("PYTHONPATH", ""))
+    marker = tmp_path / "marker"
+    child = subprocess.Popen([sys.executable, "-c", _SHIM, str(marker), "convert", "convert", "scan.csv", "new.csv"],
+                             cwd=tmp_path, env=env, stderr=subprocess.PIPE, text=True,
+                             preexec_fn=lambda: signal.signal(signal.SIGHUP, signal.SIG_IGN))
+    deadline = time.monotonic() + 300
+    while not marker.exists() and child.poll() is None and time.monotonic() < deadline:
+        time.sleep(0.005)
+    child.send_signal(signal.SIGHUP)  # ignored: the SIGTERM after it ends the command
+    child.send_signal(signal.SIGTERM)
+    _, stderr = child.communicate(timeout=300)
+    assert child.returncode == 143, stderr
+    assert not (tmp_path / "new.csv").exists() and _hidden(tmp_path) == []
