@@ -1,10 +1,13 @@
 """Decoding text files line by line with errors that name the file and the line.
 
-Every text reader of pcmm_geo goes through :func:`read_text_lines` (or :func:`read_csv_rows`,
-built on it), so a binary file, bytes that are not UTF-8, a directory, an over-long line or a
-bad quote give one :class:`FileFormatError` (``path:line: reason``) instead of a bare
-``UnicodeDecodeError`` or ``_csv.Error``.  Messages quote at most a short :func:`excerpt`
-of the offending text, however long the line is.
+Every text reader of pcmm_geo goes through :func:`read_text_lines` / :func:`iter_text_lines`
+(or :func:`read_csv_rows`, built on the same blocks of :mod:`pcmm_geo.io._lines`), so a binary
+file, bytes that are not UTF-8, a directory, an over-long line or a bad quote give one
+:class:`FileFormatError` (``path:line: reason``) instead of a bare ``UnicodeDecodeError`` or
+``_csv.Error``.  Messages quote at most a short :func:`excerpt` of the offending text, however
+long the line is.  The file is read in blocks: a reader that checks its header while iterating
+(:func:`iter_text_lines`, ``read_csv_rows(check_header=...)``) refuses a wrong file without
+reading the rest of it.
 
 A leading UTF-8 byte-order mark (as Excel and Windows Notepad write) is dropped here, so
 every reader accepts such files.
@@ -22,7 +25,7 @@ from __future__ import annotations
 import csv
 import math
 import re
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -37,6 +40,7 @@ __all__ = [
     "MAX_LINE_CHARS",
     "CsvRows",
     "excerpt",
+    "iter_text_lines",
     "parse_decimal",
     "read_csv_rows",
     "read_json_file",
@@ -85,6 +89,16 @@ def _decode(path: str | Path, max_line: int | None = MAX_LINE_CHARS) -> tuple[li
         if block.last:
             return lines, block.terminated
     raise AssertionError("iter_blocks ends with a last block")  # pragma: no cover
+
+
+def iter_text_lines(path: str | Path) -> Iterator[tuple[int, str]]:
+    """The lines of a UTF-8 text file as :func:`read_text_lines` gives them, read block by block.
+
+    A reader that refuses a wrong header while iterating stops there: the rest of the file is
+    never read.  Errors (as :func:`read_text_lines`) are raised when the line is reached.
+    """
+    for block in iter_blocks(path):
+        yield from decode_block(path, block)
 
 
 def read_text_lines(path: str | Path) -> list[tuple[int, str]]:
