@@ -16,10 +16,9 @@ move, 0 = after it; ``probe`` 1 = contact; ``motor`` 1|2|3; ``direction`` +1/-1;
 the rest keep the raw values (Zaber microsteps, laser counts), a sequence number and the UTC
 time, so a run can be re-processed later.  Values are written as read, before any correction.
 
-Durability: every row is one ``write`` followed by ``flush`` and ``os.fsync``, with Ctrl-C,
-SIGTERM and SIGHUP held until the row is on disk (:func:`pcmm_geo._signals.deferred`), so an
-interrupted acquisition keeps every row it wrote, whole; a new file is created exclusively
-(never overwriting unless asked) and its directory fsync'ed.  Reopening
+Durability: every row is one ``write``, ``flush``, ``os.fsync``, with Ctrl-C, SIGTERM and SIGHUP held
+until it is on disk (:func:`pcmm_geo._signals.deferred`): an interrupted run keeps each row whole.  A
+new file is created exclusively (never overwriting unless asked), its directory fsync'ed.  Reopening
 checks the whole file: a partial last line (a crash mid-row) raises
 :class:`~pcmm_geo.errors.LogIntegrityError` unless ``repair=True``, in which case it is cut off
 and the cut is reported in :class:`LogRecovery` and as a ``# truncated_bytes`` comment.
