@@ -16,6 +16,7 @@ extra          distributions       used by
 ``dask``       dask[array],        fits of clouds that do not fit in memory, lazy point
                distributed         files (``read_points_lazy``)
 ``e57``        pye57               E57 scanner files (``read_points``)
+``qif``        defusedxml, lxml    QIF 3.0 files (defusedxml reads, lxml validates)
 =============  ==================  ======================================================
 
 Examples
@@ -47,6 +48,8 @@ OPTIONAL_MODULES: dict[str, tuple[str, str]] = {
     "dask": ("dask[array]", "dask"),
     "distributed": ("distributed", "dask"),
     "pye57": ("pye57", "e57"),
+    "defusedxml": ("defusedxml", "qif"),
+    "lxml": ("lxml", "qif"),
 }
 
 
