@@ -11,6 +11,9 @@ In one run, on the same reference data (known least-squares solution):
   vs open3d's float32 ``compute_closest_points`` (target <= 3 x; exact on a 2,000-point subset);
 * ``fit_sphere`` of a lazily generated 1e8-point dask array in a child process (target: peak
   memory < 1.5 GB; equal to the in-memory fit, checked on 1e7 points; throughput reported);
+* ``pcmm fit sphere`` of a 10-million-point six-decimal CSV under a 3 GB address-space cap vs
+  open3d reading the same points from .xyz plus an in-memory ``fit_sphere`` (``cases_readers.py``;
+  target: peak RSS <= 1.5 GB, <= 3 x the peer's time, equal fits to 1e-9 mm);
 
 plus each contender's deviation from the truth.  Timings are the best of N wall-clock runs.
 The table is printed; ``--output PATH`` also writes it as Markdown (refusing an existing
@@ -36,6 +39,7 @@ from pathlib import Path
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
 from cases import CaseResult, batch_sphere_case, cylinder_case, sphere_case
+from cases_readers import stream_sphere_case
 from cases_scale import dask_sphere_case, surface_case
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -121,7 +125,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser.add_argument("--repeat", type=int, default=5, help="best of N runs for pcmm_geo and trimesh (default 5)")
     parser.add_argument("--peer-repeat", type=int, default=2, help="best of N for scikit-spatial (slow; default 2)")
     parser.add_argument("--only", default="", help="comma-separated case names to run (default: all): "
-                        "sphere, cylinder, batch, surface, dask")
+                        "sphere, cylinder, batch, surface, dask, stream")
     parser.add_argument("--output", type=Path, default=None, help="also write the table as Markdown to PATH")
     parser.add_argument("--overwrite", action="store_true", help="replace an existing --output file")
     args = parser.parse_args(argv)
@@ -135,6 +139,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         ("batch", lambda: batch_sphere_case(batch_fits, args.repeat)),
         ("surface", lambda: surface_case(surface_points, subdivisions, subset, args.repeat)),
         ("dask", lambda: dask_sphere_case(dask_points, dask_compare, 1_000_000)),
+        ("stream", lambda: stream_sphere_case(200_000 if args.quick else 10_000_000, min(args.repeat, 3))),
     ]
     if args.only:
         wanted = {name.strip() for name in args.only.split(",")}

@@ -30,6 +30,11 @@ CALYPSO_ROW = "P\t1\tFlatness A\tFlatness\tgdtFlat\t0.004\t0\t0.01\t0\t0.004\t"
 Argv = Callable[[str, Path], list[str]]
 COMMANDS: dict[str, tuple[Argv, str, str, str]] = {
     "fit": (lambda f, tmp: ["fit", "sphere", f], "x,y,z", "1,2,3", ".csv"),
+    "fit ply": (lambda f, tmp: ["fit", "sphere", f], "ply\nformat ascii 1.0\nelement vertex 2\nproperty float x\n"
+                "property float y\nproperty float z\nend_header", "1 2 3", ".ply"),
+    "fit pcd": (lambda f, tmp: ["fit", "sphere", f], "VERSION 0.7\nFIELDS x y z\nPOINTS 2\nDATA ascii", "1 2 3",
+                ".pcd"),
+    "fit e57": (lambda f, tmp: ["fit", "sphere", f], "ASTM-E57", "\x00", ".e57"),
     "form": (lambda f, tmp: ["form", f, "--element", "plane", "--tolerance", "0.01"], "x,y,z", "1,2,3", ".csv"),
     "calibrate probings": (lambda f, tmp: ["calibrate", f, str(LASERS)], "x,y,z,d,r", "1,2,3,nan,nan", ".csv"),
     "calibrate lasers": (lambda f, tmp: ["calibrate", str(EXPORT), f], "position,laser_a,laser_b,laser_c",
@@ -122,11 +127,12 @@ def _corpus(header: str, row: str) -> dict[str, bytes | None]:
 
 def _non_finite(row: str) -> str:
     """``row`` with its last numeric field NaN and the one before it inf."""
-    fields = row.split(",")
+    separator = "," if "," in row else " "  # PLY / PCD rows: spaces
+    fields = row.split(separator)
     numeric = [k for k, f in enumerate(fields) if f.replace(".", "", 1).replace("-", "", 1).isdigit()]
     for k, value in zip(reversed(numeric), ("nan", "inf"), strict=False):
         fields[k] = value
-    return ",".join(fields)
+    return separator.join(fields)
 
 
 CASES = [(command, case) for command in COMMANDS for case in _corpus("a,b", "1,2")]
