@@ -122,7 +122,11 @@ def fit_line(
         if pts.shape[1] == 3:
             from pcmm_geo.fit.zone._axial import line3d_minimax
 
-            return line3d_minimax(pts, criterion, gauss=fit_line(pts), result_type=LineFit, search_budget=search_budget)
+            try:
+                start: LineFit | None = fit_line(pts)
+            except DegenerateGeometryError:  # no preferred direction: the zone still exists
+                start = None
+            return line3d_minimax(pts, criterion, gauss=start, result_type=LineFit, search_budget=search_budget)
         if search_budget is not None:
             raise InvalidInputError("search_budget", "None for a 2-D line (its zone is exact)", repr(search_budget))
         from pcmm_geo.fit.zone._linear import line_minimax

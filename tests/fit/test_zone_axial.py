@@ -173,6 +173,19 @@ def test_exact_line_converges_with_form_zero() -> None:
     assert abs(abs(float(fit.direction @ direction)) - 1.0) <= 1e-15
 
 
+def test_line_zone_without_a_least_squares_line_is_not_refused() -> None:
+    """The corners of a cube have no preferred direction, yet a smallest enclosing cylinder."""
+    cube = np.array([[x, y, z] for x in (0.0, 2.0) for y in (0.0, 2.0) for z in (0.0, 2.0)]) + [10.0, -3.0, 7.0]
+    with pytest.raises(DegenerateGeometryError, match="no preferred direction"):
+        fit_line(cube)
+    fit = fit_line(cube, criterion="chebyshev", search_budget=SearchBudget(max_cells=300_000, max_seconds=None))
+    reference = best_line(cube, count=800, polish=2).value
+    assert fit.certificate.bound_mm <= reference + GAP
+    assert fit.form <= 2.0 * np.sqrt(2.0) + 1e-12  # no worse than along an edge (the face diagonal)
+    if fit.certificate.scope == "global":
+        assert fit.form <= reference + GAP
+
+
 @pytest.mark.parametrize("criterion", ["chebyshev", "mcc", "mic"])
 def test_exact_cylinder_converges(criterion: str) -> None:
     """Points exactly on a cylinder: zone 0, MCC = MIC = R, all global, in the default region."""

@@ -168,10 +168,17 @@ def line3d_minimax(
     """Minimum zone of a 3-D line: the smallest cylinder enclosing the points over all directions.
 
     ``form`` is the cylinder's diameter; ``certificate.bound_mm`` bounds that diameter.
-    ``gauss`` is the least-squares line (the start), ``result_type`` the ``LineFit`` class.
+    ``gauss`` is the least-squares line (the start; None when the points have none, e.g. the
+    corners of a regular tetrahedron), ``result_type`` the ``LineFit`` class.
     """
     budget = as_budget(search_budget)
-    optimum = line_search(points, gauss.point, gauss.direction, budget)
+    if gauss is None:  # no unique least-squares line (isotropic points): start on a principal axis
+        centroid0 = points.mean(axis=0)
+        start_point, start_direction = centroid0, np.linalg.svd(points - centroid0, full_matrices=False)[2][0]
+        names = ("point_x", "point_y", "point_z", "direction_x", "direction_y", "direction_z")
+    else:
+        start_point, start_direction, names = gauss.point, gauss.direction, gauss.parameter_names
+    optimum = line_search(points, start_point, start_direction, budget)
     direction = sign_convention(optimum.direction)
     centroid = points.mean(axis=0)
     point = optimum.point + float((centroid - optimum.point) @ direction) * direction
@@ -188,7 +195,7 @@ def line3d_minimax(
         residuals,
         optimum.solution,
         criterion=criterion,
-        parameter_names=gauss.parameter_names,
+        parameter_names=names,
         parameters=np.concatenate([point, direction]),
         form=form,
         n_free=5,
