@@ -36,6 +36,7 @@ from pcmm_geo.fit._kernels._measure import axial_parts, query_points, radial_uni
 from pcmm_geo.fit._kernels._screen import cylinder_reduced, screened_directions
 from pcmm_geo.fit.scale import is_dask_array
 from pcmm_geo.fit.zone._common import check_criterion
+from pcmm_geo.fit.zone.axial.region import AxisRegion, SearchBudget, check_minimax_only
 
 __all__ = ["CylinderFit", "fit_cylinder"]
 
@@ -173,6 +174,8 @@ def fit_cylinder(
     weights: ArrayLike | None = None,
     axis_hint: ArrayLike | None = None,
     criterion: str = "gaussian",
+    axis_region: AxisRegion | None = None,
+    search_budget: SearchBudget | None = None,
 ) -> CylinderFit:
     """Fit a cylinder to 3-D points by orthogonal-distance least squares.
 
@@ -203,6 +206,15 @@ def fit_cylinder(
     criterion : {"gaussian", "chebyshev", "mcc", "mic"}
         ``"gaussian"`` (least squares, default) or the minimax criteria of
         :mod:`pcmm_geo.fit.zone` (contacts and optimality certificate on the result).
+        These are searched globally over the axes of ``axis_region`` by branch and bound;
+        ``certificate.scope`` says ``"global"`` when the optimum over the region is proven
+        to 1e-9 mm, ``"local"`` (with the proven ``bound_mm``) when ``search_budget`` ran out.
+    axis_region : AxisRegion, optional
+        Minimax criteria only: the axes searched (default: within 45 deg of the
+        least-squares axis, crossing the plane normal to it through the data centroid
+        within twice the least-squares radius of it).
+    search_budget : SearchBudget, optional
+        Minimax criteria only: cell and time limits of the search.
 
     Returns
     -------
@@ -233,6 +245,7 @@ def fit_cylinder(
     if radius is not None:
         radius = positive_length(radius, "radius")
     check_criterion(criterion, _ELEMENT, weights=weights, radius=radius, axis_hint=axis_hint)
+    check_minimax_only(criterion, axis_region=axis_region, search_budget=search_budget)
     if is_dask_array(points):
         if criterion != "gaussian":
             raise InvalidInputError("criterion", "'gaussian' for a dask array of points", repr(criterion))
@@ -244,7 +257,8 @@ def fit_cylinder(
     if criterion != "gaussian":
         from pcmm_geo.fit.zone._axial import cylinder_minimax
 
-        return cylinder_minimax(data, criterion, gauss=fit_cylinder(data), result_type=CylinderFit)
+        return cylinder_minimax(data, criterion, gauss=fit_cylinder(data), result_type=CylinderFit,
+                                axis_region=axis_region, search_budget=search_budget)
     weight = as_weights(weights, data.shape[0], element=_ELEMENT)
     if weight is None and len(data) >= _tall.TALL_ROWS:
         from pcmm_geo.fit.scale.chunked import IllConditionedSteps

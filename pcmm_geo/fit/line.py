@@ -17,6 +17,7 @@ from pcmm_geo.fit._kernels._core import FitResult, as_points, as_weights, residu
 from pcmm_geo.fit._kernels._linear import frozen, local_covariance, principal_frame, propagate, sign_convention
 from pcmm_geo.fit.scale import is_dask_array
 from pcmm_geo.fit.zone._common import check_criterion
+from pcmm_geo.fit.zone.axial.region import SearchBudget, check_minimax_only
 
 __all__ = ["LineFit", "fit_line"]
 
@@ -58,7 +59,13 @@ class LineFit(FitResult):
         return self.point + (rel @ self.direction)[..., None] * self.direction
 
 
-def fit_line(points: ArrayLike, *, weights: ArrayLike | None = None, criterion: str = "gaussian") -> LineFit:
+def fit_line(
+    points: ArrayLike,
+    *,
+    weights: ArrayLike | None = None,
+    criterion: str = "gaussian",
+    search_budget: SearchBudget | None = None,
+) -> LineFit:
     """Fit a straight line minimising the (weighted) sum of squared orthogonal distances.
 
     Parameters
@@ -74,6 +81,10 @@ def fit_line(points: ArrayLike, *, weights: ArrayLike | None = None, criterion: 
     criterion : {"gaussian", "chebyshev"}
         ``"gaussian"`` (least squares, default) or the minimax criteria of
         :mod:`pcmm_geo.fit.zone` (contacts and optimality certificate on the result).
+        In 3-D the minimum zone is the smallest enclosing cylinder over all directions,
+        searched globally by branch and bound (``certificate.scope``).
+    search_budget : SearchBudget, optional
+        3-D minimum zone only: cell and time limits of that search.
 
     Returns
     -------
@@ -99,6 +110,7 @@ def fit_line(points: ArrayLike, *, weights: ArrayLike | None = None, criterion: 
     ([1.0, 1.0, 1.0], [1.0, 1.0, 1.0])
     """
     check_criterion(criterion, _ELEMENT, weights=weights)
+    check_minimax_only(criterion, search_budget=search_budget)
     if is_dask_array(points):
         if criterion != "gaussian":
             raise InvalidInputError("criterion", "'gaussian' for a dask array of points", repr(criterion))
@@ -107,6 +119,16 @@ def fit_line(points: ArrayLike, *, weights: ArrayLike | None = None, criterion: 
         return LineFit(**fit_line_dask(points, weights=weights))
     pts = as_points(points, element=_ELEMENT, dims=(2, 3), min_points=2)
     if criterion != "gaussian":
+        if pts.shape[1] == 3:
+            from pcmm_geo.fit.zone._axial import line3d_minimax
+
+            try:
+                start: LineFit | None = fit_line(pts)
+            except DegenerateGeometryError:  # no preferred direction: the zone still exists
+                start = None
+            return line3d_minimax(pts, criterion, gauss=start, result_type=LineFit, search_budget=search_budget)
+        if search_budget is not None:
+            raise InvalidInputError("search_budget", "None for a 2-D line (its zone is exact)", repr(search_budget))
         from pcmm_geo.fit.zone._linear import line_minimax
 
         return line_minimax(pts, criterion, gauss=fit_line(pts), result_type=LineFit)
