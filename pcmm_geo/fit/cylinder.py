@@ -29,8 +29,8 @@ from pcmm_geo.fit._kernels._axial import (
     solve_axial,
     warn_if_ambiguous,
 )
-from pcmm_geo.fit._kernels._core import FitResult, as_points, as_weights, covariance_from_jacobian, residual_stats
-from pcmm_geo.fit._kernels._inputs import positive_length
+from pcmm_geo.fit._kernels._core import FitResult, as_weights, check_points, covariance_from_jacobian, residual_stats
+from pcmm_geo.fit._kernels._inputs import point_array, positive_length
 from pcmm_geo.fit._kernels._linear import frozen, weighted_centroid
 from pcmm_geo.fit._kernels._measure import axial_parts, query_points, radial_unit
 from pcmm_geo.fit._kernels._screen import cylinder_reduced, screened_directions
@@ -240,18 +240,23 @@ def fit_cylinder(
 
         return CylinderFit(**fit_cylinder_dask(points, radius=radius, weights=weights, axis_hint=axis_hint,
                                                **_scale_parts()))
-    data = as_points(points, element=_ELEMENT, min_points=5 if radius is None else 4)
+    min_points = 5 if radius is None else 4
+    data = point_array(points, element=_ELEMENT, min_points=min_points)
+    chunked = weights is None and criterion == "gaussian" and len(data) >= _tall.TALL_ROWS
+    if not chunked:  # the chunked fit checks the values in its first pass
+        check_points(data, element=_ELEMENT, min_points=min_points)
     if criterion != "gaussian":
         from pcmm_geo.fit.zone._axial import cylinder_minimax
 
         return cylinder_minimax(data, criterion, gauss=fit_cylinder(data), result_type=CylinderFit)
     weight = as_weights(weights, data.shape[0], element=_ELEMENT)
-    if weight is None and len(data) >= _tall.TALL_ROWS:
+    if chunked:
         from pcmm_geo.fit.scale.chunked import IllConditionedSteps
         from pcmm_geo.fit.scale.fits import fit_cylinder_scaled, numpy_source
 
         try:
-            return CylinderFit(**fit_cylinder_scaled(numpy_source(data), radius, axis_hint, **_scale_parts()))
+            source = numpy_source(data, element=_ELEMENT, min_points=min_points)
+            return CylinderFit(**fit_cylinder_scaled(source, radius, axis_hint, **_scale_parts()))
         except IllConditionedSteps:
             pass  # nearly coplanar: the solver below decides
     sqrt_weights = None if weight is None else np.sqrt(weight)

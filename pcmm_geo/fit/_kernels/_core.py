@@ -31,6 +31,7 @@ __all__ = [
     "Tolerances",
     "TOL",
     "as_points",
+    "check_points",
     "as_weights",
     "solve_least_squares",
     "SolverOutcome",
@@ -108,8 +109,25 @@ def as_points(
         All points identical (when ``min_points > 1``).
     """
     arr = point_array(points, element=element, dims=dims, min_points=min_points, name=name)
-    check_point_values(arr, element=element, min_points=min_points, identical=TOL.identical, name=name)
+    check_points(arr, element=element, min_points=min_points, name=name)
     return arr
+
+
+def check_points(arr: FloatArray, *, element: str, min_points: int, name: str = "points") -> None:
+    """The value checks of :func:`as_points` on an array from :func:`~pcmm_geo.fit._kernels._inputs.point_array`.
+
+    A fit that reads every point in a pass of its own (the chunked fits of many points)
+    skips this and checks the extremes of that pass instead
+    (:func:`~pcmm_geo.fit._kernels._inputs.check_point_extremes`).
+
+    Raises
+    ------
+    InvalidInputError
+        NaN or inf (row named), coordinates beyond ``MAX_COORDINATE``.
+    DegenerateGeometryError
+        All points identical (when ``min_points > 1``).
+    """
+    check_point_values(arr, element=element, min_points=min_points, identical=TOL.identical, name=name)
 
 
 def as_weights(weights: ArrayLike | None, n: int, *, element: str) -> FloatArray | None:

@@ -64,6 +64,15 @@ def reduce_chunks(points: FloatArray, kernel: Kernel, args: tuple, out: FloatArr
     return total
 
 
+def map_chunks(points: FloatArray, function: Callable[..., FloatArray], args: tuple,
+               columns: int | None = None) -> FloatArray:
+    """``function(chunk, *args)`` per chunk of ``CHUNK_ROWS`` rows, into one (N,) or (N, columns) array."""
+    out = np.empty(len(points) if columns is None else (len(points), columns))
+    for start in range(0, len(points), CHUNK_ROWS):
+        out[start:start + CHUNK_ROWS] = function(points[start:start + CHUNK_ROWS], *args)
+    return out
+
+
 def in_memory(points: FloatArray) -> Reducer:
     """The reducer of an in-memory array."""
 
@@ -128,7 +137,8 @@ class Moments:
 def moments(reduce: Reducer, shift: FloatArray) -> Moments:
     """Moments of the data about their centroid, from a single pass relative to ``shift`` (a data point)."""
     dim = shift.size
-    sums = reduce(moments_kernel, (shift,), None)
+    with np.errstate(over="ignore", invalid="ignore"):  # sums beyond float64 show as inf / NaN (callers check)
+        sums = reduce(moments_kernel, (shift,), None)
     products = sums.total.reshape(dim + 2, dim + 2)
     count = int(products[0, 0] + 0.5)
     first = products[0, 1:dim + 1]
@@ -136,11 +146,12 @@ def moments(reduce: Reducer, shift: FloatArray) -> Moments:
     cubic = products[1:dim + 1, dim + 1]
     squared_sum = float(products[0, dim + 1])
     mean = first / count
-    scatter = second_moment - count * np.outer(mean, mean)
-    scatter = (scatter + scatter.T) / 2.0
-    # sum |q - m|^2 (q - m) expanded over the sums relative to the shift
-    third = cubic - squared_sum * mean - 2.0 * second_moment @ mean + 2.0 * count * float(mean @ mean) * mean
-    second = squared_sum - count * float(mean @ mean)
+    with np.errstate(over="ignore", invalid="ignore"):
+        scatter = second_moment - count * np.outer(mean, mean)
+        scatter = (scatter + scatter.T) / 2.0
+        # sum |q - m|^2 (q - m) expanded over the sums relative to the shift
+        third = cubic - squared_sum * mean - 2.0 * second_moment @ mean + 2.0 * count * float(mean @ mean) * mean
+        second = squared_sum - count * float(mean @ mean)
     return Moments(count=count, centroid=shift + mean, scatter=scatter, third=third, second=second,
                    lower=sums.low, upper=sums.high)
 

@@ -105,6 +105,8 @@ def fit_nsphere_chunked(
         No convergence.
     """
     data = moments(reduce, shift) if data is None else data
+    if not data.finite:  # sums overflowed (coordinates far beyond any CMM's range)
+        raise IllConditionedSteps(element)
     dim = shift.size
     count = data.count
     eigen = np.linalg.eigvalsh(data.scatter)
