@@ -246,7 +246,7 @@ class NeighbourLists:
     triangles: no triangle).  ``centroids`` and ``radius`` (largest centroid-to-corner
     distance, slightly enlarged) describe every triangle, ``listed_radius[t]`` is the largest
     radius in the list of ``t``.  ``centroid_axes`` are the centroid coordinates, one array
-    per axis, with an infinite entry ``F`` for the padding.
+    per axis, with an infinite entry ``F`` for the padding; ``tree`` a k-d tree over the centroids.
     """
 
     listed: IntArray
@@ -255,6 +255,7 @@ class NeighbourLists:
     radius: FloatArray
     listed_radius: FloatArray
     centroid_axes: tuple[FloatArray, FloatArray, FloatArray]
+    tree: Any
 
 
 @dataclass(frozen=True)
@@ -267,17 +268,17 @@ class SizeClass:
     member_reach: FloatArray
 
 
-def size_classes(triangles: FloatArray) -> tuple[SizeClass, ...]:
+def size_classes(lists: NeighbourLists) -> tuple[SizeClass, ...]:
     """Triangles grouped by circumscribing radius about the centroid (factor 2 per group), with k-d trees.
 
     Every point of a triangle lies within its largest centroid-to-corner distance of its
     centroid, so a triangle within ``d`` of a point has its centroid within ``d`` plus
-    that radius.
+    that radius.  Centroids and radii come from the neighbour lists; a single class (a mesh of
+    similar triangles) reuses their tree.
     """
     from scipy.spatial import cKDTree
 
-    centroids = triangles.mean(axis=1)
-    radius = np.linalg.norm(triangles - centroids[:, None, :], axis=2).max(axis=1) * (1.0 + SLACK)
+    centroids, radius = lists.centroids, lists.radius
     largest = max(float(radius.max()), 1e-300)
     with np.errstate(divide="ignore"):
         level = np.floor(np.log2(largest / np.maximum(radius, 1e-300)))
@@ -285,8 +286,9 @@ def size_classes(triangles: FloatArray) -> tuple[SizeClass, ...]:
     groups = []
     for value in np.unique(level):
         members = np.flatnonzero(level == value)
-        groups.append(SizeClass(members=members, tree=cKDTree(centroids[members]),
-                                reach=float(radius[members].max()), member_reach=radius[members]))
+        tree = lists.tree if len(members) == len(centroids) else cKDTree(centroids[members])
+        groups.append(SizeClass(members=members, tree=tree, reach=float(radius[members].max()),
+                                member_reach=radius[members]))
     return tuple(groups)
 
 
@@ -322,7 +324,8 @@ def neighbour_lists(triangles: FloatArray) -> NeighbourLists:
     radius = np.linalg.norm(triangles - centroids[:, None, :], axis=2).max(axis=1) * (1.0 + SLACK)
     asked = min(_LISTED_NEIGHBOURS, count)
     bound = _LISTED_REACH * float(radius.max())
-    distance, listed = cKDTree(centroids).query(centroids, k=asked, distance_upper_bound=bound, workers=-1)
+    tree = cKDTree(centroids)
+    distance, listed = tree.query(centroids, k=asked, distance_upper_bound=bound, workers=-1)
     distance, listed = distance.reshape(count, asked), listed.reshape(count, asked)
     # a full list is complete only below its last distance; rounding of the distances is allowed for
     within = np.where(np.isfinite(distance[:, -1]), distance[:, -1], bound)
@@ -331,7 +334,7 @@ def neighbour_lists(triangles: FloatArray) -> NeighbourLists:
     listed_radius = np.append(radius, 0.0)[listed].max(axis=1)
     axes = tuple(np.append(centroids[:, axis], np.inf) for axis in range(3))
     return NeighbourLists(listed=listed, complete_within=within, centroids=centroids, radius=radius,
-                          listed_radius=listed_radius, centroid_axes=axes)
+                          listed_radius=listed_radius, centroid_axes=axes, tree=tree)
 
 
 def listed_pairs(lists: NeighbourLists, coordinates: FloatArray, reach: FloatArray, face_index: IntArray,

@@ -189,7 +189,8 @@ def _enclosed_volume(triangles: FloatArray) -> float:
     return float(np.einsum("ij,ij->", a, np.cross(b, c))) / 6.0
 
 
-def surface_distances(points: ArrayLike, mesh: trimesh.Trimesh, *, require_closed: bool = True) -> SurfaceDistances:
+def surface_distances(points: ArrayLike, mesh: trimesh.Trimesh, *, require_closed: bool = True,
+                      workers: int | None = None) -> SurfaceDistances:
     """Signed distances (mm) of ``points`` from the surface of ``mesh``, exact in double precision.
 
     Parameters
@@ -203,6 +204,9 @@ def surface_distances(points: ArrayLike, mesh: trimesh.Trimesh, *, require_close
         Refuse a mesh that does not enclose a volume (default).  With False an open but
         consistently oriented surface is accepted; the sign then gives the side its face
         normals point to.
+    workers : int, optional
+        Threads for the search (open3d's and the exact one); default every core this
+        process may use.
 
     Returns
     -------
@@ -212,7 +216,8 @@ def surface_distances(points: ArrayLike, mesh: trimesh.Trimesh, *, require_close
     ------
     InvalidInputError
         Points of the wrong shape or not finite; a mesh without triangles; with
-        ``require_closed`` a mesh that is not closed (see :func:`check_closed_mesh`).
+        ``require_closed`` a mesh that is not closed (see :func:`check_closed_mesh`);
+        ``workers`` not a positive integer.
     TooFewPointsError
         No points.
 
@@ -224,7 +229,7 @@ def surface_distances(points: ArrayLike, mesh: trimesh.Trimesh, *, require_close
     (0.002, [50.0, 0.0, 0.0])
     """
     index = SurfaceIndex.build(mesh, require_closed=require_closed)
-    return index.distances(points)
+    return index.distances(points, workers=workers)
 
 
 @dataclass(frozen=True, eq=False)
@@ -303,7 +308,7 @@ class SurfaceIndex:
         with _BUILDING:  # threads of one query may ask at once
             groups = self._cache.get("size_classes")
             if groups is None:
-                groups = self._cache["size_classes"] = size_classes(self.triangles)
+                groups = self._cache["size_classes"] = size_classes(self.neighbours)
         return groups
 
     def __getstate__(self) -> dict[str, Any]:
@@ -328,8 +333,8 @@ class SurfaceIndex:
     def distances(self, points: ArrayLike, *, workers: int | None = None) -> SurfaceDistances:
         """Exact signed distances of ``points`` (N, 3) from the indexed surface (see :func:`surface_distances`).
 
-        ``workers``: threads for the exact search (default: every core this process may use;
-        a dask array's blocks use one each, dask runs them in parallel).
+        ``workers``: threads for the search, open3d's and the exact one (default: every core
+        this process may use; a dask array's blocks use one each, dask runs them in parallel).
 
         Raises
         ------
@@ -342,7 +347,7 @@ class SurfaceIndex:
         if is_dask_array(points):
             return self._lazy_distances(points)
         query = as_points(points, element="mesh distance", min_points=1)
-        candidates = self.candidates(query)
+        candidates = self.candidates(query) if workers is None else self.candidates(query, threads=threads)
         pieces = max(threads, -(-len(query) // _POINTS_PER_BLOCK))
         pieces = min(-(-pieces // threads) * threads, len(query))  # equal shares for the threads
         bounds = np.linspace(0, len(query), pieces + 1).astype(np.int64)
@@ -389,11 +394,15 @@ class SurfaceIndex:
 
     # ------------------------------------------------------------------ search
 
-    def candidates(self, query: FloatArray) -> IntArray:
-        """The triangle open3d finds nearest to each point, in float32 (a candidate, not the answer)."""
+    def candidates(self, query: FloatArray, *, threads: int = 0) -> IntArray:
+        """The triangle open3d finds nearest to each point, in float32 (a candidate, not the answer).
+
+        ``threads``: open3d's threads (0: its own choice, all cores).
+        """
         o3d = require("open3d")
 
-        answer = self.scene.compute_closest_points(o3d.core.Tensor((query - self.scene_origin).astype(np.float32)))
+        answer = self.scene.compute_closest_points(o3d.core.Tensor((query - self.scene_origin).astype(np.float32)),
+                                                   nthreads=threads)
         return answer["primitive_ids"].numpy().astype(np.int64)
 
     def _nearest(self, query: FloatArray, candidates: IntArray) -> tuple[FloatArray, FloatArray, IntArray, FloatArray]:

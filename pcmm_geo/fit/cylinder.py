@@ -12,7 +12,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike
 
-from pcmm_geo.errors import InvalidInputError
+from pcmm_geo.errors import InvalidInputError, PcmmGeoError
 from pcmm_geo.fit._kernels import _tall
 from pcmm_geo.fit._kernels._axial import (
     AxialSolution,
@@ -33,7 +33,7 @@ from pcmm_geo.fit._kernels._core import FitResult, as_weights, check_points, cov
 from pcmm_geo.fit._kernels._inputs import point_array, positive_length
 from pcmm_geo.fit._kernels._linear import frozen, weighted_centroid
 from pcmm_geo.fit._kernels._measure import axial_parts, query_points, radial_unit
-from pcmm_geo.fit._kernels._screen import cylinder_reduced, screened_directions
+from pcmm_geo.fit._kernels._screen import DENSE_POINTS, cylinder_reduced, screened_directions, surrounds_axis
 from pcmm_geo.fit.scale import is_dask_array
 from pcmm_geo.fit.zone._common import check_criterion
 
@@ -263,18 +263,7 @@ def fit_cylinder(
     centroid = weighted_centroid(data)
     centred = data - centroid
     check_spread(centred, element=_ELEMENT, forbid_coplanar=True)
-    axes = candidate_axes(centred, [as_axis_hint(axis_hint), *screened_directions(centred, cylinder_reduced(radius))])
-    solution = solve_axial(
-        data,
-        centroid,
-        axes,
-        start=_cylinder_start(radius),
-        model=_cylinder_model(radius),
-        position_slots=(0, 1),
-        tilt_slots=(2, 3),
-        element=_ELEMENT,
-        sqrt_weights=sqrt_weights,
-    )
+    solution = _solve(data, centroid, centred, as_axis_hint(axis_hint), radius, sqrt_weights)
     warn_if_ambiguous(
         solution,
         element=_ELEMENT,
@@ -283,6 +272,50 @@ def fit_cylinder(
         sizes=lambda params: {"radius": radius if radius is not None else float(params[4])},
     )
     return _result(data, solution, radius)
+
+
+#: dense unweighted data of more than twice this many points start from the fit of a strided subsample of
+#: about this many (a start from each principal axis costs iterations over every point, the subsample's a fifth)
+_START_SUBSAMPLE = 1000
+
+
+def _solve(data: FloatArray, centroid: FloatArray, centred: FloatArray, hint: FloatArray | None,
+           radius: float | None, sqrt_weights: FloatArray | None) -> AxialSolution:
+    """The least-squares cylinder from the principal axes and ``hint``, and screened directions where needed.
+
+    Sparse data are screened first.  Dense data are fitted from the principal axes; when that
+    fit does not surround its axis (a partial surface,
+    :func:`~pcmm_geo.fit._kernels._screen.surrounds_axis`), they are screened and fitted again.
+    Many dense unweighted points are first fitted so on a strided subsample, whose axis then
+    starts the one fit of all points (unless the subsample has rival minima: then all points
+    go through the search).
+    """
+    def solve(axes: list[FloatArray]) -> AxialSolution:
+        return solve_axial(data, centroid, axes, start=_cylinder_start(radius), model=_cylinder_model(radius),
+                           position_slots=(0, 1), tilt_slots=(2, 3), element=_ELEMENT, sqrt_weights=sqrt_weights)
+
+    def screened() -> list[FloatArray]:
+        return screened_directions(centred, cylinder_reduced(radius))
+
+    dense = len(data) > DENSE_POINTS
+    if dense and sqrt_weights is None and len(data) > 2 * _START_SUBSAMPLE:
+        sample = data[::len(data) // _START_SUBSAMPLE]
+        sample_centroid = weighted_centroid(sample)
+        try:
+            rough = _solve(sample, sample_centroid, sample - sample_centroid, hint, radius, None)
+        except PcmmGeoError:
+            rough = None  # all points decide below
+        if rough is not None and not rough.others:
+            return solve([rough.rotation[2]])  # the subsample's axis (its final frame has a = b = 0)
+    solution = solve(candidate_axes(centred, [hint] if dense else [hint, *screened()]))
+    if dense and not surrounds_axis(len(data), _across_axis(centred, solution)):
+        solution = solve(candidate_axes(centred, [hint, *screened()]))  # a partial surface
+    return solution
+
+
+def _across_axis(centred: FloatArray, solution: AxialSolution) -> FloatArray:
+    """Coordinates (N, 2) of the centred data across the fitted axis, relative to it (final frame: a = b = 0)."""
+    return centred @ solution.rotation[:2].T - solution.params[:2]
 
 
 def _scale_parts() -> dict[str, object]:
