@@ -100,3 +100,11 @@ def machine_description() -> str:
         pass
     return (f"{cpu}, {os.cpu_count()} logical cores ({usable_cores()} usable), {platform.system()} "
             f"{platform.release()}, Python {platform.python_version()}, numpy {np.__version__}")
+
+
+def environment_line() -> str:
+    """One line for a script's output: cores, 1-minute load average now, thread settings."""
+    state = snapshot()
+    load = "unknown" if state["load_average"] is None else f"{state['load_average'][0]:.2f}"
+    return (f"environment: {state['logical_cores']} logical cores ({state['usable_cores']} usable), "
+            f"1-min load {load}; {describe_threads(state)}")

@@ -29,6 +29,7 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
+import _environment
 from _timing import best_of
 
 from pcmm_geo.fit import fit_circle, fit_cylinder, fit_sphere
@@ -171,9 +172,11 @@ def main() -> None:
         "--anneal-iterations", type=int, default=1000, help="dual_annealing maxiter (scipy default 1000)"
     )
     args = parser.parse_args()
+    print(_environment.environment_line())
     _print("minimum-zone circle, 10,000 points", circle_case(args.repeat, args.anneal_iterations))
     _print("minimum-zone cylinder, 5,000 points", cylinder_case(args.repeat, args.anneal_iterations))
     _print("minimum circumscribed sphere, 10,000 points", mcc_case(args.repeat))
+    print(_environment.environment_line())
 
 
 if __name__ == "__main__":

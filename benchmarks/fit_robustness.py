@@ -35,7 +35,9 @@ from pathlib import Path
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests" / "fit"))
+sys.path.insert(0, str(Path(__file__).resolve().parent))
 
+from _environment import environment_line
 from multistart_reference import reference_for, sparse_case
 
 import pcmm_geo.fit.cylinder as cylinder_module
@@ -113,6 +115,7 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument("--only", action="append", choices=sorted(CONFIGS))
     args = parser.parse_args(argv)
+    print(environment_line())
     print("| configuration | sets | global | warned | silent wrong | fit errors | screened | mean time per fit |")
     print("|---|---|---|---|---|---|---|---|")
     for name in args.only or CONFIGS:
@@ -125,6 +128,7 @@ def main(argv: list[str] | None = None) -> int:
             f"| {counts['screened'] if name.startswith('cylinder') else '-'} | {1e3 * mean_time:.0f} ms |",
             flush=True,
         )
+    print(environment_line())
     return 0
 
 
