@@ -247,6 +247,8 @@ class NeighbourLists:
     distance, slightly enlarged) describe every triangle, ``listed_radius[t]`` is the largest
     radius in the list of ``t``.  ``centroid_axes`` are the centroid coordinates, one array
     per axis, with an infinite entry ``F`` for the padding; ``tree`` a k-d tree over the centroids.
+    ``near_axes`` are the same in float32 relative to ``origin`` (the centre of their box), at most
+    ``extent`` from it in each coordinate: the list test reads half the memory.
     """
 
     listed: IntArray
@@ -256,6 +258,9 @@ class NeighbourLists:
     listed_radius: FloatArray
     centroid_axes: tuple[FloatArray, FloatArray, FloatArray]
     tree: Any
+    origin: FloatArray
+    extent: float
+    near_axes: tuple[NDArray[np.float32], NDArray[np.float32], NDArray[np.float32]]
 
 
 @dataclass(frozen=True)
@@ -333,8 +338,11 @@ def neighbour_lists(triangles: FloatArray) -> NeighbourLists:
     listed[listed == np.arange(count)[:, None]] = count  # the triangle itself is not listed (padding: count)
     listed_radius = np.append(radius, 0.0)[listed].max(axis=1)
     axes = tuple(np.append(centroids[:, axis], np.inf) for axis in range(3))
+    origin = (centroids.min(axis=0) + centroids.max(axis=0)) / 2.0
+    near = tuple(np.append(centroids[:, axis] - origin[axis], np.inf).astype(np.float32) for axis in range(3))
     return NeighbourLists(listed=listed, complete_within=within, centroids=centroids, radius=radius,
-                          listed_radius=listed_radius, centroid_axes=axes, tree=tree)
+                          listed_radius=listed_radius, centroid_axes=axes, tree=tree, origin=origin,
+                          extent=float(np.abs(centroids - origin).max()), near_axes=near)
 
 
 def listed_pairs(lists: NeighbourLists, coordinates: FloatArray, reach: FloatArray, face_index: IntArray,
@@ -353,6 +361,12 @@ def listed_pairs(lists: NeighbourLists, coordinates: FloatArray, reach: FloatArr
     to_candidate = np.sqrt(sum(offset * offset for offset in candidate_axes))
     needed = (reach + float(lists.radius.max()) + to_candidate) * (1.0 + SLACK) + rounding
     local = needed < np.take(lists.complete_within, face_index)
+    # the test runs in float32 relative to the centroids' box centre; ``allowance`` covers its rounding:
+    # each difference is off by at most 2 u (extent + |p - origin|) (u = 2^-24), the sum of squares
+    # by 4 u relative; 8 u (extent + |p - origin|) and a relative 1e-6 cover both with room to spare
+    relative = [values - centre for values, centre in zip(coordinates, lists.origin, strict=True)]
+    allowance = 5e-7 * (lists.extent + np.max(np.abs(relative), axis=0))
+    near_points = [np.asarray(values, dtype=np.float32) for values in relative]
     width = lists.listed.shape[1]
     points, triangles = [], []
     # blocks of points and one coordinate at a time: (points, neighbours) temporaries stay small.
@@ -361,11 +375,12 @@ def listed_pairs(lists: NeighbourLists, coordinates: FloatArray, reach: FloatArr
         rows = start + np.flatnonzero(local[start:start + _LISTED_POINTS_PER_BLOCK])
         candidate = np.take(face_index, rows)
         listed = np.take(lists.listed, candidate, axis=0)
-        limit = np.take(reach, rows) + np.take(lists.listed_radius, candidate)
-        squared = np.zeros(listed.shape)
+        limit = (np.take(reach, rows) + np.take(lists.listed_radius, candidate) + np.take(allowance, rows))
+        limit = (limit * (1.0 + 1e-6)).astype(np.float32)
+        squared = np.zeros(listed.shape, dtype=np.float32)
         for axis in range(3):
-            offset = np.take(lists.centroid_axes[axis], listed)
-            offset -= np.take(coordinates[axis], rows)[:, None]
+            offset = np.take(lists.near_axes[axis], listed)
+            offset -= np.take(near_points[axis], rows)[:, None]
             offset *= offset
             squared += offset
         limit *= limit

@@ -297,7 +297,9 @@ def _solve(data: FloatArray, centroid: FloatArray, centred: FloatArray, hint: Fl
     def screened() -> list[FloatArray]:
         return screened_directions(centred, cylinder_reduced(radius))
 
-    dense = len(data) > DENSE_POINTS
+    # points of zero weight do not count: they neither make data dense nor fill a gap
+    counted = centred if sqrt_weights is None else centred[sqrt_weights > 0]
+    dense = len(counted) > DENSE_POINTS
     if dense and sqrt_weights is None and len(data) > 2 * _START_SUBSAMPLE:
         sample = data[::len(data) // _START_SUBSAMPLE]
         sample_centroid = weighted_centroid(sample)
@@ -308,7 +310,7 @@ def _solve(data: FloatArray, centroid: FloatArray, centred: FloatArray, hint: Fl
         if rough is not None and not rough.others:
             return solve([rough.rotation[2]])  # the subsample's axis (its final frame has a = b = 0)
     solution = solve(candidate_axes(centred, [hint] if dense else [hint, *screened()]))
-    if dense and not surrounds_axis(len(data), _across_axis(centred, solution)):
+    if dense and not surrounds_axis(len(counted), _across_axis(counted, solution)):
         solution = solve(candidate_axes(centred, [hint, *screened()]))  # a partial surface
     return solution
 

@@ -89,6 +89,13 @@ def test_dense_cylinders_are_screened_only_where_they_leave_a_gap_about_the_axis
         across = (case.points - result.point) @ np.linalg.svd(result.axis[None])[2][1:].T
         assert (largest_azimuth_gap(across) > FULL_COVERAGE_GAP) == (arc_deg < 315.0)
         assert result.sum_of_squares <= reference_for("cylinder", case, count=12).cost * (1 + 1e-9) + 1e-24
+    # points of zero weight count neither as density nor as coverage: 150 weighted points are sparse
+    case = sparse_case("cylinder", rng, 400, arc_deg=360.0)
+    weights = np.zeros(400)
+    weights[:150] = 1.0
+    screened.clear()
+    fit_cylinder(case.points, weights=weights)
+    assert screened
 
 
 def test_ambiguity_warning_carries_the_competing_minima() -> None:
