@@ -12,6 +12,10 @@ lists of centroid neighbours (no search), :func:`pairs_within` from k-d trees (a
 :func:`within_reach` then discards most of these pairs with a lower bound of the distance
 from four planes per triangle (:func:`bounding_planes`), cheaper than the exact distance and
 equal to it wherever the nearest point lies inside the triangle or on an edge.
+
+The mesh-wide helpers of the index build come last: :func:`twin_edges` (is the mesh a closed
+oriented manifold, and which face lies across each edge), :func:`enclosed_volume` and
+:func:`feature_normals` (the pseudo-normals of the sign rule).
 """
 
 from __future__ import annotations
@@ -388,3 +392,33 @@ def listed_pairs(lists: NeighbourLists, coordinates: FloatArray, reach: FloatArr
         points.append(np.take(rows, hit // width))
         triangles.append(np.take(listed.ravel(), hit))
     return np.concatenate(points), np.concatenate(triangles), np.flatnonzero(~local)
+
+
+def enclosed_volume(triangles: FloatArray) -> float:
+    """Signed volume (mm^3) enclosed by closed triangles (divergence theorem), about the centre of their box."""
+    centre = (triangles.min(axis=(0, 1)) + triangles.max(axis=(0, 1))) / 2.0
+    a, b, c = (triangles[:, k] - centre for k in range(3))
+    return float(np.einsum("ij,ij->", a, np.cross(b, c))) / 6.0
+
+
+def feature_normals(mesh: Any, faces: IntArray, triangles: FloatArray, face_normals: FloatArray,
+                     twins: IntArray | None) -> tuple[FloatArray, FloatArray]:
+    """Edge pseudo-normals (F, 3, 3) and angle-weighted vertex pseudo-normals (F, 3, 3).
+
+    An edge's pseudo-normal is the sum of the normals of the faces sharing it: the face and
+    its twin across the edge for a closed oriented mesh (``twins``), else every face trimesh
+    finds on the edge (an open surface's boundary edges have one).
+    """
+    count = len(faces)
+    if twins is not None:
+        edge_normals = face_normals[:, None, :] + face_normals[twins // 3].reshape(count, 3, 3)
+    else:
+        unique_edges = np.asarray(mesh.faces_unique_edges, dtype=np.int64)  # (F, 3): v0v1, v1v2, v2v0
+        edge_sum = np.zeros((int(unique_edges.max()) + 1, 3))
+        np.add.at(edge_sum, unique_edges.ravel(), np.repeat(face_normals, 3, axis=0))
+        edge_normals = edge_sum[unique_edges]
+    weighted = face_normals[:, None, :] * corner_angles(triangles)[:, :, None]
+    vertex_count = int(faces.max()) + 1
+    vertex_sum = np.column_stack([np.bincount(faces.ravel(), weights=weighted[:, :, axis].ravel(),
+                                              minlength=vertex_count) for axis in range(3)])
+    return edge_normals, vertex_sum[faces]

@@ -65,7 +65,8 @@ from pcmm_geo.artefacts._triangle import (
     SizeClass,
     bounding_planes,
     closest_on_triangles,
-    corner_angles,
+    enclosed_volume,
+    feature_normals,
     listed_pairs,
     neighbour_lists,
     pairs_within,
@@ -165,7 +166,7 @@ def _check_closed(mesh: trimesh.Trimesh, twins: IntArray | None, triangles: Floa
     A closed, consistently oriented mesh with a positive enclosed volume passes at once; any
     other goes through trimesh's checks, which name what is wrong.
     """
-    if twins is not None and _enclosed_volume(triangles) > 0.0:
+    if twins is not None and enclosed_volume(triangles) > 0.0:
         return
     expected = "a closed mesh (watertight, consistently oriented, outward normals) for signed distances"
     if not mesh.is_watertight:
@@ -180,13 +181,6 @@ def _check_closed(mesh: trimesh.Trimesh, twins: IntArray | None, triangles: Floa
     volume = float(mesh.volume)
     if not volume > 0.0:
         raise InvalidInputError(what, expected, f"inward normals (enclosed volume {volume:.6g} mm^3)")
-
-
-def _enclosed_volume(triangles: FloatArray) -> float:
-    """Signed volume (mm^3) enclosed by closed triangles (divergence theorem), about the centre of their box."""
-    centre = (triangles.min(axis=(0, 1)) + triangles.max(axis=(0, 1))) / 2.0
-    a, b, c = (triangles[:, k] - centre for k in range(3))
-    return float(np.einsum("ij,ij->", a, np.cross(b, c))) / 6.0
 
 
 def surface_distances(points: ArrayLike, mesh: trimesh.Trimesh, *, require_closed: bool = True,
@@ -297,7 +291,7 @@ class SurfaceIndex:
             _check_closed(mesh, twins, triangles, "mesh")
         planes = bounding_planes(triangles)
         face_normals = np.ascontiguousarray(planes[0:3].T)
-        edge_normals, corner_normals = _feature_normals(mesh, faces, triangles, face_normals, twins)
+        edge_normals, corner_normals = feature_normals(mesh, faces, triangles, face_normals, twins)
         return cls(triangles=triangles, face_normals=face_normals, edge_normals=edge_normals,
                    corner_normals=corner_normals, planes=planes, neighbours=neighbour_lists(triangles),
                    scene_origin=(vertices.min(axis=0) + vertices.max(axis=0)) / 2, vertices=vertices, faces=faces)
@@ -485,26 +479,3 @@ def _packed_distances(block: FloatArray, index: SurfaceIndex) -> FloatArray:
     found = index.distances(np.asarray(block, dtype=np.float64), workers=1)
     return np.column_stack([found.closest, found.signed_distance, found.face_index.astype(np.float64),
                             found.direction])
-
-
-def _feature_normals(mesh: trimesh.Trimesh, faces: IntArray, triangles: FloatArray, face_normals: FloatArray,
-                     twins: IntArray | None) -> tuple[FloatArray, FloatArray]:
-    """Edge pseudo-normals (F, 3, 3) and angle-weighted vertex pseudo-normals (F, 3, 3).
-
-    An edge's pseudo-normal is the sum of the normals of the faces sharing it: the face and
-    its twin across the edge for a closed oriented mesh (``twins``), else every face trimesh
-    finds on the edge (an open surface's boundary edges have one).
-    """
-    count = len(faces)
-    if twins is not None:
-        edge_normals = face_normals[:, None, :] + face_normals[twins // 3].reshape(count, 3, 3)
-    else:
-        unique_edges = np.asarray(mesh.faces_unique_edges, dtype=np.int64)  # (F, 3): v0v1, v1v2, v2v0
-        edge_sum = np.zeros((int(unique_edges.max()) + 1, 3))
-        np.add.at(edge_sum, unique_edges.ravel(), np.repeat(face_normals, 3, axis=0))
-        edge_normals = edge_sum[unique_edges]
-    weighted = face_normals[:, None, :] * corner_angles(triangles)[:, :, None]
-    vertex_count = int(faces.max()) + 1
-    vertex_sum = np.column_stack([np.bincount(faces.ravel(), weights=weighted[:, :, axis].ravel(),
-                                              minlength=vertex_count) for axis in range(3)])
-    return edge_normals, vertex_sum[faces]
