@@ -13,8 +13,10 @@ extra          distributions       used by
 ``plots``      matplotlib          every figure (``--plot``, ``--report``)
 ``progress``   rich                progress bars of the ``pcmm`` command (optional: no bar
                                    without it)
-``dask``       dask[array],        fits of clouds that do not fit in memory
-               distributed
+``dask``       dask[array],        fits of clouds that do not fit in memory, lazy point
+               distributed         files (``read_points_lazy``)
+``e57``        pye57               E57 scanner files (``read_points``)
+``qif``        defusedxml, lxml    QIF 3.0 files (defusedxml reads, lxml validates)
 =============  ==================  ======================================================
 
 Examples
@@ -45,6 +47,9 @@ OPTIONAL_MODULES: dict[str, tuple[str, str]] = {
     "rich": ("rich", "progress"),
     "dask": ("dask[array]", "dask"),
     "distributed": ("distributed", "dask"),
+    "pye57": ("pye57", "e57"),
+    "defusedxml": ("defusedxml", "qif"),
+    "lxml": ("lxml", "qif"),
 }
 
 

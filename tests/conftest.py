@@ -48,6 +48,12 @@ EXTRAS_NEEDED = {
     "fit/test_zone.py::test_mcc_matches_trimesh_minimum_nsphere": "cad",
     "plots/test_fit_residual_maps.py": "plots",
     "io/test_meshes.py": "cad",
+    "io/test_lazy_points.py": "dask",
+    "cli/test_signals.py::test_an_interrupted_acquisition_keeps_its_rows_and_resumes": "acquire",
+    "cli/test_signals.py::test_acquire_overwrite_interrupted_puts_the_old_log_back_beside_the_new_one": "acquire",
+    "cli/test_signals.py::test_acquire_overwrite_killed_is_put_right_by_the_next_run": "acquire",
+    "io/test_clouds.py::test_binary_clouds_go_through_open3d": "cad",
+    "io/test_clouds.py::test_e57_in_metres_read_in_mm_with_pose_and_invalid_points": "e57",
     "plots/test_plots.py": "plots",
     "cli/test_cli_calibrate.py::test_calibrate_text_output_and_files": "plots",
     "cli/test_cli_kinematics.py::test_sensitivity_plot": "plots",
@@ -62,6 +68,20 @@ EXTRAS_NEEDED = {
     "cli/test_cli_repeatability.py::test_repeatability_of_the_printed_tables": "plots",
     "cli/test_cli_repeatability.py::test_laser_ratio_of_the_printed_table": "plots",
     "test_docs.py": "docs",
+    "io/cmm/test_qif_read.py": "qif",
+    "io/cmm/test_qif_hostile.py": "qif",
+    "io/cmm/test_qif_write.py": "qif",
+    # QIF files need defusedxml (reading) and lxml (validating): the qif extra
+    "cli/test_bad_input.py::test_bad_file_gives_one_line_naming_it_and_exit_2[qif": "qif",
+    "cli/test_bad_input.py::test_bad_file_gives_one_line_naming_it_and_exit_2[fit qif": "qif",
+    "cli/test_bad_input.py::test_bad_file_gives_one_line_naming_it_and_exit_2[form qif": "qif",
+    "cli/test_bad_input.py::test_bad_file_gives_one_line_naming_it_and_exit_2[calibrate qif": "qif",
+    "cli/test_bad_input.py::test_bad_file_gives_one_line_naming_it_and_exit_2[calibrate feature": "qif",
+    "cli/test_bad_input.py::test_hostile_qif_gives_one_line_and_writes_nothing": "qif",
+    "cli/test_cli_qif.py": "qif",
+    "cmm/test_qif_pts_sample.py": "qif",
+    "cmm/test_reference_qif.py": "qif",
+    "machine/test_calibration_qif.py": "qif",
 }
 
 
