@@ -13,7 +13,8 @@ from numpy.typing import ArrayLike, NDArray
 
 from pcmm_geo.errors import DegenerateGeometryError, InvalidInputError
 from pcmm_geo.fit._kernels import _tall
-from pcmm_geo.fit._kernels._core import FitResult, as_points, as_weights, residual_stats
+from pcmm_geo.fit._kernels._core import FitResult, as_weights, check_points, residual_stats
+from pcmm_geo.fit._kernels._inputs import point_array
 from pcmm_geo.fit._kernels._linear import frozen, local_covariance, principal_frame, propagate, sign_convention
 from pcmm_geo.fit.scale import is_dask_array
 from pcmm_geo.fit.zone._common import check_criterion
@@ -117,7 +118,12 @@ def fit_line(
         from pcmm_geo.fit.scale.dask import fit_line_dask
 
         return LineFit(**fit_line_dask(points, weights=weights))
-    pts = as_points(points, element=_ELEMENT, dims=(2, 3), min_points=2)
+    min_points = 2
+    pts = point_array(points, element=_ELEMENT, dims=(2, 3), min_points=min_points)
+    chunked = (weights is None and criterion == "gaussian" and pts.shape[1] == 3
+               and len(pts) >= _tall.TALL_ROWS)
+    if not chunked:  # the chunked fit checks the values in its first pass
+        check_points(pts, element=_ELEMENT, min_points=min_points)
     if criterion != "gaussian":
         if pts.shape[1] == 3:
             from pcmm_geo.fit.zone._axial import line3d_minimax
@@ -133,10 +139,14 @@ def fit_line(
 
         return line_minimax(pts, criterion, gauss=fit_line(pts), result_type=LineFit)
     w = as_weights(weights, len(pts), element=_ELEMENT)
-    if w is None and pts.shape[1] == 3 and len(pts) >= _tall.TALL_ROWS:
+    if chunked:
+        from pcmm_geo.fit.scale.chunked import IllConditionedSteps
         from pcmm_geo.fit.scale.fits import fit_line_scaled, numpy_source
 
-        return LineFit(**fit_line_scaled(numpy_source(pts)))
+        try:
+            return LineFit(**fit_line_scaled(numpy_source(pts, element=_ELEMENT, min_points=min_points)))
+        except IllConditionedSteps:
+            pass  # sums beyond float64 (coordinates near the limit): the decomposition below takes them
     centroid, singular, vt = principal_frame(pts, w, element=_ELEMENT)
     if len(singular) > 1 and singular[1] >= (1 - 1e-12) * singular[0] and len(pts) > 2:
         raise DegenerateGeometryError(_ELEMENT, "points have no preferred direction (isotropic spread)")
