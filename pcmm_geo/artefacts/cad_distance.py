@@ -228,7 +228,7 @@ def surface_distances(points: ArrayLike, mesh: trimesh.Trimesh, *, require_close
 
 @dataclass(frozen=True, eq=False)
 class SurfaceIndex:
-    """A mesh prepared for repeated exact distance queries (build once with :meth:`build`).
+    """A mesh prepared for repeated exact distance queries (build once with :meth:`SurfaceIndex.build`).
 
     Attributes
     ----------
