@@ -62,6 +62,45 @@ def add_decimal_flag(parser: argparse.ArgumentParser) -> None:
                              "default: detected, an ambiguous file is refused")
 
 
+class _RenamedOption(argparse.Action):
+    """An option renamed to carry its unit: using the old name stops the parser (exit 2)."""
+
+    def __init__(self, option_strings: list[str], dest: str, new: str, **kwargs: Any) -> None:
+        self.new = new
+        super().__init__(option_strings, dest, nargs="*", default=argparse.SUPPRESS, help=argparse.SUPPRESS)
+
+    def __call__(self, parser: argparse.ArgumentParser, namespace: argparse.Namespace, values: Any,
+                 option_string: str | None = None) -> None:
+        parser.error(f"{option_string} is now {self.new} (the unit is in the name); the old name is refused, "
+                     "so no number is read in a unit it was not written in")
+
+
+def refuse_renamed_options(parser: argparse.ArgumentParser, renamed: dict[str, str]) -> None:
+    """Refuse each old option name of ``renamed`` (``{"--mpe-a": "--mpe-a-um"}``), naming its replacement.
+
+    Every length option carries its unit in its name (``--tolerance-mm``, ``--mpe-a-um``); an old
+    name is registered hidden and exact, so argparse neither abbreviates it to the new name nor
+    accepts it silently: it prints the usage and ``OLD is now NEW ...`` on stderr and exits 2.
+
+    Examples
+    --------
+    >>> import contextlib, io
+    >>> parser = argparse.ArgumentParser(prog="pcmm form")
+    >>> _ = parser.add_argument("--tolerance-mm", dest="tolerance", type=float)
+    >>> refuse_renamed_options(parser, {"--tolerance": "--tolerance-mm"})
+    >>> parser.parse_args(["--tolerance-mm", "0.01"]).tolerance
+    0.01
+    >>> with contextlib.redirect_stderr(io.StringIO()) as err:  # doctest: +ELLIPSIS
+    ...     try:
+    ...         parser.parse_args(["--tolerance", "0.01"])
+    ...     except SystemExit as stop:
+    ...         print(stop.code, err.getvalue().splitlines()[-1])
+    2 pcmm form: error: --tolerance is now --tolerance-mm (the unit is in the name); the old name is refused, ...
+    """
+    for old, new in renamed.items():
+        parser.add_argument(old, action=_RenamedOption, new=new, dest="renamed_" + old.lstrip("-").replace("-", "_"))
+
+
 @dataclass(frozen=True)
 class OutputOption:
     """A command-line option naming a file the command writes (see :func:`declare_output`)."""

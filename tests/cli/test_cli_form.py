@@ -30,7 +30,7 @@ def test_form_roundness_pass_and_fail_with_plot(tmp_path: Path) -> None:
     file = _write(tmp_path / "ring.csv", data.points)
     plot = tmp_path / "zone.png"
     done = _run(
-        "form", str(file), "--element", "circle", "--two-d", "--tolerance", "0.010", "--json", "--plot", str(plot)
+        "form", str(file), "--element", "circle", "--two-d", "--tolerance-mm", "0.010", "--json", "--plot", str(plot)
     )
     assert done.returncode == 0, done.stderr
     result = json.loads(done.stdout)
@@ -41,7 +41,7 @@ def test_form_roundness_pass_and_fail_with_plot(tmp_path: Path) -> None:
 
     image = matplotlib.image.imread(plot)
     assert image.shape[0] > 100 and float(np.std(image[..., :3])) > 0.01
-    failed = _run("form", str(file), "--element", "circle", "--two-d", "--tolerance", "0.005")
+    failed = _run("form", str(file), "--element", "circle", "--two-d", "--tolerance-mm", "0.005")
     assert failed.returncode == 1
     assert "fail" in failed.stdout and "roundness" in failed.stdout
 

@@ -38,21 +38,22 @@ def numcal_file(tmp_path_factory: pytest.TempPathFactory) -> Path:
 def command_lines(numcal: Path) -> dict[str, list[str]]:
     """Every command with a verdict or a result worth keeping, with a typical input."""
     return {
-        "iso10360-2": ["iso10360-2", str(EXAMPLES / "iso10360_2_lengths.csv"), "--mpe-a", "3", "--mpe-k", "250"],
-        "iso10360-5": ["iso10360-5", str(EXAMPLES / "iso10360_5_sphere.csv"), "--reference-diameter", "25.0004",
-                       "--mpe-form", "3", "--mpe-size", "3"],
+        "iso10360-2": ["iso10360-2", str(EXAMPLES / "iso10360_2_lengths.csv"), "--mpe-a-um", "3", "--mpe-k", "250"],
+        "iso10360-5": ["iso10360-5", str(EXAMPLES / "iso10360_5_sphere.csv"), "--reference-diameter-mm", "25.0004",
+                       "--mpe-form-um", "3", "--mpe-size-um", "3"],
         "iso10360-6": ["iso10360-6", str(EXAMPLES / "iso10360_6_reference.csv"),
                        str(EXAMPLES / "iso10360_6_results.json")],
         "micrometer": ["micrometer", str(EXAMPLES / "micrometer_stage.csv")],
         "numcal": ["numcal", str(numcal), "--search", "multistart", "--pairs", "all"],
-        "kinematics-forward": ["kinematics", "forward", "--heights", "410", "395", "420"],
-        "kinematics-inverse": ["kinematics", "inverse", "--tip", "0", "0", "80"],
-        "kinematics-trilaterate": ["kinematics", "trilaterate", "--pivots", "0", "0", "0", "100", "0", "0", "0", "100",
-                                   "0", "--lengths", "90", "90", "90"],
+        "kinematics-forward": ["kinematics", "forward", "--heights-mm", "410", "395", "420"],
+        "kinematics-inverse": ["kinematics", "inverse", "--tip-mm", "0", "0", "80"],
+        "kinematics-trilaterate": ["kinematics", "trilaterate", "--pivots-mm", "0", "0", "0", "100", "0", "0",
+                                   "0", "100",
+                                   "0", "--lengths-mm", "90", "90", "90"],
         "thermal-rtd": ["thermal", "rtd", "--resistance", "107.79"],
         "thermal-thermistor": ["thermal", "thermistor", "--calibration", str(EXAMPLES / "thermistor_calibration.csv"),
                                "--resistance", "10000"],
-        "thermal-correct-length": ["thermal", "correct-length", "--length", "100.0021", "--temperature", "21.3",
+        "thermal-correct-length": ["thermal", "correct-length", "--length-mm", "100.0021", "--temperature", "21.3",
                                    "--alpha", "11.5e-6", "--u-temperature", "0.05", "--u-alpha", "1e-6"],
         "thermal-triangle": ["thermal", "triangle", "--temperatures", "21", "20.5", "20"],
         "thermal-table": ["thermal", "table", "--points-per-axis", "2"],
@@ -60,7 +61,7 @@ def command_lines(numcal: Path) -> dict[str, list[str]]:
         "laser-ratio": ["laser-ratio", "--ratios", str(EXAMPLES / "laser_ratio_table_6_8.csv")],
         "fit": ["fit", "sphere", str(NIST_SPHERE)],
         "form": ["form", str(EXAMPLES / "roundness_ring.csv"), "--element", "circle", "--two-d",
-                 "--tolerance", "0.010"],
+                 "--tolerance-mm", "0.010"],
     }
 
 
@@ -204,7 +205,7 @@ def test_text_output_writes_units_one_way(numcal_file: Path, capsys: pytest.Capt
             "pcmm_geo.machine.calibration.seed", fromlist=["x"]).appendix_cd_files())],
         "gauge-block": ["gauge-block", str(EXAMPLES / "gauge_block.csv")],
         "sensitivity": ["sensitivity", "--points-per-axis", "2"],
-        "failing iso10360-2": ["iso10360-2", str(EXAMPLES / "iso10360_2_lengths.csv"), "--mpe-a", "0.5", "--mpe-k",
+        "failing iso10360-2": ["iso10360-2", str(EXAMPLES / "iso10360_2_lengths.csv"), "--mpe-a-um", "0.5", "--mpe-k",
                                "1000"],
     }
     seen = 0

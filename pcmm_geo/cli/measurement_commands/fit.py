@@ -14,6 +14,7 @@ from pcmm_geo.cli._output import (
     add_overwrite_flag,
     add_plot_flag,
     add_report_flag,
+    refuse_renamed_options,
 )
 from pcmm_geo.cli._record import CovarianceBlock
 
@@ -51,7 +52,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         default="gaussian",
         help="least squares (default), minimum zone, minimum circumscribed or maximum inscribed",
     )
-    parser.add_argument("--radius", type=float, help="fixed radius in mm (circle, sphere, cylinder)")
+    parser.add_argument("--radius-mm", dest="radius", type=float, help="fixed radius in mm (circle, sphere, cylinder)")
     parser.add_argument("--two-d", action="store_true", help="line/circle: use only the x and y columns")
     parser.add_argument("--axis-hint", type=float, nargs=3, metavar=("X", "Y", "Z"),
                         help="cylinder, cone, torus: the nominal axis direction, tried first (sparse data)")
@@ -61,6 +62,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     add_overwrite_flag(parser)
     add_decimal_flag(parser)
     add_json_flag(parser)
+    refuse_renamed_options(parser, {"--radius": "--radius-mm"})
     parser.set_defaults(handler=handle)
 
 
@@ -79,7 +81,7 @@ def handle(args: argparse.Namespace) -> Report:
     kwargs: dict[str, Any] = {}
     if args.radius is not None:
         if args.element not in ("circle", "sphere", "cylinder"):
-            raise InvalidInputError("--radius", "element circle, sphere or cylinder", args.element)
+            raise InvalidInputError("--radius-mm", "element circle, sphere or cylinder", args.element)
         kwargs["radius"] = args.radius
     if args.axis_hint is not None:
         if args.element not in ("cylinder", "cone", "torus"):

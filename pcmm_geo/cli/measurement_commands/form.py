@@ -1,4 +1,4 @@
-"""``pcmm form FILE --element E --tolerance T``: ISO form deviation by minimum zone with a verdict."""
+"""``pcmm form FILE --element E --tolerance-mm T``: ISO form deviation by minimum zone with a verdict."""
 
 from __future__ import annotations
 
@@ -14,6 +14,7 @@ from pcmm_geo.cli._output import (
     add_overwrite_flag,
     add_plot_flag,
     add_report_flag,
+    refuse_renamed_options,
 )
 
 ELEMENTS = ("line", "plane", "circle", "sphere", "cylinder", "cone")
@@ -25,19 +26,20 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         help="straightness/flatness/roundness/sphericity/cylindricity by minimum zone, with pass/fail",
         description=(
             "Evaluate the form deviation of the points in FILE as the width of the minimum zone "
-            "(Chebyshev fit with an optimality certificate). With --tolerance, exit status 1 on fail "
+            "(Chebyshev fit with an optimality certificate). With --tolerance-mm, exit status 1 on fail "
             "(and when an uncertified zone exceeds the tolerance: no verdict)."
         ),
     )
     parser.add_argument("file", type=Path)
     parser.add_argument("--element", choices=ELEMENTS, required=True)
-    parser.add_argument("--tolerance", type=float, metavar="MM", help="form tolerance in mm")
+    parser.add_argument("--tolerance-mm", dest="tolerance", type=float, metavar="MM", help="form tolerance in mm")
     parser.add_argument("--two-d", action="store_true", help="line/circle: use only the x and y columns")
     add_plot_flag(parser, "the zone with the deviations and contact points")
     add_report_flag(parser)
     add_overwrite_flag(parser)
     add_decimal_flag(parser)
     add_json_flag(parser)
+    refuse_renamed_options(parser, {"--tolerance": "--tolerance-mm"})
     parser.set_defaults(handler=handle)
 
 
