@@ -96,7 +96,7 @@ def test_iso10360_5(tmp_path: Path) -> None:
                        "ISO 10360-5: the standard uses 25 points on the test sphere, got 5")
     partial = run("iso10360-5", str(few), "--reference-diameter-mm", "20.001", "--mpe-size-um", "5",
                   "--allow-incomplete")
-    assert partial.returncode == 0 and "verdict: INCOMPLETE (5 of 25 points)" in partial.stdout
+    assert partial.returncode == 0 and "verdict: ISO 10360-5: INCOMPLETE (5 of 25 points)" in partial.stdout
     assert "PASS" not in partial.stdout
     partial_json = json.loads(run("iso10360-5", str(few), "--reference-diameter-mm", "20.001", "--mpe-size-um", "5",
                                   "--allow-incomplete", "--json").stdout)
@@ -116,7 +116,7 @@ def test_iso10360_2_incomplete(tmp_path: Path) -> None:
     assert partial.returncode == 0 and data["passed"] is None and data["complete"] is False
     assert data["verdict"].startswith("INCOMPLETE (3 of 105 values") and "PASS" not in data["verdict"]
     text = run("iso10360-2", str(three), "--mpe-a-um", "2", "--mpe-k", "100", "--allow-incomplete").stdout
-    assert text.startswith("ISO 10360-2: INCOMPLETE (3 of 105 values") and "PASS" not in text
+    assert text.startswith("verdict: ISO 10360-2: INCOMPLETE (3 of 105 values") and "PASS" not in text
 
 
 def _nist_pair(folder: Path) -> None:

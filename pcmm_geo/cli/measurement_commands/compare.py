@@ -141,12 +141,18 @@ def handle(args: argparse.Namespace) -> Report:
     ]
     lines = []
     exit_code = EXIT_OK
+    verdict = None
     if summary.tolerance is not None:
+        from pcmm_geo.cli._record import Verdict
+
         passed = summary.count_beyond == 0
         data["passed"] = passed
         exit_code = EXIT_OK if passed else EXIT_FAILURE
-        lines.append(f"verdict: {'PASS' if passed else 'FAIL'} ({summary.count_beyond} of {summary.count} points "
-                     f"beyond ±{summary.tolerance:g} mm)")
+        verdict = Verdict(passed, f"{'PASS' if passed else 'FAIL'} ({summary.count_beyond} of {summary.count} points "
+                                  f"beyond ±{summary.tolerance:g} mm)",
+                          f"simple acceptance: every signed deviation within ±{summary.tolerance:g} mm",
+                          basis="the signed distances of the registered points from the nominal surface; the "
+                                "uncertainty of the points and of the registration is not taken into account")
     plots = []
     if args.plot:
         from pcmm_geo.plots.cad import plot_deviations
@@ -156,7 +162,7 @@ def handle(args: argparse.Namespace) -> Report:
         data["plot"] = str(written)
         plots.append(str(written))
         lines.append(f"plot written to {written}")
-    return Report(data=data, tables=tables, lines=lines, exit_code=exit_code, plots=plots)
+    return Report(data=data, tables=tables, lines=lines, exit_code=exit_code, plots=plots, verdict=verdict)
 
 
 def read_transform(path: Path) -> Any:

@@ -60,7 +60,6 @@ def handle(args: argparse.Namespace) -> Report:
     rows = [
         [evaluation.characteristic, 1000.0 * evaluation.deviation, "µm"],
         ["tolerance", "-" if evaluation.tolerance is None else 1000.0 * evaluation.tolerance, "µm"],
-        ["verdict", evaluation.verdict, ""],
         ["certified", evaluation.certified, ""],
         ["points", fit.n, ""],
         ["contacts", " ".join(str(i) for i in fit.contacts.tolist()), "index"],
@@ -87,6 +86,10 @@ def handle(args: argparse.Namespace) -> Report:
         from pcmm_geo.cli._record import Verdict
 
         verdict = Verdict(evaluation.passed, f"{evaluation.characteristic}: {evaluation.verdict}",
-                          f"minimum-zone width <= {1000.0 * evaluation.tolerance:g} µm; a zone within the tolerance "
-                          "proves pass even uncertified, fail needs a certified zone")
+                          f"simple acceptance: the minimum-zone width is compared with the tolerance "
+                          f"{1000.0 * evaluation.tolerance:g} µm; a zone within the tolerance passes even "
+                          "uncertified, a fail needs a certified zone",
+                          basis=f"the minimum-zone width {1000.0 * evaluation.deviation:.3f} µm "
+                                f"({'certified' if evaluation.certified else 'not certified'} optimum) of the points "
+                                "as measured; their measurement uncertainty is not taken into account")
     return Report(data=data, tables=tables, lines=lines, plots=plots, exit_code=exit_code, verdict=verdict)

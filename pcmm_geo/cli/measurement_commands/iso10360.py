@@ -21,7 +21,7 @@ from pcmm_geo.cli._output import (
     add_report_flag,
     refuse_renamed_options,
 )
-from pcmm_geo.cli._record import Verdict
+from pcmm_geo.cli._record import UncertaintyEntry, Verdict
 
 _INCOMPLETE_HELP = ("evaluate a data set that is not the standard's (verdict INCOMPLETE, never PASS); "
                     "without it such a file is refused")
@@ -177,20 +177,47 @@ def _handle_2(args: argparse.Namespace) -> Report:
     statement = f"ISO 10360-2: {result.verdict} ({len(result.errors)} values, " + (
         ", ".join(f"{sum(e.verdict == v for e in result.errors)} {v}" for v in ("PASS", "NOT PROVEN", "FAIL"))
         if result.errors[0].verdict else f"{result.n_nonconforming} nonconforming") + ")"
-    lines = [
-        statement,
-        f"max |E0| = {result.max_abs_error * 1000:.3f} µm ({result.max_error_ratio:.2f} of MPE), "
-        f"max R0 = {result.max_range * 1000:.3f} µm",
-        f"decision rule: {result.decision_rule}",
-    ]
-    rule = f"{result.decision_rule}, MPE_E0 = {_mpe_text(mpe)}"
-    if result.test_uncertainty > 0:
-        rule += f", U = {1000 * result.test_uncertainty:g} µm"
-    if args.mpl_r0 is not None:
-        rule += f"; R0 <= {args.mpl_r0:g} µm"
+    lines = [f"max |E0| = {result.max_abs_error * 1000:.3f} µm ({result.max_error_ratio:.2f} of MPE), "
+             f"max R0 = {result.max_range * 1000:.3f} µm"]
+    rule_name = args.rule or ("iso14253" if args.uncertainty > 0 else "simple")
+    limits = f"MPE_E0 = {_mpe_text(mpe)}" + (f", R0 <= {args.mpl_r0:g} µm" if args.mpl_r0 is not None else "")
+    u_um = 1000 * result.test_uncertainty
+    uncertainties = []
+    if u_um > 0:
+        uncertainties.append(UncertaintyEntry("max |E0|", result.max_abs_error * 1000, u_um / 2, "µm", 2.0,
+                                              "test uncertainty as stated"))
     plots = _plot(args, "plot_length_test", result)
+    verdict = Verdict(_passed(result.verdict), statement, _rule_text(rule_name, limits, "|E0|"),
+                      uncertainty=f"U = {u_um:g} µm (k = 2), test uncertainty as stated" if u_um > 0 else "",
+                      basis="the E0 values alone (no test uncertainty stated: --uncertainty-um)",
+                      conformity_text=_guarded_conformity(rule_name, _passed(result.verdict), u_um > 0))
     return Report(data=data, tables=tables, lines=lines, exit_code=EXIT_FAILURE if result.passed is False else EXIT_OK,
-                  plots=plots, verdict=Verdict(_passed(result.verdict), statement, rule))
+                  plots=plots, verdict=verdict, uncertainties=uncertainties)
+
+
+def _rule_text(rule: str, limits: str, value: str) -> str:
+    """The decision rule in ISO 14253-1 terms, once, with the limits it was applied to."""
+    if rule == "iso14253":
+        return (f"ISO 14253-1 default rule: conformity is proven when {value} + U <= MPE, nonconformity when "
+                f"{value} - U > MPE, otherwise neither is proven; {limits}")
+    if rule == "guarded":
+        return (f"guarded acceptance: a value is accepted only when {value} + U <= MPE (conformity proven), "
+                f"otherwise rejected (which does not prove nonconformity); {limits}")
+    return (f"simple acceptance (zero guard band, shared risk): a value is accepted when {value} <= MPE; U is not "
+            f"used, so neither conformity nor nonconformity is proven in ISO 14253-1 terms; {limits}")
+
+
+def _guarded_conformity(rule: str, passed: bool | None, has_u: bool = True) -> str:
+    """The ISO 14253-1 state where it does not follow from the verdict and U.
+
+    Guarded acceptance proves conformity, but its FAIL proves nothing (the value may lie within
+    U of the limit); simple acceptance with a stated U proves neither, as it does not use U.
+    """
+    if rule == "guarded" and passed is False:
+        return "nonconformity not proven: guarded acceptance fails a value within U of the limit too"
+    if rule == "simple" and has_u and passed is not None:
+        return "neither conformity nor nonconformity proven: simple acceptance does not use the stated U"
+    return ""
 
 
 def _passed(verdict: str) -> bool | None:
@@ -261,20 +288,33 @@ def _handle_5(args: argparse.Namespace) -> Report:
         ["quantity", "value", "unit"],
         [["P_FTU", result.form_error * 1000, "µm"], ["P_STU", result.size_error * 1000, "µm"],
          ["fitted diameter", result.fitted_diameter, "mm"], ["reference diameter", result.reference_diameter, "mm"],
-         ["points", result.n, "1"]],
+         ["points", result.n, ""]],
     )
+    plots = _plot(args, "plot_probing_test", result, points)
+    exit_code = EXIT_FAILURE if result.passed is False else EXIT_OK
+    if args.mpe_form is None and args.mpe_size is None:
+        return Report(data=data, tables=[table], plots=plots, exit_code=exit_code,
+                      lines=["no verdict: no MPE stated (--mpe-form-um, --mpe-size-um)"])
     verdict = result.verdict
     if result.test_uncertainty is not None and (result.form_verdict or result.size_verdict):
         verdict += f" (P_FTU {result.form_verdict or '-'}, P_STU {result.size_verdict or '-'})"
-    lines = [f"verdict: {verdict}", f"decision rule: {result.decision_rule}"]
-    limits = [f"P_FTU <= {args.mpe_form:g} µm" if args.mpe_form is not None else "",
-              f"|P_STU| <= {args.mpe_size:g} µm" if args.mpe_size is not None else ""]
-    rule = (f"{result.decision_rule}: " + " and ".join(t for t in limits if t)) if any(limits) \
-        else "none (no MPE stated)"
-    plots = _plot(args, "plot_probing_test", result, points)
-    return Report(data=data, tables=[table], lines=lines, plots=plots,
-                  verdict=Verdict(_passed(verdict.split(" ")[0]), f"ISO 10360-5: {verdict}", rule),
-                  exit_code=EXIT_FAILURE if result.passed is False else EXIT_OK)
+    limits = "P is " + " and ".join(text for text in (
+        f"P_FTU against MPE_PFTU = {args.mpe_form:g} µm" if args.mpe_form is not None else "",
+        f"|P_STU| against MPE_PSTU = {args.mpe_size:g} µm" if args.mpe_size is not None else "") if text)
+    u_form, u_size = args.uncertainty if args.uncertainty is not None else (0.0, 0.0)
+    uncertainties = []
+    if args.uncertainty is not None:
+        uncertainties = [UncertaintyEntry("P_FTU", result.form_error * 1000, u_form / 2, "µm", 2.0,
+                                          "test uncertainty as stated"),
+                         UncertaintyEntry("P_STU", result.size_error * 1000, u_size / 2, "µm", 2.0,
+                                          "test uncertainty as stated")]
+    return Report(data=data, tables=[table], plots=plots, exit_code=exit_code, uncertainties=uncertainties,
+                  verdict=Verdict(
+                      _passed(verdict.split(" ")[0]), f"ISO 10360-5: {verdict}",
+                      _rule_text("iso14253" if args.uncertainty is not None else "simple", limits, "P"),
+                      uncertainty=(f"U(P_FTU) = {u_form:g} µm, U(P_STU) = {u_size:g} µm (k = 2), test uncertainties "
+                                   "as stated") if args.uncertainty is not None else "",
+                      basis="the P_FTU and P_STU values alone (no test uncertainty stated: --uncertainty-um)"))
 
 
 def _handle_6(args: argparse.Namespace) -> Report:
@@ -309,14 +349,16 @@ def _handle_6(args: argparse.Namespace) -> Report:
     statement = (f"ISO 10360-6: {'PASS' if report.passed else 'FAIL'} "
                  f"({len(report.cases) - report.n_failed}/{len(report.cases)} cases within MPE)")
     verdict = Verdict(report.passed, statement,
-                      f"every deviation <= its MPE: position {mpe.position:g} mm, orientation {mpe.orientation:g} rad, "
-                      f"size {mpe.size:g} mm, angle {mpe.angle:g} rad")
+                      f"simple acceptance: every deviation <= its MPE (position {mpe.position:g} mm, orientation "
+                      f"{mpe.orientation:g} rad, size {mpe.size:g} mm, angle {mpe.angle:g} rad)",
+                      basis="the deviations of the tested results from the reference results, which are exact to "
+                            "the digits given; no U is applied")
     if args.markdown:
         import sys
 
         print("pcmm iso10360-6: warning: --markdown is deprecated and will be removed in the next release; "
               "use --report FILE.md", file=sys.stderr)
-        return Report(data=data, lines=[report.to_markdown().rstrip("\n")], plots=plots, verdict=verdict,
+        return Report(data=data, lines=[report.to_markdown().rstrip("\n")], plots=plots,
                       exit_code=EXIT_OK if report.passed else EXIT_FAILURE)
     table = Table(
         "ISO 10360-6 software test",
@@ -325,5 +367,5 @@ def _handle_6(args: argparse.Namespace) -> Report:
           "pass" if c.passed else f"FAIL {c.note}".strip()]
          for c in report.cases],
     )
-    return Report(data=data, tables=[table], lines=[statement], plots=plots, verdict=verdict,
+    return Report(data=data, tables=[table], plots=plots, verdict=verdict,
                   exit_code=EXIT_OK if report.passed else EXIT_FAILURE)

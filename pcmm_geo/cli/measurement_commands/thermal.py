@@ -14,7 +14,7 @@ from pcmm_geo.cli._output import (
     add_report_flag,
     refuse_renamed_options,
 )
-from pcmm_geo.cli._record import UncertaintyEntry
+from pcmm_geo.cli._record import Condition, UncertaintyEntry
 
 
 def register(subparsers: Any) -> None:
@@ -178,8 +178,12 @@ def _handle_correct(args: argparse.Namespace) -> Report:
              f"u = {res.standard_uncertainty * 1000:.3f} µm, U(k=2) = {res.expanded_uncertainty() * 1000:.3f} µm"]
     uncertainty = UncertaintyEntry("length at 20 °C", res.value, res.standard_uncertainty, "mm", coverage_factor=2.0,
                                    method="GUM, first-order propagation of the budget above")
+    environment = [Condition("workpiece temperature", args.temperature, "°C"),
+                   Condition("u(workpiece temperature)", args.u_temperature, "K"),
+                   Condition("machine scale temperature", args.scale_temperature, "°C"),
+                   Condition("u(scale temperature)", args.u_scale_temperature, "K")]
     return Report(data=data, tables=[table], lines=lines, plots=_plot(args, "plot_length_correction", res),
-                  uncertainties=[uncertainty])
+                  uncertainties=[uncertainty], environment=environment)
 
 
 def _handle_triangle(args: argparse.Namespace) -> Report:
@@ -199,7 +203,10 @@ def _handle_triangle(args: argparse.Namespace) -> Report:
         rows.append([name.upper(), now[0], now[1], (now[0] - before[0]) * 1000, (now[1] - before[1]) * 1000])
     table = Table("Frame corners (A pinned, B sliding in x)", ["corner", "x / mm", "y / mm", "dx / µm", "dy / µm"],
                   rows)
-    return Report(data=data, tables=[table], plots=_plot(args, "plot_frame_triangle", nominal, tri))
+    environment = [Condition(f"frame side {side} temperature", value, "°C")
+                   for side, value in zip(("AB", "AC", "BC"), args.temperatures, strict=True)]
+    return Report(data=data, tables=[table], plots=_plot(args, "plot_frame_triangle", nominal, tri),
+                  environment=environment)
 
 
 def _handle_table(args: argparse.Namespace) -> Report:
