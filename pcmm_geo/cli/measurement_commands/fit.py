@@ -6,6 +6,7 @@ import argparse
 from pathlib import Path
 from typing import Any
 
+import pcmm_geo.fit as _fit
 from pcmm_geo.cli._output import (
     Report,
     Table,
@@ -24,7 +25,7 @@ _CRITERION_TITLES = {
     "mcc": "minimum circumscribed",
     "mic": "maximum inscribed",
 }
-ELEMENTS = ("line", "plane", "circle", "sphere", "cylinder", "cone", "torus")
+ELEMENTS = _fit.ELEMENTS  # the names of the fits and the reference generator
 _DIRECTIONS = ("direction", "normal", "axis")
 _UNITS = {"radius": "mm", "r_in": "mm", "r_out": "mm", "major_radius": "mm", "minor_radius": "mm", "half_angle": "rad"}
 
@@ -100,7 +101,7 @@ def handle(args: argparse.Namespace) -> Report:
         data.pop("residual_components", None)
     data["file"] = str(args.file)
     geometry = _geometry_rows(result)
-    uncertainty = result.std_errors
+    uncertainty = dict(zip(result.parameter_names, np.asarray(result.std_errors).tolist(), strict=True))
     rows = [
         [name, value, uncertainty.get(name, float("nan")), "1" if name.split("_")[0] in _DIRECTIONS else "mm"]
         for name, value in geometry
