@@ -39,6 +39,7 @@ EXTRAS_NEEDED = {
     "plots/test_fit_residual_maps.py": "plots",
     "io/test_meshes.py": "cad",
     "plots/test_plots.py": "plots",
+    "plots/test_plot_readability.py": "plots",
     "cli/test_cli_calibrate.py::test_calibrate_text_output_and_files": "plots",
     "cli/test_cli_kinematics.py::test_sensitivity_plot": "plots",
     "cli/test_cli_fit.py::test_fit_circle_projected_matches_nist_and_human_table": "plots",

@@ -10,6 +10,7 @@ import base64
 import hashlib
 import platform
 import re
+import shlex
 from datetime import UTC, datetime, timedelta
 from pathlib import Path
 
@@ -25,6 +26,7 @@ from pcmm_geo.machine.calibration.numerical.numcal_data import (
 
 EXAMPLES = Path(__file__).parents[2] / "pcmm_geo" / "data" / "examples"
 NIST_SPHERE = Path(__file__).parents[1] / "data" / "nist" / "Sphere" / "sph20.ds"
+APPENDIX = (EXAMPLES.parent / "appendix_cd" / "cmm_export.csv", EXAMPLES.parent / "appendix_cd" / "lasers.csv")
 
 
 @pytest.fixture(scope="module")
@@ -62,6 +64,11 @@ def command_lines(numcal: Path) -> dict[str, list[str]]:
         "fit": ["fit", "sphere", str(NIST_SPHERE)],
         "form": ["form", str(EXAMPLES / "roundness_ring.csv"), "--element", "circle", "--two-d",
                  "--tolerance-mm", "0.010"],
+        "fit-circle": ["fit", "circle", str(EXAMPLES / "roundness_ring.csv"), "--two-d"],
+        "gauge-block": ["gauge-block", str(EXAMPLES / "gauge_block.csv"), "--nominal-mm", "100",
+                        "--tolerance-um", "0.3", "--uncertainty-um", "0.1"],
+        "uncertainty": ["uncertainty", "distance", "--trials", "2000", "--length-mm", "50"],
+        "calibrate": ["calibrate", str(APPENDIX[0]), str(APPENDIX[1])],
     }
 
 
@@ -83,14 +90,22 @@ def run(argv: list[str], capsys: pytest.CaptureFixture[str]) -> tuple[int, str, 
 
 @pytest.mark.parametrize("name", list(command_lines(Path("numcal.csv"))))
 def test_every_command_writes_a_plot_and_a_report(
-    name: str, numcal_file: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+    name: str, numcal_file: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str], monkeypatch: pytest.MonkeyPatch
 ) -> None:
+    from matplotlib.figure import Figure
+
+    from pcmm_geo.plots._figure import data_under_legends
+
+    saved: list[Figure] = []
+    original = Figure.savefig
+    monkeypatch.setattr(Figure, "savefig", lambda self, *a, **k: (original(self, *a, **k), saved.append(self))[0])
     suffix = ".html" if sum(map(ord, name)) % 2 else ".md"  # both formats over the set
     plot, report = tmp_path / f"{name}.png", tmp_path / f"{name}{suffix}"
     argv = [*command_lines(numcal_file)[name], "--plot", str(plot), "--report", str(report)]
     code, out, err = run(argv, capsys)
     assert code in (0, 1), err  # 1: the verdict is "fail" (the example software results fail on purpose)
     assert_real_picture(plot)
+    assert len(saved) == 1 and data_under_legends(saved[0]) == []  # no legend covers data
     text = report.read_text(encoding="utf-8")
     assert "Record" in text and "Software" in text
     if suffix == ".md":
@@ -121,15 +136,15 @@ def test_report_is_a_lab_record(tmp_path: Path, capsys: pytest.CaptureFixture[st
         row = next(line for line in lines[start:] if line.startswith(f"| {first} |"))
         return [cell.strip() for cell in row.strip("|").split(" | ")]
 
-    stamp = datetime.fromisoformat(cells("date and time (UTC)")[1])
+    stamp = datetime.fromisoformat(cells("run started (UTC)")[1])
     assert stamp.utcoffset() == timedelta(0) and before <= stamp <= after
-    assert cells("command line")[1] == " ".join(["pcmm", *argv]).replace("_", "\\_")
+    assert cells("command line")[1] == shlex.join(["pcmm", *argv]).replace("_", "\\_")
     digest = hashlib.sha256(NIST_SPHERE.read_bytes()).hexdigest()
     row = cells(str(NIST_SPHERE.resolve()).replace("_", "\\_"))
     assert row[1] == digest and int(row[2]) == NIST_SPHERE.stat().st_size
-    versions = {name.replace("\\_", "_"): cells(name)[1] for name in ("python", "pcmm\\_geo", "numpy", "scipy",
-                                                                      "matplotlib")}
-    assert versions == {"python": platform.python_version(), "pcmm_geo": pcmm_geo.__version__,
+    versions = {name.replace("\\_", "_"): cells(name)[1] for name in ("python", "pcmm\\_geo version", "numpy",
+                                                                      "scipy", "matplotlib")}
+    assert versions == {"python": platform.python_version(), "pcmm_geo version": pcmm_geo.__version__,
                         "numpy": numpy.__version__, "scipy": scipy.__version__, "matplotlib": matplotlib.__version__}
     # optional libraries are listed when the run imported them (in this test process: whatever ran before)
     import sys
@@ -217,7 +232,7 @@ def test_text_output_writes_units_one_way(numcal_file: Path, capsys: pytest.Capt
             assert not _BAD_UNIT.search(cell), (name, cell)
             if " / " in cell:  # "quantity / unit": a unit follows, nothing after it
                 assert cell.split(" / ")[-1].strip(), (name, cell)
-        assert not re.search(r"\bum\b|degC", out), (name, out)
+        assert not re.search(r"(?<![-\w])um\b|degC", out), (name, out)  # "--uncertainty-um" is an option
         seen += len(headers)
     assert seen > 60
 

@@ -66,7 +66,7 @@ def test_uncertainty_command_from_a_calibration_file(raw_files: tuple[str, str],
     assert {entry["name"] for entry in result["budget"]} == {"calibration", "laser_noise", "encoder_noise"}
     assert plot.stat().st_size > 10_000
     text = run("uncertainty", "distance", "--calibration", str(cal), "--trials", "2000", "--length-mm", "50")
-    assert text.returncode == 0 and "Budget (one input group varied at a time)" in text.stdout
+    assert text.returncode == 0 and "Budget: contribution of each input group to u" in text.stdout
 
 
 def test_demo_json_states_the_expanded_uncertainty() -> None:

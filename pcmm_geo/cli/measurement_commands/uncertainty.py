@@ -151,7 +151,7 @@ def _handle(args: argparse.Namespace) -> Report:
     if args.plot:
         from pcmm_geo.plots.uncertainty import plot_monte_carlo
 
-        written = plot_monte_carlo(result, args.plot, nominal=task.nominal, overwrite=args.overwrite,
+        written = plot_monte_carlo(result, args.plot, nominal=task.nominal, overwrite=args.overwrite, gum=gum,
                                    title=f"{args.task} {task.nominal:g} mm: U = "
                                    f"{1000 * result.expanded_uncertainty:.3f} µm (95 %)")
         data["plot"] = str(written)
@@ -169,10 +169,19 @@ def _handle(args: argparse.Namespace) -> Report:
              1000 * (gum.coverage_interval[1] - task.nominal)]] if gum is not None else []),
     )
     gum_parts = {entry.name: entry.contribution for entry in gum.budget} if gum is not None else {}
+    from pcmm_geo.uncertainty.virtual_cmm import GROUP_LABELS
+
     budget = Table(
-        "Budget (one input group varied at a time)",
-        ["input group", "u_i(y) Monte Carlo / µm", "share", "u_i(y) GUM / µm"],
-        [[entry.name, 1000 * entry.contribution, entry.share, 1000 * gum_parts.get(entry.name, float("nan"))]
-         for entry in result.budget],
+        "Budget: contribution of each input group to u (one group varied at a time)",
+        ["input group", "Monte Carlo / µm", "share of u²", "GUM / µm"],
+        [[GROUP_LABELS.get(entry.name, entry.name), 1000 * entry.contribution, entry.share,
+          1000 * gum_parts.get(entry.name, float("nan"))] for entry in result.budget],
     )
-    return Report(data=data, tables=[summary, budget], lines=lines, plots=plots)
+    from pcmm_geo.cli._record import Condition
+
+    environment = [Condition("machine temperature", args.machine_temperature, "°C"),
+                   Condition("u(arm temperature)", args.arm_temperature_u, "K"),
+                   Condition("u(column temperature)", args.column_temperature_u, "K"),
+                   Condition("workpiece temperature", args.workpiece_temperature, "°C"),
+                   Condition("u(workpiece temperature)", args.workpiece_temperature_u, "K")]
+    return Report(data=data, tables=[summary, budget], lines=lines, plots=plots, environment=environment)
