@@ -116,24 +116,26 @@ def _resolve_reference(app: Any, env: Any, node: Any, contnode: Any) -> Any:
 
 
 def _field_owner(target: str, module: str | None, cls: str | None) -> str | None:
-    """``module.Class`` when ``target`` names a field of that dataclass (which has no entry of its own)."""
+    """``module.Class`` (where the class is defined) when ``target`` names a field of that dataclass.
+
+    Such a field has no entry of its own (its class's Attributes list describes it), so a
+    reference to it links to the class.
+    """
     import dataclasses
     import importlib
 
-    if not module:
-        return None
     owner_name, _, field_name = target.rpartition(".")
     owner_name = owner_name or cls or ""
     if not owner_name:
         return None
-    full = owner_name if owner_name.startswith(module) else f"{module}.{owner_name}"
-    module_name, _, class_name = full.rpartition(".")
-    try:
-        owner = getattr(importlib.import_module(module_name), class_name)
-    except (ImportError, AttributeError):
-        return None
-    if dataclasses.is_dataclass(owner) and field_name in {f.name for f in dataclasses.fields(owner)}:
-        return full
+    for full in (owner_name, f"{module}.{owner_name}", f"{module}.{cls}.{owner_name}" if cls else ""):
+        module_name, _, class_name = full.rpartition(".")
+        try:
+            owner = getattr(importlib.import_module(module_name), class_name)
+        except (ImportError, AttributeError, ValueError):
+            continue
+        if dataclasses.is_dataclass(owner) and field_name in {f.name for f in dataclasses.fields(owner)}:
+            return f"{owner.__module__}.{owner.__qualname__}"
     return None
 
 

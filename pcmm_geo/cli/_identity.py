@@ -35,7 +35,6 @@ from __future__ import annotations
 import argparse
 import math
 import re
-import uuid
 from dataclasses import dataclass
 from datetime import UTC, date, datetime
 from pathlib import Path
@@ -330,6 +329,8 @@ def resolve_identity(args: argparse.Namespace, inputs: list[str] | None = None) 
     if given_id:
         report_id = _report_id("--report-id", given_id)
     else:
+        import uuid
+
         now = datetime.now(UTC)
         report_id = f"PCMM-{now:%Y%m%d-%H%M%S}-{uuid.uuid4().hex[:8].upper()}"
     stated = getattr(args, "measurement_date", None)

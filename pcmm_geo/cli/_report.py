@@ -45,7 +45,8 @@ _STYLE = (
     ".verdict{font-size:1.4em;font-weight:bold;padding:0.3em 0.6em;display:inline-block}"
     ".pass{background:#d8f0d8;color:#145214}.fail{background:#f6d5d5;color:#7a1010}.none{background:#eee}"
     "p.statement{margin-top:2em;font-style:italic}p.amends{font-weight:bold;color:#7a1010}"
-    "@media print{body{margin:0;max-width:none}tr,figure{break-inside:avoid}h2{break-after:avoid}}"
+    "@media print{body{margin:0;max-width:none}tr,figure{break-inside:avoid}h2{break-after:avoid}"
+    "td.hash{font-size:0.6em}}"
 )
 _PAGE_STYLE = (  # the id is checked to [A-Za-z0-9._/-] (or generated), so it needs no CSS escaping
     "@page{size:A4;margin:18mm 14mm 20mm;"

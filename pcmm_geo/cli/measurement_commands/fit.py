@@ -6,7 +6,6 @@ import argparse
 from pathlib import Path
 from typing import Any
 
-import pcmm_geo.fit as _fit
 from pcmm_geo.cli._output import (
     Report,
     Table,
@@ -25,7 +24,7 @@ _CRITERION_TITLES = {
     "mcc": "minimum circumscribed",
     "mic": "maximum inscribed",
 }
-ELEMENTS = _fit.ELEMENTS  # the names of the fits and the reference generator
+ELEMENTS = ("line", "plane", "circle", "sphere", "cylinder", "cone", "torus")  # = pcmm_geo.fit.ELEMENTS (tested)
 _DIRECTIONS = ("direction", "normal", "axis")
 _UNITS = {"radius": "mm", "r_in": "mm", "r_out": "mm", "major_radius": "mm", "minor_radius": "mm", "half_angle": "rad"}
 

@@ -114,14 +114,12 @@ def _decide(args: argparse.Namespace, length: float, data: dict[str, Any],
     if args.tolerance is not None and args.nominal is None:
         raise InvalidInputError("--tolerance-um", "--nominal-mm as well (the tolerance is about the nominal)",
                                 "no --nominal-mm")
-    uncertainties = []
+    uncertainties = []  # U is stated with the verdict; alone (no tolerance) it is the result's uncertainty
     if args.uncertainty is not None:
         data["expanded_uncertainty_um"] = args.uncertainty
-        uncertainties.append(
-            UncertaintyEntry("central length", length, args.uncertainty / 2000, "mm", 2.0, "laboratory budget as "
-                             "stated") if args.nominal is None else
-            UncertaintyEntry(f"central length - nominal {args.nominal:g} mm", 1000 * (length - args.nominal),
-                             args.uncertainty / 2, "µm", 2.0, "laboratory budget as stated"))
+        if args.tolerance is None:
+            uncertainties.append(UncertaintyEntry("central length", length, args.uncertainty / 2000, "mm", 2.0,
+                                                  "laboratory budget as stated"))
     if args.nominal is None:
         return None, uncertainties, EXIT_OK
     deviation_um = 1000 * (length - args.nominal)

@@ -21,7 +21,7 @@ from pcmm_geo.cli._output import (
     add_report_flag,
     refuse_renamed_options,
 )
-from pcmm_geo.cli._record import UncertaintyEntry, Verdict
+from pcmm_geo.cli._record import Verdict
 
 _INCOMPLETE_HELP = ("evaluate a data set that is not the standard's (verdict INCOMPLETE, never PASS); "
                     "without it such a file is refused")
@@ -181,18 +181,14 @@ def _handle_2(args: argparse.Namespace) -> Report:
              f"max R0 = {result.max_range * 1000:.3f} µm"]
     rule_name = args.rule or ("iso14253" if args.uncertainty > 0 else "simple")
     limits = f"MPE_E0 = {_mpe_text(mpe)}" + (f", R0 <= {args.mpl_r0:g} µm" if args.mpl_r0 is not None else "")
-    u_um = 1000 * result.test_uncertainty
-    uncertainties = []
-    if u_um > 0:
-        uncertainties.append(UncertaintyEntry("max |E0|", result.max_abs_error * 1000, u_um / 2, "µm", 2.0,
-                                              "test uncertainty as stated"))
+    u_um = 1000 * result.test_uncertainty  # stated once, with the verdict
     plots = _plot(args, "plot_length_test", result)
     verdict = Verdict(_passed(result.verdict), statement, _rule_text(rule_name, limits, "|E0|"),
                       uncertainty=f"U = {u_um:g} µm (k = 2), test uncertainty as stated" if u_um > 0 else "",
                       basis="the E0 values alone (no test uncertainty stated: --uncertainty-um)",
                       conformity_text=_guarded_conformity(rule_name, _passed(result.verdict), u_um > 0))
     return Report(data=data, tables=tables, lines=lines, exit_code=EXIT_FAILURE if result.passed is False else EXIT_OK,
-                  plots=plots, verdict=verdict, uncertainties=uncertainties)
+                  plots=plots, verdict=verdict)
 
 
 def _rule_text(rule: str, limits: str, value: str) -> str:
@@ -302,13 +298,7 @@ def _handle_5(args: argparse.Namespace) -> Report:
         f"P_FTU against MPE_PFTU = {args.mpe_form:g} µm" if args.mpe_form is not None else "",
         f"|P_STU| against MPE_PSTU = {args.mpe_size:g} µm" if args.mpe_size is not None else "") if text)
     u_form, u_size = args.uncertainty if args.uncertainty is not None else (0.0, 0.0)
-    uncertainties = []
-    if args.uncertainty is not None:
-        uncertainties = [UncertaintyEntry("P_FTU", result.form_error * 1000, u_form / 2, "µm", 2.0,
-                                          "test uncertainty as stated"),
-                         UncertaintyEntry("P_STU", result.size_error * 1000, u_size / 2, "µm", 2.0,
-                                          "test uncertainty as stated")]
-    return Report(data=data, tables=[table], plots=plots, exit_code=exit_code, uncertainties=uncertainties,
+    return Report(data=data, tables=[table], plots=plots, exit_code=exit_code,
                   verdict=Verdict(
                       _passed(verdict.split(" ")[0]), f"ISO 10360-5: {verdict}",
                       _rule_text("iso14253" if args.uncertainty is not None else "simple", limits, "P"),

@@ -141,7 +141,7 @@ def _handle(args: argparse.Namespace) -> Report:
     plots: list[str] = []
     lines = [
         f"machine: {source}",
-        f"{task.quantity} {task.nominal:g} mm: U = {1000 * result.expanded_uncertainty:.3f} µm "
+        f"{task.quantity.replace('_', ' ')} {task.nominal:g} mm: U = {1000 * result.expanded_uncertainty:.3f} µm "
         f"(k = {result.coverage_factor:.2f}, {100 * result.coverage_probability:.0f} % "
         f"{result.interval_kind} interval, {result.n_trials} trials; {result.message})",
     ]
