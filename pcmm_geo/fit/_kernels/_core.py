@@ -452,8 +452,7 @@ class FitResult:
         """Compact: the fields that apply (no NaN / None placeholders such as a Gaussian fit's ``r_in``)."""
         geometry = [f"{f.name}={_short(getattr(self, f.name))}" for f in dataclasses.fields(self)
                     if f.name not in _BASE_FIELDS and _applies(getattr(self, f.name), self.n)]
-        if self.criterion != "gaussian":
-            geometry.append(f"criterion={self.criterion!r}")
+        geometry += [f"criterion={self.criterion!r}"] if self.criterion != "gaussian" else []
         return (
             f"{type(self).__name__}({', '.join(geometry)}, n={self.n}, rms={self.rms:.6g}, form={self.form:.6g}, "
             f"converged={self.converged})"
