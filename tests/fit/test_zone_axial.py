@@ -175,7 +175,8 @@ def test_exact_line_converges_with_form_zero() -> None:
 
 def test_line_zone_without_a_least_squares_line_is_not_refused() -> None:
     """The corners of a cube have no preferred direction, yet a smallest enclosing cylinder."""
-    cube = np.array([[x, y, z] for x in (0.0, 2.0) for y in (0.0, 2.0) for z in (0.0, 2.0)]) + [10.0, -3.0, 7.0]
+    corners = [[x, y, z] for x in (0.0, 2.0) for y in (0.0, 2.0) for z in (0.0, 2.0)]
+    cube = np.array(corners) + np.array([10.0, -3.0, 7.0])
     with pytest.raises(DegenerateGeometryError, match="no preferred direction"):
         fit_line(cube)
     fit = fit_line(cube, criterion="chebyshev", search_budget=SearchBudget(max_cells=300_000, max_seconds=None))
