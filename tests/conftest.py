@@ -44,6 +44,7 @@ EXTRAS_NEEDED = {
     "cli/test_signals.py::test_acquire_overwrite_killed_is_put_right_by_the_next_run": "acquire",
     "io/test_clouds.py::test_binary_clouds_go_through_open3d": "cad",
     "io/test_clouds.py::test_e57_in_metres_read_in_mm_with_pose_and_invalid_points": "e57",
+    "io/test_e57.py": "e57",
     "plots/test_plots.py": "plots",
     "cli/test_cli_calibrate.py::test_calibrate_text_output_and_files": "plots",
     "cli/test_cli_kinematics.py::test_sensitivity_plot": "plots",
