@@ -8,6 +8,16 @@ import pytest
 
 DATA_DIR = Path(__file__).parent / "data"
 
+try:
+    from hypothesis import settings
+except ImportError:  # a core-only environment without the test extra
+    pass
+else:
+    # no example database in the working tree (.hypothesis/): tests run in parallel workers
+    # (pytest-xdist) and every run stands on its own; no deadline: speed is for the benchmarks
+    settings.register_profile("pcmm_geo", database=None, deadline=None)
+    settings.load_profile("pcmm_geo")
+
 
 @pytest.fixture(scope="session")
 def data_dir() -> Path:

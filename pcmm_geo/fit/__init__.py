@@ -66,6 +66,8 @@ _LAZY = {
     "ProbeCompensation": "probe",
     "material_side_from_normals": "probe",
     "material_side_from_nominal": "probe",
+    "AxisRegion": "zone.axial.region",
+    "SearchBudget": "zone.axial.region",
 }
 
 __all__ = ["FitResult", "Tolerances", "TOL", *sorted(_LAZY)]

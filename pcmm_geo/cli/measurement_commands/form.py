@@ -22,6 +22,7 @@ from pcmm_geo.cli._output import (
     add_plot_flag,
     add_report_flag,
 )
+from pcmm_geo.cli.measurement_commands.fit import add_axis_region_options
 
 ELEMENTS = ("line", "plane", "circle", "sphere", "cylinder", "cone")
 
@@ -43,6 +44,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     parser.add_argument("--tolerance", type=float, metavar="MM", help="form tolerance in mm")
     parser.add_argument("--two-d", action="store_true", help="line/circle: use only the x and y columns")
     add_cmm_input_flags(parser)
+    add_axis_region_options(parser)
     add_plot_flag(parser, "the zone with the deviations and contact points")
     add_report_flag(parser)
     add_overwrite_flag(parser)
@@ -54,12 +56,14 @@ def register(subparsers: argparse._SubParsersAction) -> None:
 def handle(args: argparse.Namespace) -> Report:
     import dataclasses
 
+    from pcmm_geo.cli.measurement_commands.fit import axis_search_options
     from pcmm_geo.fit.zone.form import evaluate_form
 
     source = read_fit_input(args, args.element)
     compensation = None
+    search = axis_search_options(args, args.element, "chebyshev", source.points.shape[1])
     with naming_the_file(args.file):
-        evaluation = evaluate_form(source.points, args.element, tolerance=args.tolerance)
+        evaluation = evaluate_form(source.points, args.element, tolerance=args.tolerance, **search)
         if source.probe_radius:  # the zone width stays; the zone's element moves onto the surface
             from pcmm_geo.cmm.points import compensate_fit
 

@@ -21,9 +21,8 @@ from pcmm_geo.errors import (
     DegenerateGeometryError,
     IllConditionedWarning,
     InvalidInputError,
-    TooFewPointsError,
 )
-from pcmm_geo.fit._kernels._inputs import check_magnitude, real_array
+from pcmm_geo.fit._kernels._inputs import check_magnitude, check_point_values, point_array, real_array
 from pcmm_geo.fit._kernels._tall import tall_lstsq, tall_svd
 
 __all__ = [
@@ -32,6 +31,7 @@ __all__ = [
     "Tolerances",
     "TOL",
     "as_points",
+    "check_points",
     "as_weights",
     "solve_least_squares",
     "SolverOutcome",
@@ -108,26 +108,26 @@ def as_points(
     DegenerateGeometryError
         All points identical (when ``min_points > 1``).
     """
-    arr = real_array(points, name)
-    shape_text = " or ".join(f"(N, {d})" for d in dims)
-    if arr.ndim != 2 or arr.shape[1] not in dims:
-        raise InvalidInputError(name, f"shape {shape_text}", f"shape {arr.shape}")
-    if arr.shape[0] < min_points:
-        raise TooFewPointsError(element, min_points, arr.shape[0])
-    # one sum is much cheaper than an element-wise mask; it is only non-finite when a value
-    # is (or when finite values overflow, which the mask then tells apart)
-    if not np.isfinite(arr.sum()):
-        bad = ~np.isfinite(arr)
-        if bad.any():
-            row = int(np.argwhere(bad)[0, 0])
-            raise InvalidInputError(name, "finite coordinates", f"{arr[row].tolist()} in row {row}")
-    check_magnitude(arr, name)
-    if min_points > 1:
-        spread = np.ptp(arr, axis=0).max()
-        scale = max(np.abs(arr).max(), 1.0)
-        if spread <= TOL.identical * scale:
-            raise DegenerateGeometryError(element, f"all {arr.shape[0]} points are identical")
-    return np.ascontiguousarray(arr)
+    arr = point_array(points, element=element, dims=dims, min_points=min_points, name=name)
+    check_points(arr, element=element, min_points=min_points, name=name)
+    return arr
+
+
+def check_points(arr: FloatArray, *, element: str, min_points: int, name: str = "points") -> None:
+    """The value checks of :func:`as_points` on an array from :func:`~pcmm_geo.fit._kernels._inputs.point_array`.
+
+    A fit that reads every point in a pass of its own (the chunked fits of many points)
+    skips this and checks the extremes of that pass instead
+    (:func:`~pcmm_geo.fit._kernels._inputs.check_point_extremes`).
+
+    Raises
+    ------
+    InvalidInputError
+        NaN or inf (row named), coordinates beyond ``MAX_COORDINATE``.
+    DegenerateGeometryError
+        All points identical (when ``min_points > 1``).
+    """
+    check_point_values(arr, element=element, min_points=min_points, identical=TOL.identical, name=name)
 
 
 def as_weights(weights: ArrayLike | None, n: int, *, element: str) -> FloatArray | None:
