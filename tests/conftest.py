@@ -56,6 +56,7 @@ EXTRAS_NEEDED = {
     "io/test_clouds.py::test_e57_in_metres_read_in_mm_with_pose_and_invalid_points": "e57",
     "io/test_e57.py": "e57",
     "plots/test_plots.py": "plots",
+    "plots/test_plot_readability.py": "plots",
     "cli/test_cli_calibrate.py::test_calibrate_text_output_and_files": "plots",
     "cli/test_cli_kinematics.py::test_sensitivity_plot": "plots",
     "cli/test_cli_fit.py::test_fit_circle_projected_matches_nist_and_human_table": "plots",

@@ -9,8 +9,10 @@ from __future__ import annotations
 import argparse
 import sys
 import warnings
+from pathlib import Path
 from typing import TYPE_CHECKING
 
+from pcmm_geo.cli._identity import check_identity_flags, method_for, resolve_identity
 from pcmm_geo.cli._output import EXIT_USAGE, check_output_paths, output_plan, print_report
 from pcmm_geo.cli._record import input_paths, software_versions, start_provenance
 from pcmm_geo.cli._report import write_report
@@ -91,9 +93,13 @@ def _run(args: argparse.Namespace) -> int:
         for note in plan.recover():
             print(f"pcmm {args.command}: note: {note}", file=sys.stderr)
         check_output_paths(args, plan)
+        check_identity_flags(args)
         if wants_report:  # inputs are hashed before the handler reads them, outputs do not exist yet
-            provenance = start_provenance(getattr(args, "command_line", None) or ["pcmm", args.command],
-                                          input_paths(args))
+            inputs = input_paths(args)
+            identity = resolve_identity(args, inputs)  # a bad pcmm.toml or --reference stops here, before work
+            if identity.config and all(Path(p).resolve() != Path(identity.config) for p in inputs):
+                inputs.append(identity.config)
+            provenance = start_provenance(getattr(args, "command_line", None) or ["pcmm", args.command], inputs)
         with plan.transaction():
             with warnings.catch_warnings(record=True) as caught:
                 warnings.simplefilter("always", PcmmGeoWarning)
@@ -102,6 +108,9 @@ def _run(args: argparse.Namespace) -> int:
             if wants_report:
                 provenance.versions = software_versions()
                 report.provenance = provenance
+                report.identity = identity
+                report.method = report.method or method_for(args)
+                report.data["report_id"] = identity.report_id
                 written = write_report(report, args.report, title=report_title(args),
                                        command=getattr(args, "command_line", None),
                                        overwrite=bool(getattr(args, "overwrite", False)))

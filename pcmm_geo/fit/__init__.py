@@ -70,7 +70,10 @@ _LAZY = {
     "SearchBudget": "zone.axial.region",
 }
 
-__all__ = ["FitResult", "Tolerances", "TOL", *sorted(_LAZY)]
+#: the element names the fits (``fit_<name>``), the reference generator and ``pcmm fit`` share
+ELEMENTS = ("line", "plane", "circle", "sphere", "cylinder", "cone", "torus")
+
+__all__ = ["ELEMENTS", "FitResult", "Tolerances", "TOL", *sorted(_LAZY)]
 
 
 def __getattr__(name: str) -> Any:

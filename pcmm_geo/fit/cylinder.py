@@ -56,6 +56,9 @@ class CylinderFit(FitResult):
         Unit axis direction, sign chosen so that its largest-magnitude component is positive.
     radius : float
         Radius, mm.
+    r_in, r_out : float
+        Minimum-zone, MCC and MIC fits: smallest / largest distance of a point from the axis
+        (mm); NaN for Gaussian fits.
 
     Notes
     -----

@@ -42,7 +42,7 @@ def test_fit_mcc_cylinder_of_an_audit_case_is_global_on_the_region_edge() -> Non
 
 def test_form_cylinder_in_a_stated_region(tmp_path: Path) -> None:
     file = _tube(tmp_path / "tube.csv")
-    done = _run("form", str(file), "--element", "cylinder", "--tolerance", "0.02", "--axis-cone-deg", "2",
+    done = _run("form", str(file), "--element", "cylinder", "--tolerance-mm", "0.02", "--axis-cone-deg", "2",
                 "--axis-offset-mm", "0.5", "--axis-nominal", "0", "0", "1", "--search-cells", "3000000",
                 "--search-seconds", "120", "--json")
     assert done.returncode == 0, done.stderr

@@ -98,30 +98,31 @@ def test_fit_a_feature_of_a_qif_file(capsys: pytest.CaptureFixture[str]) -> None
     data = json.loads(out)
     assert 2 * data["radius"] == pytest.approx(30.110940798089999, abs=2e-5)
     assert data["probe_compensation"]["inferred"] is True
-    # a fixed --radius is the surface radius: the probe centres are fitted with it minus the probe radius
-    code, out, _ = run(["fit", "cylinder", str(SAMPLE), "--radius", "15.05", "--json"], capsys)
+    # a fixed --radius-mm is the surface radius: the probe centres are fitted with it minus the probe radius
+    code, out, _ = run(["fit", "cylinder", str(SAMPLE), "--radius-mm", "15.05", "--json"], capsys)
     assert json.loads(out)["radius"] == pytest.approx(15.05, abs=1e-12)
     # the points are probe centres: --compensated yes contradicts the file
     code, _, err = run(["fit", "circle", str(SAMPLE), "--feature", "261", "--compensated", "yes"], capsys)
     assert code == 2 and "Compensated=false" in err
-    code, out, _ = run(["fit", "circle", str(SAMPLE), "--feature", "261", "--probe-radius", "2", "--method",
+    code, out, _ = run(["fit", "circle", str(SAMPLE), "--feature", "261", "--probe-radius-mm", "2", "--method",
                         "projected", "--json"], capsys)
     assert 2 * json.loads(out)["radius"] == pytest.approx(12.095569950907 - 2 * (PROBE_RADIUS - 2), abs=2e-5)
 
 
 def test_plain_points_with_a_probe_radius(capsys: pytest.CaptureFixture[str]) -> None:
-    code, out, _ = run(["form", str(RING), "--element", "circle", "--two-d", "--tolerance", "0.010", "--json"], capsys)
+    code, out, _ = run(["form", str(RING), "--element", "circle", "--two-d", "--tolerance-mm", "0.010", "--json"],
+                       capsys)
     plain = json.loads(out)
-    code, out, err = run(["form", str(RING), "--element", "circle", "--two-d", "--tolerance", "0.010",
-                          "--probe-radius", "1.5", "--material-side", "external", "--json"], capsys)
+    code, out, err = run(["form", str(RING), "--element", "circle", "--two-d", "--tolerance-mm", "0.010",
+                          "--probe-radius-mm", "1.5", "--material-side", "external", "--json"], capsys)
     assert code == 0, err
     compensated = json.loads(out)
     assert compensated["deviation_mm"] == pytest.approx(plain["deviation_mm"], abs=1e-12)  # the zone stays
     assert compensated["fit"]["r_in"] == pytest.approx(plain["fit"]["r_in"] - 1.5, abs=1e-12)
     assert compensated["fit"]["radius"] == pytest.approx(plain["fit"]["radius"] - 1.5, abs=1e-12)
     # the side is needed, and must be asked for; --compensated no needs a radius
-    for argv, message in ((["--probe-radius", "1.5"], "--material-side"),
-                          (["--compensated", "no"], "--probe-radius"),
+    for argv, message in ((["--probe-radius-mm", "1.5"], "--material-side"),
+                          (["--compensated", "no"], "--probe-radius-mm"),
                           (["--material-side", "internal"], "a probe radius to apply")):
         code, _, err = run(["fit", "circle", str(RING), "--two-d", *argv], capsys)
         assert code == 2 and message in err and len(err.strip().splitlines()) == 1
@@ -129,7 +130,7 @@ def test_plain_points_with_a_probe_radius(capsys: pytest.CaptureFixture[str]) ->
 
 def test_qif_output_validates_reads_back_and_verifies(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
     out_file = tmp_path / "out" / "cylinder.qif"
-    code, out, err = run(["form", str(SAMPLE), "--element", "cylinder", "--tolerance", "0.01", "--qif",
+    code, out, err = run(["form", str(SAMPLE), "--element", "cylinder", "--tolerance-mm", "0.01", "--qif",
                           str(out_file), "--json"], capsys)
     assert code == 0, err
     form = json.loads(out)
@@ -176,7 +177,7 @@ def test_xyzijk_export_needs_the_compensation_stated(tmp_path: Path, capsys: pyt
                                                   for c, n in zip(centres, outward, strict=True)))
     code, _, err = run(["fit", "cylinder", str(export)], capsys)
     assert code == 2 and "--compensated" in err and "bore.txt" in err
-    code, out, err = run(["fit", "cylinder", str(export), "--compensated", "no", "--probe-radius", "0.5", "--json"],
+    code, out, err = run(["fit", "cylinder", str(export), "--compensated", "no", "--probe-radius-mm", "0.5", "--json"],
                          capsys)
     assert code == 0, err
     fitted = json.loads(out)

@@ -12,6 +12,7 @@ from pcmm_geo.cli._output import (
     add_overwrite_flag,
     add_plot_flag,
     add_report_flag,
+    refuse_renamed_options,
 )
 
 
@@ -25,24 +26,24 @@ def register(subparsers: Any) -> None:
     )
     parser.add_argument("file", metavar="FILE", help="log CSV, with header or headerless as the seed wrote it")
     add_machine_argument(parser)
-    parser.add_argument("--initial-heights", type=float, nargs=3, metavar=("A", "B", "C"),
+    parser.add_argument("--initial-heights-mm", dest="initial_heights", type=float, nargs=3, metavar=("A", "B", "C"),
                         help="pivot heights of the first row (datum; default: the log's start_heights_mm, written "
                              "by pcmm acquire --simulate, else the machine's reference heights)")
     parser.add_argument("--all-rows", action="store_true", help="list every row, not only the probe points")
     parser.add_argument("--allow-unterminated", action="store_true",
                         help="accept a last row without a line end (refused by default: it may be torn mid-number)")
-    parser.add_argument("--laser-sigma", type=float, metavar="MM",
+    parser.add_argument("--laser-sigma-mm", dest="laser_sigma", type=float, metavar="MM",
                         help="standard uncertainty of a laser reading (default 0.0289 mm: the thesis' 50 um laser "
                              "accuracy as rectangular bounds): scale of the closure test")
-    parser.add_argument("--max-closure", type=float, metavar="MM",
+    parser.add_argument("--max-closure-mm", dest="max_closure", type=float, metavar="MM",
                         help="largest accepted closure residual of a row in mm, instead of the default test "
-                             "(within 6 standard deviations of the scatter predicted from --laser-sigma)")
+                             "(within 6 standard deviations of the scatter predicted from --laser-sigma-mm)")
     parser.add_argument("--keep-inconsistent", action="store_true",
-                        help="keep rows beyond --max-closure, marked and left out of the probe points, instead of "
+                        help="keep rows beyond --max-closure-mm, marked and left out of the probe points, instead of "
                              "refusing the log (exit 2)")
-    parser.add_argument("--max-tip-u", type=float, metavar="MM", default=None,
+    parser.add_argument("--max-tip-u-mm", dest="max_tip_u", type=float, metavar="MM", default=None,
                         help="largest tip standard uncertainty of a point in mm (default 1.0; 'inf' for none). Each "
-                             "point is listed with its uncertainty (first-order from --laser-sigma and the heights "
+                             "point is listed with its uncertainty (first-order from --laser-sigma-mm and the heights "
                              "carried from earlier rows; near the level pose it reaches millimetres); rows above the "
                              "limit are marked 'no' in the 'u ok' column and counted in one warning line. The exit "
                              "code stays 0: a point with its stated uncertainty is a complete result, only its "
@@ -50,11 +51,17 @@ def register(subparsers: Any) -> None:
                              "pipeline must not receive such points")
     parser.add_argument("--refuse-uncertain", action="store_true",
                         help="refuse the log (exit 2, one stderr line, no output) when a probe point's tip "
-                             "uncertainty exceeds --max-tip-u")
+                             "uncertainty exceeds --max-tip-u-mm")
     add_plot_flag(parser, "the tip path with probe points, pivot heights and closure residual per row")
     add_report_flag(parser)
     add_overwrite_flag(parser)
     add_json_flag(parser)
+    refuse_renamed_options(parser, {
+        "--initial-heights": "--initial-heights-mm",
+        "--laser-sigma": "--laser-sigma-mm",
+        "--max-closure": "--max-closure-mm",
+        "--max-tip-u": "--max-tip-u-mm",
+    })
     parser.set_defaults(handler=_handle)
 
 
@@ -87,7 +94,7 @@ def _handle(args: argparse.Namespace) -> Report:
     except InconsistentMeasurementError as exc:
         raise InconsistentMeasurementError(
             f"{args.file}: {exc.what}", exc.residual, exc.tolerance, exc.unit,
-            f"{exc.detail}; --keep-inconsistent keeps and marks such rows, --max-closure sets the tolerance",
+            f"{exc.detail}; --keep-inconsistent keeps and marks such rows, --max-closure-mm sets the tolerance",
         ) from None
     except ConvergenceError as exc:
         raise ConvergenceError(f"{args.file}: {exc.element}", exc.iterations,
@@ -96,7 +103,7 @@ def _handle(args: argparse.Namespace) -> Report:
     if args.refuse_uncertain and uncertain_probes:
         first = uncertain_probes[0]
         raise OutOfRangeError(f"{args.file}: tip uncertainty of log row {first + 1} ({len(uncertain_probes)} probe "
-                              "points above the limit; --max-tip-u sets it)",
+                              "points above the limit; --max-tip-u-mm sets it)",
                               float(f"{out.tip_uncertainty[first]:.4g}"), None, float(limit), "mm")
     rows_index = range(len(log)) if args.all_rows else out.probe_rows.tolist()
     rows = [

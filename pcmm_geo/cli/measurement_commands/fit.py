@@ -21,6 +21,7 @@ from pcmm_geo.cli._output import (
     add_overwrite_flag,
     add_plot_flag,
     add_report_flag,
+    refuse_renamed_options,
 )
 from pcmm_geo.cli._record import CovarianceBlock
 
@@ -30,7 +31,7 @@ _CRITERION_TITLES = {
     "mcc": "minimum circumscribed",
     "mic": "maximum inscribed",
 }
-ELEMENTS = ("line", "plane", "circle", "sphere", "cylinder", "cone", "torus")
+ELEMENTS = ("line", "plane", "circle", "sphere", "cylinder", "cone", "torus")  # = pcmm_geo.fit.ELEMENTS (tested)
 _DIRECTIONS = ("direction", "normal", "axis")
 _UNITS = {"radius": "mm", "r_in": "mm", "r_out": "mm", "major_radius": "mm", "minor_radius": "mm", "half_angle": "rad"}
 
@@ -59,7 +60,8 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         default="gaussian",
         help="least squares (default), minimum zone, minimum circumscribed or maximum inscribed",
     )
-    parser.add_argument("--radius", type=float, help="fixed radius in mm (circle, sphere, cylinder; of the surface)")
+    parser.add_argument("--radius-mm", dest="radius", type=float,
+                        help="fixed radius in mm (circle, sphere, cylinder; of the surface)")
     parser.add_argument("--two-d", action="store_true", help="line/circle: use only the x and y columns")
     parser.add_argument("--axis-hint", type=float, nargs=3, metavar=("X", "Y", "Z"),
                         help="cylinder, cone, torus: the nominal axis direction, tried first (sparse data)")
@@ -71,6 +73,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     add_overwrite_flag(parser)
     add_decimal_flag(parser)
     add_json_flag(parser)
+    refuse_renamed_options(parser, {"--radius": "--radius-mm"})
     parser.set_defaults(handler=handle)
 
 
@@ -85,7 +88,7 @@ def handle(args: argparse.Namespace) -> Report:
     kwargs: dict[str, Any] = {}
     if args.radius is not None:
         if args.element not in ("circle", "sphere", "cylinder"):
-            raise InvalidInputError("--radius", "element circle, sphere or cylinder", args.element)
+            raise InvalidInputError("--radius-mm", "element circle, sphere or cylinder", args.element)
         kwargs["radius"] = args.radius
     if args.axis_hint is not None:
         if args.element not in ("cylinder", "cone", "torus"):
@@ -112,7 +115,7 @@ def handle(args: argparse.Namespace) -> Report:
         data.pop("residual_components", None)
     data["file"] = str(args.file)
     geometry = _geometry_rows(result)
-    uncertainty = result.std_errors
+    uncertainty = dict(zip(result.parameter_names, np.asarray(result.std_errors).tolist(), strict=True))
     rows = [
         [name, value, uncertainty.get(name, float("nan")), "1" if name.split("_")[0] in _DIRECTIONS else "mm"]
         for name, value in geometry

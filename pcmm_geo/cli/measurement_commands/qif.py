@@ -12,6 +12,7 @@ from pcmm_geo.cli._output import (
     add_json_flag,
     add_overwrite_flag,
     add_report_flag,
+    refuse_renamed_options,
 )
 
 
@@ -49,7 +50,9 @@ def register(subparsers: Any) -> None:
                              "the CMM reported (its working plane)")
     verify.add_argument("--compensated", choices=("yes", "no"),
                         help="for point sets without a Compensated flag: are the points surface points?")
-    verify.add_argument("--probe-radius", type=float, metavar="MM", help="probe radius in mm, overriding the file's")
+    verify.add_argument("--probe-radius-mm", dest="probe_radius", type=float, metavar="MM",
+                        help="probe radius in mm, overriding the file's")
+    refuse_renamed_options(verify, {"--probe-radius": "--probe-radius-mm"})
     _add_limits(verify)
     add_report_flag(verify)
     add_overwrite_flag(verify)
@@ -237,11 +240,12 @@ def _handle_verify(args: argparse.Namespace) -> Report:
     summary = result.summary()
     statement = (f"{summary['agree']} features agree, {summary['disagree']} disagree, "
                  f"{summary['not_checked']} not checked")
-    lines.append(statement)
     lines += [f"left out by the reader: {problem}" for problem in result.problems]
     verdict = Verdict(result.agrees if summary["agree"] + summary["disagree"] else None, statement,
                       f"a feature agrees when every compared quantity of its refit (diameter, location, direction) "
-                      f"differs from the CMM's by at most {tolerance:g} mm (angles: {tolerance:g} mm / feature size)")
+                      f"differs from the CMM's by at most {tolerance:g} mm (angles: {tolerance:g} mm / feature size)",
+                      basis="the differences between pcmm_geo's refit of each feature's points and the values the "
+                            "CMM reported; the measurement uncertainty of the points is not taken into account")
     return Report(data=result.to_dict(), tables=[table], lines=lines,
                   exit_code=0 if result.agrees else EXIT_FAILURE, verdict=verdict)
 

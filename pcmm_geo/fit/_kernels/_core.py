@@ -8,6 +8,7 @@ function returning residuals and their analytic Jacobian in *standard position*
 from __future__ import annotations
 
 import dataclasses
+import math
 import warnings
 from collections.abc import Callable
 from dataclasses import dataclass, field
@@ -426,10 +427,12 @@ class FitResult:
     certificate: Certificate | None = None
 
     @property
-    def std_errors(self) -> dict[str, float]:
-        """Standard uncertainty of each parameter (square root of the covariance diagonal)."""
+    def std_errors(self) -> FloatArray:
+        """Standard uncertainties (P,), mm / rad, ordered like ``parameters`` (a dict until 0.1, see NamedValues)."""
+        from pcmm_geo._deprecation import NamedValues
+
         diag = np.sqrt(np.clip(np.diag(self.covariance), 0.0, None))
-        return dict(zip(self.parameter_names, diag.tolist(), strict=True))
+        return NamedValues(diag, self.parameter_names, f"{type(self).__name__}.std_errors")
 
     @property
     def sum_of_squares(self) -> float:
@@ -442,22 +445,28 @@ class FitResult:
         for f in dataclasses.fields(self):
             value = getattr(self, f.name)
             out[f.name] = _jsonable(value)
-        out["std_errors"] = self.std_errors
+        out["std_errors"] = np.asarray(self.std_errors).tolist()
         return out
 
-    def __repr__(self) -> str:  # compact: geometry and statistics, not N residuals
-        geometry = ", ".join(
-            f"{f.name}={_short(getattr(self, f.name))}"
-            for f in dataclasses.fields(self)
-            if f.name not in _BASE_FIELDS
-        )
+    def __repr__(self) -> str:
+        """Compact: the fields that apply (no NaN / None placeholders such as a Gaussian fit's ``r_in``)."""
+        geometry = [f"{f.name}={_short(getattr(self, f.name))}" for f in dataclasses.fields(self)
+                    if f.name not in _BASE_FIELDS and _applies(getattr(self, f.name), self.n)]
+        geometry += [f"criterion={self.criterion!r}"] if self.criterion != "gaussian" else []
         return (
-            f"{type(self).__name__}({geometry}, n={self.n}, rms={self.rms:.6g}, form={self.form:.6g}, "
+            f"{type(self).__name__}({', '.join(geometry)}, n={self.n}, rms={self.rms:.6g}, form={self.form:.6g}, "
             f"converged={self.converged})"
         )
 
 
 _BASE_FIELDS = {f.name for f in dataclasses.fields(FitResult)}
+
+
+def _applies(value: Any, n: int) -> bool:
+    """False for placeholders of fields that do not apply (None, NaN) and for per-point arrays (N, ...)."""
+    if isinstance(value, np.ndarray) and value.ndim and value.shape[0] == n and value.size > 3:
+        return False
+    return value is not None and not (isinstance(value, float) and math.isnan(value))
 
 
 def _short(value: Any) -> str:
