@@ -14,6 +14,7 @@ readers (:mod:`pcmm_geo.io._delimited`) parse the blocks directly.
 
 from __future__ import annotations
 
+import codecs
 import re
 from collections.abc import Iterator
 from dataclasses import dataclass
@@ -31,6 +32,7 @@ __all__ = [
     "decode_block",
     "excerpt",
     "iter_blocks",
+    "text_codec",
 ]
 
 #: longest line (characters) a text reader accepts; data rows are far shorter
@@ -46,6 +48,7 @@ BOM = b"\xef\xbb\xbf"
 # C0 control characters other than tab, line feed and carriage return, and DEL: never in a text
 # data file, and str.strip() would silently remove some of them (0x0b, 0x1c-0x1f) from a number
 CONTROL = re.compile(rb"[\x00-\x08\x0b\x0c\x0e-\x1f\x7f]")
+_CONTROL_TEXT = re.compile(CONTROL.pattern.decode("ascii"))
 
 
 def excerpt(text: str, limit: int = EXCERPT_CHARS) -> str:
@@ -189,27 +192,67 @@ def iter_blocks(path: str | Path, *, start: int = 0, first_line: int = 1, block_
                 line += block.count(b"\n")
 
 
-def decode_block(path: str | Path, block: LineBlock, max_line: int | None = MAX_LINE_CHARS) -> list[tuple[int, str]]:
+def text_codec(path: str | Path, encoding: str) -> str:
+    """The codec name of ``encoding`` (e.g. ``'cp1252'``), refused unless known and ASCII-compatible.
+
+    Line ends, digits, signs and separators must be the ASCII bytes for the line and number
+    parsers to work, so UTF-16 and the like are refused.
+
+    Raises
+    ------
+    FileFormatError
+        Unknown or not ASCII-compatible (naming ``path``).
+
+    Examples
+    --------
+    >>> text_codec("x.dmo", "Windows-1252"), text_codec("x.dmo", "UTF8")
+    ('cp1252', 'utf-8')
+    """
+    try:
+        name = codecs.lookup(encoding).name
+    except LookupError:
+        raise FileFormatError(str(path), f"unknown text encoding {encoding!r}") from None
+    if "\n".encode(name, errors="replace") != b"\n" or "Az09,.+-".encode(name) != b"Az09,.+-":
+        raise FileFormatError(str(path), f"encoding {encoding!r} is not ASCII-compatible; text data files are")
+    return name
+
+
+def decode_block(path: str | Path, block: LineBlock, max_line: int | None = MAX_LINE_CHARS,
+                 encoding: str | None = None) -> list[tuple[int, str]]:
     """The lines of ``block`` as ``(line_number, text)``, line ends removed; every line checked.
+
+    ``encoding`` None reads UTF-8; a codec name (checked by :func:`text_codec`) reads that
+    encoding, for readers that let the caller name it (CMM software on Windows often writes
+    cp1252): a byte that does not decode is then refused with a hint that another encoding
+    can be given, never replaced.
 
     Raises
     ------
     FileFormatError
         A NUL byte (binary data) or another control character (not tab, CR, LF), a line that is
-        not valid UTF-8 or longer than ``max_line`` characters; the message names the line.
+        not valid in the encoding or longer than ``max_line`` characters; the message names the line.
     """
     data = block.data
-    control = CONTROL.search(data)
-    if control is not None:  # one scan of the block; the line is counted only when needed
-        raise _control_error(str(path), data, control.start(), block.first_line)
+    codec, hint = ("utf-8", "") if encoding is None else (encoding, " (another encoding can be given, e.g. cp1252)")
+    label = "UTF-8" if codec == "utf-8" else codec
+    bytewise = codec == "utf-8"  # in UTF-8 a control byte is always that character; other codecs are checked decoded
+    if bytewise:
+        control = CONTROL.search(data)
+        if control is not None:  # one scan of the block; the line is counted only when needed
+            raise _control_error(str(path), data, control.start(), block.first_line)
     lines: list[tuple[int, str]] = []
     for number, raw in enumerate(data.split(b"\n")[:-1], start=block.first_line):
         try:
-            text = raw.decode("utf-8")
+            text = raw.decode(codec)
         except UnicodeDecodeError as exc:
             raise FileFormatError(
-                str(path), f"not UTF-8 text: byte 0x{raw[exc.start]:02x} at column {exc.start + 1}", line=number
+                str(path), f"not {label} text: byte 0x{raw[exc.start]:02x} at column {exc.start + 1}{hint}",
+                line=number,
             ) from None
+        if not bytewise:
+            control_char = _CONTROL_TEXT.search(text)
+            if control_char is not None:
+                raise _control_error(str(path), text.encode("latin-1", "replace"), control_char.start(), number)
         if max_line is not None and len(text) > max_line:
             raise FileFormatError(
                 str(path), f"line of {len(text)} characters (at most {max_line} accepted): {excerpt(text)}",

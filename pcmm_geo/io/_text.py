@@ -31,7 +31,7 @@ from pathlib import Path
 from typing import Any
 
 from pcmm_geo.errors import FileFormatError
-from pcmm_geo.io._lines import EXCERPT_CHARS, MAX_LINE_CHARS, decode_block, excerpt, iter_blocks
+from pcmm_geo.io._lines import EXCERPT_CHARS, MAX_LINE_CHARS, decode_block, excerpt, iter_blocks, text_codec
 
 __all__ = [
     "EXCERPT_CHARS",
@@ -91,14 +91,38 @@ def _decode(path: str | Path, max_line: int | None = MAX_LINE_CHARS) -> tuple[li
     raise AssertionError("iter_blocks ends with a last block")  # pragma: no cover
 
 
-def iter_text_lines(path: str | Path) -> Iterator[tuple[int, str]]:
-    """The lines of a UTF-8 text file as :func:`read_text_lines` gives them, read block by block.
+def iter_text_lines(path: str | Path, *, encoding: str | None = None) -> Iterator[tuple[int, str]]:
+    """The lines of a text file as :func:`read_text_lines` gives them, read block by block.
 
     A reader that refuses a wrong header while iterating stops there: the rest of the file is
     never read.  Errors (as :func:`read_text_lines`) are raised when the line is reached.
+    ``encoding`` None reads UTF-8; a reader that lets its caller name the encoding (files from
+    CMM software) passes it here: it must be ASCII-compatible (``cp1252``, ``latin-1``, ...)
+    and is checked before the file is opened.
+
+    Raises
+    ------
+    FileFormatError
+        As :func:`read_text_lines`; an unknown or not ASCII-compatible ``encoding``.
+    FileNotFoundError
+        The file does not exist.
+
+    Examples
+    --------
+    >>> import os, tempfile
+    >>> path = os.path.join(tempfile.mkdtemp(), "report.dmo")
+    >>> _ = open(path, "wb").write("$$ Prüfbericht\\nEND\\n".encode("cp1252"))
+    >>> list(iter_text_lines(path, encoding="cp1252"))
+    [(1, '$$ Prüfbericht'), (2, 'END')]
+    >>> try:
+    ...     next(iter_text_lines(path))
+    ... except FileFormatError as exc:
+    ...     print(exc.line, exc.reason)
+    1 not UTF-8 text: byte 0xfc at column 6
     """
+    codec = None if encoding is None else text_codec(path, encoding)
     for block in iter_blocks(path):
-        yield from decode_block(path, block)
+        yield from decode_block(path, block, encoding=codec)
 
 
 def read_text_lines(path: str | Path) -> list[tuple[int, str]]:

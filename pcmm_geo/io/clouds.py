@@ -197,22 +197,33 @@ def _check_finite(name: str, points: FloatArray) -> None:
 def read_e57(file: str | Path) -> FloatArray:
     """Points ``(N, 3)`` in mm of every scan of an E57 file, in the file's frame (see the module).
 
+    The file is untrusted: its header, the checksums of its header and XML pages and its XML
+    section (no DTD, no entity, bounded depth and size) are checked by
+    :func:`pcmm_geo.io._e57.check_e57` before libE57Format sees the file.
+
     Raises
     ------
+    UnsafeXmlError
+        The XML section has a DTD, an entity or an external reference, or is too deep or large.
     FileFormatError
-        The file cannot be read as E57, holds no valid point, or a non-finite coordinate.
+        A damaged header or checksum, a file that cannot be read as E57, no valid point, or a
+        non-finite coordinate.
     MissingDependencyError
-        pye57 is not installed (extra ``e57``).
+        pye57, defusedxml or google-crc32c is not installed (extra ``e57``).
     """
+    from pcmm_geo.io._e57 import check_e57
+
     pye57 = require("pye57")
     path = Path(file)
     if not path.exists():
         raise FileNotFoundError(str(path))
+    check_e57(path)
     try:
         e57 = pye57.E57(str(path))
         scans = [e57.read_scan(k, transform=True, ignore_missing_fields=True) for k in range(e57.scan_count)]
     except Exception as exc:  # libE57Format's own exception types; one typed error naming the file
-        raise FileFormatError(str(path), f"not a readable E57 file: {type(exc).__name__}: {exc}") from None
+        first = next((line for line in str(exc).splitlines() if line.strip()), "")  # not libE57's debug trace
+        raise FileFormatError(str(path), f"not a readable E57 file: {type(exc).__name__}: {first}") from None
     total = sum(len(scan["cartesianX"]) for scan in scans)
     if total == 0:
         raise FileFormatError(str(path), "no valid points in the E57 file")

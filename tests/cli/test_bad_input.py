@@ -73,6 +73,7 @@ COMMANDS: dict[str, tuple[Argv, str, str, str]] = {
     "qif show": (lambda f, tmp: ["qif", "show", f], "<QIFDocument>", "</QIFDocument>", ".qif"),
     "qif verify": (lambda f, tmp: ["qif", "verify", f, "--report", str(tmp / "out" / "verify.md")],
                    "<QIFDocument>", "</QIFDocument>", ".qif"),
+    "qif validate": (lambda f, tmp: ["qif", "validate", f], "<QIFDocument>", "</QIFDocument>", ".qif"),
     "fit qif": (lambda f, tmp: ["fit", "circle", f, "--qif", str(tmp / "out" / "circle.qif")], "<QIFDocument>",
                 "</QIFDocument>", ".qif"),
     "form qif": (lambda f, tmp: ["form", f, "--element", "plane", "--qif", str(tmp / "out" / "plane.qif")],
@@ -178,7 +179,7 @@ def test_failed_run_leaves_an_existing_output_untouched(tmp_path: Path, capsys: 
 
 
 QIF_HOSTILE = Path(__file__).parents[1] / "data" / "qif" / "hostile"
-QIF_COMMANDS = ("qif show", "qif verify", "fit qif", "form qif", "calibrate qif probings")
+QIF_COMMANDS = ("qif show", "qif verify", "qif validate", "fit qif", "form qif", "calibrate qif probings")
 
 
 @pytest.mark.parametrize("command", QIF_COMMANDS)
