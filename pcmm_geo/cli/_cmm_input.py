@@ -27,7 +27,7 @@ MIB = 1 << 20
 def cli_setting(parameter: str, value: str | None = None) -> str:
     """How the command line sets a reader parameter: ``--units mm`` (``--units`` without a value).
 
-    Passed to the readers as ``spell_setting`` (:mod:`pcmm_geo.io.cmm._settings`), so that a file
+    Passed to the readers as ``spell_setting`` (:mod:`pcmm_geo.io.cmm.settings`), so that a file
     without units asks for ``--units``, not for the Python keyword.
 
     Examples

@@ -81,7 +81,7 @@ def read_cmm_document(path: str | Path, *, units: str | None = None, angle_unit:
     max_bytes : int, optional
         Largest QIF file read (default :data:`~pcmm_geo.io.cmm.DEFAULT_MAX_BYTES`).
     spell_setting : callable
-        How messages name these settings (:mod:`pcmm_geo.io.cmm._settings`; the command line
+        How messages name these settings (:mod:`pcmm_geo.io.cmm.settings`; the command line
         passes its option names).
 
     Raises

@@ -105,7 +105,7 @@ def load_feature_points(path: str | Path, *, element: str | None = None, feature
     max_bytes : int, optional
         Largest QIF file read (default :data:`~pcmm_geo.io.cmm.DEFAULT_MAX_BYTES`).
     spell_setting : callable
-        How a size refusal names ``max_bytes`` (:mod:`pcmm_geo.io.cmm._settings`).
+        How a size refusal names ``max_bytes`` (:mod:`pcmm_geo.io.cmm.settings`).
 
     Returns
     -------

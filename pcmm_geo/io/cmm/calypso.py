@@ -54,9 +54,9 @@ from pathlib import Path
 
 from pcmm_geo.errors import FileFormatError, InvalidInputError
 from pcmm_geo.io._text import excerpt, iter_text_lines, parse_decimal
-from pcmm_geo.io.cmm._settings import SpellSetting, python_setting
 from pcmm_geo.io.cmm.document import CmmDocument
 from pcmm_geo.io.cmm.model import Characteristic, FeatureItem, MeasurementResults, Tolerance, Units
+from pcmm_geo.io.cmm.settings import SpellSetting, python_setting
 
 __all__ = ["CALYPSO_TYPES", "read_calypso_table"]
 
@@ -104,7 +104,7 @@ def read_calypso_table(path: str | Path, *, units: str | None = None, angle_unit
     encoding : str
         Text encoding (CALYPSO on Windows: often ``"cp1252"``).
     spell_setting : callable
-        How the messages name ``units`` and ``angle_unit`` (:mod:`pcmm_geo.io.cmm._settings`;
+        How the messages name ``units`` and ``angle_unit`` (:mod:`pcmm_geo.io.cmm.settings`;
         the command line passes its option names).
 
     Returns

@@ -64,7 +64,6 @@ import numpy as np
 
 from pcmm_geo.errors import FileFormatError
 from pcmm_geo.io._text import excerpt, iter_text_lines, parse_decimal
-from pcmm_geo.io.cmm._settings import SpellSetting, python_setting
 from pcmm_geo.io.cmm.document import CmmDocument
 from pcmm_geo.io.cmm.model import (
     Characteristic,
@@ -77,6 +76,7 @@ from pcmm_geo.io.cmm.model import (
     Tolerance,
     Units,
 )
+from pcmm_geo.io.cmm.settings import SpellSetting, python_setting
 
 __all__ = ["DMIS_LENGTH_UNITS", "read_dmis"]
 
@@ -303,7 +303,7 @@ def read_dmis(path: str | Path, *, units: str | None = None, angle_unit: str | N
         Text encoding of the file (GEOPAK and other Windows software: often ``"cp1252"``).
     spell_setting : callable
         How the messages name ``units``, ``angle_unit`` and ``size_values``
-        (:mod:`pcmm_geo.io.cmm._settings`; the command line passes its option names).
+        (:mod:`pcmm_geo.io.cmm.settings`; the command line passes its option names).
 
     Returns
     -------

@@ -33,7 +33,7 @@ import numpy as np
 
 from pcmm_geo._optional import require
 from pcmm_geo.errors import FileFormatError, UnsafeXmlError
-from pcmm_geo.io.cmm._settings import SpellSetting, python_setting
+from pcmm_geo.io.cmm.settings import SpellSetting, python_setting
 
 __all__ = ["DEFAULT_MAX_BYTES", "DEFAULT_MAX_DEPTH", "MAX_TEXT_CHARS", "Node", "NumberList", "parse_xml",
            "parse_xml_chunks"]
@@ -294,7 +294,7 @@ def parse_xml(path: str | Path, *, max_bytes: int = DEFAULT_MAX_BYTES, max_depth
         ``rule(node) -> NumberList | None``, called at each element's start: a :class:`NumberList`
         makes that element's text a streamed number list.
     spell_setting : callable
-        How the size refusal names ``max_bytes`` (:mod:`pcmm_geo.io.cmm._settings`).
+        How the size refusal names ``max_bytes`` (:mod:`pcmm_geo.io.cmm.settings`).
 
     Returns
     -------

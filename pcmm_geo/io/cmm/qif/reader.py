@@ -48,7 +48,6 @@ from pathlib import Path
 import numpy as np
 
 from pcmm_geo.errors import QifError
-from pcmm_geo.io.cmm._settings import SpellSetting, python_setting
 from pcmm_geo.io.cmm.document import CmmDocument
 from pcmm_geo.io.cmm.model import (
     CoordinateSystem,
@@ -71,6 +70,7 @@ from pcmm_geo.io.cmm.qif._xml import (
     NumberListFailure,
     parse_xml,
 )
+from pcmm_geo.io.cmm.settings import SpellSetting, python_setting
 
 __all__ = ["QIF3_NAMESPACE", "read_qif"]
 
@@ -98,7 +98,7 @@ def read_qif(
     max_depth : int
         Deepest element nesting accepted (default 64).
     spell_setting : callable
-        How a size refusal names ``max_bytes`` (:mod:`pcmm_geo.io.cmm._settings`; the command
+        How a size refusal names ``max_bytes`` (:mod:`pcmm_geo.io.cmm.settings`; the command
         line passes its option name).
 
     Returns

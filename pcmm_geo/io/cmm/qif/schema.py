@@ -21,8 +21,8 @@ from typing import Any
 
 from pcmm_geo._optional import require
 from pcmm_geo.errors import FileFormatError, InvalidInputError, UnsafeXmlError
-from pcmm_geo.io.cmm._settings import SpellSetting, python_setting
 from pcmm_geo.io.cmm.qif._xml import DEFAULT_MAX_BYTES
+from pcmm_geo.io.cmm.settings import SpellSetting, python_setting
 
 __all__ = ["bundled_schema_dir", "validate_qif"]
 
@@ -74,7 +74,7 @@ def validate_qif(path: str | Path, schema_dir: str | Path | None = None, *,
     max_bytes : int
         Largest file accepted.
     spell_setting : callable
-        How a size refusal names ``max_bytes`` (:mod:`pcmm_geo.io.cmm._settings`).
+        How a size refusal names ``max_bytes`` (:mod:`pcmm_geo.io.cmm.settings`).
 
     Returns
     -------
