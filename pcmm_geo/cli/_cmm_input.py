@@ -1,8 +1,11 @@
-"""Options shared by ``pcmm fit`` and ``pcmm form`` for files from CMMs: which feature, probe compensation, QIF out.
+"""Options shared by the commands that read files from CMMs: which feature, probe compensation, limits, QIF out.
 
 ``--feature`` picks the feature of a QIF file; ``--probe-radius-mm``, ``--material-side`` and
 ``--compensated`` say how the probe radius is applied (:mod:`pcmm_geo.cmm.points`); ``--qif OUT``
 writes the result as a QIF 3.0 results document through the command's output plan.
+``--max-mb`` (``pcmm fit``, ``form``, ``calibrate``, ``qif``) raises the size limit of a QIF file;
+:func:`cli_setting` makes the readers' messages name these options instead of their Python
+parameters (``--units mm``, not ``units='mm'``).
 """
 
 from __future__ import annotations
@@ -15,9 +18,48 @@ from typing import Any
 
 from pcmm_geo.cli._output import declare_output, refuse_renamed_options
 
+#: reader parameter -> the option that sets it (:func:`cli_setting`)
+READER_OPTIONS = {"units": "--units", "angle_unit": "--angle-unit", "size_values": "--size-values",
+                  "max_bytes": "--max-mb"}
+MIB = 1 << 20
+
+
+def cli_setting(parameter: str, value: str | None = None) -> str:
+    """How the command line sets a reader parameter: ``--units mm`` (``--units`` without a value).
+
+    Passed to the readers as ``spell_setting`` (:mod:`pcmm_geo.io.cmm.settings`), so that a file
+    without units asks for ``--units``, not for the Python keyword.
+
+    Examples
+    --------
+    >>> cli_setting("units", "inch"), cli_setting("max_bytes")
+    ('--units inch', '--max-mb')
+    """
+    option = READER_OPTIONS.get(parameter, "--" + parameter.replace("_", "-"))
+    return option if value is None else f"{option} {value}"
+
+
+def add_max_mb_option(parser: argparse.ArgumentParser, what: str = "QIF file read") -> None:
+    """Add ``--max-mb MIB``: the size limit of a QIF file, in MiB (read by :func:`max_bytes`)."""
+    parser.add_argument("--max-mb", type=float, metavar="MIB", default=None,
+                        help=f"largest {what}, in MiB (2^20 bytes; default 1024 MiB = 1 GiB; scanner point clouds "
+                             "may need more)")
+
+
+def max_bytes(args: argparse.Namespace) -> int | None:
+    """``--max-mb`` in bytes (None: the reader's default, 1 GiB)."""
+    from pcmm_geo.errors import InvalidInputError
+
+    value = getattr(args, "max_mb", None)
+    if value is None:
+        return None
+    if not (value > 0 and value < 1e9):
+        raise InvalidInputError("--max-mb", "a positive size in MiB", repr(value))
+    return int(value * MIB)
+
 
 def add_cmm_input_flags(parser: argparse.ArgumentParser) -> None:
-    """Add ``--feature``, ``--probe-radius-mm``, ``--material-side``, ``--compensated`` and ``--qif``."""
+    """Add ``--feature``, ``--probe-radius-mm``, ``--material-side``, ``--compensated``, ``--max-mb`` and ``--qif``."""
     parser.add_argument("--feature", metavar="ID|NAME",
                         help="QIF file: the feature measurement (QIF id or name) whose points are used, when the file "
                              "holds several")
@@ -27,11 +69,13 @@ def add_cmm_input_flags(parser: argparse.ArgumentParser) -> None:
     refuse_renamed_options(parser, {"--probe-radius": "--probe-radius-mm"})
     parser.add_argument("--material-side", choices=("internal", "external"),
                         help="circle, sphere, cylinder, cone: internal (hole) or external (boss, shaft); default "
-                             "from the file (InternalExternal, point normals, nominal size)")
+                             "from the file (InternalExternal, point normals, nominal size); a side the file's "
+                             "InternalExternal or point normals contradict is refused")
     parser.add_argument("--compensated", choices=("yes", "no"),
                         help="are the points surface points (yes) or probe centres (no)? Required for formats that "
                              "do not say (a PC-DMIS XYZIJK export, recognised by its first line); checked against "
                              "QIF's Compensated flag")
+    add_max_mb_option(parser, "QIF file read (FILE)")
     parser.add_argument("--qif", metavar="OUT.qif", help="also write the result as a QIF 3.0 results document")
     declare_output(parser, "qif")
 
@@ -63,10 +107,15 @@ class FitInput:
 
 def read_fit_input(args: argparse.Namespace, element: str) -> FitInput:
     """Read FILE for ``element`` (QIF feature, XYZIJK or point file) and decide the probe radius to apply."""
+    from pcmm_geo.cmm.files import detect_format
     from pcmm_geo.cmm.points import load_feature_points, probe_radius_to_apply
     from pcmm_geo.errors import InvalidInputError
 
-    data = load_feature_points(args.file, element=element, feature=args.feature, decimal=args.decimal)
+    limit = max_bytes(args)
+    if limit is not None and detect_format(args.file) != "qif":
+        raise InvalidInputError("--max-mb", "a QIF file (the limit applies to QIF files)", str(args.file))
+    data = load_feature_points(args.file, element=element, feature=args.feature, decimal=args.decimal,
+                               max_bytes=limit, spell_setting=cli_setting)
     radius, source = probe_radius_to_apply(data, compensated=args.compensated, probe_radius=args.probe_radius)
     if args.material_side is not None and radius == 0:
         raise InvalidInputError("--material-side", "a probe radius to apply (--probe-radius-mm or probe centres in the "

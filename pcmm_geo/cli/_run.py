@@ -23,10 +23,13 @@ if TYPE_CHECKING:
 
 
 def _fail(args: argparse.Namespace, plan: OutputPlan | None, message: str) -> int:
-    """Print ``message`` as the command's one error line (with what a rollback kept); exit code 2."""
+    """Print ``message`` as the command's one error line (with what a rollback kept); exit code 2.
+
+    The line starts with the whole sub-command (``pcmm qif show: error: ...``), as argparse's own do.
+    """
     if plan is not None and plan.notes:
         message += "; " + "; ".join(plan.notes)
-    print(f"pcmm {args.command}: error: {message}", file=sys.stderr)
+    print(f"{report_title(args)}: error: {message}", file=sys.stderr)
     return EXIT_USAGE
 
 
@@ -41,7 +44,7 @@ def _print_warnings(args: argparse.Namespace, caught: list[warnings.WarningMessa
     for record in caught:
         if isinstance(record.message, PcmmGeoWarning):
             text = " ".join(str(record.message).split())
-            print(f"pcmm {args.command}: warning: {type(record.message).__name__}: {text}", file=sys.stderr)
+            print(f"{report_title(args)}: warning: {type(record.message).__name__}: {text}", file=sys.stderr)
         else:
             warnings.showwarning(record.message, record.category, record.filename, record.lineno)
 

@@ -26,6 +26,8 @@ from __future__ import annotations
 from pathlib import Path
 from typing import TYPE_CHECKING
 
+from pcmm_geo.io.cmm import SpellSetting, python_setting
+
 if TYPE_CHECKING:
     from pcmm_geo.io.cmm import CmmDocument
 
@@ -67,7 +69,7 @@ def detect_format(path: str | Path) -> str:
 
 def read_cmm_document(path: str | Path, *, units: str | None = None, angle_unit: str | None = None,
                       size_values: str | None = None, encoding: str = "utf-8",
-                      max_bytes: int | None = None) -> CmmDocument:
+                      max_bytes: int | None = None, spell_setting: SpellSetting = python_setting) -> CmmDocument:
     """Read a QIF document, a DMIS output or a CALYPSO table (:func:`detect_format`).
 
     Parameters
@@ -78,6 +80,9 @@ def read_cmm_document(path: str | Path, *, units: str | None = None, angle_unit:
         :func:`~pcmm_geo.io.cmm.read_calypso_table`); refused for QIF, which states its units.
     max_bytes : int, optional
         Largest QIF file read (default :data:`~pcmm_geo.io.cmm.DEFAULT_MAX_BYTES`).
+    spell_setting : callable
+        How messages name these settings (:mod:`pcmm_geo.io.cmm.settings`; the command line
+        passes its option names).
 
     Raises
     ------
@@ -94,15 +99,17 @@ def read_cmm_document(path: str | Path, *, units: str | None = None, angle_unit:
     kind = detect_format(path)
     document = None
     if kind == "qif":
-        for name, value in (("--units", units), ("--angle-unit", angle_unit), ("--size-values", size_values)):
+        for name, value in (("units", units), ("angle_unit", angle_unit), ("size_values", size_values)):
             if value is not None:
-                raise InvalidInputError(name, "nothing for a QIF file (it states its units)", value)
-        document = cmm.read_qif(path, max_bytes=cmm.DEFAULT_MAX_BYTES if max_bytes is None else max_bytes)
+                raise InvalidInputError(spell_setting(name), "nothing for a QIF file (it states its units)", value)
+        document = cmm.read_qif(path, max_bytes=cmm.DEFAULT_MAX_BYTES if max_bytes is None else max_bytes,
+                                spell_setting=spell_setting)
     elif kind == "dmis":
         document = cmm.read_dmis(path, units=units, angle_unit=angle_unit, size_values=size_values,
-                                 encoding=encoding)
+                                 encoding=encoding, spell_setting=spell_setting)
     elif kind == "calypso":
-        document = cmm.read_calypso_table(path, units=units, angle_unit=angle_unit, encoding=encoding)
+        document = cmm.read_calypso_table(path, units=units, angle_unit=angle_unit, encoding=encoding,
+                                          spell_setting=spell_setting)
     if document is not None:
         if not document.measured_features and not document.characteristics:
             raise FileFormatError(str(path), "expected measured features or characteristics, got none")

@@ -27,6 +27,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from pcmm_geo.errors import FileFormatError, InvalidInputError
+from pcmm_geo.io.cmm import SpellSetting, python_setting
 
 if TYPE_CHECKING:
     from pcmm_geo.fit import FitResult
@@ -87,7 +88,8 @@ class FeaturePoints:
 
 
 def load_feature_points(path: str | Path, *, element: str | None = None, feature: str | None = None,
-                        decimal: str | None = None) -> FeaturePoints:
+                        decimal: str | None = None, max_bytes: int | None = None,
+                        spell_setting: SpellSetting = python_setting) -> FeaturePoints:
     """Read the points of one feature from a QIF document, a PC-DMIS XYZIJK export or a point file.
 
     Parameters
@@ -100,6 +102,10 @@ def load_feature_points(path: str | Path, *, element: str | None = None, feature
         QIF id (digits) or name of the feature measurement; needed when the choice is not unique.
     decimal : {".", ","}, optional
         Decimal mark of a text point file.
+    max_bytes : int, optional
+        Largest QIF file read (default :data:`~pcmm_geo.io.cmm.DEFAULT_MAX_BYTES`).
+    spell_setting : callable
+        How a size refusal names ``max_bytes`` (:mod:`pcmm_geo.io.cmm.settings`).
 
     Returns
     -------
@@ -118,9 +124,11 @@ def load_feature_points(path: str | Path, *, element: str | None = None, feature
     file = Path(path)
     kind = detect_format(file)
     if kind == "qif":
-        from pcmm_geo.io.cmm import read_qif
+        from pcmm_geo.io.cmm import DEFAULT_MAX_BYTES, read_qif
 
-        return _from_document(read_qif(file), element=element, feature=feature)
+        document = read_qif(file, max_bytes=DEFAULT_MAX_BYTES if max_bytes is None else max_bytes,
+                            spell_setting=spell_setting)
+        return _from_document(document, element=element, feature=feature)
     if kind in ("dmis", "calypso"):
         raise FileFormatError(str(file), f"expected measured points, got a {kind.upper()} results file (feature "
                               "actuals and characteristics, no points): see pcmm qif show")
@@ -237,6 +245,12 @@ def probe_radius_to_apply(data: FeaturePoints, *, compensated: str | None = None
 
 def _side_kwargs(data: FeaturePoints, material_side: str | None) -> tuple[dict[str, Any], str]:
     if material_side is not None:
+        if data.material_side is not None and data.material_side != material_side:
+            internal_external = None if data.feature is None else data.feature.internal_external
+            raise InvalidInputError("--material-side", f"{data.material_side} (or no --material-side): "
+                                    f"{data.describe()} says InternalExternal={internal_external}", material_side)
+        if data.normals is not None:  # compensate_probe checks the stated side against them
+            return {"side": material_side, "points": data.points, "outward": data.normals}, "--material-side"
         return {"side": material_side}, "--material-side"
     if data.material_side is not None:
         return {"side": data.material_side}, "the file's InternalExternal"
@@ -257,13 +271,11 @@ def side_before_fit(data: FeaturePoints, element: str, radius: float, material_s
         Nothing tells the side.
     """
     kwargs, _ = _side_kwargs(data, material_side)
-    if "side" in kwargs:
+    if "side" in kwargs and "outward" not in kwargs:
         return str(kwargs["side"])
     if not kwargs:
         raise _no_side(data, element)
-    from pcmm_geo.fit.probe import compensate_probe
-
-    return compensate_probe(fit(data.points), radius, **kwargs).side
+    return _compensate(fit(data.points), radius, kwargs, data).side
 
 
 def _no_side(data: FeaturePoints, element: str) -> InvalidInputError:
@@ -299,4 +311,19 @@ def compensate_fit(fit: FitResult, element: str, data: FeaturePoints, radius: fl
     kwargs, source = _side_kwargs(data, material_side)
     if not kwargs:
         raise _no_side(data, element)
-    return compensate_probe(fit, radius, **kwargs), source
+    return _compensate(fit, radius, kwargs, data), source
+
+
+def _compensate(fit: FitResult, radius: float, kwargs: dict[str, Any], data: FeaturePoints) -> ProbeCompensation:
+    """:func:`~pcmm_geo.fit.probe.compensate_probe`; a stated side the point normals contradict names the option."""
+    from pcmm_geo.fit.probe import compensate_probe
+
+    try:
+        return compensate_probe(fit, radius, **kwargs)
+    except InvalidInputError as exc:
+        if exc.what != "side" or "outward" not in kwargs:
+            raise
+        stated = kwargs["side"]
+        shown = "internal" if stated == "external" else "external"  # the only other side
+        raise InvalidInputError("--material-side", f"{shown} (or no --material-side): the point normals of "
+                                f"{data.describe()} show an {shown} feature", stated) from None

@@ -266,7 +266,8 @@ def refit_feature(
     probe_radius : float, optional
         Overrides the file's probe radius (mm).
     material_side : {"internal", "external"}, optional
-        Overrides the side of a feature of size.
+        The side of a feature of size where the file does not state it; a side that contradicts
+        the file's ``InternalExternal`` or the point normals is refused (NotRefittedError).
 
     Returns
     -------
@@ -305,6 +306,11 @@ def _side_arguments(context: _Context, material_side: str | None, normals: Float
                     points: FloatArray) -> tuple[dict[str, Any], str]:
     """Keyword arguments of compensate_probe that fix the side of a feature of size, and their source."""
     if material_side is not None:
+        if context.side is not None and context.side != material_side:
+            raise InvalidInputError("material_side", f"{context.side!r} (or none): the file says InternalExternal="
+                                    f"{context.internal_external}", repr(material_side))
+        if normals is not None:  # compensate_probe checks the stated side against them
+            return {"side": material_side, "points": points, "outward": normals}, "stated (--material-side)"
         return {"side": material_side}, "stated (--material-side)"
     if context.side is not None:
         return {"side": context.side}, f"file (InternalExternal {context.internal_external})"

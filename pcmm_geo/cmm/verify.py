@@ -135,9 +135,17 @@ class Verification:
         return tuple(f for f in self.features if f.agrees is False)
 
     @property
-    def agrees(self) -> bool:
-        """No feature disagrees (features not refitted do not count)."""
-        return not self.disagreeing
+    def verified(self) -> int:
+        """How many features were compared (agree or disagree); the others were not checked."""
+        return sum(f.agrees is not None for f in self.features)
+
+    @property
+    def agrees(self) -> bool | None:
+        """True when at least one feature was compared and none disagrees; False when one disagrees;
+        None when nothing could be compared (an unverified file is not a file that agrees)."""
+        if self.disagreeing:
+            return False
+        return True if self.verified else None
 
     def summary(self) -> dict[str, int]:
         """Counts of agreeing, disagreeing and unchecked features."""
@@ -145,9 +153,11 @@ class Verification:
                 "not_checked": sum(f.agrees is None for f in self.features)}
 
     def to_dict(self) -> dict[str, Any]:
-        """``{"file", "features": [...]}`` of the JSON contract, with the tolerance, counts and file problems."""
-        return {"file": self.source, "tolerance_mm": self.tolerance_mm,
-                "features": [f.to_dict() for f in self.features], "summary": self.summary(),
+        """``{"file", "features": [...]}`` of the JSON contract, with the tolerance, the number of
+        features compared (``verified``), the overall ``agrees`` (null: nothing verified), counts and
+        file problems."""
+        return {"file": self.source, "tolerance_mm": self.tolerance_mm, "verified": self.verified,
+                "agrees": self.agrees, "features": [f.to_dict() for f in self.features], "summary": self.summary(),
                 "problems": list(self.problems)}
 
 

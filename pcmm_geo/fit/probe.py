@@ -22,6 +22,7 @@ there, each used where it is exact:
 Material side: stated (``side=``), read from outward normals at the points (pointing out of the
 material, toward the probe: a hole's normals point to its axis), or inferred from the nominal
 size when that is unambiguous (flagged ``inferred``); otherwise the compensation is refused.
+A stated side that the normals given beside it contradict is refused, never applied.
 
 Examples
 --------
@@ -216,6 +217,17 @@ def material_side_from_normals(fit: FitResult, points: ArrayLike, outward: Array
     >>> material_side_from_normals(fit_sphere(10 * d), 10 * d, -d)
     'internal'
     """
+    side, counts = _side_shown(fit, points, outward)
+    if side is None:
+        raise InvalidInputError(
+            "outward normals", "normals that all point toward the axis (internal) or all away from it (external)",
+            counts,
+        )
+    return side
+
+
+def _side_shown(fit: FitResult, points: ArrayLike, outward: ArrayLike) -> tuple[Side | None, str]:
+    """The side every outward normal shows (None when they point both ways) and their counts, in words."""
     element = _element(fit)
     if element in ("plane", "line"):
         raise InvalidInputError("element", "a feature of size (sphere, circle, cylinder, cone)", element)
@@ -226,14 +238,8 @@ def material_side_from_normals(fit: FitResult, points: ArrayLike, outward: Array
         raise InvalidInputError("outward normals", f"one per point ({pts.shape[0]})", f"{normals.shape[0]}")
     along = np.einsum("ij,ij->i", normals, _radial_directions(fit, element, pts))
     away, toward = int(np.sum(along > 0)), int(np.sum(along < 0))
-    if away and not toward:
-        return "external"
-    if toward and not away:
-        return "internal"
-    raise InvalidInputError(
-        "outward normals", "normals that all point toward the axis (internal) or all away from it (external)",
-        f"{away} pointing away, {toward} toward, {pts.shape[0] - away - toward} tangential",
-    )
+    side: Side | None = "external" if away and not toward else "internal" if toward and not away else None
+    return side, f"{away} pointing away, {toward} toward, {pts.shape[0] - away - toward} tangential"
 
 
 def material_side_from_nominal(
@@ -331,7 +337,9 @@ def compensate_probe(
         Effective probe-ball radius (mm, positive).
     side : {"internal", "external"}, optional
         Material side of a feature of size.  Without it the side is read from ``outward``
-        normals at ``points``, else inferred from ``nominal_diameter``, else refused.
+        normals at ``points``, else inferred from ``nominal_diameter``, else refused.  Given
+        with ``outward`` normals, it must agree with them (a side the normals contradict is
+        refused; normals on both sides leave the stated side to decide).
     points : array_like, shape (N, D), optional
         The probe centres ``fit`` was fitted to (with ``outward``, to read the side).
     outward : array_like, shape (N, D) or (D,), optional
@@ -351,7 +359,8 @@ def compensate_probe(
     ------
     InvalidInputError
         Not a supported fit, a bad radius, no way to tell the material side, normals that
-        disagree, a plane / line normal missing or parallel to the element.
+        disagree, a stated side the normals contradict, a plane / line normal missing or
+        parallel to the element.
 
     Examples
     --------
@@ -377,10 +386,15 @@ def compensate_probe(
         surface = _offset_flat(fit, element, -radius * normal, u, normal)
         return ProbeCompensation(surface, fit, radius, "external", "normals", False, normal, u)
     source = "stated"
+    if outward is not None and points is None:
+        raise InvalidInputError("points", "the probe centres beside their outward normals", "none")
+    if side is not None and outward is not None:
+        shown = _side_shown(fit, points, outward)[0]
+        if shown is not None and shown != side:  # normals on both sides show nothing: the stated side decides
+            raise InvalidInputError("side", f"{shown!r}, the side the outward normals at the points show (or no "
+                                    "side, to take theirs)", repr(side))
     if side is None:
         if outward is not None:
-            if points is None:
-                raise InvalidInputError("points", "the probe centres beside their outward normals", "none")
             side, source = material_side_from_normals(fit, points, outward), "normals"
         elif nominal_diameter is not None:
             half = float(fit.half_angle) if element == "cone" else 0.0

@@ -64,6 +64,19 @@ def test_hole_with_stated_side_agrees() -> None:
     assert abs(check.difference["diameter_mm"]) < 1e-9
 
 
+def test_a_stated_side_that_contradicts_the_file_is_refused() -> None:
+    document = _hole()  # InternalExternal INTERNAL
+    feature = document.measured_features[0]
+    with pytest.raises(NotRefittedError, match=r"material_side: expected 'internal'.*InternalExternal=INTERNAL"):
+        refit_feature(document, feature, material_side="external")
+    assert refit_feature(document, feature, material_side="internal").diameter == pytest.approx(2 * HOLE, abs=1e-9)
+    with_normals = _hole(side="NOT_APPLICABLE", normals=-RING)  # normals toward the axis: a hole
+    with pytest.raises(NotRefittedError, match="outward normals"):
+        refit_feature(with_normals, with_normals.measured_features[0], material_side="external")
+    refit = refit_feature(with_normals, with_normals.measured_features[0], material_side="internal")
+    assert refit.diameter == pytest.approx(2 * HOLE, abs=1e-9)
+
+
 def test_side_from_point_normals_and_from_nominal_size() -> None:
     check = _only(_hole(side="NOT_APPLICABLE", normals=-RING))  # outward normals of a hole point to its axis
     assert check.agrees is True and "point normals" in check.compensation.source

@@ -185,6 +185,23 @@ def test_normals_that_disagree_about_the_side_are_refused() -> None:
         material_side_from_normals(fit, data.points, mixed)
 
 
+def test_a_stated_side_the_normals_contradict_is_refused() -> None:
+    data = make_reference_data("sphere", n_points=20, radius=5.0, rng=1)
+    away = _radial(data.points, data.parameters["center"])  # a ball: the normals point away from its centre
+    fit = fit_sphere(data.points)
+    with pytest.raises(InvalidInputError, match="'external', the side the outward normals") as refused:
+        compensate_probe(fit, 1.0, side="internal", points=data.points, outward=away)
+    assert (refused.value.what, refused.value.got) == ("side", "'internal'")
+    agreed = compensate_probe(fit, 1.0, side="external", points=data.points, outward=away)
+    assert agreed.surface.radius == pytest.approx(4.0, abs=1e-9) and agreed.side_source == "stated"
+    mixed = away.copy()
+    mixed[:3] *= -1  # normals on both sides say nothing: the stated side decides
+    assert compensate_probe(fit, 1.0, side="internal", points=data.points, outward=mixed).surface.radius == \
+        pytest.approx(6.0, abs=1e-9)
+    with pytest.raises(InvalidInputError, match="points"):  # normals without their points are not ignored
+        compensate_probe(fit, 1.0, side="external", outward=away)
+
+
 def test_probe_radius_uncertainty_enters_the_size_variance() -> None:
     data = make_reference_data("sphere", n_points=30, radius=5.0, form=0.002, rng=2)
     fit = fit_sphere(data.points)

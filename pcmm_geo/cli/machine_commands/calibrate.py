@@ -5,6 +5,7 @@ from __future__ import annotations
 import argparse
 from typing import Any
 
+from pcmm_geo.cli._cmm_input import add_max_mb_option, cli_setting, max_bytes
 from pcmm_geo.cli._output import (
     Report,
     Table,
@@ -35,6 +36,7 @@ def register(subparsers: Any) -> None:
     parser.add_argument("--feature-map", metavar="MAP.json",
                         help="QIF probings: JSON object from QIF feature names to roles, e.g. "
                              "{\"SPH1\": \"joint_a:1\", \"SPH7\": \"tip\"} (default: the names joint_a_1 ... tip)")
+    add_max_mb_option(parser, "QIF probings file read")
     parser.add_argument("--out", metavar="CAL.json", help="write the versioned calibration file")
     parser.add_argument("--sweep", metavar="SWEEP.csv", help="laser sweep (position,laser_a,laser_b,laser_c) for b")
     parser.add_argument("--start-of-range-mm", dest="start_of_range", type=float, default=60.0,
@@ -130,13 +132,15 @@ def _probings(args: argparse.Namespace) -> tuple[Any, list[str], dict[str, Any]]
     from pcmm_geo.errors import InvalidInputError
 
     path = Path(args.probings)
+    limit = max_bytes(args)
     if path.suffix.lower() != ".qif":
-        if args.feature_map is not None:
-            raise InvalidInputError("--feature-map", "a QIF probings file (.qif)", str(path))
+        for option, value in (("--feature-map", args.feature_map), ("--max-mb", limit)):
+            if value is not None:
+                raise InvalidInputError(option, "a QIF probings file (.qif)", str(path))
         return args.probings, [], {}
     from pcmm_geo.machine.calibration.qif_probings import read_qif_probings
 
-    read = read_qif_probings(path, feature_map=args.feature_map)
+    read = read_qif_probings(path, feature_map=args.feature_map, max_bytes=limit, spell_setting=cli_setting)
     parts = [f"{len(read.refitted)} sphere centres refitted from their points"] if read.refitted else []
     if read.reported:
         parts.append(f"{len(read.reported)} centres as the CMM reported them (the file holds no points for them): "

@@ -5,6 +5,7 @@ from __future__ import annotations
 import argparse
 from typing import Any
 
+from pcmm_geo.cli._cmm_input import add_max_mb_option, cli_setting, max_bytes
 from pcmm_geo.cli._output import (
     EXIT_FAILURE,
     Report,
@@ -37,7 +38,9 @@ def register(subparsers: Any) -> None:
         description="Refit every feature measurement that has points (the file's fitting algorithm, else "
                     "least squares; a 3-D circle in the least-squares plane of its points), compensate the probe "
                     "radius, bring points and actuals into the file's common frame and compare diameter, location "
-                    "and direction with what the CMM reported. Exit status 1 when a feature disagrees.",
+                    "and direction with what the CMM reported. Exit status 0 when at least one feature was compared "
+                    "and none disagrees; 1 when a feature disagrees or when nothing could be compared (no feature "
+                    "with points, compensation unknown: the file is not verified); 2 on bad input.",
     )
     verify.add_argument("file", help="QIF results file")
     verify.add_argument("--tolerance-mm", type=float, metavar="MM", default=None,
@@ -68,8 +71,7 @@ def register(subparsers: Any) -> None:
                     "hostile (a DTD, entities, nesting deeper than 2048, larger than --max-mb).",
     )
     validate.add_argument("file", help="QIF file")
-    validate.add_argument("--max-mb", type=float, metavar="MB", default=None,
-                          help="largest QIF file read, in MB (default 1024)")
+    add_max_mb_option(validate, "QIF file checked")
     validate.add_argument("--errors", type=int, metavar="N", default=10,
                           help="how many schema errors to list (default 10; --json lists all)")
     add_json_flag(validate)
@@ -77,8 +79,7 @@ def register(subparsers: Any) -> None:
 
 
 def _add_limits(parser: argparse.ArgumentParser) -> None:
-    parser.add_argument("--max-mb", type=float, metavar="MB", default=None,
-                        help="largest QIF file read, in MB (default 1024; scanner point clouds may need more)")
+    add_max_mb_option(parser)
     text = parser.add_argument_group("DMIS output and CALYPSO tables (which may not state their units)")
     text.add_argument("--units", choices=("mm", "cm", "m", "inch", "feet"), help="length unit of the file")
     text.add_argument("--angle-unit", choices=("degree", "radian"), help="angle unit of the file")
@@ -87,22 +88,11 @@ def _add_limits(parser: argparse.ArgumentParser) -> None:
     text.add_argument("--encoding", default="utf-8", help="text encoding (Windows software: often cp1252)")
 
 
-def _max_bytes(args: argparse.Namespace) -> int | None:
-    from pcmm_geo.errors import InvalidInputError
-
-    if args.max_mb is None:
-        return None
-    if not (args.max_mb > 0 and args.max_mb < 1e9):
-        raise InvalidInputError("--max-mb", "a positive size in MB", repr(args.max_mb))
-    return int(args.max_mb * 1024 * 1024)
-
-
 def _read(args: argparse.Namespace) -> Any:
     from pcmm_geo.cmm.files import read_cmm_document
 
-    limit = _max_bytes(args)
     return read_cmm_document(args.file, units=args.units, angle_unit=args.angle_unit, size_values=args.size_values,
-                             encoding=args.encoding, max_bytes=limit)
+                             encoding=args.encoding, max_bytes=max_bytes(args), spell_setting=cli_setting)
 
 
 def _vector(value: Any) -> list[float]:
@@ -157,15 +147,19 @@ def _handle_show(args: argparse.Namespace) -> Report:
     for characteristic in document.characteristics:
         lower, upper = (None, None) if characteristic.tolerance is None else \
             characteristic.tolerance.limits(characteristic.nominal)
+        names = _feature_names(document, characteristic)
+        # the feature measurements by QIF id; a table without measurements (CALYPSO) by the features it names
+        features_cell = " ".join(str(i) for i in characteristic.feature_measurement_ids) or \
+            ", ".join(name for name in names if name) or "-"
         char_rows.append([characteristic.id, characteristic.name or "-", characteristic.type,
                           _cell(characteristic.value), _cell(characteristic.nominal), _cell(lower), _cell(upper),
-                          characteristic.quantity, characteristic.status or "-",
-                          " ".join(str(i) for i in characteristic.feature_measurement_ids) or "-"])
+                          characteristic.quantity, characteristic.status or "-", features_cell])
         characteristics.append({"id": characteristic.id, "type": characteristic.type, "name": characteristic.name,
                                 "value": characteristic.value, "nominal": characteristic.nominal,
                                 "lower_limit": lower, "upper_limit": upper, "quantity": characteristic.quantity,
                                 "status": characteristic.status,
-                                "feature_measurement_ids": list(characteristic.feature_measurement_ids)})
+                                "feature_measurement_ids": list(characteristic.feature_measurement_ids),
+                                "feature_item_ids": list(characteristic.feature_item_ids), "feature_names": names})
     units = document.units
     data = {"file": document.source, "format": document.format, "version": document.version,
             "application": document.application,
@@ -189,6 +183,15 @@ def _handle_show(args: argparse.Namespace) -> Report:
              + ("" if units.mm_per_linear_unit == 1.0 else " (converted to mm)")]
     lines += [f"left out: {problem}" for problem in document.problems]
     return Report(data=data, tables=[t for t in tables if t.rows], lines=lines)
+
+
+def _feature_names(document: Any, characteristic: Any) -> list[str | None]:
+    """Names of the features a characteristic is about: its feature items', else its measurements'."""
+    if characteristic.feature_item_ids:
+        items = [document.feature_items.get(i) for i in characteristic.feature_item_ids]
+        return [None if item is None else item.name for item in items]
+    measured = {feature.id: feature for feature in document.measured_features}
+    return [None if measured.get(i) is None else measured[i].name for i in characteristic.feature_measurement_ids]
 
 
 def _cell(value: Any) -> Any:
@@ -240,14 +243,16 @@ def _handle_verify(args: argparse.Namespace) -> Report:
     summary = result.summary()
     statement = (f"{summary['agree']} features agree, {summary['disagree']} disagree, "
                  f"{summary['not_checked']} not checked")
+    if result.agrees is None:
+        statement = f"nothing verified: {statement} (no feature could be compared with its refit)"
     lines += [f"left out by the reader: {problem}" for problem in result.problems]
-    verdict = Verdict(result.agrees if summary["agree"] + summary["disagree"] else None, statement,
+    verdict = Verdict(result.agrees, statement,
                       f"a feature agrees when every compared quantity of its refit (diameter, location, direction) "
                       f"differs from the CMM's by at most {tolerance:g} mm (angles: {tolerance:g} mm / feature size)",
                       basis="the differences between pcmm_geo's refit of each feature's points and the values the "
                             "CMM reported; the measurement uncertainty of the points is not taken into account")
     return Report(data=result.to_dict(), tables=[table], lines=lines,
-                  exit_code=0 if result.agrees else EXIT_FAILURE, verdict=verdict)
+                  exit_code=0 if result.agrees is True else EXIT_FAILURE, verdict=verdict)
 
 
 def _handle_validate(args: argparse.Namespace) -> Report:
@@ -260,10 +265,11 @@ def _handle_validate(args: argparse.Namespace) -> Report:
 
     if args.errors < 1:
         raise InvalidInputError("--errors", "a positive number of errors to list", repr(args.errors))
-    limit = _max_bytes(args)
+    limit = max_bytes(args)
     namespace = "{" + QIF3_NAMESPACE + "}"  # element names are all in it: shown without it
     errors = tuple(error.replace(namespace, "") for error in
-                   validate_qif(args.file, max_bytes=DEFAULT_MAX_BYTES if limit is None else limit))
+                   validate_qif(args.file, max_bytes=DEFAULT_MAX_BYTES if limit is None else limit,
+                                spell_setting=cli_setting))
     listed = []
     for error in errors:
         match = re.match(r"line (\d+): (.*)", error, re.DOTALL)

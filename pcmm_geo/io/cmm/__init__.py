@@ -19,6 +19,10 @@ function                        reads / writes
 :func:`read_pcdmis_xyzijk`      PC-DMIS XYZIJK text -> :class:`MeasuredPointSet` with normals
 ==============================  ===========================================================
 
+The readers never guess what a file does not say (units, a size beyond ``max_bytes``); their
+messages name the setting that would say it, spelled by ``spell_setting`` (default
+:func:`python_setting`: ``units='mm'``; the command line passes its option names).
+
 defusedxml (reading) and lxml (validation) come with the ``qif`` extra
 (``pip install 'pcmm_geo[qif]'``); without them the functions raise
 :class:`~pcmm_geo.errors.MissingDependencyError` naming the extra.
@@ -47,6 +51,8 @@ _LAZY = {
     "Units": "model",
     "DEFAULT_MAX_BYTES": "qif._xml",
     "DEFAULT_MAX_DEPTH": "qif._xml",
+    "SpellSetting": "settings",
+    "python_setting": "settings",
     "read_qif": "qif.reader",
     "write_qif": "qif.writer",
     "FeatureReport": "qif.build",

@@ -56,6 +56,7 @@ from pcmm_geo.errors import FileFormatError, InvalidInputError
 from pcmm_geo.io._text import excerpt, iter_text_lines, parse_decimal
 from pcmm_geo.io.cmm.document import CmmDocument
 from pcmm_geo.io.cmm.model import Characteristic, FeatureItem, MeasurementResults, Tolerance, Units
+from pcmm_geo.io.cmm.settings import SpellSetting, python_setting
 
 __all__ = ["CALYPSO_TYPES", "read_calypso_table"]
 
@@ -89,7 +90,7 @@ def _kind(symbol: str) -> tuple[str, str]:
 
 
 def read_calypso_table(path: str | Path, *, units: str | None = None, angle_unit: str | None = None,
-                       encoding: str = "utf-8") -> CmmDocument:
+                       encoding: str = "utf-8", spell_setting: SpellSetting = python_setting) -> CmmDocument:
     """Read a CALYPSO characteristic table (see the module docstring).
 
     Parameters
@@ -102,6 +103,9 @@ def read_calypso_table(path: str | Path, *, units: str | None = None, angle_unit
         Unit of angle characteristics; required when the table has any.
     encoding : str
         Text encoding (CALYPSO on Windows: often ``"cp1252"``).
+    spell_setting : callable
+        How the messages name ``units`` and ``angle_unit`` (:mod:`pcmm_geo.io.cmm.settings`;
+        the command line passes its option names).
 
     Returns
     -------
@@ -119,9 +123,10 @@ def read_calypso_table(path: str | Path, *, units: str | None = None, angle_unit
         The file does not exist.
     """
     if units not in _UNITS:
-        raise InvalidInputError("units", "'mm' or 'inch' (a CALYPSO table does not state its unit)", repr(units))
+        raise InvalidInputError(spell_setting("units"), "'mm' or 'inch' (a CALYPSO table does not state its unit)",
+                                "nothing" if units is None else repr(units))
     if angle_unit is not None and angle_unit not in _ANGLES:
-        raise InvalidInputError("angle_unit", "'degree' or 'radian'", repr(angle_unit))
+        raise InvalidInputError(spell_setting("angle_unit"), "'degree' or 'radian'", repr(angle_unit))
     name = str(path)
     lines = iter_text_lines(path, encoding=encoding)
     header_line, header = next(((n, t) for n, t in lines if t.strip()), (0, ""))
@@ -175,8 +180,8 @@ def read_calypso_table(path: str | Path, *, units: str | None = None, angle_unit
             raise FileFormatError(name, "column id: a characteristic without a name", number)
         kind, quantity = _kind(get("idsymbol") or get("type"))
         if quantity == "angular" and angle_unit is None:
-            raise FileFormatError(name, f"angle characteristic {label!r}: pass angle_unit='degree' or 'radian' (the "
-                                  "table does not state it)", number)
+            raise FileFormatError(name, f"angle characteristic {label!r}: pass {spell_setting('angle_unit', 'degree')} "
+                                  f"or {spell_setting('angle_unit', 'radian')} (the table does not state it)", number)
         factor = {"linear": _UNITS[units], "angular": _ANGLES.get(angle_unit or "", 1.0), "other": 1.0}[quantity]
         actual, nominal = number_of("actual"), number_of("nominal")
         upper, lower = number_of("uppertol"), number_of("lowertol")

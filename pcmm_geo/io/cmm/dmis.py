@@ -76,6 +76,7 @@ from pcmm_geo.io.cmm.model import (
     Tolerance,
     Units,
 )
+from pcmm_geo.io.cmm.settings import SpellSetting, python_setting
 
 __all__ = ["DMIS_LENGTH_UNITS", "read_dmis"]
 
@@ -108,6 +109,8 @@ class _State:
     units: str | None
     angle_unit: str | None
     size_values: str | None
+    spell: SpellSetting = python_setting
+    given_units: str | None = None
     workplane: str = "XYPLAN"
     stated_units: bool = False
     problems: list[str] = field(default_factory=list)
@@ -117,14 +120,14 @@ class _State:
 
     def length_factor(self, line: int) -> float:
         if self.units is None:
-            raise self.error(line, "the file states no UNITS before its first length; pass units='mm' or "
-                             "units='inch' (never assumed)")
+            raise self.error(line, f"the file states no UNITS before its first length; pass "
+                             f"{self.spell('units', 'mm')} or {self.spell('units', 'inch')} (never assumed)")
         return DMIS_LENGTH_UNITS[self.units]
 
     def angle_factor(self, line: int) -> float:
         if self.angle_unit is None:
             raise self.error(line, "an angle, but the file states no angle unit (UNITS/..,ANGDEC|ANGRAD); pass "
-                             "angle_unit='degree' or 'radian'")
+                             f"{self.spell('angle_unit', 'degree')} or {self.spell('angle_unit', 'radian')}")
         return _ANGLE_UNITS[self.angle_unit][1]
 
 
@@ -283,7 +286,8 @@ def _tolerance(state: _State, line: int, label: str, fields: list[str]) -> tuple
 
 
 def read_dmis(path: str | Path, *, units: str | None = None, angle_unit: str | None = None,
-              size_values: str | None = None, encoding: str = "utf-8") -> CmmDocument:
+              size_values: str | None = None, encoding: str = "utf-8",
+              spell_setting: SpellSetting = python_setting) -> CmmDocument:
     """Read a DMIS output file (see the module docstring).
 
     Parameters
@@ -297,6 +301,9 @@ def read_dmis(path: str | Path, *, units: str | None = None, angle_unit: str | N
         What the number of a size tolerance result (DIAM, RAD, WIDTH, DISTB, CORTOL, ANGLB) is.
     encoding : str
         Text encoding of the file (GEOPAK and other Windows software: often ``"cp1252"``).
+    spell_setting : callable
+        How the messages name ``units``, ``angle_unit`` and ``size_values``
+        (:mod:`pcmm_geo.io.cmm.settings`; the command line passes its option names).
 
     Returns
     -------
@@ -317,8 +324,9 @@ def read_dmis(path: str | Path, *, units: str | None = None, angle_unit: str | N
     for value, allowed, what in ((units, _USER_UNITS, "units"), (angle_unit, _USER_ANGLES, "angle_unit"),
                                  (size_values, {"actual": 0, "deviation": 0}, "size_values")):
         if value is not None and value not in allowed:
-            raise InvalidInputError(what, f"one of {', '.join(allowed)}", repr(value))
-    state = _State(str(path), _USER_UNITS.get(units or ""), _USER_ANGLES.get(angle_unit or ""), size_values)
+            raise InvalidInputError(spell_setting(what), f"one of {', '.join(allowed)}", repr(value))
+    state = _State(str(path), _USER_UNITS.get(units or ""), _USER_ANGLES.get(angle_unit or ""), size_values,
+                   spell_setting, units)
     features: dict[str, tuple[int, str, str | None, FeatureGeometry]] = {}
     nominals: dict[str, tuple[int, str, str | None, FeatureGeometry]] = {}
     tolerances: dict[str, tuple[str, str, Tolerance | None, float | None]] = {}
@@ -356,7 +364,7 @@ def _other_statement(state: _State, line: int, text: str, reported_with: dict[st
         if not fields or fields[0] not in DMIS_LENGTH_UNITS:
             raise state.error(line, f"UNITS: expected MM, CM, METER, INCH or FEET, got {excerpt(rest)}")
         if state.units is not None and not state.stated_units and state.units != fields[0]:
-            raise state.error(line, f"UNITS/{fields[0]} disagrees with units={state.units.lower()!r} given")
+            raise state.error(line, f"UNITS/{fields[0]} disagrees with {state.spell('units', state.given_units)} given")
         state.units, state.stated_units = fields[0], True
         if len(fields) > 1 and fields[1]:
             if fields[1] not in _ANGLE_UNITS:
@@ -432,7 +440,8 @@ def _characteristic(state: _State, key: int, line: int, label: str, fields: list
         if number is not None and state.size_values is None:
             state.problems.append(f"line {line}: TA({label})=TOL/{keyword}: the number {numbers[0]:g} is the actual "
                                   "size for some writers and its deviation for others; not read (pass "
-                                  "size_values='actual' or 'deviation')")
+                                  f"{state.spell('size_values', 'actual')} or "
+                                  f"{state.spell('size_values', 'deviation')})")
         elif state.size_values == "actual":
             value = number
         elif number is not None:

@@ -29,7 +29,7 @@ from __future__ import annotations
 import json
 import math
 import re
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -131,7 +131,8 @@ class QifProbings:
     notes: tuple[str, ...] = ()
 
 
-def read_qif_probings(path: str | Path, *, feature_map: Mapping[str, Role] | str | Path | None = None) -> QifProbings:
+def read_qif_probings(path: str | Path, *, feature_map: Mapping[str, Role] | str | Path | None = None,
+                      max_bytes: int | None = None, spell_setting: Callable[..., str] | None = None) -> QifProbings:
     """Read the calibration probings (joint balls per slider position, tip ball) from a QIF results file.
 
     Parameters
@@ -141,6 +142,10 @@ def read_qif_probings(path: str | Path, *, feature_map: Mapping[str, Role] | str
     feature_map : mapping or path, optional
         QIF feature name -> role (see the module docstring), or a JSON file of it; default:
         the default naming.
+    max_bytes : int, optional
+        Largest QIF file read (default :data:`~pcmm_geo.io.cmm.DEFAULT_MAX_BYTES`).
+    spell_setting : callable, optional
+        How a size refusal names ``max_bytes`` (:func:`~pcmm_geo.io.cmm.read_qif`).
 
     Returns
     -------
@@ -153,10 +158,11 @@ def read_qif_probings(path: str | Path, *, feature_map: Mapping[str, Role] | str
         without a reported centre, a group that cannot be fitted, the tip missing, arms probed at
         different positions (as the CSV route); QIF reading errors (QifError, UnsafeXmlError).
     """
-    from pcmm_geo.io.cmm import read_qif
+    from pcmm_geo.io.cmm import DEFAULT_MAX_BYTES, python_setting, read_qif
 
     source = str(path)
-    document = read_qif(path)
+    document = read_qif(path, max_bytes=DEFAULT_MAX_BYTES if max_bytes is None else max_bytes,
+                        spell_setting=spell_setting or python_setting)
     roles = read_feature_map(feature_map) if isinstance(feature_map, (str, Path)) else feature_map
     spheres = [f for f in document.measured_features if f.type == "sphere"]
     chosen: dict[str, Any] = {}

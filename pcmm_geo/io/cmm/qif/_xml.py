@@ -33,6 +33,7 @@ import numpy as np
 
 from pcmm_geo._optional import require
 from pcmm_geo.errors import FileFormatError, UnsafeXmlError
+from pcmm_geo.io.cmm.settings import SpellSetting, python_setting
 
 __all__ = ["DEFAULT_MAX_BYTES", "DEFAULT_MAX_DEPTH", "MAX_TEXT_CHARS", "Node", "NumberList", "parse_xml",
            "parse_xml_chunks"]
@@ -278,7 +279,8 @@ class NumberListFailure(FileFormatError):
 
 
 def parse_xml(path: str | Path, *, max_bytes: int = DEFAULT_MAX_BYTES, max_depth: int = DEFAULT_MAX_DEPTH,
-              stream_rule: StreamRule = lambda node: None) -> tuple[Node, str | None]:
+              stream_rule: StreamRule = lambda node: None,
+              spell_setting: SpellSetting = python_setting) -> tuple[Node, str | None]:
     """Parse an untrusted XML file into a :class:`Node` tree (see the module docstring).
 
     Parameters
@@ -291,6 +293,8 @@ def parse_xml(path: str | Path, *, max_bytes: int = DEFAULT_MAX_BYTES, max_depth
     stream_rule : callable
         ``rule(node) -> NumberList | None``, called at each element's start: a :class:`NumberList`
         makes that element's text a streamed number list.
+    spell_setting : callable
+        How the size refusal names ``max_bytes`` (:mod:`pcmm_geo.io.cmm.settings`).
 
     Returns
     -------
@@ -317,7 +321,7 @@ def parse_xml(path: str | Path, *, max_bytes: int = DEFAULT_MAX_BYTES, max_depth
         raise FileFormatError(name, "is a directory, expected an XML file")
     if size > max_bytes:
         raise UnsafeXmlError(name, f"file of {size} bytes exceeds the limit of {max_bytes} bytes "
-                             "(raise max_bytes for larger files)", limit=max_bytes)
+                             f"(raise {spell_setting('max_bytes')} for larger files)", limit=max_bytes)
 
     def chunks() -> Iterator[bytes]:
         with open(path, "rb") as stream:

@@ -70,6 +70,7 @@ from pcmm_geo.io.cmm.qif._xml import (
     NumberListFailure,
     parse_xml,
 )
+from pcmm_geo.io.cmm.settings import SpellSetting, python_setting
 
 __all__ = ["QIF3_NAMESPACE", "read_qif"]
 
@@ -83,7 +84,8 @@ _ORTHONORMAL_TOLERANCE = 1e-6
 
 
 def read_qif(
-    path: str | Path, *, max_bytes: int = DEFAULT_MAX_BYTES, max_depth: int = DEFAULT_MAX_DEPTH
+    path: str | Path, *, max_bytes: int = DEFAULT_MAX_BYTES, max_depth: int = DEFAULT_MAX_DEPTH,
+    spell_setting: SpellSetting = python_setting,
 ) -> CmmDocument:
     """Read a QIF 3.0 document (see the module docstring).
 
@@ -95,6 +97,9 @@ def read_qif(
         Largest file accepted (default 1 GiB; raise it for scanner-size point clouds).
     max_depth : int
         Deepest element nesting accepted (default 64).
+    spell_setting : callable
+        How a size refusal names ``max_bytes`` (:mod:`pcmm_geo.io.cmm.settings`; the command
+        line passes its option name).
 
     Returns
     -------
@@ -120,7 +125,8 @@ def read_qif(
         size = 0  # parse_xml names the problem
     try:
         root, namespace = parse_xml(path, max_bytes=max_bytes, max_depth=max_depth,
-                                    stream_rule=lambda node: _stream_rule(name, size, node))
+                                    stream_rule=lambda node: _stream_rule(name, size, node),
+                                    spell_setting=spell_setting)
     except NumberListFailure as failure:
         node = failure.node
         set_id = node.parent.attrib.get("id") if node.parent is not None else None

@@ -22,6 +22,7 @@ from typing import Any
 from pcmm_geo._optional import require
 from pcmm_geo.errors import FileFormatError, InvalidInputError, UnsafeXmlError
 from pcmm_geo.io.cmm.qif._xml import DEFAULT_MAX_BYTES
+from pcmm_geo.io.cmm.settings import SpellSetting, python_setting
 
 __all__ = ["bundled_schema_dir", "validate_qif"]
 
@@ -60,7 +61,7 @@ def _schema(entry: str) -> Any:
 
 
 def validate_qif(path: str | Path, schema_dir: str | Path | None = None, *,
-                 max_bytes: int = DEFAULT_MAX_BYTES) -> tuple[str, ...]:
+                 max_bytes: int = DEFAULT_MAX_BYTES, spell_setting: SpellSetting = python_setting) -> tuple[str, ...]:
     """Schema errors of a QIF file (empty when it is valid QIF 3.0).
 
     Parameters
@@ -72,6 +73,8 @@ def validate_qif(path: str | Path, schema_dir: str | Path | None = None, *,
         with pcmm_geo (:func:`bundled_schema_dir`).
     max_bytes : int
         Largest file accepted.
+    spell_setting : callable
+        How a size refusal names ``max_bytes`` (:mod:`pcmm_geo.io.cmm.settings`).
 
     Returns
     -------
@@ -109,7 +112,8 @@ def validate_qif(path: str | Path, schema_dir: str | Path | None = None, *,
     except OSError as exc:
         raise FileFormatError(name, f"cannot be read: {exc.strerror or exc}") from None
     if size > max_bytes:
-        raise UnsafeXmlError(name, f"file of {size} bytes exceeds the limit of {max_bytes} bytes", limit=max_bytes)
+        raise UnsafeXmlError(name, f"file of {size} bytes exceeds the limit of {max_bytes} bytes "
+                             f"(raise {spell_setting('max_bytes')} for larger files)", limit=max_bytes)
     _refuse_doctype(name)
     parser = etree.XMLParser(resolve_entities=False, no_network=True, load_dtd=False, huge_tree=True)
     try:
