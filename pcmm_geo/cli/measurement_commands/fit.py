@@ -262,9 +262,8 @@ def _fit(args: argparse.Namespace, source: Any, fit_element: Any,
                                    lambda p: fit_element(p, **free))
             kwargs["radius"] = args.radius + (-source.probe_radius if side == "internal" else source.probe_radius)
             if kwargs["radius"] <= 0:
-                raise InvalidInputError("--radius", f"a surface radius larger than the probe radius "
+                raise InvalidInputError("--radius-mm", f"a surface radius larger than the probe radius "
                                         f"{source.probe_radius:g} mm for an internal feature", repr(args.radius))
-            args.material_side = side if args.material_side is None else args.material_side
         centre_fit = fit_element(points, **kwargs)
         compensation, side_source = compensate_fit(centre_fit, args.element, source.data, source.probe_radius,
                                                    material_side=args.material_side)
