@@ -43,7 +43,7 @@ def test_round_trip_synthesised_log(slopes) -> None:
     log = synthesise_log(machine, h0, moves)
     assert len(log) == 2 * len(moves)
     np.testing.assert_array_equal(log.start_stop[:4], [1, 0, 1, 0])
-    # no warning with slanted columns either: the datum holds the common height (logproc_closure.first_row_pose)
+    # slanted columns too: the datum holds all three start heights
     out = process_log(machine, log, initial_heights=h0)
     truth_tips = machine.forward(heights=heights).tip
     assert np.abs(out.heights - heights).max() < 1e-6

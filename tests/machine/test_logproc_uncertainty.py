@@ -25,7 +25,7 @@ from pcmm_geo.machine.analysis.logproc import (
     synthesise_log,
     write_log,
 )
-from pcmm_geo.machine.analysis.logproc_uncertainty import flag_uncertain_tips
+from pcmm_geo.machine.analysis.logproc.uncertainty import flag_uncertain_tips
 from pcmm_geo.machine.kinematics.model import RigidBodyMachine
 
 MOVES = [(1, 6.0, True), (2, -5.0, True), (3, 4.0, True)]

@@ -92,7 +92,7 @@ class SimulatedMicroCMM:
         the *level* pose, as in the thesis (6.3: "each pivot point was starting at the same
         vertical point", one encoder count for all motors).  Near level the lasers hardly see
         the heights and processed points have millimetre uncertainties
-        (:mod:`pcmm_geo.machine.analysis.logproc_uncertainty`); an off-level start such as
+        (:mod:`pcmm_geo.machine.analysis.logproc.uncertainty`); an off-level start such as
         ``reference_heights + OFF_LEVEL_START_OFFSETS`` keeps a session well conditioned.
     laser_noise, dead_spot, settle_scatter : float
         Defect model parameters, mm (see module docstring); 0 disables each.

@@ -11,7 +11,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from pcmm_geo.errors import InvalidInputError
-from pcmm_geo.machine.analysis.logproc_rows import MeasurementLog
+from pcmm_geo.machine.analysis.logproc.rows import MeasurementLog
 from pcmm_geo.machine.kinematics.model import RigidBodyMachine, as_readings
 
 __all__ = ["synthesise_log"]
