@@ -58,7 +58,7 @@ def test_level_start_without_direction_is_flagged_ambiguous() -> None:
     assert np.abs(out.heights[1, 1:] - 400.0).max() < 1e-6
     mirror = machine.forward(heights=[800.0 - out.heights[1, 0], 400.0, 400.0]).tip
     assert out.ambiguous.tolist() == [False, True]
-    assert out.ambiguity[1] == pytest.approx(np.linalg.norm(mirror - out.tips[1]), abs=1e-6)
+    assert out.ambiguity[1] >= np.linalg.norm(mirror - out.tips[1]) - 1e-6  # the mirror, and the noise about it
     assert out.bound[1] >= out.ambiguity[1] and not out.inconsistent.any()
     # with the recorded direction the same lasers are not ambiguous
     assert not process_log(machine, log, max_tip_uncertainty=np.inf).ambiguous.any()

@@ -13,9 +13,15 @@ matrix ``A`` is sparse (three segments per row), and so are the normal equations
 ``N = A^T W A`` (``W = diag(1/sigma^2)``) of a long log.
 
 Gauss-Newton from the starting values of
-:func:`~pcmm_geo.machine.analysis.logproc.segments.initial_segments`, with step halving when the
-weighted sum of squares grows; converged when ``step^T N step <= 1e-6``, i.e. every segment's
-step is below 1e-3 of its standard uncertainty (Cauchy-Schwarz), or every step below 1e-10 mm.
+:func:`~pcmm_geo.machine.analysis.logproc.branches.branch_hypotheses` (from the third iteration
+on Newton's step with the second-order term where it is a descent direction: a height at the
+turning point of its mirror images, with the lasers just beyond it, is a minimum Gauss-Newton
+only crawls towards), with step halving when the weighted sum of squares grows; converged when
+``step^T N step <= 1e-6``, i.e. every segment's step is below 1e-3 of its standard uncertainty
+(Cauchy-Schwarz), or every step below 1e-10 mm,
+or three steps in a row lower the weighted sum of squares by less than 1e-3 (a flat valley
+along a height near its turning point, where the remaining moves are a few hundredths of its
+standard uncertainty).
 The step is computed and then taken, so the result is within that of the optimum.  The
 solution is the least-squares estimate of all segments from all readings: a height that
 stands over several rows is measured by each of them, which is where a single reading gets
@@ -66,6 +72,8 @@ PRIOR_SIGMA = 1000.0
 MAX_ITERATIONS = 60
 #: converged when every step is below this fraction of the segment's standard uncertainty ...
 STEP_FRACTION = 1e-3
+#: ... or when three steps in a row lower the weighted sum of squares by less than this (a flat valley)
+STALL = 1e-3
 #: ... or below this (mm)
 STEP_FLOOR = 1e-10
 _MAX_STEP = 20.0  # mm per iteration: a trust region for starts far off
@@ -130,10 +138,21 @@ class Adjustment:
 class _Normal:
     """Normal equations ``A^T W A + prior`` of the free segments, factorised (dense Cholesky or sparse LU)."""
 
-    def __init__(self, design: Any, weights: FloatArray) -> None:
-        weighted = design.T * weights.ravel() if isinstance(design, np.ndarray) else design.T.multiply(
-            weights.ravel()).tocsr()
-        matrix = weighted @ design
+    def __init__(self, design: Any, weights: FloatArray, curvature: Any = None, blocks: Any = None) -> None:
+        if blocks is not None:  # dense: summed from each row's 3 x 3 block (small logs; no threaded BLAS)
+            gains, active = blocks
+            per_row = np.einsum("rja,rj,rjb->rab", gains, weights, gains)
+            rows = np.repeat(active[:, :, None], 3, axis=2) - 3
+            columns = np.repeat(active[:, None, :], 3, axis=1) - 3
+            keep = (rows >= 0) & (columns >= 0)
+            matrix = np.zeros((design.shape[1], design.shape[1]))
+            np.add.at(matrix, (rows[keep], columns[keep]), per_row[keep])
+        else:
+            weighted = design.T * weights.ravel() if isinstance(design, np.ndarray) else design.T.multiply(
+                weights.ravel()).tocsr()
+            matrix = weighted @ design
+        if curvature is not None:
+            matrix = matrix - curvature
         if isinstance(matrix, np.ndarray):
             from scipy.linalg import cho_factor
 
@@ -160,6 +179,44 @@ class _Normal:
         return np.asarray(self._sparse.solve(right))
 
 
+def _curvature(geometry: solver.Geometry, kinematics: RowKinematics, heights: FloatArray, active: IntArray,
+               weights: FloatArray, residuals: FloatArray, free: int, dense: bool) -> Any:
+    """``sum_rj w_rj v_rj d2l_rj/ds ds`` (free x free): the second-order part of the sum of squares' Hessian.
+
+    Gauss-Newton leaves it out; it matters where the lasers' derivative by a height vanishes while
+    the residual does not (a height at the turning point of its mirror images, the lasers just
+    beyond it), where Gauss-Newton crawls.  Forward differences of the analytic ``dl/dH``.
+    """
+    step = 1e-4
+    second = np.empty((len(heights), 3, 3, 3))  # row, laser, arm a, arm b
+    for arm in range(3):
+        shifted = heights.copy()
+        shifted[:, arm] += step
+        second[..., arm] = (row_kinematics(geometry, shifted, kinematics.lasers).laser_gain
+                            - kinematics.laser_gain) / step
+    blocks = np.einsum("rj,rjab->rab", weights * residuals, 0.5 * (second + second.transpose(0, 1, 3, 2)))
+    rows = np.repeat(active[:, :, None], 3, axis=2) - 3
+    columns = np.repeat(active[:, None, :], 3, axis=1) - 3
+    keep = (rows >= 0) & (columns >= 0)
+    if dense:
+        matrix = np.zeros((free, free))
+        np.add.at(matrix, (rows[keep], columns[keep]), blocks[keep])
+        return matrix
+    from scipy.sparse import csr_matrix
+
+    return csr_matrix((blocks[keep], (rows[keep], columns[keep])), shape=(free, free))
+
+
+def _gradient(gains: FloatArray, active: IntArray, weighted_residuals: FloatArray, free: int) -> FloatArray:
+    """``A^T W v`` (free,) summed row by row."""
+    per_row = np.einsum("rja,rj->ra", gains, weighted_residuals)
+    columns = active - 3
+    keep = columns >= 0
+    gradient = np.zeros(free)
+    np.add.at(gradient, columns[keep], per_row[keep])
+    return gradient
+
+
 def _design(gains: FloatArray, active: IntArray, free: int) -> Any:
     count = len(gains)
     readings = np.repeat(np.arange(3 * count).reshape(count, 3)[:, :, None], 3, axis=2)  # (R, laser, arm)
@@ -182,6 +239,7 @@ def adjust(
     sigmas: FloatArray,
     *,
     geometry_gains: bool = False,
+    max_iterations: int = MAX_ITERATIONS,
 ) -> Adjustment:
     """Least-squares segment heights from all readings, starting from ``values`` ``(S,)`` (module notes).
 
@@ -202,16 +260,29 @@ def adjust(
     kinematics = row_kinematics(geometry, current[active], start)
     residuals = measured - kinematics.lasers
     cost = float(np.sum(weights * residuals**2))
-    converged, iterations = free == 0, 0
-    while not converged and iterations < MAX_ITERATIONS:
+    converged, iterations, stalled = free == 0, 0, 0
+    while not converged and iterations < max_iterations:
         iterations += 1
         design = _design(kinematics.laser_gain, active, free)
-        normal = _Normal(design, weights)
-        full_step = normal.solve(np.asarray(design.T @ (weights * residuals).ravel()).ravel())
-        step = np.clip(full_step, -_MAX_STEP, _MAX_STEP)
+        dense = isinstance(design, np.ndarray)
+        normal = _Normal(design, weights, blocks=(kinematics.laser_gain, active) if dense else None)
+        gradient = _gradient(kinematics.laser_gain, active, weights * residuals, free) if dense else np.asarray(
+            design.T @ (weights * residuals).ravel()).ravel()
+        full_step = normal.solve(gradient)
         # every step below STEP_FRACTION of its standard uncertainty: step^T N step <= STEP_FRACTION^2
         converged = bool(float(full_step @ (normal.matrix @ full_step)) <= STEP_FRACTION**2
                          or np.all(np.abs(full_step) <= STEP_FLOOR))
+        if iterations > 2:  # Newton's step (second-order term) where Gauss-Newton is slow: turning points
+            try:
+                newton = _Normal(design, weights, _curvature(geometry, kinematics, current[active], active, weights,
+                                                             residuals, free, dense),
+                                 blocks=(kinematics.laser_gain, active) if dense else None)
+                candidate = newton.solve(gradient)
+                if np.all(np.isfinite(candidate)) and float(candidate @ gradient) > 0.0:
+                    full_step = candidate
+            except (np.linalg.LinAlgError, RuntimeError, ValueError):
+                pass  # not positive definite: keep the Gauss-Newton step
+        step = np.clip(full_step, -_MAX_STEP, _MAX_STEP)
         for _ in range(30):  # step halving while the sum of squares grows
             trial = current.copy()
             trial[3:] += step
@@ -222,9 +293,16 @@ def adjust(
                 break
             step = step / 2.0
         else:
+            converged = True  # no descent along the step left: a minimum to rounding
             break
+        stalled = stalled + 1 if cost - trial_cost < STALL else 0
+        converged = converged or stalled >= 3
         current, kinematics, residuals, cost = trial, trial_kinematics, trial_residuals, trial_cost
     kinematics = row_kinematics(geometry, current[active], kinematics.lasers, geometry_gains=geometry_gains)
-    normal = _Normal(_design(kinematics.laser_gain, active, free), weights) if free else None
+    normal = None
+    if free:
+        design = _design(kinematics.laser_gain, active, free)
+        normal = _Normal(design, weights, blocks=(kinematics.laser_gain, active) if isinstance(design, np.ndarray)
+                         else None)
     return Adjustment(current, rows, active, kinematics, measured - kinematics.lasers, weights,
                       bool(converged and kinematics.converged.all()), iterations, normal)

@@ -33,7 +33,8 @@ from numpy.typing import ArrayLike, NDArray
 
 from pcmm_geo.errors import ConvergenceError, IllConditionedWarning, InvalidInputError
 from pcmm_geo.machine.analysis.logproc.adjustment import Adjustment, adjust
-from pcmm_geo.machine.analysis.logproc.ambiguity import find_ambiguities
+from pcmm_geo.machine.analysis.logproc.ambiguity import competing_fits, find_ambiguities
+from pcmm_geo.machine.analysis.logproc.branches import branch_hypotheses
 from pcmm_geo.machine.analysis.logproc.gate import (
     DEFAULT_ALPHA,
     DEFAULT_POWER,
@@ -46,9 +47,13 @@ from pcmm_geo.machine.analysis.logproc.gate import (
     worst_reading,
 )
 from pcmm_geo.machine.analysis.logproc.geometry import GEOMETRY_PARAMETERS
-from pcmm_geo.machine.analysis.logproc.reliability import geometry_tip_covariance, reading_influence
+from pcmm_geo.machine.analysis.logproc.reliability import (
+    change_uncertainty,
+    geometry_tip_covariance,
+    reading_influence,
+)
 from pcmm_geo.machine.analysis.logproc.rows import MeasurementLog
-from pcmm_geo.machine.analysis.logproc.segments import STILL, initial_segments, segment_log
+from pcmm_geo.machine.analysis.logproc.segments import STILL, segment_log
 from pcmm_geo.machine.analysis.logproc.uncertainty import DEFAULT_MAX_TIP_UNCERTAINTY, flag_uncertain_tips
 from pcmm_geo.machine.kinematics.model import RigidBodyMachine, as_readings
 
@@ -280,7 +285,7 @@ def process_log(
     geometry = machine.geometry
     travel = getattr(getattr(machine, "limits", None), "height_travel", None)
     count = len(log)
-    segments = segment_log(log)
+    segments = segment_log(log, limits.critical * np.sqrt(2.0) * per_arm)
     sigmas = np.tile(per_arm, (count, 1))
     refused = _outside_range(machine, log, on_inconsistent)
     sigmas[refused] = np.inf
@@ -288,8 +293,9 @@ def process_log(
     if progress is not None:
         progress(0, count)
     while True:
-        values, _ = initial_segments(geometry, log, segments, datum, sigmas, limits.critical, travel)
-        adjustment = adjust(geometry, log, segments, values, sigmas, geometry_gains=covariance is not None)
+        hypotheses = branch_hypotheses(geometry, log, segments, datum, sigmas, limits.critical, travel)
+        adjustment = adjust(geometry, log, segments, hypotheses[0].values, sigmas,
+                            geometry_gains=covariance is not None)
         lost = ~adjustment.kinematics.converged & ~failed_rows[adjustment.rows]
         if lost.any() or not adjustment.converged:
             row = int(adjustment.rows[np.argmax(lost)]) if lost.any() else None
@@ -312,10 +318,15 @@ def process_log(
             raise _refusal(log, adjustment, influence.redundancy, observed_sigmas, used, limits, worst)
         refused[row, arm] = True
         sigmas[row, arm] = np.inf
+    winner, rivals = competing_fits(geometry, log, segments, sigmas, hypotheses, adjustment, limits.critical,
+                                    geometry_gains=covariance is not None)
+    if winner is not adjustment:
+        adjustment = winner
+        influence = reading_influence(adjustment, segments, sigmas[adjustment.rows], limits)
     if progress is not None:
         progress(count, count)
     return _result(machine, log, segments, adjustment, influence, sigmas, refused, failed_rows, limits, per_arm,
-                   covariance, max_tip_uncertainty, max_bound)
+                   covariance, max_tip_uncertainty, max_bound, rivals)
 
 
 def _outside_range(machine: RigidBodyMachine, log: MeasurementLog, on_inconsistent: str) -> BoolArray:
@@ -349,7 +360,7 @@ def _refusal(log: MeasurementLog, adjustment: Adjustment, redundancy: FloatArray
 def _result(
     machine: RigidBodyMachine, log: MeasurementLog, segments: object, adjustment: Adjustment, influence: object,
     sigmas: FloatArray, refused: BoolArray, failed_rows: BoolArray, limits: object, per_arm: FloatArray,
-    covariance: FloatArray | None, max_tip_uncertainty: float, max_bound: float,
+    covariance: FloatArray | None, max_tip_uncertainty: float, max_bound: float, rivals: FloatArray,
 ) -> ProcessedLog:
     from pcmm_geo.machine.analysis.logproc.gate import GateLimits
     from pcmm_geo.machine.analysis.logproc.reliability import Influence
@@ -375,6 +386,7 @@ def _result(
     tip_covariance[undetermined] = np.inf
     reliability[undetermined] = np.inf
     _, ambiguity = find_ambiguities(machine.geometry, log, segments, adjustment, sigmas, limits.critical)
+    ambiguity = np.maximum(ambiguity, rivals)
     ambiguous = ambiguity > STILL
     ambiguity = np.where(ambiguous, ambiguity, 0.0)
     consistent = ~inconsistent
@@ -382,17 +394,15 @@ def _result(
         warnings.simplefilter("ignore", RuntimeWarning)
         tip_uncertainty, uncertain = flag_uncertain_tips(np.nan_to_num(tip_covariance, nan=np.inf, posinf=np.inf),
                                                          max_tip_uncertainty, consistent)
+    probe = log.probe == 1
+    contradicted = _contradicted_segments(adjustment, segments, limits.critical)
+    direction = ~contradicted[segments.active].any(axis=1)
+    unchecked = consistent & ~np.isfinite(reliability)
+    reliability[~direction] = np.inf  # a branch (or the direction flag) is wrong: no bound can be stated
     bound = 2.0 * tip_uncertainty + reliability + ambiguity
     over_bound = consistent & ~(bound <= max_bound)
-    probe = log.probe == 1
     probe_rows = np.flatnonzero(probe & consistent & ~over_bound)
-    direction = np.ones(len(log), dtype=bool)
-    starts = np.flatnonzero(segments.moved_arm >= 0)
-    new = segments.active[starts, segments.moved_arm[starts]]
-    change = adjustment.values[new] - adjustment.values[segments.previous[new]]
-    recorded = segments.direction[new]
-    direction[starts] = (recorded == 0) | (np.abs(change) <= STILL) | (np.sign(change) == recorded)
-    _warn_flags(ambiguous & consistent, ambiguity, consistent & ~np.isfinite(reliability))
+    _warn_flags(ambiguous & consistent, ambiguity, unchecked, consistent & ~direction)
     return ProcessedLog(
         heights=heights, tips=kinematics.tips[source], probe_rows=probe_rows, probe_points=kinematics.tips[source][
             probe_rows], rejected_probe_rows=np.flatnonzero(probe & (inconsistent | over_bound)),
@@ -406,7 +416,25 @@ def _result(
     )
 
 
-def _warn_flags(ambiguous: BoolArray, ambiguity: FloatArray, unbounded: BoolArray) -> None:
+def _contradicted_segments(adjustment: Adjustment, segments: object, critical: float) -> BoolArray:
+    """Segments whose height change goes against its recorded direction by more than ``critical`` of its
+    uncertainty (and 1 um): the branch of that pose, or the direction flag, is wrong."""
+    from pcmm_geo.machine.analysis.logproc.segments import LogSegments
+
+    assert isinstance(segments, LogSegments)
+    contradicted = np.zeros(segments.count, dtype=bool)
+    moved = np.flatnonzero((segments.previous >= 0) & (segments.direction != 0))
+    if moved.size == 0:
+        return contradicted
+    change = (adjustment.values[moved] - adjustment.values[segments.previous[moved]]) * segments.direction[moved]
+    suspects = change < -STILL
+    if suspects.any():
+        sigma = change_uncertainty(adjustment, moved[suspects], segments.previous[moved[suspects]])
+        contradicted[moved[suspects]] = change[suspects] < -np.maximum(STILL, critical * sigma)
+    return contradicted
+
+
+def _warn_flags(ambiguous: BoolArray, ambiguity: FloatArray, unbounded: BoolArray, contradicted: BoolArray) -> None:
     if ambiguous.any():
         warnings.warn(
             f"{int(ambiguous.sum())} of {len(ambiguous)} log rows are ambiguous: another pose (the mirror image about "
@@ -418,5 +446,12 @@ def _warn_flags(ambiguous: BoolArray, ambiguity: FloatArray, unbounded: BoolArra
         warnings.warn(
             f"{int(unbounded.sum())} of {len(unbounded)} log rows are unbounded: a reading that no test can check "
             "(redundancy number 0) moves their tip, so an undetected fault of any size would",
+            IllConditionedWarning, stacklevel=3,
+        )
+    if contradicted.any():
+        warnings.warn(
+            f"{int(contradicted.sum())} of {len(contradicted)} log rows stand on a height that moved against its "
+            "recorded motor direction: the pose is on the wrong branch (mirror image) or the direction flag is "
+            "wrong; no bound is stated for them",
             IllConditionedWarning, stacklevel=3,
         )

@@ -41,7 +41,7 @@ from pcmm_geo.machine.analysis.logproc.adjustment import Adjustment
 from pcmm_geo.machine.analysis.logproc.gate import GateLimits
 from pcmm_geo.machine.analysis.logproc.segments import LogSegments
 
-__all__ = ["Influence", "geometry_tip_covariance", "reading_influence"]
+__all__ = ["Influence", "change_uncertainty", "geometry_tip_covariance", "reading_influence"]
 
 FloatArray = NDArray[np.float64]
 
@@ -138,3 +138,21 @@ def geometry_tip_covariance(adjustment: Adjustment, segments: LogSegments, covar
         moved = np.concatenate([np.zeros((3, parameters)), response])[segments.active]  # (N, 3, P)
         tip_by_geometry = tip_by_geometry + _row_gains(adjustment, segments, "tip_gain") @ moved
     return np.einsum("nip,pq,njq->nij", tip_by_geometry, covariance, tip_by_geometry)
+
+
+def change_uncertainty(adjustment: Adjustment, segments: FloatArray, previous: FloatArray) -> FloatArray:
+    """Standard uncertainty (mm) of the height changes ``s[segments] - s[previous]`` (indices into all segments)."""
+    free = adjustment.free
+    result = np.zeros(len(segments))
+    if free == 0:
+        return result
+    chunk = max(1, _CHUNK_FLOATS // max(free, 1))
+    for start in range(0, len(segments), chunk):
+        part = slice(start, min(start + chunk, len(segments)))
+        columns = np.zeros((free + 3, len(range(*part.indices(len(segments))))))
+        index = np.arange(columns.shape[1])
+        np.add.at(columns, (np.asarray(segments)[part], index), 1.0)
+        np.add.at(columns, (np.asarray(previous)[part], index), -1.0)
+        columns = columns[3:]  # the datum is fixed
+        result[part] = np.sqrt(np.clip(np.sum(columns * adjustment.solve(columns), axis=0), 0.0, None))
+    return result

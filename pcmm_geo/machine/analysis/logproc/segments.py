@@ -4,26 +4,23 @@ Row logic (thesis Appendix D, the seed's rules kept)
 ----------------------------------------------------
 Between two movements of its motor a pivot keeps its height: that height is one unknown, a
 *segment*.  The log starts at its datum (the start position: ``initial_heights``, three fixed
-segments).  A stop row (``start_stop = 0``) begins a new segment of the motor it names; a start
-row whose lasers repeat the previous row's is the same reading (not a new observation); a
-start row whose lasers differ (the machine had not settled, thesis 3.5) begins a new segment
-of the *previous* row's motor.  Every other row observes the three segments standing at that
-time with its three lasers.  So a log of ``R`` observed rows and ``S`` moves has ``3 R``
-readings and ``S`` unknowns.
+segments).  A stop row (``start_stop = 0``) begins a new segment of the motor it names.  A start
+row whose lasers repeat the previous row's exactly is the same reading (not a new observation);
+one whose lasers differ by no more than the readings' noise allows (``same_pose``: the gate's
+critical value times the standard deviation of a difference of two readings) is a new reading
+of the same pose; one whose lasers differ by more (the machine had not settled, thesis 3.5)
+begins a new segment of the *previous* row's motor, as the seed did for any difference.  Every
+other row observes the three segments standing at that time with its three lasers.  So a log of
+``R`` observed rows and ``S`` moves has ``3 R`` readings and ``S`` unknowns.
 
-Starting values and branches
-----------------------------
+The misfit of one height
+------------------------
 The lasers see squared height differences (:mod:`~pcmm_geo.machine.analysis.logproc.geometry`),
-so a moved height usually has two values that fit a row's lasers, mirror images about the
-level of the two held pivots.  :func:`initial_segments` walks the log once, holding the
-earlier segments, and takes for each new one the minima of the row's misfit, a quartic in the
-height (:func:`segment_misfit`, from the squared distances with the readings' covariance):
-among the minima that fit within the gate's critical value of the best, one that moved the
-way the row's ``direction`` says (+1 up, -1 down) is preferred, then one that did not move,
-and among equals the better fit, then the nearer (continuity).  The network adjustment
-(:mod:`~pcmm_geo.machine.analysis.logproc.adjustment`) then solves every segment from every
-reading; :mod:`~pcmm_geo.machine.analysis.logproc.ambiguity` asks afterwards whether another
-branch fits as well.
+so a moved height usually has two values that fit a row's lasers, mirror images about the level
+of the two held pivots.  :func:`segment_misfit` writes the misfit of rows in one height as a
+quartic (squared distances weighted with the readings' covariance) and :func:`misfit_minima`
+finds its minima in closed form; :mod:`~pcmm_geo.machine.analysis.logproc.branches` chooses
+among them.
 
 Examples
 --------
@@ -43,21 +40,17 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
-from pcmm_geo.machine.analysis.logproc.geometry import PAIRS, joint_distances
+from pcmm_geo.machine.analysis.logproc.geometry import PAIRS
 from pcmm_geo.machine.analysis.logproc.rows import MeasurementLog
 from pcmm_geo.machine.kinematics import _pose_solver as solver
 
-__all__ = ["LogSegments", "initial_segments", "segment_log", "segment_misfit"]
+__all__ = ["LogSegments", "misfit_minima", "reading_weights", "segment_log", "segment_misfit"]
 
 FloatArray = NDArray[np.float64]
 IntArray = NDArray[np.int64]
 
 #: a height change at most this large (mm) counts as "did not move" when checked against ``direction``
 STILL = 1e-3
-#: minima whose misfits differ by less than this (chi-square units) fit alike; the nearer one is taken
-_TIE = 1.0
-#: a row misfit this many times the squared critical value is a gross error (starting values only)
-GROSS = 1e4
 
 
 @dataclass(frozen=True)
@@ -95,9 +88,16 @@ class LogSegments:
         return len(self.arm)
 
 
-def segment_log(log: MeasurementLog) -> LogSegments:
-    """The segments of a log (module notes: row logic)."""
+def segment_log(log: MeasurementLog, same_pose: FloatArray | None = None) -> LogSegments:
+    """The segments of a log (module notes: row logic).
+
+    ``same_pose`` ``(3,)`` (mm): a start row whose lasers differ from the previous row's by at most
+    this (each laser) is a new reading of the same pose, observing the same segments; beyond it
+    the previous row's motor is still moving.  Default 0: only identical lasers are the same pose
+    (then they are the same reading, not a new observation).
+    """
     rows = len(log)
+    tolerance = np.zeros(3) if same_pose is None else np.asarray(same_pose, dtype=float)
     active = np.zeros((rows, 3), dtype=np.int64)
     source = np.arange(rows)
     moved = np.full(rows, -1, dtype=np.int64)
@@ -105,17 +105,20 @@ def segment_log(log: MeasurementLog) -> LogSegments:
     current = np.array([0, 1, 2])
     active[0] = current
     for row in range(1, rows):
-        if log.start_stop[row] == 1 and np.array_equal(log.lasers[row], log.lasers[row - 1]):
+        start = log.start_stop[row] == 1
+        if start and np.array_equal(log.lasers[row], log.lasers[row - 1]):
             active[row], source[row] = current, source[row - 1]
             continue
-        stop = log.start_stop[row] == 0
-        moving = int(log.motor[row] if stop else log.motor[row - 1]) - 1
+        if start and np.all(np.abs(log.lasers[row] - log.lasers[row - 1]) <= tolerance):
+            active[row] = current  # settled: another reading of the same pose
+            continue
+        moving = int(log.motor[row] if not start else log.motor[row - 1]) - 1
         previous.append(int(current[moving]))
         current = current.copy()
         current[moving] = len(arm)
         arm.append(moving)
         birth.append(row)
-        direction.append(int(log.direction[row] if stop else log.direction[row - 1]))
+        direction.append(int(log.direction[row] if not start else log.direction[row - 1]))
         active[row], moved[row] = current, moving
     previous_array = np.array(previous, dtype=np.int64)
     following = np.full(len(arm), -1, dtype=np.int64)
@@ -145,6 +148,8 @@ def segment_misfit(
     weights: FloatArray,
     heights: FloatArray,
     arm: int,
+    *,
+    per_row: bool = False,
 ) -> FloatArray:
     """Coefficients (highest first, 5) of the misfit ``sum_r g_r^T W_r g_r``, a quartic in the height of ``arm``.
 
@@ -152,6 +157,7 @@ def segment_misfit(
     lasers, ``weights`` ``(R, 3, 3)`` from :func:`reading_weights` and the other two pivots at
     ``heights`` ``(R, 3)`` (the entry of ``arm`` is ignored).  Its minima are the heights that fit
     the rows' lasers (chi-square units; to first order the laser misfit of the adjustment).
+    ``per_row``: the ``(R, 5)`` quartics of the rows instead of their sum.
 
     Examples
     --------
@@ -180,9 +186,12 @@ def segment_misfit(
         polynomials[:, pair, 1] = -2.0 * offset @ along
         polynomials[:, pair, 2] = distances[:, pair] ** 2 - np.sum(offset**2, axis=1)
     ascending = polynomials[:, :, ::-1]  # (R, pair, degree 0..2)
+    if per_row:
+        products = np.einsum("rpq,rpi,rqj->rij", weights, ascending, ascending)  # (R, 3, 3)
+        return np.stack([np.trace(products[:, ::-1], offset=offset, axis1=1, axis2=2) for offset in range(2, -3, -1)],
+                        axis=1)
     products = np.einsum("rpq,rpi,rqj->ij", weights, ascending, ascending)  # (3, 3): degree i times degree j
-    total = np.array([np.trace(products[::-1], offset=offset) for offset in range(2, -3, -1)])  # degree 4 first
-    return total
+    return np.array([np.trace(products[::-1], offset=offset) for offset in range(2, -3, -1)])  # degree 4 first
 
 
 def _cubic_real_roots(a: float, b: float, c: float, d: float) -> list[float]:
@@ -245,101 +254,3 @@ def misfit_minima(coefficients: FloatArray, about: float = 0.0) -> tuple[FloatAr
         stationary = roots[np.abs(roots.imag) <= 1e-9 * np.maximum(1.0, np.abs(roots))].real
     minima = np.sort(np.array([x for x in stationary if (12.0 * a * x + 6.0 * b) * x + 2.0 * c > 0.0]))
     return minima + about, np.polyval(shifted, minima)
-
-
-def choose_branch(
-    candidates: FloatArray, misfits: FloatArray, previous: float, direction: int, critical: float
-) -> tuple[float, bool, bool]:
-    """``(height, direction_consistent, alternatives)``: the starting value of a segment among its minima.
-
-    See the module notes; ``alternatives`` is True when another minimum was admissible too.
-    """
-    fits = misfits <= misfits.min() + critical**2
-    change = candidates - previous
-    moved = (direction == 0) | ((np.abs(change) > STILL) & (np.sign(change) == direction))
-    still = np.abs(change) <= STILL
-    for pool in (fits & moved, fits & still):
-        if pool.any():
-            best = float(misfits[pool].min())
-            tied = pool & (misfits <= best + _TIE)
-            choice = int(np.flatnonzero(tied)[np.argmin(np.abs(change[tied]))])
-            return float(candidates[choice]), True, bool(pool.sum() > 1)
-    return float(candidates[int(np.argmin(misfits))]), False, False
-
-
-def initial_segments(
-    geometry: solver.Geometry,
-    log: MeasurementLog,
-    segments: LogSegments,
-    datum: FloatArray,
-    sigmas: FloatArray,
-    critical: float,
-    travel: FloatArray | None = None,
-) -> tuple[FloatArray, NDArray[np.bool_]]:
-    """Starting values ``(S,)`` of all segments and whether each agrees with its ``direction`` (module notes).
-
-    ``sigmas`` ``(N, 3)``: standard uncertainty of every reading (``inf``: left out).  A segment
-    whose first row has no reading left starts at the arm's previous height.  ``travel`` ``(3, 2)``
-    (height readings each column can reach) excludes minima beyond it.  A row whose lasers miss
-    the held heights grossly (misfit above :data:`GROSS` times the squared critical value: a
-    reading far off) starts from the best height with one of its readings left out.
-    """
-    values = np.zeros(segments.count)
-    values[:3] = datum
-    agrees = np.ones(segments.count, dtype=bool)
-    rows = segments.birth[3:]
-    distances, gradients = joint_distances(geometry, log.lasers[rows])
-    weights = reading_weights(distances, gradients, sigmas[rows])
-    for offset, segment in enumerate(range(3, segments.count)):
-        row, arm = int(segments.birth[segment]), int(segments.arm[segment])
-        previous = float(values[segments.previous[segment]])
-        if not np.isfinite(sigmas[row]).any():
-            values[segment] = previous
-            continue
-        heights = values[segments.active[row]][None]
-        coefficients = segment_misfit(geometry, distances[offset:offset + 1], weights[offset:offset + 1], heights, arm)
-        reach = None if travel is None else travel[arm]
-        candidates, misfits = _reachable(*misfit_minima(coefficients, previous), reach)
-        if candidates.size == 0:
-            values[segment] = previous
-            continue
-        values[segment], agrees[segment], _ = choose_branch(candidates, misfits, previous,
-                                                            int(segments.direction[segment]), critical)
-        chosen = float(np.polyval(coefficients, values[segment]))
-        if chosen > GROSS * critical**2 and np.isfinite(sigmas[row]).sum() == 3:
-            values[segment] = _without_one_reading(geometry, distances[offset], gradients[offset], sigmas[row],
-                                                   heights, arm, previous, int(segments.direction[segment]),
-                                                   critical, chosen, values[segment], reach)
-    return values, agrees
-
-
-def _reachable(candidates: FloatArray, misfits: FloatArray,
-               reach: FloatArray | None) -> tuple[FloatArray, FloatArray]:
-    if reach is None:
-        return candidates, misfits
-    inside = (candidates >= reach[0]) & (candidates <= reach[1])
-    return candidates[inside], misfits[inside]
-
-
-def _without_one_reading(
-    geometry: solver.Geometry, distances: FloatArray, gradients: FloatArray, sigmas: FloatArray, heights: FloatArray,
-    arm: int, previous: float, direction: int, critical: float, misfit: float, value: float,
-    reach: FloatArray | None,
-) -> float:
-    """A robust start where a row's lasers do not fit its held heights: the best height with one reading left out.
-
-    Only the starting value changes (a gross error should not pull a new height, and with it the
-    heights solved against it, onto another branch); the gate still tests every reading.
-    """
-    best_misfit, best = misfit, value
-    for left_out in range(3):
-        reduced = sigmas.copy()
-        reduced[left_out] = np.inf
-        weights = reading_weights(distances[None], gradients[None], reduced[None])
-        coefficients = segment_misfit(geometry, distances[None], weights, heights, arm)
-        candidates, misfits = _reachable(*misfit_minima(coefficients, previous), reach)
-        if candidates.size:
-            height, _, _ = choose_branch(candidates, misfits, previous, direction, critical)
-            if float(np.polyval(coefficients, height)) < best_misfit / GROSS:
-                best_misfit, best = float(np.polyval(coefficients, height)), height
-    return best

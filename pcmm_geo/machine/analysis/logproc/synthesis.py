@@ -1,6 +1,8 @@
-"""Noise-free measurement logs of the rigid-body model: the constructed truth of log processing.
+"""Logs of known truth for testing log processing: noise-free synthesis, added laser noise, a faulty reading.
 
-:func:`synthesise_log` is re-exported by :mod:`pcmm_geo.machine.analysis.logproc`.
+:func:`synthesise_log` is re-exported by :mod:`pcmm_geo.machine.analysis.logproc`;
+:func:`with_laser_noise` and :func:`with_reading_fault` turn a clean log (synthesised, or written
+by the simulated machine, ``pcmm acquire --simulate``) into the logs of a noisy or faulty session.
 """
 
 from __future__ import annotations
@@ -14,7 +16,7 @@ from pcmm_geo.errors import InvalidInputError
 from pcmm_geo.machine.analysis.logproc.rows import MeasurementLog
 from pcmm_geo.machine.kinematics.model import RigidBodyMachine, as_readings
 
-__all__ = ["synthesise_log"]
+__all__ = ["synthesise_log", "with_laser_noise", "with_reading_fault"]
 
 
 def synthesise_log(
@@ -55,3 +57,44 @@ def synthesise_log(
     lasers = machine.forward(heights=state_heights).lasers
     table = np.array(flags, dtype=np.int64).reshape(-1, 4)
     return MeasurementLog(table[:, 0], table[:, 1], table[:, 2], table[:, 3], lasers)
+
+
+def with_reading_fault(log: MeasurementLog, row: int, arm: int, size: float) -> MeasurementLog:
+    """``log`` with ``size`` mm added to the reading of laser ``arm`` (0, 1, 2) on row ``row`` (0-based) only.
+
+    A start row that repeated that reading no longer does: like a real faulty reading, the fault
+    is in one read of the sensor.
+
+    Examples
+    --------
+    >>> log = MeasurementLog([1, 0], [0, 1], [2, 2], [1, 1], [[50.0, 51.0, 52.0], [50.5, 52.0, 52.1]])
+    >>> with_reading_fault(log, 1, 2, 0.3).lasers[:, 2].tolist()
+    [52.0, 52.4]
+    """
+    if not (0 <= row < len(log) and arm in (0, 1, 2)):
+        raise InvalidInputError("row/arm", f"a row in [0, {len(log)}) and an arm 0, 1 or 2", f"{row}, {arm}")
+    lasers = log.lasers.copy()
+    lasers[row, arm] += size
+    return MeasurementLog(log.start_stop, log.probe, log.motor, log.direction, lasers)
+
+
+def with_laser_noise(
+    log: MeasurementLog,
+    rng: np.random.Generator,
+    sigma: float,
+    steps: Sequence[float] | None = None,
+    *,
+    start_of_scale: float = 2.0,
+) -> MeasurementLog:
+    """``log`` with Gaussian noise ``sigma`` (mm) on every reading, each row read afresh, then rounded to ``steps``.
+
+    Every row is a new read of the sensors (a start row no longer repeats the row before it).
+    ``steps`` (mm, lasers a, b, c) rounds each value as the sensors' digital output does:
+    ``raw = round((l + start_of_scale) / q)``, ``l = raw q - start_of_scale`` (2 mm: the optoNCDT
+    scale starts at -1 % of the 200 mm range).
+    """
+    lasers = log.lasers + rng.normal(0.0, sigma, log.lasers.shape)
+    if steps is not None:
+        step = np.asarray(steps, dtype=float)
+        lasers = np.round((lasers + start_of_scale) / step) * step - start_of_scale
+    return MeasurementLog(log.start_stop, log.probe, log.motor, log.direction, lasers)
