@@ -45,8 +45,10 @@ from pcmm_geo.errors import (
     OutputExistsError,
     PcmmGeoError,
     PcmmGeoWarning,
+    QifError,
     TooFewPointsError,
     UnassuredMinimumWarning,
+    UnsafeXmlError,
 )
 
 __version__ = "0.2.0.dev0"
@@ -66,6 +68,8 @@ __all__ = [
     "OutputExistsError",
     "MissingDependencyError",
     "FileFormatError",
+    "QifError",
+    "UnsafeXmlError",
     "CalibrationError",
     "DeviceError",
     "DeviceTimeoutError",

@@ -15,6 +15,7 @@ extra          distributions       used by
                                    without it)
 ``dask``       dask[array],        fits of clouds that do not fit in memory
                distributed
+``qif``        defusedxml, lxml    QIF 3.0 files (defusedxml reads, lxml validates)
 =============  ==================  ======================================================
 
 Examples
@@ -45,6 +46,8 @@ OPTIONAL_MODULES: dict[str, tuple[str, str]] = {
     "rich": ("rich", "progress"),
     "dask": ("dask[array]", "dask"),
     "distributed": ("distributed", "dask"),
+    "defusedxml": ("defusedxml", "qif"),
+    "lxml": ("lxml", "qif"),
 }
 
 

@@ -30,6 +30,8 @@ __all__ = [
     "ConvergenceError",
     "NoRealSolutionError",
     "FileFormatError",
+    "QifError",
+    "UnsafeXmlError",
     "CalibrationError",
     "DeviceError",
     "DeviceTimeoutError",
@@ -40,6 +42,7 @@ __all__ = [
     "IncompleteTestError",
     "OutOfRangeError",
     "InconsistentMeasurementError",
+    "NotRefittedError",
     "CalibrationNotConvergedWarning",
     "IllConditionedWarning",
     "AmbiguousFitWarning",
@@ -157,6 +160,37 @@ class FileFormatError(PcmmGeoError, ValueError):
         super().__init__(f"{where}: {reason}", path=path, line=line, reason=reason)
 
 
+class QifError(FileFormatError):
+    """A QIF document the reader cannot use: a dangling id, a ``count`` that disagrees with the
+    points, a non-numeric coordinate, an unknown unit...
+
+    Fields: ``path``, ``reason``, ``line`` (or None), ``qif_id`` (the QIF id of the element
+    concerned, or None) and ``element`` (its path, e.g. ``QIFDocument/Results/.../MeasuredPointSet``).
+    """
+
+    def __init__(self, path: str, reason: str, *, qif_id: int | str | None = None, element: str | None = None,
+                 line: int | None = None) -> None:
+        where = f"{path}:{line}" if line is not None else f"{path}"
+        subject = " ".join(part for part in (element, None if qif_id is None else f"id={qif_id}") if part)
+        reason = _bounded(reason)
+        PcmmGeoError.__init__(self, f"{where}: {subject + ': ' if subject else ''}{reason}", path=path,
+                              line=line, reason=reason, qif_id=qif_id, element=element)
+
+
+class UnsafeXmlError(FileFormatError):
+    """An XML file refused before its content is used: a DTD, an entity declaration or reference,
+    an external reference, nesting deeper or a file larger than the limit, or XML that is not
+    well formed.  Nothing external is fetched.
+
+    Fields: ``path``, ``reason``, ``line`` (or None), ``limit`` (the limit exceeded, or None).
+    """
+
+    def __init__(self, path: str, reason: str, line: int | None = None, limit: int | None = None) -> None:
+        FileFormatError.__init__(self, path, reason, line)
+        self.limit = limit
+        self.fields["limit"] = limit
+
+
 class CalibrationError(PcmmGeoError, ValueError):
     """Calibration data are inconsistent or insufficient. Fields: ``reason``."""
 
@@ -271,6 +305,17 @@ class InconsistentMeasurementError(PcmmGeoError, ValueError):
         if detail:
             text += f" ({detail})"
         super().__init__(text, what=what, residual=residual, tolerance=tolerance, unit=unit, detail=detail)
+
+
+class NotRefittedError(PcmmGeoError, ValueError):
+    """A feature of a CMM results file that cannot be refitted from its points (no points, compensation
+    or material side unknown, a type or fitting algorithm not offered, a fit that fails).
+
+    Fields: ``reason``.
+    """
+
+    def __init__(self, reason: str) -> None:
+        super().__init__(_bounded(reason), reason=reason)
 
 
 class PcmmGeoWarning(UserWarning):

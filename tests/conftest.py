@@ -52,6 +52,20 @@ EXTRAS_NEEDED = {
     "cli/test_cli_repeatability.py::test_repeatability_of_the_printed_tables": "plots",
     "cli/test_cli_repeatability.py::test_laser_ratio_of_the_printed_table": "plots",
     "test_docs.py": "docs",
+    "io/cmm/test_qif_read.py": "qif",
+    "io/cmm/test_qif_hostile.py": "qif",
+    "io/cmm/test_qif_write.py": "qif",
+    # QIF files need defusedxml (reading) and lxml (validating): the qif extra
+    "cli/test_bad_input.py::test_bad_file_gives_one_line_naming_it_and_exit_2[qif": "qif",
+    "cli/test_bad_input.py::test_bad_file_gives_one_line_naming_it_and_exit_2[fit qif": "qif",
+    "cli/test_bad_input.py::test_bad_file_gives_one_line_naming_it_and_exit_2[form qif": "qif",
+    "cli/test_bad_input.py::test_bad_file_gives_one_line_naming_it_and_exit_2[calibrate qif": "qif",
+    "cli/test_bad_input.py::test_bad_file_gives_one_line_naming_it_and_exit_2[calibrate feature": "qif",
+    "cli/test_bad_input.py::test_hostile_qif_gives_one_line_and_writes_nothing": "qif",
+    "cli/test_cli_qif.py": "qif",
+    "cmm/test_qif_pts_sample.py": "qif",
+    "cmm/test_reference_qif.py": "qif",
+    "machine/test_calibration_qif.py": "qif",
 }
 
 

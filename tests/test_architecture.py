@@ -34,6 +34,7 @@ LAYERS: dict[str, int] = {
     "pcmm_geo.fit": 2,  # geometric fits, skew lines, reference data; no I/O, knows no machine
     "pcmm_geo.io": 2,  # point-cloud, mesh, NIST file formats (fit and io do not import each other)
     "pcmm_geo.thermal": 3,  # expansion, sensors, 20 degC correction (may use fit, io)
+    "pcmm_geo.cmm": 3,  # files from external CMMs above fit and io: refit-and-compare, fits as QIF
     "pcmm_geo.machine.kinematics": 4,  # rigid-body model, seed DPKM, trilateration
     "pcmm_geo.acquisition": 5,  # drivers, simulators, sessions, durable logs; imports the kinematics it simulates
     "pcmm_geo.machine": 6,  # machine/__init__ (lazy re-exports) and the deprecation finder

@@ -36,6 +36,7 @@ COMMAND_MODULES = (
     "measurement_commands.convert",
     "measurement_commands.uncertainty",
     "measurement_commands.batch",
+    "measurement_commands.qif",
 )
 
 

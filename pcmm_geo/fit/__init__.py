@@ -61,6 +61,11 @@ _LAZY = {
     "PlaneBatchFit": "batch",
     "LineBatchFit": "batch",
     "reference": "reference",
+    "compensate_probe": "probe",
+    "compensate_points": "probe",
+    "ProbeCompensation": "probe",
+    "material_side_from_normals": "probe",
+    "material_side_from_nominal": "probe",
 }
 
 __all__ = ["FitResult", "Tolerances", "TOL", *sorted(_LAZY)]

@@ -24,6 +24,8 @@ EXPORT = DATA / "appendix_cd" / "cmm_export.csv"
 LASERS = DATA / "appendix_cd" / "lasers.csv"
 STL = DATA / "examples" / "gauge_block_nominal.stl"
 
+CALYPSO_HEADER = "planid\tpartnb\tid\ttype\tidsymbol\tactual\tnominal\tuppertol\tlowertol\tdeviation\texceed"
+CALYPSO_ROW = "P\t1\tFlatness A\tFlatness\tgdtFlat\t0.004\t0\t0.01\t0\t0.004\t"
 # name -> (argv for a bad FILE, header of the file type, one valid row, suffix of the file)
 Argv = Callable[[str, Path], list[str]]
 COMMANDS: dict[str, tuple[Argv, str, str, str]] = {
@@ -62,6 +64,23 @@ COMMANDS: dict[str, tuple[Argv, str, str, str]] = {
                                           "--init-transform", f], "1 0 0 0", "0 1 0 0", ".txt"),
     "segment": (lambda f, tmp: ["segment", f], "x,y,z", "1,2,3", ".csv"),
     "convert": (lambda f, tmp: ["convert", f, str(tmp / "out" / "converted.ply")], "x,y,z", "1,2,3", ".csv"),
+    # files from CMMs: QIF results (untrusted XML), QIF probings and their feature map
+    "qif show": (lambda f, tmp: ["qif", "show", f], "<QIFDocument>", "</QIFDocument>", ".qif"),
+    "qif verify": (lambda f, tmp: ["qif", "verify", f, "--report", str(tmp / "out" / "verify.md")],
+                   "<QIFDocument>", "</QIFDocument>", ".qif"),
+    "fit qif": (lambda f, tmp: ["fit", "circle", f, "--qif", str(tmp / "out" / "circle.qif")], "<QIFDocument>",
+                "</QIFDocument>", ".qif"),
+    "form qif": (lambda f, tmp: ["form", f, "--element", "plane", "--qif", str(tmp / "out" / "plane.qif")],
+                 "<QIFDocument>", "</QIFDocument>", ".qif"),
+    "calibrate qif probings": (lambda f, tmp: ["calibrate", f, str(LASERS)], "<QIFDocument>", "</QIFDocument>",
+                               ".qif"),
+    "qif show dmis": (lambda f, tmp: ["qif", "show", f, "--units", "mm", "--angle-unit", "degree"],
+                      "DMISMN/'bad',05.2", "FA(P1)=FEAT/POINT,CART,1,2,3,0,0,1", ".dmo"),
+    "qif show calypso": (lambda f, tmp: ["qif", "show", f, "--units", "mm"], CALYPSO_HEADER, CALYPSO_ROW, "_chr.txt"),
+    "fit xyzijk": (lambda f, tmp: ["fit", "plane", f, "--compensated", "no", "--probe-radius", "1", "--qif",
+                                   str(tmp / "out" / "plane.qif")], "XYZIJK    METRIC", "1,2,3,0,0,1", ".xyz"),
+    "calibrate feature map": (lambda f, tmp: ["calibrate", str(EXPORT.with_suffix(".qif")), str(LASERS),
+                                              "--feature-map", f], '{"joint_a_1": "joint_a:1"', "}", ".json"),
 }
 
 
@@ -150,6 +169,26 @@ def test_failed_run_leaves_an_existing_output_untouched(tmp_path: Path, capsys: 
     for path, content in kept.items():
         assert path.read_bytes() == content
     assert sorted(p.name for p in tmp_path.iterdir() if p.name.startswith(".")) == []  # no temporary files left
+
+
+QIF_HOSTILE = Path(__file__).parents[1] / "data" / "qif" / "hostile"
+QIF_COMMANDS = ("qif show", "qif verify", "fit qif", "form qif", "calibrate qif probings")
+
+
+@pytest.mark.parametrize("command", QIF_COMMANDS)
+@pytest.mark.parametrize("document", sorted(p.name for p in QIF_HOSTILE.glob("*.qif")))
+def test_hostile_qif_gives_one_line_and_writes_nothing(tmp_path: Path, capsys: pytest.CaptureFixture[str],
+                                                       command: str, document: str) -> None:
+    """Entity bombs, external entities and DTDs, deep nesting, damaged XML: refused before use."""
+    (tmp_path / "out").mkdir()
+    hostile = tmp_path / document
+    hostile.write_bytes((QIF_HOSTILE / document).read_bytes())
+    code = main(COMMANDS[command][0](str(hostile), tmp_path))
+    err = capsys.readouterr().err
+    lines = err.strip().splitlines()
+    assert code == 2 and len(lines) == 1 and "Traceback" not in err, err
+    assert hostile.name in lines[0]
+    assert list((tmp_path / "out").iterdir()) == []
 
 
 ACQLOG_HEADER = ("# pcmm_geo acquisition log\n# schema: pcmm_geo.acqlog/1\nstart_stop,probe,motor,direction,laser_a,"

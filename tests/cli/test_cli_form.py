@@ -34,7 +34,7 @@ def test_form_roundness_pass_and_fail_with_plot(tmp_path: Path) -> None:
     )
     assert done.returncode == 0, done.stderr
     result = json.loads(done.stdout)
-    assert result["characteristic"] == "roundness" and result["verdict"] == "pass" and result["certified"]
+    assert result["characteristic"] == "roundness" and result["verdict"] == "PASS" and result["certified"]
     assert abs(result["deviation_mm"] - 0.008) < 1e-9
     assert set(data.contacts.tolist()) <= set(result["contacts"])
     import matplotlib.image
@@ -43,7 +43,7 @@ def test_form_roundness_pass_and_fail_with_plot(tmp_path: Path) -> None:
     assert image.shape[0] > 100 and float(np.std(image[..., :3])) > 0.01
     failed = _run("form", str(file), "--element", "circle", "--two-d", "--tolerance", "0.005")
     assert failed.returncode == 1
-    assert "fail" in failed.stdout and "roundness" in failed.stdout
+    assert "roundness: FAIL" in failed.stdout and "scope" in failed.stdout
 
 
 def test_form_flatness_json(tmp_path: Path) -> None:
@@ -71,3 +71,38 @@ def test_form_bad_input_is_exit_2(tmp_path: Path) -> None:
     assert done.returncode == 2 and "collinear" in done.stderr
     done = _run("fit", "cone", str(line), "--criterion", "mcc")
     assert done.returncode == 2 and "criterion" in done.stderr
+
+
+def test_form_verdicts_and_exit_codes_from_value_bound_and_tolerance(tmp_path: Path, monkeypatch, capsys) -> None:
+    """PASS (exit 0) within tolerance; FAIL (exit 1) when the proven bound exceeds it; NOT PROVEN (exit 1) between."""
+    import dataclasses
+
+    import pcmm_geo.fit
+    from pcmm_geo.cli import main
+
+    data = make_minimax_reference("circle", "chebyshev", n_points=40, size=10.0, form=0.010, offset=50.0, rng=6)
+    file = _write(tmp_path / "ring.csv", data.points)
+    args = ["form", str(file), "--element", "circle", "--two-d", "--json", "--tolerance"]
+    assert main([*args, "0.0105"]) == 0
+    passed = json.loads(capsys.readouterr().out)
+    assert passed["verdict"] == "PASS" and passed["scope"] == "global" and passed["domain"] == "all circles"
+    assert abs(passed["bound_mm"] - 0.010) <= 1e-9 and passed["gap_mm"] <= 1e-9
+    assert main([*args, "0.0095"]) == 1
+    assert json.loads(capsys.readouterr().out)["verdict"] == "FAIL"
+    # a local answer whose proven bound (0.009 mm) is below the tolerance: neither verdict is proven
+    real_fit = pcmm_geo.fit.fit_circle
+
+    def local_fit(points, **kwargs):
+        fit = real_fit(points, **kwargs)
+        certificate = dataclasses.replace(fit.certificate, scope="local", bound_mm=0.009, gap_mm=0.001, domain="")
+        return dataclasses.replace(fit, certificate=certificate)
+
+    monkeypatch.setattr(pcmm_geo.fit, "fit_circle", local_fit)
+    assert main([*args, "0.0095"]) == 1
+    unproven = json.loads(capsys.readouterr().out)
+    assert unproven["verdict"] == "NOT PROVEN" and unproven["passed"] is None and unproven["bound_mm"] == 0.009
+    assert main([*args[:-2], "--tolerance", "0.0095"]) == 1
+    text = capsys.readouterr().out
+    assert "roundness: NOT PROVEN" in text and "proven lower bound" in text and "9.000000" in text
+    assert main([*args, "0.0085"]) == 1  # the bound exceeds the tolerance: FAIL even for a local answer
+    assert json.loads(capsys.readouterr().out)["verdict"] == "FAIL"

@@ -280,7 +280,7 @@ def test_unknown_and_unsupported_criteria() -> None:
 def test_mic_of_an_arc_is_refused() -> None:
     angles = np.linspace(0, np.pi / 2, 30)
     points = np.c_[10 * np.cos(angles), 10 * np.sin(angles)] + 100.0
-    with pytest.raises(DegenerateGeometryError, match="not bounded") as info:
+    with pytest.raises(DegenerateGeometryError, match="do not surround") as info:
         fit_circle(points, criterion="mic")
     assert isinstance(info.value, PcmmGeoError)
 
@@ -359,3 +359,32 @@ def test_random_measured_like_data_is_certified(seed: int) -> None:
         assert np.ptp(zone.residuals) == pytest.approx(zone.form, abs=1e-12)  # every point inside
         assert np.max(mcc.residuals) <= 1e-12  # the circumscribed element encloses every point
         assert mcc.radius <= gauss.radius + np.max(gauss.residuals) + 1e-12  # no larger than the Gaussian's
+
+
+def test_decide_form_rests_on_value_and_proven_bound() -> None:
+    from pcmm_geo.fit.zone.form import decide_form
+
+    assert decide_form(0.010, 0.010, 0.010) == "PASS"  # on the limit counts as within
+    assert decide_form(0.0100001, 0.0100001, 0.010) == "FAIL"
+    assert decide_form(0.012, 0.0099, 0.010) == "NOT PROVEN"
+    assert decide_form(0.012, float("nan"), 0.010) == "NOT PROVEN"
+    assert decide_form(0.012, 0.0101, 0.010) == "FAIL"
+    with pytest.raises(InvalidInputError, match="tolerance"):
+        decide_form(0.01, 0.01, 0.0)
+    with pytest.raises(InvalidInputError, match="value"):
+        decide_form(float("nan"), 0.01, 0.01)
+
+
+def test_evaluate_form_states_scope_bound_and_domain() -> None:
+    from pcmm_geo.fit.zone import evaluate_form
+
+    data = make_minimax_reference("plane", "chebyshev", n_points=50, size=30.0, form=0.02, offset=200.0, rng=4)
+    within = evaluate_form(data.points, "plane", tolerance=0.021)
+    assert within.verdict == "PASS" and within.passed is True
+    assert within.scope == "global" and within.domain == "all planes"
+    assert abs(within.bound - 0.02) <= 1e-9 and within.gap <= 1e-9
+    beyond = evaluate_form(data.points, "plane", tolerance=0.019)
+    assert beyond.verdict == "FAIL" and beyond.passed is False
+    summary = beyond.to_dict()
+    assert summary["verdict"] == "FAIL" and summary["scope"] == "global" and "NOT PROVEN" in summary["decision_rule"]
+    assert evaluate_form(data.points, "plane").verdict == "no tolerance"

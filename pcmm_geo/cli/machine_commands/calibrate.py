@@ -28,8 +28,12 @@ def register(subparsers: Any) -> None:
             "LASERS.csv is position,laser_a,laser_b,laser_c (mm)."
         ),
     )
-    parser.add_argument("probings", help="probings CSV (raw points or element-level export)")
+    parser.add_argument("probings", help="probings CSV (raw points or element-level export) or a QIF results file "
+                                         "of the sphere probings (features joint_a_1 ... joint_c_K and tip)")
     parser.add_argument("lasers", help="laser readings CSV position,laser_a,laser_b,laser_c")
+    parser.add_argument("--feature-map", metavar="MAP.json",
+                        help="QIF probings: JSON object from QIF feature names to roles, e.g. "
+                             "{\"SPH1\": \"joint_a:1\", \"SPH7\": \"tip\"} (default: the names joint_a_1 ... tip)")
     parser.add_argument("--out", metavar="CAL.json", help="write the versioned calibration file")
     parser.add_argument("--sweep", metavar="SWEEP.csv", help="laser sweep (position,laser_a,laser_b,laser_c) for b")
     parser.add_argument("--start-of-range", type=float, default=60.0, help="laser start of range in mm (default 60)")
@@ -51,11 +55,14 @@ def _handle(args: argparse.Namespace) -> Report:
     from pcmm_geo.machine.calibration.probings import read_lasers
 
     sweep = None if args.sweep is None else read_lasers(args.sweep).readings
+    probings, qif_lines, qif_data = _probings(args)
     cal = calibrate_tetrahedron(
-        args.probings, args.lasers, laser_start_of_range=args.start_of_range, laser_sweep=sweep
+        probings, args.lasers, laser_start_of_range=args.start_of_range, laser_sweep=sweep
     )
     data: dict[str, Any] = cal.summary()
-    lines: list[str] = []
+    lines: list[str] = list(qif_lines)
+    if qif_data:
+        data["qif_probings"] = qif_data
     covariance = None
     if (args.probing_u is None) != (args.laser_u is None):
         from pcmm_geo.errors import InvalidInputError
@@ -64,7 +71,7 @@ def _handle(args: argparse.Namespace) -> Report:
     if args.probing_u is not None:
         from pcmm_geo.uncertainty.calibration import calibration_covariance
 
-        covariance = calibration_covariance(args.probings, args.lasers, probing_sigma=args.probing_u,
+        covariance = calibration_covariance(probings, args.lasers, probing_sigma=args.probing_u,
                                             laser_sigma=args.laser_u, laser_start_of_range=args.start_of_range)
         data["uncertainty"] = covariance.to_dict()
         data["uncertainty"]["standard_uncertainties"] = covariance.standard_uncertainties
@@ -108,3 +115,29 @@ def _handle(args: argparse.Namespace) -> Report:
                                           method=method) for row in covariance.table()]
     return Report(data=data, tables=[arms, geometry], lines=lines, plots=plots, uncertainties=uncertainties)
 
+
+def _probings(args: argparse.Namespace) -> tuple[Any, list[str], dict[str, Any]]:
+    """The probings argument for the calibration: the CSV path, or the balls read from a QIF file."""
+    from pathlib import Path
+
+    from pcmm_geo.errors import InvalidInputError
+
+    path = Path(args.probings)
+    if path.suffix.lower() != ".qif":
+        if args.feature_map is not None:
+            raise InvalidInputError("--feature-map", "a QIF probings file (.qif)", str(path))
+        return args.probings, [], {}
+    from pcmm_geo.machine.calibration.qif_probings import read_qif_probings
+
+    read = read_qif_probings(path, feature_map=args.feature_map)
+    parts = [f"{len(read.refitted)} sphere centres refitted from their points"] if read.refitted else []
+    if read.reported:
+        parts.append(f"{len(read.reported)} centres as the CMM reported them (the file holds no points for them): "
+                     + ", ".join(read.reported))
+    lines = ["QIF probings: " + "; ".join(parts)]
+    lines += list(read.notes)
+    if read.ignored:
+        lines.append(f"sphere features without a role, ignored: {', '.join(read.ignored)}")
+    info = {"refitted": list(read.refitted), "reported": list(read.reported), "ignored": list(read.ignored),
+            "roles": {name: [role, position] for name, (role, position) in read.roles.items()}}
+    return read.features, lines, info

@@ -6,6 +6,13 @@ import argparse
 from pathlib import Path
 from typing import Any
 
+from pcmm_geo.cli._cmm_input import (
+    add_cmm_input_flags,
+    compensation_summary,
+    naming_the_file,
+    read_fit_input,
+    write_qif_result,
+)
 from pcmm_geo.cli._output import (
     Report,
     Table,
@@ -33,8 +40,9 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         "fit",
         help="fit a geometric element to a point file (Gaussian, minimum zone, MCC, MIC)",
         description=(
-            "Fit ELEMENT to the points in FILE (CSV/TXT/XYZ with or without header, NIST .ds, PLY, PCD). "
-            "Reports the element, standard uncertainties, rms, form error and convergence."
+            "Fit ELEMENT to the points in FILE (CSV/TXT/XYZ with or without header, NIST .ds, PLY, PCD, the "
+            "point set of a feature of a QIF results file, a PC-DMIS XYZIJK export). Reports the element, standard "
+            "uncertainties, rms, form error and convergence; probe centres are compensated onto the surface."
         ),
     )
     parser.add_argument("element", choices=ELEMENTS)
@@ -51,11 +59,12 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         default="gaussian",
         help="least squares (default), minimum zone, minimum circumscribed or maximum inscribed",
     )
-    parser.add_argument("--radius", type=float, help="fixed radius in mm (circle, sphere, cylinder)")
+    parser.add_argument("--radius", type=float, help="fixed radius in mm (circle, sphere, cylinder; of the surface)")
     parser.add_argument("--two-d", action="store_true", help="line/circle: use only the x and y columns")
     parser.add_argument("--axis-hint", type=float, nargs=3, metavar=("X", "Y", "Z"),
                         help="cylinder, cone, torus: the nominal axis direction, tried first (sparse data)")
     parser.add_argument("--residuals", action="store_true", help="include every residual in the JSON output")
+    add_cmm_input_flags(parser)
     add_plot_flag(parser, "a residual plot")
     add_report_flag(parser)
     add_overwrite_flag(parser)
@@ -69,13 +78,9 @@ def handle(args: argparse.Namespace) -> Report:
 
     from pcmm_geo import fit
     from pcmm_geo.errors import InvalidInputError
-    from pcmm_geo.io.points import read_points
 
-    points = read_points(args.file, decimal=args.decimal)
-    if args.two_d:
-        if args.element not in ("line", "circle"):
-            raise InvalidInputError("--two-d", "element line or circle", args.element)
-        points = points[:, :2]
+    source = read_fit_input(args, args.element)
+    points = source.points
     kwargs: dict[str, Any] = {}
     if args.radius is not None:
         if args.element not in ("circle", "sphere", "cylinder"):
@@ -89,9 +94,16 @@ def handle(args: argparse.Namespace) -> Report:
         kwargs["method"] = args.method
     if args.criterion != "gaussian":
         kwargs["criterion"] = args.criterion
-    result = getattr(fit, f"fit_{args.element}")(points, **kwargs)
+    fit_element = getattr(fit, f"fit_{args.element}")
+    with naming_the_file(args.file):
+        result, compensation, lines, summary = _fit(args, source, fit_element, kwargs)
 
     data = result.to_dict()
+    if compensation is not None:
+        data["probe_compensation"] = summary
+    if source.data.feature is not None:
+        data["feature"] = {"id": source.data.feature.id, "name": source.data.feature.name,
+                           "type": source.data.feature.type}
     if not args.residuals:
         data.pop("residuals", None)
         data.get("extra", {}).pop("residual_components", None)
@@ -124,7 +136,7 @@ def handle(args: argparse.Namespace) -> Report:
             [[result.n, result.dof, result.rms, result.form, result.iterations, result.converged]],
         ),
     ]
-    lines = [result.message]
+    lines.insert(0, result.message)
     if result.certificate is not None:
         lines.append(
             f"contacts {result.contacts.tolist()}, KKT residual {result.certificate.kkt_residual:.3g}, "
@@ -134,11 +146,17 @@ def handle(args: argparse.Namespace) -> Report:
     if args.plot is not None:
         from pcmm_geo.plots.fit_residuals import plot_fit_residuals
 
-        written = plot_fit_residuals(result, args.plot, points=points, element=args.element,
+        shown = points if compensation is None else compensation.surface_points(points)
+        written = plot_fit_residuals(result, args.plot, points=shown, element=args.element,
                                      overwrite=args.overwrite)
         data["plot"] = str(written)
         plots.append(str(written))
         lines.append(f"plot: {written}")
+    if args.qif:
+        written_qif = write_qif_result(args, result, args.element, source.data, radius=source.probe_radius,
+                                       compensation=compensation)
+        data["qif"] = written_qif
+        lines.append(f"QIF results written to {written_qif}")
     covariance = np.asarray(result.covariance, dtype=float)
     blocks = [CovarianceBlock(f"{args.element} fit parameters", tuple(result.parameter_names), covariance)] \
         if covariance.size and np.all(np.isfinite(covariance)) and np.any(np.diag(covariance) > 0) else []
@@ -157,3 +175,33 @@ def _geometry_rows(result: Any) -> list[tuple[str, float]]:
         rows.extend((f"{name}_{axis}", float(v)) for axis, v in zip("xyz", vector, strict=False))
     return rows
 
+def _fit(args: argparse.Namespace, source: Any, fit_element: Any,
+         kwargs: dict[str, Any]) -> tuple[Any, Any, list[str], dict[str, Any]]:
+    """Fit the points; probe centres are fitted, then the element is offset onto the surface."""
+    from pcmm_geo.errors import InvalidInputError
+
+    points = source.points
+    lines: list[str] = []
+    summary: dict[str, Any] = {}
+    compensation = None
+    if source.probe_radius:
+        from pcmm_geo.cmm.points import compensate_fit, side_before_fit
+
+        if args.radius is not None:  # the surface radius: the centres lie probe_radius inside or outside it
+            free = {key: value for key, value in kwargs.items() if key != "radius"}
+            side = side_before_fit(source.data, args.element, source.probe_radius, args.material_side,
+                                   lambda p: fit_element(p, **free))
+            kwargs["radius"] = args.radius + (-source.probe_radius if side == "internal" else source.probe_radius)
+            if kwargs["radius"] <= 0:
+                raise InvalidInputError("--radius", f"a surface radius larger than the probe radius "
+                                        f"{source.probe_radius:g} mm for an internal feature", repr(args.radius))
+            args.material_side = side if args.material_side is None else args.material_side
+        centre_fit = fit_element(points, **kwargs)
+        compensation, side_source = compensate_fit(centre_fit, args.element, source.data, source.probe_radius,
+                                                   material_side=args.material_side)
+        result = compensation.surface
+        summary, line = compensation_summary(compensation, side_source, source.radius_source)
+        lines.append(line)
+    else:
+        result = fit_element(points, **kwargs)
+    return result, compensation, lines, summary

@@ -5,6 +5,13 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
+from pcmm_geo.cli._cmm_input import (
+    add_cmm_input_flags,
+    compensation_summary,
+    naming_the_file,
+    read_fit_input,
+    write_qif_result,
+)
 from pcmm_geo.cli._output import (
     EXIT_FAILURE,
     Report,
@@ -25,14 +32,17 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         help="straightness/flatness/roundness/sphericity/cylindricity by minimum zone, with pass/fail",
         description=(
             "Evaluate the form deviation of the points in FILE as the width of the minimum zone "
-            "(Chebyshev fit with an optimality certificate). With --tolerance, exit status 1 on fail "
-            "(and when an uncertified zone exceeds the tolerance: no verdict)."
+            "(Chebyshev fit with an optimality certificate stating its scope: global over all elements, "
+            "or local with a proven lower bound). With --tolerance the verdict is PASS (the zone is within "
+            "the tolerance), FAIL (the proven lower bound exceeds it) or NOT PROVEN; exit status 0 on PASS, "
+            "1 on FAIL or NOT PROVEN, 2 on bad input."
         ),
     )
     parser.add_argument("file", type=Path)
     parser.add_argument("--element", choices=ELEMENTS, required=True)
     parser.add_argument("--tolerance", type=float, metavar="MM", help="form tolerance in mm")
     parser.add_argument("--two-d", action="store_true", help="line/circle: use only the x and y columns")
+    add_cmm_input_flags(parser)
     add_plot_flag(parser, "the zone with the deviations and contact points")
     add_report_flag(parser)
     add_overwrite_flag(parser)
@@ -42,23 +52,37 @@ def register(subparsers: argparse._SubParsersAction) -> None:
 
 
 def handle(args: argparse.Namespace) -> Report:
-    from pcmm_geo.errors import InvalidInputError
-    from pcmm_geo.fit.zone.form import evaluate_form
-    from pcmm_geo.io.points import read_points
+    import dataclasses
 
-    points = read_points(args.file, decimal=args.decimal)
-    if args.two_d:
-        if args.element not in ("line", "circle"):
-            raise InvalidInputError("--two-d", "element line or circle", args.element)
-        points = points[:, :2]
-    evaluation = evaluate_form(points, args.element, tolerance=args.tolerance)
+    from pcmm_geo.fit.zone.form import evaluate_form
+
+    source = read_fit_input(args, args.element)
+    compensation = None
+    with naming_the_file(args.file):
+        evaluation = evaluate_form(source.points, args.element, tolerance=args.tolerance)
+        if source.probe_radius:  # the zone width stays; the zone's element moves onto the surface
+            from pcmm_geo.cmm.points import compensate_fit
+
+            compensation, side_source = compensate_fit(evaluation.fit, args.element, source.data,
+                                                       source.probe_radius, material_side=args.material_side)
+            evaluation = dataclasses.replace(evaluation, fit=compensation.surface,
+                                             points=compensation.surface_points(source.points))
     fit = evaluation.fit
     data = evaluation.to_dict()
     data["file"] = str(args.file)
+    if compensation is not None:
+        data["probe_compensation"], compensation_line = compensation_summary(compensation, side_source,
+                                                                             source.radius_source)
     rows = [
         [evaluation.characteristic, 1000.0 * evaluation.deviation, "µm"],
         ["tolerance", "-" if evaluation.tolerance is None else 1000.0 * evaluation.tolerance, "µm"],
         ["verdict", evaluation.verdict, ""],
+        ["scope", f"{evaluation.scope} ({evaluation.domain})" if evaluation.domain else evaluation.scope, ""],
+    ]
+    if evaluation.scope != "global":
+        bound = evaluation.bound
+        rows.append(["proven lower bound", "none" if bound != bound else 1000.0 * bound, "µm"])
+    rows += [
         ["certified", evaluation.certified, ""],
         ["points", fit.n, ""],
         ["contacts", " ".join(str(i) for i in fit.contacts.tolist()), "index"],
@@ -70,7 +94,7 @@ def handle(args: argparse.Namespace) -> Report:
         if value is not None:
             rows.append([name + (" (mid-zone)" if name == "radius" else ""), float(value), "mm"])
     tables = [Table(f"{evaluation.characteristic} of {args.file} (minimum zone)", ["quantity", "value", "unit"], rows)]
-    lines = [fit.message]
+    lines = [fit.message] + ([] if compensation is None else [compensation_line])
     plots = []
     if args.plot is not None:
         from pcmm_geo.plots.form_zone import plot_form_zone
@@ -79,12 +103,18 @@ def handle(args: argparse.Namespace) -> Report:
         data["plot"] = str(written)
         plots.append(str(written))
         lines.append(f"plot: {written}")
+    if args.qif:
+        data["qif"] = write_qif_result(args, fit, args.element, source.data, radius=source.probe_radius,
+                                       compensation=compensation, evaluation=evaluation)
+        lines.append(f"QIF results written to {data['qif']}")
     exit_code = EXIT_FAILURE if evaluation.tolerance is not None and evaluation.passed is not True else 0
     verdict = None
     if evaluation.tolerance is not None:
         from pcmm_geo.cli._record import Verdict
+        from pcmm_geo.fit.zone.form import FORM_DECISION_RULE
 
-        verdict = Verdict(evaluation.passed, f"{evaluation.characteristic}: {evaluation.verdict}",
-                          f"minimum-zone width <= {1000.0 * evaluation.tolerance:g} µm; a zone within the tolerance "
-                          "proves pass even uncertified, fail needs a certified zone")
+        statement = f"{evaluation.characteristic}: {evaluation.verdict}"
+        verdict = Verdict(evaluation.passed, statement,
+                          f"{FORM_DECISION_RULE}; tolerance {1000.0 * evaluation.tolerance:g} µm")
+        lines.insert(0, f"{statement} (tolerance {1000.0 * evaluation.tolerance:g} µm)")
     return Report(data=data, tables=tables, lines=lines, plots=plots, exit_code=exit_code, verdict=verdict)

@@ -331,9 +331,11 @@ class Certificate:
     feasibility : float
         Largest distance by which any point lies outside the reported zone (mm; 0 when inside).
     certified : bool
-        Multipliers non-negative, ``kkt_residual`` and ``feasibility`` within tolerance.
+        The optimum is proven: globally (``scope == "global"``), or locally with multipliers
+        non-negative, ``kkt_residual`` and ``feasibility`` within tolerance.
     method : str
-        How the optimum was found (e.g. ``"slp+kkt-newton"``).
+        How the optimum was found and proven (e.g. ``"slp+kkt-newton"``, or the exact method
+        followed by ``" + KKT polish"``).
     scope : {"global", "local"}
         ``"global"``: the value is proven optimal over the stated domain (all elements of
         that type, or for axial elements the stated axis region), to ``gap_mm``.

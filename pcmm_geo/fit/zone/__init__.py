@@ -4,26 +4,48 @@ The ``fit_*`` functions of :mod:`pcmm_geo.fit` take ``criterion="chebyshev" | "m
 "mic"`` and return the same result types as their Gaussian fits, with ``criterion``,
 ``contacts`` (indices of the support points) and an optimality ``certificate``.
 
-Method (exact, no random search): sequential linear programs (scipy's HiGHS) on the
-linearised distances inside a trust region, started from the Gaussian fit, then Newton's
-method on the Karush-Kuhn-Tucker system of the contact set; contacts are exchanged until
-every point lies in the zone and every multiplier is non-negative.  The certificate holds
-the multipliers and the stationarity residual; a result that cannot be certified has
-``converged=False`` and says why in ``message``.
+What the certificate says
+-------------------------
+``certificate.scope == "global"``: the value is the optimum over ``certificate.domain`` (all
+planes, all circles, ...), proven by ``certificate.bound_mm`` -- a lower bound of the zone width
+or enclosing radius, an upper bound of the inscribed radius -- with ``gap_mm = |value - bound|``
+at most 1e-9 mm.  ``scope == "local"``: the KKT conditions (and a second-order test) prove a local
+optimum only; ``bound_mm`` holds whatever bound was proven (NaN when none).  ``certified`` (and
+``converged`` on the result) is True for a global answer, or for a local one whose KKT conditions
+hold.  Exact data (three points on a circle, coplanar points) are certified global with form 0.
 
-What the certificate proves: the first-order (KKT) optimality conditions of the minimax
-problem, plus a second-order test (the Lagrangian's Hessian on the tangent space of the
-contacts) when there are fewer contacts than unknowns.  For the minimum circumscribed
-circle / sphere (a convex problem) this is global optimality, and the 2-D line zone is
-started from the narrowest hull-edge strip, which is the global optimum.  For the other
-zones and the MIC (non-convex problems) it proves a strict local optimum near the
-least-squares element (for planes: near the better of the least-squares and the best
-hull-facet normal), which is the ISO minimum zone for form errors small against the
-element size.
+========================  ======  ==========================================================
+element, criterion        scope   domain the scope refers to
+========================  ======  ==========================================================
+plane, chebyshev          global  all planes
+line 2-D, chebyshev       global  all straight lines in the plane
+circle, chebyshev / mcc   global  all circles (3-D points: in their least-squares plane)
+sphere, chebyshev / mcc   global  all spheres
+circle / sphere, mic      global  empty circles / spheres centred in the points' convex hull
+line 3-D, chebyshev       local   axes near the least-squares axis
+cylinder, all criteria    local   axes near the least-squares axis
+cone, chebyshev           local   axes near the least-squares axis
+========================  ======  ==========================================================
+
+Methods (``docs/minimum-zone.md`` has the details and the proofs):
+
+- the narrowest slab / strip is an antipodal pair of the convex hull (Qhull): facet-vertex or
+  edge-edge in 3-D (the facets of the difference body ``K - K``), edge-vertex in 2-D;
+- zone and enclosing circle / sphere: the exact optimum of a small subset, found by enumerating
+  every candidate centre (vertices of the nearest- and farthest-point Voronoi diagrams and the
+  crossings of their edges; the straight zone at infinity), is a proven bound for all points; the
+  farthest and nearest points join the subset until the subset's optimum holds every point;
+- maximum inscribed: the largest empty circle / sphere with its centre in the convex hull is at a
+  Voronoi vertex inside the hull or where a Voronoi edge crosses the hull; it is the MIC when its
+  contact points surround it, else the data (a partial arc or cap) have no MIC and the fit raises.
+
+The exact answer is then refined by Newton's method on the KKT system of its contacts (sequential
+linear programs, scipy's HiGHS, plus that Newton finish are the local method of the axial elements).
 
 Also here: :func:`evaluate_form` (ISO straightness, flatness, roundness, sphericity,
-cylindricity with a verdict), :mod:`pcmm_geo.fit.zone.reference` (data sets with a known
-minimax solution) and :func:`roundness_profiles` (batches of roundness profiles).
+cylindricity with a PASS / FAIL / NOT PROVEN verdict, :func:`~pcmm_geo.fit.zone.form.decide_form`),
+:mod:`pcmm_geo.fit.zone.reference` (data sets with a known minimax solution) and
+:func:`roundness_profiles` (batches of roundness profiles, by the same exact method).
 
 Examples
 --------
@@ -33,8 +55,8 @@ Examples
 >>> radii = 10 + np.array([0.01, -0.01] * 4)
 >>> pts = np.c_[500 + radii * np.cos(angles), 200 + radii * np.sin(angles)]
 >>> zone = fit_circle(pts, criterion="chebyshev")
->>> round(zone.form, 12), round(zone.radius, 12), zone.converged
-(0.02, 10.0, True)
+>>> round(zone.form, 12), round(zone.radius, 12), zone.converged, zone.certificate.scope
+(0.02, 10.0, True, 'global')
 >>> (np.round(zone.center, 9) + 0.0).tolist()
 [500.0, 200.0]
 """
@@ -46,6 +68,7 @@ from typing import Any
 
 _LAZY = {
     "evaluate_form": "form",
+    "decide_form": "form",
     "FormEvaluation": "form",
     "roundness_profiles": "batch",
     "RoundnessBatch": "batch",

@@ -1,17 +1,11 @@
 """Minimum-zone straight lines (2-D strip, 3-D enclosing cylinder) and planes (slab).
 
-For a fixed normal the minimum zone of a line or plane is a linear program (its width is
-``max - min`` of the signed offsets); the normal is found by sequential linear programs
-(HiGHS) on the tilt of the normal, finished by the KKT system on the contact set.  The
-optimum of a strip or slab has contacts on both boundaries whose projections interleave:
-an antipodal pair of the convex hull, edge-vertex in 2-D, facet-vertex or edge-edge in 3-D.
-
-Start (global search over the hull): in 2-D every hull edge is a candidate direction and the
-narrowest edge strip *is* the global minimum zone, so the 2-D result is global; for a plane
-the start is the narrower of the least-squares normal and the best hull-facet normal
-(facet-vertex candidates), which the local solve then refines (an edge-edge optimum lies next
-to it).  A 3-D line's minimum zone is the smallest cylinder enclosing the points (started
-from the least-squares axis); ``form`` is its diameter.
+The minimum zone of a 2-D line or a plane is the narrowest strip / slab holding the points:
+an antipodal pair of their convex hull (edge-vertex in 2-D; facet-vertex or edge-edge in 3-D),
+found exactly and globally by :mod:`pcmm_geo.fit.zone._exact.slab` (rotating calipers; the
+nearest facet of the hull's difference body) and refined by the KKT system of its contacts.
+A 3-D line's minimum zone is the smallest cylinder enclosing the points (started from the
+least-squares axis; a local optimum); ``form`` is its diameter.
 """
 
 from __future__ import annotations
@@ -22,7 +16,7 @@ import numpy as np
 
 from pcmm_geo.fit._kernels._core import FitResult, rotation_to_z
 from pcmm_geo.fit._kernels._linear import frozen, sign_convention
-from pcmm_geo.fit.zone._common import shared_fields
+from pcmm_geo.fit.zone._common import Proof, shared_fields
 from pcmm_geo.fit.zone._models import FloatArray, axis_distance, line2d_offset, plane_offset
 from pcmm_geo.fit.zone._solver import solve_minimax
 
@@ -33,32 +27,21 @@ def _size(local: FloatArray) -> float:
     return max(float(np.sqrt(np.mean(np.einsum("ij,ij->i", local, local)))), 1e-300)
 
 
-def _hull_start(centred: FloatArray, fallback: FloatArray) -> FloatArray:
-    """Unit normal of the narrowest hull-edge (2-D) / hull-facet (3-D) zone, or ``fallback`` when narrower."""
-    from scipy.spatial import ConvexHull, QhullError
-
-    try:
-        hull = ConvexHull(centred)
-    except (QhullError, ValueError):  # flat data: zero width along the least-squares normal
-        return fallback
-    vertices = centred[hull.vertices]
-    normals = hull.equations[:, :-1]
-    widths = np.ptp(vertices @ normals.T, axis=0)
-    best = int(np.argmin(widths))
-    if widths[best] < float(np.ptp(vertices @ fallback)):
-        return normals[best] / np.linalg.norm(normals[best])
-    return fallback
-
-
 def plane_minimax(points: FloatArray, criterion: str, *, gauss: Any, result_type: type[ResultT]) -> ResultT:
     """Minimum-zone plane (narrowest slab) of validated ``(N, 3)`` points.
 
     ``gauss`` is the least-squares plane of the points (the start), ``result_type`` the
     ``PlaneFit`` class: both come from :mod:`pcmm_geo.fit.plane`, which this module does not import.
     """
-    frame = rotation_to_z(_hull_start(points - gauss.point, gauss.normal))
-    local = (points - gauss.point) @ frame.T
-    solution = solve_minimax(local, np.zeros(2), plane_offset, "zone", size=_size(local))
+    from pcmm_geo.fit.zone._exact.polish import polish
+    from pcmm_geo.fit.zone._exact.slab import narrowest_slab
+
+    centred = points - gauss.point
+    exact = narrowest_slab(centred, gauss.normal)
+    frame = rotation_to_z(exact.x)
+    local = centred @ frame.T
+    solution = polish(local, exact, np.zeros(2), plane_offset, "zone", size=_size(local))
+    proof = Proof(exact.bound, solution.upper - solution.lower, "all planes", exact.method)
     a, b = solution.x
     normal_raw = np.array([-a, -b, 1.0]) @ frame / np.sqrt(1.0 + a * a + b * b)
     normal = sign_convention(normal_raw)
@@ -74,6 +57,7 @@ def plane_minimax(points: FloatArray, criterion: str, *, gauss: Any, result_type
         parameters=np.concatenate([point, normal]),
         form=solution.upper - solution.lower,
         n_free=4,
+        proof=proof,
     )
     return result_type(point=frozen(point), normal=frozen(normal), **fields)
 
@@ -84,12 +68,17 @@ def line_minimax(points: FloatArray, criterion: str, *, gauss: Any, result_type:
     ``gauss`` is the least-squares line of the points (the start), ``result_type`` the
     ``LineFit`` class: both come from :mod:`pcmm_geo.fit.line`, which this module does not import.
     """
+    proof = None
     if points.shape[1] == 2:
-        normal0 = np.array([-gauss.direction[1], gauss.direction[0]])
-        normal0 = _hull_start(points - gauss.point, normal0)
+        from pcmm_geo.fit.zone._exact.polish import polish
+        from pcmm_geo.fit.zone._exact.slab import narrowest_strip
+
+        exact = narrowest_strip(points - gauss.point)
+        normal0 = exact.x
         frame = np.array([[normal0[1], -normal0[0]], normal0])
         local = (points - gauss.point) @ frame.T
-        solution = solve_minimax(local, np.zeros(1), line2d_offset, "zone", size=_size(local))
+        solution = polish(local, exact, np.zeros(1), line2d_offset, "zone", size=_size(local))
+        proof = Proof(exact.bound, solution.upper - solution.lower, "all straight lines in the plane", exact.method)
         a = float(solution.x[0])
         q = np.sqrt(1.0 + a * a)
         direction_raw = np.array([1.0, a]) @ frame / q
@@ -129,6 +118,7 @@ def line_minimax(points: FloatArray, criterion: str, *, gauss: Any, result_type:
         form=form,
         n_free=n_free,
         n_residuals=len(points) * (dim - 1),
+        proof=proof,
     )
     fields["extra"] = {"residual_components": frozen(components)}
     return result_type(point=frozen(point), direction=frozen(direction), **fields)

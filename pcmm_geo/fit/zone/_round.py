@@ -5,6 +5,11 @@ annulus (spherical shell) ``r_in <= d_i <= r_out`` about a common centre.  A 3-D
 evaluated in the least-squares plane of its points: the points are projected orthogonally
 onto that plane and the 2-D problem is solved there (ISO 12181 roundness is a property of
 one cross-section; the out-of-plane offsets are reported as ``residual_components[:, 1]``).
+
+The optimum is found by the exact global methods of :mod:`pcmm_geo.fit.zone._exact` (subset
+enumeration grown by violators for the zone and the enclosing ball, Voronoi vertices for the
+empty ball) and refined by the KKT system of its contacts; the certificate states the domain
+it is global over and the proven bound.
 """
 
 from __future__ import annotations
@@ -17,51 +22,60 @@ import numpy as np
 from pcmm_geo.errors import DegenerateGeometryError
 from pcmm_geo.fit._kernels._core import FitResult
 from pcmm_geo.fit._kernels._linear import frozen, sign_convention
-from pcmm_geo.fit.zone._common import mode_of, shared_fields
+from pcmm_geo.fit.zone._common import Proof, mode_of, shared_fields
 from pcmm_geo.fit.zone._models import FloatArray, center_distance
-from pcmm_geo.fit.zone._solver import ZoneSolution, solve_minimax
-
-#: a maximum-inscribed centre this many radii away from the Gaussian centre is running away
-_RUNAWAY = 2.0
+from pcmm_geo.fit.zone._solver import ZoneSolution
 
 ResultT = TypeVar("ResultT", bound=FitResult)
 
 
-def solve_round(points: FloatArray, criterion: str, *, element: str) -> tuple[FloatArray, ZoneSolution]:
-    """Solve the minimax problem of a circle (2-D points) or sphere (3-D points).
+def domain_of(criterion: str, element: str, *, in_plane: bool = False) -> str:
+    """The set of elements a round optimum is global over, in words."""
+    shape = "circle" if element == "circle" else "sphere"
+    where = " in the least-squares plane of the points" if in_plane else ""
+    if criterion == "mic":
+        return f"empty {shape}s{where} centred inside the convex hull of the points"
+    return f"all {shape}s{where}"
 
-    Returns the centre (machine frame) and the solver outcome (distances, levels, contacts).
+
+def solve_round(points: FloatArray, criterion: str, *, element: str) -> tuple[FloatArray, ZoneSolution, Proof]:
+    """Solve the minimax problem of a circle (2-D points) or sphere (3-D points), globally.
+
+    Returns the centre (machine frame), the solver outcome (distances, levels, contacts) and
+    the proof (bound and domain).
 
     Raises
     ------
     DegenerateGeometryError
-        Collinear (coplanar) points; or an unbounded maximum-inscribed element (the points
-        do not surround a maximal empty circle / sphere), or a zone that runs off to an
-        infinite radius.
+        Collinear (coplanar) points; a maximum-inscribed element the points do not surround
+        (a partial arc or cap); or a zone narrower as a straight strip / slab than as any
+        circle / sphere (an infinite radius).
     """
-    from pcmm_geo.fit._kernels._round import fit_nsphere
+    from pcmm_geo.fit._kernels._round import algebraic_nsphere
+    from pcmm_geo.fit.zone._exact.annulus import enclosing_sphere, zone_annulus
+    from pcmm_geo.fit.zone._exact.empty import largest_empty_ball
+    from pcmm_geo.fit.zone._exact.polish import polish
 
     origin = points.mean(axis=0)
     local = points - origin
-    centre0, radius0, *_ = fit_nsphere(local, None, element=element)
-    size = float(np.sqrt(np.mean(np.einsum("ij,ij->i", local, local))))
+    centre0, radius0 = algebraic_nsphere(local, None, element=element)
+    size = max(float(np.sqrt(np.mean(np.einsum("ij,ij->i", local, local)))), radius0)
     mode = mode_of(criterion)
-
-    def diverged(centre: FloatArray) -> bool:
-        return bool(np.linalg.norm(centre - centre0) > _RUNAWAY * radius0)
-
-    solution = solve_minimax(local, centre0, center_distance, mode, size=max(size, radius0), diverged=diverged)  # type: ignore[arg-type]
-    if solution.message == "diverged":
-        shape = "circle" if points.shape[1] == 2 else "sphere"
-        if criterion == "mic":
-            reason = (
-                f"the maximum inscribed {shape} is not bounded: the points do not surround a maximal empty "
-                f"{shape} (a partial arc or cap has no inscribed {shape})"
-            )
-        else:
-            reason = f"the minimum-zone {shape} runs off to an infinite radius (points nearly on a line/plane)"
-        raise DegenerateGeometryError(element, reason)
-    return origin + solution.x, solution
+    if criterion == "chebyshev":
+        exact = zone_annulus(local, centre0, element=element)
+    elif criterion == "mcc":
+        exact = enclosing_sphere(local, centre0)
+    else:
+        exact = largest_empty_ball(local, element=element)
+    solution = polish(local, exact, exact.x, center_distance, mode, size=size)  # type: ignore[arg-type]
+    radius, _, _, form = _radii(solution, criterion)
+    proof = Proof(
+        bound_mm=exact.bound,
+        value_mm=form if criterion == "chebyshev" else radius,
+        domain=domain_of(criterion, element),
+        method=exact.method,
+    )
+    return origin + solution.x, solution, proof
 
 
 def _radii(solution: ZoneSolution, criterion: str) -> tuple[float, float, float, float]:
@@ -80,7 +94,12 @@ def _radii(solution: ZoneSolution, criterion: str) -> tuple[float, float, float,
 
 
 def circle_from_solution(
-    origin: FloatArray, solution: ZoneSolution, criterion: str, *, result_type: type[ResultT]
+    origin: FloatArray,
+    solution: ZoneSolution,
+    criterion: str,
+    *,
+    result_type: type[ResultT],
+    proof: Proof | None = None,
 ) -> ResultT:
     """The 2-D circle of a solved minimax problem in coordinates centred at ``origin``.
 
@@ -97,6 +116,7 @@ def circle_from_solution(
         parameters=np.append(centre, radius),
         form=form,
         n_free=4 if criterion == "chebyshev" else 3,
+        proof=proof,
     )
     return result_type(
         center=frozen(centre),
@@ -119,8 +139,8 @@ def circle_minimax(
     """
     if points.shape[1] == 2:
         origin = points.mean(axis=0)
-        _, solution = solve_round(points, criterion, element="circle")
-        return circle_from_solution(origin, solution, criterion, result_type=result_type)
+        _, solution, proof = solve_round(points, criterion, element="circle")
+        return circle_from_solution(origin, solution, criterion, result_type=result_type, proof=proof)
     try:
         plane = fit_plane(points)
     except DegenerateGeometryError:
@@ -133,7 +153,8 @@ def circle_minimax(
     e2 = np.cross(normal, e1)
     rel = points - plane.point
     in_plane = np.column_stack([rel @ e1, rel @ e2])
-    centre2, solution = solve_round(in_plane, criterion, element="circle")
+    centre2, solution, proof = solve_round(in_plane, criterion, element="circle")
+    proof = Proof(proof.bound_mm, proof.value_mm, domain_of(criterion, "circle", in_plane=True), proof.method)
     radius, r_in, r_out, form = _radii(solution, criterion)
     centre = plane.point + centre2[0] * e1 + centre2[1] * e2
     residuals = solution.distances - radius
@@ -145,6 +166,7 @@ def circle_minimax(
         parameters=np.concatenate([centre, normal, [radius]]),
         form=form,
         n_free=4 if criterion == "chebyshev" else 3,
+        proof=proof,
     )
     return result_type(
         center=frozen(centre),
@@ -159,7 +181,7 @@ def circle_minimax(
 
 def sphere_minimax(points: FloatArray, criterion: str, *, result_type: type[ResultT]) -> ResultT:
     """Chebyshev / MCC / MIC sphere of validated ``(N, 3)`` points (``result_type``: the ``SphereFit`` class)."""
-    centre, solution = solve_round(points, criterion, element="sphere")
+    centre, solution, proof = solve_round(points, criterion, element="sphere")
     radius, r_in, r_out, form = _radii(solution, criterion)
     residuals = solution.distances - radius
     fields = shared_fields(
@@ -170,5 +192,6 @@ def sphere_minimax(points: FloatArray, criterion: str, *, result_type: type[Resu
         parameters=np.append(centre, radius),
         form=form,
         n_free=5 if criterion == "chebyshev" else 4,
+        proof=proof,
     )
     return result_type(center=frozen(centre), radius=radius, r_in=r_in, r_out=r_out, **fields)

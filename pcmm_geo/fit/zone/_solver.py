@@ -218,7 +218,9 @@ def _kkt_newton(
     sub = points[index]
     m, p = len(index), x.size
     d, jac = model(sub, x)
-    levels = np.array(([d[sign < 0].mean()] if use_lower else []) + ([d[sign > 0].mean()] if use_upper else []))
+    low = d[sign < 0] if np.any(sign < 0) else d
+    high = d[sign > 0] if np.any(sign > 0) else d
+    levels = np.array(([low.mean()] if use_lower else []) + ([high.mean()] if use_upper else []))
     lam = _nnls_multipliers(jac, sign, level_slot, n_lev, norms)[0]
     one_hot = np.zeros((m, n_lev))
     one_hot[np.arange(m), level_slot] = 1.0
@@ -392,15 +394,44 @@ def solve_minimax(
         break
     else:
         message = "contact exchange did not settle"
-    d, jac = model(points, x)
+    d = model(points, x)[0]
     lower = float(levels[0]) if use_lower else float(d.min())
     upper = float(levels[-1]) if use_upper else float(d.max())
+    return assess(points, x, contacts, model, mode, size=size, levels=(lower, upper), converged=converged,
+                  iterations=iterations, message=message, norms=norms)
+
+
+def assess(
+    points: FloatArray,
+    x: FloatArray,
+    contacts: dict[int, float],
+    model: Model,
+    mode: Mode,
+    *,
+    size: float,
+    levels: tuple[float, float] | None = None,
+    converged: bool = True,
+    iterations: int = 0,
+    message: str = "",
+    norms: FloatArray | None = None,
+) -> ZoneSolution:
+    """Multipliers, KKT residual, feasibility and second-order test of ``x`` with the given contacts.
+
+    ``levels`` (lower, upper) default to the extreme distances at ``x`` (every point inside).
+    """
+    use_lower, use_upper = _levels(mode)
+    d, jac = model(points, x)
+    if norms is None:
+        norms = np.abs(jac).max(axis=0)
+        norms = np.maximum(norms, 1e-12 * max(float(norms.max()), 1e-300))
+    lower, upper = (float(d.min()), float(d.max())) if levels is None else levels
     index = np.array(sorted(contacts), dtype=np.intp)
     sign = np.array([contacts[i] for i in index])
     level_slot = np.where(sign > 0, int(use_lower), 0)
     lam, kkt_residual = _nnls_multipliers(jac[index], sign, level_slot, use_lower + use_upper, norms)
     feasibility = float(max(0.0, (d - upper).max() if use_upper else 0.0, (lower - d).max() if use_lower else 0.0))
     curvature = _reduced_curvature(points[index], x, jac[index], sign, lam, level_slot, model, mode, size, norms)
+    feasibility_tol = FEASIBILITY_TOLERANCE * size
     certified = bool(
         converged and kkt_residual <= KKT_TOLERANCE and feasibility <= feasibility_tol and curvature >= -KKT_TOLERANCE
     )

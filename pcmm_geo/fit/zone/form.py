@@ -1,11 +1,17 @@
 """ISO form evaluation by minimum zone: straightness, flatness, roundness, sphericity, cylindricity.
 
 The form deviation of ISO 1101 / ISO 12180-12181 / ISO 12780-12781 is the width of the
-minimum zone (``criterion="chebyshev"``) containing the measured points.  The verdict
-against a tolerance is decided soundly: any zone that contains the points is at least
-as wide as the minimum one, so a zone within the tolerance proves *pass* even without a
-certificate; *fail* is only reported when the minimum zone is certified.  An uncertified
-zone wider than the tolerance gives no verdict (``passed`` is None), never a guess.
+minimum zone (``criterion="chebyshev"``) containing the measured points.  The verdict against a
+tolerance rests on two numbers of the fit, never on a guess (:func:`decide_form`):
+
+- ``PASS`` when the reported zone, which contains every point, is within the tolerance -- the
+  minimum zone is no wider, whether or not the reported one is proven minimal;
+- ``FAIL`` when the certificate's proven *lower bound* of the minimum-zone width exceeds the
+  tolerance (a global answer's bound equals its width to rounding);
+- ``NOT PROVEN`` in between: a local answer wider than the tolerance whose bound does not
+  exceed it.
+
+The measurement uncertainty is not part of this rule (a zone of measured points, no guard band).
 """
 
 from __future__ import annotations
@@ -19,7 +25,7 @@ from numpy.typing import ArrayLike
 from pcmm_geo.errors import InvalidInputError
 from pcmm_geo.fit._kernels._core import FitResult
 
-__all__ = ["CHARACTERISTICS", "FormEvaluation", "evaluate_form"]
+__all__ = ["CHARACTERISTICS", "FORM_DECISION_RULE", "FormEvaluation", "decide_form", "evaluate_form"]
 
 #: element -> ISO characteristic evaluated by its minimum zone
 CHARACTERISTICS = {
@@ -30,6 +36,53 @@ CHARACTERISTICS = {
     "cylinder": "cylindricity",
     "cone": "conicity",
 }
+
+#: the decision rule of :func:`decide_form`, in words (reports print it beside the verdict)
+FORM_DECISION_RULE = (
+    "PASS if the width of a zone containing every point is within the tolerance; FAIL if the proven lower "
+    "bound of the minimum-zone width exceeds it; otherwise NOT PROVEN (measurement uncertainty not included)"
+)
+
+
+def decide_form(value_mm: float, bound_mm: float, tolerance_mm: float) -> str:
+    """Verdict of a minimum-zone width against a form tolerance: ``"PASS"``, ``"FAIL"`` or ``"NOT PROVEN"``.
+
+    Parameters
+    ----------
+    value_mm : float
+        Width of a zone that contains every point (the reported minimum zone), mm.
+    bound_mm : float
+        Proven lower bound of the minimum-zone width over the certificate's domain, mm (NaN: none).
+    tolerance_mm : float
+        Form tolerance, mm.
+
+    Returns
+    -------
+    str
+        ``"PASS"`` when ``value_mm <= tolerance_mm``; ``"FAIL"`` when ``bound_mm > tolerance_mm``;
+        otherwise ``"NOT PROVEN"``.
+
+    Raises
+    ------
+    InvalidInputError
+        A non-finite value or a tolerance that is not a positive finite number.
+
+    Examples
+    --------
+    >>> decide_form(0.008, 0.008, 0.010), decide_form(0.012, 0.012, 0.010)
+    ('PASS', 'FAIL')
+    >>> decide_form(0.012, 0.009, 0.010), decide_form(0.012, float("nan"), 0.010)
+    ('NOT PROVEN', 'NOT PROVEN')
+    """
+    if not np.isfinite(value_mm):
+        raise InvalidInputError("value_mm", "a finite zone width in mm", repr(value_mm))
+    if not (np.isfinite(tolerance_mm) and tolerance_mm > 0):
+        raise InvalidInputError("tolerance_mm", "a positive finite number of mm", repr(tolerance_mm))
+    if value_mm <= tolerance_mm:
+        return "PASS"
+    if np.isfinite(bound_mm) and bound_mm > tolerance_mm:
+        return "FAIL"
+    return "NOT PROVEN"
 
 
 @dataclass(frozen=True, eq=False)
@@ -42,18 +95,27 @@ class FormEvaluation:
         E.g. ``"circle"``, ``"roundness"``.
     deviation : float
         Width of the minimum zone (mm); for a 3-D line the diameter of the smallest
-        enclosing cylinder.
+        enclosing cylinder.  For an uncertified fit, the width of the zone about the reported
+        element that contains every point.
     tolerance : float or None
         Tolerance (mm) when one was given.
     passed : bool or None
-        ``deviation <= tolerance``; None without a tolerance or when an uncertified zone
-        exceeds it (no verdict).
+        True for ``PASS``, False for ``FAIL``; None for ``NOT PROVEN`` or without a tolerance.
     certified : bool
         The minimum zone carries an optimality certificate.
     fit : FitResult
         The Chebyshev fit (mid-zone element, residuals, ``contacts``, ``certificate``).
     points : ndarray, shape (N, D)
         The evaluated points (mm).
+    scope : str
+        ``"global"``: the deviation is the minimum over ``domain`` (to ``gap`` mm); ``"local"``: only
+        a local minimum is proven, ``bound`` is the proven lower bound (NaN when none).
+    bound : float
+        Proven lower bound of the minimum-zone width over ``domain`` (mm; NaN when none).
+    gap : float
+        ``|deviation - bound|`` (mm; NaN when no bound).
+    domain : str
+        The elements the scope refers to (e.g. ``"all planes"``).
     """
 
     element: str
@@ -64,15 +126,19 @@ class FormEvaluation:
     certified: bool
     fit: FitResult
     points: np.ndarray
+    scope: str = "local"
+    bound: float = float("nan")
+    gap: float = float("nan")
+    domain: str = ""
 
     @property
     def verdict(self) -> str:
-        """``"pass"``, ``"fail"``, ``"no verdict"`` (uncertified and above tolerance) or ``"no tolerance"``."""
+        """``"PASS"``, ``"FAIL"``, ``"NOT PROVEN"`` (:func:`decide_form`) or ``"no tolerance"``."""
         if self.tolerance is None:
             return "no tolerance"
         if self.passed is None:
-            return "no verdict"
-        return "pass" if self.passed else "fail"
+            return "NOT PROVEN"
+        return "PASS" if self.passed else "FAIL"
 
     def to_dict(self) -> dict[str, Any]:
         """JSON-ready summary (the fit without its residuals)."""
@@ -87,7 +153,12 @@ class FormEvaluation:
             "tolerance_mm": self.tolerance,
             "passed": self.passed,
             "verdict": self.verdict,
+            "decision_rule": FORM_DECISION_RULE,
             "certified": self.certified,
+            "scope": self.scope,
+            "bound_mm": None if np.isnan(self.bound) else self.bound,
+            "gap_mm": None if np.isnan(self.gap) else self.gap,
+            "domain": self.domain,
             "contacts": self.fit.contacts.tolist(),
             "fit": fit,
         }
@@ -102,7 +173,7 @@ def evaluate_form(points: ArrayLike, element: str, tolerance: float | None = Non
         Measured points (mm).
     element : {"line", "plane", "circle", "sphere", "cylinder", "cone"}
     tolerance : float, optional
-        Form tolerance (mm, positive) for a pass/fail verdict.
+        Form tolerance (mm, positive) for a verdict (:func:`decide_form`).
 
     Returns
     -------
@@ -120,8 +191,8 @@ def evaluate_form(points: ArrayLike, element: str, tolerance: float | None = Non
     >>> angles = np.radians(np.arange(0, 360, 30))
     >>> radii = 5 + 0.002 * np.cos(3 * angles)
     >>> result = evaluate_form(np.c_[radii * np.cos(angles), radii * np.sin(angles)], "circle", tolerance=0.005)
-    >>> result.characteristic, round(result.deviation, 9), result.verdict
-    ('roundness', 0.004, 'pass')
+    >>> result.characteristic, round(result.deviation, 9), result.verdict, result.scope
+    ('roundness', 0.004, 'PASS', 'global')
     """
     from pcmm_geo import fit as fit_module
 
@@ -136,12 +207,13 @@ def evaluate_form(points: ArrayLike, element: str, tolerance: float | None = Non
     # the width of a zone that certainly contains every point, about the reported element
     contained = 2.0 * float(residuals.max()) if is_3d_line else float(np.ptp(residuals))
     deviation = float(result.form) if result.converged else contained
+    certificate = result.certificate
+    scope = "local" if certificate is None else certificate.scope
+    bound = float("nan") if certificate is None else float(certificate.bound_mm)
     passed: bool | None = None
     if tolerance is not None:
-        if contained <= tolerance:
-            passed = True
-        elif result.converged:
-            passed = False
+        verdict = decide_form(contained, bound, float(tolerance))
+        passed = {"PASS": True, "FAIL": False}.get(verdict)
     return FormEvaluation(
         element=element,
         characteristic=CHARACTERISTICS[element],
@@ -151,4 +223,8 @@ def evaluate_form(points: ArrayLike, element: str, tolerance: float | None = Non
         certified=bool(result.converged),
         fit=result,
         points=data,
+        scope=scope,
+        bound=bound,
+        gap=abs(deviation - bound) if np.isfinite(bound) else float("nan"),
+        domain="" if certificate is None else certificate.domain,
     )

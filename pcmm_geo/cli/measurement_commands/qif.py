@@ -1,0 +1,225 @@
+"""``pcmm qif show|verify FILE``: what a QIF results file holds, and a second opinion on its results."""
+
+from __future__ import annotations
+
+import argparse
+from typing import Any
+
+from pcmm_geo.cli._output import (
+    EXIT_FAILURE,
+    Report,
+    Table,
+    add_json_flag,
+    add_overwrite_flag,
+    add_report_flag,
+)
+
+
+def register(subparsers: Any) -> None:
+    parser = subparsers.add_parser(
+        "qif",
+        help="QIF 3.0 results files: show what one holds, verify its results by refitting",
+        description="Read a QIF 3.0 results file (ISO 23952) from an external CMM. The file is untrusted: DTDs, "
+                    "entities and external references are refused, depth and size are bounded.",
+    )
+    actions = parser.add_subparsers(dest="action", metavar="ACTION", required=True)
+    show = actions.add_parser("show", help="list the features, point sets and characteristics of a QIF file "
+                              "(or a DMIS output, a CALYPSO table)")
+    show.add_argument("file", help="QIF results file (or DMIS output .dmo, CALYPSO *_chr.txt)")
+    _add_limits(show)
+    add_json_flag(show)
+    show.set_defaults(handler=_handle_show)
+
+    verify = actions.add_parser(
+        "verify",
+        help="refit every measured feature from its points and compare with the CMM's results",
+        description="Refit every feature measurement that has points (the file's fitting algorithm, else "
+                    "least squares; a 3-D circle in the least-squares plane of its points), compensate the probe "
+                    "radius, bring points and actuals into the file's common frame and compare diameter, location "
+                    "and direction with what the CMM reported. Exit status 1 when a feature disagrees.",
+    )
+    verify.add_argument("file", help="QIF results file")
+    verify.add_argument("--tolerance-mm", type=float, metavar="MM", default=None,
+                        help="largest difference that agrees, mm (default 0.0001); angles by MM / feature size")
+    verify.add_argument("--criterion", choices=("gaussian", "chebyshev", "mcc", "mic"),
+                        help="refit with this criterion instead of the file's (least squares, minimum zone, "
+                             "minimum circumscribed, maximum inscribed)")
+    verify.add_argument("--circle-plane", choices=("least-squares", "reported"), default="least-squares",
+                        help="plane of a 3-D circle: the least-squares plane of its points (default) or the plane "
+                             "the CMM reported (its working plane)")
+    verify.add_argument("--compensated", choices=("yes", "no"),
+                        help="for point sets without a Compensated flag: are the points surface points?")
+    verify.add_argument("--probe-radius", type=float, metavar="MM", help="probe radius in mm, overriding the file's")
+    _add_limits(verify)
+    add_report_flag(verify)
+    add_overwrite_flag(verify)
+    add_json_flag(verify)
+    verify.set_defaults(handler=_handle_verify)
+
+
+def _add_limits(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("--max-mb", type=float, metavar="MB", default=None,
+                        help="largest QIF file read, in MB (default 1024; scanner point clouds may need more)")
+    text = parser.add_argument_group("DMIS output and CALYPSO tables (which may not state their units)")
+    text.add_argument("--units", choices=("mm", "cm", "m", "inch", "feet"), help="length unit of the file")
+    text.add_argument("--angle-unit", choices=("degree", "radian"), help="angle unit of the file")
+    text.add_argument("--size-values", choices=("actual", "deviation"),
+                      help="DMIS: the number of a size tolerance result is the actual size or its deviation")
+    text.add_argument("--encoding", default="utf-8", help="text encoding (Windows software: often cp1252)")
+
+
+def _read(args: argparse.Namespace) -> Any:
+    from pcmm_geo.cmm.files import read_cmm_document
+    from pcmm_geo.errors import InvalidInputError
+
+    limit = None
+    if args.max_mb is not None:
+        if not (args.max_mb > 0 and args.max_mb < 1e9):
+            raise InvalidInputError("--max-mb", "a positive size in MB", repr(args.max_mb))
+        limit = int(args.max_mb * 1024 * 1024)
+    return read_cmm_document(args.file, units=args.units, angle_unit=args.angle_unit, size_values=args.size_values,
+                             encoding=args.encoding, max_bytes=limit)
+
+
+def _vector(value: Any) -> list[float]:
+    return [] if value is None else [float(v) for v in value]
+
+
+def _handle_show(args: argparse.Namespace) -> Report:
+    from pcmm_geo.errors import PcmmGeoError
+
+    document = _read(args)
+    point_sets = document.point_sets
+    feature_rows = []
+    features = []
+    for feature in document.measured_features:
+        try:
+            points = document.points_of(feature, frame="stored")
+        except PcmmGeoError:  # listed as unusable; the reason is in the file's problems
+            points = None
+        actual = feature.actual
+        location = _vector(actual.location)
+        feature_rows.append([feature.id, feature.name or "-", feature.type, 0 if points is None else len(points),
+                             "-" if points is None or points.compensated is None else points.compensated,
+                             "-" if points is None or points.probe_radius is None else points.probe_radius,
+                             (feature.internal_external or "-").lower(),
+                             "-" if actual.diameter is None else actual.diameter,
+                             *(location or ["-", "-", "-"])])
+        features.append({"id": feature.id, "type": feature.type, "name": feature.name,
+                         "n_points": 0 if points is None else len(points),
+                         "internal_external": feature.internal_external,
+                         "substitute_algorithm": feature.substitute_algorithm,
+                         "actual": {key: value for key, value in (("diameter_mm", actual.diameter),
+                                                                   ("location_mm", _vector(actual.location) or None),
+                                                                   ("normal", _vector(actual.normal) or None),
+                                                                   ("direction", _vector(actual.direction) or None),
+                                                                   ("half_angle_rad", actual.half_angle),
+                                                                   ("form_mm", actual.form)) if value is not None},
+                         "problems": list(feature.problems)})
+    set_rows = []
+    sets = []
+    for set_id, point_set in point_sets.items():
+        frame = "common" if point_set.transform_id is None and point_set.coordinate_system_id is None else \
+            f"transform {point_set.transform_id}" if point_set.transform_id is not None else \
+            f"coordinate system {point_set.coordinate_system_id}"
+        compensated = point_set.compensated if point_set.compensated_per_point is None else "per point"
+        radius = point_set.probe_radius if point_set.probe_radii is None else "per point"
+        set_rows.append([set_id, len(point_set), "-" if compensated is None else compensated,
+                         "-" if radius is None else radius, point_set.normals is not None, frame])
+        sets.append({"id": set_id, "count": len(point_set), "compensated": compensated, "probe_radius_mm": radius,
+                     "normals": point_set.normals is not None, "frame": frame})
+    char_rows = []
+    characteristics = []
+    for characteristic in document.characteristics:
+        lower, upper = (None, None) if characteristic.tolerance is None else \
+            characteristic.tolerance.limits(characteristic.nominal)
+        char_rows.append([characteristic.id, characteristic.name or "-", characteristic.type,
+                          _cell(characteristic.value), _cell(characteristic.nominal), _cell(lower), _cell(upper),
+                          characteristic.quantity, characteristic.status or "-",
+                          " ".join(str(i) for i in characteristic.feature_measurement_ids) or "-"])
+        characteristics.append({"id": characteristic.id, "type": characteristic.type, "name": characteristic.name,
+                                "value": characteristic.value, "nominal": characteristic.nominal,
+                                "lower_limit": lower, "upper_limit": upper, "quantity": characteristic.quantity,
+                                "status": characteristic.status,
+                                "feature_measurement_ids": list(characteristic.feature_measurement_ids)})
+    units = document.units
+    data = {"file": document.source, "format": document.format, "version": document.version,
+            "application": document.application,
+            "units": {"linear_unit": units.linear_unit, "mm_per_linear_unit": units.mm_per_linear_unit,
+                      "angular_unit": units.angular_unit},
+            "features": features, "point_sets": sets, "characteristics": characteristics,
+            "problems": list(document.problems)}
+    tables = [
+        Table(f"Measured features of {document.source}",
+              ["id", "name", "type", "points", "compensated", "probe radius / mm", "side", "diameter / mm",
+               "x / mm", "y / mm", "z / mm"], feature_rows),
+        Table("Measured point sets", ["id", "points", "compensated", "probe radius / mm", "normals", "frame"],
+              set_rows),
+        Table("Characteristics (lengths in mm, angles in rad)",
+              ["id", "name", "type", "value", "nominal", "lower limit", "upper limit", "quantity", "status",
+               "features"], char_rows),
+    ]
+    origin = f"QIF {document.version or '(version not stated)'}" if document.format == "qif" else \
+        document.format.upper()
+    lines = [f"{origin} written by {document.application or 'unknown'}; file units {units.linear_unit}"
+             + ("" if units.mm_per_linear_unit == 1.0 else " (converted to mm)")]
+    lines += [f"left out: {problem}" for problem in document.problems]
+    return Report(data=data, tables=[t for t in tables if t.rows], lines=lines)
+
+
+def _cell(value: Any) -> Any:
+    return "-" if value is None else value
+
+
+def _micro(value: Any, factor: float = 1000.0) -> Any:
+    return "-" if value is None else factor * float(value)
+
+
+def _shown(check: Any, name: str, factor: float) -> Any:
+    """A difference in µm / µrad; in parentheses when it did not decide the feature's agreement."""
+    value = check.difference.get(name)
+    if value is None:
+        return "-"
+    scaled = factor * float(value)
+    return scaled if name in check.compared else f"({scaled:.6g})"
+
+
+def _handle_verify(args: argparse.Namespace) -> Report:
+    from pcmm_geo.cli._record import Verdict
+    from pcmm_geo.cmm.verify import DEFAULT_TOLERANCE_MM, verify_document
+
+    tolerance = DEFAULT_TOLERANCE_MM if args.tolerance_mm is None else args.tolerance_mm
+    document = _read(args)
+    compensated = None if args.compensated is None else args.compensated == "yes"
+    result = verify_document(document, tolerance_mm=tolerance, criterion=args.criterion,
+                             circle_plane=args.circle_plane, compensated=compensated, probe_radius=args.probe_radius)
+    rows = []
+    for check in result.features:
+        compensation = check.compensation
+        if compensation is None or compensation.side == "none":
+            side = "-" if compensation is None else "none (surface points)"
+        elif compensation.outward is not None:
+            side = "along its normal"
+        else:
+            side = compensation.side + (" (inferred)" if compensation.inferred else "")
+        cells = [_shown(check, name, factor) for name, factor in (("diameter_mm", 1000.0),
+                                                                  ("location_distance_mm", 1000.0),
+                                                                  ("direction_angle_rad", 1e6))]
+        rows.append([check.id, check.name or "-", check.type, check.n_points, check.method or "-", side, *cells,
+                     {True: "yes", False: "NO", None: "not checked"}[check.agrees]])
+    table = Table(f"Second opinion on {document.source} (tolerance {1000 * tolerance:g} µm; angles tolerance / size)",
+                  ["id", "name", "type", "points", "method", "compensation", "Δ diameter / µm", "Δ location / µm",
+                   "Δ direction / µrad", "agrees"], rows)
+    lines = ["(values in parentheses: reported, not compared)"] if any(
+        "(" in str(cell) for row in rows for cell in row[6:9]) else []
+    lines += [f"{check.id} {check.name or ''}: {check.reason}" for check in result.features]
+    summary = result.summary()
+    statement = (f"{summary['agree']} features agree, {summary['disagree']} disagree, "
+                 f"{summary['not_checked']} not checked")
+    lines.append(statement)
+    lines += [f"left out by the reader: {problem}" for problem in result.problems]
+    verdict = Verdict(result.agrees if summary["agree"] + summary["disagree"] else None, statement,
+                      f"a feature agrees when every compared quantity of its refit (diameter, location, direction) "
+                      f"differs from the CMM's by at most {tolerance:g} mm (angles: {tolerance:g} mm / feature size)")
+    return Report(data=result.to_dict(), tables=[table], lines=lines,
+                  exit_code=0 if result.agrees else EXIT_FAILURE, verdict=verdict)

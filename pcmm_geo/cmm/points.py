@@ -1,0 +1,302 @@
+"""The points of one feature of a CMM file, ready for a fit, with what is known of their compensation.
+
+``pcmm fit``/``pcmm form`` read point files of three kinds:
+
+* a QIF results document (``.qif``): the points of one measured feature (chosen by QIF id or
+  name when the file holds several), in the document's common frame, with the file's
+  ``Compensated`` flag, ``ProbeRadius``, point normals, ``InternalExternal`` and nominal size;
+* a PC-DMIS ``XYZIJK`` export (recognised by its first line): points with normals, no
+  compensation flag;
+* plain point files (CSV, XYZ, PLY, ...): points only.
+
+:func:`probe_radius_to_apply` decides from the file and the user's ``--compensated`` /
+``--probe-radius`` whether a radius is still to be applied; a format that does not say whether its
+points are probe centres (PC-DMIS, DMIS) is refused unless the user says so.
+:func:`compensate_fit` then offsets the fitted element (:func:`pcmm_geo.fit.probe.compensate_probe`)
+with the material side from ``--material-side``, the file's ``InternalExternal``, the point normals
+or the nominal size (reported as inferred).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from pcmm_geo.errors import FileFormatError, InvalidInputError
+
+if TYPE_CHECKING:
+    from pcmm_geo.fit import FitResult
+    from pcmm_geo.fit.probe import ProbeCompensation
+    from pcmm_geo.io.cmm import CmmDocument, MeasuredFeature
+
+__all__ = ["FeaturePoints", "compensate_fit", "load_feature_points", "probe_radius_to_apply", "side_before_fit"]
+
+FloatArray = NDArray[np.float64]
+#: formats whose points carry no compensation flag: the user must say
+UNFLAGGED_FORMATS = ("pcdmis", "dmis")
+
+
+@dataclass(frozen=True, eq=False)
+class FeaturePoints:
+    """Points of one feature from a file, and what the file says about them.
+
+    Attributes
+    ----------
+    points : ndarray (N, 3)
+        mm, in the file's common frame (per-point compensations already applied where the file's
+        flags or radii differ from point to point).
+    normals : ndarray (N, 3) or None
+        Outward surface normals where the file gives them.
+    compensated : bool or None
+        The file's flag; None when the format does not say.
+    probe_radius : float or None
+        The file's probe radius (mm).
+    format : str
+        ``"qif"``, ``"pcdmis"`` or ``"points"``.
+    source : str
+    feature : MeasuredFeature or None
+        The QIF feature measurement the points belong to.
+    material_side : str or None
+        ``"internal"`` / ``"external"`` from the file's ``InternalExternal``.
+    nominal_diameter : float or None
+        Nominal diameter of the feature (mm), to infer the side.
+    reported_normal : ndarray (3,) or None
+        A normal the file reports for the feature (plane, point, line), out of the material.
+    """
+
+    points: FloatArray
+    format: str
+    source: str
+    normals: FloatArray | None = None
+    compensated: bool | None = None
+    probe_radius: float | None = None
+    feature: MeasuredFeature | None = None
+    material_side: str | None = None
+    nominal_diameter: float | None = None
+    reported_normal: FloatArray | None = None
+
+    def describe(self) -> str:
+        """One line: which feature of which file."""
+        if self.feature is None:
+            return self.source
+        return f"{self.source} feature {self.feature.id} ({self.feature.name or 'unnamed'}, {self.feature.type})"
+
+
+def load_feature_points(path: str | Path, *, element: str | None = None, feature: str | None = None,
+                        decimal: str | None = None) -> FeaturePoints:
+    """Read the points of one feature from a QIF document, a PC-DMIS XYZIJK export or a point file.
+
+    Parameters
+    ----------
+    path : str or Path
+    element : str, optional
+        The element about to be fitted; a QIF file with several features with points is narrowed
+        to those of that type.
+    feature : str, optional
+        QIF id (digits) or name of the feature measurement; needed when the choice is not unique.
+    decimal : {".", ","}, optional
+        Decimal mark of a text point file.
+
+    Returns
+    -------
+    FeaturePoints
+
+    Raises
+    ------
+    QifError, UnsafeXmlError, FileFormatError
+        From the readers; a QIF file without points, a DMIS output or CALYPSO table (no points),
+        or several candidates and no ``feature`` (the candidates are listed).
+    InvalidInputError
+        ``feature`` given for a file that is not QIF.
+    """
+    from pcmm_geo.cmm.files import detect_format
+
+    file = Path(path)
+    kind = detect_format(file)
+    if kind == "qif":
+        from pcmm_geo.io.cmm import read_qif
+
+        return _from_document(read_qif(file), element=element, feature=feature)
+    if kind in ("dmis", "calypso"):
+        raise FileFormatError(str(file), f"expected measured points, got a {kind.upper()} results file (feature "
+                              "actuals and characteristics, no points): see pcmm qif show")
+    if feature is not None:
+        raise InvalidInputError("--feature", "a QIF file to choose a feature from", str(file))
+    if kind == "pcdmis":
+        from pcmm_geo.io.cmm import read_pcdmis_xyzijk
+
+        point_set = read_pcdmis_xyzijk(file)
+        return FeaturePoints(np.asarray(point_set.points, dtype=float), "pcdmis", str(file),
+                             normals=None if point_set.normals is None else np.asarray(point_set.normals, dtype=float),
+                             compensated=point_set.compensated, probe_radius=point_set.probe_radius)
+    from pcmm_geo.io.points import read_points
+
+    return FeaturePoints(read_points(file, decimal=decimal), "points", str(file))
+
+
+def _choose(document: CmmDocument, element: str | None, key: str | None) -> MeasuredFeature:
+    features = document.measured_features
+    if key is not None:
+        return document.feature(int(key) if key.strip().isdigit() else key)
+    with_points = [f for f in features if f.point_set_refs]
+    if not with_points:
+        raise FileFormatError(document.source, "expected measured point sets, got a document without any")
+    candidates = [f for f in with_points if element is None or f.type == element] or with_points
+    if len(candidates) == 1:
+        return candidates[0]
+    listed = ", ".join(f"{f.id} {f.name or '(unnamed)'} ({f.type}, {len(f.point_set_refs)} point list(s))"
+                       for f in candidates[:20])
+    more = f" and {len(candidates) - 20} more" if len(candidates) > 20 else ""
+    raise InvalidInputError("--feature", f"the QIF id or name of one of the features with points: {listed}{more}",
+                            "none")
+
+
+def _from_document(document: CmmDocument, *, element: str | None, feature: str | None) -> FeaturePoints:
+    from pcmm_geo.cmm.refit import _context, _prepare_points
+    from pcmm_geo.errors import NotRefittedError
+
+    chosen = _choose(document, element, feature)
+    point_set = document.points_of(chosen, frame="common")
+    if point_set is None or len(point_set) == 0:
+        raise FileFormatError(document.source, f"feature {chosen.id} ({chosen.name}) has no measured points")
+    compensated, radius = point_set.compensated, point_set.probe_radius
+    points = np.asarray(point_set.points, dtype=float)
+    normals = None if point_set.normals is None else np.asarray(point_set.normals, dtype=float)
+    if point_set.compensated_per_point is not None or (compensated is False and point_set.probe_radii is not None):
+        try:  # flags or radii that differ from point to point: compensated here, one by one
+            points, _, _, normals = _prepare_points(point_set, None, None)
+        except NotRefittedError as exc:
+            raise FileFormatError(document.source, f"feature {chosen.id}: {exc}") from None
+        compensated, radius = True, None
+    context = _context(document, chosen)
+    reported = context.actual.normal if context.actual.normal is not None else \
+        (None if context.nominal is None else context.nominal.normal)
+    return FeaturePoints(points, "qif", document.source, normals=normals, compensated=compensated,
+                         probe_radius=radius, feature=chosen, material_side=context.side,
+                         nominal_diameter=context.nominal_diameter,
+                         reported_normal=None if reported is None else np.asarray(reported, dtype=float))
+
+
+def probe_radius_to_apply(data: FeaturePoints, *, compensated: str | None = None,
+                          probe_radius: float | None = None) -> tuple[float, str]:
+    """The probe radius still to apply (0: the points are surface points) and why.
+
+    Parameters
+    ----------
+    data : FeaturePoints
+    compensated : {"yes", "no"}, optional
+        The user's statement (``--compensated``); required for formats without a flag.
+    probe_radius : float, optional
+        The user's probe radius (``--probe-radius``, mm).
+
+    Raises
+    ------
+    InvalidInputError
+        A format without a compensation flag and no ``compensated``; a statement or radius
+        that contradicts the file; probe centres without a radius.
+    """
+    if compensated not in (None, "yes", "no"):
+        raise InvalidInputError("--compensated", "yes or no", repr(compensated))
+    if probe_radius is not None and not (np.isfinite(probe_radius) and probe_radius > 0):
+        raise InvalidInputError("--probe-radius", "a positive probe radius (mm)", repr(probe_radius))
+    where = data.describe()
+    if data.compensated is True:
+        if compensated == "no" or probe_radius is not None:
+            given = "--compensated no" if compensated == "no" else "--probe-radius"
+            raise InvalidInputError(given, f"nothing: {where} says its points are already compensated "
+                                    "(Compensated=true); the radius would be added twice", given)
+        return 0.0, "surface points (the file says Compensated=true)"
+    if data.compensated is False:
+        if compensated == "yes":
+            raise InvalidInputError("--compensated", f"no: {where} says its points are probe centres "
+                                    "(Compensated=false)", "yes")
+        radius = probe_radius if probe_radius is not None else data.probe_radius
+        if radius is None:
+            raise InvalidInputError("--probe-radius", f"the probe radius: {where} holds probe centres without a "
+                                    "ProbeRadius", "none")
+        return float(radius), ("probe centres (Compensated=false), radius " +
+                               ("--probe-radius" if probe_radius is not None else "from the file"))
+    if data.format in UNFLAGGED_FORMATS and compensated is None:
+        raise InvalidInputError("--compensated", f"yes or no: {where} ({data.format} format) does not say whether "
+                                "its points are probe centres or surface points", "nothing")
+    if compensated == "yes":
+        if probe_radius is not None:
+            raise InvalidInputError("--probe-radius", "no radius with --compensated yes", repr(probe_radius))
+        return 0.0, "surface points (--compensated yes)"
+    if probe_radius is None:
+        if compensated == "no":
+            raise InvalidInputError("--probe-radius", "the probe radius of the probe centres (--compensated no)",
+                                    "none")
+        return 0.0, "surface points (no probe radius given)"
+    return float(probe_radius), "probe centres, radius --probe-radius"
+
+
+def _side_kwargs(data: FeaturePoints, material_side: str | None) -> tuple[dict[str, Any], str]:
+    if material_side is not None:
+        return {"side": material_side}, "--material-side"
+    if data.material_side is not None:
+        return {"side": data.material_side}, "the file's InternalExternal"
+    if data.normals is not None:
+        return {"points": data.points, "outward": data.normals}, "the point normals"
+    if data.nominal_diameter is not None:
+        return {"nominal_diameter": data.nominal_diameter}, f"the nominal diameter {data.nominal_diameter:.6g} mm"
+    return {}, ""
+
+
+def side_before_fit(data: FeaturePoints, element: str, radius: float, material_side: str | None,
+                    fit: Any) -> str:
+    """Material side of a feature of size, known before a fixed-radius fit (``fit(points)`` is a free fit).
+
+    Raises
+    ------
+    InvalidInputError
+        Nothing tells the side.
+    """
+    kwargs, _ = _side_kwargs(data, material_side)
+    if "side" in kwargs:
+        return str(kwargs["side"])
+    if not kwargs:
+        raise _no_side(data, element)
+    from pcmm_geo.fit.probe import compensate_probe
+
+    return compensate_probe(fit(data.points), radius, **kwargs).side
+
+
+def _no_side(data: FeaturePoints, element: str) -> InvalidInputError:
+    return InvalidInputError("--material-side", f"internal or external: nothing in {data.describe()} tells on which "
+                             f"side of the {element} the material is", "nothing")
+
+
+def compensate_fit(fit: FitResult, element: str, data: FeaturePoints, radius: float, *,
+                   material_side: str | None = None) -> tuple[ProbeCompensation, str]:
+    """Offset a fit of probe centres onto the surface; returns the compensation and where its side came from.
+
+    Raises
+    ------
+    InvalidInputError
+        No way to tell the material side (or, for a plane / line, the outward normal); an
+        element without an offset surface (torus).
+    """
+    from pcmm_geo.fit.probe import compensate_probe
+
+    if element in ("plane", "line"):
+        if material_side is not None:
+            raise InvalidInputError("--material-side", f"nothing for a {element}: its side is the surface normal "
+                                    "(point normals or the file's reported normal)", material_side)
+        outward = data.normals if data.normals is not None else data.reported_normal
+        if outward is None:
+            raise InvalidInputError("outward normal", f"point normals (XYZIJK, QIF Normals) or a reported normal to "
+                                    f"compensate the {element} of {data.describe()}", "none")
+        source = "the point normals" if data.normals is not None else "the file's reported normal"
+        return compensate_probe(fit, radius, outward=outward), source
+    if element not in ("circle", "sphere", "cylinder", "cone"):
+        raise InvalidInputError("--probe-radius", "an element with an offset surface (line, plane, circle, sphere, "
+                                "cylinder, cone)", element)
+    kwargs, source = _side_kwargs(data, material_side)
+    if not kwargs:
+        raise _no_side(data, element)
+    return compensate_probe(fit, radius, **kwargs), source

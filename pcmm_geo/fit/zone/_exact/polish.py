@@ -1,0 +1,36 @@
+"""The last digits of an exact optimum: Newton's method on the KKT system of its contacts."""
+
+from __future__ import annotations
+
+from pcmm_geo.fit.zone._exact._optimum import ExactOptimum, FloatArray
+from pcmm_geo.fit.zone._solver import Mode, Model, ZoneSolution, assess, solve_minimax
+
+#: a polished optimum may exceed the exact one by at most this times the data size (rounding)
+_ROUNDING = 1e-13
+
+
+def objective(solution: ZoneSolution, mode: Mode) -> float:
+    """The minimised quantity: zone width, enclosing radius, or minus the empty radius (mm)."""
+    if mode == "zone":
+        return solution.upper - solution.lower
+    return solution.upper if mode == "mcc" else -solution.lower
+
+
+def polish(
+    points: FloatArray, exact: ExactOptimum, x0: FloatArray, model: Model, mode: Mode, *, size: float
+) -> ZoneSolution:
+    """The exact optimum ``x0`` (model parameters) refined on its contact set, never worse than it.
+
+    The KKT-Newton finish of :func:`~pcmm_geo.fit.zone._solver.solve_minimax` starts from the exact
+    optimum and its contacts (a circumcentre of nearly collinear contacts, for instance, is exact only
+    to a few digits); its answer is kept when it is certified and not worse (to rounding), else the
+    exact optimum itself is returned with its multipliers (exact data, whose contact system is
+    degenerate, end here).
+    """
+    refined = solve_minimax(points, x0, model, mode, size=size, start=(x0, dict(exact.contacts), exact.iterations,
+                                                                         exact.method))
+    exact_value = exact.upper - exact.lower if mode == "zone" else (exact.upper if mode == "mcc" else -exact.lower)
+    if refined.certified and objective(refined, mode) <= exact_value + _ROUNDING * size:
+        return refined
+    return assess(points, x0, exact.contacts, model, mode, size=size, iterations=exact.iterations,
+                  message=exact.method)

@@ -1,0 +1,72 @@
+"""Files from coordinate measuring machines: QIF 3.0 results, DMIS output, CALYPSO tables, PC-DMIS XYZIJK.
+
+Every reader returns the plain frozen dataclasses of :mod:`pcmm_geo.io.cmm.model` in mm and
+rad (inch files and degrees converted); the QIF writer takes the same classes.  Nothing here
+knows a fit: refitting and comparing sits above both layers.
+
+==============================  ===========================================================
+function                        reads / writes
+==============================  ===========================================================
+:func:`read_qif`                a QIF 3.0 document -> :class:`CmmDocument` (streamed,
+                                hostile XML refused: defusedxml, depth and size bounded)
+:func:`write_qif`               :class:`CmmDocument` -> QIF 3.0 document (schema-valid)
+:func:`results_document`        build a :class:`CmmDocument` for the writer from
+                                :class:`FeatureReport` records (ids assigned)
+:func:`validate_qif`            check a file against the QIF 3.0 XML schema (lxml)
+:func:`read_dmis`               DMIS output (``FA(..)=FEAT/...``, ``TA(..)=TOL/...``)
+:func:`read_calypso_table`      ZEISS CALYPSO ``*_chr.txt`` characteristic tables
+:func:`read_pcdmis_xyzijk`      PC-DMIS XYZIJK text -> :class:`MeasuredPointSet` with normals
+==============================  ===========================================================
+
+defusedxml (reading) and lxml (validation) come with the ``qif`` extra
+(``pip install 'pcmm_geo[qif]'``); without them the functions raise
+:class:`~pcmm_geo.errors.MissingDependencyError` naming the extra.
+"""
+
+from __future__ import annotations
+
+import importlib
+from typing import Any
+
+_LAZY = {
+    "FEATURE_TYPES": "model",
+    "Characteristic": "model",
+    "CmmDocument": "document",
+    "CoordinateSystem": "model",
+    "FeatureDefinition": "model",
+    "FeatureGeometry": "model",
+    "FeatureItem": "model",
+    "FeatureNominal": "model",
+    "MeasuredFeature": "model",
+    "MeasuredPointSet": "model",
+    "MeasurementResults": "model",
+    "PointSetReference": "model",
+    "Tolerance": "model",
+    "Transform": "model",
+    "Units": "model",
+    "DEFAULT_MAX_BYTES": "qif._xml",
+    "DEFAULT_MAX_DEPTH": "qif._xml",
+    "read_qif": "qif.reader",
+    "write_qif": "qif.writer",
+    "FeatureReport": "qif.build",
+    "results_document": "qif.build",
+    "validate_qif": "qif.schema",
+    "read_dmis": "dmis",
+    "read_calypso_table": "calypso",
+    "read_pcdmis_xyzijk": "pcdmis",
+}
+
+__all__ = sorted(_LAZY)
+
+
+def __getattr__(name: str) -> Any:
+    module_name = _LAZY.get(name)
+    if module_name is None:
+        raise AttributeError(f"module 'pcmm_geo.io.cmm' has no attribute {name!r}")
+    value = getattr(importlib.import_module(f"pcmm_geo.io.cmm.{module_name}"), name)
+    globals()[name] = value
+    return value
+
+
+def __dir__() -> list[str]:
+    return sorted(set(globals()) | set(_LAZY))

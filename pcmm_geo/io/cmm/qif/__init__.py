@@ -1,0 +1,7 @@
+"""QIF 3.0 (ISO 23952) results documents: the guarded streaming reader, the schema-valid writer, validation.
+
+:mod:`~pcmm_geo.io.cmm.qif.reader` (:func:`read_qif`), :mod:`~pcmm_geo.io.cmm.qif.build`
+(:class:`FeatureReport`, :func:`results_document`), :mod:`~pcmm_geo.io.cmm.qif.writer`
+(:func:`write_qif`), :mod:`~pcmm_geo.io.cmm.qif.schema` (:func:`validate_qif`); the hostile-XML
+guard is :mod:`~pcmm_geo.io.cmm.qif._xml`.  Use them through :mod:`pcmm_geo.io.cmm`.
+"""

@@ -1,0 +1,358 @@
+"""Untrusted XML in, a small tree out: defusedxml's expat parser, bounded depth and size, streamed number lists.
+
+A CMM file is untrusted input.  :func:`parse_xml` parses it with defusedxml's parser
+(``forbid_dtd``, ``forbid_entities``, ``forbid_external``: no DTD at all, so no entity
+expansion and nothing fetched from a file or the network) and refuses, with an
+:class:`~pcmm_geo.errors.UnsafeXmlError` naming the file and line:
+
+- a document type declaration, an entity declaration or an external reference;
+- nesting deeper than ``max_depth`` elements;
+- a file larger than ``max_bytes`` (checked before parsing and while reading: a scanner's
+  point cloud is a legitimate large file, so the limit is a parameter);
+- more than :data:`MAX_TEXT_CHARS` characters of text in one ordinary element.
+
+XML that is not well formed is a :class:`~pcmm_geo.errors.FileFormatError` naming the line.
+
+The tree is built by a parser *target* (no ElementTree tree): ordinary elements become small
+:class:`Node` objects, while the text of the elements a caller marks as number lists (QIF
+``Points``, ``Normals``, ...) is converted chunk by chunk straight into one preallocated
+float64 array, so a document of 10^7 points holds its coordinates once (24 bytes a point)
+plus one parser buffer, never the text of the whole list.
+"""
+
+from __future__ import annotations
+
+import os
+import re
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from pcmm_geo._optional import require
+from pcmm_geo.errors import FileFormatError, UnsafeXmlError
+
+__all__ = ["DEFAULT_MAX_BYTES", "DEFAULT_MAX_DEPTH", "MAX_TEXT_CHARS", "Node", "NumberList", "parse_xml"]
+
+#: default largest file read (bytes); pass ``max_bytes=`` for larger scanner files
+DEFAULT_MAX_BYTES = 1 << 30
+#: default deepest element nesting (QIF documents nest about 12 deep)
+DEFAULT_MAX_DEPTH = 64
+#: most characters of text in an element that is not a streamed number list
+MAX_TEXT_CHARS = 1 << 20
+_READ_CHUNK = 1 << 20
+_BOOLEAN_WORDS = {"true": 1.0, "false": 0.0, "1": 1.0, "0": 0.0}
+
+
+class NumberListError(ValueError):
+    """A number list that cannot be read; ``reason`` says why, ``line`` where."""
+
+    def __init__(self, reason: str, line: int | None) -> None:
+        super().__init__(reason)
+        self.reason = reason
+        self.line = line
+
+
+@dataclass
+class NumberList:
+    """Numbers of one element's text, parsed while the file streams by.
+
+    ``expected`` numbers are preallocated when the file states how many (QIF ``count``);
+    otherwise the list grows.  ``boolean`` lists accept ``true``/``false``/``1``/``0``.
+    ``first_line`` is the line the text starts on; errors name the line of the offending token.
+    """
+
+    expected: int | None
+    boolean: bool = False
+    first_line: int = 1
+    values: np.ndarray = field(init=False)
+    filled: int = 0
+    _tail: str = ""
+    _newlines: int = 0
+    _parts: list[np.ndarray] = field(default_factory=list)
+
+    def __post_init__(self) -> None:
+        self.values = np.empty(self.expected if self.expected is not None else 0, dtype=np.float64)
+
+    def feed(self, text: str) -> None:
+        text = self._tail + text
+        cut = len(text)
+        while cut and not text[cut - 1].isspace():
+            cut -= 1
+        self._tail = text[cut:]
+        if len(self._tail) > 4096:
+            raise NumberListError(f"a number of more than 4096 characters ({self._tail[:40]!r}...)",
+                                  self.first_line + self._newlines + text[:cut].count("\n"))
+        segment = text[:cut]
+        self._store(segment)
+        self._newlines += segment.count("\n")
+
+    def finish(self, line: int | None) -> np.ndarray:
+        if self._tail:
+            self._store(self._tail)
+            self._tail = ""
+        if self.expected is None:
+            return np.concatenate(self._parts) if self._parts else np.empty(0)
+        return self.values[: self.filled]
+
+    def _line_of_token(self, segment: str, index: int) -> int:
+        """Line of the ``index``-th token of ``segment`` (slow path, errors only)."""
+        for number, match in enumerate(re.finditer(r"\S+", segment)):
+            if number == index:
+                return self.first_line + self._newlines + segment[: match.start()].count("\n")
+        return self.first_line + self._newlines + segment.count("\n")
+
+    def _store(self, segment: str) -> None:
+        tokens = segment.split()
+        if not tokens:
+            return
+        numbers = self._convert(tokens, segment)
+        if self.expected is None:
+            self._parts.append(numbers)
+            self.filled += len(numbers)
+            return
+        end = self.filled + len(numbers)
+        if end > self.expected:
+            raise NumberListError(f"more than the {self.expected} numbers stated",
+                                  self._line_of_token(segment, self.expected - self.filled))
+        self.values[self.filled:end] = numbers
+        self.filled = end
+
+    def _convert(self, tokens: list[str], segment: str) -> np.ndarray:
+        if self.boolean:
+            bad = next((k for k, t in enumerate(tokens) if t not in _BOOLEAN_WORDS), None)
+            if bad is not None:
+                raise NumberListError(f"expected true or false, got {tokens[bad][:40]!r}",
+                                      self._line_of_token(segment, bad))
+            return np.array([_BOOLEAN_WORDS[t] for t in tokens])
+        try:
+            numbers = np.array(tokens, dtype=np.float64)
+        except ValueError:
+            bad = next(k for k, t in enumerate(tokens) if not _is_float(t))
+            raise NumberListError(f"expected a number, got {tokens[bad][:40]!r}",
+                                  self._line_of_token(segment, bad)) from None
+        if not np.isfinite(numbers).all():
+            bad = int(np.flatnonzero(~np.isfinite(numbers))[0])
+            raise NumberListError(f"expected a finite number, got {tokens[bad][:40]!r}",
+                                  self._line_of_token(segment, bad))
+        return numbers
+
+
+def _is_float(token: str) -> bool:
+    try:
+        float(token)
+    except ValueError:
+        return False
+    return True
+
+
+class Node:
+    """One element: local ``tag`` (namespace dropped), ``attrib``, ``children``, ``text``, ``line``.
+
+    ``numbers`` holds the parsed values of a streamed number list (then ``text`` is empty).
+    """
+
+    __slots__ = ("attrib", "children", "line", "numbers", "parent", "stream", "tag", "text")
+
+    def __init__(self, tag: str, attrib: dict[str, str], parent: Node | None, line: int) -> None:
+        self.tag = tag
+        self.attrib = attrib
+        self.parent = parent
+        self.line = line
+        self.children: list[Node] = []
+        self.text = ""
+        self.numbers: np.ndarray | None = None
+        self.stream: NumberList | None = None
+
+    def path(self) -> str:
+        """``QIFDocument/Results/...`` from the root to this element."""
+        parts = []
+        node: Node | None = self
+        while node is not None:
+            parts.append(node.tag)
+            node = node.parent
+        return "/".join(reversed(parts))
+
+    def child(self, tag: str) -> Node | None:
+        """The first child named ``tag`` (None if absent)."""
+        return next((c for c in self.children if c.tag == tag), None)
+
+    def all(self, tag: str) -> list[Node]:
+        """Every child named ``tag``."""
+        return [c for c in self.children if c.tag == tag]
+
+    def __repr__(self) -> str:
+        return f"<Node {self.tag} line {self.line} ({len(self.children)} children)>"
+
+
+#: decides whether an element's text is a streamed number list: (node) -> NumberList or None
+StreamRule = Callable[[Node], "NumberList | None"]
+
+
+class _Target:
+    """Parser target building :class:`Node` objects, streaming marked number lists."""
+
+    def __init__(self, path: str, max_depth: int, stream_rule: StreamRule) -> None:
+        self.path = path
+        self.max_depth = max_depth
+        self.stream_rule = stream_rule
+        self.expat = None
+        self.root: Node | None = None
+        self.current: Node | None = None
+        self.depth = 0
+        self.namespace: str | None = None
+
+    def line(self) -> int | None:
+        return None if self.expat is None else self.expat.CurrentLineNumber
+
+    def start(self, tag: str, attrib: dict[str, str]) -> None:
+        self.depth += 1
+        if self.depth > self.max_depth:
+            raise UnsafeXmlError(self.path, f"elements nested deeper than {self.max_depth}", self.line(),
+                                 limit=self.max_depth)
+        namespace, _, local = tag.rpartition("}")
+        if self.root is None:
+            self.namespace = namespace.lstrip("{") or None
+        node = Node(local, {k.rpartition("}")[2]: v for k, v in attrib.items()}, self.current, self.line() or 0)
+        if self.current is None:
+            self.root = node
+        else:
+            if self.current.stream is not None:
+                raise _StreamFailure(self.current, NumberListError(f"expected numbers, got the element {local}",
+                                                                   self.line()))
+            self.current.children.append(node)
+        self.current = node
+        node.stream = self.stream_rule(node)
+        if node.stream is not None:
+            node.stream.first_line = node.line
+
+    def end(self, tag: str) -> None:
+        node = self.current
+        assert node is not None
+        if node.stream is not None:
+            try:
+                node.numbers = node.stream.finish(self.line())
+            except NumberListError as exc:
+                exc.line = exc.line or self.line()
+                raise _StreamFailure(node, exc) from None
+            node.stream = None
+        self.current = node.parent
+        self.depth -= 1
+
+    def data(self, text: str) -> None:
+        node = self.current
+        if node is None:
+            return
+        if node.stream is not None:
+            try:
+                node.stream.feed(text)
+            except NumberListError as exc:
+                raise _StreamFailure(node, exc) from None
+            return
+        if len(node.text) + len(text) > MAX_TEXT_CHARS:
+            raise UnsafeXmlError(self.path, f"element {node.tag} holds more than {MAX_TEXT_CHARS} characters of text",
+                                 self.line(), limit=MAX_TEXT_CHARS)
+        node.text += text
+
+    def close(self) -> Node | None:
+        return self.root
+
+
+class _StreamFailure(Exception):
+    def __init__(self, node: Node, error: NumberListError) -> None:
+        super().__init__(error.reason)
+        self.node = node
+        self.error = error
+
+
+class NumberListFailure(FileFormatError):
+    """A streamed number list could not be read (the caller turns it into its own typed error)."""
+
+    def __init__(self, path: str, node: Node, reason: str, line: int | None) -> None:
+        super().__init__(path, f"{node.path()}: {reason}", line)
+        self.node = node
+        self.list_reason = reason
+
+
+def parse_xml(path: str | Path, *, max_bytes: int = DEFAULT_MAX_BYTES, max_depth: int = DEFAULT_MAX_DEPTH,
+              stream_rule: StreamRule = lambda node: None) -> tuple[Node, str | None]:
+    """Parse an untrusted XML file into a :class:`Node` tree (see the module docstring).
+
+    Parameters
+    ----------
+    path : str or Path
+    max_bytes : int
+        Largest file accepted (bytes).
+    max_depth : int
+        Deepest element nesting accepted.
+    stream_rule : callable
+        ``rule(node) -> NumberList | None``, called at each element's start: a :class:`NumberList`
+        makes that element's text a streamed number list.
+
+    Returns
+    -------
+    (Node, str or None)
+        The root element and its namespace URI.
+
+    Raises
+    ------
+    UnsafeXmlError
+        DTD, entity or external reference; too deep; too large; an over-long text.
+    NumberListFailure
+        A streamed number list with a non-number, a non-finite value or more numbers than stated.
+    FileFormatError
+        Not well-formed XML, an empty file, or a file that cannot be read.
+    MissingDependencyError
+        defusedxml is not installed (extra ``qif``).
+    """
+    defused = require("defusedxml.ElementTree", purpose="reading XML files from CMMs")
+    defused_common = require("defusedxml.common", purpose="reading XML files from CMMs")
+    name = str(path)
+    try:
+        size = os.stat(path).st_size
+    except OSError as exc:
+        raise FileFormatError(name, f"cannot be read: {exc.strerror or exc}") from None
+    if Path(path).is_dir():
+        raise FileFormatError(name, "is a directory, expected an XML file")
+    if size > max_bytes:
+        raise UnsafeXmlError(name, f"file of {size} bytes exceeds the limit of {max_bytes} bytes "
+                             "(raise max_bytes for larger files)", limit=max_bytes)
+    target = _Target(name, max_depth, stream_rule)
+    parser = defused.DefusedXMLParser(target=target, forbid_dtd=True, forbid_entities=True, forbid_external=True)
+    target.expat = parser.parser
+    parser.parser.buffer_size = _READ_CHUNK
+    read = 0
+    try:
+        with open(path, "rb") as stream:
+            while chunk := stream.read(_READ_CHUNK):
+                read += len(chunk)
+                if read > max_bytes:
+                    raise UnsafeXmlError(name, f"file exceeds the limit of {max_bytes} bytes while reading",
+                                         limit=max_bytes)
+                parser.feed(chunk)
+            root = parser.close()
+    except defused_common.DTDForbidden:
+        raise UnsafeXmlError(name, "has a document type declaration (DTD); refused: QIF needs none and a DTD "
+                             "can declare entities or fetch external files", target.line()) from None
+    except defused_common.EntitiesForbidden as exc:
+        raise UnsafeXmlError(name, f"declares the entity {exc.name!r}; refused (entity expansion)",
+                             target.line()) from None
+    except defused_common.ExternalReferenceForbidden as exc:
+        raise UnsafeXmlError(name, f"refers to the external resource {exc.sysid!r}; refused (nothing is fetched)",
+                             target.line()) from None
+    except defused_common.DefusedXmlException as exc:
+        raise UnsafeXmlError(name, f"refused: {exc}", target.line()) from None
+    except _StreamFailure as failure:
+        raise NumberListFailure(name, failure.node, failure.error.reason, failure.error.line) from None
+    except defused.ParseError as exc:
+        line = exc.position[0] if getattr(exc, "position", None) else None
+        message = str(exc).split(":")[0]
+        raise FileFormatError(name, f"not well-formed XML: {message}", line) from None
+    except OSError as exc:
+        raise FileFormatError(name, f"cannot be read: {exc.strerror or exc}") from None
+    except RecursionError:  # pragma: no cover - the depth limit stops nesting long before
+        raise UnsafeXmlError(name, "nesting too deep", target.line()) from None
+    if root is None:
+        raise FileFormatError(name, "holds no XML element")
+    return root, target.namespace

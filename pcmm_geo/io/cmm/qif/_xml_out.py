@@ -1,0 +1,93 @@
+"""Writing XML text for the QIF writer: an indenting emitter and numbers in the schema's types.
+
+``xs:double`` values (coordinates, vectors) are written as Python's shortest round-trip repr;
+``xs:decimal`` values (sizes, tolerances, uncertainties, probe radii) take no exponent, so they
+are written in positional notation with the same shortest digits -- both read back exactly.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Iterable
+from typing import IO
+from xml.sax.saxutils import escape, quoteattr
+
+import numpy as np
+
+from pcmm_geo.errors import InvalidInputError
+
+__all__ = ["ALGORITHMS", "CHARACTERISTIC_STATUSES", "INSPECTION_STATUSES", "XmlText", "camel", "decimal_text",
+           "double_text"]
+
+#: QIF 3.0 enumerations the writer checks its input against
+INSPECTION_STATUSES = ("PASS", "FAIL", "REWORK", "SYSERROR", "UNKNOWN", "NOT_CALCULATED", "NOT_MEASURED",
+                       "UNDEFINED")
+CHARACTERISTIC_STATUSES = ("PASS", "FAIL", "REWORK", "SYSERROR", "INDETERMINATE", "NOT_ANALYZED", "BASIC_OR_TED",
+                           "UNDEFINED")
+ALGORITHMS = ("BEZIER", "BSPLINE", "DEFAULT", "LEASTSQUARES", "MAXINSCRIBED", "MAXINNERLOCALSIZE",
+               "MAXOUTERLOCALSIZE", "MINCIRCUMSCRIBED", "MININNERLOCALSIZE", "MINOUTERLOCALSIZE", "MINMAX", "NURBS",
+               "ONESIDED", "UNDEFINED")
+
+
+def camel(snake: str) -> str:
+    """``"spherical_diameter"`` -> ``"SphericalDiameter"`` (the QIF element stem)."""
+    return "".join(part.capitalize() for part in snake.split("_"))
+
+
+def double_text(value: float) -> str:
+    """``xs:double`` text: the shortest repr that reads back as ``value``."""
+    if not math.isfinite(value):
+        raise InvalidInputError("value", "a finite number", repr(value))
+    return repr(float(value))
+
+
+def decimal_text(value: float) -> str:
+    """``xs:decimal`` text (no exponent) with the shortest digits that read back as ``value``."""
+    if not math.isfinite(value):
+        raise InvalidInputError("value", "a finite number", repr(value))
+    return np.format_float_positional(float(value), unique=True, trim="-")
+
+
+class XmlText:
+    """Indented XML text into a binary stream."""
+
+    def __init__(self, stream: IO[bytes]) -> None:
+        self.stream = stream
+        self.depth = 0
+
+    def raw(self, text: str) -> None:
+        self.stream.write(text.encode("utf-8"))
+
+    def open(self, tag: str, **attributes: object) -> None:
+        self.raw(f"{'  ' * self.depth}<{tag}{attributes_text(attributes)}>\n")
+        self.depth += 1
+
+    def close(self, tag: str) -> None:
+        self.depth -= 1
+        self.raw(f"{'  ' * self.depth}</{tag}>\n")
+
+    def leaf(self, tag: str, text: str | None = None, **attributes: object) -> None:
+        pad = "  " * self.depth
+        if text is None:
+            self.raw(f"{pad}<{tag}{attributes_text(attributes)}/>\n")
+        else:
+            self.raw(f"{pad}<{tag}{attributes_text(attributes)}>{escape(text)}</{tag}>\n")
+
+    def chain(self, *tags: str, text: str | None = None) -> None:
+        """Nested elements ``tags[0]/tags[1]/.../tags[-1]``, the last a leaf holding ``text``."""
+        for tag in tags[:-1]:
+            self.open(tag)
+        self.leaf(tags[-1], text)
+        for tag in reversed(tags[:-1]):
+            self.close(tag)
+
+    def ids(self, tag: str, ids: Iterable[int]) -> None:
+        ids = list(ids)
+        self.open(tag, n=len(ids))
+        for key in ids:
+            self.leaf("Id", str(key))
+        self.close(tag)
+
+
+def attributes_text(attributes: dict[str, object]) -> str:
+    return "".join(f" {name}={quoteattr(str(value))}" for name, value in attributes.items() if value is not None)
