@@ -112,6 +112,36 @@ def test_a_fault_on_the_moved_pivots_laser_is_caught_by_the_rows_that_hold_it(cl
     np.testing.assert_allclose(flagged.tips[3:], truth[3:], atol=1e-6)
 
 
+@pytest.mark.parametrize("arm", range(3))
+def test_a_faulty_start_row_reading_is_not_read_as_a_further_move(clean, arm: int) -> None:
+    """A start row that differs from the row before in one laser only (0.3 mm, beyond the same-pose tolerance)
+    is a wrong reading of the same pose, tested with the rows that hold that pose: refused alone, every other
+    point exact.  (Read as the previous motor still moving, a new height absorbed part of the fault.)"""
+    machine, h0, log, truth = clean
+    faulty = with_fault(log, [4], arm, size=0.3)  # start row of the third move, which repeated row 4
+    out = process_log(machine, faulty, initial_heights=h0, on_inconsistent="flag")
+    assert out.moved_arm[4] == -1
+    np.testing.assert_array_equal(np.flatnonzero(out.inconsistent), [4])
+    assert out.faulty_readings[4, arm] and out.faulty_readings.sum() == 1
+    others = np.delete(np.arange(len(log)), 4)
+    np.testing.assert_allclose(out.tips[others], truth[others], atol=1e-6)
+
+
+def test_an_unsettled_start_row_is_still_a_further_move_of_the_previous_motor(clean) -> None:
+    """Thesis 3.5: the stop row of a move read pivot a 1 mm short of where it came to rest; the start row after it
+    shows the rest of the move in all three lasers (the pattern of motor 1), so it begins a new height of a."""
+    machine, h0, log, truth = clean
+    short = truth_of(machine, h0, MOVES)[1].copy()
+    short[0] -= 1.0
+    lasers = log.lasers.copy()
+    lasers[1] = machine.forward(heights=short).lasers
+    out = process_log(machine, MeasurementLog(log.start_stop, log.probe, log.motor, log.direction, lasers),
+                      initial_heights=h0)
+    assert out.moved_arm[2] == 0 and not out.inconsistent.any()
+    np.testing.assert_allclose(out.heights[1], short, atol=1e-6)
+    np.testing.assert_allclose(out.tips[2:], truth[2:], atol=1e-6)
+
+
 def test_first_row_fault_no_longer_costs_the_datum(clean) -> None:
     """The start heights are held: a wrong first-row laser is refused and nothing else moves (was: every point
     shifted by one common vertical offset)."""

@@ -53,7 +53,7 @@ from pcmm_geo.machine.analysis.logproc.reliability import (
     reading_influence,
 )
 from pcmm_geo.machine.analysis.logproc.rows import MeasurementLog
-from pcmm_geo.machine.analysis.logproc.segments import STILL, segment_log
+from pcmm_geo.machine.analysis.logproc.segments import STILL, LogSegments, moved_further, segment_log
 from pcmm_geo.machine.analysis.logproc.uncertainty import DEFAULT_MAX_TIP_UNCERTAINTY, flag_uncertain_tips
 from pcmm_geo.machine.kinematics.model import RigidBodyMachine, as_readings
 
@@ -285,10 +285,10 @@ def process_log(
     geometry = machine.geometry
     travel = getattr(getattr(machine, "limits", None), "height_travel", None)
     count = len(log)
-    segments = segment_log(log, limits.critical * np.sqrt(2.0) * per_arm)
     sigmas = np.tile(per_arm, (count, 1))
     refused = _outside_range(machine, log, on_inconsistent)
     sigmas[refused] = np.inf
+    segments = _settle_start_rows(machine, log, sigmas, datum, limits.critical, travel)
     failed_rows = np.zeros(count, dtype=bool)
     if progress is not None:
         progress(0, count)
@@ -327,6 +327,29 @@ def process_log(
         progress(count, count)
     return _result(machine, log, segments, adjustment, influence, sigmas, refused, failed_rows, limits, per_arm,
                    covariance, max_tip_uncertainty, max_bound, rivals)
+
+
+def _settle_start_rows(machine: RigidBodyMachine, log: MeasurementLog, sigmas: FloatArray, datum: FloatArray,
+                       critical: float, travel: FloatArray | None) -> LogSegments:
+    """The segments, with every start row whose difference from the row before is not the pattern of a further
+    move of the previous motor read as the same pose (:func:`~pcmm_geo.machine.analysis.logproc.segments.moved_further`,
+    judged at the laser gains of a first adjustment; near the level pose a motor's gain is almost one laser's
+    alone, and the seed's rule stands)."""
+    per_arm = np.nanmin(np.where(np.isfinite(sigmas), sigmas, np.nan), axis=0)
+    segments = segment_log(log, critical * np.sqrt(2.0) * per_arm)
+    starts = [int(r) for r in np.flatnonzero((segments.moved_arm >= 0) & (log.start_stop == 1)) if r > 0]
+    if not starts:
+        return segments
+    hypotheses = branch_hypotheses(machine.geometry, log, segments, datum, sigmas, critical, travel)
+    first = adjust(machine.geometry, log, segments, hypotheses[0].values, sigmas)
+    index = np.searchsorted(first.rows, segments.source)
+    gains = first.kinematics.laser_gain
+    settled = frozenset(
+        row for row in starts
+        if np.all(np.isfinite(sigmas[[row, row - 1]])) and not moved_further(
+            log.lasers[row] - log.lasers[row - 1], gains[index[row - 1]][:, segments.moved_arm[row]], per_arm, critical)
+    )
+    return segment_log(log, critical * np.sqrt(2.0) * per_arm, settled) if settled else segments
 
 
 def _outside_range(machine: RigidBodyMachine, log: MeasurementLog, on_inconsistent: str) -> BoolArray:

@@ -9,7 +9,9 @@ row whose lasers repeat the previous row's exactly is the same reading (not a ne
 one whose lasers differ by no more than the readings' noise allows (``same_pose``: the gate's
 critical value times the standard deviation of a difference of two readings) is a new reading
 of the same pose; one whose lasers differ by more (the machine had not settled, thesis 3.5)
-begins a new segment of the *previous* row's motor, as the seed did for any difference.  Every
+begins a new segment of the *previous* row's motor, as the seed did for any difference -- if the
+difference has the pattern of a move of that motor (:func:`moved_further`); a difference in one
+laser that no height change explains is a faulty reading of the same pose, for the gate.  Every
 other row observes the three segments standing at that time with its three lasers.  So a log of
 ``R`` observed rows and ``S`` moves has ``3 R`` readings and ``S`` unknowns.
 
@@ -44,7 +46,7 @@ from pcmm_geo.machine.analysis.logproc.geometry import PAIRS
 from pcmm_geo.machine.analysis.logproc.rows import MeasurementLog
 from pcmm_geo.machine.kinematics import _pose_solver as solver
 
-__all__ = ["LogSegments", "misfit_minima", "reading_weights", "segment_log", "segment_misfit"]
+__all__ = ["LogSegments", "misfit_minima", "moved_further", "reading_weights", "segment_log", "segment_misfit"]
 
 FloatArray = NDArray[np.float64]
 IntArray = NDArray[np.int64]
@@ -88,13 +90,15 @@ class LogSegments:
         return len(self.arm)
 
 
-def segment_log(log: MeasurementLog, same_pose: FloatArray | None = None) -> LogSegments:
+def segment_log(log: MeasurementLog, same_pose: FloatArray | None = None,
+                settled: frozenset[int] = frozenset()) -> LogSegments:
     """The segments of a log (module notes: row logic).
 
     ``same_pose`` ``(3,)`` (mm): a start row whose lasers differ from the previous row's by at most
     this (each laser) is a new reading of the same pose, observing the same segments; beyond it
     the previous row's motor is still moving.  Default 0: only identical lasers are the same pose
-    (then they are the same reading, not a new observation).
+    (then they are the same reading, not a new observation).  Start rows in ``settled`` (0-based)
+    are the same pose whatever their difference (it is not the pattern of a move).
     """
     rows = len(log)
     tolerance = np.zeros(3) if same_pose is None else np.asarray(same_pose, dtype=float)
@@ -109,7 +113,7 @@ def segment_log(log: MeasurementLog, same_pose: FloatArray | None = None) -> Log
         if start and np.array_equal(log.lasers[row], log.lasers[row - 1]):
             active[row], source[row] = current, source[row - 1]
             continue
-        if start and np.all(np.abs(log.lasers[row] - log.lasers[row - 1]) <= tolerance):
+        if start and (row in settled or np.all(np.abs(log.lasers[row] - log.lasers[row - 1]) <= tolerance)):
             active[row] = current  # settled: another reading of the same pose
             continue
         moving = int(log.motor[row] if not start else log.motor[row - 1]) - 1
@@ -164,6 +168,7 @@ def segment_misfit(
     One row of the level pose: the misfit is even about the level height (mirror images).
 
     >>> from pcmm_geo.machine.kinematics.model import RigidBodyMachine
+    >>> from pcmm_geo.machine.analysis.logproc.geometry import joint_distances
     >>> m = RigidBodyMachine.from_dpkm()
     >>> heights = np.array([[400.0, 400.0, 403.0]])
     >>> lasers = m.forward(heights=heights[0]).lasers[None]
@@ -254,3 +259,30 @@ def misfit_minima(coefficients: FloatArray, about: float = 0.0) -> tuple[FloatAr
         stationary = roots[np.abs(roots.imag) <= 1e-9 * np.maximum(1.0, np.abs(roots))].real
     minima = np.sort(np.array([x for x in stationary if (12.0 * a * x + 6.0 * b) * x + 2.0 * c > 0.0]))
     return minima + about, np.polyval(shifted, minima)
+
+
+def moved_further(difference: FloatArray, gain: FloatArray, sigmas: FloatArray, critical: float) -> bool:
+    """Whether a start row's laser difference from the row before ``(3,)`` is a further move of the previous motor.
+
+    ``gain`` ``(3,)`` is ``dl/dH`` of that motor at the row before (mm/mm), ``sigmas`` the readings'
+    standard uncertainties.  The difference of two readings has variance ``2 sigma^2``; it is a move
+    when a height change ``delta`` explains it (the rest within ``critical^2``, chi-square with two
+    degrees of freedom read conservatively) and ``delta`` itself is beyond ``critical`` standard
+    deviations.  A single faulty laser is not a move (its pattern is not the gain's), unless the
+    gain is nearly that laser's alone (near level), where the seed's rule stands.
+
+    Examples
+    --------
+    >>> gain = np.array([-0.02, -0.20, 0.19])
+    >>> bool(moved_further(gain * 2.0, gain, np.full(3, 0.01), 3.29))  # 2 mm further
+    True
+    >>> bool(moved_further(np.array([0.0, 0.2, 0.0]), gain, np.full(3, 0.01), 3.29))  # laser b off by 0.2 mm
+    False
+    """
+    weight = 1.0 / (2.0 * np.asarray(sigmas, dtype=float) ** 2)
+    information = float(np.sum(weight * gain**2))
+    if not information > 0:
+        return False
+    delta = float(np.sum(weight * gain * difference)) / information
+    rest = float(np.sum(weight * (difference - gain * delta) ** 2))
+    return rest <= critical**2 and abs(delta) * np.sqrt(information) > critical
