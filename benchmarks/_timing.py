@@ -17,6 +17,13 @@ class Timing:
     runs: tuple[float, ...]
     value: Any
 
+    @property
+    def median(self) -> float:
+        """Median of the runs (s)."""
+        ordered = sorted(self.runs)
+        middle = len(ordered) // 2
+        return ordered[middle] if len(ordered) % 2 else (ordered[middle - 1] + ordered[middle]) / 2
+
 
 def best_of(function: Callable[[], Any], repeat: int) -> Timing:
     """Call ``function`` ``repeat`` times (garbage collector paused) and keep the fastest run.

@@ -16,10 +16,16 @@ from __future__ import annotations
 import argparse
 import json
 import resource
+import sys
 import time
+from pathlib import Path
 from typing import Any
 
 import numpy as np
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+
+from _environment import environment_line
 
 CENTER = np.array([412.0, -233.0, 87.5])
 RADIUS = 25.0
@@ -61,6 +67,7 @@ def main() -> None:
         "points": args.points, "chunk": args.chunk, "seconds": seconds, "points_per_second": args.points / seconds,
         "peak_rss_mb": peak_lazy, "center": fitted.center.tolist(), "radius": fitted.radius, "rms": fitted.rms,
         "form": fitted.form, "iterations": fitted.iterations, "residuals_lazy": type(fitted.residuals).__name__,
+        "environment": environment_line(),
     }
     if args.compare:
         in_memory = fit_sphere(np.asarray(cloud.compute()))

@@ -20,10 +20,16 @@ Run: ``.venv/bin/python benchmarks/bench_numcal.py [--samples 8000000] [--noise 
 from __future__ import annotations
 
 import argparse
+import sys
 import time
 import warnings
+from pathlib import Path
 
 import numpy as np
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+
+from _environment import environment_line
 
 from pcmm_geo.errors import CalibrationNotConvergedWarning
 from pcmm_geo.machine.calibration.numerical.numcal import (
@@ -68,6 +74,7 @@ def main() -> None:
 
     report = analyse_identifiability(jac, [f"p{k}" for k in range(9)])
     weak = np.array(list(report.weak_combinations[0].coefficients.values()))
+    print(environment_line())
     print(f"data: {len(data.moved)} samples, noise {args.noise} mm; condition number {report.condition_number:.3g}")
     print(f"{'method':53s} {'time s':>8s} {'rms mm':>10s} {'|dd|,|db| mm':>13s} {'|dbeta| deg':>12s} "
           f"{'determined':>11s} {'evals':>9s} converged")

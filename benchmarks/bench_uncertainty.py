@@ -29,6 +29,7 @@ import time
 
 import numpy as np
 
+from benchmarks import _environment
 from benchmarks._timing import best_of
 
 
@@ -79,7 +80,7 @@ def main() -> None:
     parser.add_argument("--loop-trials", type=int, default=200)
     parser.add_argument("--seeds", type=int, default=200, help="demo seeds for the coverage sweep (0: skip)")
     args = parser.parse_args()
-    print(f"OPENBLAS_NUM_THREADS={os.environ.get('OPENBLAS_NUM_THREADS')}, cpus={os.cpu_count()}")
+    print(_environment.environment_line())
 
     vcmm, task = _vcmm()
     simulate = vcmm.simulation(task)

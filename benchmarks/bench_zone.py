@@ -13,7 +13,13 @@ Cases:
   sets not at the reference's optimum (to 1e-9 mm) and sets not certified global;
 * minimum-zone cylinder, 5,000 points: ``fit_cylinder(criterion="chebyshev")`` vs ``dual_annealing``;
 * minimum circumscribed sphere, 10,000 points: ``fit_sphere(criterion="mcc")`` vs
-  ``trimesh.nsphere.minimum_nsphere``.
+  ``trimesh.nsphere.minimum_nsphere``;
+* axial elements (``--axial-only`` for these alone): 5,000-point cylinders (zone, MCC, MIC) and a
+  3-D line by the global axis search, with scope, gap and effort, beside the least-squares
+  cylinder; small sparse cylinders and lines vs the tests' dense-grid reference
+  (``tests/fit/axial_reference.py``: directions in the region each solved exactly in 2-D, then
+  polished): time per set, ratio, answers worse than the reference, local answers.  Target:
+  5,000-point zone cylinder <= 1 s on typical data.
 
 Reported: best wall-clock time of N runs, each contender's deviation from the known solution,
 the time ratio (peer / pcmm_geo), the load average and the BLAS thread setting.  On a shared
@@ -23,6 +29,7 @@ without.  Targets: 10,000-point zone circle <= 0.05 s; exact (1e-9 mm) where the
 Usage::
 
     .venv/bin/python benchmarks/bench_zone.py [--repeat N] [--anneal-iterations M] [--sets K] [--skip-anneal]
+        [--axial-sets K] [--axial-only]
 """
 
 from __future__ import annotations
@@ -268,6 +275,99 @@ def mcc_case(repeat: int) -> list[dict]:
     ]
 
 
+def _measured_tube(n_points: int, seed: int, arc: float = 2 * np.pi) -> np.ndarray:
+    """A measured-like cylinder: R 20 mm, 60 mm long, lobes and noise of a few micrometres, 500 mm out."""
+    rng = np.random.default_rng(seed)
+    angles = rng.uniform(0, arc, n_points)
+    heights = rng.uniform(0, 60, n_points)
+    radii = 20 + 0.002 * np.cos(3 * angles + 0.05 * heights) + rng.normal(0, 0.001, n_points)
+    local = np.c_[radii * np.cos(angles), radii * np.sin(angles), heights]
+    return local @ rotation_to_z([0.3, -0.2, 1.0]) + [500.0, -200.0, 100.0]
+
+
+def axial_large_case(repeat: int) -> list[list]:
+    """5,000-point cylinders and a 3-D line: time, scope and effort of the global axis search (default budget)."""
+    from pcmm_geo.fit import SearchBudget
+
+    known = make_minimax_reference("cylinder", "chebyshev", n_points=5_000, size=20.0, form=0.01, offset=500.0, rng=302)
+    tube = _measured_tube(5_000, 7)
+    rng = np.random.default_rng(8)
+    line = np.outer(rng.uniform(0, 100, 5_000), [0.6, 0.0, 0.8]) + rng.normal(0, 0.002, (5_000, 3)) + 300.0
+    unlimited = SearchBudget(max_cells=10_000_000, max_seconds=None)
+    cases = [
+        ("zone, known minimum zone (tests' generator)", lambda: fit_cylinder(known.points, criterion="chebyshev",
+                                                                          search_budget=unlimited)),
+        ("zone, measured-like tube", lambda: fit_cylinder(tube, criterion="chebyshev", search_budget=unlimited)),
+        ("MCC, measured-like tube", lambda: fit_cylinder(tube, criterion="mcc", search_budget=unlimited)),
+        ("MIC, measured-like tube", lambda: fit_cylinder(tube, criterion="mic", search_budget=unlimited)),
+        ("3-D line zone (straightness)", lambda: fit_line(line, criterion="chebyshev", search_budget=unlimited)),
+        ("least squares cylinder (peer: the start of every search)", lambda: fit_cylinder(tube)),
+    ]
+    rows = []
+    for title, run in cases:
+        timing = best_of(run, repeat)
+        fit = timing.value
+        certificate = fit.certificate
+        if certificate is None:
+            rows.append([title, timing.best, "-", "-", "-"])
+            continue
+        effort = fit.message[fit.message.rfind("(branch and bound:") + 1 :].split(")")[0]
+        rows.append([title, timing.best, certificate.scope, f"{certificate.gap_mm:.1e}", effort])
+    return rows
+
+
+def axial_small_sets_case(sets: int) -> list[list]:
+    """Sparse cylinders (6-14 points, partial arcs) and 3-D lines vs the tests' dense-grid reference."""
+    from axial_reference import Region, best_axis, best_line
+
+    from pcmm_geo.errors import DegenerateGeometryError
+    from pcmm_geo.fit import SearchBudget
+
+    budget = SearchBudget(max_cells=2_000_000, max_seconds=None)
+    rows = []
+    for criterion in ("chebyshev", "mcc", "mic", "line"):
+        rng = np.random.default_rng({"chebyshev": 40, "mcc": 41, "mic": 42, "line": 43}[criterion])
+        mine = theirs = 0.0
+        worse = local = refused = 0
+        for _ in range(sets):
+            n = int(rng.integers(6, 15))
+            if criterion == "line":
+                points = np.c_[rng.normal(0, 0.1, (n, 2)), rng.uniform(0, 40, n)] @ rotation_to_z(rng.normal(size=3))
+                start = time.perf_counter()
+                fit = fit_line(points, criterion="chebyshev", search_budget=budget)
+                mine += time.perf_counter() - start
+                start = time.perf_counter()
+                reference = best_line(points, count=1500).value
+                theirs += time.perf_counter() - start
+                value = fit.form
+            else:
+                arc = 2 * np.pi if criterion == "mic" else rng.uniform(np.pi / 2, 2 * np.pi)
+                angles = rng.uniform(0, arc, n)
+                local_points = np.c_[10 * np.cos(angles), 10 * np.sin(angles), rng.uniform(0, 20, n)]
+                points = local_points + rng.normal(0, 0.01, (n, 3))
+                gauss = fit_cylinder(points)
+                start = time.perf_counter()
+                try:
+                    fit = fit_cylinder(points, criterion=criterion, search_budget=budget)
+                except DegenerateGeometryError:
+                    refused += 1
+                    continue
+                finally:
+                    mine += time.perf_counter() - start
+                region = Region.around(points, gauss.axis, gauss.point, 45.0, 2 * gauss.radius)
+                start = time.perf_counter()
+                reference = best_axis(points, criterion, region, count=1200).value
+                theirs += time.perf_counter() - start
+                value = fit.form if criterion == "chebyshev" else fit.radius
+            better = reference - value if criterion == "mic" else value - reference
+            worse += better > 1e-9
+            local += fit.certificate.scope != "global"
+        title = {"chebyshev": "cylinder zone", "mcc": "MCC cylinder", "mic": "MIC cylinder (full turns)",
+                 "line": "3-D line (enclosing cylinder)"}[criterion]
+        rows.append([title, 1e3 * mine / sets, 1e3 * theirs / sets, theirs / max(mine, 1e-300), worse, local, refused])
+    return rows
+
+
 def _print(title: str, rows: list[dict]) -> None:
     keys = [k for k in rows[0] if k not in ("contender", "seconds", "note")]
     print(f"\n### {title}\n")
@@ -289,6 +389,20 @@ def _print_small(sets: int, rows: list[list]) -> None:
         print(f"| {title} | {mine:.2f} | {theirs:.2f} | {ratio:.1f} | {misses} | {local} |")
 
 
+def _print_axial(large: list[list], small: list[list], sets: int) -> None:
+    print("\n### axial elements, 5,000 points: global axis search (default region)\n")
+    print("| case | time / s | scope | gap / mm | effort |")
+    print("|---|---|---|---|---|")
+    for title, seconds, scope, gap, effort in large:
+        print(f"| {title} | {seconds:.3f} | {scope} | {gap} | {effort} |")
+    print(f"\n### axial elements, small sparse sets ({sets} per family) vs the dense-grid reference of the tests\n")
+    print("| family | pcmm_geo / ms per set | reference / ms per set | ratio (reference / pcmm_geo) "
+          "| worse than the reference | local | refused |")
+    print("|---|---|---|---|---|---|---|")
+    for title, mine, theirs, ratio, worse, local, refused in small:
+        print(f"| {title} | {mine:.1f} | {theirs:.1f} | {ratio:.1f} | {worse} | {local} | {refused} |")
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--repeat", type=int, default=5, help="runs of each pcmm_geo / trimesh call (best kept)")
@@ -297,15 +411,22 @@ def main() -> None:
     )
     parser.add_argument("--skip-anneal", action="store_true", help="leave out the (slow) annealing contenders")
     parser.add_argument("--sets", type=int, default=100, help="random sets per small-set family")
+    parser.add_argument("--axial-sets", type=int, default=10, help="random sparse sets per axial family")
+    parser.add_argument("--axial-only", action="store_true", help="only the axial-element cases")
     args = parser.parse_args()
     load = ", ".join(f"{v:.2f}" for v in os.getloadavg())
     threads = {k: os.environ.get(k, "unset") for k in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS")}
     print(f"load average (1, 5, 15 min) at start: {load}; BLAS threads: {threads}")
+    if args.axial_only:
+        _print_axial(axial_large_case(args.repeat), axial_small_sets_case(args.axial_sets), args.axial_sets)
+        print(f"\nload average (1, 5, 15 min) at end: {', '.join(f'{v:.2f}' for v in os.getloadavg())}")
+        return
     _print("minimum-zone circle, 10,000 points", circle_case(args.repeat, args.anneal_iterations, not args.skip_anneal))
     _print_small(args.sets, small_sets_case(args.sets))
     if not args.skip_anneal:
         _print("minimum-zone cylinder, 5,000 points", cylinder_case(args.repeat, args.anneal_iterations))
     _print("minimum circumscribed sphere, 10,000 points", mcc_case(args.repeat))
+    _print_axial(axial_large_case(args.repeat), axial_small_sets_case(args.axial_sets), args.axial_sets)
     print(f"\nload average (1, 5, 15 min) at end: {', '.join(f'{v:.2f}' for v in os.getloadavg())}")
 
 

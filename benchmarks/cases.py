@@ -7,6 +7,7 @@ exact least-squares element is known and each peer's accuracy is reported agains
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from typing import Any
 
 import numpy as np
 from _timing import best_of
@@ -17,17 +18,22 @@ from pcmm_geo.testing import fit_deviations
 
 @dataclass(frozen=True)
 class Contender:
-    """One library's result on a case: best time (s) and its deviations from the truth."""
+    """One library's result on a case: best and median time (s) and its deviations from the truth."""
 
     name: str
     seconds: float
     deviations: dict[str, float]
     note: str = ""
+    median: float | None = None
 
 
 @dataclass(frozen=True)
 class CaseResult:
-    """A benchmark case with its contenders and target."""
+    """A benchmark case with its contenders and target.
+
+    ``threads`` is the thread mode it ran in (``single`` or ``default``); ``before`` and
+    ``after`` are :func:`_environment.snapshot` s taken around it (cores, load, thread settings).
+    """
 
     name: str
     data: str
@@ -36,10 +42,22 @@ class CaseResult:
     ratio: float | None
     target_met: bool | None
     extra: dict[str, float] = field(default_factory=dict)
+    threads: str = ""
+    before: dict[str, Any] = field(default_factory=dict)
+    after: dict[str, Any] = field(default_factory=dict)
+
+    @classmethod
+    def from_dict(cls, values: dict[str, Any]) -> CaseResult:
+        """The inverse of ``dataclasses.asdict`` (results travel as JSON from the child processes)."""
+        return cls(**{**values, "contenders": [Contender(**item) for item in values["contenders"]]})
 
 
-def sphere_case(n_points: int, repeat: int) -> CaseResult:
-    """Sphere, ``n_points`` points: pcmm_geo fit_sphere vs trimesh.nsphere.fit_nsphere (target <= 0.5x)."""
+def sphere_case(n_points: int, repeat: int, threads: int | None = None) -> CaseResult:
+    """Sphere, ``n_points`` points: pcmm_geo fit_sphere vs trimesh.nsphere.fit_nsphere (target <= 0.5x).
+
+    Both use numpy/BLAS only: their threads follow the BLAS thread variables (``threads`` unused).
+    """
+    del threads
     import trimesh.nsphere
 
     from pcmm_geo.fit import fit_sphere
@@ -49,14 +67,10 @@ def sphere_case(n_points: int, repeat: int) -> CaseResult:
     theirs = best_of(lambda: trimesh.nsphere.fit_nsphere(data.points), repeat)
     center, radius, _ = theirs.value
     contenders = [
-        Contender("pcmm_geo.fit_sphere", ours.best, fit_deviations(ours.value, data),
-                  f"median {np.median(ours.runs):.4g} s"),
-        Contender(
-            "trimesh.nsphere.fit_nsphere",
-            theirs.best,
-            fit_deviations({"center": center, "radius": radius}, data),
-            f"radius = mean distance; median {np.median(theirs.runs):.4g} s",
-        ),
+        Contender("pcmm_geo.fit_sphere", ours.best, fit_deviations(ours.value, data), median=ours.median),
+        Contender("trimesh.nsphere.fit_nsphere", theirs.best,
+                  fit_deviations({"center": center, "radius": radius}, data), "radius = mean distance",
+                  median=theirs.median),
     ]
     ratio = ours.best / theirs.best
     return CaseResult(
@@ -69,8 +83,9 @@ def sphere_case(n_points: int, repeat: int) -> CaseResult:
     )
 
 
-def cylinder_case(n_points: int, repeat: int, peer_repeat: int) -> CaseResult:
+def cylinder_case(n_points: int, repeat: int, peer_repeat: int, threads: int | None = None) -> CaseResult:
     """Cylinder, ``n_points`` points: fit_cylinder vs skspatial Cylinder.best_fit (target <= 0.01x)."""
+    del threads  # numpy/BLAS (and scipy's MINPACK for skspatial): the thread variables decide
     from skspatial.objects import Cylinder
 
     from pcmm_geo.fit import fit_cylinder
@@ -88,8 +103,8 @@ def cylinder_case(n_points: int, repeat: int, peer_repeat: int) -> CaseResult:
         "radius": float(peer.radius),
     }
     contenders = [
-        Contender("pcmm_geo.fit_cylinder", ours.best, fit_deviations(ours.value, data)),
-        Contender("skspatial Cylinder.best_fit", theirs.best, fit_deviations(peer_element, data)),
+        Contender("pcmm_geo.fit_cylinder", ours.best, fit_deviations(ours.value, data), median=ours.median),
+        Contender("skspatial Cylinder.best_fit", theirs.best, fit_deviations(peer_element, data), median=theirs.median),
     ]
     ratio = ours.best / theirs.best
     return CaseResult(
@@ -102,8 +117,9 @@ def cylinder_case(n_points: int, repeat: int, peer_repeat: int) -> CaseResult:
     )
 
 
-def batch_sphere_case(n_fits: int, repeat: int) -> CaseResult:
+def batch_sphere_case(n_fits: int, repeat: int, threads: int | None = None) -> CaseResult:
     """Batch of five-point sphere fits (fit_spheres, (K, 5, 3)); target >= 10,000 fits/s."""
+    del threads
     from pcmm_geo.fit import fit_spheres
 
     rng = np.random.default_rng(303)
@@ -129,7 +145,7 @@ def batch_sphere_case(n_fits: int, repeat: int) -> CaseResult:
     return CaseResult(
         "batch spheres",
         f"{n_fits:,} sets of 5 points (hemisphere caps, R 1.5 mm, form 0.002 mm)",
-        [Contender("pcmm_geo.fit_spheres", timing.best, deviations, f"{rate:,.0f} fits/s")],
+        [Contender("pcmm_geo.fit_spheres", timing.best, deviations, f"{rate:,.0f} fits/s", median=timing.median)],
         ">= 10,000 fits/s",
         None,
         rate >= 10_000,

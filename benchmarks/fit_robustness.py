@@ -13,6 +13,9 @@ axis).  Each set is classed as
 * ``better`` - the fit found a lower minimum than the reference (counted as global),
 * ``error`` - the fit raised.
 
+The ``screened`` column counts the cylinder fits that ran the direction screening (sparse
+data, or dense data leaving a gap of more than 45 degrees about the axis: ``_screen.surrounds_axis``).
+
 Usage::
 
     PYTHONPATH=. .venv/bin/python benchmarks/fit_robustness.py [--sets 1000] [--only cylinder-8] [--seed 0]
@@ -32,11 +35,25 @@ from pathlib import Path
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests" / "fit"))
+sys.path.insert(0, str(Path(__file__).resolve().parent))
 
+from _environment import environment_line
 from multistart_reference import reference_for, sparse_case
 
+import pcmm_geo.fit.cylinder as cylinder_module
 from pcmm_geo import fit
 from pcmm_geo.errors import PcmmGeoError
+
+_SCREENED: list[int] = []
+_SCREEN = cylinder_module.screened_directions
+
+
+def _counting_screen(*args: object) -> list:
+    _SCREENED.append(1)
+    return _SCREEN(*args)
+
+
+cylinder_module.screened_directions = _counting_screen  # diagnostics of this scan only
 
 #: name -> (kind, points per set (low, high inclusive), arc about the axis in degrees (low, high))
 CONFIGS: dict[str, tuple[str, tuple[int, int], tuple[float, float]]] = {
@@ -44,6 +61,11 @@ CONFIGS: dict[str, tuple[str, tuple[int, int], tuple[float, float]]] = {
     "cylinder-8": ("cylinder", (8, 8), (360, 360)),
     "cylinder-10": ("cylinder", (10, 10), (360, 360)),
     "cylinder-15-half": ("cylinder", (15, 15), (180, 180)),
+    # dense: fitted from the principal axes alone where the points surround the axis (no gap over 45 degrees)
+    "cylinder-300": ("cylinder", (300, 300), (360, 360)),
+    "cylinder-300-partial": ("cylinder", (300, 300), (60, 300)),
+    "cylinder-3000": ("cylinder", (3000, 3000), (360, 360)),
+    "cylinder-3000-partial": ("cylinder", (3000, 3000), (60, 300)),
     "cone-7-10": ("cone", (7, 10), (360, 360)),
     "torus-8-10": ("torus", (8, 10), (360, 360)),
     "torus-8-10-partial": ("torus", (8, 10), (90, 180)),
@@ -79,8 +101,10 @@ def run(name: str, sets: int, seed: int) -> tuple[Counter, float]:
         arc = float(rng.uniform(arc_low, arc_high))
         case = sparse_case(kind, rng, n, arc_deg=arc)
         reference = reference_for(kind, case)
+        _SCREENED.clear()
         label, elapsed = classify(kind, case.points, reference.cost)
         counts[label] += 1
+        counts["screened"] += bool(_SCREENED)
         seconds += elapsed
     return counts, seconds / sets
 
@@ -91,18 +115,20 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument("--only", action="append", choices=sorted(CONFIGS))
     args = parser.parse_args(argv)
-    print("| configuration | sets | global | warned | silent wrong | fit errors | mean time per fit |")
-    print("|---|---|---|---|---|---|---|")
+    print(environment_line())
+    print("| configuration | sets | global | warned | silent wrong | fit errors | screened | mean time per fit |")
+    print("|---|---|---|---|---|---|---|---|")
     for name in args.only or CONFIGS:
         counts, mean_time = run(name, args.sets, args.seed)
-        total = sum(counts.values())
+        total = sum(value for key, value in counts.items() if key != "screened")
         good = counts["global"] + counts["better"]
         print(
             f"| {name} | {total} | {good} ({100 * good / total:.1f} %) | {counts['warned']} "
             f"| {counts['silent']} ({100 * counts['silent'] / total:.1f} %) | {counts['error']} "
-            f"| {1e3 * mean_time:.0f} ms |",
+            f"| {counts['screened'] if name.startswith('cylinder') else '-'} | {1e3 * mean_time:.0f} ms |",
             flush=True,
         )
+    print(environment_line())
     return 0
 
 

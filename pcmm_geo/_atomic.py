@@ -17,7 +17,15 @@ backups are deleted.  Inside a transaction the plan's permission for a declared 
 counts, whatever ``overwrite`` a writer passes (see :func:`may_overwrite`): the command line's
 per-output flags decide.  A writer that streams into its final path (the acquisition log)
 claims it with :meth:`OutputTransaction.claim` and may ask to be kept on failure (rows that
-were measured are a record, never deleted).
+were measured are a record, never deleted); the file such a log replaced is then put back
+beside it under a visible name (``STEM.replaced-<id>.SUFFIX``), never left hidden.
+
+Signals: the command line turns SIGTERM and SIGHUP into the exception Ctrl-C raises
+(:mod:`pcmm_geo._signals`), so they roll back like any failure; creating a temporary file and
+journaling it happen with signals held, so no temporary file escapes the journal.  The names of
+temporary files and backups carry their owner (process and host), so that what a SIGKILL
+leaves is found by the next run over the same output (:meth:`OutputPlan.recover`,
+:mod:`pcmm_geo._leftovers`) and removed or restored, never while its owner still runs.
 """
 
 from __future__ import annotations
@@ -32,6 +40,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import IO
 
+from pcmm_geo._signals import deferred
 from pcmm_geo.errors import InvalidInputError, OutputExistsError
 
 __all__ = [
@@ -116,6 +125,20 @@ class OutputPlan:
         key = _key(path)
         return next((out for out in self.outputs if _key(out.path) == key), None)
 
+    def recover(self) -> list[str]:
+        """Remove or restore what killed runs left next to the declared outputs (one sentence each).
+
+        Temporary files and backups whose owner process is gone (SIGKILL, power cut) are dealt
+        with as :mod:`pcmm_geo._leftovers` says; a live run's files are never touched.
+        """
+        from pcmm_geo._leftovers import recover
+
+        notes: list[str] = []
+        for out in self.outputs:
+            if not out.folder:
+                notes.extend(recover(out.path))
+        return notes
+
     def check(self) -> None:
         """Refuse, before any work, an output that could not be written or would replace a file.
 
@@ -182,6 +205,7 @@ class _Entry:
     path: Path
     backup: Path | None  # the replaced file, hard-linked aside; None: the file is new
     keep: Callable[[], str | None] | None = None
+    identity: str = ""
 
 
 class OutputTransaction:
@@ -191,6 +215,11 @@ class OutputTransaction:
         self.plan = plan
         self._entries: dict[Path, _Entry] = {}
         self._created_folders: list[Path] = []
+        self._temporaries: list[Path] = []
+
+    def temporary(self, path: Path) -> None:
+        """Journal a temporary file (removed on rollback if it is still there)."""
+        self._temporaries.append(path)
 
     def overwrite_allowed(self, path: str | os.PathLike[str], overwrite: bool) -> bool:
         """The plan's permission for a declared ``path``; ``overwrite`` for any other path."""
@@ -211,19 +240,23 @@ class OutputTransaction:
 
     def before_replace(self, target: Path) -> None:
         """Journal ``target`` before it is (re)written: hard-link an existing file aside the first time."""
+        from pcmm_geo._leftovers import backup_name
+
         key = _key(target)
         if key in self._entries:
             return
-        backup = None
-        if target.exists():
-            backup = target.with_name(f".{target.name}.{uuid.uuid4().hex[:12]}.replaced")
-            try:
-                os.link(target, backup)
-            except OSError:  # no hard links here: a copy serves as well
-                import shutil
+        identity = uuid.uuid4().hex[:12]
+        with deferred():  # the backup exists only with its journal entry
+            backup = None
+            if target.exists():
+                backup = backup_name(target, identity)
+                try:
+                    os.link(target, backup)
+                except OSError:  # no hard links here: a copy serves as well
+                    import shutil
 
-                shutil.copy2(target, backup)
-        self._entries[key] = _Entry(target, backup)
+                    shutil.copy2(target, backup)
+            self._entries[key] = _Entry(target, backup, identity=identity)
 
     def created(self, target: Path) -> None:
         """Journal ``target`` as new, just after this run created it (unless already journaled)."""
@@ -244,39 +277,68 @@ class OutputTransaction:
         if target.exists() and not self.overwrite_allowed(target, overwrite):
             raise OutputExistsError(str(target))
         self.make_folders(target.parent if str(target.parent) else Path("."))
-        self.before_replace(target)
-        if target.exists():
-            os.unlink(target)  # its backup is a hard link (or copy): the content is safe
+        with deferred():
+            self.before_replace(target)
+            if target.exists():
+                os.unlink(target)  # its backup is a hard link (or copy): the content is safe
         return target
 
-    def keep_on_failure(self, path: str | os.PathLike[str], reason: Callable[[], str | None]) -> None:
-        """On rollback, keep ``path`` when ``reason()`` returns a sentence (e.g. "12 rows recorded")."""
+    def keep_on_failure(self, path: str | os.PathLike[str], reason: Callable[[], str | None], *,
+                        header_bytes: int | None = None) -> None:
+        """On rollback, keep ``path`` when ``reason()`` returns a sentence (e.g. "12 rows recorded").
+
+        ``header_bytes``: the length of the file before its first record; with it, a run killed
+        before it could roll back leaves a note so that the next run keeps the file if it grew
+        beyond its header (:mod:`pcmm_geo._leftovers`).
+        """
         entry = self._entries.get(_key(path))
-        if entry is not None:
-            entry.keep = reason
+        if entry is None:
+            return
+        entry.keep = reason
+        if entry.backup is not None and header_bytes is not None:
+            from pcmm_geo._leftovers import keep_note_name
+
+            keep_note_name(entry.backup).write_text(f"{int(header_bytes)}\n")
 
     def commit(self) -> None:
         """Delete the backups of replaced files."""
         for entry in self._entries.values():
             if entry.backup is not None:
-                with contextlib.suppress(FileNotFoundError):
-                    entry.backup.unlink()
+                self._drop_backup(entry.backup)
+
+    @staticmethod
+    def _drop_backup(backup: Path) -> None:
+        from pcmm_geo._leftovers import keep_note_name
+
+        for path in (keep_note_name(backup), backup):
+            with contextlib.suppress(FileNotFoundError):
+                path.unlink()
 
     def rollback(self) -> list[str]:
         """Undo this run's writes (module notes); returns sentences on what was kept or not undone."""
+        from pcmm_geo._leftovers import keep_note_name, visible_name
+
         notes = []
+        for temporary in self._temporaries:
+            with contextlib.suppress(FileNotFoundError):
+                temporary.unlink()
         for entry in reversed(list(self._entries.values())):
             kept = entry.keep() if entry.keep is not None else None
             try:
                 if kept:
                     notes.append(f"kept {entry.path}: {kept}")
                     if entry.backup is not None:
-                        notes.append(f"the file it replaced is kept as {entry.backup}")
+                        visible = visible_name(entry.path, entry.identity)
+                        os.replace(entry.backup, visible)
+                        notes.append(f"the file it replaced is kept as {visible}")
                 elif entry.backup is not None:
                     os.replace(entry.backup, entry.path)
                 else:
                     with contextlib.suppress(FileNotFoundError):
                         entry.path.unlink()
+                if entry.backup is not None:
+                    with contextlib.suppress(FileNotFoundError):
+                        keep_note_name(entry.backup).unlink()
             except OSError as exc:
                 notes.append(f"could not undo the write of {entry.path}: {exc}")
         for folder in reversed(self._created_folders):
@@ -341,32 +403,41 @@ def atomic_output(path: str | Path, *, overwrite: bool = False) -> Iterator[Path
         transaction.make_folders(folder)
     else:
         folder.mkdir(parents=True, exist_ok=True)
-    handle, name = tempfile.mkstemp(prefix=f".{target.stem}-", suffix=f".tmp{target.suffix}", dir=folder)
-    os.close(handle)
-    temporary = Path(name)
-    os.chmod(temporary, 0o666 & ~_umask())  # mkstemp makes 0600; give the file the usual permissions
+    from pcmm_geo._leftovers import temporary_prefix
+
+    temporary: Path | None = None
     try:
+        with deferred():  # the temporary file exists only with its journal entry
+            handle, name = tempfile.mkstemp(prefix=temporary_prefix(target), suffix=f".tmp{target.suffix}",
+                                            dir=folder)
+            temporary = Path(name)
+            if transaction is not None:
+                transaction.temporary(temporary)
+            os.close(handle)
+        os.chmod(temporary, 0o666 & ~_umask())  # mkstemp makes 0600; give the file the usual permissions
         yield temporary
         with open(temporary, "rb+") as stream:
             os.fsync(stream.fileno())
-        if overwrite:
-            if transaction is not None:
-                transaction.before_replace(target)
-            os.replace(temporary, target)
-        else:
-            try:
-                os.link(temporary, target)
-            except FileExistsError:
-                raise OutputExistsError(str(target)) from None
-            except OSError:  # no hard links on this file system: check, then rename
-                if target.exists():
-                    raise OutputExistsError(str(target)) from None
+        with deferred():  # the new name and its journal entry together
+            if overwrite:
+                if transaction is not None:
+                    transaction.before_replace(target)
                 os.replace(temporary, target)
-            if transaction is not None:
-                transaction.created(target)
+            else:
+                try:
+                    os.link(temporary, target)
+                except FileExistsError:
+                    raise OutputExistsError(str(target)) from None
+                except OSError:  # no hard links on this file system: check, then rename
+                    if target.exists():
+                        raise OutputExistsError(str(target)) from None
+                    os.replace(temporary, target)
+                if transaction is not None:
+                    transaction.created(target)
     finally:
-        with contextlib.suppress(FileNotFoundError):
-            temporary.unlink()
+        if temporary is not None:
+            with contextlib.suppress(FileNotFoundError):
+                temporary.unlink()
 
 
 def fsync_folder(folder: str | os.PathLike[str]) -> None:

@@ -7,7 +7,10 @@ pcmm_geo 0.2.0 spells ``center`` everywhere in its public API (``tip_center``,
 * :func:`renamed_fields` -- a class decorator: the old attribute reads the new one and the
   constructor accepts the old keyword;
 * :func:`renamed_parameters` -- a function decorator: the old keyword is accepted;
-* :func:`module_aliases` -- a module ``__getattr__`` resolving old module-level names.
+* :func:`module_aliases` -- a module ``__getattr__`` resolving old module-level names;
+* :class:`NamedValues` -- an array that was a dict: ``std_errors`` is an array in
+  ``parameter_names`` order like ``parameters``; ``std_errors["radius"]``, ``.items()`` ... of the
+  0.1 dict still answer, with a :class:`DeprecationWarning`.
 
 :data:`DEPRECATED_ALIASES` records every alias (the API-naming test reads it).
 
@@ -30,10 +33,13 @@ from __future__ import annotations
 
 import functools
 import warnings
-from collections.abc import Callable
+from collections.abc import Callable, Iterator, Sequence
 from typing import Any, TypeVar
 
-__all__ = ["DEPRECATED_ALIASES", "module_aliases", "renamed_fields", "renamed_parameters", "warn_deprecated"]
+import numpy as np
+
+__all__ = ["DEPRECATED_ALIASES", "NamedValues", "module_aliases", "renamed_fields", "renamed_parameters",
+           "warn_deprecated"]
 
 T = TypeVar("T")
 
@@ -145,3 +151,105 @@ def module_aliases(module: str, namespace: dict[str, Any], **old_to_new: str) ->
         raise AttributeError(f"module {module!r} has no attribute {name!r}")
 
     return __getattr__
+
+
+class NamedValues(np.ndarray):
+    """An array of values in ``names`` order (last axis) that also answers the dict it replaces, deprecated.
+
+    ``values[..., j]`` belongs to ``names[j]``, as ``parameters`` and ``covariance`` are ordered
+    by ``parameter_names``.  The 0.1 dict interface -- ``values["radius"]``, ``"radius" in
+    values``, ``keys()``, ``values()``, ``items()``, ``get()`` -- still works for one release and
+    warns; iterating runs over the array (the dict iterated over its names).  Arithmetic gives
+    plain arrays.
+
+    Parameters
+    ----------
+    values : array_like, shape (..., P)
+    names : sequence of str, length P
+    owner : str
+        How the attribute is spelled in warnings, e.g. ``"SphereFit.std_errors"``.
+
+    Examples
+    --------
+    >>> import warnings
+    >>> u = NamedValues([0.1, 0.2], ("center_x", "radius"), "SphereFit.std_errors")
+    >>> float(u[1])
+    0.2
+    >>> with warnings.catch_warnings(record=True) as caught:
+    ...     warnings.simplefilter("always")
+    ...     old = u["radius"]
+    >>> old, caught[0].category.__name__
+    (0.2, 'DeprecationWarning')
+    """
+
+    _names: tuple[str, ...]
+    _owner: str
+
+    def __new__(cls, values: Any, names: Sequence[str], owner: str) -> NamedValues:
+        array = np.asarray(values, dtype=float)
+        if array.ndim == 0 or array.shape[-1] != len(names):
+            raise ValueError(f"expected values with a last axis of {len(names)} (one per name), got {array.shape}")
+        obj = array.view(cls)
+        obj._names, obj._owner = tuple(names), owner
+        return obj
+
+    def __array_finalize__(self, obj: Any) -> None:
+        self._names = getattr(obj, "_names", ())
+        self._owner = getattr(obj, "_owner", "")
+
+    def __array_wrap__(self, array: Any, context: Any = None, return_scalar: bool = False) -> Any:
+        result = np.asarray(array)  # results of arithmetic are plain arrays (or scalars)
+        return result[()] if return_scalar else result
+
+    def _warn(self, old: str) -> None:
+        owner = self._owner or "std_errors"
+        warn_deprecated(f"{owner}{old} (a dict until 0.1)",
+                        f"{owner} as an array in parameter_names order, e.g. "
+                        f"{owner.rsplit('.', 1)[-1]}[parameter_names.index(name)]", stacklevel=4)
+
+    def _column(self, name: str) -> Any:
+        try:
+            column = self._names.index(name)
+        except ValueError:
+            raise KeyError(name) from None
+        value = self.view(np.ndarray)[..., column]
+        return float(value) if value.ndim == 0 else value.copy()
+
+    def __getitem__(self, key: Any) -> Any:
+        if isinstance(key, str):
+            self._warn(f"[{key!r}]")
+            return self._column(key)
+        result = super().__getitem__(key)
+        return result.view(np.ndarray) if isinstance(result, np.ndarray) else result
+
+    def __contains__(self, key: object) -> bool:
+        if isinstance(key, str):
+            self._warn(".__contains__")
+            return key in self._names
+        return bool(super().__contains__(key))
+
+    def keys(self) -> list[str]:
+        """Deprecated: the names (``parameter_names``)."""
+        self._warn(".keys()")
+        return list(self._names)
+
+    def values(self) -> list[Any]:  # type: ignore[override]
+        """Deprecated: the values in name order (``list(array)``)."""
+        self._warn(".values()")
+        return [self._column(name) for name in self._names]
+
+    def items(self) -> Iterator[tuple[str, Any]]:  # type: ignore[override]
+        """Deprecated: ``(name, value)`` pairs (``zip(parameter_names, array)``)."""
+        self._warn(".items()")
+        return iter([(name, self._column(name)) for name in self._names])
+
+    def get(self, name: str, default: Any = None) -> Any:
+        """Deprecated: the value of ``name`` or ``default``."""
+        self._warn(".get()")
+        return self._column(name) if name in self._names else default
+
+    def __reduce__(self) -> Any:
+        return (NamedValues, (np.asarray(self), self._names, self._owner))
+
+    def __repr__(self) -> str:
+        return repr(np.asarray(self))

@@ -13,8 +13,10 @@ extra          distributions       used by
 ``plots``      matplotlib          every figure (``--plot``, ``--report``)
 ``progress``   rich                progress bars of the ``pcmm`` command (optional: no bar
                                    without it)
-``dask``       dask[array],        fits of clouds that do not fit in memory
-               distributed
+``dask``       dask[array],        fits of clouds that do not fit in memory, lazy point
+               distributed         files (``read_points_lazy``)
+``e57``        pye57, defusedxml,  E57 scanner files (``read_points``; the XML section is
+               google-crc32c       checked before pye57 reads the file)
 ``qif``        defusedxml, lxml    QIF 3.0 files (defusedxml reads, lxml validates)
 =============  ==================  ======================================================
 
@@ -46,12 +48,14 @@ OPTIONAL_MODULES: dict[str, tuple[str, str]] = {
     "rich": ("rich", "progress"),
     "dask": ("dask[array]", "dask"),
     "distributed": ("distributed", "dask"),
+    "pye57": ("pye57", "e57"),
+    "google_crc32c": ("google-crc32c", "e57"),
     "defusedxml": ("defusedxml", "qif"),
     "lxml": ("lxml", "qif"),
 }
 
 
-def require(module: str, *, purpose: str | None = None) -> ModuleType:
+def require(module: str, *, purpose: str | None = None, extra: str | None = None) -> ModuleType:
     """Import ``module`` (e.g. ``"trimesh"`` or ``"matplotlib.figure"``), naming the extra when absent.
 
     Parameters
@@ -60,6 +64,9 @@ def require(module: str, *, purpose: str | None = None) -> ModuleType:
         Dotted module name; its top-level package decides the extra.
     purpose : str, optional
         What needs it, for the message (default: the calling function's qualified name).
+    extra : str, optional
+        The extra to name when a package serves several (defusedxml is in ``qif`` and ``e57``);
+        default: the one in :data:`OPTIONAL_MODULES`.
 
     Returns
     -------
@@ -92,7 +99,8 @@ def require(module: str, *, purpose: str | None = None) -> ModuleType:
         top = module.split(".")[0]
         if top not in OPTIONAL_MODULES:
             raise
-        package, extra = OPTIONAL_MODULES[top]
+        package, default_extra = OPTIONAL_MODULES[top]
+        extra = extra or default_extra
         if purpose is None:
             caller = sys._getframe(1)
             purpose = f"{caller.f_globals.get('__name__', '?')}.{caller.f_code.co_qualname}"

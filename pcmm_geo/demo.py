@@ -8,12 +8,12 @@ The chain, every step with the library's own tools:
 2. An external CMM probes the tetrahedron's joint balls at three slider positions and
    the probe-tip ball (thesis 7.1), with probing noise.
 3. :func:`~pcmm_geo.machine.calibrate_tetrahedron` recovers slider lines, laser
-   scale/offset and tip center (thesis ch. 7, without the seed's "lines meet at the tip"
+   scale/offset and tip centre (thesis ch. 7, without the seed's "lines meet at the tip"
    assumption, erratum 9).
 4. The micro-CMM probes both measuring faces of a 100 mm gauge block: the true machine
    gives the readings (inverse kinematics) plus laser and encoder noise; the calibrated
    model and, for comparison, the uncalibrated nominal design turn the readings into tip
-   centers (forward kinematics), which are compensated for the tip radius.
+   centres (forward kinematics), which are compensated for the tip radius.
 5. :func:`~pcmm_geo.artefacts.gauge_block.measure_gauge_block` evaluates the central length
    (ISO 3650 method) and the length error is reported.
 6. The uncertainty of that length: the calibration's covariance
@@ -87,7 +87,7 @@ class DemoResult:
     length_uncertainty: Any = field(default=None, repr=False, compare=False)
     #: the full calibration result (not in ``to_dict``), for plots
     tetrahedron_calibration: Any = field(default=None, repr=False, compare=False)
-    #: measured minus true tip centers per model, face by face, ``{model: [(N, 3), ...]}`` (mm; not in ``to_dict``)
+    #: measured minus true tip centres per model, face by face, ``{model: [(N, 3), ...]}`` (mm; not in ``to_dict``)
     tip_errors: dict[str, list[FloatArray]] = field(default_factory=dict, repr=False, compare=False)
 
     @property
@@ -209,7 +209,7 @@ def simulate_probings(machine: Any, settings: DemoSettings, rng: np.random.Gener
 def gauge_block_contacts(center: FloatArray, settings: DemoSettings) -> dict[str, tuple[FloatArray, FloatArray]]:
     """Surface points and outward normals on the two measuring faces of a block along x."""
     half = settings.gauge_length / 2.0
-    # a 9 mm x 35 mm measuring face: points on a small cross around the face center
+    # a 9 mm x 35 mm measuring face: points on a small cross around the face centre
     offsets = np.array([[0.0, 0.0], [0.0, 12.0], [0.0, -12.0], [3.0, 0.0], [-3.0, 0.0], [2.0, 8.0], [-2.0, -8.0]])
     offsets = offsets[: settings.points_per_face]
     faces = {}
@@ -375,7 +375,7 @@ def demo_calibrated_machine(settings: DemoSettings | None = None) -> tuple[Any, 
     covariance : CalibrationCovariance
         From the demo's probing and laser noise.
     reference_tip : ndarray, shape (3,)
-        Tip center in the middle of the working volume (mm).
+        Tip centre in the middle of the working volume (mm).
     """
     from pcmm_geo.machine.calibration import calibrate_tetrahedron
     from pcmm_geo.machine.kinematics.model import RigidBodyMachine
@@ -423,7 +423,7 @@ def _length_uncertainty(
 
 
 def _write_plots(folder: Path, calibration: Any, tip_errors: dict[str, list[FloatArray]]) -> list[str]:
-    """Slider lines, joint centers and tip (thesis fig 7.2) and the tip errors per contact."""
+    """Slider lines, joint centres and tip (thesis fig 7.2) and the tip errors per contact."""
     from pcmm_geo.errors import OutputExistsError
     from pcmm_geo.plots.demo import plot_tip_errors
     from pcmm_geo.plots.machine.calibration import plot_calibration

@@ -77,6 +77,18 @@ class PcmmGeoError(Exception):
         for name, value in fields.items():
             setattr(self, name, value)
 
+    def __reduce__(self) -> tuple[Any, ...]:
+        # each class has its own __init__ arguments: rebuild from the message and fields instead, so
+        # that an error raised in a worker process (dask, multiprocessing) arrives whole, line included
+        return _rebuild, (type(self), self.message, self.fields)
+
+
+def _rebuild(cls: type[PcmmGeoError], message: str, fields: dict[str, Any]) -> PcmmGeoError:
+    """A :class:`PcmmGeoError` of class ``cls`` with ``message`` and ``fields``, without calling its ``__init__``."""
+    error = cls.__new__(cls)
+    PcmmGeoError.__init__(error, message, **fields)
+    return error
+
 
 class InvalidInputError(PcmmGeoError, ValueError):
     """Input of the wrong shape, type or containing NaN/inf.

@@ -75,16 +75,104 @@ def _sphinx(source: Path, out: Path) -> subprocess.CompletedProcess[str]:
     )
 
 
-def test_docs_build_with_warnings_as_errors_and_nitpicky_references(tmp_path: Path) -> None:
+@pytest.fixture(scope="module")
+def site(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """The whole site, built once from a copy of ``docs/`` with warnings as errors and nitpicky references."""
+    tmp_path = tmp_path_factory.mktemp("site")
     source = tmp_path / "docs"
     shutil.copytree(DOCS, source, ignore=shutil.ignore_patterns("_build", "generated"))
     done = _sphinx(source, tmp_path / "build")
     assert done.returncode == 0, done.stderr[-6000:]
-    html = tmp_path / "build" / "html"
-    calibration = (html / "api" / "generated" / "pcmm_geo.machine.calibration.result.html").read_text(encoding="utf-8")
+    return tmp_path / "build" / "html"
+
+
+def test_docs_build_with_warnings_as_errors_and_nitpicky_references(site: Path) -> None:
+    calibration = (site / "api" / "generated" / "pcmm_geo.machine.calibration.result.html").read_text(encoding="utf-8")
     assert "beta_deg" in calibration and "TetrahedronCalibration" in calibration
-    guide = (html / "guide" / "calibrate_from_cmm_files.html").read_text(encoding="utf-8")
+    guide = (site / "guide" / "calibrate_from_cmm_files.html").read_text(encoding="utf-8")
     assert "calibrate_tetrahedron" in guide and "314.476" in guide
+
+
+def _public_objects() -> dict[int, tuple[object, set[str]]]:
+    """Every function and class in the ``__all__`` of a public module: ``{id: (object, public names)}``."""
+    import importlib
+    import inspect
+    import pkgutil
+
+    import pcmm_geo
+
+    found: dict[int, tuple[object, set[str]]] = {}
+    names = ["pcmm_geo"] + [info.name for info in pkgutil.walk_packages(pcmm_geo.__path__, "pcmm_geo.")]
+    for module_name in names:
+        parts = module_name.split(".")
+        if any(part.startswith("_") for part in parts) or parts[1:2] in (["cli"], ["data"]):
+            continue
+        module = importlib.import_module(module_name)
+        for name in getattr(module, "__all__", ()):
+            obj = getattr(module, name)
+            if inspect.isfunction(obj) or inspect.isclass(obj):
+                found.setdefault(id(obj), (obj, set()))[1].add(f"{module_name}.{name}")
+    return found
+
+
+def test_the_api_index_links_every_public_function_and_class(site: Path) -> None:
+    from html.parser import HTMLParser
+
+    class Links(HTMLParser):
+        def __init__(self) -> None:
+            super().__init__()
+            self.hrefs: list[str] = []
+            self.ids: set[str] = set()
+
+        def handle_starttag(self, tag: str, attrs: list[tuple[str, str | None]]) -> None:
+            values = dict(attrs)
+            if tag == "a" and values.get("href"):
+                self.hrefs.append(str(values["href"]))
+            if values.get("id"):
+                self.ids.add(str(values["id"]))
+
+    index = Links()
+    index.feed((site / "api" / "index.html").read_text(encoding="utf-8"))
+    pages: dict[str, Links] = {}
+    missing = []
+    public = _public_objects()
+    assert len(public) > 300  # the walk reaches the sub-packages
+    for obj, names in public.values():
+        anchors = {f"{obj.__module__}.{obj.__qualname__}", *names}
+        links = [href for href in index.hrefs if href.split("#")[-1] in anchors]
+        if not links:
+            missing.append(f"{sorted(names)[0]}: no link")
+            continue
+        page, anchor = links[0].split("#") if "#" in links[0] else (links[0], "")
+        target = (site / "api" / page).resolve() if page else site / "api" / "index.html"
+        if str(target) not in pages:
+            pages[str(target)] = Links()
+            pages[str(target)].feed(target.read_text(encoding="utf-8"))
+        if anchor not in pages[str(target)].ids:
+            missing.append(f"{sorted(names)[0]}: {links[0]} leads nowhere")
+    assert missing == []
+
+
+def test_the_markdown_topics_are_pages_of_the_site(site: Path) -> None:
+    topics = (site / "topics.html").read_text(encoding="utf-8")
+    for name in sorted(path.stem for path in DOCS.glob("*.md")):  # every Markdown page is in the site
+        assert f'href="{name}.html"' in topics, name
+        page = (site / f"{name}.html").read_text(encoding="utf-8")
+        heading = (DOCS / f"{name}.md").read_text(encoding="utf-8").splitlines()[0].lstrip("# ").strip()
+        assert heading.split("`")[0][:20] in page, name
+    assert 'href="topics.html"' in (site / "index.html").read_text(encoding="utf-8")
+
+
+def test_a_result_page_lists_each_field_once_without_internals(site: Path) -> None:
+    import re
+
+    page = (site / "api" / "generated" / "pcmm_geo.fit.cylinder.html").read_text(encoding="utf-8")
+    section = page[page.index('id="pcmm_geo.fit.cylinder.CylinderFit"'):page.index('id="pcmm_geo.fit.cylinder.axis')]
+    assert "&lt;factory&gt;" not in section and "extra" not in section
+    assert not re.search(r"r_in</span></span><span[^>]*>\s*=\s*nan", section)
+    for field in ("point", "axis", "radius", "r_in, r_out"):
+        assert section.count(f"<strong>{field}</strong>") == 1, field  # once, in the Attributes list
+    assert 'id="pcmm_geo.fit.cylinder.CylinderFit.point"' not in section  # no second, empty entry
 
 
 def test_a_broken_reference_fails_the_build(tmp_path: Path) -> None:

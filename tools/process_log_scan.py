@@ -5,7 +5,7 @@ Four scans, all seeded, all against the simulator's own heights and tips
 
 ``sessions``
     default sessions (``pcmm acquire --simulate --moves M --settle 0``) from the level start and
-    from ``--start-offsets 0 60 -60``, seeds 1..S: how many process (exit 0), how many tips lie
+    from ``--start-offsets-mm 0 60 -60``, seeds 1..S: how many process (exit 0), how many tips lie
     within U (k = 2) of the truth, how many rows carry each flag; noise-free (count steps only),
     with 2 um Gaussian noise processed with the default laser uncertainty, and (off-level) with
     20 um processed with that as its standard deviation.
@@ -58,7 +58,7 @@ def acquire(folder: Path, seed: int, start: str, moves: int) -> Path:
     path = folder / f"{start}_{seed}.csv"
     args = ["acquire", "--simulate", "--seed", str(seed), "--moves", str(moves), "--settle", "0", "--out", str(path)]
     if start == "off":
-        args += ["--start-offsets", *map(str, OFF_LEVEL_START_OFFSETS)]
+        args += ["--start-offsets-mm", *map(str, OFF_LEVEL_START_OFFSETS)]
     with contextlib.redirect_stdout(io.StringIO()):
         if main(args) != 0:
             raise RuntimeError(f"acquire failed: {args}")

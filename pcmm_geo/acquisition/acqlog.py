@@ -16,8 +16,9 @@ move, 0 = after it; ``probe`` 1 = contact; ``motor`` 1|2|3; ``direction`` +1/-1;
 the rest keep the raw values (Zaber microsteps, laser counts), a sequence number and the UTC
 time, so a run can be re-processed later.  Values are written as read, before any correction.
 
-Durability: every row is one ``write`` followed by ``flush`` and ``os.fsync``; a new file is
-created exclusively (never overwriting unless asked) and its directory fsync'ed.  Reopening
+Durability: every row is one ``write``, ``flush``, ``os.fsync``, with Ctrl-C, SIGTERM and SIGHUP held
+until it is on disk (:func:`pcmm_geo._signals.deferred`): an interrupted run keeps each row whole.  A
+new file is created exclusively (never overwriting unless asked), its directory fsync'ed.  Reopening
 checks the whole file: a partial last line (a crash mid-row) raises
 :class:`~pcmm_geo.errors.LogIntegrityError` unless ``repair=True``, in which case it is cut off
 and the cut is reported in :class:`LogRecovery` and as a ``# truncated_bytes`` comment.
@@ -43,6 +44,7 @@ from pathlib import Path
 from typing import IO, Any
 
 from pcmm_geo._atomic import current_transaction, fsync_folder
+from pcmm_geo._signals import deferred
 from pcmm_geo.errors import InvalidInputError, LogIntegrityError, OutputExistsError
 
 __all__ = [
@@ -348,9 +350,9 @@ class AcquisitionLog:
         except FileExistsError as exc:
             raise OutputExistsError(str(path)) from exc
         log = cls(path, handle, LogRecovery(str(path), 0, False, 0, ""))
-        if transaction is not None:  # measured rows are a record: a failing command keeps them
-            transaction.keep_on_failure(path, log._kept_rows)
         log._write(header)
+        if transaction is not None:  # measured rows are a record: a failing (or killed) command keeps them
+            transaction.keep_on_failure(path, log._kept_rows, header_bytes=len(header.encode("utf-8")))
         fsync_folder(path.parent)
         return log
 
@@ -437,16 +439,18 @@ class AcquisitionLog:
                 row.start_stop, row.probe, row.motor, row.direction, row.laser_a, row.laser_b, row.laser_c,
                 row.pos_usteps, row.laser_raw, self.rows_written if row.seq < 0 else row.seq, row.t_utc or utc_now(),
             )
-        self._write(",".join(row.cells()) + "\n")
-        self.rows_written += 1
+        with deferred():  # the row and its count together
+            self._write(",".join(row.cells()) + "\n")
+            self.rows_written += 1
         return row
 
     def _write(self, text: str) -> None:
         if self._handle is None:
             raise LogIntegrityError(str(self.path), "log is closed")
-        self._handle.write(text)
-        self._handle.flush()
-        os.fsync(self._handle.fileno())
+        with deferred():  # Ctrl-C / SIGTERM / SIGHUP wait until the row is on disk whole
+            self._handle.write(text)
+            self._handle.flush()
+            os.fsync(self._handle.fileno())
 
     def close(self) -> None:
         """Close the file (idempotent)."""

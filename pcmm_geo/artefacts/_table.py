@@ -26,17 +26,21 @@ def read_rows(path: str | Path, required: Sequence[str]) -> list[tuple[int, dict
     from pcmm_geo.io._text import read_csv_rows
 
     text_path = str(path)
-    lines = read_csv_rows(path).rows
+
+    def check_header(line: int, cells: tuple[str, ...]) -> None:  # before the rest of the file is read
+        header = [name.strip().lower() for name in cells]
+        missing = [name for name in required if name not in header]
+        if missing:
+            semicolons = any(";" in cell for cell in cells)
+            hint = "; fields must be separated by ',' with '.' as decimal mark" if semicolons else ""
+            raise FileFormatError(
+                text_path, f"expected columns {', '.join(required)}; missing {', '.join(missing)}{hint}", line=line
+            )
+
+    lines = read_csv_rows(path, check_header=check_header).rows
     if not lines:
         raise FileFormatError(text_path, "empty file: expected a CSV header and data rows")
     header = [name.strip().lower() for name in lines[0][1]]
-    missing = [name for name in required if name not in header]
-    if missing:
-        semicolons = any(";" in cell for cell in lines[0][1])
-        hint = "; fields must be separated by ',' with '.' as decimal mark" if semicolons else ""
-        raise FileFormatError(
-            text_path, f"expected columns {', '.join(required)}; missing {', '.join(missing)}{hint}", line=lines[0][0]
-        )
     twice = sorted({name for name in header if name and header.count(name) > 1})
     if twice:
         raise FileFormatError(text_path, f"column {twice[0]!r} appears twice in the header (which one is meant?)",

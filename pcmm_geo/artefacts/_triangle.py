@@ -9,6 +9,13 @@ numpy and the answer is returned as barycentric weights, which the sign rule reu
 The other functions find every triangle that could lie within a given distance of a point,
 from bounding spheres about the triangle centroids: :func:`listed_pairs` from per-triangle
 lists of centroid neighbours (no search), :func:`pairs_within` from k-d trees (any distance).
+:func:`within_reach` then discards most of these pairs with a lower bound of the distance
+from four planes per triangle (:func:`bounding_planes`), cheaper than the exact distance and
+equal to it wherever the nearest point lies inside the triangle or on an edge.
+
+The mesh-wide helpers of the index build come last: :func:`twin_edges` (is the mesh a closed
+oriented manifold, and which face lies across each edge), :func:`enclosed_volume` and
+:func:`feature_normals` (the pseudo-normals of the sign rule).
 """
 
 from __future__ import annotations
@@ -72,8 +79,34 @@ def closest_on_triangles(points: FloatArray, corners: FloatArray) -> tuple[Float
     d3, d4 = _dot(ab, bp), _dot(ac, bp)
     d5, d6 = _dot(ab, cp), _dot(ac, cp)
     va, vb, vc = d3 * d6 - d5 * d4, d5 * d2 - d1 * d6, d1 * d4 - d3 * d2
-    # interior first, then every region overrides it in the reverse order of Ericson's tests
-    # (assigned where its test holds only: the edge and corner regions are the minority)
+    # the projection falls inside the triangle for most pairs: only the others need Ericson's region tests
+    inside = (va > 0.0) & (vb > 0.0) & (vc > 0.0)
+    total = va + vb + vc
+    with np.errstate(divide="ignore", invalid="ignore"):
+        v, w = vb / total, vc / total
+    closest = a + v[:, None] * ab + w[:, None] * ac
+    outside = np.flatnonzero(~inside)
+    if len(outside):
+        pick = (d1[outside], d2[outside], d3[outside], d4[outside], d5[outside], d6[outside], va[outside],
+                vb[outside], vc[outside])
+        v[outside], w[outside], corner = _boundary_weights(*pick)
+        closest[outside] = a[outside] + v[outside, None] * ab[outside] + w[outside, None] * ac[outside]
+        # a corner region is exactly that corner (no rounding of a + 1 * ab)
+        closest[outside[corner == 1]] = b[outside[corner == 1]]
+        closest[outside[corner == 2]] = c[outside[corner == 2]]
+    barycentric = np.stack([1.0 - v - w, v, w], axis=1)
+    offset = points - closest
+    return closest, _dot(offset, offset), barycentric
+
+
+def _boundary_weights(d1: FloatArray, d2: FloatArray, d3: FloatArray, d4: FloatArray, d5: FloatArray,
+                      d6: FloatArray, va: FloatArray, vb: FloatArray,
+                      vc: FloatArray) -> tuple[FloatArray, FloatArray, IntArray]:
+    """Weights ``v``, ``w`` of corners b and c for pairs whose projection may lie outside, and the corner (0: none).
+
+    Every region overrides the interior in the reverse order of Ericson's tests (assigned
+    where its test holds only); a degenerate triangle (zero area) starts at its centroid.
+    """
     with np.errstate(divide="ignore", invalid="ignore"):
         total = va + vb + vc
         v = np.where(total != 0.0, vb / total, 1.0 / 3.0)
@@ -91,35 +124,147 @@ def closest_on_triangles(points: FloatArray, corners: FloatArray) -> tuple[Float
         v[at_b], w[at_b] = 1.0, 0.0
         at_a = (d1 <= 0.0) & (d2 <= 0.0)
         v[at_a], w[at_a] = 0.0, 0.0
-    barycentric = np.stack([1.0 - v - w, v, w], axis=1)
-    closest = a + v[:, None] * ab + w[:, None] * ac
-    # a corner region is exactly that corner (no rounding of a + 1 * ab)
-    corner_b = at_b & ~at_a
-    corner_c = at_c & ~at_a & ~at_b & ~on_ab
-    closest[corner_b] = b[corner_b]
-    closest[corner_c] = c[corner_c]
-    offset = points - closest
-    return closest, _dot(offset, offset), barycentric
+    corner = np.zeros(len(v), dtype=np.int64)
+    corner[at_c & ~at_a & ~at_b & ~on_ab] = 2
+    corner[at_b & ~at_a] = 1
+    return v, w, corner
 
 
 def _dot(left: FloatArray, right: FloatArray) -> FloatArray:
     return np.einsum("ij,ij->i", left, right)
 
 
+def bounding_planes(triangles: FloatArray) -> FloatArray:
+    """The plane of each triangle and the three planes through its edges perpendicular to it.
+
+    Returns a (16, F) array (one contiguous row per coefficient, for fast gathers): the unit
+    normal ``n`` and the outward unit edge normals ``m_k`` (in the triangle's plane, edge
+    ``k`` from corner ``k`` to ``k + 1``) as rows 0-11, then the four offsets ``-n.a``,
+    ``-m_k.v_k``.  A degenerate triangle (no area) gets zeros, which make
+    :func:`within_reach` keep every pair it is in.
+
+    For a point ``p`` with ``h = n.p - n.a`` and ``e = max(0, max_k m_k.p - m_k.v_k)``,
+    ``sqrt(h^2 + e^2)`` is at most the distance from ``p`` to the triangle: the triangle lies
+    in its plane, inside each edge's half-plane.  The bound is the distance itself when the
+    nearest point lies inside the triangle or on an edge, and smaller only in a corner region.
+    """
+    corners = np.asarray(triangles, dtype=np.float64)
+    cross = np.cross(corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0])
+    length = np.linalg.norm(cross, axis=1)
+    scale = np.abs(corners).max(axis=(1, 2)) + 1.0
+    usable = length > 1e-14 * scale * scale
+    normal = np.zeros_like(cross)
+    normal[usable] = cross[usable] / length[usable, None]
+    planes = np.zeros((16, len(corners)))
+    planes[0:3] = normal.T
+    planes[12] = -_dot(normal, corners[:, 0])
+    for k in range(3):
+        start, end = corners[:, k], corners[:, (k + 1) % 3]
+        outward = np.cross(end - start, normal)
+        size = np.linalg.norm(outward, axis=1)
+        fine = usable & (size > 0.0)
+        outward[fine] /= size[fine, None]
+        outward[~fine] = 0.0
+        planes[3 + 3 * k:6 + 3 * k] = outward.T
+        planes[13 + k] = -_dot(outward, start)
+    return planes
+
+
+def within_reach(planes: FloatArray, triangle_of_pair: IntArray, coordinates: FloatArray,
+                 reach: FloatArray) -> NDArray[np.bool_]:
+    """Which pairs can lie within ``reach``: the plane lower bound of :func:`bounding_planes` is not beyond it.
+
+    ``planes`` (16, F) from :func:`bounding_planes`; per pair the triangle (M,), the point's
+    coordinates transposed (3, M) and ``reach`` (M,).  The bound is formed from coordinates
+    as given; its rounding error (a few units in the last place of the coordinates) must be
+    covered by ``reach``.
+    """
+    rows = np.take(planes, triangle_of_pair, axis=1)  # (16, M): contiguous rows
+    x, y, z = coordinates
+
+    def plane(k: int) -> FloatArray:
+        value = rows[3 * k] * x
+        value += rows[3 * k + 1] * y
+        value += rows[3 * k + 2] * z
+        value += rows[12 + k]
+        return value
+
+    height = plane(0)
+    edge = np.maximum(np.maximum(plane(1), plane(2)), plane(3))
+    np.maximum(edge, 0.0, out=edge)
+    height *= height
+    edge *= edge
+    height += edge
+    return height <= reach * reach
+
+
+def twin_edges(faces: IntArray, vertex_count: int) -> IntArray | None:
+    """The opposite directed edge of every directed edge, or None unless the mesh is a closed oriented 2-manifold.
+
+    Directed edge ``3 f + k`` runs from corner ``k`` to corner ``k + 1`` of face ``f``.  In a
+    closed, consistently oriented mesh every directed edge occurs once and its reverse once
+    (in the neighbouring face); the answer is then the index of that reverse edge.  None when
+    an edge occurs twice in one direction (inconsistent orientation or more than two faces),
+    has no reverse (an open boundary) or joins a vertex to itself.
+
+    Examples
+    --------
+    >>> tetrahedron = np.array([[0, 2, 1], [0, 1, 3], [1, 2, 3], [2, 0, 3]])
+    >>> twin_edges(tetrahedron, 4).reshape(4, 3).tolist()
+    [[9, 6, 3], [2, 8, 10], [1, 11, 4], [0, 5, 7]]
+    >>> twin_edges(tetrahedron[:3], 4) is None  # a face missing: open
+    True
+    """
+    start = np.asarray(faces, dtype=np.int64).ravel()
+    end = np.asarray(faces, dtype=np.int64)[:, [1, 2, 0]].ravel()
+    if np.any(start == end):
+        return None
+    key = start * vertex_count + end
+    order = np.argsort(key)
+    ordered = key[order]
+    if np.any(ordered[1:] == ordered[:-1]):
+        return None
+    reverse = end * vertex_count + start
+    position = np.minimum(np.searchsorted(ordered, reverse), len(ordered) - 1)
+    if not np.array_equal(ordered[position], reverse):
+        return None
+    return order[position]
+
+
+def corner_angles(triangles: FloatArray) -> FloatArray:
+    """Interior angle (rad) at each corner of each triangle, (F, 3); 0 at a corner of a degenerate triangle."""
+    angles = np.empty(triangles.shape[:2])
+    for k in range(3):
+        first = triangles[:, (k + 1) % 3] - triangles[:, k]
+        second = triangles[:, (k + 2) % 3] - triangles[:, k]
+        angles[:, k] = np.arctan2(np.linalg.norm(np.cross(first, second), axis=1), _dot(first, second))
+    return angles
+
+
 @dataclass(frozen=True)
 class NeighbourLists:
-    """Per triangle, the triangles whose centroids lie nearest to its own centroid.
+    """Per triangle, the other triangles whose centroids lie nearest to its own centroid.
 
-    ``listed[t]`` holds every triangle whose centroid is closer than ``complete_within[t]``
-    to the centroid of ``t`` (padded with ``t`` itself); ``centroids`` and ``radius`` (largest
-    centroid-to-corner distance, slightly enlarged) describe every triangle.
+    ``listed[t]`` holds every other triangle whose centroid is closer than
+    ``complete_within[t]`` to the centroid of ``t``, padded with ``F`` (the number of
+    triangles: no triangle).  ``centroids`` and ``radius`` (largest centroid-to-corner
+    distance, slightly enlarged) describe every triangle, ``listed_radius[t]`` is the largest
+    radius in the list of ``t``.  ``centroid_axes`` are the centroid coordinates, one array
+    per axis, with an infinite entry ``F`` for the padding; ``tree`` a k-d tree over the centroids.
+    ``near_axes`` are the same in float32 relative to ``origin`` (the centre of their box), at most
+    ``extent`` from it in each coordinate: the list test reads half the memory.
     """
 
     listed: IntArray
     complete_within: FloatArray
     centroids: FloatArray
     radius: FloatArray
+    listed_radius: FloatArray
     centroid_axes: tuple[FloatArray, FloatArray, FloatArray]
+    tree: Any
+    origin: FloatArray
+    extent: float
+    near_axes: tuple[NDArray[np.float32], NDArray[np.float32], NDArray[np.float32]]
 
 
 @dataclass(frozen=True)
@@ -132,17 +277,17 @@ class SizeClass:
     member_reach: FloatArray
 
 
-def size_classes(triangles: FloatArray) -> tuple[SizeClass, ...]:
+def size_classes(lists: NeighbourLists) -> tuple[SizeClass, ...]:
     """Triangles grouped by circumscribing radius about the centroid (factor 2 per group), with k-d trees.
 
     Every point of a triangle lies within its largest centroid-to-corner distance of its
     centroid, so a triangle within ``d`` of a point has its centroid within ``d`` plus
-    that radius.
+    that radius.  Centroids and radii come from the neighbour lists; a single class (a mesh of
+    similar triangles) reuses their tree.
     """
     from scipy.spatial import cKDTree
 
-    centroids = triangles.mean(axis=1)
-    radius = np.linalg.norm(triangles - centroids[:, None, :], axis=2).max(axis=1) * (1.0 + SLACK)
+    centroids, radius = lists.centroids, lists.radius
     largest = max(float(radius.max()), 1e-300)
     with np.errstate(divide="ignore"):
         level = np.floor(np.log2(largest / np.maximum(radius, 1e-300)))
@@ -150,8 +295,9 @@ def size_classes(triangles: FloatArray) -> tuple[SizeClass, ...]:
     groups = []
     for value in np.unique(level):
         members = np.flatnonzero(level == value)
-        groups.append(SizeClass(members=members, tree=cKDTree(centroids[members]),
-                                reach=float(radius[members].max()), member_reach=radius[members]))
+        tree = lists.tree if len(members) == len(centroids) else cKDTree(centroids[members])
+        groups.append(SizeClass(members=members, tree=tree, reach=float(radius[members].max()),
+                                member_reach=radius[members]))
     return tuple(groups)
 
 
@@ -182,45 +328,97 @@ def neighbour_lists(triangles: FloatArray) -> NeighbourLists:
     """The centroid neighbour lists of every triangle (see :func:`listed_pairs`)."""
     from scipy.spatial import cKDTree
 
+    count = len(triangles)
     centroids = triangles.mean(axis=1)
     radius = np.linalg.norm(triangles - centroids[:, None, :], axis=2).max(axis=1) * (1.0 + SLACK)
-    count = min(_LISTED_NEIGHBOURS, len(triangles))
+    asked = min(_LISTED_NEIGHBOURS, count)
     bound = _LISTED_REACH * float(radius.max())
-    distance, listed = cKDTree(centroids).query(centroids, k=count, distance_upper_bound=bound, workers=-1)
-    distance, listed = distance.reshape(len(centroids), count), listed.reshape(len(centroids), count)
+    tree = cKDTree(centroids)
+    distance, listed = tree.query(centroids, k=asked, distance_upper_bound=bound, workers=-1)
+    distance, listed = distance.reshape(count, asked), listed.reshape(count, asked)
     # a full list is complete only below its last distance; rounding of the distances is allowed for
     within = np.where(np.isfinite(distance[:, -1]), distance[:, -1], bound)
     within = within * (1.0 - SLACK) - ROUNDING * (1.0 + np.abs(centroids).max(axis=1))
-    own = np.arange(len(triangles))[:, None]
-    listed = np.where(listed < len(triangles), listed, own)
+    listed[listed == np.arange(count)[:, None]] = count  # the triangle itself is not listed (padding: count)
+    listed_radius = np.append(radius, 0.0)[listed].max(axis=1)
+    axes = tuple(np.append(centroids[:, axis], np.inf) for axis in range(3))
+    origin = (centroids.min(axis=0) + centroids.max(axis=0)) / 2.0
+    near = tuple(np.append(centroids[:, axis] - origin[axis], np.inf).astype(np.float32) for axis in range(3))
     return NeighbourLists(listed=listed, complete_within=within, centroids=centroids, radius=radius,
-                          centroid_axes=tuple(np.ascontiguousarray(centroids[:, axis]) for axis in range(3)))
+                          listed_radius=listed_radius, centroid_axes=axes, tree=tree, origin=origin,
+                          extent=float(np.abs(centroids - origin).max()), near_axes=near)
 
 
-def listed_pairs(lists: NeighbourLists, query: FloatArray, reach: FloatArray, face_index: IntArray,
+def listed_pairs(lists: NeighbourLists, coordinates: FloatArray, reach: FloatArray, face_index: IntArray,
                  rounding: FloatArray) -> tuple[IntArray, IntArray, IntArray]:
     """Pairs (point, triangle) that could lie within ``reach``, from the candidate's neighbour list.
 
-    A triangle ``t`` within ``reach`` of point ``p`` has its centroid within ``reach + r_t`` of
-    ``p`` and so within ``reach + r_max + |p - c|`` of the candidate's centroid ``c`` (triangle
-    inequality).  Where that is below the list's completeness radius, the list holds every
-    such triangle and no tree search is needed.  Returns the pairs and the rows of the points
-    the lists cannot answer (left to the k-d trees).
+    ``coordinates`` are the points transposed, (3, N).  A triangle ``t`` within ``reach`` of
+    point ``p`` has its centroid within ``reach + r_t`` of ``p`` and so within
+    ``reach + r_max + |p - c|`` of the candidate's centroid ``c`` (triangle inequality).
+    Where that is below the list's completeness radius, the list holds every such triangle
+    and no tree search is needed.  Returns the pairs (the candidate itself excluded) and the
+    rows of the points the lists cannot answer (left to the k-d trees).
     """
-    to_candidate = np.linalg.norm(query - lists.centroids[face_index], axis=1)
+    candidate_axes = [np.take(axis, face_index) - values for axis, values in zip(lists.centroid_axes, coordinates,
+                                                                                   strict=True)]
+    to_candidate = np.sqrt(sum(offset * offset for offset in candidate_axes))
     needed = (reach + float(lists.radius.max()) + to_candidate) * (1.0 + SLACK) + rounding
-    local = needed < lists.complete_within[face_index]
+    local = needed < np.take(lists.complete_within, face_index)
+    # the test runs in float32 relative to the centroids' box centre; ``allowance`` covers its rounding:
+    # each difference is off by at most 2 u (extent + |p - origin|) (u = 2^-24), the sum of squares
+    # by 4 u relative; 8 u (extent + |p - origin|) and a relative 1e-6 cover both with room to spare
+    relative = [values - centre for values, centre in zip(coordinates, lists.origin, strict=True)]
+    allowance = 5e-7 * (lists.extent + np.max(np.abs(relative), axis=0))
+    near_points = [np.asarray(values, dtype=np.float32) for values in relative]
+    width = lists.listed.shape[1]
     points, triangles = [], []
-    # blocks of points and one coordinate at a time: (points, neighbours) temporaries stay small
-    for start in range(0, len(query), _LISTED_POINTS_PER_BLOCK):
+    # blocks of points and one coordinate at a time: (points, neighbours) temporaries stay small.
+    # np.take, not fancy indexing: it copies whole rows and is many times faster here
+    for start in range(0, coordinates.shape[1], _LISTED_POINTS_PER_BLOCK):
         rows = start + np.flatnonzero(local[start:start + _LISTED_POINTS_PER_BLOCK])
-        listed = lists.listed[face_index[rows]]
-        limit = reach[rows, None] + lists.radius[listed]
-        squared = np.zeros(listed.shape)
+        candidate = np.take(face_index, rows)
+        listed = np.take(lists.listed, candidate, axis=0)
+        limit = (np.take(reach, rows) + np.take(lists.listed_radius, candidate) + np.take(allowance, rows))
+        limit = (limit * (1.0 + 1e-6)).astype(np.float32)
+        squared = np.zeros(listed.shape, dtype=np.float32)
         for axis in range(3):
-            offset = lists.centroid_axes[axis][listed] - query[rows, axis, None]
-            squared += offset * offset
-        pair_row, pair_column = np.nonzero((squared <= limit * limit) & (listed != face_index[rows, None]))
-        points.append(rows[pair_row])
-        triangles.append(listed[pair_row, pair_column])
+            offset = np.take(lists.near_axes[axis], listed)
+            offset -= np.take(near_points[axis], rows)[:, None]
+            offset *= offset
+            squared += offset
+        limit *= limit
+        hit = np.flatnonzero(squared <= limit[:, None])  # the padding is infinitely far
+        points.append(np.take(rows, hit // width))
+        triangles.append(np.take(listed.ravel(), hit))
     return np.concatenate(points), np.concatenate(triangles), np.flatnonzero(~local)
+
+
+def enclosed_volume(triangles: FloatArray) -> float:
+    """Signed volume (mm^3) enclosed by closed triangles (divergence theorem), about the centre of their box."""
+    centre = (triangles.min(axis=(0, 1)) + triangles.max(axis=(0, 1))) / 2.0
+    a, b, c = (triangles[:, k] - centre for k in range(3))
+    return float(np.einsum("ij,ij->", a, np.cross(b, c))) / 6.0
+
+
+def feature_normals(mesh: Any, faces: IntArray, triangles: FloatArray, face_normals: FloatArray,
+                     twins: IntArray | None) -> tuple[FloatArray, FloatArray]:
+    """Edge pseudo-normals (F, 3, 3) and angle-weighted vertex pseudo-normals (F, 3, 3).
+
+    An edge's pseudo-normal is the sum of the normals of the faces sharing it: the face and
+    its twin across the edge for a closed oriented mesh (``twins``), else every face trimesh
+    finds on the edge (an open surface's boundary edges have one).
+    """
+    count = len(faces)
+    if twins is not None:
+        edge_normals = face_normals[:, None, :] + face_normals[twins // 3].reshape(count, 3, 3)
+    else:
+        unique_edges = np.asarray(mesh.faces_unique_edges, dtype=np.int64)  # (F, 3): v0v1, v1v2, v2v0
+        edge_sum = np.zeros((int(unique_edges.max()) + 1, 3))
+        np.add.at(edge_sum, unique_edges.ravel(), np.repeat(face_normals, 3, axis=0))
+        edge_normals = edge_sum[unique_edges]
+    weighted = face_normals[:, None, :] * corner_angles(triangles)[:, :, None]
+    vertex_count = int(faces.max()) + 1
+    vertex_sum = np.column_stack([np.bincount(faces.ravel(), weights=weighted[:, :, axis].ravel(),
+                                              minlength=vertex_count) for axis in range(3)])
+    return edge_normals, vertex_sum[faces]

@@ -17,8 +17,9 @@ The nearest surface point of every query point is found in three steps
    point's distance from the candidate's centroid stays below the radius up to which that
    list is complete, the list holds every such triangle (triangle inequality), so no search
    is needed.  The other points search scipy k-d trees over the centroids (one per size
-   class, to ``d0`` plus the class's largest radius).  Box and plane lower bounds discard
-   most pairs before the exact evaluation.
+   class, to ``d0`` plus the class's largest radius, built on first need).  A lower bound
+   from the triangle's plane and its three edge planes (exact except in corner regions)
+   discards nearly all pairs before the exact evaluation.
 
 No float32 error bound is needed for correctness: step 3 only relies on ``d0``, a double
 precision distance to a real triangle.  The float32 error (of order 1e-7 of the coordinates)
@@ -46,6 +47,10 @@ Examples
 
 from __future__ import annotations
 
+import itertools
+import numbers
+import os
+import threading
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any
 
@@ -58,11 +63,16 @@ from pcmm_geo.artefacts._triangle import (
     SLACK,
     NeighbourLists,
     SizeClass,
+    bounding_planes,
     closest_on_triangles,
+    enclosed_volume,
+    feature_normals,
     listed_pairs,
     neighbour_lists,
     pairs_within,
     size_classes,
+    twin_edges,
+    within_reach,
 )
 from pcmm_geo.errors import InvalidInputError
 from pcmm_geo.fit._kernels._core import as_points
@@ -82,6 +92,8 @@ _ON_BOUNDARY = 1e-9
 _POINTS_PER_BLOCK = 65_536
 #: point-triangle pairs evaluated at once
 _PAIRS_PER_BLOCK = 1_000_000
+#: held while a part of an index is built on first use
+_BUILDING = threading.Lock()
 @dataclass(frozen=True)
 class SurfaceDistances:
     """Nearest surface points and signed distances of points from a mesh.
@@ -144,6 +156,18 @@ def check_closed_mesh(mesh: trimesh.Trimesh, *, what: str = "mesh") -> None:
     faces = np.asarray(mesh.faces)
     if faces.ndim != 2 or len(faces) == 0:
         raise InvalidInputError(what, "a mesh with at least one triangle", "no triangles")
+    vertices = np.asarray(mesh.vertices, dtype=float)
+    _check_closed(mesh, twin_edges(faces, len(vertices)), vertices[faces], what)
+
+
+def _check_closed(mesh: trimesh.Trimesh, twins: IntArray | None, triangles: FloatArray, what: str) -> None:
+    """:func:`check_closed_mesh` given the twin edges (None: not a closed oriented manifold) and the triangles.
+
+    A closed, consistently oriented mesh with a positive enclosed volume passes at once; any
+    other goes through trimesh's checks, which name what is wrong.
+    """
+    if twins is not None and enclosed_volume(triangles) > 0.0:
+        return
     expected = "a closed mesh (watertight, consistently oriented, outward normals) for signed distances"
     if not mesh.is_watertight:
         edges = np.sort(np.asarray(mesh.edges, dtype=np.int64), axis=1)
@@ -159,7 +183,8 @@ def check_closed_mesh(mesh: trimesh.Trimesh, *, what: str = "mesh") -> None:
         raise InvalidInputError(what, expected, f"inward normals (enclosed volume {volume:.6g} mm^3)")
 
 
-def surface_distances(points: ArrayLike, mesh: trimesh.Trimesh, *, require_closed: bool = True) -> SurfaceDistances:
+def surface_distances(points: ArrayLike, mesh: trimesh.Trimesh, *, require_closed: bool = True,
+                      workers: int | None = None) -> SurfaceDistances:
     """Signed distances (mm) of ``points`` from the surface of ``mesh``, exact in double precision.
 
     Parameters
@@ -173,6 +198,9 @@ def surface_distances(points: ArrayLike, mesh: trimesh.Trimesh, *, require_close
         Refuse a mesh that does not enclose a volume (default).  With False an open but
         consistently oriented surface is accepted; the sign then gives the side its face
         normals point to.
+    workers : int, optional
+        Threads for the search (open3d's and the exact one); default every core this
+        process may use.
 
     Returns
     -------
@@ -182,7 +210,8 @@ def surface_distances(points: ArrayLike, mesh: trimesh.Trimesh, *, require_close
     ------
     InvalidInputError
         Points of the wrong shape or not finite; a mesh without triangles; with
-        ``require_closed`` a mesh that is not closed (see :func:`check_closed_mesh`).
+        ``require_closed`` a mesh that is not closed (see :func:`check_closed_mesh`);
+        ``workers`` not a positive integer.
     TooFewPointsError
         No points.
 
@@ -194,12 +223,12 @@ def surface_distances(points: ArrayLike, mesh: trimesh.Trimesh, *, require_close
     (0.002, [50.0, 0.0, 0.0])
     """
     index = SurfaceIndex.build(mesh, require_closed=require_closed)
-    return index.distances(points)
+    return index.distances(points, workers=workers)
 
 
 @dataclass(frozen=True, eq=False)
 class SurfaceIndex:
-    """A mesh prepared for repeated exact distance queries (build once with :meth:`build`).
+    """A mesh prepared for repeated exact distance queries (build once with :meth:`SurfaceIndex.build`).
 
     Attributes
     ----------
@@ -212,10 +241,9 @@ class SurfaceIndex:
         opposite corner ``(k + 2) % 3`` (edges v0v1, v1v2, v2v0).
     corner_normals : ndarray, shape (F, 3, 3)
         Angle-weighted pseudo-normal of the vertex at each corner.
-    box_lower, box_upper : ndarray, shape (F, 3)
-        Corners of each triangle's axis-aligned box (mm).
-    size_classes : tuple
-        Triangles grouped by size, each group with a k-d tree over its centroids.
+    planes : ndarray, shape (16, F)
+        Each triangle's plane and edge planes, for a lower bound of the distance
+        (:func:`~pcmm_geo.artefacts._triangle.bounding_planes`).
     neighbours : NeighbourLists
         For each triangle, the triangles with centroids nearest to its own (the local proof).
     scene_origin : ndarray, shape (3,)
@@ -228,9 +256,7 @@ class SurfaceIndex:
     face_normals: FloatArray
     edge_normals: FloatArray
     corner_normals: FloatArray
-    box_lower: FloatArray
-    box_upper: FloatArray
-    size_classes: tuple[SizeClass, ...]
+    planes: FloatArray
     neighbours: NeighbourLists
     scene_origin: FloatArray
     vertices: FloatArray
@@ -259,15 +285,25 @@ class SurfaceIndex:
         vertices = np.asarray(mesh.vertices, dtype=float)
         if not np.all(np.isfinite(vertices)):
             raise InvalidInputError("mesh", "finite vertex coordinates", "NaN or inf")
-        if require_closed:
-            check_closed_mesh(mesh)
         triangles = vertices[faces]
-        face_normals, edge_normals, corner_normals = _feature_normals(mesh, triangles)
-        lower, upper = triangles.min(axis=1), triangles.max(axis=1)
+        twins = twin_edges(faces, len(vertices))
+        if require_closed:
+            _check_closed(mesh, twins, triangles, "mesh")
+        planes = bounding_planes(triangles)
+        face_normals = np.ascontiguousarray(planes[0:3].T)
+        edge_normals, corner_normals = feature_normals(mesh, faces, triangles, face_normals, twins)
         return cls(triangles=triangles, face_normals=face_normals, edge_normals=edge_normals,
-                   corner_normals=corner_normals, box_lower=lower, box_upper=upper,
-                   size_classes=size_classes(triangles), neighbours=neighbour_lists(triangles),
+                   corner_normals=corner_normals, planes=planes, neighbours=neighbour_lists(triangles),
                    scene_origin=(vertices.min(axis=0) + vertices.max(axis=0)) / 2, vertices=vertices, faces=faces)
+
+    @property
+    def size_classes(self) -> tuple[SizeClass, ...]:
+        """Triangles grouped by size, each group with a k-d tree over its centroids (built on first use)."""
+        with _BUILDING:  # threads of one query may ask at once
+            groups = self._cache.get("size_classes")
+            if groups is None:
+                groups = self._cache["size_classes"] = size_classes(self.neighbours)
+        return groups
 
     def __getstate__(self) -> dict[str, Any]:
         # the open3d scene does not pickle (dask workers): each process builds its own
@@ -288,21 +324,39 @@ class SurfaceIndex:
             self._cache["scene"] = scene
         return scene
 
-    def distances(self, points: ArrayLike) -> SurfaceDistances:
+    def distances(self, points: ArrayLike, *, workers: int | None = None) -> SurfaceDistances:
         """Exact signed distances of ``points`` (N, 3) from the indexed surface (see :func:`surface_distances`).
+
+        ``workers``: threads for the search, open3d's and the exact one (default: every core
+        this process may use; a dask array's blocks use one each, dask runs them in parallel).
 
         Raises
         ------
         InvalidInputError
-            Points of the wrong shape or not finite.
+            Points of the wrong shape or not finite; ``workers`` not a positive integer.
         TooFewPointsError
             No points.
         """
+        threads = _thread_count(workers)
         if is_dask_array(points):
             return self._lazy_distances(points)
         query = as_points(points, element="mesh distance", min_points=1)
-        parts = [self._distances(query[start:start + _POINTS_PER_BLOCK])
-                 for start in range(0, len(query), _POINTS_PER_BLOCK)]
+        candidates = self.candidates(query) if workers is None else self.candidates(query, threads=threads)
+        pieces = max(threads, -(-len(query) // _POINTS_PER_BLOCK))
+        pieces = min(-(-pieces // threads) * threads, len(query))  # equal shares for the threads
+        bounds = np.linspace(0, len(query), pieces + 1).astype(np.int64)
+        blocks = [slice(int(start), int(stop)) for start, stop in itertools.pairwise(bounds)]
+
+        def block_distances(rows: slice) -> SurfaceDistances:
+            return self._distances(query[rows], candidates[rows])
+
+        if threads == 1 or len(blocks) == 1:
+            parts = [block_distances(rows) for rows in blocks]
+        else:
+            from concurrent.futures import ThreadPoolExecutor
+
+            with ThreadPoolExecutor(min(threads, len(blocks))) as pool:  # numpy releases the GIL in its loops
+                parts = list(pool.map(block_distances, blocks))
         if len(parts) == 1:
             return parts[0]
         return SurfaceDistances(*(np.concatenate([getattr(part, name) for part in parts])
@@ -317,8 +371,8 @@ class SurfaceIndex:
         return SurfaceDistances(closest=packed[:, 0:3], signed_distance=packed[:, 3],
                                 face_index=packed[:, 4].astype(np.int64), direction=packed[:, 5:8])
 
-    def _distances(self, query: FloatArray) -> SurfaceDistances:
-        closest, squared, face_index, barycentric = self._nearest(query)
+    def _distances(self, query: FloatArray, candidates: IntArray) -> SurfaceDistances:
+        closest, squared, face_index, barycentric = self._nearest(query, candidates)
         offset = query - closest
         distance = np.sqrt(squared)
         pseudo_normal, inside_face = self._pseudo_normals(barycentric, face_index)
@@ -334,21 +388,26 @@ class SurfaceIndex:
 
     # ------------------------------------------------------------------ search
 
-    def candidates(self, query: FloatArray) -> IntArray:
-        """The triangle open3d finds nearest to each point, in float32 (a candidate, not the answer)."""
+    def candidates(self, query: FloatArray, *, threads: int = 0) -> IntArray:
+        """The triangle open3d finds nearest to each point, in float32 (a candidate, not the answer).
+
+        ``threads``: open3d's threads (0: its own choice, all cores).
+        """
         o3d = require("open3d")
 
-        answer = self.scene.compute_closest_points(o3d.core.Tensor((query - self.scene_origin).astype(np.float32)))
+        answer = self.scene.compute_closest_points(o3d.core.Tensor((query - self.scene_origin).astype(np.float32)),
+                                                   nthreads=threads)
         return answer["primitive_ids"].numpy().astype(np.int64)
 
-    def _nearest(self, query: FloatArray) -> tuple[FloatArray, FloatArray, IntArray, FloatArray]:
+    def _nearest(self, query: FloatArray, candidates: IntArray) -> tuple[FloatArray, FloatArray, IntArray, FloatArray]:
         """Nearest surface point, squared distance, triangle and barycentric weights of every point (exact)."""
-        face_index = self.candidates(query)
-        closest, squared, barycentric = closest_on_triangles(query, self.triangles[face_index])
+        face_index = np.array(candidates, dtype=np.int64)
+        coordinates = np.ascontiguousarray(query.T)
+        closest, squared, barycentric = closest_on_triangles(query, np.take(self.triangles, face_index, axis=0))
         # every triangle within the candidate's exact distance could be nearer
         rounding = ROUNDING * (1.0 + np.abs(query).max(axis=1))
         reach = np.sqrt(squared) * (1.0 + SLACK) + rounding
-        found = [listed_pairs(self.neighbours, query, reach, face_index, rounding)]
+        found = [listed_pairs(self.neighbours, coordinates, reach, face_index, rounding)]
         rest = found[0][2]
         for group in self.size_classes if len(rest) else ():
             point_of_pair, triangle_of_pair = pairs_within(group, query[rest], reach[rest])
@@ -356,31 +415,26 @@ class SurfaceIndex:
         for point_of_pair, triangle_of_pair, _ in found:
             for chunk in range(0, len(point_of_pair), _PAIRS_PER_BLOCK):
                 rows = slice(chunk, chunk + _PAIRS_PER_BLOCK)
-                self._keep_nearer(query, point_of_pair[rows], triangle_of_pair[rows], reach,
+                self._keep_nearer(query, coordinates, point_of_pair[rows], triangle_of_pair[rows], reach,
                                   closest, squared, face_index, barycentric)
         return closest, squared, face_index, barycentric
 
-    def _keep_nearer(self, query: FloatArray, point_of_pair: IntArray, triangle_of_pair: IntArray,
-                     reach: FloatArray, closest: FloatArray, squared: FloatArray, face_index: IntArray,
-                     barycentric: FloatArray) -> None:
-        """Evaluate the pairs whose box lies within reach; keep (in place) any strictly nearer triangle."""
+    def _keep_nearer(self, query: FloatArray, coordinates: FloatArray, point_of_pair: IntArray,
+                     triangle_of_pair: IntArray, reach: FloatArray, closest: FloatArray, squared: FloatArray,
+                     face_index: IntArray, barycentric: FloatArray) -> None:
+        """Evaluate the pairs whose plane bound lies within reach; keep (in place) any strictly nearer triangle.
+
+        ``coordinates`` is ``query`` transposed (3, N), for contiguous gathers.
+        """
         other = triangle_of_pair != face_index[point_of_pair]
         point_of_pair, triangle_of_pair = point_of_pair[other], triangle_of_pair[other]
-        point = query[point_of_pair]
-        pair_reach = reach[point_of_pair]
-        gap = np.maximum(np.maximum(self.box_lower[triangle_of_pair] - point, point - self.box_upper[triangle_of_pair]),
-                         0.0)
-        keep = np.flatnonzero(np.einsum("ij,ij->i", gap, gap) <= pair_reach * pair_reach)
-        point_of_pair, triangle_of_pair, point, pair_reach = (point_of_pair[keep], triangle_of_pair[keep],
-                                                              point[keep], pair_reach[keep])
-        corners = self.triangles[triangle_of_pair]
-        # the distance to a triangle's plane is a lower bound of the distance to the triangle
-        to_plane = np.einsum("ij,ij->i", point - corners[:, 0], self.face_normals[triangle_of_pair])
-        keep = np.flatnonzero(np.abs(to_plane) <= pair_reach * (1.0 + SLACK))
+        keep = np.flatnonzero(within_reach(self.planes, triangle_of_pair, np.take(coordinates, point_of_pair, axis=1),
+                                           reach[point_of_pair]))
         if len(keep) == 0:
             return
         point_of_pair, triangle_of_pair = point_of_pair[keep], triangle_of_pair[keep]
-        on_triangle, pair_squared, pair_weights = closest_on_triangles(point[keep], corners[keep])
+        corners = np.take(self.triangles, triangle_of_pair, axis=0)
+        on_triangle, pair_squared, pair_weights = closest_on_triangles(np.take(query, point_of_pair, axis=0), corners)
         order = np.lexsort((triangle_of_pair, pair_squared, point_of_pair))
         first = order[np.r_[True, point_of_pair[order][1:] != point_of_pair[order][:-1]]]
         winners = first[pair_squared[first] < squared[point_of_pair[first]]]
@@ -396,7 +450,7 @@ class SurfaceIndex:
         """Pseudo-normals of the features holding the nearest points, and which of these lie inside a face."""
         on_zero = barycentric < _ON_BOUNDARY
         zero_count = on_zero.sum(axis=1)
-        normals = self.face_normals[face_index].copy()
+        normals = np.take(self.face_normals, face_index, axis=0)
         at_edge = np.flatnonzero(zero_count == 1)
         # the edge opposite corner k is the face's edge number (k + 1) % 3: (v0v1, v1v2, v2v0)
         edge = (np.argmax(on_zero[at_edge], axis=1) + 1) % 3
@@ -408,23 +462,20 @@ class SurfaceIndex:
         return normals / np.where(length > 0.0, length, 1.0), zero_count == 0
 
 
+def _thread_count(workers: int | None) -> int:
+    """Threads for the exact search: ``workers``, or every core this process may use."""
+    if workers is None:
+        try:
+            return max(1, len(os.sched_getaffinity(0)))
+        except AttributeError:  # not on Linux
+            return max(1, os.cpu_count() or 1)
+    if isinstance(workers, bool) or not isinstance(workers, numbers.Integral) or workers < 1:
+        raise InvalidInputError("workers", "a positive integer (threads) or None (every core)", repr(workers))
+    return int(workers)
+
+
 def _packed_distances(block: FloatArray, index: SurfaceIndex) -> FloatArray:
     """Distances of one block packed as columns: closest (3), signed distance, face index, direction (3)."""
-    found = index.distances(np.asarray(block, dtype=np.float64))
+    found = index.distances(np.asarray(block, dtype=np.float64), workers=1)
     return np.column_stack([found.closest, found.signed_distance, found.face_index.astype(np.float64),
                             found.direction])
-
-
-def _feature_normals(mesh: trimesh.Trimesh, triangles: FloatArray) -> tuple[FloatArray, FloatArray, FloatArray]:
-    """Face normals, edge pseudo-normals (F, 3, 3) and angle-weighted vertex pseudo-normals (F, 3, 3)."""
-    trimesh = require("trimesh")
-
-    faces = np.asarray(mesh.faces, dtype=np.int64)
-    face_normals = np.asarray(mesh.face_normals, dtype=float)
-    unique_edges = np.asarray(mesh.faces_unique_edges, dtype=np.int64)  # (F, 3): v0v1, v1v2, v2v0
-    edge_sum = np.zeros((int(unique_edges.max()) + 1, 3))
-    np.add.at(edge_sum, unique_edges.ravel(), np.repeat(face_normals, 3, axis=0))
-    corner_angles = trimesh.triangles.angles(triangles)
-    vertex_sum = np.zeros((len(mesh.vertices), 3))
-    np.add.at(vertex_sum, faces.ravel(), (face_normals[:, None, :] * corner_angles[:, :, None]).reshape(-1, 3))
-    return face_normals, edge_sum[unique_edges], vertex_sum[faces]

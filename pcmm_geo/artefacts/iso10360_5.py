@@ -329,10 +329,13 @@ def read_reference_diameter(path: str | Path) -> float | None:
     25.0004
     """
     from pcmm_geo.errors import FileFormatError
-    from pcmm_geo.io._text import read_text_lines
+    from pcmm_geo.io._lines import decode_block, iter_blocks
 
     found: float | None = None
-    for number, text in read_text_lines(path):
+    # a comment may stand anywhere in a point file: every block is read, but only a block holding a '#'
+    # is decoded line by line (a scanner-size file is scanned at the speed of a byte search, in bounded memory)
+    lines = (line for block in iter_blocks(path) if b"#" in block.data for line in decode_block(path, block))
+    for number, text in lines:
         body = text.strip()
         if not body.startswith("#") or ":" not in body:
             continue

@@ -35,6 +35,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from pcmm_geo.errors import InvalidInputError
+from pcmm_geo.fit import ELEMENTS as _FIT_ELEMENTS
 
 __all__ = [
     "ELEMENTS",
@@ -50,7 +51,7 @@ __all__ = [
 
 FloatArray = NDArray[np.float64]
 
-ELEMENTS = ("line", "plane", "circle", "sphere", "cylinder", "cone", "torus")
+ELEMENTS = _FIT_ELEMENTS  # the fits' element names
 _AXIAL = {"line", "cylinder", "cone"}
 _CENTRED = {"circle", "sphere", "torus"}
 # ReferenceCase.circle_method -> pcmm_geo.fit.fit_circle(method=...)

@@ -66,9 +66,9 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser = build_parser()
     args = parser.parse_args(argv)
     args.command_line = ["pcmm", *(sys.argv[1:] if argv is None else argv)]
-    if getattr(args, "handler", None) is None:
-        parser.print_help()
-        return 0 if args.command is None else 2
+    if getattr(args, "handler", None) is None:  # ``pcmm`` or ``pcmm kinematics`` alone: usage, exit 2
+        parser.print_help(sys.stderr)
+        return 2
     return run_handler(args)
 
 

@@ -1,6 +1,6 @@
 """Options shared by ``pcmm fit`` and ``pcmm form`` for files from CMMs: which feature, probe compensation, QIF out.
 
-``--feature`` picks the feature of a QIF file; ``--probe-radius``, ``--material-side`` and
+``--feature`` picks the feature of a QIF file; ``--probe-radius-mm``, ``--material-side`` and
 ``--compensated`` say how the probe radius is applied (:mod:`pcmm_geo.cmm.points`); ``--qif OUT``
 writes the result as a QIF 3.0 results document through the command's output plan.
 """
@@ -13,17 +13,18 @@ from collections.abc import Iterator
 from contextlib import contextmanager
 from typing import Any
 
-from pcmm_geo.cli._output import declare_output
+from pcmm_geo.cli._output import declare_output, refuse_renamed_options
 
 
 def add_cmm_input_flags(parser: argparse.ArgumentParser) -> None:
-    """Add ``--feature``, ``--probe-radius``, ``--material-side``, ``--compensated`` and ``--qif``."""
+    """Add ``--feature``, ``--probe-radius-mm``, ``--material-side``, ``--compensated`` and ``--qif``."""
     parser.add_argument("--feature", metavar="ID|NAME",
                         help="QIF file: the feature measurement (QIF id or name) whose points are used, when the file "
                              "holds several")
-    parser.add_argument("--probe-radius", type=float, metavar="MM",
+    parser.add_argument("--probe-radius-mm", dest="probe_radius", type=float, metavar="MM",
                         help="the points are probe-ball centres of this radius (mm): the fitted element is offset "
-                             "onto the touched surface (a fixed --radius is the surface radius)")
+                             "onto the touched surface (a fixed --radius-mm is the surface radius)")
+    refuse_renamed_options(parser, {"--probe-radius": "--probe-radius-mm"})
     parser.add_argument("--material-side", choices=("internal", "external"),
                         help="circle, sphere, cylinder, cone: internal (hole) or external (boss, shaft); default "
                              "from the file (InternalExternal, point normals, nominal size)")
@@ -68,7 +69,7 @@ def read_fit_input(args: argparse.Namespace, element: str) -> FitInput:
     data = load_feature_points(args.file, element=element, feature=args.feature, decimal=args.decimal)
     radius, source = probe_radius_to_apply(data, compensated=args.compensated, probe_radius=args.probe_radius)
     if args.material_side is not None and radius == 0:
-        raise InvalidInputError("--material-side", "a probe radius to apply (--probe-radius or probe centres in the "
+        raise InvalidInputError("--material-side", "a probe radius to apply (--probe-radius-mm or probe centres in the "
                                 "file)", "surface points")
     if getattr(args, "two_d", False):
         if element not in ("line", "circle"):

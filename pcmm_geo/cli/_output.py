@@ -10,10 +10,11 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
-from pcmm_geo.cli._record import CovarianceBlock, Provenance, UncertaintyEntry, Verdict
+from pcmm_geo.cli._record import Condition, CovarianceBlock, Method, Provenance, UncertaintyEntry, Verdict
 
 if TYPE_CHECKING:
     from pcmm_geo._atomic import OutputPlan
+    from pcmm_geo.cli._identity import ReportIdentity
 
 REPORT_SUFFIXES = (".md", ".html", ".htm")
 
@@ -37,7 +38,11 @@ class Report:
 
     ``plots`` lists the image files the handler wrote; ``--report`` embeds or links them.
     ``verdict``, ``uncertainties`` and ``covariances`` are the slots a ``--report`` renders as
-    its verdict and uncertainty sections; ``provenance`` is filled by :func:`run_handler`.
+    its decision and uncertainty sections (the terminal prints the verdict from ``verdict`` too,
+    so a handler does not repeat it in ``lines``); ``method`` (default: the command's, see
+    :func:`pcmm_geo.cli._identity.method_for`) and ``environment`` (the temperatures the
+    command used) fill the report's method and environmental conditions; ``provenance`` and
+    ``identity`` are filled by :func:`pcmm_geo.cli._run.run_handler`.
     """
 
     data: dict[str, Any]
@@ -48,7 +53,10 @@ class Report:
     verdict: Verdict | None = None
     uncertainties: list[UncertaintyEntry] = field(default_factory=list)
     covariances: list[CovarianceBlock] = field(default_factory=list)
+    method: Method | None = None
+    environment: list[Condition] = field(default_factory=list)
     provenance: Provenance | None = None
+    identity: ReportIdentity | None = None
 
 
 def add_json_flag(parser: argparse.ArgumentParser) -> None:
@@ -60,6 +68,45 @@ def add_decimal_flag(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--decimal", choices=(".", ","), default=None,
                         help="decimal mark of a text point file: '.' or ',' (with ';', tab or space separators); "
                              "default: detected, an ambiguous file is refused")
+
+
+class _RenamedOption(argparse.Action):
+    """An option renamed to carry its unit: using the old name stops the parser (exit 2)."""
+
+    def __init__(self, option_strings: list[str], dest: str, new: str, **kwargs: Any) -> None:
+        self.new = new
+        super().__init__(option_strings, dest, nargs="*", default=argparse.SUPPRESS, help=argparse.SUPPRESS)
+
+    def __call__(self, parser: argparse.ArgumentParser, namespace: argparse.Namespace, values: Any,
+                 option_string: str | None = None) -> None:
+        parser.error(f"{option_string} is now {self.new} (the unit is in the name); the old name is refused, "
+                     "so no number is read in a unit it was not written in")
+
+
+def refuse_renamed_options(parser: argparse.ArgumentParser, renamed: dict[str, str]) -> None:
+    """Refuse each old option name of ``renamed`` (``{"--mpe-a": "--mpe-a-um"}``), naming its replacement.
+
+    Every length option carries its unit in its name (``--tolerance-mm``, ``--mpe-a-um``); an old
+    name is registered hidden and exact, so argparse neither abbreviates it to the new name nor
+    accepts it silently: it prints the usage and ``OLD is now NEW ...`` on stderr and exits 2.
+
+    Examples
+    --------
+    >>> import contextlib, io
+    >>> parser = argparse.ArgumentParser(prog="pcmm form")
+    >>> _ = parser.add_argument("--tolerance-mm", dest="tolerance", type=float)
+    >>> refuse_renamed_options(parser, {"--tolerance": "--tolerance-mm"})
+    >>> parser.parse_args(["--tolerance-mm", "0.01"]).tolerance
+    0.01
+    >>> with contextlib.redirect_stderr(io.StringIO()) as err:  # doctest: +ELLIPSIS
+    ...     try:
+    ...         parser.parse_args(["--tolerance", "0.01"])
+    ...     except SystemExit as stop:
+    ...         print(stop.code, err.getvalue().splitlines()[-1])
+    2 pcmm form: error: --tolerance is now --tolerance-mm (the unit is in the name); the old name is refused, ...
+    """
+    for old, new in renamed.items():
+        parser.add_argument(old, action=_RenamedOption, new=new, dest="renamed_" + old.lstrip("-").replace("-", "_"))
 
 
 @dataclass(frozen=True)
@@ -100,11 +147,19 @@ def add_plot_flag(parser: argparse.ArgumentParser, what: str) -> None:
 
 
 def add_report_flag(parser: argparse.ArgumentParser) -> None:
-    """Add ``--report FILE.md|FILE.html``: the tables and lines as Markdown or a self-contained HTML page."""
+    """Add ``--report FILE.md|FILE.html`` (a lab record as Markdown or a self-contained HTML page).
+
+    Also adds the report identity options (``--report-id``, ``--laboratory``, ...; see
+    :mod:`pcmm_geo.cli._identity`).
+    """
+    from pcmm_geo.cli._identity import add_identity_flags
+
     parser.add_argument("--report", metavar="FILE.md|FILE.html",
-                        help="also write the result as Markdown (.md) or a self-contained HTML page (.html)")
+                        help="also write the result as a lab record: Markdown (.md) or a self-contained HTML "
+                             "page (.html)")
     parser.set_defaults(shared_report_flag=True)  # run_handler writes the report after the handler
     declare_output(parser, "report")
+    add_identity_flags(parser)
 
 
 def add_overwrite_flag(parser: argparse.ArgumentParser) -> None:
@@ -265,9 +320,11 @@ def print_report(report: Report, as_json: bool) -> None:
         sys.stdout.write("\n")
         return
     blocks = [render_table(t) for t in report.tables]
+    blocks += [render_table(t) for t in uncertainty_tables(report, correlations=False)]
+    if report.verdict is not None:  # the verdict once, from its slot: handlers do not repeat it in lines
+        blocks.append("\n".join(report.verdict.lines()))
     if report.lines:
         blocks.append("\n".join(report.lines))
-    blocks += [render_table(t) for t in uncertainty_tables(report, correlations=False)]
     if blocks:  # a command that printed its own output (pcmm batch) returns an empty report
         print("\n\n".join(blocks))
 

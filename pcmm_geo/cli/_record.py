@@ -55,14 +55,106 @@ class InputFile:
 
 @dataclass(frozen=True)
 class Verdict:
-    """A pass/fail statement and the decision rule it was reached by.
+    """A conformity decision: the statement, the one decision rule, and U or what the verdict rests on.
 
-    ``passed`` is None when no limit was stated (nothing to decide).
+    A report states its decision once: ``statement`` (e.g. ``"ISO 10360-2: PASS (105 values ...)"``),
+    ``decision_rule`` (one sentence in ISO 14253-1 terms) and either ``uncertainty`` (the expanded
+    uncertainty U the rule used, with its unit and coverage factor) or, for a verdict that has no
+    U, ``basis`` (what it rests on instead, e.g. a certified minimum-zone width).  Handlers do
+    not repeat the verdict in their free lines: the terminal and the report print it from here.
+
+    Parameters
+    ----------
+    passed : bool or None
+        True: conformity (PASS), False: nonconformity (FAIL), None: neither decided (NOT PROVEN,
+        no specification stated, incomplete test).
+    statement : str
+    decision_rule : str
+    uncertainty : str
+        ``"U = 0.6 µm (k = 2)"``; empty when the decision used no U.
+    basis : str
+        For a verdict without U: the evidence it rests on.
+    conformity_text : str
+        The ISO 14253-1 state when the rule does not follow from ``passed`` and ``uncertainty``.
+
+    Examples
+    --------
+    >>> Verdict(True, "PASS", "ISO 14253-1 default rule", uncertainty="U = 0.5 µm (k = 2)").conformity
+    'conformity proven (ISO 14253-1: the value lies inside the specification zone reduced by U)'
+    >>> Verdict(True, "pass", "simple acceptance", basis="certified zone width").conformity
+    'conformity not proven in ISO 14253-1 terms: no U was stated, the verdict rests on the value alone'
     """
 
     passed: bool | None
     statement: str
     decision_rule: str
+    uncertainty: str = ""
+    basis: str = ""
+    conformity_text: str = ""
+
+    @property
+    def conformity(self) -> str:
+        """The ISO 14253-1 state the verdict reaches: conformity / nonconformity proven, or not proven.
+
+        ``conformity_text``, when given, states it instead (a rule whose FAIL proves nothing, ...).
+        """
+        if self.conformity_text:
+            return self.conformity_text
+        if self.uncertainty:
+            return {
+                True: "conformity proven (ISO 14253-1: the value lies inside the specification zone reduced by U)",
+                False: "nonconformity proven (ISO 14253-1: the value lies outside the specification zone "
+                       "enlarged by U)",
+                None: "neither conformity nor nonconformity proven (ISO 14253-1: within U of a limit, or no "
+                      "complete decision)",
+            }[self.passed]
+        if self.passed is None:  # NOT PROVEN, INCOMPLETE: a decision was attempted and not reached
+            return "neither conformity nor nonconformity proven"
+        return ("conformity not proven in ISO 14253-1 terms: no U was stated, the verdict rests on the value alone"
+                if self.passed else
+                "nonconformity not proven in ISO 14253-1 terms: no U was stated, the verdict rests on the value alone")
+
+    def lines(self) -> list[str]:
+        """The verdict as the terminal prints it: statement, rule, then U or the basis (once each)."""
+        out = [f"verdict: {self.statement}", f"decision rule: {self.decision_rule}"]
+        if self.uncertainty:
+            out.append(f"expanded uncertainty: {self.uncertainty}")
+        elif self.basis:
+            out.append(f"rests on: {self.basis}")
+        return out
+
+
+@dataclass(frozen=True)
+class Method:
+    """The method a result was obtained by: the standard with its clause, or the laboratory's own.
+
+    Examples
+    --------
+    >>> Method("ISO 10360-2:2009", "clauses 6 and 7", "length measurement error E0").text()
+    'ISO 10360-2:2009, clauses 6 and 7: length measurement error E0'
+    >>> Method("", "", "least-squares sphere").text()
+    'least-squares sphere (laboratory method, no standard method)'
+    """
+
+    standard: str
+    clause: str
+    description: str
+
+    def text(self) -> str:
+        """One line: ``standard, clause: description`` or ``description (laboratory method ...)``."""
+        if not self.standard:
+            return f"{self.description} (laboratory method, no standard method)"
+        where = f"{self.standard}, {self.clause}" if self.clause else self.standard
+        return f"{where}: {self.description}"
+
+
+@dataclass(frozen=True)
+class Condition:
+    """One environmental condition a result depends on (a temperature the command used, ...)."""
+
+    quantity: str
+    value: float | str
+    unit: str
 
 
 @dataclass(frozen=True)
@@ -239,3 +331,83 @@ def software_versions() -> dict[str, str]:
         if module_name in sys.modules:
             versions[distribution] = version_of(distribution)
     return versions
+
+
+def package_digest(folder: str | Path | None = None) -> tuple[str, int]:
+    """SHA-256 over the files of the installed package (``__pycache__`` left out) and their number.
+
+    The digest covers the lines ``"<relative path>\\0<sha256 of file>\\n"`` in sorted order, as
+    :func:`describe_input` does for a folder, so a changed, added or removed file changes it.
+
+    Examples
+    --------
+    >>> digest, files = package_digest()
+    >>> len(digest), files > 100
+    (64, True)
+    """
+    import pcmm_geo
+
+    root = Path(folder) if folder is not None else Path(pcmm_geo.__file__).resolve().parent
+    files = sorted(p for p in root.rglob("*") if p.is_file() and "__pycache__" not in p.parts)
+    digest = hashlib.sha256()
+    for file in files:
+        digest.update(f"{file.relative_to(root).as_posix()}\0{sha256_file(file)}\n".encode())
+    return digest.hexdigest(), len(files)
+
+
+def source_revision() -> str:
+    """The git commit the running pcmm_geo was loaded from, ``"... (dirty: ...)"`` if the tree has changes.
+
+    Empty when pcmm_geo does not run from a git checkout (an installed package: then the
+    package digest identifies it) or git cannot tell.  git runs without network and without
+    taking locks (``GIT_OPTIONAL_LOCKS=0``), with a timeout.
+    """
+    import os
+    import shutil
+    import subprocess
+
+    import pcmm_geo
+
+    root = Path(pcmm_geo.__file__).resolve().parent.parent
+    git = shutil.which("git")
+    if git is None or not (root / ".git").exists():
+        return ""
+    env = {**os.environ, "GIT_OPTIONAL_LOCKS": "0", "GIT_TERMINAL_PROMPT": "0", "LC_ALL": "C"}
+
+    def git_output(*arguments: str) -> str | None:
+        try:
+            done = subprocess.run([git, "-C", str(root), *arguments], capture_output=True, text=True, env=env,
+                                  timeout=20, check=False)
+        except (OSError, subprocess.SubprocessError):
+            return None
+        return done.stdout.strip() if done.returncode == 0 else None
+
+    commit = git_output("rev-parse", "HEAD")
+    if not commit:
+        return ""
+    changes = git_output("status", "--porcelain")
+    if changes is None:
+        return f"{commit} (git could not tell whether the tree has uncommitted changes)"
+    if changes:
+        return f"{commit} (dirty: {len(changes.splitlines())} uncommitted changes in the tree)"
+    return commit
+
+
+def software_identity() -> list[tuple[str, str]]:
+    """Rows identifying the software exactly: version, source revision (checkout) and package digest.
+
+    Examples
+    --------
+    >>> rows = dict(software_identity())
+    >>> sorted(rows)[:2], len(rows["package files SHA-256"].split()[0])
+    (['package files SHA-256', 'pcmm_geo version'], 64)
+    """
+    from pcmm_geo import __version__
+
+    digest, files = package_digest()
+    rows = [("pcmm_geo version", __version__)]
+    revision = source_revision()
+    rows.append(("source revision (git)", revision) if revision else
+                ("source revision (git)", "not a git checkout: identified by the package digest below"))
+    rows.append(("package files SHA-256", f"{digest} ({files} files)"))
+    return rows

@@ -1,13 +1,22 @@
-"""``--report FILE.md|FILE.html``: any :class:`~pcmm_geo.cli._output.Report` as Markdown or HTML.
+"""``--report FILE.md|FILE.html``: any :class:`~pcmm_geo.cli._output.Report` as a lab record (ISO/IEC 17025 7.8).
 
-A report is a lab record, in this order: the record (date and time in UTC, command line,
-working folder, every input with its absolute path and SHA-256), the verdict and its
-decision rule, the results tables and lines, the uncertainties (standard uncertainties and
-correlation matrices), every figure once, and the software versions used (see
-:mod:`pcmm_geo.cli._record`).  Markdown gets one pipe table per table and links the figures
-relative to the report's folder; HTML is one self-contained page (inline style, PNG/SVG
-figures embedded as ``data:`` URIs, other formats linked) with every piece of text escaped.
-Numbers are formatted as in the terminal tables.
+A report reads, in this order: the report's identity (report id, the report it supersedes,
+laboratory, customer, item measured, measuring instrument, operator, approver, measurement
+date, date of issue, method with standard and clause), the reference standards with their
+certificates and calibration uncertainties, the environmental conditions (the temperatures
+the command used), the decision -- stated once: result, the ISO 14253-1 conformity state, the
+decision rule, and U or what a verdict without U rests on --, the results tables and lines,
+the uncertainties (standard uncertainties and correlation matrices), every figure once, the
+record (command line, working folder, every input with its absolute path and SHA-256), the
+software (version, git revision marked dirty or the package digest, library versions) and the
+statement that the results relate only to the item measured.  The identity comes from
+:mod:`pcmm_geo.cli._identity`, provenance from :mod:`pcmm_geo.cli._record`.
+
+Markdown gets one pipe table per table and links the figures relative to the report's
+folder; HTML is one self-contained page (inline style, PNG/SVG figures embedded as
+``data:`` URIs, other formats linked) with every piece of text escaped, and prints on A4
+with the report id at the top and "page N of M" at the foot of every page.  Numbers are
+formatted as in the terminal tables.
 """
 
 from __future__ import annotations
@@ -16,10 +25,13 @@ import base64
 import html
 import os
 import re
+import shlex
 from collections.abc import Sequence
+from datetime import UTC, datetime
 from pathlib import Path
 
 from pcmm_geo.cli._output import Report, Table, _looks_numeric, check_report_path, format_cell, uncertainty_tables
+from pcmm_geo.cli._record import software_identity
 
 _MARKDOWN_SPECIAL = "\\`*_[]<|"
 _HEX_DIGEST = re.compile(r"[0-9a-f]{64}")  # SHA-256 cells: monospace, one line
@@ -29,10 +41,19 @@ _STYLE = (
     "table{border-collapse:collapse;margin:0.5em 0 1.5em}"
     "th,td{border:1px solid #bbb;padding:0.25em 0.6em}th{background:#eee}"
     "td.num{text-align:right;font-family:monospace;white-space:nowrap;overflow-wrap:normal}code{background:#f4f4f4}img{max-width:100%}"
-    "td{overflow-wrap:anywhere}td.hash{font-family:monospace;font-size:0.8em;overflow-wrap:normal;white-space:nowrap}"
+    "td{overflow-wrap:anywhere}td:first-child{overflow-wrap:normal}td.hash{font-family:monospace;font-size:0.8em;overflow-wrap:normal;white-space:nowrap}"
     ".verdict{font-size:1.4em;font-weight:bold;padding:0.3em 0.6em;display:inline-block}"
     ".pass{background:#d8f0d8;color:#145214}.fail{background:#f6d5d5;color:#7a1010}.none{background:#eee}"
+    "p.statement{margin-top:2em;font-style:italic}p.amends{font-weight:bold;color:#7a1010}"
+    "@media print{body{margin:0;max-width:none}tr,figure{break-inside:avoid}h2{break-after:avoid}"
+    "td.hash{font-size:0.6em}}"
 )
+_PAGE_STYLE = (  # the id is checked to [A-Za-z0-9._/-] (or generated), so it needs no CSS escaping
+    "@page{size:A4;margin:18mm 14mm 20mm;"
+    "@top-left{content:\"{label}\";font:8pt sans-serif;color:#555}"
+    "@bottom-right{content:\"page \" counter(page) \" of \" counter(pages);font:8pt sans-serif;color:#555}}"
+)
+NOT_STATED = "not stated"
 
 
 def markdown_text(text: str) -> str:
@@ -59,26 +80,79 @@ def _unique_plots(plots: Sequence[str]) -> list[str]:
     return out
 
 
+def _identity_tables(report: Report) -> list[Table]:
+    """Report, reference standards and environmental conditions (only for a report written by a run)."""
+    identity = report.identity
+    if identity is None:
+        return []
+    from pcmm_geo.cli._identity import TEXT_FIELDS
+
+    issued = datetime.now(UTC).isoformat(timespec="seconds")
+    rows = [["report id", identity.report_id + (" (generated)" if identity.generated_id else "")]]
+    if identity.supersedes:
+        rows.append(["supersedes", f"report {identity.supersedes}, which this amended report replaces"])
+    rows += [[label, getattr(identity, key) or NOT_STATED] for _, key, label in TEXT_FIELDS]
+    rows += [["measurement date", identity.measurement_date], ["date of issue (UTC)", issued]]
+    if report.method is not None:
+        rows.append(["method", report.method.text()])
+    tables = [Table("Report", ["item", "value"], rows)]
+    if identity.references:
+        tables.append(Table("Reference standards", ["standard", "certificate", "calibration uncertainty", "calibrated"],
+                            [[r.name, r.certificate, r.uncertainty_text(), r.calibrated or NOT_STATED]
+                             for r in identity.references]))
+    else:
+        tables.append(Table("Reference standards", ["standard", "certificate", "calibration uncertainty"],
+                            [[f"{NOT_STATED} (--reference or [[reference]] in pcmm.toml)", "-", "-"]]))
+    if report.environment:
+        rows = [[c.quantity, c.value, c.unit] for c in report.environment]
+    else:
+        rows = [["temperature", "none entered this evaluation: the data are taken as measured at the reference "
+                 "temperature 20 °C (ISO 1), uncorrected", "°C"]]
+    rows += [[c.quantity, c.value, c.unit] for c in identity.environment]  # as the laboratory recorded them
+    tables.append(Table("Environmental conditions", ["condition", "value", "unit"], rows))
+    return tables
+
+
+def _decision_table(report: Report) -> list[Table]:
+    """The one decision of the report (or, in a run's report, the statement that none was made)."""
+    verdict = report.verdict
+    if verdict is None:
+        if report.identity is None:
+            return []
+        return [Table("Decision", ["item", "value"],
+                      [["decision", "no conformity statement: this evaluation has no specification to decide on"]])]
+    rows = [["result", verdict.statement], ["conformity (ISO 14253-1)", verdict.conformity],
+            ["decision rule", verdict.decision_rule]]
+    if verdict.uncertainty:
+        rows.append(["expanded uncertainty U", verdict.uncertainty])
+    else:
+        rows.append(["expanded uncertainty U", "none stated: " + (verdict.basis or "the verdict rests on the "
+                                                                    "measured value alone")])
+    return [Table("Decision", ["item", "value"], rows)]
+
+
 def record_sections(report: Report, command: Sequence[str] | None = None) -> dict[str, list[Table]]:
     """The report's content as titled tables, grouped in the order they are rendered.
 
-    Groups: ``"record"`` (date and time, command line, inputs), ``"verdict"``, ``"results"``,
-    ``"uncertainty"`` and ``"software"``.  Free lines and figures are rendered separately.
+    Groups: ``"identity"`` (report, reference standards, environmental conditions; a run's
+    report only), ``"decision"``, ``"results"``, ``"uncertainty"``, ``"record"`` (date and
+    time, command line, inputs) and ``"software"``.  Free lines and figures are rendered
+    separately.
 
     Examples
     --------
     >>> from pcmm_geo.cli._output import Report
     >>> from pcmm_geo.cli._record import Verdict
     >>> sections = record_sections(Report({}, verdict=Verdict(True, "PASS", "simple acceptance")))
-    >>> sections["verdict"][0].rows
-    [['result', 'PASS'], ['decision rule', 'simple acceptance']]
+    >>> [row[0] for row in sections["decision"][0].rows]
+    ['result', 'conformity (ISO 14253-1)', 'decision rule', 'expanded uncertainty U']
     """
     provenance = report.provenance
     record: list[Table] = []
     software: list[Table] = []
     if provenance is not None:
-        rows = [["date and time (UTC)", provenance.created_utc],
-                ["command line", " ".join(provenance.command_line)],
+        rows = [["run started (UTC)", provenance.created_utc],
+                ["command line", shlex.join(provenance.command_line)],
                 ["working folder", provenance.working_directory]]
         if provenance.platform:
             rows.append(["platform", provenance.platform])
@@ -87,16 +161,13 @@ def record_sections(report: Report, command: Sequence[str] | None = None) -> dic
             record.append(Table("Inputs", ["path", "SHA-256", "size / bytes", "files"],
                                 [[f.path, f.sha256, f.size, f.files] for f in provenance.inputs]))
         if provenance.versions:
-            software.append(Table("Software", ["package", "version"], [list(i) for i in provenance.versions.items()]))
+            rows = [list(row) for row in software_identity()]
+            rows += [[name, version] for name, version in provenance.versions.items() if name != "pcmm_geo"]
+            software.append(Table("Software", ["package", "version"], rows))
     elif command:
         record.append(Table("Record", ["item", "value"], [["command line", " ".join(command)]]))
-    verdict = []
-    if report.verdict is not None:
-        verdict.append(Table("Verdict", ["item", "value"],
-                             [["result", report.verdict.statement], ["decision rule", report.verdict.decision_rule]]))
-    uncertainty = uncertainty_tables(report)
-    return {"record": record, "verdict": verdict, "results": list(report.tables),
-            "uncertainty": uncertainty, "software": software}
+    return {"identity": _identity_tables(report), "decision": _decision_table(report), "results": list(report.tables),
+            "uncertainty": uncertainty_tables(report), "record": record, "software": software}
 
 
 def _markdown_table(table: Table) -> list[str]:
@@ -109,6 +180,16 @@ def _markdown_table(table: Table) -> list[str]:
     out.append(row(["---:" if is_number else "---" for is_number in numeric]))
     out.extend(row([markdown_text(c) for c in values]) for values in cells)
     return [*out, ""]
+
+
+def _closing_lines(report: Report) -> list[str]:
+    """The statement every run's report ends with, and the approval line."""
+    if report.identity is None:
+        return []
+    from pcmm_geo.cli._identity import STATEMENT
+
+    approved = report.identity.approved_by or NOT_STATED
+    return [STATEMENT, f"Approved by: {approved}. Report {report.identity.report_id}."]
 
 
 def render_markdown(
@@ -125,7 +206,9 @@ def render_markdown(
     """
     sections = record_sections(report, command)
     out = [f"# {markdown_text(title)}", ""]
-    for group in ("record", "verdict", "results"):
+    if report.identity is not None and report.identity.supersedes:
+        out += [f"**Amended report: replaces report {markdown_text(report.identity.supersedes)}.**", ""]
+    for group in ("identity", "decision", "results"):
         for table in sections[group]:
             out += _markdown_table(table)
     if report.lines:
@@ -139,8 +222,12 @@ def render_markdown(
         link = Path(os.path.relpath(Path(plot).resolve(), Path(base_dir).resolve())).as_posix()
         link = link.replace(" ", "%20").replace("(", "%28").replace(")", "%29")
         out += [f"![{markdown_text(Path(plot).name)}]({link})", ""]
-    for table in sections["software"]:
-        out += _markdown_table(table)
+    for group in ("record", "software"):
+        for table in sections[group]:
+            out += _markdown_table(table)
+    closing = _closing_lines(report)
+    if closing:
+        out += [f"*{markdown_text(closing[0])}*", "", markdown_text(closing[1]), ""]
     return "\n".join(out)
 
 
@@ -170,18 +257,20 @@ def _html_image(plot: str, base_dir: Path) -> str:
     return f'<figure><img alt="{name}" src="data:{kind};base64,{encoded}"><figcaption>{name}</figcaption></figure>\n'
 
 
-def _html_verdict(report: Report) -> str:
+def _html_decision(report: Report, table: Table) -> str:
+    """The decision table, headed by the verdict in colour (green pass, red fail, grey neither)."""
     if report.verdict is None:
-        return ""
+        return _html_table(table)
     state = {True: "pass", False: "fail", None: "none"}[report.verdict.passed]
-    return (f'<p class="verdict {state}">{html.escape(report.verdict.statement)}</p>\n'
-            f"<p>Decision rule: {html.escape(report.verdict.decision_rule)}</p>\n")
+    rest = Table(table.title, table.columns, [row for row in table.rows if row[0] != "result"])  # the box says it
+    return (f'<h2>Decision</h2>\n<p class="verdict {state}">{html.escape(report.verdict.statement)}</p>\n'
+            + _html_table(rest).split("\n", 1)[1])
 
 
 def render_html(
     report: Report, title: str, *, command: Sequence[str] | None = None, base_dir: str | Path = "."
 ) -> str:
-    """The report as one self-contained HTML page (PNG/SVG plots embedded).
+    """The report as one self-contained HTML page (PNG/SVG plots embedded); prints with page numbers.
 
     Raises
     ------
@@ -194,16 +283,22 @@ def render_html(
     >>> page = render_html(Report({}, [Table("A < B", ["x"], [[1.5]])]), "t")
     >>> "<h2>A &lt; B</h2>" in page and '<td class="num">1.500000</td>' in page
     True
+    >>> "counter(page)" in page and "counter(pages)" in page
+    True
     """
     sections = record_sections(report, command)
+    label = f"{title} - report {report.identity.report_id}" if report.identity is not None else title
+    page_style = _PAGE_STYLE.replace("{label}", re.sub(r'["\\\n]', " ", label))
     parts = [
         "<!DOCTYPE html>\n",
         f'<html lang="en">\n<head>\n<meta charset="utf-8">\n<title>{html.escape(title)}</title>\n',
-        f"<style>{_STYLE}</style>\n</head>\n<body>\n<h1>{html.escape(title)}</h1>\n",
+        f"<style>{_STYLE}{page_style}</style>\n</head>\n<body>\n<h1>{html.escape(title)}</h1>\n",
     ]
-    parts.extend(_html_table(table) for table in sections["record"])
-    if report.verdict is not None:
-        parts.append("<h2>Verdict</h2>\n" + _html_verdict(report))
+    if report.identity is not None and report.identity.supersedes:
+        parts.append(f'<p class="amends">Amended report: replaces report '
+                     f"{html.escape(report.identity.supersedes)}.</p>\n")
+    parts.extend(_html_table(table) for table in sections["identity"])
+    parts.extend(_html_decision(report, table) for table in sections["decision"])
     parts.extend(_html_table(table) for table in sections["results"])
     if report.lines:
         parts.append("<ul>\n" + "".join(f"<li>{html.escape(line)}</li>\n" for line in report.lines) + "</ul>\n")
@@ -212,7 +307,10 @@ def render_html(
     if plots:
         parts.append("<h2>Figures</h2>\n")
     parts.extend(_html_image(plot, Path(base_dir)) for plot in plots)
-    parts.extend(_html_table(table) for table in sections["software"])
+    parts.extend(_html_table(table) for table in (*sections["record"], *sections["software"]))
+    closing = _closing_lines(report)
+    if closing:
+        parts.append(f'<p class="statement">{html.escape(closing[0])}</p>\n<p>{html.escape(closing[1])}</p>\n')
     parts.append("</body>\n</html>\n")
     return "".join(parts)
 

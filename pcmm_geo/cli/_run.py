@@ -9,8 +9,10 @@ from __future__ import annotations
 import argparse
 import sys
 import warnings
+from pathlib import Path
 from typing import TYPE_CHECKING
 
+from pcmm_geo.cli._identity import check_identity_flags, method_for, resolve_identity
 from pcmm_geo.cli._output import EXIT_USAGE, check_output_paths, output_plan, print_report
 from pcmm_geo.cli._record import input_paths, software_versions, start_provenance
 from pcmm_geo.cli._report import write_report
@@ -59,17 +61,45 @@ def _refusal(args: argparse.Namespace, plan: OutputPlan | None, exc: OutputExist
 def run_handler(args: argparse.Namespace) -> int:
     """Check every output, run the handler and write the report as one transaction; print the result.
 
-    The outputs are checked before any work (:func:`~pcmm_geo.cli._output.check_output_paths`);
-    if the handler or the report fails, every file this run wrote is removed and every file it
+    The outputs are checked before any work (:func:`~pcmm_geo.cli._output.check_output_paths`),
+    after what killed runs left next to them is put right (:meth:`pcmm_geo._atomic.OutputPlan.recover`);
+    if the handler or the report fails, or Ctrl-C, SIGTERM or SIGHUP ends the command
+    (:mod:`pcmm_geo._signals`), every file this run wrote is removed and every file it
     replaced is put back (:class:`pcmm_geo._atomic.OutputPlan`), and the error is one line.
     """
+    from pcmm_geo._signals import interrupt_on_signals
+
+    with interrupt_on_signals():
+        try:
+            return _run(args)
+        except KeyboardInterrupt as exc:  # after the outputs were committed (while printing the result)
+            return _interrupted(args, None, exc)
+
+
+def _interrupted(args: argparse.Namespace, plan: OutputPlan | None, exc: KeyboardInterrupt) -> int:
+    """The one line of an interrupted command (what the rollback kept) and its exit code (128 + signal)."""
+    from pcmm_geo._signals import Interrupted
+
+    notes = "" if plan is None or not plan.notes else " (" + "; ".join(plan.notes) + ")"
+    by = f" by {exc.name}" if isinstance(exc, Interrupted) and exc.name != "SIGINT" else ""
+    print(f"pcmm {args.command}: interrupted{by}{notes}", file=sys.stderr)
+    return exc.exit_code if isinstance(exc, Interrupted) else 130
+
+
+def _run(args: argparse.Namespace) -> int:
     wants_report = bool(getattr(args, "shared_report_flag", False) and getattr(args, "report", None))
     plan = output_plan(args)
     try:
+        for note in plan.recover():
+            print(f"pcmm {args.command}: note: {note}", file=sys.stderr)
         check_output_paths(args, plan)
+        check_identity_flags(args)
         if wants_report:  # inputs are hashed before the handler reads them, outputs do not exist yet
-            provenance = start_provenance(getattr(args, "command_line", None) or ["pcmm", args.command],
-                                          input_paths(args))
+            inputs = input_paths(args)
+            identity = resolve_identity(args, inputs)  # a bad pcmm.toml or --reference stops here, before work
+            if identity.config and all(Path(p).resolve() != Path(identity.config) for p in inputs):
+                inputs.append(identity.config)
+            provenance = start_provenance(getattr(args, "command_line", None) or ["pcmm", args.command], inputs)
         with plan.transaction():
             with warnings.catch_warnings(record=True) as caught:
                 warnings.simplefilter("always", PcmmGeoWarning)
@@ -78,6 +108,9 @@ def run_handler(args: argparse.Namespace) -> int:
             if wants_report:
                 provenance.versions = software_versions()
                 report.provenance = provenance
+                report.identity = identity
+                report.method = report.method or method_for(args)
+                report.data["report_id"] = identity.report_id
                 written = write_report(report, args.report, title=report_title(args),
                                        command=getattr(args, "command_line", None),
                                        overwrite=bool(getattr(args, "overwrite", False)))
@@ -93,10 +126,8 @@ def run_handler(args: argparse.Namespace) -> int:
         else:
             message = " ".join(str(exc).split())  # one line, whatever the library put in it
         return _fail(args, plan, message)
-    except KeyboardInterrupt:
-        notes = "" if plan is None or not plan.notes else " (" + "; ".join(plan.notes) + ")"
-        print(f"pcmm {args.command}: interrupted{notes}", file=sys.stderr)
-        return 130
+    except KeyboardInterrupt as exc:
+        return _interrupted(args, plan, exc)
     try:
         print_report(report, bool(getattr(args, "json", False)))
         sys.stdout.flush()

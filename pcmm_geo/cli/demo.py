@@ -104,12 +104,15 @@ def handle(args: argparse.Namespace) -> Report:
 
         u = result.length_uncertainty.result
         places = decimals_for(u.expanded_uncertainty)
-        budget = ", ".join(f"{entry.name} {1000 * entry.contribution:.3f}" for entry in u.budget)
+        from pcmm_geo.uncertainty.virtual_cmm import GROUP_LABELS
+
+        budget = ", ".join(f"{GROUP_LABELS.get(entry.name, entry.name)} {1000 * entry.contribution:.3f}"
+                           for entry in u.budget)
         lines[:0] = [
             f"calibrated length L = {result.measured_length_calibrated:.{places}f} mm "
             f"± {u.expanded_uncertainty:.{places}f} mm (U, k = {u.coverage_factor:.2f}, coverage "
             f"{100 * u.coverage_probability:.0f} %; virtual micro-CMM, {u.method}, {u.n_trials} trials)",
             f"true length error {1000 * result.length_error_calibrated:+.3f} µm, U = "
-            f"{1000 * u.expanded_uncertainty:.3f} µm" + (f"; budget u_i / µm: {budget}" if budget else ""),
+            f"{1000 * u.expanded_uncertainty:.3f} µm" + (f"; contributions to u / µm: {budget}" if budget else ""),
         ]
     return Report(data=data, tables=tables, lines=lines, plots=plots)

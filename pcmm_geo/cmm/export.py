@@ -48,7 +48,7 @@ def _three(vector: Any, fill: float = 0.0) -> FloatArray:
 
 
 def _std(fit: FitResult, names: tuple[str, ...]) -> float | None:
-    errors = fit.std_errors
+    errors = dict(zip(fit.parameter_names, np.asarray(fit.std_errors).tolist(), strict=True))
     values = [errors[name] for name in names if name in errors]
     if not values or not all(np.isfinite(values)) or max(values) == 0:
         return None

@@ -10,7 +10,7 @@
 * plain point files (CSV, XYZ, PLY, ...): points only.
 
 :func:`probe_radius_to_apply` decides from the file and the user's ``--compensated`` /
-``--probe-radius`` whether a radius is still to be applied; a format that does not say whether its
+``--probe-radius-mm`` whether a radius is still to be applied; a format that does not say whether its
 points are probe centres (PC-DMIS, DMIS) is refused unless the user says so.
 :func:`compensate_fit` then offsets the fitted element (:func:`pcmm_geo.fit.probe.compensate_probe`)
 with the material side from ``--material-side``, the file's ``InternalExternal``, the point normals
@@ -191,7 +191,7 @@ def probe_radius_to_apply(data: FeaturePoints, *, compensated: str | None = None
     compensated : {"yes", "no"}, optional
         The user's statement (``--compensated``); required for formats without a flag.
     probe_radius : float, optional
-        The user's probe radius (``--probe-radius``, mm).
+        The user's probe radius (``--probe-radius-mm``, mm).
 
     Raises
     ------
@@ -202,11 +202,11 @@ def probe_radius_to_apply(data: FeaturePoints, *, compensated: str | None = None
     if compensated not in (None, "yes", "no"):
         raise InvalidInputError("--compensated", "yes or no", repr(compensated))
     if probe_radius is not None and not (np.isfinite(probe_radius) and probe_radius > 0):
-        raise InvalidInputError("--probe-radius", "a positive probe radius (mm)", repr(probe_radius))
+        raise InvalidInputError("--probe-radius-mm", "a positive probe radius (mm)", repr(probe_radius))
     where = data.describe()
     if data.compensated is True:
         if compensated == "no" or probe_radius is not None:
-            given = "--compensated no" if compensated == "no" else "--probe-radius"
+            given = "--compensated no" if compensated == "no" else "--probe-radius-mm"
             raise InvalidInputError(given, f"nothing: {where} says its points are already compensated "
                                     "(Compensated=true); the radius would be added twice", given)
         return 0.0, "surface points (the file says Compensated=true)"
@@ -216,23 +216,23 @@ def probe_radius_to_apply(data: FeaturePoints, *, compensated: str | None = None
                                     "(Compensated=false)", "yes")
         radius = probe_radius if probe_radius is not None else data.probe_radius
         if radius is None:
-            raise InvalidInputError("--probe-radius", f"the probe radius: {where} holds probe centres without a "
+            raise InvalidInputError("--probe-radius-mm", f"the probe radius: {where} holds probe centres without a "
                                     "ProbeRadius", "none")
         return float(radius), ("probe centres (Compensated=false), radius " +
-                               ("--probe-radius" if probe_radius is not None else "from the file"))
+                               ("--probe-radius-mm" if probe_radius is not None else "from the file"))
     if data.format in UNFLAGGED_FORMATS and compensated is None:
         raise InvalidInputError("--compensated", f"yes or no: {where} ({data.format} format) does not say whether "
                                 "its points are probe centres or surface points", "nothing")
     if compensated == "yes":
         if probe_radius is not None:
-            raise InvalidInputError("--probe-radius", "no radius with --compensated yes", repr(probe_radius))
+            raise InvalidInputError("--probe-radius-mm", "no radius with --compensated yes", repr(probe_radius))
         return 0.0, "surface points (--compensated yes)"
     if probe_radius is None:
         if compensated == "no":
-            raise InvalidInputError("--probe-radius", "the probe radius of the probe centres (--compensated no)",
+            raise InvalidInputError("--probe-radius-mm", "the probe radius of the probe centres (--compensated no)",
                                     "none")
         return 0.0, "surface points (no probe radius given)"
-    return float(probe_radius), "probe centres, radius --probe-radius"
+    return float(probe_radius), "probe centres, radius --probe-radius-mm"
 
 
 def _side_kwargs(data: FeaturePoints, material_side: str | None) -> tuple[dict[str, Any], str]:
@@ -294,7 +294,7 @@ def compensate_fit(fit: FitResult, element: str, data: FeaturePoints, radius: fl
         source = "the point normals" if data.normals is not None else "the file's reported normal"
         return compensate_probe(fit, radius, outward=outward), source
     if element not in ("circle", "sphere", "cylinder", "cone"):
-        raise InvalidInputError("--probe-radius", "an element with an offset surface (line, plane, circle, sphere, "
+        raise InvalidInputError("--probe-radius-mm", "an element with an offset surface (line, plane, circle, sphere, "
                                 "cylinder, cone)", element)
     kwargs, source = _side_kwargs(data, material_side)
     if not kwargs:

@@ -208,20 +208,20 @@ def _prepare_points(point_set: MeasuredPointSet, compensated: bool | None,
             return points, 0.0, "the points are surface points (--compensated yes)", normals
         radius = probe_radius if probe_radius is not None else point_set.probe_radius
         if radius is None:
-            raise NotRefittedError("probe centres (--compensated no) need a probe radius: give --probe-radius")
-        return points, float(radius), "probe radius " + ("--probe-radius" if probe_radius is not None else
+            raise NotRefittedError("probe centres (--compensated no) need a probe radius: give --probe-radius-mm")
+        return points, float(radius), "probe radius " + ("--probe-radius-mm" if probe_radius is not None else
                                                          "from the file"), normals
     if compensated is True:
         raise NotRefittedError("--compensated yes contradicts the file, which says Compensated=false")
     if probe_radius is not None:
-        return points, float(probe_radius), "probe centres (Compensated=false), radius --probe-radius", normals
+        return points, float(probe_radius), "probe centres (Compensated=false), radius --probe-radius-mm", normals
     if point_set.probe_radii is not None:
         surface = _per_point(points, normals, point_set, np.ones(len(points), dtype=bool),
                              "per-point ProbeRadii differ")
         return surface, 0.0, "per-point ProbeRadii: probe centres compensated along their normals", normals
     if point_set.probe_radius is None:
         raise NotRefittedError("the points are probe centres (Compensated=false) but the file gives no ProbeRadius: "
-                               "give --probe-radius")
+                               "give --probe-radius-mm")
     return points, float(point_set.probe_radius), "probe centres (Compensated=false), ProbeRadius from the file", \
         normals
 

@@ -66,9 +66,14 @@ _LAZY = {
     "ProbeCompensation": "probe",
     "material_side_from_normals": "probe",
     "material_side_from_nominal": "probe",
+    "AxisRegion": "zone.axial.region",
+    "SearchBudget": "zone.axial.region",
 }
 
-__all__ = ["FitResult", "Tolerances", "TOL", *sorted(_LAZY)]
+#: the element names the fits (``fit_<name>``), the reference generator and ``pcmm fit`` share
+ELEMENTS = ("line", "plane", "circle", "sphere", "cylinder", "cone", "torus")
+
+__all__ = ["ELEMENTS", "FitResult", "Tolerances", "TOL", *sorted(_LAZY)]
 
 
 def __getattr__(name: str) -> Any:

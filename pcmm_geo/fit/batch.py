@@ -80,10 +80,16 @@ class BatchFit:
         return int(self.residuals.shape[0])
 
     @property
-    def std_errors(self) -> dict[str, FloatArray]:
-        """Standard uncertainty of each parameter for every set, ``{name: (K,)}``."""
+    def std_errors(self) -> FloatArray:
+        """Standard uncertainty of each parameter of every set, shape (K, P), in the order of ``parameters``.
+
+        Until 0.1 a dict ``{name: (K,)}``; ``std_errors["radius"]`` still answers for one
+        release, with a ``DeprecationWarning``.
+        """
+        from pcmm_geo._deprecation import NamedValues
+
         diagonal = np.sqrt(np.clip(np.diagonal(self.covariance, axis1=1, axis2=2), 0.0, None))
-        return {name: diagonal[:, j] for j, name in enumerate(self.parameter_names)}
+        return NamedValues(diagonal, self.parameter_names, f"{type(self).__name__}.std_errors")
 
     def __repr__(self) -> str:
         """Short: the count, the shapes of the geometry and the ranges of the statistics (not K x N numbers)."""

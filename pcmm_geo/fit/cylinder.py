@@ -12,7 +12,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike
 
-from pcmm_geo.errors import InvalidInputError
+from pcmm_geo.errors import InvalidInputError, PcmmGeoError
 from pcmm_geo.fit._kernels import _tall
 from pcmm_geo.fit._kernels._axial import (
     AxialSolution,
@@ -29,13 +29,14 @@ from pcmm_geo.fit._kernels._axial import (
     solve_axial,
     warn_if_ambiguous,
 )
-from pcmm_geo.fit._kernels._core import FitResult, as_points, as_weights, covariance_from_jacobian, residual_stats
-from pcmm_geo.fit._kernels._inputs import positive_length
+from pcmm_geo.fit._kernels._core import FitResult, as_weights, check_points, covariance_from_jacobian, residual_stats
+from pcmm_geo.fit._kernels._inputs import point_array, positive_length
 from pcmm_geo.fit._kernels._linear import frozen, weighted_centroid
 from pcmm_geo.fit._kernels._measure import axial_parts, query_points, radial_unit
-from pcmm_geo.fit._kernels._screen import cylinder_reduced, screened_directions
+from pcmm_geo.fit._kernels._screen import DENSE_POINTS, cylinder_reduced, screened_directions, surrounds_axis
 from pcmm_geo.fit.scale import is_dask_array
 from pcmm_geo.fit.zone._common import check_criterion
+from pcmm_geo.fit.zone.axial.region import AxisRegion, SearchBudget, check_minimax_only
 
 __all__ = ["CylinderFit", "fit_cylinder"]
 
@@ -55,6 +56,9 @@ class CylinderFit(FitResult):
         Unit axis direction, sign chosen so that its largest-magnitude component is positive.
     radius : float
         Radius, mm.
+    r_in, r_out : float
+        Minimum-zone, MCC and MIC fits: smallest / largest distance of a point from the axis
+        (mm); NaN for Gaussian fits.
 
     Notes
     -----
@@ -173,6 +177,8 @@ def fit_cylinder(
     weights: ArrayLike | None = None,
     axis_hint: ArrayLike | None = None,
     criterion: str = "gaussian",
+    axis_region: AxisRegion | None = None,
+    search_budget: SearchBudget | None = None,
 ) -> CylinderFit:
     """Fit a cylinder to 3-D points by orthogonal-distance least squares.
 
@@ -203,6 +209,15 @@ def fit_cylinder(
     criterion : {"gaussian", "chebyshev", "mcc", "mic"}
         ``"gaussian"`` (least squares, default) or the minimax criteria of
         :mod:`pcmm_geo.fit.zone` (contacts and optimality certificate on the result).
+        These are searched globally over the axes of ``axis_region`` by branch and bound;
+        ``certificate.scope`` says ``"global"`` when the optimum over the region is proven
+        to 1e-9 mm, ``"local"`` (with the proven ``bound_mm``) when ``search_budget`` ran out.
+    axis_region : AxisRegion, optional
+        Minimax criteria only: the axes searched (default: within 45 deg of the
+        least-squares axis, crossing the plane normal to it through the data centroid
+        within twice the least-squares radius of it).
+    search_budget : SearchBudget, optional
+        Minimax criteria only: cell and time limits of the search.
 
     Returns
     -------
@@ -233,6 +248,7 @@ def fit_cylinder(
     if radius is not None:
         radius = positive_length(radius, "radius")
     check_criterion(criterion, _ELEMENT, weights=weights, radius=radius, axis_hint=axis_hint)
+    check_minimax_only(criterion, axis_region=axis_region, search_budget=search_budget)
     if is_dask_array(points):
         if criterion != "gaussian":
             raise InvalidInputError("criterion", "'gaussian' for a dask array of points", repr(criterion))
@@ -240,36 +256,31 @@ def fit_cylinder(
 
         return CylinderFit(**fit_cylinder_dask(points, radius=radius, weights=weights, axis_hint=axis_hint,
                                                **_scale_parts()))
-    data = as_points(points, element=_ELEMENT, min_points=5 if radius is None else 4)
+    min_points = 5 if radius is None else 4
+    data = point_array(points, element=_ELEMENT, min_points=min_points)
+    chunked = weights is None and criterion == "gaussian" and len(data) >= _tall.TALL_ROWS
+    if not chunked:  # the chunked fit checks the values in its first pass
+        check_points(data, element=_ELEMENT, min_points=min_points)
     if criterion != "gaussian":
         from pcmm_geo.fit.zone._axial import cylinder_minimax
 
-        return cylinder_minimax(data, criterion, gauss=fit_cylinder(data), result_type=CylinderFit)
+        return cylinder_minimax(data, criterion, gauss=fit_cylinder(data), result_type=CylinderFit,
+                                axis_region=axis_region, search_budget=search_budget)
     weight = as_weights(weights, data.shape[0], element=_ELEMENT)
-    if weight is None and len(data) >= _tall.TALL_ROWS:
+    if chunked:
         from pcmm_geo.fit.scale.chunked import IllConditionedSteps
         from pcmm_geo.fit.scale.fits import fit_cylinder_scaled, numpy_source
 
         try:
-            return CylinderFit(**fit_cylinder_scaled(numpy_source(data), radius, axis_hint, **_scale_parts()))
+            source = numpy_source(data, element=_ELEMENT, min_points=min_points)
+            return CylinderFit(**fit_cylinder_scaled(source, radius, axis_hint, **_scale_parts()))
         except IllConditionedSteps:
             pass  # nearly coplanar: the solver below decides
     sqrt_weights = None if weight is None else np.sqrt(weight)
     centroid = weighted_centroid(data)
     centred = data - centroid
     check_spread(centred, element=_ELEMENT, forbid_coplanar=True)
-    axes = candidate_axes(centred, [as_axis_hint(axis_hint), *screened_directions(centred, cylinder_reduced(radius))])
-    solution = solve_axial(
-        data,
-        centroid,
-        axes,
-        start=_cylinder_start(radius),
-        model=_cylinder_model(radius),
-        position_slots=(0, 1),
-        tilt_slots=(2, 3),
-        element=_ELEMENT,
-        sqrt_weights=sqrt_weights,
-    )
+    solution = _solve(data, centroid, centred, as_axis_hint(axis_hint), radius, sqrt_weights)
     warn_if_ambiguous(
         solution,
         element=_ELEMENT,
@@ -278,6 +289,52 @@ def fit_cylinder(
         sizes=lambda params: {"radius": radius if radius is not None else float(params[4])},
     )
     return _result(data, solution, radius)
+
+
+#: dense unweighted data of more than twice this many points start from the fit of a strided subsample of
+#: about this many (a start from each principal axis costs iterations over every point, the subsample's a fifth)
+_START_SUBSAMPLE = 1000
+
+
+def _solve(data: FloatArray, centroid: FloatArray, centred: FloatArray, hint: FloatArray | None,
+           radius: float | None, sqrt_weights: FloatArray | None) -> AxialSolution:
+    """The least-squares cylinder from the principal axes and ``hint``, and screened directions where needed.
+
+    Sparse data are screened first.  Dense data are fitted from the principal axes; when that
+    fit does not surround its axis (a partial surface,
+    :func:`~pcmm_geo.fit._kernels._screen.surrounds_axis`), they are screened and fitted again.
+    Many dense unweighted points are first fitted so on a strided subsample, whose axis then
+    starts the one fit of all points (unless the subsample has rival minima: then all points
+    go through the search).
+    """
+    def solve(axes: list[FloatArray]) -> AxialSolution:
+        return solve_axial(data, centroid, axes, start=_cylinder_start(radius), model=_cylinder_model(radius),
+                           position_slots=(0, 1), tilt_slots=(2, 3), element=_ELEMENT, sqrt_weights=sqrt_weights)
+
+    def screened() -> list[FloatArray]:
+        return screened_directions(centred, cylinder_reduced(radius))
+
+    # points of zero weight do not count: they neither make data dense nor fill a gap
+    counted = centred if sqrt_weights is None else centred[sqrt_weights > 0]
+    dense = len(counted) > DENSE_POINTS
+    if dense and sqrt_weights is None and len(data) > 2 * _START_SUBSAMPLE:
+        sample = data[::len(data) // _START_SUBSAMPLE]
+        sample_centroid = weighted_centroid(sample)
+        try:
+            rough = _solve(sample, sample_centroid, sample - sample_centroid, hint, radius, None)
+        except PcmmGeoError:
+            rough = None  # all points decide below
+        if rough is not None and not rough.others:
+            return solve([rough.rotation[2]])  # the subsample's axis (its final frame has a = b = 0)
+    solution = solve(candidate_axes(centred, [hint] if dense else [hint, *screened()]))
+    if dense and not surrounds_axis(len(counted), _across_axis(counted, solution)):
+        solution = solve(candidate_axes(centred, [hint, *screened()]))  # a partial surface
+    return solution
+
+
+def _across_axis(centred: FloatArray, solution: AxialSolution) -> FloatArray:
+    """Coordinates (N, 2) of the centred data across the fitted axis, relative to it (final frame: a = b = 0)."""
+    return centred @ solution.rotation[:2].T - solution.params[:2]
 
 
 def _scale_parts() -> dict[str, object]:

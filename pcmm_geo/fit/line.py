@@ -13,10 +13,12 @@ from numpy.typing import ArrayLike, NDArray
 
 from pcmm_geo.errors import DegenerateGeometryError, InvalidInputError
 from pcmm_geo.fit._kernels import _tall
-from pcmm_geo.fit._kernels._core import FitResult, as_points, as_weights, residual_stats
+from pcmm_geo.fit._kernels._core import FitResult, as_weights, check_points, residual_stats
+from pcmm_geo.fit._kernels._inputs import point_array
 from pcmm_geo.fit._kernels._linear import frozen, local_covariance, principal_frame, propagate, sign_convention
 from pcmm_geo.fit.scale import is_dask_array
 from pcmm_geo.fit.zone._common import check_criterion
+from pcmm_geo.fit.zone.axial.region import SearchBudget, check_minimax_only
 
 __all__ = ["LineFit", "fit_line"]
 
@@ -58,7 +60,13 @@ class LineFit(FitResult):
         return self.point + (rel @ self.direction)[..., None] * self.direction
 
 
-def fit_line(points: ArrayLike, *, weights: ArrayLike | None = None, criterion: str = "gaussian") -> LineFit:
+def fit_line(
+    points: ArrayLike,
+    *,
+    weights: ArrayLike | None = None,
+    criterion: str = "gaussian",
+    search_budget: SearchBudget | None = None,
+) -> LineFit:
     """Fit a straight line minimising the (weighted) sum of squared orthogonal distances.
 
     Parameters
@@ -74,6 +82,10 @@ def fit_line(points: ArrayLike, *, weights: ArrayLike | None = None, criterion: 
     criterion : {"gaussian", "chebyshev"}
         ``"gaussian"`` (least squares, default) or the minimax criteria of
         :mod:`pcmm_geo.fit.zone` (contacts and optimality certificate on the result).
+        In 3-D the minimum zone is the smallest enclosing cylinder over all directions,
+        searched globally by branch and bound (``certificate.scope``).
+    search_budget : SearchBudget, optional
+        3-D minimum zone only: cell and time limits of that search.
 
     Returns
     -------
@@ -99,22 +111,42 @@ def fit_line(points: ArrayLike, *, weights: ArrayLike | None = None, criterion: 
     ([1.0, 1.0, 1.0], [1.0, 1.0, 1.0])
     """
     check_criterion(criterion, _ELEMENT, weights=weights)
+    check_minimax_only(criterion, search_budget=search_budget)
     if is_dask_array(points):
         if criterion != "gaussian":
             raise InvalidInputError("criterion", "'gaussian' for a dask array of points", repr(criterion))
         from pcmm_geo.fit.scale.dask import fit_line_dask
 
         return LineFit(**fit_line_dask(points, weights=weights))
-    pts = as_points(points, element=_ELEMENT, dims=(2, 3), min_points=2)
+    min_points = 2
+    pts = point_array(points, element=_ELEMENT, dims=(2, 3), min_points=min_points)
+    chunked = (weights is None and criterion == "gaussian" and pts.shape[1] == 3
+               and len(pts) >= _tall.TALL_ROWS)
+    if not chunked:  # the chunked fit checks the values in its first pass
+        check_points(pts, element=_ELEMENT, min_points=min_points)
     if criterion != "gaussian":
+        if pts.shape[1] == 3:
+            from pcmm_geo.fit.zone._axial import line3d_minimax
+
+            try:
+                start: LineFit | None = fit_line(pts)
+            except DegenerateGeometryError:  # no preferred direction: the zone still exists
+                start = None
+            return line3d_minimax(pts, criterion, gauss=start, result_type=LineFit, search_budget=search_budget)
+        if search_budget is not None:
+            raise InvalidInputError("search_budget", "None for a 2-D line (its zone is exact)", repr(search_budget))
         from pcmm_geo.fit.zone._linear import line_minimax
 
         return line_minimax(pts, criterion, gauss=fit_line(pts), result_type=LineFit)
     w = as_weights(weights, len(pts), element=_ELEMENT)
-    if w is None and pts.shape[1] == 3 and len(pts) >= _tall.TALL_ROWS:
+    if chunked:
+        from pcmm_geo.fit.scale.chunked import IllConditionedSteps
         from pcmm_geo.fit.scale.fits import fit_line_scaled, numpy_source
 
-        return LineFit(**fit_line_scaled(numpy_source(pts)))
+        try:
+            return LineFit(**fit_line_scaled(numpy_source(pts, element=_ELEMENT, min_points=min_points)))
+        except IllConditionedSteps:
+            pass  # sums beyond float64 (coordinates near the limit): the decomposition below takes them
     centroid, singular, vt = principal_frame(pts, w, element=_ELEMENT)
     if len(singular) > 1 and singular[1] >= (1 - 1e-12) * singular[0] and len(pts) > 2:
         raise DegenerateGeometryError(_ELEMENT, "points have no preferred direction (isotropic spread)")

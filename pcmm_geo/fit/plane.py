@@ -14,7 +14,8 @@ from numpy.typing import ArrayLike, NDArray
 
 from pcmm_geo.errors import DegenerateGeometryError, InvalidInputError
 from pcmm_geo.fit._kernels import _tall
-from pcmm_geo.fit._kernels._core import TOL, FitResult, as_points, as_weights, residual_stats
+from pcmm_geo.fit._kernels._core import TOL, FitResult, as_weights, check_points, residual_stats
+from pcmm_geo.fit._kernels._inputs import point_array
 from pcmm_geo.fit._kernels._linear import frozen, local_covariance, principal_frame, propagate, sign_convention
 from pcmm_geo.fit.scale import is_dask_array
 from pcmm_geo.fit.zone._common import check_criterion
@@ -97,18 +98,22 @@ def fit_plane(points: ArrayLike, *, weights: ArrayLike | None = None, criterion:
         from pcmm_geo.fit.scale.dask import fit_plane_dask
 
         return PlaneFit(**fit_plane_dask(points, weights=weights))
-    pts = as_points(points, element=_ELEMENT, min_points=3)
+    min_points = 3
+    pts = point_array(points, element=_ELEMENT, min_points=min_points)
+    chunked = weights is None and criterion == "gaussian" and len(pts) >= _tall.TALL_ROWS
+    if not chunked:  # the chunked fit checks the values in its first pass
+        check_points(pts, element=_ELEMENT, min_points=min_points)
     if criterion != "gaussian":
         from pcmm_geo.fit.zone._linear import plane_minimax
 
         return plane_minimax(pts, criterion, gauss=fit_plane(pts), result_type=PlaneFit)
     w = as_weights(weights, len(pts), element=_ELEMENT)
-    if w is None and len(pts) >= _tall.TALL_ROWS:
+    if chunked:
         from pcmm_geo.fit.scale.chunked import IllConditionedSteps
         from pcmm_geo.fit.scale.fits import fit_plane_scaled, numpy_source
 
         try:
-            return PlaneFit(**fit_plane_scaled(numpy_source(pts)))
+            return PlaneFit(**fit_plane_scaled(numpy_source(pts, element=_ELEMENT, min_points=min_points)))
         except IllConditionedSteps:
             pass  # nearly collinear: the singular value decomposition below decides
     centroid, singular, vt = principal_frame(pts, w, element=_ELEMENT)

@@ -59,6 +59,7 @@ __all__ = [
     "ELEMENTS",
     "MIN_POINTS",
     "ReferenceDataSet",
+    "data_kind",
     "first_order_residual",
     "make_reference_data",
     "random_rotation",
@@ -198,9 +199,55 @@ def _as_rng(rng: int | np.random.Generator | None) -> np.random.Generator:
     raise InvalidInputError("rng", "an int seed or a numpy Generator", type(rng).__name__)
 
 
+#: element names shared with the fits (``fit_line`` ...) and ``pcmm fit`` -> the data-set kind, by dimension
+_SHARED_NAMES = {("line", 2): "line2d", ("line", 3): "line3d", ("circle", 2): "circle2d", ("circle", 3): "circle3d"}
+
+
+def data_kind(element: str, dims: int | None = None, method: str = "gaussian") -> str:
+    """The data-set kind (one of :data:`ELEMENTS`) of an element named as the fits name it.
+
+    ``"line"`` and ``"circle"`` are 3-D unless ``dims=2`` (as ``pcmm fit line|circle`` without
+    ``--two-d``); ``method="projected"`` is the NIST 3-D circle (plane, then 2-D circle).  A kind
+    (``"line2d"``, ``"circle3d_projected"``, ...) is returned as it is.
+
+    Raises
+    ------
+    InvalidInputError
+        Unknown element, ``dims`` other than 2 or 3, ``dims=2`` for an element that is 3-D
+        only, or ``method`` other than ``"gaussian"`` / ``"projected"`` (circle only).
+
+    Examples
+    --------
+    >>> data_kind("line"), data_kind("circle", dims=2), data_kind("circle", method="projected")
+    ('line3d', 'circle2d', 'circle3d_projected')
+    """
+    if dims not in (None, 2, 3):
+        raise InvalidInputError("dims", "2 or 3", repr(dims))
+    if method not in ("gaussian", "projected"):
+        raise InvalidInputError("method", "'gaussian' or 'projected'", repr(method))
+    if element in ("line", "circle"):
+        kind = _SHARED_NAMES[(element, dims or 3)]
+    elif element in MIN_POINTS:
+        kind = element
+        if dims is not None and dims != (2 if element.endswith("2d") else 3):
+            raise InvalidInputError("dims", f"{2 if element.endswith('2d') else 3} for {element}", repr(dims))
+    else:
+        names = ("line", "plane", "circle", "sphere", "cylinder", "cone", "torus")
+        raise InvalidInputError("element", f"one of {', '.join(names)} (or a kind: {', '.join(ELEMENTS)})",
+                                repr(element))
+    if method == "projected":
+        if kind != "circle3d":
+            raise InvalidInputError("method", "'gaussian' (method='projected' is the NIST 3-D circle only)",
+                                    f"'projected' for {kind}")
+        kind = "circle3d_projected"
+    return kind
+
+
 def make_reference_data(
     element: str,
     *,
+    dims: int | None = None,
+    method: str = "gaussian",
     n_points: int | None = None,
     form: float = 0.0,
     radius: float = 10.0,
@@ -219,8 +266,14 @@ def make_reference_data(
     Parameters
     ----------
     element : str
-        ``"line2d"``, ``"line3d"``, ``"plane"``, ``"circle2d"``, ``"circle3d"``,
-        ``"circle3d_projected"``, ``"sphere"``, ``"cylinder"``, ``"cone"`` or ``"torus"``.
+        As the fits name it: ``"line"``, ``"plane"``, ``"circle"``, ``"sphere"``, ``"cylinder"``,
+        ``"cone"`` or ``"torus"`` (see :func:`data_kind`); or a data-set kind of :data:`ELEMENTS`
+        (``"line2d"``, ``"line3d"``, ``"circle2d"``, ``"circle3d"``, ``"circle3d_projected"``, ...),
+        which the returned set's ``element`` holds.
+    dims : {2, 3}, optional
+        Line and circle: planar (``(N, 2)`` points) or spatial; default 3.
+    method : {"gaussian", "projected"}
+        Circle: the 3-D circle of orthogonal distances, or the NIST convention (``"projected"``).
     n_points : int, optional
         Number of points; default ``max(4 * minimum, 20)``.  The minimum
         (:data:`MIN_POINTS`) is allowed only with ``form = 0``.
@@ -257,7 +310,7 @@ def make_reference_data(
     Raises
     ------
     InvalidInputError
-        Unknown element, negative form, sizes out of range, ``form > 0`` with the minimum
+        Unknown element or ``dims``, negative form, sizes out of range, ``form > 0`` with the minimum
         point count.
     TooFewPointsError
         Fewer points than the element needs.
@@ -271,12 +324,11 @@ def make_reference_data(
     >>> data = make_reference_data("cylinder", n_points=30, radius=5.0, arc=np.pi / 2, form=0.001, rng=3)
     >>> data.parameters["radius"], data.points.shape
     (5.0, (30, 3))
-    >>> circle = make_reference_data("circle2d", n_points=3, rotate=False)
+    >>> circle = make_reference_data("circle", dims=2, n_points=3, rotate=False)
     >>> (np.round(circle.points, 12) + 0.0).tolist()[0]
     [10.0, 0.0]
     """
-    if element not in MIN_POINTS:
-        raise InvalidInputError("element", f"one of {', '.join(ELEMENTS)}", repr(element))
+    element = data_kind(element, dims, method)
     minimum = MIN_POINTS[element]
     if n_points is None:
         n_points = max(4 * minimum, 20)

@@ -10,8 +10,8 @@ from numpy.typing import ArrayLike, NDArray
 
 from pcmm_geo.errors import InvalidInputError
 from pcmm_geo.fit._kernels import _tall
-from pcmm_geo.fit._kernels._core import FitResult, as_points, as_weights, residual_stats
-from pcmm_geo.fit._kernels._inputs import positive_length
+from pcmm_geo.fit._kernels._core import TOL, FitResult, as_weights, check_points, residual_stats
+from pcmm_geo.fit._kernels._inputs import check_point_extremes, point_array, positive_length
 from pcmm_geo.fit._kernels._linear import frozen
 from pcmm_geo.fit._kernels._measure import query_points, radial_unit
 from pcmm_geo.fit._kernels._round import fit_nsphere
@@ -140,16 +140,19 @@ def fit_sphere(
 
         found, residuals = fit_sphere_dask(points, radius=radius, weights=weights)
         return _from_solution(found, residuals, radius)
-    pts = as_points(points, element=_ELEMENT, min_points=4 if radius is None else 3)
+    min_points = 4 if radius is None else 3
+    pts = point_array(points, element=_ELEMENT, min_points=min_points)
+    if weights is None and criterion == "gaussian" and len(pts) >= _tall.TALL_ROWS:
+        chunked = _fit_chunked(pts, radius, min_points)  # checks the values in its first pass
+        if chunked is not None:
+            return chunked
+    else:
+        check_points(pts, element=_ELEMENT, min_points=min_points)
     if criterion != "gaussian":
         from pcmm_geo.fit.zone._round import sphere_minimax
 
         return sphere_minimax(pts, criterion, result_type=SphereFit)
     w = as_weights(weights, len(pts), element=_ELEMENT)
-    if w is None and len(pts) >= _tall.TALL_ROWS:
-        chunked = _fit_chunked(pts, radius)
-        if chunked is not None:
-            return chunked
     centre, fitted_radius, outcome, residuals, cond, cov = fit_nsphere(pts, w, element=_ELEMENT, fixed_radius=radius)
     rms, form = residual_stats(residuals)
     return sphere_result(centre, fitted_radius, residuals, rms=rms, form=form, n=len(pts),
@@ -157,15 +160,23 @@ def fit_sphere(
                          iterations=outcome.iterations, message=outcome.message, fixed=radius is not None)
 
 
-def _fit_chunked(pts: FloatArray, radius: float | None) -> SphereFit | None:
-    """The chunked solver on in-memory points; None when the data need the orthogonal routines."""
-    from pcmm_geo.fit.scale.chunked import IllConditionedSteps, in_memory
+def _fit_chunked(pts: FloatArray, radius: float | None, min_points: int) -> SphereFit | None:
+    """The chunked solver on in-memory points, unchecked so far; None when they need the orthogonal routines.
+
+    The values are checked from the extremes of the moment pass (the row of a bad value is
+    then found and named); nothing else reads the points before.
+    """
+    from pcmm_geo.fit.scale.chunked import IllConditionedSteps, in_memory, moments
     from pcmm_geo.fit.scale.sphere import fit_nsphere_chunked
 
+    reduce = in_memory(pts)
+    shift = pts[0].copy()
+    data = moments(reduce, shift)
+    check_point_extremes(pts, data.lower, data.upper, element=_ELEMENT, min_points=min_points,
+                         identical=TOL.identical)
     residuals = np.empty(len(pts))
     try:
-        found = fit_nsphere_chunked(in_memory(pts), pts[0].copy(), element=_ELEMENT, fixed_radius=radius,
-                                    out=residuals)
+        found = fit_nsphere_chunked(reduce, shift, element=_ELEMENT, fixed_radius=radius, out=residuals, data=data)
     except IllConditionedSteps:
         return None
     return _from_solution(found, residuals, radius)

@@ -1,8 +1,9 @@
 """File formats: point files and point clouds, labelled point files, triangle meshes, NIST reference pairs.
 
 :func:`read_points` is the one reader of plain point files (``(N, 3)`` from CSV/TXT/XYZ,
-NIST ``.ds``, PLY, PCD); :func:`read_labelled_points` reads ``name,x,y,z`` files keeping the
-labels (:class:`LabelledPoints`).
+NIST ``.ds``, PLY, PCD, E57), streamed into one array; :func:`read_points_lazy` reads the same
+text formats larger than memory as a dask array; :func:`read_labelled_points` reads
+``name,x,y,z`` files keeping the labels (:class:`LabelledPoints`).
 
 Names are loaded on first access so that ``import pcmm_geo.io`` stays light (open3d is
 imported only when a point cloud is read or written, trimesh only for meshes).
@@ -16,6 +17,7 @@ from typing import Any
 _LAZY = {
     "read_points": "points",
     "write_points": "points",
+    "read_points_lazy": "lazy",
     "read_labelled_points": "labelled",
     "LabelledPoints": "labelled",
     "read_nist_pair": "nist",

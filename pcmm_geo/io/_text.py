@@ -1,10 +1,13 @@
 """Decoding text files line by line with errors that name the file and the line.
 
-Every text reader of pcmm_geo goes through :func:`read_text_lines` (or :func:`read_csv_rows`,
-built on it), so a binary file, bytes that are not UTF-8, a directory, an over-long line or a
-bad quote give one :class:`FileFormatError` (``path:line: reason``) instead of a bare
-``UnicodeDecodeError`` or ``_csv.Error``.  Messages quote at most a short :func:`excerpt`
-of the offending text, however long the line is.
+Every text reader of pcmm_geo goes through :func:`read_text_lines` / :func:`iter_text_lines`
+(or :func:`read_csv_rows`, built on the same blocks of :mod:`pcmm_geo.io._lines`), so a binary
+file, bytes that are not UTF-8, a directory, an over-long line or a bad quote give one
+:class:`FileFormatError` (``path:line: reason``) instead of a bare ``UnicodeDecodeError`` or
+``_csv.Error``.  Messages quote at most a short :func:`excerpt` of the offending text, however
+long the line is.  The file is read in blocks: a reader that checks its header while iterating
+(:func:`iter_text_lines`, ``read_csv_rows(check_header=...)``) refuses a wrong file without
+reading the rest of it.
 
 A leading UTF-8 byte-order mark (as Excel and Windows Notepad write) is dropped here, so
 every reader accepts such files.
@@ -22,11 +25,13 @@ from __future__ import annotations
 import csv
 import math
 import re
+from collections.abc import Callable, Iterator
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
 from pcmm_geo.errors import FileFormatError
+from pcmm_geo.io._lines import EXCERPT_CHARS, MAX_LINE_CHARS, decode_block, excerpt, iter_blocks, text_codec
 
 __all__ = [
     "EXCERPT_CHARS",
@@ -35,6 +40,7 @@ __all__ = [
     "MAX_LINE_CHARS",
     "CsvRows",
     "excerpt",
+    "iter_text_lines",
     "parse_decimal",
     "read_csv_rows",
     "read_json_file",
@@ -42,36 +48,9 @@ __all__ = [
     "read_text_lines",
 ]
 
-#: longest line (characters) a text reader accepts; data rows are far shorter
-MAX_LINE_CHARS = 65_536
 #: longest CSV field (characters) :func:`read_csv_rows` accepts
 MAX_FIELD_CHARS = 4_096
-#: characters of offending text an error message quotes at most
-EXCERPT_CHARS = 60
-
-_BOM = b"\xef\xbb\xbf"
-# C0 control characters other than tab, line feed and carriage return, and DEL: never in a text
-# data file, and str.strip() would silently remove some of them (0x0b, 0x1c-0x1f) from a number
-_CONTROL = re.compile(rb"[\x00-\x08\x0b\x0c\x0e-\x1f\x7f]")
 _DECIMAL = re.compile(r"[+-]?(?:\d+\.?\d*|\.\d+)(?:[eE][+-]?\d+)?|[+-]?(?:nan|inf|infinity)", re.IGNORECASE | re.ASCII)
-
-
-def excerpt(text: str, limit: int = EXCERPT_CHARS) -> str:
-    """``repr(text)``, shortened to its first ``limit`` characters and its length when longer.
-
-    Error messages quote offending file content through this, so that a damaged 100 MB line
-    gives a message of a few dozen characters.
-
-    Examples
-    --------
-    >>> excerpt("1,2,3")
-    "'1,2,3'"
-    >>> excerpt("7" * 1_000_000, limit=8)
-    "'77777777'... (1000000 characters)"
-    """
-    if len(text) <= limit:
-        return repr(text)
-    return f"{text[:limit]!r}... ({len(text)} characters)"
 
 
 def parse_decimal(text: str) -> float:
@@ -104,40 +83,46 @@ def parse_decimal(text: str) -> float:
 
 def _decode(path: str | Path, max_line: int | None = MAX_LINE_CHARS) -> tuple[list[tuple[int, str]], bool]:
     """Lines of ``path`` and whether the last one ends with a line end (see :func:`read_text_lines`)."""
-    file = Path(path)
-    if file.is_dir():
-        raise FileFormatError(str(file), "is a directory, expected a text file")
-    data = file.read_bytes()
-    if data.startswith(_BOM):
-        data = data[len(_BOM):]
-    terminated = not data or data.endswith(b"\n")
-    control = _CONTROL.search(data)
-    if control is not None:  # one scan of the whole file; the line is counted only when needed
-        number = data.count(b"\n", 0, control.start()) + 1
-        code = data[control.start()]
-        if code == 0:
-            raise FileFormatError(str(file), "binary data (NUL byte), expected a text file", line=number)
-        column = control.start() - data.rfind(b"\n", 0, control.start())
-        raise FileFormatError(
-            str(file), f"control character 0x{code:02x} at column {column}, expected text", line=number
-        )
     lines: list[tuple[int, str]] = []
-    for number, raw in enumerate(data.split(b"\n"), start=1):
-        try:
-            text = raw.decode("utf-8")
-        except UnicodeDecodeError as exc:
-            raise FileFormatError(
-                str(file), f"not UTF-8 text: byte 0x{raw[exc.start]:02x} at column {exc.start + 1}", line=number
-            ) from None
-        if max_line is not None and len(text) > max_line:
-            raise FileFormatError(
-                str(file), f"line of {len(text)} characters (at most {max_line} accepted): {excerpt(text)}",
-                line=number,
-            )
-        lines.append((number, text.rstrip("\r")))
-    if lines and lines[-1][1] == "" and terminated:
-        lines.pop()  # the newline that ends the last line
-    return lines, terminated
+    for block in iter_blocks(path, max_line=max_line):
+        lines.extend(decode_block(path, block, max_line))
+        if block.last:
+            return lines, block.terminated
+    raise AssertionError("iter_blocks ends with a last block")  # pragma: no cover
+
+
+def iter_text_lines(path: str | Path, *, encoding: str | None = None) -> Iterator[tuple[int, str]]:
+    """The lines of a text file as :func:`read_text_lines` gives them, read block by block.
+
+    A reader that refuses a wrong header while iterating stops there: the rest of the file is
+    never read.  Errors (as :func:`read_text_lines`) are raised when the line is reached.
+    ``encoding`` None reads UTF-8; a reader that lets its caller name the encoding (files from
+    CMM software) passes it here: it must be ASCII-compatible (``cp1252``, ``latin-1``, ...)
+    and is checked before the file is opened.
+
+    Raises
+    ------
+    FileFormatError
+        As :func:`read_text_lines`; an unknown or not ASCII-compatible ``encoding``.
+    FileNotFoundError
+        The file does not exist.
+
+    Examples
+    --------
+    >>> import os, tempfile
+    >>> path = os.path.join(tempfile.mkdtemp(), "report.dmo")
+    >>> _ = open(path, "wb").write("$$ Prüfbericht\\nEND\\n".encode("cp1252"))
+    >>> list(iter_text_lines(path, encoding="cp1252"))
+    [(1, '$$ Prüfbericht'), (2, 'END')]
+    >>> try:
+    ...     next(iter_text_lines(path))
+    ... except FileFormatError as exc:
+    ...     print(exc.line, exc.reason)
+    1 not UTF-8 text: byte 0xfc at column 6
+    """
+    codec = None if encoding is None else text_codec(path, encoding)
+    for block in iter_blocks(path):
+        yield from decode_block(path, block, encoding=codec)
 
 
 def read_text_lines(path: str | Path) -> list[tuple[int, str]]:
@@ -237,8 +222,13 @@ def _split_line(path: str, number: int, text: str) -> tuple[str, ...]:
     return cells
 
 
-def read_csv_rows(path: str | Path) -> CsvRows:
+def read_csv_rows(path: str | Path, *,
+                  check_header: Callable[[int, tuple[str, ...]], None] | None = None) -> CsvRows:
     """Rows of a comma-separated UTF-8 file, each with its line number; blank and ``#`` lines skipped.
+
+    ``check_header(line_number, cells)``, when given, sees the first row as soon as it is read
+    and refuses a wrong file by raising: the rest of the file is then never read (a 300 MB
+    point file handed to a log reader is refused after its first few kilobytes).
 
     The one CSV tokenizer of pcmm_geo: bounded line and field sizes (:data:`MAX_LINE_CHARS`,
     :data:`MAX_FIELD_CHARS`), double-quoted fields within one line (RFC 4180 without
@@ -269,13 +259,18 @@ def read_csv_rows(path: str | Path) -> CsvRows:
     2 bad CSV quoting (unexpected end of data): '"1'
     """
     name = str(path)
-    lines, terminated = _decode(path)
-    rows = tuple(
-        (number, _split_line(name, number, text))
-        for number, text in lines
-        if text.strip() and not text.lstrip().startswith("#")
-    )
-    return CsvRows(rows, terminated, name, lines[-1][0] if lines else 0)
+    rows: list[tuple[int, tuple[str, ...]]] = []
+    line_count = 0
+    for block in iter_blocks(path):
+        for number, text in decode_block(path, block):
+            line_count = number
+            if text.strip() and not text.lstrip().startswith("#"):
+                rows.append((number, _split_line(name, number, text)))
+                if check_header is not None and len(rows) == 1:
+                    check_header(*rows[0])
+        if block.last:
+            return CsvRows(tuple(rows), block.terminated, name, line_count)
+    raise AssertionError("iter_blocks ends with a last block")  # pragma: no cover
 
 
 #: deepest nesting of arrays and objects accepted (pcmm_geo's own files need fewer than 8)

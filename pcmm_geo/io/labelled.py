@@ -31,7 +31,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from pcmm_geo.errors import FileFormatError
-from pcmm_geo.io._text import excerpt, parse_decimal, read_text_lines
+from pcmm_geo.io._text import excerpt, iter_text_lines, parse_decimal
 
 __all__ = ["LABEL_COLUMNS", "LabelledPoints", "read_labelled_points"]
 
@@ -141,7 +141,7 @@ def read_labelled_points(path: str | Path) -> LabelledPoints:
     points: list[list[float]] = []
     labels: list[str] = []
     lines: list[int] = []
-    for number, raw in read_text_lines(file):
+    for number, raw in iter_text_lines(file):  # a wrong header stops the reading there
         text = raw.strip()
         if not text or text.startswith("#"):
             continue

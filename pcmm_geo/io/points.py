@@ -7,21 +7,32 @@ Text formats (read without any heavy dependency):
   With a header, columns named ``x, y, z`` are used wherever they stand.
 - NIST ``.ds``: first line the point count, then one point per line.
 
-Point clouds ``.ply`` and ``.pcd`` are read and written through open3d (imported on
-first use).  Writers never replace an existing file unless ``overwrite=True``.
+Text files, and ASCII PLY / PCD, are streamed: the head of the file (count, header, first
+data line) is read and checked first, then the rows are parsed block by block into one
+preallocated ``(N, 3)`` array (:mod:`pcmm_geo.io._delimited`), so that reading takes little
+more memory than the points themselves and a wrong file is refused at its first bad line.
+Binary PLY / PCD are read through open3d, E57 through pye57 (:mod:`pcmm_geo.io.clouds`).
+A file larger than memory is read lazily by :func:`pcmm_geo.io.read_points_lazy`.
+Writers never replace an existing file unless ``overwrite=True``.
 """
 
 from __future__ import annotations
 
 import re
+from collections.abc import Iterator
+from dataclasses import dataclass
 from pathlib import Path
+from typing import IO, TYPE_CHECKING
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from pcmm_geo._optional import require
 from pcmm_geo.errors import FileFormatError, InvalidInputError, OutputExistsError
-from pcmm_geo.io._text import excerpt
+from pcmm_geo.io._lines import excerpt
+
+if TYPE_CHECKING:
+    from pcmm_geo.io._delimited import Layout
 
 __all__ = ["read_points", "write_points", "POINT_CLOUD_SUFFIXES", "TEXT_SUFFIXES"]
 
@@ -33,17 +44,21 @@ POINT_CLOUD_SUFFIXES = (".ply", ".pcd")
 def read_points(path: str | Path, *, decimal: str | None = None) -> FloatArray:
     """Read points ``(N, 3)`` (mm) from a text or point-cloud file.
 
-    Text files use one field separator throughout: ``;``, tab, ``,`` or spaces.  The
-    decimal mark is ``.`` or, in files separated by ``;``, tabs or spaces, ``,`` (the
-    usual layout of European CMM and spreadsheet exports: ``12,5;3,25;7,75``).  With
-    ``decimal=None`` the mark is detected from the file; a file that mixes marks or
-    separators, or a line whose fields cannot be read one way only (``12,5,3`` where
-    ``,`` is the decimal mark), is refused rather than guessed.
+    Text files use one field separator throughout: ``;``, tab, ``,`` (spaces around it
+    allowed: ``1.5, 2.5, 3.5``) or spaces.  The decimal mark is ``.`` or, in files separated
+    by ``;``, tabs or spaces, ``,`` (the usual layout of European CMM and spreadsheet
+    exports: ``12,5;3,25;7,75``): with such a separator a comma can only be a decimal mark,
+    and with ``decimal=None`` the first number that has a mark decides it for the file.  A
+    file that mixes marks or separators, or a line whose fields cannot be read one way only
+    (``12,5,3`` where ``,`` is the decimal mark; ``1,5, 2,5, 3,5``), is refused rather than
+    guessed, naming the line.  Digits are ASCII only (``float`` would also read full-width
+    or Arabic-Indic digits).
 
     Parameters
     ----------
     path : str or Path
-        ``.csv``, ``.txt``, ``.xyz``, ``.ds`` (NIST), ``.ply`` or ``.pcd``.
+        ``.csv``, ``.txt``, ``.xyz``, ``.dat``, ``.asc``, ``.ds`` (NIST), ``.ply``, ``.pcd``
+        or ``.e57`` (coordinates in metres, returned in mm; extra ``e57``).
     decimal : {None, ".", ","}, optional
         The decimal mark of a text file; None detects it.
 
@@ -69,56 +84,112 @@ def read_points(path: str | Path, *, decimal: str | None = None) -> FloatArray:
     >>> _ = open(path, "w").write("x,y,z\\n1,2,3\\n4,5,6\\n")
     >>> read_points(path).tolist()
     [[1.0, 2.0, 3.0], [4.0, 5.0, 6.0]]
-    >>> _ = open(path, "w").write("x;y;z\\n12,5;3,25;7,75\\n")
+    >>> _ = open(path, "w").write("x;y;z\\n12;3;7\\n12,5;3,25;7,75\\n")
     >>> read_points(path).tolist()
-    [[12.5, 3.25, 7.75]]
+    [[12.0, 3.0, 7.0], [12.5, 3.25, 7.75]]
+    >>> _ = open(path, "w").write("x;y;z\\n12;3;7\\n12,5;3.25;7,75\\n")
+    >>> try:
+    ...     read_points(path)
+    ... except FileFormatError as exc:
+    ...     print(exc.line, exc.reason)
+    3 decimal point in '3.25', but this file uses decimal commas
     """
     if decimal not in (None, ".", ","):
         raise InvalidInputError("decimal", "None, '.' or ','", repr(decimal))
     file = Path(path)
     suffix = file.suffix.lower()
     if suffix in POINT_CLOUD_SUFFIXES:
-        return _read_cloud(file)
+        from pcmm_geo.io.clouds import read_cloud
+
+        return read_cloud(file)
+    if suffix == ".e57":
+        from pcmm_geo.io.clouds import read_e57
+
+        return read_e57(file)
     if suffix not in TEXT_SUFFIXES:
-        raise FileFormatError(str(file), f"expected one of {', '.join(TEXT_SUFFIXES[:-1] + POINT_CLOUD_SUFFIXES)}")
+        raise FileFormatError(str(file), f"expected one of {', '.join(TEXT_SUFFIXES[:-1] + POINT_CLOUD_SUFFIXES)}"
+                              ", .e57")
     return _read_text(file, decimal)
 
 
 def _read_text(file: Path, decimal: str | None) -> FloatArray:
-    from pcmm_geo.io._text import read_text_lines
+    from pcmm_geo.io._delimited import read_rows
 
-    lines = [(n, t.strip()) for n, t in read_text_lines(file)]
-    lines = [(n, t) for n, t in lines if t and not t.startswith("#")]
-    if not lines:
-        raise FileFormatError(str(file), "no points in the file")
-    expected_count: int | None = None
-    if re.fullmatch(r"[0-9]{1,12}", lines[0][1]):  # NIST .ds: point count first
-        expected_count = int(lines[0][1])
-        lines = lines[1:]
-    header: tuple[int, str] | None = None
-    if lines and not _looks_numeric(lines[0][1]):
-        header, lines = lines[0], lines[1:]
-    if not lines:
-        if header is not None and not {"x", "y", "z"} <= _header_tokens(header[1]):
-            raise FileFormatError(str(file), f"header without x, y, z columns: {excerpt(header[1])}", line=header[0])
-        raise FileFormatError(str(file), "no points in the file (a header only)")
-    layout = _Layout.detect(file, lines[0], decimal)
-    columns = None if header is None else layout.xyz_columns(*header)
-    if columns is None and layout.width < 3:
-        raise FileFormatError(str(file), f"expected at least 3 columns, got {layout.width}", line=lines[0][0])
-    data = np.array([layout.parse(number, text) for number, text in lines], dtype=float)
-    points = data[:, list(columns)] if columns is not None else data[:, :3]
-    if expected_count is not None and expected_count != len(points):
-        raise FileFormatError(str(file), f"header announces {expected_count} points, found {len(points)}", line=1)
-    if not np.all(np.isfinite(points)):
-        row = int(np.argwhere(~np.isfinite(points))[0, 0])
-        raise FileFormatError(str(file), f"non-finite coordinate {excerpt(lines[row][1])}", line=lines[row][0])
+    head = scan_head(file, decimal)
+    points = read_rows(file, head.data_offset, head.data_line, head.layout)
+    if head.expected_count is not None and head.expected_count != len(points):
+        raise FileFormatError(str(file), f"header announces {head.expected_count} points, found {len(points)}", line=1)
     return points
 
 
-_POINT_NUMBER = re.compile(r"[+-]?(\d+\.?\d*|\.\d+)([eE][+-]?\d+)?|[+-]?(nan|inf|infinity)", re.IGNORECASE | re.ASCII)
-_COMMA_NUMBER = re.compile(r"[+-]?(\d+,?\d*|,\d+)([eE][+-]?\d+)?|[+-]?(nan|inf|infinity)", re.IGNORECASE | re.ASCII)
-_SEPARATOR_NAMES = {";": "';'", "\t": "tab", ",": "','", " ": "spaces"}
+@dataclass(frozen=True)
+class TextHead:
+    """What precedes the numbers of a text point file, read without reading the rest.
+
+    Attributes
+    ----------
+    layout : Layout
+        Separator, decimal mark, fields a row and the x, y, z columns.
+    data_offset, data_line : int
+        Byte offset and line number of the first data line.
+    expected_count : int or None
+        The point count of a NIST ``.ds`` file (its first line).
+    """
+
+    layout: Layout
+    data_offset: int
+    data_line: int
+    expected_count: int | None
+
+
+def _head_lines(file: Path) -> Iterator[tuple[int, str, int]]:
+    """``(line_number, stripped text, byte offset)`` of the lines that are neither blank nor comments."""
+    from pcmm_geo.io._lines import decode_block, iter_blocks
+
+    for block in iter_blocks(file):
+        offset = block.offset
+        for number, text in decode_block(file, block):
+            stripped = text.strip()
+            if stripped and not stripped.startswith("#"):
+                yield number, stripped, offset
+            offset = block.data.index(b"\n", offset - block.offset) + 1 + block.offset
+
+
+def scan_head(file: Path, decimal: str | None) -> TextHead:
+    """The point count line (NIST), the header and the layout of the first data line (see :func:`read_points`).
+
+    Raises
+    ------
+    FileFormatError
+        No data line, a header without x, y, z, a header that does not match the data, an
+        ambiguous first data line; the message names the line.
+    """
+    from pcmm_geo.io._delimited import Layout, looks_numeric
+
+    lines = _head_lines(file)
+    first = next(lines, None)
+    if first is None:
+        raise FileFormatError(str(file), "no points in the file")
+    expected_count: int | None = None
+    if re.fullmatch(r"[0-9]{1,12}", first[1]):  # NIST .ds: point count first
+        expected_count = int(first[1])
+        first = next(lines, None)
+    header: tuple[int, str, int] | None = None
+    if first is not None and not looks_numeric(first[1]):
+        header, first = first, next(lines, None)
+    lines.close()
+    if first is None:
+        if header is not None and not {"x", "y", "z"} <= _header_tokens(header[1]):
+            raise FileFormatError(str(file), f"header without x, y, z columns: {excerpt(header[1])}", line=header[0])
+        raise FileFormatError(str(file), "no points in the file (a header only)" if header or expected_count is not None
+                              else "no points in the file")
+    number, text, offset = first
+    layout = Layout.detect(str(file), number, text, decimal)
+    if header is not None:
+        layout.columns = _xyz_columns(layout, header[0], header[1])
+    elif layout.width < 3:
+        raise FileFormatError(str(file), f"expected at least 3 columns, got {layout.width}", line=number)
+    return TextHead(layout, offset, number, expected_count)
 
 
 def _header_tokens(text: str) -> set[str]:
@@ -126,100 +197,19 @@ def _header_tokens(text: str) -> set[str]:
     return {t.strip('"').lower() for t in re.split(r"[,;\s]+", text) if t}
 
 
-def _looks_numeric(text: str) -> bool:
-    """Whether every token of the line is a number in one of the two decimal conventions (else: a header)."""
-    tokens = [t for t in re.split(r"[;\s]+", text) if t]
-    return all(_POINT_NUMBER.fullmatch(t) or _COMMA_NUMBER.fullmatch(t) or
-               all(_POINT_NUMBER.fullmatch(p) for p in t.split(",")) for t in tokens)
+def _xyz_columns(layout: Layout, line: int, text: str) -> tuple[int, int, int]:
+    """Indices of the x, y, z columns named by the header ``text`` (split like the data)."""
+    from pcmm_geo.io._delimited import SEPARATOR_NAMES
 
-
-class _Layout:
-    """One field separator and one decimal mark for the whole file, checked on every line."""
-
-    def __init__(self, file: Path, separator: str, decimal: str, width: int) -> None:
-        self.file, self.separator, self.decimal, self.width = file, separator, decimal, width
-
-    @classmethod
-    def detect(cls, file: Path, first: tuple[int, str], decimal: str | None) -> _Layout:
-        number, text = first
-        if ";" in text:
-            separator = ";"
-        elif "\t" in text:
-            separator = "\t"
-        elif decimal == ",":
-            separator = " "
-        elif "," in text and all(_POINT_NUMBER.fullmatch(f.strip()) for f in text.split(",")):
-            separator = ","
-        elif "," in text and all(_COMMA_NUMBER.fullmatch(f) for f in text.split()):
-            separator = " "  # 12,5 3,25 7,75: spaces between fields, decimal commas
-        elif "," in text:
-            separator = ","
-        else:
-            separator = " "
-        fields = cls._split(text, separator)
-        if decimal is None:
-            decimal = "," if separator != "," and any("," in f for f in fields) else "."
-        if separator == "," and decimal == ",":
-            raise FileFormatError(
-                str(file), f"ambiguous line {excerpt(text)}: ',' cannot be both separator and decimal mark", line=number
-            )
-        layout = cls(file, separator, decimal, len(fields))
-        layout.parse(number, text)
-        return layout
-
-    @staticmethod
-    def _split(text: str, separator: str) -> list[str]:
-        if separator == " ":
-            return text.split()
-        return [f.strip() for f in text.split(separator)]
-
-    def xyz_columns(self, line: int, text: str) -> tuple[int, int, int]:
-        """Indices of the x, y, z columns named by the header ``text`` (split like the data)."""
-        names = [f.strip('"').lower() for f in self._split(text, self.separator)]
-        if len(names) != self.width and {"x", "y", "z"} <= _header_tokens(text):
-            raise FileFormatError(
-                str(self.file), f"header has {len(names)} columns separated by {_SEPARATOR_NAMES[self.separator]}, "
-                f"the first data line {self.width}: {excerpt(text)}", line=line,
-            )
-        if not {"x", "y", "z"} <= set(names):
-            raise FileFormatError(str(self.file), f"header without x, y, z columns: {excerpt(text)}", line=line)
-        return names.index("x"), names.index("y"), names.index("z")
-
-    def parse(self, number: int, text: str) -> list[float]:
-        fields = self._split(text, self.separator)
-        sep = _SEPARATOR_NAMES[self.separator]
-        if len(fields) != self.width:
-            raise FileFormatError(
-                str(self.file),
-                f"expected {self.width} values separated by {sep}, got {len(fields)} in {excerpt(text)}", line=number,
-            )
-        pattern = _COMMA_NUMBER if self.decimal == "," else _POINT_NUMBER
-        values = []
-        for field in fields:
-            if not pattern.fullmatch(field):
-                if self.decimal == "," and _POINT_NUMBER.fullmatch(field) and "." in field:
-                    reason = f"decimal point in {excerpt(field)}, but this file uses decimal commas"
-                elif self.decimal == "." and _COMMA_NUMBER.fullmatch(field) and "," in field:
-                    reason = f"decimal comma in {excerpt(field)}, but this file uses decimal points"
-                elif "," in field and self.decimal == ",":
-                    reason = f"ambiguous number {excerpt(field)}: ',' as decimal mark and separator"
-                else:
-                    reason = f"expected numbers separated by {sep}, got {excerpt(field)}"
-                raise FileFormatError(str(self.file), reason, line=number)
-            values.append(float(field.replace(",", ".")))
-        return values
-
-
-def _read_cloud(file: Path) -> FloatArray:
-    o3d = require("open3d")
-
-    if not file.exists():
-        raise FileNotFoundError(str(file))
-    cloud = o3d.io.read_point_cloud(str(file))
-    points = np.asarray(cloud.points, dtype=float)
-    if points.size == 0:
-        raise FileFormatError(str(file), "no points could be read (empty or malformed point cloud)")
-    return points
+    names = layout.header_names(text)
+    if len(names) != layout.width and {"x", "y", "z"} <= _header_tokens(text):
+        raise FileFormatError(
+            layout.file, f"header has {len(names)} columns separated by {SEPARATOR_NAMES[layout.separator]}, "
+            f"the first data line {layout.width}: {excerpt(text)}", line=line,
+        )
+    if not {"x", "y", "z"} <= set(names):
+        raise FileFormatError(layout.file, f"header without x, y, z columns: {excerpt(text)}", line=line)
+    return names.index("x"), names.index("y"), names.index("z")
 
 
 def write_points(path: str | Path, points: ArrayLike, *, overwrite: bool = False) -> Path:
@@ -256,5 +246,11 @@ def write_points(path: str | Path, points: ArrayLike, *, overwrite: bool = False
             if not o3d.io.write_point_cloud(str(temporary), cloud, write_ascii=False):
                 raise OSError(f"{file}: open3d could not write the point cloud")
         return file
-    text = "x,y,z\n" + "".join(f"{float(x)!r},{float(y)!r},{float(z)!r}\n" for x, y, z in pts)
-    return write_atomic(file, text, overwrite=overwrite)
+
+    def rows(stream: IO[bytes]) -> None:  # in slices: no text of the whole file in memory
+        stream.write(b"x,y,z\n")
+        for start in range(0, len(pts), 65_536):
+            rows = pts[start:start + 65_536].tolist()
+            stream.write("".join(f"{x!r},{y!r},{z!r}\n" for x, y, z in rows).encode("ascii"))
+
+    return write_atomic(file, rows, overwrite=overwrite)

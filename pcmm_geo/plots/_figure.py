@@ -169,3 +169,141 @@ def three_digits(value: float, *, sign: bool = False) -> str:
     """
     text = format(value, "+#.3g" if sign else "#.3g")
     return text.rstrip(".") if "e" not in text else text
+
+
+def nice_step(span: float, divisions: int = 4) -> float:
+    """The smallest step of 1, 2 or 5 x 10^k that covers ``span`` in at most ``divisions`` steps.
+
+    Examples
+    --------
+    >>> nice_step(8.69), nice_step(0.3), nice_step(0.0)
+    (5.0, 0.1, 1.0)
+    """
+    import math
+
+    if not (math.isfinite(span) and span > 0):
+        return 1.0
+    raw = span / divisions
+    power = 10.0 ** math.floor(math.log10(raw))
+    for factor in (1.0, 2.0, 5.0, 10.0):
+        if factor * power >= raw * (1 - 1e-12):
+            return factor * power
+    return 10.0 * power  # pragma: no cover - the loop always returns
+
+
+def polar_deviation_axes(axes: Any, deviations: Any, unit: str, *, reference: str) -> Any:
+    """Scale polar ``axes`` for a deviation profile: labelled rings, the reference circle at 0.
+
+    A deviation ``d`` (in ``unit``) is drawn at the radius ``r = base + d``, with ``base``
+    chosen so that the rings stay clear of the centre; every ring carries its deviation
+    value (``-2``, ``0``, ``+2 µm``), so a point's deviation is read off the rings like a
+    roundness chart's.  Returns the function ``d -> r`` to plot with.
+
+    Parameters
+    ----------
+    axes : matplotlib polar Axes
+    deviations : array_like
+        The deviations that will be drawn (``unit``).
+    unit : str
+    reference : str
+        Name of the circle at deviation 0 (``"fitted circle"``), drawn and given to the legend.
+
+    Examples
+    --------
+    >>> figure = new_figure(3, 3)
+    >>> axes = figure.add_subplot(projection="polar")
+    >>> to_radius = polar_deviation_axes(axes, [-3.1, 4.2], "µm", reference="fitted circle")
+    >>> [label.get_text() for label in axes.get_yticklabels()]
+    ['-4', '-2', '0', '+2', '+4', '+6 µm']
+    >>> float(to_radius(2.0) - to_radius(0.0))
+    2.0
+    """
+    import numpy as np
+
+    values = np.asarray(deviations, dtype=float)
+    values = values[np.isfinite(values)]
+    low_value, high_value = (float(values.min()), float(values.max())) if values.size else (-1.0, 1.0)
+    step = nice_step(max(high_value - low_value, 1e-300), divisions=5)
+    low = step * np.floor(low_value / step - 1e-9)
+    high = step * np.ceil(high_value / step + 1e-9)
+    base = 1.2 * (high - low)  # the profile's band takes the outer half of the radius
+
+    def to_radius(deviation: Any) -> Any:
+        return base + (np.asarray(deviation, dtype=float) - low)
+
+    levels = np.arange(low, high + 0.5 * step, step)
+    labels = ["0" if abs(v) < 1e-9 * step else f"{v:+.10g}" for v in levels]
+    labels[-1] += f" {unit}"
+    axes.set_rgrids(to_radius(levels), labels, angle=22.5, fontsize=7, color="0.2")
+    for text in axes.get_yticklabels():  # legible over the profile
+        text.set_bbox({"facecolor": "white", "edgecolor": "none", "alpha": 0.75, "pad": 0.6})
+    axes.set_ylim(0.0, float(to_radius(high)) + 0.15 * step)
+    theta = np.linspace(0.0, 2 * np.pi, 361)
+    axes.plot(theta, np.full_like(theta, float(to_radius(0.0))), color="black", linewidth=1.0, label=reference)
+    axes.grid(True, color="0.8", linewidth=0.6)
+    return to_radius
+
+
+def data_under_legends(figure: Figure) -> list[str]:
+    """What data each legend of ``figure`` covers: line vertices, markers, bars, spans (empty: none).
+
+    Draws the figure (Agg), then tests, for every legend, the visible data of every 2-D axes
+    in display coordinates: line vertices and points along each segment, scatter offsets and
+    the extents of patches (bars, spans).  Used by the tests: a legend covers no data.
+
+    Examples
+    --------
+    >>> figure = new_figure(3, 2)
+    >>> axes = figure.add_subplot()
+    >>> _ = axes.plot([0, 1], [0, 1], label="line")
+    >>> _ = axes.legend(loc="upper left")
+    >>> data_under_legends(figure)
+    []
+    >>> _ = axes.plot([0.0, 0.1], [0.98, 1.0], label="under the legend")
+    >>> _ = axes.legend(loc="upper left")
+    >>> data_under_legends(figure)[0].startswith("axes 0: line 'under the legend'")
+    True
+    """
+    import numpy as np
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+
+    FigureCanvasAgg(figure).draw()
+    renderer = figure.canvas.get_renderer()
+    legends = [(a.get_legend(), [a]) for a in figure.axes if a.get_legend() is not None]
+    legends += [(legend, list(figure.axes)) for legend in figure.legends]
+    found = []
+
+    def inside(points: Any, box: Any, clip: Any) -> bool:
+        points = np.asarray(points, dtype=float).reshape(-1, 2)
+        points = points[np.all(np.isfinite(points), axis=1)]
+        visible = ((points[:, 0] >= clip.x0) & (points[:, 0] <= clip.x1) & (points[:, 1] >= clip.y0)
+                   & (points[:, 1] <= clip.y1))
+        points = points[visible]
+        return bool(np.any((points[:, 0] > box.x0) & (points[:, 0] < box.x1) & (points[:, 1] > box.y0)
+                           & (points[:, 1] < box.y1)))
+
+    for legend, axes_list in legends:
+        box = legend.get_window_extent(renderer).expanded(0.98, 0.96)
+        for index, axes in ((figure.axes.index(a), a) for a in axes_list):
+            if getattr(axes, "name", "") == "3d":
+                continue
+            clip = axes.get_window_extent(renderer)
+            for line in axes.lines:
+                xy = line.get_transform().transform(np.asarray(line.get_xydata(), dtype=float))
+                if len(xy) >= 2 and len(xy) <= 5000:  # points along every segment, not only the vertices
+                    steps = np.linspace(0.0, 1.0, 25)[:, None, None]
+                    xy = (xy[:-1] + steps * (xy[1:] - xy[:-1])).reshape(-1, 2)
+                if line.get_visible() and inside(xy, box, clip):
+                    found.append(f"axes {index}: line {line.get_label()!r} under the legend")
+            for collection in axes.collections:
+                offsets = collection.get_offset_transform().transform(collection.get_offsets())
+                if collection.get_visible() and len(offsets) and inside(offsets, box, clip):
+                    found.append(f"axes {index}: markers {collection.get_label()!r} under the legend")
+            for patch in axes.patches:
+                extent = patch.get_window_extent(renderer)
+                overlap = (min(extent.x1, box.x1, clip.x1) - max(extent.x0, box.x0, clip.x0),
+                           min(extent.y1, box.y1, clip.y1) - max(extent.y0, box.y0, clip.y0))
+                if patch.get_visible() and overlap[0] > 1 and overlap[1] > 1:
+                    found.append(f"axes {index}: patch {patch.get_label()!r} under the legend")
+                    break
+    return found

@@ -1,6 +1,6 @@
 """Plots of the end-to-end demonstration (:mod:`pcmm_geo.demo`).
 
-* :func:`plot_tip_errors` -- the tip-centre error of every gauge-block contact with the
+* :func:`plot_tip_errors` -- the tip centre error of every gauge-block contact with the
   calibrated and with the nominal model (log scale: the two differ by three decades).
 * :func:`plot_demo_overview` -- one figure with the calibration (thesis fig 7.2) and the tip
   errors side by side.
@@ -26,7 +26,7 @@ MODEL_MARKERS = {"calibrated": "o", "nominal": "s"}
 
 
 def draw_tip_errors(axes: Any, tip_errors: Mapping[str, Sequence[ArrayLike]]) -> None:
-    """Draw the length of every tip-centre error vector (µm) per contact, one line per model.
+    """Draw the length of every tip centre error vector (µm) per contact, one line per model.
 
     Parameters
     ----------
@@ -49,7 +49,7 @@ def draw_tip_errors(axes: Any, tip_errors: Mapping[str, Sequence[ArrayLike]]) ->
                   label=f"{model} model")
     axes.set_yscale("log")
     axes.set_xlabel("contact number (face 1, then face 2)")
-    axes.set_ylabel("tip-centre error / µm")
+    axes.set_ylabel("tip centre error / µm")
     axes.set_title("Gauge-block contacts: tip error of each model")
     axes.legend()
 

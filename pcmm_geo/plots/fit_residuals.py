@@ -6,8 +6,8 @@ picks from the residuals (nm, µm or mm):
 
 - line: residual against the position along the line;
 - plane: in-plane map (two in-plane coordinates, colour = residual);
-- circle: residual against the angle round the centre, and a polar deviation plot
-  (the nominal circle with the deviations magnified);
+- circle: residual against the angle round the centre, and a polar deviation plot whose
+  rings carry the deviation values (the fitted circle is the ring at 0);
 - sphere: azimuth x elevation map;
 - cylinder, cone: unrolled map, angle round the axis x height along the axis;
 - torus: angle round the axis x angle round the tube.
@@ -22,7 +22,14 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from pcmm_geo.plots._figure import check_plot_path, length_unit, new_figure, save_figure, three_digits
+from pcmm_geo.plots._figure import (
+    check_plot_path,
+    length_unit,
+    new_figure,
+    polar_deviation_axes,
+    save_figure,
+    three_digits,
+)
 
 if TYPE_CHECKING:
     from pcmm_geo.fit import FitResult
@@ -92,21 +99,17 @@ def _draw_circle(figure: Any, result: Any, points: np.ndarray, shown: np.ndarray
     left.plot(angle[order], shown[order], color="tab:blue", linewidth=0.8, marker="o", markersize=3)
     left.set_xlim(0.0, 360.0)
     left.set_xticks(np.arange(0, 361, 45))
-    left.set_xlabel("angle round the center / deg")
+    left.set_xlabel("angle round the centre / deg")
     left.set_ylabel(f"residual / {unit}")
     left.grid(alpha=0.3)
     polar = figure.add_subplot(1, 2, 2, projection="polar")
-    span = float(np.ptp(shown)) or 1.0
-    # the nominal circle at radius 1 and the deviations magnified so that the form is a quarter of it
-    scale = 0.25 / span
+    to_radius = polar_deviation_axes(polar, shown, unit, reference="fitted circle (0)")
     theta = np.radians(angle[order])
-    polar.plot(np.linspace(0, 2 * np.pi, 361), np.ones(361), color="grey", linewidth=0.8, label="fitted circle")
-    polar.plot(np.r_[theta, theta[:1]], 1.0 + scale * np.r_[shown[order], shown[order][:1]], color="tab:red",
+    polar.plot(np.r_[theta, theta[:1]], to_radius(np.r_[shown[order], shown[order][:1]]), color="tab:red",
                linewidth=1.0, marker=".", markersize=3, label="measured")
-    polar.set_ylim(0.0, 1.0 + scale * max(float(np.max(shown)), 0.0) + 0.1)
-    polar.set_yticks([])
-    polar.set_title(f"polar deviation, 1 radius division = {1.0 / scale:.3g} {unit}", fontsize=9)
-    polar.legend(loc="lower left", bbox_to_anchor=(-0.15, -0.15), fontsize=7)
+    step = np.diff(polar.get_yticks()[:2])[0]
+    polar.set_title(f"deviation from the fitted circle, rings every {step:g} {unit}", fontsize=9)
+    polar.legend(loc="upper center", bbox_to_anchor=(0.5, -0.08), ncol=2, fontsize=7)
 
 
 def plot_fit_residuals(

@@ -7,7 +7,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from pcmm_geo.plots._figure import check_plot_path, new_figure, save_figure
+from pcmm_geo.plots._figure import check_plot_path, new_figure, polar_deviation_axes, save_figure
 
 if TYPE_CHECKING:
     from pcmm_geo.fit.zone.form import FormEvaluation
@@ -18,10 +18,10 @@ __all__ = ["plot_form_zone"]
 def plot_form_zone(evaluation: FormEvaluation, path: str | Path, *, overwrite: bool = False) -> Path:
     """Draw the zone and the deviations of a :class:`~pcmm_geo.fit.zone.form.FormEvaluation`.
 
-    Roundness: a polar profile (deviations magnified about the mid-zone circle) between the
-    inner and outer zone circles.  Other characteristics: the deviation of every point from
-    the mid-zone element (µm) against the point index, with the zone limits.  Contact
-    (support) points are red.
+    Roundness: a polar profile of the deviations from the mid-zone circle on rings that carry
+    their values (µm), between the inner and outer zone circles.  Other characteristics: the
+    deviation of every point from the mid-zone element (µm) against the point index, with the
+    zone limits.  Contact (support) points are red.
 
     Parameters
     ----------
@@ -62,7 +62,7 @@ def plot_form_zone(evaluation: FormEvaluation, path: str | Path, *, overwrite: b
     if evaluation.tolerance is not None:
         title += f"  tolerance {1000.0 * evaluation.tolerance:.4g} µm: {evaluation.verdict.upper()}"
     is_circle = evaluation.element == "circle"
-    figure = new_figure(6.5 if is_circle else 8.0, 6.0 if is_circle else 3.8)
+    figure = new_figure(6.5 if is_circle else 8.0, 7.0 if is_circle else 3.8)
     if is_circle:
         _polar(figure, evaluation, deviations_um, contacts, width_um)
     else:
@@ -72,7 +72,7 @@ def plot_form_zone(evaluation: FormEvaluation, path: str | Path, *, overwrite: b
 
 
 def _polar(figure, evaluation, deviations_um, contacts, width_um) -> None:
-    """Polar profile: the zone drawn as a ring of fixed width, deviations to scale within it."""
+    """Polar profile: deviations from the mid-zone circle on labelled rings, the zone between green circles."""
     fit = evaluation.fit
     rel = np.asarray(evaluation.points, dtype=float) - fit.center
     if rel.shape[1] == 3:  # angles in the circle's plane
@@ -84,20 +84,20 @@ def _polar(figure, evaluation, deviations_um, contacts, width_um) -> None:
     angles = np.arctan2(rel[:, 1], rel[:, 0])
     order = np.argsort(angles)
     axes = figure.add_subplot(projection="polar")
-    half_ring = 0.5 * max(width_um, 1e-12)
-    base = 2.0 * half_ring  # inner zone circle; the ring between base and base + width is the zone
-    radius_plot = base + half_ring + deviations_um
+    half = 0.5 * width_um
+    to_radius = polar_deviation_axes(axes, np.r_[deviations_um, -half, half], "µm", reference="mid-zone circle (0)")
     theta = np.linspace(0, 2 * np.pi, 361)
-    for level, style in ((base, "-"), (base + 2 * half_ring, "-"), (base + half_ring, ":")):
-        axes.plot(theta, np.full_like(theta, level), style, color="tab:green", linewidth=1.0)
-    axes.plot(angles[order], radius_plot[order], ".-", color="tab:blue", markersize=3, linewidth=0.6)
-    axes.plot(angles[contacts], radius_plot[contacts], "o", color="tab:red", markersize=7, label="contacts")
-    axes.set_ylim(0, base + 2.6 * half_ring)
-    axes.set_yticklabels([])
-    axes.legend(loc="lower right", fontsize=8)
-    axes.set_title(
-        f"r_in {fit.r_in:.6f} mm, r_out {fit.r_out:.6f} mm (green ring = zone, deviations to scale)", fontsize=8
-    )
+    for level, label in ((-half, f"zone: inner circle r_in = {fit.r_in:.6f} mm"),
+                         (half, f"zone: outer circle r_out = {fit.r_out:.6f} mm")):
+        axes.plot(theta, np.full_like(theta, float(to_radius(level))), color="tab:green", linewidth=1.2, label=label)
+    closed = np.r_[order, order[:1]]
+    axes.plot(angles[closed], to_radius(deviations_um[closed]), ".-", color="tab:blue", markersize=3, linewidth=0.6,
+              label="measured")
+    axes.plot(angles[contacts], to_radius(deviations_um[contacts]), "o", color="tab:red", markersize=7,
+              label="contact points")
+    step = np.diff(axes.get_yticks()[:2])[0]
+    axes.set_title(f"deviation from the mid-zone circle, rings every {step:g} µm", fontsize=9)
+    axes.legend(loc="upper center", bbox_to_anchor=(0.5, -0.06), ncol=2, fontsize=7)
 
 
 def _band(figure, deviations_um, contacts, evaluation) -> None:

@@ -65,11 +65,18 @@ def plot_length_test(result: LengthTestResult, path: str | Path, *, overwrite: b
     left.fill_between(span, -mpe_um, mpe_um, color="0.92", label="±MPE_E0")
     left.plot(span, mpe_um, color="0.4", linewidth=1.0)
     left.plot(span, -mpe_um, color="0.4", linewidth=1.0)
-    guarded = result.decision_rule.startswith("guarded")
-    if guarded and result.test_uncertainty > 0:
-        guard = np.clip(mpe_um - 1000.0 * result.test_uncertainty, 0.0, None)
-        left.plot(span, guard, color="tab:orange", linestyle="--", linewidth=1.0, label="acceptance limit (MPE - U)")
-        left.plot(span, -guard, color="tab:orange", linestyle="--", linewidth=1.0)
+    rule = ("simple acceptance" if result.decision_rule.startswith("simple") or result.test_uncertainty <= 0 else
+            "guarded acceptance" if result.decision_rule.startswith("guarded") else "ISO 14253-1 rule")
+    u_um = 1000.0 * result.test_uncertainty
+    if rule != "simple acceptance":
+        guard = np.clip(mpe_um - u_um, 0.0, None)
+        left.plot(span, guard, color="tab:green", linestyle="--", linewidth=1.0,
+                  label="conformity proven inside (MPE - U)")
+        left.plot(span, -guard, color="tab:green", linestyle="--", linewidth=1.0)
+    if rule == "ISO 14253-1 rule":
+        left.plot(span, mpe_um + u_um, color="tab:red", linestyle=":", linewidth=1.0,
+                  label="nonconformity proven outside (MPE + U)")
+        left.plot(span, -(mpe_um + u_um), color="tab:red", linestyle=":", linewidth=1.0)
     positions = sorted({e.position for e in result.errors})
     # positions side by side at each length (shifted by up to ±1.5 % of the axis) so that none hides another
     shift = {p: (k - 0.5 * (len(positions) - 1)) * 0.03 * span[-1] / max(len(positions), 1)
@@ -78,11 +85,12 @@ def plot_length_test(result: LengthTestResult, path: str | Path, *, overwrite: b
         chosen = [e for e in result.errors if e.position == position]
         left.scatter([e.calibrated_length + shift[position] for e in chosen], [1000.0 * e.error for e in chosen],
                      s=22, marker=_MARKERS[k % len(_MARKERS)], label=f"position {position}", zorder=3)
-    bad = [e for e in result.errors if not e.conforms]
-    if bad:
-        left.scatter([e.calibrated_length + shift[e.position] for e in bad], [1000.0 * e.error for e in bad], s=120,
-                     facecolors="none", edgecolors="red", linewidths=1.5, label=f"nonconforming ({len(bad)})",
-                     zorder=4)
+    for state, colour in (("NOT PROVEN", "tab:orange"), ("FAIL", "red")):
+        marked = [e for e in result.errors if (e.verdict or ("PASS" if e.conforms else "FAIL")) == state]
+        if marked:
+            left.scatter([e.calibrated_length + shift[e.position] for e in marked], [1000.0 * e.error for e in marked],
+                         s=120, facecolors="none", edgecolors=colour, linewidths=1.5,
+                         label=f"{state.lower()} ({len(marked)})", zorder=4)
     left.axhline(0.0, color="black", linewidth=0.6)
     left.set_xlim(0.0, span[-1])
     left.set_xlabel("calibrated length L / mm")
@@ -98,10 +106,9 @@ def plot_length_test(result: LengthTestResult, path: str | Path, *, overwrite: b
     right.set_yticks(rows, labels, fontsize=6 if len(rows) > 20 else 8)
     right.set_xlabel("repeatability range R0 / µm")
     right.set_title("R0 per length and position (red: above its limit)", fontsize=9)
-    verdict = "PASS" if result.passed else "FAIL"
-    figure.suptitle(f"ISO 10360-2 length test: {verdict}, {len(result.errors)} values, "
-                    f"{result.n_nonconforming} nonconforming, max |E0| {1000.0 * result.max_abs_error:.3g} µm "
-                    f"({result.max_error_ratio:.2f} of MPE), {'guarded' if guarded else 'simple'} acceptance")
+    figure.suptitle(f"ISO 10360-2 length test: {result.verdict}, {len(result.errors)} values, max |E0| "
+                    f"{1000.0 * result.max_abs_error:.3g} µm ({result.max_error_ratio:.2f} of MPE); {rule}"
+                    + (f", U = {u_um:.3g} µm" if rule != "simple acceptance" else ""))
     return save_figure(figure, path, overwrite=overwrite)
 
 
@@ -154,12 +161,12 @@ def plot_probing_test(
     right.barh(np.arange(len(order)), factor * residuals[order], color="tab:blue", height=0.8)
     right.axvline(0.0, color="black", linewidth=0.6)
     if result.mpe_form is not None:
-        # P_FTU is the range of the residuals: the band of width MPE centered on their mid-range
+        # P_FTU is the range of the residuals: the band of width MPE centred on their mid-range
         middle = 0.5 * factor * (residuals.max() + residuals.min())
         for side in (-0.5, 0.5):
             right.axvline(middle + side * factor * result.mpe_form, color="tab:red", linestyle="--", linewidth=1.0)
         right.plot([], [], color="tab:red", linestyle="--", label="band of width MPE_PFTU")
-        right.legend(fontsize=7, loc="lower right")
+        right.legend(fontsize=7, loc="upper center", bbox_to_anchor=(0.5, -0.13))
     right.set_yticks([])
     right.set_xlabel(f"residual / {unit} (sorted)")
     right.set_title(f"P_FTU = {three_digits(factor * result.form_error)} {unit}, "
@@ -216,7 +223,7 @@ def plot_software_test(
     axes.set_yticks(rows, [f"{c.name} ({c.element})" + ("" if c.passed else " FAIL") for c in cases],
                     fontsize=6 if len(cases) > 30 else 8)
     axes.set_xlabel("deviation / MPE")
-    axes.legend(fontsize=7, loc="lower right")
+    axes.legend(fontsize=7, loc="upper center", bbox_to_anchor=(0.5, -0.16), ncol=5)
     axes.grid(alpha=0.3, axis="x")
     verdict = "PASS" if report.passed else "FAIL"
     within = len(cases) - report.n_failed

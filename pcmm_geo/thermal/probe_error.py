@@ -211,14 +211,14 @@ def trilaterate(centers: ArrayLike, radii: ArrayLike, near: ArrayLike) -> FloatA
     base = cen[1] - cen[0]
     dist = float(np.linalg.norm(base))
     if dist == 0:
-        raise DegenerateGeometryError("trilateration", "two sphere centers coincide")
+        raise DegenerateGeometryError("trilateration", "two sphere centres coincide")
     ex = base / dist
     other = cen[2] - cen[0]
     i = float(ex @ other)
     perp = other - i * ex
     j = float(np.linalg.norm(perp))
     if j <= 1e-12 * max(dist, 1.0):
-        raise DegenerateGeometryError("trilateration", "the three sphere centers are collinear")
+        raise DegenerateGeometryError("trilateration", "the three sphere centres are collinear")
     ey = perp / j
     ez = np.cross(ex, ey)
     x = (rad[0] ** 2 - rad[1] ** 2 + dist**2) / (2.0 * dist)

@@ -28,7 +28,7 @@ Input groups (each drawn as independent standard normals ``z``, scaled here):
     artefact follows the true ones.
 
 Readings are those of the calibrated model at the nominal contacts (its inverse
-kinematics); in each trial the perturbed machine turns them into tip centers
+kinematics); in each trial the perturbed machine turns them into tip centres
 (:func:`~pcmm_geo.uncertainty.kinematics.forward_batch`), which are compensated for the
 (perturbed) tip radius along the approach direction.  The simulated values scatter about
 the nominal; :meth:`TaskUncertainty.interval_about` places the interval about a real
@@ -56,10 +56,19 @@ from pcmm_geo.uncertainty.kinematics import BatchGeometry, forward_batch
 from pcmm_geo.uncertainty.result import BudgetEntry, UncertaintyResult
 from pcmm_geo.uncertainty.tasks import MeasurementTask
 
-__all__ = ["GROUPS", "TaskUncertainty", "ThermalInputs", "VirtualCMM"]
+__all__ = ["GROUPS", "GROUP_LABELS", "TaskUncertainty", "ThermalInputs", "VirtualCMM"]
 
 FloatArray = NDArray[np.float64]
 GROUPS = ("calibration", "laser_noise", "encoder_noise", "probing", "thermal_machine", "thermal_workpiece")
+#: what each input group is, in words, for budgets people read (tables, plots, reports)
+GROUP_LABELS = {
+    "calibration": "calibrated geometry",
+    "laser_noise": "laser readings",
+    "encoder_noise": "height (encoder) readings",
+    "probing": "probing scatter",
+    "thermal_machine": "machine temperature",
+    "thermal_workpiece": "workpiece temperature and expansion",
+}
 #: trials per chunk of the kinematics (bounds memory: about 60 kB per trial and contact)
 CHUNK = 10_000
 

@@ -43,7 +43,7 @@ def acquire(folder: Path, seed: int, offsets: tuple[float, ...] | None = None, m
     path = folder / f"session_{seed}_{'level' if offsets is None else 'off'}.csv"
     args = ["acquire", "--simulate", "--seed", str(seed), "--moves", str(moves), "--settle", "0", "--out", str(path)]
     if offsets is not None:
-        args += ["--start-offsets", *map(str, offsets)]
+        args += ["--start-offsets-mm", *map(str, offsets)]
     with contextlib.redirect_stdout(io.StringIO()):
         assert main(args) == 0
     return path

@@ -43,7 +43,7 @@ def tip_errors(path: Path):
 def test_off_level_start_gives_points_within_their_uncertainty(tmp_path: Path) -> None:
     level, off_level = tmp_path / "level.csv", tmp_path / "off.csv"
     assert acquire(level).returncode == 0
-    proc = acquire(off_level, "--start-offsets", *map(str, OFF_LEVEL_START_OFFSETS))
+    proc = acquire(off_level, "--start-offsets-mm", *map(str, OFF_LEVEL_START_OFFSETS))
     assert proc.returncode == 0, proc.stderr
     errors, out, caught = tip_errors(level)
     # level start (the thesis'): the lasers hardly see the heights, and the processing says so (issue 22: the
@@ -79,6 +79,6 @@ def test_start_heights_parameter() -> None:
 
 
 def test_start_offsets_need_simulate(tmp_path: Path) -> None:
-    proc = subprocess.run([PCMM, "acquire", "--start-offsets", "0", "1", "2", "--out", str(tmp_path / "x.csv")],
+    proc = subprocess.run([PCMM, "acquire", "--start-offsets-mm", "0", "1", "2", "--out", str(tmp_path / "x.csv")],
                           capture_output=True, text=True, timeout=60, check=False)
-    assert proc.returncode == 2 and "--start-offsets" in proc.stderr and not (tmp_path / "x.csv").exists()
+    assert proc.returncode == 2 and "--start-offsets-mm" in proc.stderr and not (tmp_path / "x.csv").exists()

@@ -183,15 +183,16 @@ def test_neighbour_lists_correct_a_nearby_wrong_candidate(monkeypatch: pytest.Mo
     truth = _brute_force_distances(points, mesh)
     index = SurfaceIndex.build(mesh)
     true_face = index.candidates(points)
-    listed = index.neighbours.listed[true_face]
-    wrong = np.where(listed[:, 1] != true_face, listed[:, 1], listed[:, 2])  # a neighbour, not the nearest
+    listed = index.neighbours.listed[true_face]  # nearest centroids first, padded with len(triangles)
+    wrong = listed[np.arange(len(listed)), np.argmax(listed < len(index.triangles), axis=1)]  # a neighbour
+    assert np.all(wrong < len(index.triangles)) and np.all(wrong != true_face)
     monkeypatch.setattr(SurfaceIndex, "candidates", lambda self, query: wrong[: len(query)].copy())
     answered = []
     spy = _triangle.listed_pairs
 
     def counting(*args: object) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         found = spy(*args)
-        answered.append(len(args[1]) - len(found[2]))
+        answered.append(args[1].shape[1] - len(found[2]))  # args[1]: the points transposed, (3, N)
         return found
 
     monkeypatch.setattr(cad_distance, "listed_pairs", counting)

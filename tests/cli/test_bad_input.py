@@ -30,13 +30,18 @@ CALYPSO_ROW = "P\t1\tFlatness A\tFlatness\tgdtFlat\t0.004\t0\t0.01\t0\t0.004\t"
 Argv = Callable[[str, Path], list[str]]
 COMMANDS: dict[str, tuple[Argv, str, str, str]] = {
     "fit": (lambda f, tmp: ["fit", "sphere", f], "x,y,z", "1,2,3", ".csv"),
-    "form": (lambda f, tmp: ["form", f, "--element", "plane", "--tolerance", "0.01"], "x,y,z", "1,2,3", ".csv"),
+    "fit ply": (lambda f, tmp: ["fit", "sphere", f], "ply\nformat ascii 1.0\nelement vertex 2\nproperty float x\n"
+                "property float y\nproperty float z\nend_header", "1 2 3", ".ply"),
+    "fit pcd": (lambda f, tmp: ["fit", "sphere", f], "VERSION 0.7\nFIELDS x y z\nPOINTS 2\nDATA ascii", "1 2 3",
+                ".pcd"),
+    "fit e57": (lambda f, tmp: ["fit", "sphere", f], "ASTM-E57", "\x00", ".e57"),
+    "form": (lambda f, tmp: ["form", f, "--element", "plane", "--tolerance-mm", "0.01"], "x,y,z", "1,2,3", ".csv"),
     "calibrate probings": (lambda f, tmp: ["calibrate", f, str(LASERS)], "x,y,z,d,r", "1,2,3,nan,nan", ".csv"),
     "calibrate lasers": (lambda f, tmp: ["calibrate", str(EXPORT), f], "position,laser_a,laser_b,laser_c",
                          "1,50,60,70", ".csv"),
     "calibrate sweep": (lambda f, tmp: ["calibrate", str(EXPORT), str(LASERS), "--sweep", f],
                         "position,laser_a,laser_b,laser_c", "1,50,60,70", ".csv"),
-    "kinematics": (lambda f, tmp: ["kinematics", "forward", "--lasers", "50", "60", "70", "--calibration", f],
+    "kinematics": (lambda f, tmp: ["kinematics", "forward", "--lasers-mm", "50", "60", "70", "--calibration", f],
                    '{"schema": "pcmm_geo.calibration", "version": 1', "}", ".json"),
     "process-log": (lambda f, tmp: ["process-log", f], "start_stop,probe,motor,direction,laser_a,laser_b,laser_c",
                     "1,0,1,1,50,51,52", ".csv"),
@@ -46,9 +51,9 @@ COMMANDS: dict[str, tuple[Argv, str, str, str]] = {
     "sensitivity": (lambda f, tmp: ["sensitivity", "--calibration", f, "--points-per-axis", "2"],
                     '{"schema": "pcmm_geo.calibration", "version": 1', "}", ".json"),
     "gauge-block": (lambda f, tmp: ["gauge-block", f], "face,x,y,z", "face_1,1,2,3", ".csv"),
-    "iso10360-2": (lambda f, tmp: ["iso10360-2", f, "--mpe-a", "2", "--mpe-k", "100"],
+    "iso10360-2": (lambda f, tmp: ["iso10360-2", f, "--mpe-a-um", "2", "--mpe-k", "100"],
                    "length_id,position,repetition,calibrated_length,measured_length", "L1,x,1,10,10.0001", ".csv"),
-    "iso10360-5": (lambda f, tmp: ["iso10360-5", f, "--reference-diameter", "25"], "x,y,z", "1,2,3", ".csv"),
+    "iso10360-5": (lambda f, tmp: ["iso10360-5", f, "--reference-diameter-mm", "25"], "x,y,z", "1,2,3", ".csv"),
     "iso10360-6 reference": (lambda f, tmp: ["iso10360-6", f],
                              "name,element,x,y,z,i,j,k,size,size2,half_angle", "s1,sphere,0,0,0,,,,5,,", ".csv"),
     "iso10360-6 results": (lambda f, tmp: ["iso10360-6", str(DATA / "examples" / "iso10360_6_reference.csv"), f],
@@ -68,6 +73,7 @@ COMMANDS: dict[str, tuple[Argv, str, str, str]] = {
     "qif show": (lambda f, tmp: ["qif", "show", f], "<QIFDocument>", "</QIFDocument>", ".qif"),
     "qif verify": (lambda f, tmp: ["qif", "verify", f, "--report", str(tmp / "out" / "verify.md")],
                    "<QIFDocument>", "</QIFDocument>", ".qif"),
+    "qif validate": (lambda f, tmp: ["qif", "validate", f], "<QIFDocument>", "</QIFDocument>", ".qif"),
     "fit qif": (lambda f, tmp: ["fit", "circle", f, "--qif", str(tmp / "out" / "circle.qif")], "<QIFDocument>",
                 "</QIFDocument>", ".qif"),
     "form qif": (lambda f, tmp: ["form", f, "--element", "plane", "--qif", str(tmp / "out" / "plane.qif")],
@@ -77,7 +83,7 @@ COMMANDS: dict[str, tuple[Argv, str, str, str]] = {
     "qif show dmis": (lambda f, tmp: ["qif", "show", f, "--units", "mm", "--angle-unit", "degree"],
                       "DMISMN/'bad',05.2", "FA(P1)=FEAT/POINT,CART,1,2,3,0,0,1", ".dmo"),
     "qif show calypso": (lambda f, tmp: ["qif", "show", f, "--units", "mm"], CALYPSO_HEADER, CALYPSO_ROW, "_chr.txt"),
-    "fit xyzijk": (lambda f, tmp: ["fit", "plane", f, "--compensated", "no", "--probe-radius", "1", "--qif",
+    "fit xyzijk": (lambda f, tmp: ["fit", "plane", f, "--compensated", "no", "--probe-radius-mm", "1", "--qif",
                                    str(tmp / "out" / "plane.qif")], "XYZIJK    METRIC", "1,2,3,0,0,1", ".xyz"),
     "calibrate feature map": (lambda f, tmp: ["calibrate", str(EXPORT.with_suffix(".qif")), str(LASERS),
                                               "--feature-map", f], '{"joint_a_1": "joint_a:1"', "}", ".json"),
@@ -122,11 +128,12 @@ def _corpus(header: str, row: str) -> dict[str, bytes | None]:
 
 def _non_finite(row: str) -> str:
     """``row`` with its last numeric field NaN and the one before it inf."""
-    fields = row.split(",")
+    separator = "," if "," in row else " "  # PLY / PCD rows: spaces
+    fields = row.split(separator)
     numeric = [k for k, f in enumerate(fields) if f.replace(".", "", 1).replace("-", "", 1).isdigit()]
     for k, value in zip(reversed(numeric), ("nan", "inf"), strict=False):
         fields[k] = value
-    return ",".join(fields)
+    return separator.join(fields)
 
 
 CASES = [(command, case) for command in COMMANDS for case in _corpus("a,b", "1,2")]
@@ -172,7 +179,7 @@ def test_failed_run_leaves_an_existing_output_untouched(tmp_path: Path, capsys: 
 
 
 QIF_HOSTILE = Path(__file__).parents[1] / "data" / "qif" / "hostile"
-QIF_COMMANDS = ("qif show", "qif verify", "fit qif", "form qif", "calibrate qif probings")
+QIF_COMMANDS = ("qif show", "qif verify", "qif validate", "fit qif", "form qif", "calibrate qif probings")
 
 
 @pytest.mark.parametrize("command", QIF_COMMANDS)
@@ -235,7 +242,7 @@ def test_decimal_comma_files_are_read_not_misread(tmp_path: Path, capsys: pytest
     assert main(["fit", "sphere", str(semicolons), "--decimal", "."]) == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and f"{semicolons}:2: decimal comma in" in err[0]
-    assert main(["iso10360-5", str(semicolons), "--reference-diameter", "10", "--json"]) == 0
+    assert main(["iso10360-5", str(semicolons), "--reference-diameter-mm", "10", "--json"]) == 0
     assert json.loads(capsys.readouterr().out)["p_stu_um"] == pytest.approx(0.0, abs=1e-6)
 
 
@@ -362,7 +369,7 @@ def test_the_valid_calibration_and_model_files_of_the_json_corpus_load(tmp_path:
     good_model.write_text(_dump(_model()))
     capsys.readouterr()
     for path in (good_cal, good_model):
-        assert main(["kinematics", "forward", "--heights", "400", "400", "400", "--calibration", str(path),
+        assert main(["kinematics", "forward", "--heights-mm", "400", "400", "400", "--calibration", str(path),
                      "--json"]) == 0  # heights inside the column travel (machine.limits)
         assert len(json.loads(capsys.readouterr().out)["tip"]) == 3
 
@@ -402,12 +409,12 @@ BOM = b"\xef\xbb\xbf"
 @pytest.mark.parametrize(("argv", "file"), [
     (lambda f: ["fit", "sphere", f, "--json"], DATA / "examples" / "iso10360_5_sphere.csv"),
     (lambda f: ["gauge-block", f, "--json"], DATA / "examples" / "gauge_block.csv"),
-    (lambda f: ["iso10360-2", f, "--mpe-a", "2", "--mpe-k", "100", "--json"],
+    (lambda f: ["iso10360-2", f, "--mpe-a-um", "2", "--mpe-k", "100", "--json"],
      DATA / "examples" / "iso10360_2_lengths.csv"),
     (lambda f: ["thermal", "thermistor", "--calibration", f, "--resistance", "10000", "--json"],
      DATA / "examples" / "thermistor_calibration.csv"),
     (lambda f: ["calibrate", f, str(LASERS), "--json"], EXPORT),
-    (lambda f: ["process-log", f, "--json", "--initial-heights", *START_HEIGHTS], None),  # the seed-style log
+    (lambda f: ["process-log", f, "--json", "--initial-heights-mm", *START_HEIGHTS], None),  # the seed-style log
 ])
 def test_a_utf8_bom_is_read_like_the_same_file_without_it(tmp_path: Path, capsys: pytest.CaptureFixture[str],
                                                           argv: Callable[[str], list[str]], file: Path | None) -> None:
@@ -464,7 +471,7 @@ def test_a_headerless_seed_log_reads_to_the_numbers_of_the_headed_one(tmp_path: 
     headed, headerless, _ = _seed_style_log(tmp_path)
     results = []
     for path in (headed, headerless):
-        assert main(["process-log", str(path), "--all-rows", "--json", "--initial-heights", *START_HEIGHTS]) == 0
+        assert main(["process-log", str(path), "--all-rows", "--json", "--initial-heights-mm", *START_HEIGHTS]) == 0
         results.append(json.loads(capsys.readouterr().out))
     assert results[0]["rows"] == results[1]["rows"] == 6
     for key in ("heights", "tips", "probe_points"):
@@ -499,13 +506,13 @@ def test_a_log_torn_mid_number_is_refused_unless_asked(tmp_path: Path, capsys: p
     import json
 
     _, _, torn = _seed_style_log(tmp_path)
-    assert main(["process-log", str(torn), "--json", "--initial-heights", *START_HEIGHTS]) == 2
+    assert main(["process-log", str(torn), "--json", "--initial-heights-mm", *START_HEIGHTS]) == 2
     lines = capsys.readouterr().err.strip().splitlines()
     assert len(lines) == 1 and f"{torn}:7: last row has no line end" in lines[0], lines
     # told the file is complete, the torn value is read as written: here it is 4 digits short, so the
     # closure test of the row catches it (at 1e-5 mm it would not: hence the refusal by default)
     code = main(["process-log", str(torn), "--allow-unterminated", "--json", "--keep-inconsistent",
-                 "--initial-heights", *START_HEIGHTS])
+                 "--initial-heights-mm", *START_HEIGHTS])
     assert code == 0 and json.loads(capsys.readouterr().out)["rows"] == 6
     # a complete file whose last line merely lacks the line end is refused the same way, never guessed
     whole = tmp_path / "whole.csv"
@@ -553,7 +560,7 @@ def calibration_with_covariance(tmp_path_factory: pytest.TempPathFactory) -> dic
     probe_file = write_probings_csv(folder / "probings.csv", points)
     laser_file = write_lasers_csv(folder / "lasers.csv", [1, 2, 3], CALIBRATION_LASERS)
     out = folder / "cal.json"
-    assert main(["calibrate", str(probe_file), str(laser_file), "--probing-u", "0.0005", "--laser-u", "0.0005",
+    assert main(["calibrate", str(probe_file), str(laser_file), "--probing-u-mm", "0.0005", "--laser-u-mm", "0.0005",
                  "--out", str(out)]) == 0
     return json.loads(out.read_text())
 
@@ -574,10 +581,10 @@ def test_uncertainty_refuses_a_damaged_covariance_or_machine_entry(
     capsys.readouterr()
     good = tmp_path / "good.json"
     good.write_text(_dump(calibration_with_covariance))
-    assert main(["uncertainty", "distance", "--calibration", str(good), "--trials", "200", "--length", "50"]) == 0
+    assert main(["uncertainty", "distance", "--calibration", str(good), "--trials", "200", "--length-mm", "50"]) == 0
     capsys.readouterr()
     bad = tmp_path / "bad.json"
     bad.write_text(_dump(change(copy.deepcopy(calibration_with_covariance))))
-    assert main(["uncertainty", "distance", "--calibration", str(bad), "--trials", "200", "--length", "50"]) == 2
+    assert main(["uncertainty", "distance", "--calibration", str(bad), "--trials", "200", "--length-mm", "50"]) == 2
     lines = capsys.readouterr().err.strip().splitlines()
     assert len(lines) == 1 and str(bad) in lines[0] and expected in lines[0], lines

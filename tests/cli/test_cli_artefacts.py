@@ -47,7 +47,7 @@ def test_gauge_block(tmp_path: Path) -> None:
 
 
 def test_iso10360_2() -> None:
-    ok = run("iso10360-2", example("iso10360_2_lengths.csv"), "--mpe-a", "2", "--mpe-k", "100", "--json")
+    ok = run("iso10360-2", example("iso10360_2_lengths.csv"), "--mpe-a-um", "2", "--mpe-k", "100", "--json")
     assert ok.returncode == 0, ok.stderr
     data = json.loads(ok.stdout)
     assert data["passed"] and data["n_values"] == 105
@@ -56,16 +56,16 @@ def test_iso10360_2() -> None:
             if line and not line.startswith(("#", "length_id"))]
     worst = max(abs(float(r[4]) - float(r[3])) for r in rows) * 1000
     assert data["max_abs_error_um"] == pytest.approx(worst, abs=1e-9)
-    tight = run("iso10360-2", example("iso10360_2_lengths.csv"), "--mpe-a", "0.1", "--mpe-k", "100000")
+    tight = run("iso10360-2", example("iso10360_2_lengths.csv"), "--mpe-a-um", "0.1", "--mpe-k", "100000")
     assert tight.returncode == 1 and "FAIL" in tight.stdout
-    assert_usage_error(run("iso10360-2", example("iso10360_2_lengths.csv"), "--mpe-a", "2", "--mpe-k", "0"),
+    assert_usage_error(run("iso10360-2", example("iso10360_2_lengths.csv"), "--mpe-a-um", "2", "--mpe-k", "0"),
                        "mpe K: expected a positive number")
-    assert_usage_error(run("iso10360-2", example("gauge_block.csv"), "--mpe-a", "2", "--mpe-k", "100"),
+    assert_usage_error(run("iso10360-2", example("gauge_block.csv"), "--mpe-a-um", "2", "--mpe-k", "100"),
                        "expected columns length_id")
 
 
 def test_iso10360_5(tmp_path: Path) -> None:
-    proc = run("iso10360-5", example("iso10360_5_sphere.csv"), "--reference-diameter", "25.0004", "--json")
+    proc = run("iso10360-5", example("iso10360_5_sphere.csv"), "--reference-diameter-mm", "25.0004", "--json")
     assert proc.returncode == 0, proc.stderr
     data = json.loads(proc.stdout)
     assert data["n_points"] == 25
@@ -74,7 +74,7 @@ def test_iso10360_5(tmp_path: Path) -> None:
     stated = json.loads(run("iso10360-5", example("iso10360_5_sphere.csv"), "--json").stdout)
     assert stated["reference_diameter_mm"] == 25.0004 and stated["verdict"] == "no MPE stated"
     assert stated["p_stu_um"] == pytest.approx(data["p_stu_um"], abs=1e-9)
-    assert_usage_error(run("iso10360-5", example("iso10360_5_sphere.csv"), "--reference-diameter", "25"),
+    assert_usage_error(run("iso10360-5", example("iso10360_5_sphere.csv"), "--reference-diameter-mm", "25"),
                        "expected the 25.0004 mm that")
     # the standard's 25 exact points on a sphere of radius 10.0005: P_FTU 0, P_STU = +1 um against 20 mm
     from pcmm_geo.artefacts import sphere_probing_pattern
@@ -82,22 +82,23 @@ def test_iso10360_5(tmp_path: Path) -> None:
     pts = tmp_path / "exact.csv"
     coords = sphere_probing_pattern((1.0, 2.0, 3.0), 10.0005)
     pts.write_text("x,y,z\n" + "\n".join(",".join(f"{v:.12f}" for v in p) for p in coords) + "\n")
-    exact = json.loads(run("iso10360-5", str(pts), "--reference-diameter", "20", "--mpe-size", "0.5",
+    exact = json.loads(run("iso10360-5", str(pts), "--reference-diameter-mm", "20", "--mpe-size-um", "0.5",
                            "--json").stdout)
     assert exact["p_ftu_um"] == pytest.approx(0.0, abs=1e-6)
     assert exact["p_stu_um"] == pytest.approx(1.0, abs=1e-6)
     assert exact["passed"] is False and exact["verdict"] == "FAIL"
-    assert run("iso10360-5", str(pts), "--reference-diameter", "20", "--mpe-size", "0.5").returncode == 1
-    assert_usage_error(run("iso10360-5", str(pts), "--reference-diameter", "-20"), "reference_diameter")
+    assert run("iso10360-5", str(pts), "--reference-diameter-mm", "20", "--mpe-size-um", "0.5").returncode == 1
+    assert_usage_error(run("iso10360-5", str(pts), "--reference-diameter-mm", "-20"), "reference_diameter")
     # 5 of the 25 points: refused, or with --allow-incomplete an INCOMPLETE verdict, never a plain PASS
     few = tmp_path / "few.csv"
     few.write_text("x,y,z\n" + "\n".join(",".join(f"{v:.12f}" for v in p) for p in coords[::5]) + "\n")
-    assert_usage_error(run("iso10360-5", str(few), "--reference-diameter", "20.001", "--mpe-size", "5"),
+    assert_usage_error(run("iso10360-5", str(few), "--reference-diameter-mm", "20.001", "--mpe-size-um", "5"),
                        "ISO 10360-5: the standard uses 25 points on the test sphere, got 5")
-    partial = run("iso10360-5", str(few), "--reference-diameter", "20.001", "--mpe-size", "5", "--allow-incomplete")
-    assert partial.returncode == 0 and "verdict: INCOMPLETE (5 of 25 points)" in partial.stdout
+    partial = run("iso10360-5", str(few), "--reference-diameter-mm", "20.001", "--mpe-size-um", "5",
+                  "--allow-incomplete")
+    assert partial.returncode == 0 and "verdict: ISO 10360-5: INCOMPLETE (5 of 25 points)" in partial.stdout
     assert "PASS" not in partial.stdout
-    partial_json = json.loads(run("iso10360-5", str(few), "--reference-diameter", "20.001", "--mpe-size", "5",
+    partial_json = json.loads(run("iso10360-5", str(few), "--reference-diameter-mm", "20.001", "--mpe-size-um", "5",
                                   "--allow-incomplete", "--json").stdout)
     assert partial_json["complete"] is False and partial_json["passed"] is None
     assert partial_json["verdict"].startswith("INCOMPLETE (5 of 25 points)")
@@ -108,14 +109,14 @@ def test_iso10360_2_incomplete(tmp_path: Path) -> None:
     three = tmp_path / "three.csv"
     three.write_text("\n".join([line for line in lines if line.startswith("length_id")] +
                                [line for line in lines if line.startswith("L1,x,")]) + "\n")
-    assert_usage_error(run("iso10360-2", str(three), "--mpe-a", "2", "--mpe-k", "100"),
+    assert_usage_error(run("iso10360-2", str(three), "--mpe-a-um", "2", "--mpe-k", "100"),
                        "ISO 10360-2: the standard uses 105 values, got 3 (1 of 5 lengths, 1 of 7 positions)")
-    partial = run("iso10360-2", str(three), "--mpe-a", "2", "--mpe-k", "100", "--allow-incomplete", "--json")
+    partial = run("iso10360-2", str(three), "--mpe-a-um", "2", "--mpe-k", "100", "--allow-incomplete", "--json")
     data = json.loads(partial.stdout)
     assert partial.returncode == 0 and data["passed"] is None and data["complete"] is False
     assert data["verdict"].startswith("INCOMPLETE (3 of 105 values") and "PASS" not in data["verdict"]
-    text = run("iso10360-2", str(three), "--mpe-a", "2", "--mpe-k", "100", "--allow-incomplete").stdout
-    assert text.startswith("ISO 10360-2: INCOMPLETE (3 of 105 values") and "PASS" not in text
+    text = run("iso10360-2", str(three), "--mpe-a-um", "2", "--mpe-k", "100", "--allow-incomplete").stdout
+    assert text.startswith("verdict: ISO 10360-2: INCOMPLETE (3 of 105 values") and "PASS" not in text
 
 
 def _nist_pair(folder: Path) -> None:
@@ -129,7 +130,8 @@ def _nist_pair(folder: Path) -> None:
 
 def test_iso10360_6(tmp_path: Path) -> None:
     proc = run("iso10360-6", example("iso10360_6_reference.csv"), example("iso10360_6_results.json"),
-               "--mpe-position", "1e-6", "--mpe-orientation", "1e-6", "--mpe-size", "1e-6", "--mpe-angle", "1e-6",
+               "--mpe-position-mm", "1e-6", "--mpe-orientation-rad", "1e-6", "--mpe-size-mm", "1e-6",
+                   "--mpe-angle-rad", "1e-6",
                "--json")
     assert proc.returncode == 1
     data = json.loads(proc.stdout)

@@ -56,7 +56,7 @@ def test_bundled_example_is_what_its_seeded_script_makes() -> None:
 
 
 def test_compare_example_recovers_the_known_pose(tmp_path: Path) -> None:
-    done = _run("compare", SCAN, NOMINAL, "--tolerance", "0.005", "--json")
+    done = _run("compare", SCAN, NOMINAL, "--tolerance-mm", "0.005", "--json")
     assert done.returncode == 0, done.stderr
     data = json.loads(done.stdout)
     # truth: the scan was placed by machine = R @ nominal + t, so registration must return R^T, -R^T t
@@ -86,7 +86,7 @@ def test_compare_example_recovers_the_known_pose(tmp_path: Path) -> None:
 
 def test_compare_tolerance_verdict_and_plot(tmp_path: Path) -> None:
     plot = tmp_path / "deviations.png"
-    done = _run("compare", SCAN, NOMINAL, "--tolerance", "0.002", "--plot", plot)
+    done = _run("compare", SCAN, NOMINAL, "--tolerance-mm", "0.002", "--plot", plot)
     assert done.returncode == 1, done.stderr  # 1 µm noise: some points beyond 2 µm
     assert "verdict: FAIL" in done.stdout and "deviations from nominal" in done.stdout
     assert "transform (4x4)" in done.stdout
@@ -236,7 +236,7 @@ def test_segment_block_and_pin(tmp_path: Path) -> None:
     scan_file.write_text("x,y,z\n" + "\n".join(",".join(repr(float(v)) for v in p) for p in np.vstack([floor, pin]))
                          + "\n")
     plot = tmp_path / "segments.png"
-    done = _run("segment", scan_file, "--distance-threshold", "0.005", "--json", "--plot", plot)
+    done = _run("segment", scan_file, "--distance-threshold-mm", "0.005", "--json", "--plot", plot)
     assert done.returncode == 0, done.stderr
     data = json.loads(done.stdout)
     kinds = sorted(s["kind"] for s in data["segments"])
@@ -249,7 +249,7 @@ def test_segment_block_and_pin(tmp_path: Path) -> None:
     assert plane["count"] == len(floor) and plane["rms_mm"] < 1e-12
     image = _read_png(plot)
     assert image.shape[0] >= 400 and float(np.std(image[..., :3])) > 0.02
-    human = _run("segment", scan_file, "--distance-threshold", "0.005")
+    human = _run("segment", scan_file, "--distance-threshold-mm", "0.005")
     assert "1 planes, 1 cylinders" in human.stdout and "radius / mm" in human.stdout
 
 

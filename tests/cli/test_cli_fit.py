@@ -58,8 +58,8 @@ def test_fit_errors_are_one_line_with_exit_code_2(tmp_path: Path) -> None:
     collinear.write_text("0,0,0\n1,1,1\n2,2,2\n3,3,3\n")
     done = _run("fit", "sphere", str(collinear))
     assert done.returncode == 2 and "degenerate" in done.stderr
-    done = _run("fit", "cone", str(collinear), "--radius", "2")
-    assert done.returncode == 2 and "--radius" in done.stderr
+    done = _run("fit", "cone", str(collinear), "--radius-mm", "2")
+    assert done.returncode == 2 and "--radius-mm" in done.stderr
 
 
 def test_help_is_fast_and_lists_commands() -> None:

@@ -30,7 +30,7 @@ def test_form_roundness_pass_and_fail_with_plot(tmp_path: Path) -> None:
     file = _write(tmp_path / "ring.csv", data.points)
     plot = tmp_path / "zone.png"
     done = _run(
-        "form", str(file), "--element", "circle", "--two-d", "--tolerance", "0.010", "--json", "--plot", str(plot)
+        "form", str(file), "--element", "circle", "--two-d", "--tolerance-mm", "0.010", "--json", "--plot", str(plot)
     )
     assert done.returncode == 0, done.stderr
     result = json.loads(done.stdout)
@@ -41,7 +41,7 @@ def test_form_roundness_pass_and_fail_with_plot(tmp_path: Path) -> None:
 
     image = matplotlib.image.imread(plot)
     assert image.shape[0] > 100 and float(np.std(image[..., :3])) > 0.01
-    failed = _run("form", str(file), "--element", "circle", "--two-d", "--tolerance", "0.005")
+    failed = _run("form", str(file), "--element", "circle", "--two-d", "--tolerance-mm", "0.005")
     assert failed.returncode == 1
     assert "roundness: FAIL" in failed.stdout and "scope" in failed.stdout
 
@@ -82,7 +82,7 @@ def test_form_verdicts_and_exit_codes_from_value_bound_and_tolerance(tmp_path: P
 
     data = make_minimax_reference("circle", "chebyshev", n_points=40, size=10.0, form=0.010, offset=50.0, rng=6)
     file = _write(tmp_path / "ring.csv", data.points)
-    args = ["form", str(file), "--element", "circle", "--two-d", "--json", "--tolerance"]
+    args = ["form", str(file), "--element", "circle", "--two-d", "--json", "--tolerance-mm"]
     assert main([*args, "0.0105"]) == 0
     passed = json.loads(capsys.readouterr().out)
     assert passed["verdict"] == "PASS" and passed["scope"] == "global" and passed["domain"] == "all circles"
@@ -101,7 +101,7 @@ def test_form_verdicts_and_exit_codes_from_value_bound_and_tolerance(tmp_path: P
     assert main([*args, "0.0095"]) == 1
     unproven = json.loads(capsys.readouterr().out)
     assert unproven["verdict"] == "NOT PROVEN" and unproven["passed"] is None and unproven["bound_mm"] == 0.009
-    assert main([*args[:-2], "--tolerance", "0.0095"]) == 1
+    assert main([*args[:-2], "--tolerance-mm", "0.0095"]) == 1
     text = capsys.readouterr().out
     assert "roundness: NOT PROVEN" in text and "proven lower bound" in text and "9.000000" in text
     assert main([*args, "0.0085"]) == 1  # the bound exceeds the tolerance: FAIL even for a local answer

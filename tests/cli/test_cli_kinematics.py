@@ -32,23 +32,23 @@ def assert_usage_error(proc: subprocess.CompletedProcess[str], text: str) -> Non
 
 
 def test_trilaterate_closed_form() -> None:
-    out = run_json("kinematics", "trilaterate", "--pivots", "0", "0", "0", "4", "0", "0", "0", "4", "0",
-                   "--lengths", "3", "3", "3")
+    out = run_json("kinematics", "trilaterate", "--pivots-mm", "0", "0", "0", "4", "0", "0", "0", "4", "0",
+                   "--lengths-mm", "3", "3", "3")
     np.testing.assert_allclose(out["point"], [2.0, 2.0, -1.0], atol=1e-12)
     np.testing.assert_allclose(out["upper"], [2.0, 2.0, 1.0], atol=1e-12)
-    assert_usage_error(run("kinematics", "trilaterate", "--pivots", "0", "0", "0", "10", "0", "0", "0", "10", "0",
-                           "--lengths", "3", "3", "3"), "no real solution")
+    assert_usage_error(run("kinematics", "trilaterate", "--pivots-mm", "0", "0", "0", "10", "0", "0", "0", "10", "0",
+                           "--lengths-mm", "3", "3", "3"), "no real solution")
 
 
 def test_inverse_forward_round_trip_and_vertical_lift() -> None:
-    inverse = run_json("kinematics", "inverse", "--tip", "5", "-10", "80")
+    inverse = run_json("kinematics", "inverse", "--tip-mm", "5", "-10", "80")
     heights = [repr(h) for h in inverse["heights"]]
     lasers = [repr(v) for v in inverse["lasers"]]
-    forward = run_json("kinematics", "forward", "--heights", *heights, "--lasers", *lasers)
+    forward = run_json("kinematics", "forward", "--heights-mm", *heights, "--lasers-mm", *lasers)
     np.testing.assert_allclose(forward["tip"], [5.0, -10.0, 80.0], atol=1e-9)
     assert max(abs(r) for r in forward["residuals"]) < 1e-9
     # vertical columns: all three motors 10 mm higher lift the tip by exactly 10 mm
-    lifted = run_json("kinematics", "forward", "--heights", *[repr(h + 10.0) for h in inverse["heights"]])
+    lifted = run_json("kinematics", "forward", "--heights-mm", *[repr(h + 10.0) for h in inverse["heights"]])
     np.testing.assert_allclose(lifted["tip"], [5.0, -10.0, 90.0], atol=1e-9)
     np.testing.assert_allclose(lifted["lasers"], inverse["lasers"], atol=1e-9)
     assert_usage_error(run("kinematics", "forward"), "neither")
@@ -58,12 +58,12 @@ def test_model_json_as_calibration(tmp_path: Path) -> None:
     machine = RigidBodyMachine.from_dpkm(column_slopes={"a": (0.01, 0.0), "b": (0.0, 0.01), "c": (0.0, 0.0)})
     path = tmp_path / "model.json"
     path.write_text(json.dumps(machine.to_dict()))
-    out = run_json("kinematics", "inverse", "--tip", "0", "0", "85", "--calibration", str(path))
+    out = run_json("kinematics", "inverse", "--tip-mm", "0", "0", "85", "--calibration", str(path))
     expected = machine.inverse([0.0, 0.0, 85.0])
     np.testing.assert_allclose(out["heights"], expected.heights, atol=1e-9)
     bad = tmp_path / "bad.json"
     bad.write_text("{not json")
-    assert_usage_error(run("kinematics", "inverse", "--tip", "0", "0", "85", "--calibration", str(bad)), "JSON")
+    assert_usage_error(run("kinematics", "inverse", "--tip-mm", "0", "0", "85", "--calibration", str(bad)), "JSON")
 
 
 def test_process_log(tmp_path: Path) -> None:
@@ -73,7 +73,7 @@ def test_process_log(tmp_path: Path) -> None:
     log_path = write_log(tmp_path / "log.csv", synthesise_log(machine, h0, moves))
     model = tmp_path / "model.json"
     model.write_text(json.dumps(machine.to_dict()))
-    out = run_json("process-log", str(log_path), "--calibration", str(model), "--initial-heights",
+    out = run_json("process-log", str(log_path), "--calibration", str(model), "--initial-heights-mm",
                    *[repr(float(h)) for h in h0])
     heights = h0 + np.array([[6.0, 0.0, 0.0], [6.0, -4.0, 5.0], [3.0, -4.0, 5.0]])
     truth = machine.forward(heights=heights).tip

@@ -217,7 +217,8 @@ def test_process_log_plot_report_and_progress(long_log: tuple[Path, list[str], n
     path, heights, truth = long_log
     plot, report = tmp_path / "log.png", tmp_path / "log.md"
     done = run(
-        "process-log", str(path), "--initial-heights", *heights, "--plot", str(plot), "--report", str(report), "--json"
+        "process-log", str(path), "--initial-heights-mm", *heights, "--plot", str(plot),
+                           "--report", str(report), "--json"
     )
     assert done.returncode == 0 and done.stderr == ""
     data = json.loads(done.stdout)
@@ -227,12 +228,13 @@ def test_process_log_plot_report_and_progress(long_log: tuple[Path, list[str], n
     x, y, z = data["probe_points"][0]
     assert f"| {first} | 1 | {x:.6f} | {y:.6f} | {z:.6f} |" in " ".join(report.read_text(encoding="utf-8").split())
 
-    code, stdout, stderr = run_with_terminal_stderr("process-log", str(path), "--initial-heights", *heights)
+    code, stdout, stderr = run_with_terminal_stderr("process-log", str(path), "--initial-heights-mm", *heights)
     assert code == 0
     assert "processing log rows" in stderr and "800/800" in stderr  # the bar, on the terminal only
     assert "\x1b" not in stdout and stdout.startswith("Probe points")
 
-    code, stdout, stderr = run_with_terminal_stderr("process-log", str(path), "--initial-heights", *heights, "--json")
+    code, stdout, stderr = run_with_terminal_stderr("process-log", str(path),
+                                                    "--initial-heights-mm", *heights, "--json")
     assert code == 0 and stderr == ""  # --json: no bar even on a terminal
     assert json.loads(stdout)["rows"] == 800
 

@@ -16,7 +16,6 @@ from pcmm_geo.io.cmm import read_qif, validate_qif
 
 DATA = Path(__file__).parents[1] / "data" / "qif"
 SAMPLE = DATA / "samples" / "QIF_PTS_SAMPLE.QIF"
-XSD = DATA / "xsd"
 RING = Path(__file__).parents[2] / "pcmm_geo" / "data" / "examples" / "roundness_ring.csv"
 PROBE_RADIUS = 2.49978271104
 
@@ -99,30 +98,31 @@ def test_fit_a_feature_of_a_qif_file(capsys: pytest.CaptureFixture[str]) -> None
     data = json.loads(out)
     assert 2 * data["radius"] == pytest.approx(30.110940798089999, abs=2e-5)
     assert data["probe_compensation"]["inferred"] is True
-    # a fixed --radius is the surface radius: the probe centres are fitted with it minus the probe radius
-    code, out, _ = run(["fit", "cylinder", str(SAMPLE), "--radius", "15.05", "--json"], capsys)
+    # a fixed --radius-mm is the surface radius: the probe centres are fitted with it minus the probe radius
+    code, out, _ = run(["fit", "cylinder", str(SAMPLE), "--radius-mm", "15.05", "--json"], capsys)
     assert json.loads(out)["radius"] == pytest.approx(15.05, abs=1e-12)
     # the points are probe centres: --compensated yes contradicts the file
     code, _, err = run(["fit", "circle", str(SAMPLE), "--feature", "261", "--compensated", "yes"], capsys)
     assert code == 2 and "Compensated=false" in err
-    code, out, _ = run(["fit", "circle", str(SAMPLE), "--feature", "261", "--probe-radius", "2", "--method",
+    code, out, _ = run(["fit", "circle", str(SAMPLE), "--feature", "261", "--probe-radius-mm", "2", "--method",
                         "projected", "--json"], capsys)
     assert 2 * json.loads(out)["radius"] == pytest.approx(12.095569950907 - 2 * (PROBE_RADIUS - 2), abs=2e-5)
 
 
 def test_plain_points_with_a_probe_radius(capsys: pytest.CaptureFixture[str]) -> None:
-    code, out, _ = run(["form", str(RING), "--element", "circle", "--two-d", "--tolerance", "0.010", "--json"], capsys)
+    code, out, _ = run(["form", str(RING), "--element", "circle", "--two-d", "--tolerance-mm", "0.010", "--json"],
+                       capsys)
     plain = json.loads(out)
-    code, out, err = run(["form", str(RING), "--element", "circle", "--two-d", "--tolerance", "0.010",
-                          "--probe-radius", "1.5", "--material-side", "external", "--json"], capsys)
+    code, out, err = run(["form", str(RING), "--element", "circle", "--two-d", "--tolerance-mm", "0.010",
+                          "--probe-radius-mm", "1.5", "--material-side", "external", "--json"], capsys)
     assert code == 0, err
     compensated = json.loads(out)
     assert compensated["deviation_mm"] == pytest.approx(plain["deviation_mm"], abs=1e-12)  # the zone stays
     assert compensated["fit"]["r_in"] == pytest.approx(plain["fit"]["r_in"] - 1.5, abs=1e-12)
     assert compensated["fit"]["radius"] == pytest.approx(plain["fit"]["radius"] - 1.5, abs=1e-12)
     # the side is needed, and must be asked for; --compensated no needs a radius
-    for argv, message in ((["--probe-radius", "1.5"], "--material-side"),
-                          (["--compensated", "no"], "--probe-radius"),
+    for argv, message in ((["--probe-radius-mm", "1.5"], "--material-side"),
+                          (["--compensated", "no"], "--probe-radius-mm"),
                           (["--material-side", "internal"], "a probe radius to apply")):
         code, _, err = run(["fit", "circle", str(RING), "--two-d", *argv], capsys)
         assert code == 2 and message in err and len(err.strip().splitlines()) == 1
@@ -130,11 +130,11 @@ def test_plain_points_with_a_probe_radius(capsys: pytest.CaptureFixture[str]) ->
 
 def test_qif_output_validates_reads_back_and_verifies(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
     out_file = tmp_path / "out" / "cylinder.qif"
-    code, out, err = run(["form", str(SAMPLE), "--element", "cylinder", "--tolerance", "0.01", "--qif",
+    code, out, err = run(["form", str(SAMPLE), "--element", "cylinder", "--tolerance-mm", "0.01", "--qif",
                           str(out_file), "--json"], capsys)
     assert code == 0, err
     form = json.loads(out)
-    assert validate_qif(out_file, XSD) == ()
+    assert validate_qif(out_file) == ()
     document = read_qif(out_file)
     (feature,) = document.measured_features
     assert feature.substitute_algorithm == "MINMAX" and feature.name == "CYL_1"
@@ -177,7 +177,7 @@ def test_xyzijk_export_needs_the_compensation_stated(tmp_path: Path, capsys: pyt
                                                   for c, n in zip(centres, outward, strict=True)))
     code, _, err = run(["fit", "cylinder", str(export)], capsys)
     assert code == 2 and "--compensated" in err and "bore.txt" in err
-    code, out, err = run(["fit", "cylinder", str(export), "--compensated", "no", "--probe-radius", "0.5", "--json"],
+    code, out, err = run(["fit", "cylinder", str(export), "--compensated", "no", "--probe-radius-mm", "0.5", "--json"],
                          capsys)
     assert code == 0, err
     fitted = json.loads(out)
@@ -202,3 +202,59 @@ def test_show_reads_dmis_output_and_calypso_tables(capsys: pytest.CaptureFixture
     assert code == 2 and "states its units" in err
     code, _, err = run(["fit", "plane", str(cmm / "standard.dmo")], capsys)
     assert code == 2 and "no points" in err
+
+
+def test_validate_exit_codes_and_first_errors(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    """``pcmm qif validate``: 0 valid, 1 schema errors listed with their lines, 2 unreadable or hostile."""
+    code, out, err = run(["qif", "validate", str(SAMPLE)], capsys)
+    assert (code, out.strip(), err) == (0, f"{SAMPLE}: valid QIF 3.0", "")
+    text = SAMPLE.read_text(encoding="utf-8")
+    broken = tmp_path / "broken.qif"
+    broken.write_text(text.replace('count="219"', 'count="two hundred"').replace(
+        "<Compensated>false</Compensated>", "<Compensated>no</Compensated>"), encoding="utf-8")
+    # independent truth: the lines holding the edits, in file order
+    edited = [number for number, line in enumerate(broken.read_text(encoding="utf-8").splitlines(), start=1)
+              if 'count="two hundred"' in line or "<Compensated>no<" in line]
+    assert len(edited) > 3
+    code, out, err = run(["qif", "validate", str(broken), "--errors", "3"], capsys)
+    lines = out.strip().splitlines()
+    assert code == 1 and err == ""
+    assert lines[0] == f"{broken}: not valid QIF 3.0, {len(edited)} schema errors (the first 3 listed)"
+    assert [int(line.split(":")[0].split()[1]) for line in lines[1:]] == edited[:3]
+    assert "attribute 'count': 'two hundred' is not a valid value" in lines[1] and "'no'" in lines[2]
+    assert "{http" not in out  # element names without the QIF namespace
+    code, out, _ = run(["qif", "validate", str(broken), "--json"], capsys)
+    data = json.loads(out)
+    assert code == 1 and (data["valid"], data["n_errors"]) == (False, len(edited))
+    assert [error["line"] for error in data["errors"]] == edited
+    # not well-formed, hostile, missing: exit 2, one line naming the file
+    truncated = tmp_path / "truncated.qif"
+    truncated.write_text(text[:5000], encoding="utf-8")
+    bomb = tmp_path / "bomb.qif"
+    bomb.write_text('<?xml version="1.0"?>\n<!DOCTYPE QIFDocument [<!ENTITY a "aaaaaaaaaa"><!ENTITY b "&a;&a;&a;">]>\n'
+                    + text.split("\n", 1)[1], encoding="utf-8")
+    for path, message in ((truncated, "not well-formed XML"), (bomb, ":2: has a document type declaration"),
+                          (tmp_path / "missing.qif", "cannot be read")):
+        code, out, err = run(["qif", "validate", str(path)], capsys)
+        assert code == 2 and out == "" and len(err.strip().splitlines()) == 1, err
+        assert str(path) in err and message in err
+    code, _, err = run(["qif", "validate", str(SAMPLE), "--max-mb", "0.05"], capsys)
+    assert code == 2 and "exceeds the limit of 52428 bytes" in err
+
+
+def test_validate_without_lxml_names_the_extra(monkeypatch: pytest.MonkeyPatch,
+                                               capsys: pytest.CaptureFixture[str]) -> None:
+    import sys
+
+    from pcmm_geo.io.cmm.qif import schema
+
+    schema._schema.cache_clear()
+    for module in [m for m in sys.modules if m == "lxml" or m.startswith("lxml.")]:
+        monkeypatch.delitem(sys.modules, module)
+    monkeypatch.setitem(sys.modules, "lxml", None)
+    try:
+        code, out, err = run(["qif", "validate", str(SAMPLE)], capsys)
+    finally:
+        schema._schema.cache_clear()
+    assert code == 2 and out == "" and len(err.strip().splitlines()) == 1
+    assert "lxml" in err and "pip install 'pcmm_geo[qif]'" in err

@@ -10,6 +10,7 @@ import base64
 import hashlib
 import platform
 import re
+import shlex
 from datetime import UTC, datetime, timedelta
 from pathlib import Path
 
@@ -25,6 +26,7 @@ from pcmm_geo.machine.calibration.numerical.numcal_data import (
 
 EXAMPLES = Path(__file__).parents[2] / "pcmm_geo" / "data" / "examples"
 NIST_SPHERE = Path(__file__).parents[1] / "data" / "nist" / "Sphere" / "sph20.ds"
+APPENDIX = (EXAMPLES.parent / "appendix_cd" / "cmm_export.csv", EXAMPLES.parent / "appendix_cd" / "lasers.csv")
 
 
 @pytest.fixture(scope="module")
@@ -38,21 +40,22 @@ def numcal_file(tmp_path_factory: pytest.TempPathFactory) -> Path:
 def command_lines(numcal: Path) -> dict[str, list[str]]:
     """Every command with a verdict or a result worth keeping, with a typical input."""
     return {
-        "iso10360-2": ["iso10360-2", str(EXAMPLES / "iso10360_2_lengths.csv"), "--mpe-a", "3", "--mpe-k", "250"],
-        "iso10360-5": ["iso10360-5", str(EXAMPLES / "iso10360_5_sphere.csv"), "--reference-diameter", "25.0004",
-                       "--mpe-form", "3", "--mpe-size", "3"],
+        "iso10360-2": ["iso10360-2", str(EXAMPLES / "iso10360_2_lengths.csv"), "--mpe-a-um", "3", "--mpe-k", "250"],
+        "iso10360-5": ["iso10360-5", str(EXAMPLES / "iso10360_5_sphere.csv"), "--reference-diameter-mm", "25.0004",
+                       "--mpe-form-um", "3", "--mpe-size-um", "3"],
         "iso10360-6": ["iso10360-6", str(EXAMPLES / "iso10360_6_reference.csv"),
                        str(EXAMPLES / "iso10360_6_results.json")],
         "micrometer": ["micrometer", str(EXAMPLES / "micrometer_stage.csv")],
         "numcal": ["numcal", str(numcal), "--search", "multistart", "--pairs", "all"],
-        "kinematics-forward": ["kinematics", "forward", "--heights", "410", "395", "420"],
-        "kinematics-inverse": ["kinematics", "inverse", "--tip", "0", "0", "80"],
-        "kinematics-trilaterate": ["kinematics", "trilaterate", "--pivots", "0", "0", "0", "100", "0", "0", "0", "100",
-                                   "0", "--lengths", "90", "90", "90"],
+        "kinematics-forward": ["kinematics", "forward", "--heights-mm", "410", "395", "420"],
+        "kinematics-inverse": ["kinematics", "inverse", "--tip-mm", "0", "0", "80"],
+        "kinematics-trilaterate": ["kinematics", "trilaterate", "--pivots-mm", "0", "0", "0", "100", "0", "0",
+                                   "0", "100",
+                                   "0", "--lengths-mm", "90", "90", "90"],
         "thermal-rtd": ["thermal", "rtd", "--resistance", "107.79"],
         "thermal-thermistor": ["thermal", "thermistor", "--calibration", str(EXAMPLES / "thermistor_calibration.csv"),
                                "--resistance", "10000"],
-        "thermal-correct-length": ["thermal", "correct-length", "--length", "100.0021", "--temperature", "21.3",
+        "thermal-correct-length": ["thermal", "correct-length", "--length-mm", "100.0021", "--temperature", "21.3",
                                    "--alpha", "11.5e-6", "--u-temperature", "0.05", "--u-alpha", "1e-6"],
         "thermal-triangle": ["thermal", "triangle", "--temperatures", "21", "20.5", "20"],
         "thermal-table": ["thermal", "table", "--points-per-axis", "2"],
@@ -60,7 +63,12 @@ def command_lines(numcal: Path) -> dict[str, list[str]]:
         "laser-ratio": ["laser-ratio", "--ratios", str(EXAMPLES / "laser_ratio_table_6_8.csv")],
         "fit": ["fit", "sphere", str(NIST_SPHERE)],
         "form": ["form", str(EXAMPLES / "roundness_ring.csv"), "--element", "circle", "--two-d",
-                 "--tolerance", "0.010"],
+                 "--tolerance-mm", "0.010"],
+        "fit-circle": ["fit", "circle", str(EXAMPLES / "roundness_ring.csv"), "--two-d"],
+        "gauge-block": ["gauge-block", str(EXAMPLES / "gauge_block.csv"), "--nominal-mm", "100",
+                        "--tolerance-um", "0.3", "--uncertainty-um", "0.1"],
+        "uncertainty": ["uncertainty", "distance", "--trials", "2000", "--length-mm", "50"],
+        "calibrate": ["calibrate", str(APPENDIX[0]), str(APPENDIX[1])],
     }
 
 
@@ -82,14 +90,22 @@ def run(argv: list[str], capsys: pytest.CaptureFixture[str]) -> tuple[int, str, 
 
 @pytest.mark.parametrize("name", list(command_lines(Path("numcal.csv"))))
 def test_every_command_writes_a_plot_and_a_report(
-    name: str, numcal_file: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+    name: str, numcal_file: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str], monkeypatch: pytest.MonkeyPatch
 ) -> None:
+    from matplotlib.figure import Figure
+
+    from pcmm_geo.plots._figure import data_under_legends
+
+    saved: list[Figure] = []
+    original = Figure.savefig
+    monkeypatch.setattr(Figure, "savefig", lambda self, *a, **k: (original(self, *a, **k), saved.append(self))[0])
     suffix = ".html" if sum(map(ord, name)) % 2 else ".md"  # both formats over the set
     plot, report = tmp_path / f"{name}.png", tmp_path / f"{name}{suffix}"
     argv = [*command_lines(numcal_file)[name], "--plot", str(plot), "--report", str(report)]
     code, out, err = run(argv, capsys)
     assert code in (0, 1), err  # 1: the verdict is "fail" (the example software results fail on purpose)
     assert_real_picture(plot)
+    assert len(saved) == 1 and data_under_legends(saved[0]) == []  # no legend covers data
     text = report.read_text(encoding="utf-8")
     assert "Record" in text and "Software" in text
     if suffix == ".md":
@@ -120,15 +136,15 @@ def test_report_is_a_lab_record(tmp_path: Path, capsys: pytest.CaptureFixture[st
         row = next(line for line in lines[start:] if line.startswith(f"| {first} |"))
         return [cell.strip() for cell in row.strip("|").split(" | ")]
 
-    stamp = datetime.fromisoformat(cells("date and time (UTC)")[1])
+    stamp = datetime.fromisoformat(cells("run started (UTC)")[1])
     assert stamp.utcoffset() == timedelta(0) and before <= stamp <= after
-    assert cells("command line")[1] == " ".join(["pcmm", *argv]).replace("_", "\\_")
+    assert cells("command line")[1] == shlex.join(["pcmm", *argv]).replace("_", "\\_")
     digest = hashlib.sha256(NIST_SPHERE.read_bytes()).hexdigest()
     row = cells(str(NIST_SPHERE.resolve()).replace("_", "\\_"))
     assert row[1] == digest and int(row[2]) == NIST_SPHERE.stat().st_size
-    versions = {name.replace("\\_", "_"): cells(name)[1] for name in ("python", "pcmm\\_geo", "numpy", "scipy",
-                                                                      "matplotlib")}
-    assert versions == {"python": platform.python_version(), "pcmm_geo": pcmm_geo.__version__,
+    versions = {name.replace("\\_", "_"): cells(name)[1] for name in ("python", "pcmm\\_geo version", "numpy",
+                                                                      "scipy", "matplotlib")}
+    assert versions == {"python": platform.python_version(), "pcmm_geo version": pcmm_geo.__version__,
                         "numpy": numpy.__version__, "scipy": scipy.__version__, "matplotlib": matplotlib.__version__}
     # optional libraries are listed when the run imported them (in this test process: whatever ran before)
     import sys
@@ -204,7 +220,7 @@ def test_text_output_writes_units_one_way(numcal_file: Path, capsys: pytest.Capt
             "pcmm_geo.machine.calibration.seed", fromlist=["x"]).appendix_cd_files())],
         "gauge-block": ["gauge-block", str(EXAMPLES / "gauge_block.csv")],
         "sensitivity": ["sensitivity", "--points-per-axis", "2"],
-        "failing iso10360-2": ["iso10360-2", str(EXAMPLES / "iso10360_2_lengths.csv"), "--mpe-a", "0.5", "--mpe-k",
+        "failing iso10360-2": ["iso10360-2", str(EXAMPLES / "iso10360_2_lengths.csv"), "--mpe-a-um", "0.5", "--mpe-k",
                                "1000"],
     }
     seen = 0
@@ -216,7 +232,7 @@ def test_text_output_writes_units_one_way(numcal_file: Path, capsys: pytest.Capt
             assert not _BAD_UNIT.search(cell), (name, cell)
             if " / " in cell:  # "quantity / unit": a unit follows, nothing after it
                 assert cell.split(" / ")[-1].strip(), (name, cell)
-        assert not re.search(r"\bum\b|degC", out), (name, out)
+        assert not re.search(r"(?<![-\w])um\b|degC", out), (name, out)  # "--uncertainty-um" is an option
         seen += len(headers)
     assert seen > 60
 

@@ -114,6 +114,6 @@ def test_laser_ratio_of_a_model_generated_height_gauge_record(tmp_path: Path) ->
         assert run_out["height_per_laser"] == pytest.approx(run_out["height_change"] / run_out["laser_change"])
     assert out["predicted_spread"] == pytest.approx(0.31, abs=0.02)
     assert_usage_error(run("laser-ratio", str(path), "--ratios", str(path)), "either FILE or --ratios")
-    assert_usage_error(run("laser-ratio", str(path), "--travel", "50"), "only with --ratios")
+    assert_usage_error(run("laser-ratio", str(path), "--travel-mm", "50"), "only with --ratios")
     path.write_text("moved,laser_a,laser_b,laser_c,height\na,30,31,32,0\n")
     assert_usage_error(run("laser-ratio", str(path)), "single row")

@@ -56,11 +56,11 @@ def test_thermistor_bad_calibration(tmp_path: Path) -> None:
 
 
 def test_correct_length() -> None:
-    data = run_json("thermal", "correct-length", "--length", "100", "--temperature", "22", "--alpha", "11.5e-6",
+    data = run_json("thermal", "correct-length", "--length-mm", "100", "--temperature", "22", "--alpha", "11.5e-6",
                     "--u-alpha", "1e-6", "--u-temperature", "0.1")
     assert data["length_20C_mm"] == pytest.approx(100 / (1 + 2 * 11.5e-6), abs=1e-12)
     assert data["standard_uncertainty_mm"] == pytest.approx(math.hypot(2e-4, 1.15e-4), rel=1e-4)
-    assert_usage_error(run("thermal", "correct-length", "--length", "-5", "--temperature", "22", "--alpha", "1e-5"),
+    assert_usage_error(run("thermal", "correct-length", "--length-mm", "-5", "--temperature", "22", "--alpha", "1e-5"),
                        "measured_length: expected a positive value")
 
 
@@ -72,7 +72,7 @@ def test_triangle() -> None:
     assert corners["c"]["y_mm"] == pytest.approx(-325.0, abs=1e-9)
     warm = run_json("thermal", "triangle", "--temperatures", "21", "21", "21")
     assert warm["sides_mm"] == pytest.approx([650.015015] * 3, abs=1e-9)
-    assert_usage_error(run("thermal", "triangle", "--temperatures", "20", "20", "20", "--side", "-650"),
+    assert_usage_error(run("thermal", "triangle", "--temperatures", "20", "20", "20", "--side-mm", "-650"),
                        "side_ab: expected a positive finite length")
 
 

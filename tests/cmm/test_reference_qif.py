@@ -28,7 +28,6 @@ from pcmm_geo.io.cmm import (
     write_qif,
 )
 
-XSD = Path(__file__).parents[1] / "data" / "qif" / "xsd"
 R_PROBE = 1.0
 
 
@@ -108,7 +107,7 @@ def test_refit_gives_the_known_element(tmp_path: Path, kind: str, side: str, var
     unit = variant.rsplit("-", 1)[1]
     path = _write(tmp_path, kind, side, compensated=compensated, stated=stated and "normals" not in variant,
                   unit=unit, normals="normals" in variant)
-    assert validate_qif(path, XSD) == ()
+    assert validate_qif(path) == ()
     (check,) = verify_qif(path, tolerance_mm=1e-9).features
     assert check.agrees is True, check.reason
     assert check.type == kind and check.n_points > 20
@@ -159,7 +158,7 @@ def test_written_fit_validates_and_reads_back_to_1e_12(tmp_path: Path, kind: str
     fit = FITS[kind](surface)
     document = fit_results_document(fit, kind, points=surface, normals=outward, name="F1")
     path = write_qif(document, tmp_path / f"{kind}.qif", linear_unit=unit)
-    assert validate_qif(path, XSD) == ()
+    assert validate_qif(path) == ()
     back = read_qif(path)
     feature = back.feature("F1")
     actual = feature.actual
@@ -191,7 +190,7 @@ def test_form_evaluation_is_written_with_its_verdict(tmp_path: Path, kind: str) 
     evaluation = evaluate_form(surface, kind, tolerance=0.004)
     document = fit_results_document(evaluation.fit, kind, points=surface, evaluation=evaluation, name="F1")
     path = write_qif(document, tmp_path / f"{kind}_form.qif")
-    assert validate_qif(path, XSD) == ()
+    assert validate_qif(path) == ()
     back = read_qif(path)
     feature = back.feature("F1")
     assert feature.substitute_algorithm == "MINMAX"

@@ -58,7 +58,7 @@ def test_sphere_fixed_radius_and_covariance() -> None:
     assert np.abs(np.column_stack([directions, np.ones(6)]).T @ free.residuals).max() < 1e-14
     fixed = fit_sphere(pts, radius=5.0)
     assert fixed.radius == 5.0 and fixed.method == "gaussian-fixed-radius"
-    assert fixed.std_errors["radius"] == 0.0
+    assert fixed.std_errors[fixed.parameter_names.index("radius")] == 0.0
     assert fixed.dof == 3
     # with a fixed radius the residuals are orthogonal to the unit directions only
     directions = (pts - fixed.center) / np.linalg.norm(pts - fixed.center, axis=1)[:, None]
@@ -73,8 +73,8 @@ def test_sphere_covariance_matches_closed_form_for_symmetric_data() -> None:
     result = fit_sphere(pts)
     variance = np.sum(deviation**2) / (6 - 4)
     # J^T J = diag(2, 2, 2, 6) for the octahedron
-    assert result.std_errors["center_x"] == pytest.approx(np.sqrt(variance / 2), rel=1e-9)
-    assert result.std_errors["radius"] == pytest.approx(np.sqrt(variance / 6), rel=1e-9)
+    assert result.std_errors[result.parameter_names.index("center_x")] == pytest.approx(np.sqrt(variance / 2), rel=1e-9)
+    assert result.std_errors[result.parameter_names.index("radius")] == pytest.approx(np.sqrt(variance / 6), rel=1e-9)
 
 
 @pytest.mark.parametrize("arc_deg", [30.0, 120.0, 360.0])

@@ -151,7 +151,7 @@ def test_covariance_radius_matches_independent_jacobian():
     variance = deviation @ deviation / (len(moved) - 5)
     # the radius is estimable, so any generalised inverse of J^T J gives its variance
     expected = np.sqrt(variance * np.linalg.pinv(jac.T @ jac)[6, 6])
-    assert fit.std_errors["radius"] == pytest.approx(expected, rel=1e-6)
+    assert fit.std_errors[fit.parameter_names.index("radius")] == pytest.approx(expected, rel=1e-6)
     assert fit.parameter_names[-1] == "radius"
     assert fit.parameters[6] == fit.radius
     # the axis direction is a unit vector: its covariance has no component along itself

@@ -20,6 +20,7 @@ from pcmm_geo.fit import (
     fit_spheres,
     fit_torus,
 )
+from pcmm_geo.fit.reference import make_reference_data
 
 TOL = 1e-9  # mm: exact data, far from the origin
 ROTATION = Rotation.from_rotvec([0.3, -1.1, 0.7]).as_matrix()  # local -> machine (columns: local axes)
@@ -181,8 +182,8 @@ def test_batch_covariance_equals_the_single_fits() -> None:
             np.testing.assert_allclose(result.parameters[k], one.parameters, atol=1e-9)
             np.testing.assert_allclose(result.covariance[k], one.covariance, rtol=1e-7,
                                        atol=1e-9 * np.max(np.abs(one.covariance)))
-            for name, value in one.std_errors.items():
-                assert result.std_errors[name][k] == pytest.approx(value, rel=1e-7, abs=1e-15)
+            assert result.std_errors.shape == result.parameters.shape  # (K, P), like the parameters
+            np.testing.assert_allclose(result.std_errors[k], one.std_errors, rtol=1e-7, atol=1e-15)
 
 
 def test_ragged_batch_is_named_as_such() -> None:
@@ -206,3 +207,47 @@ def test_reprs_are_short() -> None:
     for fit in (circle, cylinder):
         assert len(repr(fit)) < 300, repr(fit)
         assert "n=500" in repr(fit)
+
+
+def test_std_errors_are_an_array_like_parameters_with_a_deprecated_dict_path() -> None:
+    import pickle
+    import warnings
+
+    data = make_reference_data("cylinder", n_points=40, form=0.01, rng=4)
+    fit = fit_cylinder(data.points)
+    u = fit.std_errors
+    assert isinstance(u, np.ndarray) and u.shape == fit.parameters.shape == (len(fit.parameter_names),)
+    # independent truth: the square roots of the covariance diagonal, in parameter_names order
+    np.testing.assert_array_equal(np.asarray(u), np.sqrt(np.diag(fit.covariance)))
+    assert type(u * 2) is np.ndarray and type(u[:3]) is np.ndarray and repr(u).startswith("array(")
+    assert fit.to_dict()["std_errors"] == np.sqrt(np.diag(fit.covariance)).tolist()
+    radius = fit.parameter_names.index("radius")
+    with pytest.warns(DeprecationWarning, match=r"CylinderFit.std_errors\['radius'\] \(a dict until 0.1\) is "
+                                                r"deprecated.*parameter_names.index"):
+        assert u["radius"] == u[radius]
+    for old in (lambda: u.keys(), lambda: list(u.items()), lambda: u.values(), lambda: u.get("radius"),
+                lambda: "radius" in u):
+        with pytest.warns(DeprecationWarning, match="deprecated since pcmm_geo 0.2.0"):
+            old()
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", DeprecationWarning)
+        assert u.keys() == list(fit.parameter_names) and dict(u.items())["radius"] == u[radius]
+        with pytest.raises(KeyError):
+            u["no_such_parameter"]
+    np.testing.assert_array_equal(pickle.loads(pickle.dumps(u)), u)
+    batch = fit_spheres(np.stack([make_reference_data("sphere", n_points=12, form=0.01, rng=s).points
+                                  for s in range(3)]))
+    with pytest.warns(DeprecationWarning):
+        np.testing.assert_array_equal(batch.std_errors["radius"], batch.std_errors[:, 3])
+
+
+def test_a_repr_shows_only_the_fields_that_apply() -> None:
+    circle = fit_circle(make_reference_data("circle2d", n_points=12, form=0.01, rng=2).points)
+    text = repr(circle)
+    assert text.startswith("CircleFit(center=[") and "radius=" in text
+    for absent in ("normal", "r_in", "r_out", "nan", "None", "residual_components", "criterion"):
+        assert absent not in text, (absent, text)
+    cylinder = make_reference_data("cylinder", n_points=30, form=0.01, rng=2).points
+    assert "r_in" not in repr(fit_cylinder(cylinder))
+    zone = repr(fit_cylinder(cylinder, criterion="chebyshev"))
+    assert "r_in=" in zone and "r_out=" in zone and "criterion='chebyshev'" in zone and "nan" not in zone

@@ -53,9 +53,10 @@ def test_plane_exact_and_covariance_against_closed_form() -> None:
     np.testing.assert_allclose(result.normal, [0, 0, 1], atol=1e-15)
     variance = np.sum(z**2) / (9 - 3)
     # offset variance = s^2 / N, tilt variance = s^2 / sum(x^2) = s^2 / 6
-    assert result.std_errors["point_z"] == pytest.approx(np.sqrt(variance / 9), rel=1e-12)
-    assert result.std_errors["normal_x"] == pytest.approx(np.sqrt(variance / 6), rel=1e-12)
-    assert result.std_errors["point_x"] == pytest.approx(0.0, abs=1e-15)
+    u = dict(zip(result.parameter_names, result.std_errors, strict=True))
+    assert u["point_z"] == pytest.approx(np.sqrt(variance / 9), rel=1e-12)
+    assert u["normal_x"] == pytest.approx(np.sqrt(variance / 6), rel=1e-12)
+    assert u["point_x"] == pytest.approx(0.0, abs=1e-15)
 
 
 def test_plane_weights_equal_duplicated_points() -> None:

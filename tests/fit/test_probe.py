@@ -189,8 +189,9 @@ def test_probe_radius_uncertainty_enters_the_size_variance() -> None:
     data = make_reference_data("sphere", n_points=30, radius=5.0, form=0.002, rng=2)
     fit = fit_sphere(data.points)
     comp = compensate_probe(fit, 1.0, side="external", probe_radius_u=0.0002)
-    assert comp.surface.std_errors["radius"] ** 2 == pytest.approx(fit.std_errors["radius"] ** 2 + 0.0002**2, rel=1e-12)
-    assert comp.surface.std_errors["center_x"] == fit.std_errors["center_x"]
+    radius, center_x = (fit.parameter_names.index(name) for name in ("radius", "center_x"))
+    assert comp.surface.std_errors[radius] ** 2 == pytest.approx(fit.std_errors[radius] ** 2 + 0.0002**2, rel=1e-12)
+    assert comp.surface.std_errors[center_x] == fit.std_errors[center_x]
     assert "probe_radius_u" in repr(comp) and "outward" not in repr(comp)
 
 

@@ -397,3 +397,40 @@ def test_many_seeds_stationary_and_minimum(element: str) -> None:
         assert np.linalg.norm(jacobian.T @ values) <= 1e-12 * np.linalg.norm(jacobian) * (np.linalg.norm(values) + 1)
         scale = max(1.0, options["radius"])
         np.testing.assert_allclose(_refit(fun, truth), truth, atol=1e-9 * scale, rtol=0)
+
+
+@pytest.mark.parametrize("element", ["line", "plane", "circle", "sphere", "cylinder", "cone", "torus"])
+def test_the_fit_names_make_reference_data_the_fits_recover(element: str) -> None:
+    from pcmm_geo import fit
+
+    assert element in fit.ELEMENTS
+    data = make_reference_data(element, form=0.001, offset=100.0, rng=5)
+    assert data.points.shape[1] == 3  # like pcmm fit ELEMENT on a three-column file
+    result = getattr(fit, f"fit_{element}")(data.points)
+    for name, value in data.parameters.items():
+        if name in ("point", "radius_at_point"):  # axis/line points are located by the data centroid
+            continue
+        got = np.asarray(getattr(result, name), dtype=float)
+        expected = np.asarray(value, dtype=float)
+        if name in ("axis", "normal", "direction"):
+            got = got * np.sign(got @ expected)
+        np.testing.assert_allclose(got, expected, atol=1e-9)
+
+
+@pytest.mark.parametrize(("element", "options", "kind", "columns"), [
+    ("line", {}, "line3d", 3), ("line", {"dims": 2}, "line2d", 2), ("circle", {}, "circle3d", 3),
+    ("circle", {"dims": 2}, "circle2d", 2), ("circle", {"method": "projected"}, "circle3d_projected", 3),
+    ("line2d", {}, "line2d", 2), ("sphere", {"dims": 3}, "sphere", 3),
+])
+def test_shared_names_map_to_the_data_kinds(element: str, options: dict, kind: str, columns: int) -> None:
+    data = make_reference_data(element, rng=1, **options)
+    assert data.element == kind and data.points.shape[1] == columns
+
+
+@pytest.mark.parametrize("options", [{"element": "plane", "dims": 2}, {"element": "line", "dims": 4},
+                                     {"element": "line", "method": "projected"},
+                                     {"element": "line2d", "dims": 3}, {"element": "lines"}])
+def test_shared_names_refuse_what_does_not_exist(options: dict) -> None:
+    element = options.pop("element")
+    with pytest.raises(InvalidInputError):
+        make_reference_data(element, **options)

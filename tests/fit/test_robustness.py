@@ -30,6 +30,10 @@ SCANS = [
     # kind, points per set, arc about the axis (deg), number of sets, silent failures allowed
     ("cylinder", (6, 8), (360, 360), 30, 0),
     ("cylinder", (15, 15), (180, 180), 10, 0),
+    # dense: fitted from the principal axes, screened only where the points leave a gap about the axis
+    ("cylinder", (300, 300), (360, 360), 4, 0),
+    ("cylinder", (300, 300), (60, 300), 6, 0),
+    ("cylinder", (2500, 2500), (60, 360), 3, 0),  # through the subsample start
     ("cone", (7, 10), (360, 360), 14, 0),
     # sparse tori: the screening alone leaves about 1 set in 10 in a wrong minimum (set 1 of the
     # partial scan with this seed); every such fit warns UnassuredMinimumWarning, so none is silent
@@ -65,6 +69,33 @@ def _silent_failures(kind: str, points_range, arc_range, sets: int, seed: int) -
 def test_sparse_axial_fits_never_return_a_wrong_minimum_silently(kind, points_range, arc_range, sets, allowed) -> None:
     silent = _silent_failures(kind, points_range, arc_range, sets, seed=11)
     assert len(silent) <= allowed, silent
+
+
+def test_dense_cylinders_are_screened_only_where_they_leave_a_gap_about_the_axis(monkeypatch) -> None:
+    """The criterion of ``_screen.surrounds_axis``: sparse or partial data are screened, dense full ones not."""
+    import pcmm_geo.fit.cylinder as cylinder_module
+    from pcmm_geo.fit._kernels._screen import DENSE_POINTS, FULL_COVERAGE_GAP, largest_azimuth_gap
+
+    screened = []
+    original = cylinder_module.screened_directions
+    monkeypatch.setattr(cylinder_module, "screened_directions", lambda *args: screened.append(1) or original(*args))
+    rng = np.random.default_rng(21)
+    for count, arc_deg, expected in [(DENSE_POINTS, 360.0, True), (DENSE_POINTS + 1, 360.0, False),
+                                     (400, 300.0, True), (3000, 360.0, False), (3000, 200.0, True)]:
+        case = sparse_case("cylinder", rng, count, arc_deg=arc_deg)
+        screened.clear()
+        result = fit_cylinder(case.points)
+        assert bool(screened) == expected, (count, arc_deg)
+        across = (case.points - result.point) @ np.linalg.svd(result.axis[None])[2][1:].T
+        assert (largest_azimuth_gap(across) > FULL_COVERAGE_GAP) == (arc_deg < 315.0)
+        assert result.sum_of_squares <= reference_for("cylinder", case, count=12).cost * (1 + 1e-9) + 1e-24
+    # points of zero weight count neither as density nor as coverage: 150 weighted points are sparse
+    case = sparse_case("cylinder", rng, 400, arc_deg=360.0)
+    weights = np.zeros(400)
+    weights[:150] = 1.0
+    screened.clear()
+    fit_cylinder(case.points, weights=weights)
+    assert screened
 
 
 def test_ambiguity_warning_carries_the_competing_minima() -> None:

@@ -105,6 +105,33 @@ def test_chunked_line_plane_cylinder_equal_the_truth_and_the_orthogonal_path(
                                atol=1e-9 * np.abs(orthogonal.covariance).max())
 
 
+@pytest.mark.parametrize("function", [fit_line, fit_plane, fit_sphere, fit_cylinder])
+def test_chunked_fits_check_the_values_in_their_first_pass_with_the_same_errors(function) -> None:
+    """Many points skip the separate value checks; the moment pass finds the same errors, rows named."""
+    rows = _tall.TALL_ROWS + 3000
+    points = make_reference_data("sphere", n_points=rows, radius=20.0, form=0.01, offset=400.0, rng=5).points
+    for row, value in ((0, np.nan), (rows - 1, np.inf), (12_345, -np.inf)):
+        bad = points.copy()
+        bad[row, 1] = value
+        with pytest.raises(InvalidInputError, match=f"finite coordinates.*in row {row}$"):
+            function(bad)
+    huge = points.copy()
+    huge[777, 2] = 3e150
+    with pytest.raises(InvalidInputError, match=r"magnitude at most.*3e\+150 at index \(777, 2\)"):
+        function(huge)
+    with pytest.raises(DegenerateGeometryError, match=f"all {rows} points are identical"):
+        function(np.tile([[400.0, -3.0, 1e-3]], (rows, 1)))
+    if function in (fit_sphere, fit_plane):  # far out but within the limit: its sums overflow, no false refusal
+        assert function(points * 1e100).rms == pytest.approx(function(points).rms * 1e100, rel=1e-6)
+
+
+def test_chunked_cylinder_subsample_is_fitted_in_memory() -> None:
+    """A subsample of exactly ``TALL_ROWS`` points would re-enter the chunked path (it recursed before)."""
+    data = make_reference_data("cylinder", n_points=2 * _tall.TALL_ROWS, radius=15.0, length=40.0, form=0.02,
+                               offset=1000.0, rng=17)
+    assert_fit_close(fit_cylinder(data.points), data)
+
+
 # ---------------------------------------------------------------------- dask
 
 

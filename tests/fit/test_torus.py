@@ -158,8 +158,9 @@ def test_covariance_minor_radius_matches_independent_jacobian():
     jac = complex_step_jacobian(torus_residuals_independent(moved), params)
     inverse = np.linalg.pinv(jac.T @ jac)
     variance = deviation @ deviation / (len(moved) - 7)
-    assert fit.std_errors["minor_radius"] == pytest.approx(np.sqrt(variance * inverse[7, 7]), rel=1e-6)
-    assert fit.std_errors["major_radius"] == pytest.approx(np.sqrt(variance * inverse[6, 6]), rel=1e-6)
+    u = dict(zip(fit.parameter_names, fit.std_errors, strict=True))
+    assert u["minor_radius"] == pytest.approx(np.sqrt(variance * inverse[7, 7]), rel=1e-6)
+    assert u["major_radius"] == pytest.approx(np.sqrt(variance * inverse[6, 6]), rel=1e-6)
     sign = np.sign(fit.axis @ axis)
 
     def machine_parameters(p):

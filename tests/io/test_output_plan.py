@@ -124,3 +124,53 @@ def test_a_claimed_stream_is_kept_when_it_holds_a_record(tmp_path: Path) -> None
             assert backup.read_bytes() == b"earlier session\n"  # the replaced file is not lost either
         else:
             assert (tmp_path / "log.csv").read_bytes() == b"earlier session\n" and plan.notes == []
+
+
+# --- what a killed run leaves (pcmm_geo._leftovers) -------------------------------------------------------------
+
+def _dead_owner() -> str:
+    """An owner tag of a process that has ended (its id is not reused within the test)."""
+    import subprocess
+    import sys
+
+    from pcmm_geo._leftovers import _host
+
+    child = subprocess.Popen([sys.executable, "-c", "pass"])
+    child.wait()
+    return f"{child.pid}-12345-{_host()}"
+
+
+def test_leftovers_of_dead_runs_are_removed_or_restored_and_others_left_alone(tmp_path: Path) -> None:
+    from pcmm_geo._atomic import OutputPlan
+    from pcmm_geo._leftovers import owner_tag
+
+    dead, target = _dead_owner(), tmp_path / "out.csv"
+    target.write_text("new, unfinished\n")
+    (tmp_path / f".out-{dead}-k1uor0fe.tmp.csv").write_text("half")
+    (tmp_path / f".out.csv.{dead}-0123abcd.replaced").write_text("the old result\n")
+    alive = tmp_path / f".out-{owner_tag()}-abcdefgh.tmp.csv"  # this very process: alive
+    alive.write_text("mine")
+    elsewhere = tmp_path / f".out-{dead.rsplit('-', 1)[0]}-00000000-zzzzzzzz.tmp.csv"  # another host
+    elsewhere.write_text("theirs")
+    other_output = tmp_path / f".other-{dead}-k1uor0fe.tmp.csv"  # not this output's
+    other_output.write_text("x")
+    plan = OutputPlan()
+    plan.add(target, label="OUT")
+    notes = plan.recover()
+    assert len(notes) == 2 and notes[0].startswith("removed ") and "interrupted run" in notes[1]
+    assert target.read_text() == "the old result\n"
+    assert sorted(p.name for p in tmp_path.iterdir() if p.name.startswith(".")) == sorted(
+        [alive.name, elsewhere.name, other_output.name])
+
+
+def test_a_backup_that_is_the_file_itself_is_just_removed(tmp_path: Path) -> None:
+    import os
+
+    from pcmm_geo._leftovers import recover
+
+    target = tmp_path / "out.csv"
+    target.write_text("result\n")
+    backup = tmp_path / f".out.csv.{_dead_owner()}-0123abcd.replaced"
+    os.link(target, backup)  # killed between backing up and replacing
+    [note] = recover(target)
+    assert note.startswith("removed") and not backup.exists() and target.read_text() == "result\n"

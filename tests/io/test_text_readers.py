@@ -187,3 +187,31 @@ def test_control_characters_are_refused_with_line_and_column(tmp_path: Path, cod
 
 def test_tabs_and_carriage_returns_are_text(tmp_path: Path) -> None:
     assert read_text_lines(_file(tmp_path, b"x\ty\r\n1\t2\r\n")) == [(1, "x\ty"), (2, "1\t2")]
+
+
+def test_named_encodings_read_through_the_same_line_checks(tmp_path: Path) -> None:
+    """CMM readers (DMIS, CALYPSO, PC-DMIS) take an encoding; the line checks are the same as for UTF-8."""
+    from pcmm_geo.io._text import iter_text_lines
+
+    latin = _file(tmp_path, "$$ Prüfbericht\r\nFA(P)=FEAT/POINT\n".encode("cp1252"), "r.dmo")
+    assert list(iter_text_lines(latin, encoding="cp1252")) == [(1, "$$ Prüfbericht"), (2, "FA(P)=FEAT/POINT")]
+    with pytest.raises(FileFormatError) as info:
+        list(iter_text_lines(latin, encoding="utf-8"))
+    assert info.value.line == 1 and info.value.reason == (
+        "not UTF-8 text: byte 0xfc at column 6 (another encoding can be given, e.g. cp1252)")
+    with pytest.raises(FileFormatError, match=r"not UTF-8 text: byte 0xfc at column 6$"):
+        list(iter_text_lines(latin))  # a reader that reads UTF-8 only gives no hint
+    for code in (0x00, 0x0B, 0x7F):
+        damaged = _file(tmp_path, b"a\xe4\n\xe4b" + bytes([code]) + b"c\n", "c.txt")
+        with pytest.raises(FileFormatError) as info:
+            list(iter_text_lines(damaged, encoding="latin-1"))
+        assert info.value.line == 2
+        assert ("NUL byte" if code == 0 else f"control character 0x{code:02x} at column 3") in info.value.reason
+    with pytest.raises(FileFormatError, match="unknown text encoding 'klingon'"):
+        next(iter_text_lines(latin, encoding="klingon"))
+    with pytest.raises(FileFormatError, match="encoding 'utf-16' is not ASCII-compatible"):
+        next(iter_text_lines(latin, encoding="utf-16"))
+    # a stateful encoding escapes with ESC (0x1b) bytes: checked as text, not as bytes
+    japanese = _file(tmp_path, "測定 1\n".encode("iso2022_jp"), "j.txt")
+    assert b"\x1b" in japanese.read_bytes()
+    assert list(iter_text_lines(japanese, encoding="iso2022_jp")) == [(1, "測定 1")]

@@ -129,10 +129,10 @@ def test_issue_commands_calibrate_then_forward(tmp_path):
     cal = tmp_path / "cal.json"
     done = _pcmm("calibrate", str(export), str(lasers), "--out", str(cal))
     assert done.returncode == 0, done.stderr
-    done = _pcmm("kinematics", "forward", "--heights", "400", "400", "400", "--calibration", str(cal), "--json")
+    done = _pcmm("kinematics", "forward", "--heights-mm", "400", "400", "400", "--calibration", str(cal), "--json")
     assert done.returncode == 0, done.stderr
     tip_z = _tip_z(json.loads(done.stdout))
-    thesis = _pcmm("kinematics", "forward", "--heights", "400", "400", "400", "--json")
+    thesis = _pcmm("kinematics", "forward", "--heights-mm", "400", "400", "400", "--json")
     assert thesis.returncode == 0, thesis.stderr
     thesis_z = _tip_z(json.loads(thesis.stdout))
     assert thesis_z == pytest.approx(90.18, abs=0.01)

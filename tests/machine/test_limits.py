@@ -209,11 +209,11 @@ def run_cli(*args: str) -> subprocess.CompletedProcess[str]:
 @pytest.mark.parametrize(
     ("args", "text"),
     [
-        (["forward", "--heights", "5000", "5000", "5000"],
+        (["forward", "--heights-mm", "5000", "5000", "5000"],
          "heights[0] (column a travel) [3 readings outside]: expected a value in [277.216796875, 727.216796875] mm"),
-        (["forward", "--lasers", "250", "250", "250"], "expected a value in [0.0, 200.0] mm, got 250.0 mm"),
-        (["forward", "--lasers", "200", "200", "200"], "exceeds the tolerance 0.25 mm"),
-        (["inverse", "--tip", "2000", "0", "90"], "distance of tip from column a: expected a value in "
+        (["forward", "--lasers-mm", "250", "250", "250"], "expected a value in [0.0, 200.0] mm, got 250.0 mm"),
+        (["forward", "--lasers-mm", "200", "200", "200"], "exceeds the tolerance 0.25 mm"),
+        (["inverse", "--tip-mm", "2000", "0", "90"], "distance of tip from column a: expected a value in "
                                                   "[354.02, 554.02] mm"),
     ],
 )

@@ -255,12 +255,12 @@ def test_cli_refuses_an_inconsistent_row_and_keeps_it_only_when_asked(clean, tmp
     _, h0, log, truth = clean
     path = write_log(tmp_path / "fault.csv", with_fault(log, [5, 6], 1))  # stop row of move 3 + its start row
     heights = [repr(float(h)) for h in h0]
-    refused = run("process-log", str(path), "--initial-heights", *heights)
+    refused = run("process-log", str(path), "--initial-heights-mm", *heights)
     assert refused.returncode == 2 and refused.stdout == ""
     lines = refused.stderr.strip().splitlines()
     assert len(lines) == 1 and "fault.csv: closure of log row 6" in lines[0]
     assert "exceeds the tolerance" in lines[0] and "laser b: w = " in lines[0]
-    kept = run("process-log", str(path), "--initial-heights", *heights, "--keep-inconsistent", "--json")
+    kept = run("process-log", str(path), "--initial-heights-mm", *heights, "--keep-inconsistent", "--json")
     assert kept.returncode == 0, kept.stderr
     data = json.loads(kept.stdout)
     assert data["inconsistent_data_rows"] == [6, 7] and data["rejected_probe_data_rows"] == [6]
@@ -269,7 +269,7 @@ def test_cli_refuses_an_inconsistent_row_and_keeps_it_only_when_asked(clean, tmp
     good = [k for k in range(1, len(log), 2) if k != 5]
     np.testing.assert_allclose(data["probe_points"], truth[good], atol=1e-6)
     assert data["probe_rows"] == [k + 2 for k in good]  # file lines (header on line 1)
-    wide = run("process-log", str(path), "--initial-heights", *heights, "--max-closure", "10", "--json")
+    wide = run("process-log", str(path), "--initial-heights-mm", *heights, "--max-closure-mm", "10", "--json")
     assert wide.returncode == 0 and json.loads(wide.stdout)["inconsistent_data_rows"] == []
-    bad = run("process-log", str(path), "--max-closure", "0")
+    bad = run("process-log", str(path), "--max-closure-mm", "0")
     assert bad.returncode == 2 and "closure_tolerance" in bad.stderr

@@ -187,7 +187,7 @@ def test_max_bound_leaves_points_out_and_the_cli_reports_r_and_the_bound(clean, 
     path = write_log(tmp_path / "log.csv", log)
     pcmm = str(Path(sys.executable).with_name("pcmm"))
     heights = [repr(float(h)) for h in h0]
-    proc = subprocess.run([pcmm, "process-log", str(path), "--initial-heights", *heights, "--json", "--max-bound",
+    proc = subprocess.run([pcmm, "process-log", str(path), "--initial-heights-mm", *heights, "--json", "--max-bound-mm",
                            repr(limit)], capture_output=True, text=True, timeout=120, check=False)
     assert proc.returncode == 0, proc.stderr
     data = json.loads(proc.stdout)
@@ -195,13 +195,13 @@ def test_max_bound_leaves_points_out_and_the_cli_reports_r_and_the_bound(clean, 
     np.testing.assert_allclose(data["bound_mm"], out.bound, rtol=1e-9)
     assert data["over_bound_data_rows"] == (np.flatnonzero(bounded.over_bound) + 1).tolist()
     assert [len(row) for row in data["mdb_mm"]] == [3] * len(log)
-    table = subprocess.run([pcmm, "process-log", str(path), "--initial-heights", *heights], capture_output=True,
+    table = subprocess.run([pcmm, "process-log", str(path), "--initial-heights-mm", *heights], capture_output=True,
                            text=True, timeout=120, check=False)
     assert "R / mm" in table.stdout and "U+R / mm" in table.stdout and "stated bound U (k = 2) + R" in table.stdout
 
 
 def test_cli_takes_the_calibration_files_covariance_into_every_point(tmp_path: Path) -> None:
-    """``pcmm calibrate --probing-u --laser-u --out CAL.json`` then ``pcmm process-log --calibration CAL.json``."""
+    """``pcmm calibrate --probing-u-mm --laser-u-mm --out CAL.json`` then ``pcmm process-log --calibration CAL.json``."""
     from pcmm_geo.cli.machine_commands.kinematics import load_machine_file
     from pcmm_geo.demo import CALIBRATION_LASERS, DemoSettings, simulate_probings, true_machine
     from pcmm_geo.machine.calibration.probings import write_lasers_csv, write_probings_csv
@@ -220,20 +220,20 @@ def test_cli_takes_the_calibration_files_covariance_into_every_point(tmp_path: P
         return subprocess.run([pcmm, *args], capture_output=True, text=True, timeout=300, check=False)
 
     cal, bare = tmp_path / "cal.json", tmp_path / "bare.json"
-    assert run("calibrate", str(probe_file), str(laser_file), "--probing-u", "0.002", "--laser-u", "0.002", "--out",
+    assert run("calibrate", str(probe_file), str(laser_file), "--probing-u-mm", "0.002", "--laser-u-mm", "0.002", "--out",
                str(cal)).returncode == 0
     assert run("calibrate", str(probe_file), str(laser_file), "--out", str(bare)).returncode == 0
     machine = load_machine_file(str(cal))  # the calibrated tetrahedron on the thesis' columns
     h0 = machine.reference_heights + np.array([0.0, 60.0, -50.0])
     path = write_log(tmp_path / "log.csv", synthesise_log(machine, h0, MOVES))
     heights = [repr(float(h)) for h in h0]
-    with_covariance = run("process-log", str(path), "--calibration", str(cal), "--initial-heights", *heights, "--json")
-    without = run("process-log", str(path), "--calibration", str(bare), "--initial-heights", *heights, "--json")
+    with_covariance = run("process-log", str(path), "--calibration", str(cal), "--initial-heights-mm", *heights, "--json")
+    without = run("process-log", str(path), "--calibration", str(bare), "--initial-heights-mm", *heights, "--json")
     assert with_covariance.returncode == 0 and without.returncode == 0, with_covariance.stderr
     data, reference = json.loads(with_covariance.stdout), json.loads(without.stdout)
     assert data["calibration_covariance"] and not reference["calibration_covariance"]
     np.testing.assert_allclose(data["tips"], reference["tips"], atol=1e-9)  # the points do not change, their u does
     u, u0 = np.array(data["tip_uncertainty_mm"][1:]), np.array(reference["tip_uncertainty_mm"][1:])
     assert np.all(u > u0) and np.all(u**2 - u0**2 > 1e-6)  # at least (1 um)^2 from the calibration
-    text = run("process-log", str(path), "--calibration", str(cal), "--initial-heights", *heights)
+    text = run("process-log", str(path), "--calibration", str(cal), "--initial-heights-mm", *heights)
     assert "and the calibration's covariance" in text.stdout

@@ -164,7 +164,7 @@ def test_cli_reports_u_warns_and_refuses_on_request(tmp_path: Path) -> None:
     start = machine.reference_heights + np.array([0.0, 5.0, -4.0])
     path = write_log(tmp_path / "near_level.csv", synthesise_log(machine, start, MOVES))
     heights = [repr(float(h)) for h in start]
-    proc = run("process-log", str(path), "--initial-heights", *heights, "--json")
+    proc = run("process-log", str(path), "--initial-heights-mm", *heights, "--json")
     assert proc.returncode == 0, proc.stderr
     warning = proc.stderr.strip().splitlines()
     assert len(warning) == 1 and "IllConditionedWarning: 1 of 6 log rows have a tip uncertainty above 1 mm" in \
@@ -174,15 +174,15 @@ def test_cli_reports_u_warns_and_refuses_on_request(tmp_path: Path) -> None:
     assert data["max_tip_uncertainty_mm"] == 1.0
     assert [round(u, 2) for u in data["probe_tip_uncertainty_mm"]] == [0.55, 0.96, 1.51]
     assert len(data["tip_u_mm"]) == 6 and len(data["tip_u_mm"][0]) == 3
-    table = run("process-log", str(path), "--initial-heights", *heights, "--max-tip-u", "5")
+    table = run("process-log", str(path), "--initial-heights-mm", *heights, "--max-tip-u-mm", "5")
     assert table.returncode == 0 and table.stderr == ""
     assert "u / mm" in table.stdout and "R / mm" in table.stdout
     flags = [line.split()[-1] for line in table.stdout.splitlines() if line[:4].strip() in ("3", "5", "7")]
     assert flags == ["-", "-", "-"]  # the flags column
-    flagged = run("process-log", str(path), "--initial-heights", *heights)
+    flagged = run("process-log", str(path), "--initial-heights-mm", *heights)
     flags = [line.split()[-1] for line in flagged.stdout.splitlines() if line[:4].strip() in ("3", "5", "7")]
     assert flags == ["-", "-", "uncertain"]
-    refused = run("process-log", str(path), "--initial-heights", *heights, "--refuse-uncertain")
+    refused = run("process-log", str(path), "--initial-heights-mm", *heights, "--refuse-uncertain")
     assert refused.returncode == 2 and refused.stdout == ""
     error = [line for line in refused.stderr.splitlines() if "error" in line]
     assert len(error) == 1 and "tip uncertainty of log row 6" in error[0] and "<= 1.0 mm" in error[0]

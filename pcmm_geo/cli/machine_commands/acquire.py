@@ -5,7 +5,14 @@ from __future__ import annotations
 import argparse
 from typing import Any
 
-from pcmm_geo.cli._output import Report, Table, add_json_flag, add_overwrite_flag, declare_output
+from pcmm_geo.cli._output import (
+    Report,
+    Table,
+    add_json_flag,
+    add_overwrite_flag,
+    declare_output,
+    refuse_renamed_options,
+)
 
 _ARMS = ("a", "b", "c")
 
@@ -46,7 +53,8 @@ def register(subparsers: Any) -> None:
     add_overwrite_flag(parser)
     parser.add_argument("--step-mm", type=float, default=4.0, help="largest motor step of the programme, mm")
     parser.add_argument("--no-presequence", action="store_true", help="skip the settling pre-sequence")
-    parser.add_argument("--start-offsets", type=float, nargs=3, metavar=("A", "B", "C"), default=None,
+    parser.add_argument("--start-offsets-mm", dest="start_offsets", type=float, nargs=3, metavar=("A", "B", "C"),
+                        default=None,
                         help="with --simulate: pivot heights at the start position relative to the level (reference) "
                              "pose, mm. Default 0 0 0: the thesis starts level (one encoder count for all motors), "
                              "where the lasers hardly see the heights and processed points carry millimetre "
@@ -66,6 +74,7 @@ def register(subparsers: Any) -> None:
         parser.add_argument(f"--port-laser-{arm}", help=f"port of laser {arm}")
     parser.add_argument("--port-probe", help="port of the probe Arduino")
     add_json_flag(parser)
+    refuse_renamed_options(parser, {"--start-offsets": "--start-offsets-mm"})
     parser.set_defaults(handler=_handle)
 
 
@@ -95,9 +104,9 @@ def _check_args(args: argparse.Namespace) -> None:
     if not 0.0 <= args.fault_rate <= 1.0:
         raise InvalidInputError("--fault-rate", "a probability in [0, 1]", str(args.fault_rate))
     if args.start_offsets is not None and not args.simulate:
-        raise InvalidInputError("--start-offsets", "only with --simulate", " ".join(map(str, args.start_offsets)))
+        raise InvalidInputError("--start-offsets-mm", "only with --simulate", " ".join(map(str, args.start_offsets)))
     if args.start_offsets is not None and not all(abs(v) <= 150.0 for v in args.start_offsets):
-        raise InvalidInputError("--start-offsets", "offsets within +-150 mm", " ".join(map(str, args.start_offsets)))
+        raise InvalidInputError("--start-offsets-mm", "offsets within +-150 mm", " ".join(map(str, args.start_offsets)))
     if args.fault_rate > 0 and not args.simulate:
         raise InvalidInputError("--fault-rate", "0 unless --simulate", str(args.fault_rate))
     if not args.step_mm > 0:

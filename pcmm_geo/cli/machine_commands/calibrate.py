@@ -13,6 +13,7 @@ from pcmm_geo.cli._output import (
     add_plot_flag,
     add_report_flag,
     declare_output,
+    refuse_renamed_options,
 )
 from pcmm_geo.cli._record import UncertaintyEntry
 
@@ -36,17 +37,23 @@ def register(subparsers: Any) -> None:
                              "{\"SPH1\": \"joint_a:1\", \"SPH7\": \"tip\"} (default: the names joint_a_1 ... tip)")
     parser.add_argument("--out", metavar="CAL.json", help="write the versioned calibration file")
     parser.add_argument("--sweep", metavar="SWEEP.csv", help="laser sweep (position,laser_a,laser_b,laser_c) for b")
-    parser.add_argument("--start-of-range", type=float, default=60.0, help="laser start of range in mm (default 60)")
-    parser.add_argument("--probing-u", type=float, metavar="MM",
-                        help="standard uncertainty of one external-CMM probing (mm); with --laser-u gives the "
+    parser.add_argument("--start-of-range-mm", dest="start_of_range", type=float, default=60.0,
+                        help="laser start of range in mm (default 60)")
+    parser.add_argument("--probing-u-mm", dest="probing_u", type=float, metavar="MM",
+                        help="standard uncertainty of one external-CMM probing (mm); with --laser-u-mm gives the "
                              "covariance of the calibrated parameters (table, JSON, --out file)")
-    parser.add_argument("--laser-u", type=float, metavar="MM",
+    parser.add_argument("--laser-u-mm", dest="laser_u", type=float, metavar="MM",
                         help="standard uncertainty of one laser reading at a calibration position (mm)")
     declare_output(parser, "out")
     add_plot_flag(parser, "a 3-D plot of slider lines, joint centres, tip and probe points (fig 7.2)")
     add_report_flag(parser)
     add_overwrite_flag(parser)
     add_json_flag(parser)
+    refuse_renamed_options(parser, {
+        "--start-of-range": "--start-of-range-mm",
+        "--probing-u": "--probing-u-mm",
+        "--laser-u": "--laser-u-mm",
+    })
     parser.set_defaults(handler=_handle)
 
 
@@ -67,7 +74,7 @@ def _handle(args: argparse.Namespace) -> Report:
     if (args.probing_u is None) != (args.laser_u is None):
         from pcmm_geo.errors import InvalidInputError
 
-        raise InvalidInputError("--probing-u/--laser-u", "both or neither", "only one of them")
+        raise InvalidInputError("--probing-u-mm/--laser-u-mm", "both or neither", "only one of them")
     if args.probing_u is not None:
         from pcmm_geo.uncertainty.calibration import calibration_covariance
 
@@ -76,7 +83,7 @@ def _handle(args: argparse.Namespace) -> Report:
         data["uncertainty"] = covariance.to_dict()
         data["uncertainty"]["standard_uncertainties"] = covariance.standard_uncertainties
     else:
-        lines.append("no uncertainty: give --probing-u and --laser-u (mm) for the parameters' covariance")
+        lines.append("no uncertainty: give --probing-u-mm and --laser-u-mm for the parameters' covariance")
     if args.out:
         written = save_calibration(cal, args.out, overwrite=args.overwrite, covariance=covariance)
         data["written"] = str(written)

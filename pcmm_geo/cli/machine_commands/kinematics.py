@@ -12,6 +12,7 @@ from pcmm_geo.cli._output import (
     add_overwrite_flag,
     add_plot_flag,
     add_report_flag,
+    refuse_renamed_options,
 )
 
 ARM_NAMES = ("a", "b", "c")
@@ -67,31 +68,45 @@ def register(subparsers: Any) -> None:
     actions = parser.add_subparsers(dest="action", metavar="ACTION", required=True)
 
     forward = actions.add_parser("forward", help="laser and/or height readings -> probe-tip centre")
-    forward.add_argument("--lasers", type=float, nargs=3, metavar=("A", "B", "C"), help="laser readings in mm")
-    forward.add_argument("--heights", type=float, nargs=3, metavar=("A", "B", "C"), help="height readings in mm")
-    forward.add_argument("--heights-hint", type=float, nargs=3, metavar=("A", "B", "C"),
+    forward.add_argument("--lasers-mm", dest="lasers", type=float, nargs=3, metavar=("A", "B", "C"),
+                         help="laser readings in mm")
+    forward.add_argument("--heights-mm", dest="heights", type=float, nargs=3, metavar=("A", "B", "C"),
+                         help="height readings in mm")
+    forward.add_argument("--heights-hint-mm", dest="heights_hint", type=float, nargs=3, metavar=("A", "B", "C"),
                          help="starting heights when only lasers are given (selects branch and datum)")
-    forward.add_argument("--laser-sigma", type=float, default=1e-3, help="laser standard uncertainty in mm")
-    forward.add_argument("--height-sigma", type=float, default=1e-3, help="height standard uncertainty in mm")
+    forward.add_argument("--laser-sigma-mm", dest="laser_sigma", type=float, default=1e-3,
+                         help="laser standard uncertainty in mm")
+    forward.add_argument("--height-sigma-mm", dest="height_sigma", type=float, default=1e-3,
+                         help="height standard uncertainty in mm")
     add_machine_argument(forward)
     _add_outputs(forward, "the machine in the solved pose and the loop-closure residuals")
     add_json_flag(forward)
+    refuse_renamed_options(forward, {
+        "--lasers": "--lasers-mm",
+        "--heights": "--heights-mm",
+        "--heights-hint": "--heights-hint-mm",
+        "--laser-sigma": "--laser-sigma-mm",
+        "--height-sigma": "--height-sigma-mm",
+    })
     forward.set_defaults(handler=_handle_forward)
 
     inverse = actions.add_parser("inverse", help="probe-tip centre -> height and laser readings")
-    inverse.add_argument("--tip", type=float, nargs=3, required=True, metavar=("X", "Y", "Z"), help="tip in mm")
+    inverse.add_argument("--tip-mm", dest="tip", type=float, nargs=3, required=True, metavar=("X", "Y", "Z"),
+                         help="tip in mm")
     add_machine_argument(inverse)
     _add_outputs(inverse, "the machine in the pose for the tip")
     add_json_flag(inverse)
+    refuse_renamed_options(inverse, {"--tip": "--tip-mm"})
     inverse.set_defaults(handler=_handle_inverse)
 
     tri = actions.add_parser("trilaterate", help="probe from three pivots and arm lengths (eqs 2.9-2.21, corrected)")
-    tri.add_argument("--pivots", type=float, nargs=9, required=True, metavar="XYZ",
+    tri.add_argument("--pivots-mm", dest="pivots", type=float, nargs=9, required=True, metavar="XYZ",
                      help="pivot centres a, b, c: xa ya za xb yb zb xc yc zc (mm)")
-    tri.add_argument("--lengths", type=float, nargs=3, required=True, metavar=("LA", "LB", "LC"),
+    tri.add_argument("--lengths-mm", dest="lengths", type=float, nargs=3, required=True, metavar=("LA", "LB", "LC"),
                      help="pivot-to-tip lengths in mm")
     _add_outputs(tri, "the pivots, arm lengths and both intersections in 3-D")
     add_json_flag(tri)
+    refuse_renamed_options(tri, {"--pivots": "--pivots-mm", "--lengths": "--lengths-mm"})
     tri.set_defaults(handler=_handle_trilaterate)
 
 
@@ -105,7 +120,7 @@ def _handle_forward(args: argparse.Namespace) -> Report:
     from pcmm_geo.errors import InvalidInputError
 
     if args.lasers is None and args.heights is None:
-        raise InvalidInputError("forward", "--lasers and/or --heights", "neither")
+        raise InvalidInputError("forward", "--lasers-mm and/or --heights-mm", "neither")
     machine = load_machine_file(args.calibration)
     sol = machine.forward(
         lasers=args.lasers, heights=args.heights, laser_sigma=args.laser_sigma, height_sigma=args.height_sigma,

@@ -12,6 +12,7 @@ from pcmm_geo.cli._output import (
     add_overwrite_flag,
     add_plot_flag,
     add_report_flag,
+    refuse_renamed_options,
 )
 
 
@@ -32,13 +33,14 @@ def register(subparsers: Any) -> None:
     )
     parser.add_argument("file", nargs="?", metavar="FILE", help="height-gauge CSV moved,laser_a,laser_b,laser_c,height")
     parser.add_argument("--ratios", metavar="FILE", help="table test,ratio_a,ratio_b,ratio_c of printed ratios")
-    parser.add_argument("--travel", type=float, default=None,
+    parser.add_argument("--travel-mm", dest="travel", type=float, default=None,
                         help="with --ratios: rise of each run from level pivots, mm (default 100, Table 6.8)")
     add_machine_argument(parser)
     add_plot_flag(parser, "the ratio per run against the model, and the model's ratio against the rise")
     add_report_flag(parser)
     add_overwrite_flag(parser)
     add_json_flag(parser)
+    refuse_renamed_options(parser, {"--travel": "--travel-mm"})
     parser.set_defaults(handler=_handle)
 
 
@@ -49,7 +51,7 @@ def _handle(args: argparse.Namespace) -> Report:
     if bool(args.file) == bool(args.ratios):
         raise InvalidInputError("input", "either FILE or --ratios FILE", "both" if args.file else "neither")
     if args.file and args.travel is not None:
-        raise InvalidInputError("--travel", "only with --ratios (a height-gauge record has its own heights)",
+        raise InvalidInputError("--travel-mm", "only with --ratios (a height-gauge record has its own heights)",
                                 f"{args.travel:g} with FILE")
     machine = load_machine_file(args.calibration)
     model = args.calibration or "thesis geometry (Table 3.1 / Appendix D)"

@@ -15,6 +15,7 @@ from pcmm_geo.cli._output import (
     add_overwrite_flag,
     add_plot_flag,
     add_report_flag,
+    refuse_renamed_options,
 )
 
 
@@ -40,14 +41,15 @@ def register(subparsers: Any) -> None:
     parser.add_argument("--search", choices=("differential_evolution", "multistart", "none"),
                         default="differential_evolution", help="global search before least squares")
     parser.add_argument("--seed", type=int, default=0, help="seed of the global search (default 0)")
-    parser.add_argument("--laser-u", type=float, default=None, metavar="MM",
+    parser.add_argument("--laser-u-mm", dest="laser_u", type=float, default=None, metavar="MM",
                         help="standard uncertainty of the laser readings (mm): weighted fit and its covariance")
-    parser.add_argument("--height-u", type=float, default=None, metavar="MM",
+    parser.add_argument("--height-u-mm", dest="height_u", type=float, default=None, metavar="MM",
                         help="standard uncertainty of the pivot heights (mm): weighted fit and its covariance")
     add_plot_flag(parser, "the distance residual of every sample and the singular values")
     add_report_flag(parser)
     add_overwrite_flag(parser)
     add_json_flag(parser)
+    refuse_renamed_options(parser, {"--laser-u": "--laser-u-mm", "--height-u": "--height-u-mm"})
     parser.set_defaults(handler=_handle)
 
 

@@ -12,6 +12,7 @@ from pcmm_geo.cli._output import (
     add_overwrite_flag,
     add_plot_flag,
     add_report_flag,
+    refuse_renamed_options,
 )
 
 
@@ -27,19 +28,19 @@ def register(subparsers: Any) -> None:
             "every point its standard uncertainty u, its external reliability R (the largest tip shift an "
             "undetected laser fault of minimal detectable size causes) and its stated bound U (k = 2) + R. "
             "Flags: refused (a reading failed the test), ambiguous (a mirror pose fits as well), unbounded "
-            "(a reading no test can check moves the point), uncertain (u above --max-tip-u), over bound."
+            "(a reading no test can check moves the point), uncertain (u above --max-tip-u-mm), over bound."
         ),
     )
     parser.add_argument("file", metavar="FILE", help="log CSV, with header or headerless as the seed wrote it")
     add_machine_argument(parser)
-    parser.add_argument("--initial-heights", type=float, nargs=3, metavar=("A", "B", "C"),
+    parser.add_argument("--initial-heights-mm", dest="initial_heights", type=float, nargs=3, metavar=("A", "B", "C"),
                         help="pivot heights of the first row: the start position, held as the datum (default: the "
                              "log's start_heights_mm, written by pcmm acquire --simulate, else the machine's "
                              "reference heights, the level pose)")
     parser.add_argument("--all-rows", action="store_true", help="list every row, not only the probe points")
     parser.add_argument("--allow-unterminated", action="store_true",
                         help="accept a last row without a line end (refused by default: it may be torn mid-number)")
-    parser.add_argument("--laser-sigma", type=float, metavar="MM",
+    parser.add_argument("--laser-sigma-mm", dest="laser_sigma", type=float, metavar="MM",
                         help="standard uncertainty of a laser reading for noise and accuracy (default 0.0289 mm: "
                              "the thesis' 50 um accuracy as rectangular bounds); each sensor's reading step "
                              "(from the log's laser_models, else the seed's ILD1302/ILD1302/ILD1420) adds q/sqrt(12)")
@@ -47,26 +48,33 @@ def register(subparsers: Any) -> None:
                         help="significance of the w-test per reading (default 0.001); the minimal detectable bias "
                              "is the fault found with probability --power (default 0.8)")
     parser.add_argument("--power", type=float, default=None, metavar="P", help="power of the w-test (default 0.8)")
-    parser.add_argument("--max-closure", type=float, metavar="MM",
+    parser.add_argument("--max-closure-mm", dest="max_closure", type=float, metavar="MM",
                         help="largest accepted closure residual of a row in mm, instead of the w-test (for a machine "
                              "model known to misfit by more than the lasers' noise)")
     parser.add_argument("--keep-inconsistent", action="store_true",
                         help="leave readings that fail the test out (their rows are marked 'refused' and give no "
                              "point) instead of refusing the log (exit 2)")
-    parser.add_argument("--max-tip-u", type=float, metavar="MM", default=None,
+    parser.add_argument("--max-tip-u-mm", dest="max_tip_u", type=float, metavar="MM", default=None,
                         help="largest tip standard uncertainty of a point in mm (default 1.0; 'inf' for none). Rows "
                              "above it are flagged 'uncertain' and counted in one warning line; the exit code stays 0 "
                              "unless --refuse-uncertain")
     parser.add_argument("--refuse-uncertain", action="store_true",
                         help="refuse the log (exit 2, one stderr line, no output) when a probe point's tip "
-                             "uncertainty exceeds --max-tip-u")
-    parser.add_argument("--max-bound", type=float, metavar="MM", default=None,
+                             "uncertainty exceeds --max-tip-u-mm")
+    parser.add_argument("--max-bound-mm", dest="max_bound", type=float, metavar="MM", default=None,
                         help="leave out probe points whose stated bound U (k = 2) + R (+ ambiguity) exceeds MM "
                              "(flag 'over bound'; an unbounded point always exceeds it)")
     add_plot_flag(parser, "the tip path with probe points, pivot heights, closure residuals, and u and R per row")
     add_report_flag(parser)
     add_overwrite_flag(parser)
     add_json_flag(parser)
+    refuse_renamed_options(parser, {
+        "--initial-heights": "--initial-heights-mm",
+        "--laser-sigma": "--laser-sigma-mm",
+        "--max-closure": "--max-closure-mm",
+        "--max-tip-u": "--max-tip-u-mm",
+        "--max-bound": "--max-bound-mm",
+    })
     parser.set_defaults(handler=_handle)
 
 
@@ -107,7 +115,7 @@ def _handle(args: argparse.Namespace) -> Report:
     except InconsistentMeasurementError as exc:
         raise InconsistentMeasurementError(
             f"{args.file}: {exc.what}", exc.residual, exc.tolerance, exc.unit,
-            f"{exc.detail}; --keep-inconsistent leaves such readings out, --max-closure sets a tolerance in mm",
+            f"{exc.detail}; --keep-inconsistent leaves such readings out, --max-closure-mm sets a tolerance in mm",
         ) from None
     except ConvergenceError as exc:
         raise ConvergenceError(f"{args.file}: {exc.element}", exc.iterations,
@@ -116,7 +124,7 @@ def _handle(args: argparse.Namespace) -> Report:
     if args.refuse_uncertain and uncertain_probes:
         first = uncertain_probes[0]
         raise OutOfRangeError(f"{args.file}: tip uncertainty of log row {first + 1} ({len(uncertain_probes)} probe "
-                              "points above the limit; --max-tip-u sets it)",
+                              "points above the limit; --max-tip-u-mm sets it)",
                               float(f"{out.tip_uncertainty[first]:.4g}"), None, float(limit), "mm")
     data = _json(args, log, out, initial_heights, limit, covariance is not None)
     rows_index = range(len(log)) if args.all_rows else out.probe_rows.tolist()

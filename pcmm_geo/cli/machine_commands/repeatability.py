@@ -12,6 +12,7 @@ from pcmm_geo.cli._output import (
     add_overwrite_flag,
     add_plot_flag,
     add_report_flag,
+    refuse_renamed_options,
 )
 
 
@@ -29,12 +30,13 @@ def register(subparsers: Any) -> None:
     )
     parser.add_argument("logs", nargs="*", metavar="LOG", help="one log per test (at least two)")
     parser.add_argument("--readings", metavar="FILE", help="table test,laser_a,laser_b,laser_c of start readings, mm")
-    parser.add_argument("--laser-accuracy", type=float, default=0.05,
+    parser.add_argument("--laser-accuracy-mm", dest="laser_accuracy", type=float, default=0.05,
                         help="accuracy of one laser reading, +- mm (default 0.05, thesis 3.1)")
     add_plot_flag(parser, "each laser's start reading relative to its median, with the laser-error band")
     add_report_flag(parser)
     add_overwrite_flag(parser)
     add_json_flag(parser)
+    refuse_renamed_options(parser, {"--laser-accuracy": "--laser-accuracy-mm"})
     parser.set_defaults(handler=_handle)
 
 

@@ -5,7 +5,15 @@ from __future__ import annotations
 import argparse
 from typing import Any
 
-from pcmm_geo.cli._output import Report, Table, add_json_flag, add_overwrite_flag, add_plot_flag, add_report_flag
+from pcmm_geo.cli._output import (
+    Report,
+    Table,
+    add_json_flag,
+    add_overwrite_flag,
+    add_plot_flag,
+    add_report_flag,
+    refuse_renamed_options,
+)
 
 
 def register(subparsers: Any) -> None:
@@ -17,15 +25,23 @@ def register(subparsers: Any) -> None:
         description="Jacobians of the probe tip w.r.t. the readings; the thesis' probe-to-laser ratio (20:1).",
     )
     add_machine_argument(parser)
-    parser.add_argument("--size", type=float, default=100.0, help="edge of the working cube in mm (default 100)")
+    parser.add_argument("--size-mm", dest="size", type=float, default=100.0,
+                        help="edge of the working cube in mm (default 100)")
     parser.add_argument("--points-per-axis", type=int, default=5, help="grid points per axis (default 5)")
-    parser.add_argument("--center", "--centre", dest="center", type=float, nargs=3, metavar=("X", "Y", "Z"),
+    parser.add_argument("--centre-mm", "--center-mm", dest="center", type=float, nargs=3, metavar=("X", "Y", "Z"),
                         help="cube centre in mm (default: tip at the reference heights)")
-    parser.add_argument("--laser-accuracy", type=float, default=0.05, help="laser accuracy in mm (default 0.05)")
+    parser.add_argument("--laser-accuracy-mm", dest="laser_accuracy", type=float, default=0.05,
+                        help="laser accuracy in mm (default 0.05)")
     add_plot_flag(parser, "the sensitivity map (laser gain over the grid, probe/laser ratio per motor)")
     add_report_flag(parser)
     add_overwrite_flag(parser)
     add_json_flag(parser)
+    refuse_renamed_options(parser, {
+        "--size": "--size-mm",
+        "--laser-accuracy": "--laser-accuracy-mm",
+        "--center": "--centre-mm",
+        "--centre": "--centre-mm",
+    })
     parser.set_defaults(handler=_handle)
 
 

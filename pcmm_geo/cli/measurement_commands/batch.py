@@ -27,7 +27,7 @@ from pathlib import Path
 from typing import Any
 
 from pcmm_geo._optional import require
-from pcmm_geo.cli._output import EXIT_FAILURE, EXIT_OK, Report, to_jsonable
+from pcmm_geo.cli._output import EXIT_FAILURE, EXIT_OK, Report, refuse_renamed_options, to_jsonable
 
 FIT_ELEMENTS = ("line", "plane", "circle", "sphere", "cylinder", "cone", "torus")
 TASKS = (*(f"fit-{element}" for element in FIT_ELEMENTS), "gauge-block", "compare")
@@ -52,10 +52,12 @@ def register(subparsers: argparse._SubParsersAction) -> None:
                              "local cluster for the batch)")
     parser.add_argument("--workers", type=int, default=2,
                         help="worker processes of the local cluster (default 2, one thread each)")
-    parser.add_argument("--radius", type=float, help="fit-circle/sphere/cylinder: fixed radius (mm)")
+    parser.add_argument("--radius-mm", dest="radius", type=float, help="fit-circle/sphere/cylinder: fixed radius (mm)")
     parser.add_argument("--mesh", type=Path, help="compare: nominal mesh .stl/.obj/.ply (mm)")
     parser.add_argument("--nominal", metavar="SPEC", help="compare: nominal primitive (see pcmm compare)")
-    parser.add_argument("--tolerance", type=float, metavar="MM", help="compare: symmetric deviation tolerance")
+    parser.add_argument("--tolerance-mm", dest="tolerance", type=float, metavar="MM",
+                        help="compare: symmetric deviation tolerance")
+    refuse_renamed_options(parser, {"--radius": "--radius-mm", "--tolerance": "--tolerance-mm"})
     parser.set_defaults(handler=handle)
 
 
@@ -65,14 +67,14 @@ def command_line(task: str, file: str, options: dict[str, Any]) -> list[str]:
     Examples
     --------
     >>> command_line("fit-sphere", "ball.csv", {"radius": 12.5})
-    ['fit', 'sphere', 'ball.csv', '--radius', '12.5']
+    ['fit', 'sphere', 'ball.csv', '--radius-mm', '12.5']
     >>> command_line("compare", "scan.ply", {"nominal": "box:100x35x9"})
     ['compare', 'scan.ply', '--nominal', 'box:100x35x9']
     """
     if task.startswith("fit-"):
         argv = ["fit", task.removeprefix("fit-"), file]
         if options.get("radius") is not None:
-            argv += ["--radius", repr(float(options["radius"]))]
+            argv += ["--radius-mm", repr(float(options["radius"]))]
         return argv
     if task == "gauge-block":
         return ["gauge-block", file]
@@ -82,7 +84,7 @@ def command_line(task: str, file: str, options: dict[str, Any]) -> list[str]:
     if options.get("nominal") is not None:
         argv += ["--nominal", str(options["nominal"])]
     if options.get("tolerance") is not None:
-        argv += ["--tolerance", repr(float(options["tolerance"]))]
+        argv += ["--tolerance-mm", repr(float(options["tolerance"]))]
     return argv
 
 

@@ -16,6 +16,7 @@ from pcmm_geo.cli._output import (
     add_overwrite_flag,
     add_plot_flag,
     add_report_flag,
+    refuse_renamed_options,
 )
 
 
@@ -28,7 +29,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
             "MESH (STL/OBJ/PLY) or a --nominal primitive: open3d point-to-plane ICP, then a least-squares "
             "best fit to the exact triangles.  MESH must be closed (watertight, outward normals).  Reports the "
             "transform (measured -> nominal), the fitness and the signed deviations of every point (positive "
-            "outside the material).  With --tolerance "
+            "outside the material).  With --tolerance-mm "
             "the exit code is 1 when a point deviates by more than it."
         ),
     )
@@ -40,8 +41,9 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     parser.add_argument("--init-transform", metavar="FILE|centroid",
                         help="starting transform measured -> nominal: a text file with 16 numbers (4x4, row by "
                              "row), or 'centroid' to move the scan's centroid onto the surface's")
-    parser.add_argument("--tolerance", type=float, metavar="MM", help="symmetric deviation tolerance (mm)")
-    parser.add_argument("--max-distance", type=float, metavar="MM",
+    parser.add_argument("--tolerance-mm", dest="tolerance", type=float, metavar="MM",
+                        help="symmetric deviation tolerance (mm)")
+    parser.add_argument("--max-distance-mm", dest="max_distance", type=float, metavar="MM",
                         help="points farther than this from the surface are left out of the registration "
                              "(default 5%% of the mesh's bounding-box diagonal)")
     parser.add_argument("--samples", type=int, default=50_000,
@@ -54,6 +56,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     add_overwrite_flag(parser)
     add_decimal_flag(parser)
     add_json_flag(parser)
+    refuse_renamed_options(parser, {"--tolerance": "--tolerance-mm", "--max-distance": "--max-distance-mm"})
     parser.set_defaults(handler=handle)
 
 
@@ -71,7 +74,7 @@ def handle(args: argparse.Namespace) -> Report:
         given = "both" if args.mesh is not None else "neither"
         raise InvalidInputError("MESH / --nominal", "exactly one nominal surface", given)
     if args.tolerance is not None and not args.tolerance >= 0:
-        raise InvalidInputError("--tolerance", "a non-negative distance in mm", repr(args.tolerance))
+        raise InvalidInputError("--tolerance-mm", "a non-negative distance in mm", repr(args.tolerance))
     mesh = read_mesh(args.mesh) if args.mesh is not None else nominal_mesh(args.nominal)
     nominal_name = str(args.mesh) if args.mesh is not None else args.nominal
     check_closed_mesh(mesh, what=nominal_name)  # signed deviations need a closed surface
@@ -138,12 +141,18 @@ def handle(args: argparse.Namespace) -> Report:
     ]
     lines = []
     exit_code = EXIT_OK
+    verdict = None
     if summary.tolerance is not None:
+        from pcmm_geo.cli._record import Verdict
+
         passed = summary.count_beyond == 0
         data["passed"] = passed
         exit_code = EXIT_OK if passed else EXIT_FAILURE
-        lines.append(f"verdict: {'PASS' if passed else 'FAIL'} ({summary.count_beyond} of {summary.count} points "
-                     f"beyond ±{summary.tolerance:g} mm)")
+        verdict = Verdict(passed, f"{'PASS' if passed else 'FAIL'} ({summary.count_beyond} of {summary.count} points "
+                                  f"beyond ±{summary.tolerance:g} mm)",
+                          f"simple acceptance: every signed deviation within ±{summary.tolerance:g} mm",
+                          basis="the signed distances of the registered points from the nominal surface; the "
+                                "uncertainty of the points and of the registration is not taken into account")
     plots = []
     if args.plot:
         from pcmm_geo.plots.cad import plot_deviations
@@ -153,7 +162,7 @@ def handle(args: argparse.Namespace) -> Report:
         data["plot"] = str(written)
         plots.append(str(written))
         lines.append(f"plot written to {written}")
-    return Report(data=data, tables=tables, lines=lines, exit_code=exit_code, plots=plots)
+    return Report(data=data, tables=tables, lines=lines, exit_code=exit_code, plots=plots, verdict=verdict)
 
 
 def read_transform(path: Path) -> Any:

@@ -7,7 +7,7 @@ from pathlib import Path
 from typing import Any
 
 from pcmm_geo._optional import require
-from pcmm_geo.cli._output import Report, Table, add_decimal_flag, add_json_flag
+from pcmm_geo.cli._output import Report, Table, add_decimal_flag, add_json_flag, declare_output
 
 _MESH_ONLY = (".stl", ".obj")  # .ply holds either a mesh or a point cloud
 
@@ -21,7 +21,8 @@ def register(subparsers: argparse._SubParsersAction) -> None:
             ".ply .pcd (point clouds).  Meshes: .stl .obj .ply (a .ply with faces is read as a mesh).  The "
             "thesis' element export (header x,y,z,d,r) is read as its sphere centres.  A mesh written as "
             "points gives its vertices, or --sample N points spread evenly over its surface.  Refuses to "
-            "replace OUT unless --overwrite."
+            "replace OUT unless --overwrite.  Ctrl-C, SIGTERM or SIGHUP leave OUT as it was; what a killed "
+            "run left next to OUT is cleaned up by the next run."
         ),
     )
     parser.add_argument("input", type=Path, metavar="IN")
@@ -30,6 +31,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
                         help="mesh -> points: N points spread evenly over the surface instead of the vertices")
     parser.add_argument("--seed", type=int, default=0, help="seed of --sample (default 0)")
     parser.add_argument("--overwrite", action="store_true", help="replace OUT if it exists")
+    declare_output(parser, "output", "OUT")  # written all-or-nothing; checked before IN is read
     add_decimal_flag(parser)
     add_json_flag(parser)
     parser.set_defaults(handler=handle)

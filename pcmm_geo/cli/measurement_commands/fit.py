@@ -21,6 +21,7 @@ from pcmm_geo.cli._output import (
     add_overwrite_flag,
     add_plot_flag,
     add_report_flag,
+    refuse_renamed_options,
 )
 from pcmm_geo.cli._record import CovarianceBlock
 
@@ -30,7 +31,7 @@ _CRITERION_TITLES = {
     "mcc": "minimum circumscribed",
     "mic": "maximum inscribed",
 }
-ELEMENTS = ("line", "plane", "circle", "sphere", "cylinder", "cone", "torus")
+ELEMENTS = ("line", "plane", "circle", "sphere", "cylinder", "cone", "torus")  # = pcmm_geo.fit.ELEMENTS (tested)
 _DIRECTIONS = ("direction", "normal", "axis")
 _UNITS = {"radius": "mm", "r_in": "mm", "r_out": "mm", "major_radius": "mm", "minor_radius": "mm", "half_angle": "rad"}
 
@@ -59,17 +60,20 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         default="gaussian",
         help="least squares (default), minimum zone, minimum circumscribed or maximum inscribed",
     )
-    parser.add_argument("--radius", type=float, help="fixed radius in mm (circle, sphere, cylinder; of the surface)")
+    parser.add_argument("--radius-mm", dest="radius", type=float,
+                        help="fixed radius in mm (circle, sphere, cylinder; of the surface)")
     parser.add_argument("--two-d", action="store_true", help="line/circle: use only the x and y columns")
     parser.add_argument("--axis-hint", type=float, nargs=3, metavar=("X", "Y", "Z"),
                         help="cylinder, cone, torus: the nominal axis direction, tried first (sparse data)")
     parser.add_argument("--residuals", action="store_true", help="include every residual in the JSON output")
     add_cmm_input_flags(parser)
+    add_axis_region_options(parser)
     add_plot_flag(parser, "a residual plot")
     add_report_flag(parser)
     add_overwrite_flag(parser)
     add_decimal_flag(parser)
     add_json_flag(parser)
+    refuse_renamed_options(parser, {"--radius": "--radius-mm"})
     parser.set_defaults(handler=handle)
 
 
@@ -84,7 +88,7 @@ def handle(args: argparse.Namespace) -> Report:
     kwargs: dict[str, Any] = {}
     if args.radius is not None:
         if args.element not in ("circle", "sphere", "cylinder"):
-            raise InvalidInputError("--radius", "element circle, sphere or cylinder", args.element)
+            raise InvalidInputError("--radius-mm", "element circle, sphere or cylinder", args.element)
         kwargs["radius"] = args.radius
     if args.axis_hint is not None:
         if args.element not in ("cylinder", "cone", "torus"):
@@ -94,6 +98,7 @@ def handle(args: argparse.Namespace) -> Report:
         kwargs["method"] = args.method
     if args.criterion != "gaussian":
         kwargs["criterion"] = args.criterion
+    kwargs.update(axis_search_options(args, args.element, args.criterion, points.shape[1]))
     fit_element = getattr(fit, f"fit_{args.element}")
     with naming_the_file(args.file):
         result, compensation, lines, summary = _fit(args, source, fit_element, kwargs)
@@ -110,7 +115,7 @@ def handle(args: argparse.Namespace) -> Report:
         data.pop("residual_components", None)
     data["file"] = str(args.file)
     geometry = _geometry_rows(result)
-    uncertainty = result.std_errors
+    uncertainty = dict(zip(result.parameter_names, np.asarray(result.std_errors).tolist(), strict=True))
     rows = [
         [name, value, uncertainty.get(name, float("nan")), "1" if name.split("_")[0] in _DIRECTIONS else "mm"]
         for name, value in geometry
@@ -161,6 +166,65 @@ def handle(args: argparse.Namespace) -> Report:
     blocks = [CovarianceBlock(f"{args.element} fit parameters", tuple(result.parameter_names), covariance)] \
         if covariance.size and np.all(np.isfinite(covariance)) and np.any(np.diag(covariance) > 0) else []
     return Report(data=data, tables=tables, lines=lines, plots=plots, covariances=blocks)
+
+
+def add_axis_region_options(parser: argparse.ArgumentParser) -> None:
+    """The axis region and search budget of the global axial minimax search (cylinder; 3-D line budget)."""
+    group = parser.add_argument_group(
+        "axis region (minimum zone / MCC / MIC cylinder; default: within 45 deg of the least-squares axis, "
+        "crossing within 2R of it)"
+    )
+    group.add_argument("--axis-cone-deg", type=float, metavar="DEG",
+                       help="largest angle between the axis and the reference axis, in degrees (0 < DEG < 90)")
+    group.add_argument("--axis-offset-mm", type=float, metavar="MM",
+                       help="largest distance at which the axis may cross the reference plane from the reference "
+                            "axis, in mm (default 2R)")
+    group.add_argument("--axis-nominal", type=float, nargs=3, metavar=("X", "Y", "Z"),
+                       help="nominal axis direction: the reference axis instead of the least-squares one")
+    group.add_argument("--axis-nominal-point-mm", type=float, nargs=3, metavar=("X", "Y", "Z"),
+                       help="a point of the nominal axis in mm (default: the least-squares axis point)")
+    group.add_argument("--search-seconds", type=float, metavar="S",
+                       help="time budget of the global search (default 5 s); the answer is local when it runs out")
+    group.add_argument("--search-cells", type=int, metavar="N",
+                       help="cell budget of the global search (default 2000000; repeatable where seconds are not)")
+
+
+def axis_search_options(args: argparse.Namespace, element: str, criterion: str, dim: int) -> dict[str, Any]:
+    """``axis_region`` / ``search_budget`` keyword arguments from the axis options (errors for other elements)."""
+    from pcmm_geo.errors import InvalidInputError
+    from pcmm_geo.fit import AxisRegion, SearchBudget
+
+    region_given = {
+        "--axis-cone-deg": args.axis_cone_deg,
+        "--axis-offset-mm": args.axis_offset_mm,
+        "--axis-nominal": args.axis_nominal,
+        "--axis-nominal-point-mm": args.axis_nominal_point_mm,
+    }
+    budget_given = {"--search-seconds": args.search_seconds, "--search-cells": args.search_cells}
+    out: dict[str, Any] = {}
+    searched = criterion != "gaussian" and (element == "cylinder" or (element == "line" and dim == 3))
+    for option, value in {**region_given, **budget_given}.items():
+        if value is None:
+            continue
+        if not searched:
+            raise InvalidInputError(option, "a minimum-zone / MCC / MIC cylinder or a 3-D line zone",
+                                    f"{element} ({criterion})")
+        if option in region_given and element != "cylinder":
+            raise InvalidInputError(option, "element cylinder (a 3-D line is searched over all directions)", element)
+    if element == "cylinder" and any(value is not None for value in region_given.values()):
+        region: dict[str, Any] = {"axis": args.axis_nominal, "point": args.axis_nominal_point_mm,
+                                  "offset_mm": args.axis_offset_mm}
+        if args.axis_cone_deg is not None:
+            region["cone_deg"] = args.axis_cone_deg
+        out["axis_region"] = AxisRegion(**region)
+    if any(value is not None for value in budget_given.values()):
+        budget: dict[str, Any] = {}
+        if args.search_seconds is not None:
+            budget["max_seconds"] = args.search_seconds
+        if args.search_cells is not None:
+            budget["max_cells"] = args.search_cells
+        out["search_budget"] = SearchBudget(**budget)
+    return out
 
 
 def _geometry_rows(result: Any) -> list[tuple[str, float]]:

@@ -1,4 +1,4 @@
-"""``pcmm form FILE --element E --tolerance T``: ISO form deviation by minimum zone with a verdict."""
+"""``pcmm form FILE --element E --tolerance-mm T``: ISO form deviation by minimum zone with a verdict."""
 
 from __future__ import annotations
 
@@ -21,7 +21,9 @@ from pcmm_geo.cli._output import (
     add_overwrite_flag,
     add_plot_flag,
     add_report_flag,
+    refuse_renamed_options,
 )
+from pcmm_geo.cli.measurement_commands.fit import add_axis_region_options
 
 ELEMENTS = ("line", "plane", "circle", "sphere", "cylinder", "cone")
 
@@ -33,33 +35,37 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         description=(
             "Evaluate the form deviation of the points in FILE as the width of the minimum zone "
             "(Chebyshev fit with an optimality certificate stating its scope: global over all elements, "
-            "or local with a proven lower bound). With --tolerance the verdict is PASS (the zone is within "
+            "or local with a proven lower bound). With --tolerance-mm the verdict is PASS (the zone is within "
             "the tolerance), FAIL (the proven lower bound exceeds it) or NOT PROVEN; exit status 0 on PASS, "
             "1 on FAIL or NOT PROVEN, 2 on bad input."
         ),
     )
     parser.add_argument("file", type=Path)
     parser.add_argument("--element", choices=ELEMENTS, required=True)
-    parser.add_argument("--tolerance", type=float, metavar="MM", help="form tolerance in mm")
+    parser.add_argument("--tolerance-mm", dest="tolerance", type=float, metavar="MM", help="form tolerance in mm")
     parser.add_argument("--two-d", action="store_true", help="line/circle: use only the x and y columns")
     add_cmm_input_flags(parser)
+    add_axis_region_options(parser)
     add_plot_flag(parser, "the zone with the deviations and contact points")
     add_report_flag(parser)
     add_overwrite_flag(parser)
     add_decimal_flag(parser)
     add_json_flag(parser)
+    refuse_renamed_options(parser, {"--tolerance": "--tolerance-mm"})
     parser.set_defaults(handler=handle)
 
 
 def handle(args: argparse.Namespace) -> Report:
     import dataclasses
 
+    from pcmm_geo.cli.measurement_commands.fit import axis_search_options
     from pcmm_geo.fit.zone.form import evaluate_form
 
     source = read_fit_input(args, args.element)
     compensation = None
+    search = axis_search_options(args, args.element, "chebyshev", source.points.shape[1])
     with naming_the_file(args.file):
-        evaluation = evaluate_form(source.points, args.element, tolerance=args.tolerance)
+        evaluation = evaluate_form(source.points, args.element, tolerance=args.tolerance, **search)
         if source.probe_radius:  # the zone width stays; the zone's element moves onto the surface
             from pcmm_geo.cmm.points import compensate_fit
 
@@ -76,7 +82,6 @@ def handle(args: argparse.Namespace) -> Report:
     rows = [
         [evaluation.characteristic, 1000.0 * evaluation.deviation, "µm"],
         ["tolerance", "-" if evaluation.tolerance is None else 1000.0 * evaluation.tolerance, "µm"],
-        ["verdict", evaluation.verdict, ""],
         ["scope", f"{evaluation.scope} ({evaluation.domain})" if evaluation.domain else evaluation.scope, ""],
     ]
     if evaluation.scope != "global":
@@ -114,7 +119,11 @@ def handle(args: argparse.Namespace) -> Report:
         from pcmm_geo.fit.zone.form import FORM_DECISION_RULE
 
         statement = f"{evaluation.characteristic}: {evaluation.verdict}"
+        bound = "" if evaluation.scope == "global" or evaluation.bound != evaluation.bound else \
+            f", proven lower bound {1000.0 * evaluation.bound:.3f} µm"
         verdict = Verdict(evaluation.passed, statement,
-                          f"{FORM_DECISION_RULE}; tolerance {1000.0 * evaluation.tolerance:g} µm")
-        lines.insert(0, f"{statement} (tolerance {1000.0 * evaluation.tolerance:g} µm)")
+                          f"{FORM_DECISION_RULE}; tolerance {1000.0 * evaluation.tolerance:g} µm",
+                          basis=f"the minimum-zone width {1000.0 * evaluation.deviation:.3f} µm ({evaluation.scope} "
+                                f"optimum{bound}) of the points as measured; their measurement uncertainty is not "
+                                "taken into account")
     return Report(data=data, tables=tables, lines=lines, plots=plots, exit_code=exit_code, verdict=verdict)

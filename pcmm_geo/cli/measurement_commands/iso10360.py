@@ -19,6 +19,7 @@ from pcmm_geo.cli._output import (
     add_overwrite_flag,
     add_plot_flag,
     add_report_flag,
+    refuse_renamed_options,
 )
 from pcmm_geo.cli._record import Verdict
 
@@ -36,19 +37,27 @@ def register(subparsers: Any) -> None:
         ),
     )
     p2.add_argument("file", help="CSV of measured test lengths")
-    p2.add_argument("--mpe-a", type=float, required=True, help="A in micrometres")
+    p2.add_argument("--mpe-a-um", dest="mpe_a", type=float, required=True, help="A in micrometres")
     p2.add_argument("--mpe-k", type=float, required=True, help="K (L in mm, L/K in micrometres)")
-    p2.add_argument("--mpe-b", type=float, default=None, help="optional cap B in micrometres")
+    p2.add_argument("--mpe-b-um", dest="mpe_b", type=float, default=None, help="optional cap B in micrometres")
     p2.add_argument("--rule", choices=("simple", "guarded", "iso14253"), default=None,
-                    help="decision rule: simple acceptance, guarded by --uncertainty, or the three-state "
-                         "ISO 14253-1 rule (PASS / FAIL / NOT PROVEN; the default when --uncertainty is given)")
-    p2.add_argument("--uncertainty", type=float, default=0.0, help="expanded test uncertainty U in micrometres")
-    p2.add_argument("--mpl-r0", type=float, default=None, help="limit of the repeatability range R0 in micrometres")
+                    help="decision rule: simple acceptance, guarded by --uncertainty-um, or the three-state "
+                         "ISO 14253-1 rule (PASS / FAIL / NOT PROVEN; the default when --uncertainty-um is given)")
+    p2.add_argument("--uncertainty-um", dest="uncertainty", type=float, default=0.0,
+                    help="expanded test uncertainty U in micrometres")
+    p2.add_argument("--mpl-r0-um", dest="mpl_r0", type=float, default=None,
+                    help="limit of the repeatability range R0 in micrometres")
     p2.add_argument("--allow-incomplete", action="store_true", help=_INCOMPLETE_HELP + " (5 lengths x 7 positions x 3)")
     add_plot_flag(p2, "every E0 against its length with the MPE curve, and R0 per length")
     add_report_flag(p2)
     add_overwrite_flag(p2)
     add_json_flag(p2)
+    refuse_renamed_options(p2, {
+        "--mpe-a": "--mpe-a-um",
+        "--mpe-b": "--mpe-b-um",
+        "--uncertainty": "--uncertainty-um",
+        "--mpl-r0": "--mpl-r0-um",
+    })
     p2.set_defaults(handler=_handle_2)
 
     p5 = subparsers.add_parser(
@@ -57,19 +66,26 @@ def register(subparsers: Any) -> None:
         description="CSV header x,y,z (mm): the points probed on the test sphere (25 in the standard).",
     )
     p5.add_argument("file", help="CSV of probed points")
-    p5.add_argument("--reference-diameter", type=float, default=None,
+    p5.add_argument("--reference-diameter-mm", dest="reference_diameter", type=float, default=None,
                     help="calibrated diameter in mm (default: the file's '# reference_diameter_mm: D' line)")
-    p5.add_argument("--mpe-form", type=float, default=None, help="MPE of P_FTU in micrometres")
-    p5.add_argument("--mpe-size", type=float, default=None, help="MPE of P_STU in micrometres")
+    p5.add_argument("--mpe-form-um", dest="mpe_form", type=float, default=None, help="MPE of P_FTU in micrometres")
+    p5.add_argument("--mpe-size-um", dest="mpe_size", type=float, default=None, help="MPE of P_STU in micrometres")
     p5.add_argument("--allow-incomplete", action="store_true", help=_INCOMPLETE_HELP + " (25 points)")
     add_decimal_flag(p5)
-    p5.add_argument("--uncertainty", type=float, nargs=2, metavar=("U_FORM", "U_SIZE"), default=None,
+    p5.add_argument("--uncertainty-um", dest="uncertainty", type=float, nargs=2, metavar=("U_FORM", "U_SIZE"),
+                    default=None,
                     help="expanded test uncertainties of P_FTU and P_STU in micrometres: ISO 14253-1 decision "
                          "(PASS / FAIL / NOT PROVEN)")
     add_plot_flag(p5, "the residuals on the sphere (azimuth x elevation) and sorted")
     add_report_flag(p5)
     add_overwrite_flag(p5)
     add_json_flag(p5)
+    refuse_renamed_options(p5, {
+        "--reference-diameter": "--reference-diameter-mm",
+        "--mpe-form": "--mpe-form-um",
+        "--mpe-size": "--mpe-size-um",
+        "--uncertainty": "--uncertainty-um",
+    })
     p5.set_defaults(handler=_handle_5)
 
     p6 = subparsers.add_parser(
@@ -83,17 +99,28 @@ def register(subparsers: Any) -> None:
     )
     p6.add_argument("reference", help="reference folder or file")
     p6.add_argument("results", nargs="?", default=None, help="results CSV/JSON (default: fit with pcmm_geo)")
-    p6.add_argument("--mpe-position", type=float, default=1e-9, help="mm (default 1e-9)")
-    p6.add_argument("--mpe-orientation", type=float, default=1e-9, help="rad (default 1e-9)")
-    p6.add_argument("--mpe-size", type=float, default=1e-9, help="mm (default 1e-9)")
-    p6.add_argument("--mpe-angle", type=float, default=1e-9, help="rad (default 1e-9)")
+    p6.add_argument("--mpe-position-mm", dest="mpe_position", type=float, default=1e-9, help="mm (default 1e-9)")
+    p6.add_argument("--mpe-orientation-rad", dest="mpe_orientation", type=float, default=1e-9,
+                    help="rad (default 1e-9)")
+    p6.add_argument("--mpe-size-mm", dest="mpe_size", type=float, default=1e-9, help="mm (default 1e-9)")
+    p6.add_argument("--mpe-angle-rad", dest="mpe_angle", type=float, default=1e-9, help="rad (default 1e-9)")
     p6.add_argument("--markdown", action="store_true",
                     help="deprecated (removed in the next release): use --report FILE.md")
     add_plot_flag(p6, "each case's deviations as fractions of their MPE")
     add_report_flag(p6)
     add_overwrite_flag(p6)
     add_json_flag(p6)
+    refuse_renamed_options(p6, {
+        "--mpe-position": "--mpe-position-mm",
+        "--mpe-orientation": "--mpe-orientation-rad",
+        "--mpe-size": "--mpe-size-mm",
+        "--mpe-angle": "--mpe-angle-rad",
+    })
     p6.set_defaults(handler=_handle_6)
+
+
+_P6_OPTIONS = {"mpe_position": "--mpe-position-mm", "mpe_orientation": "--mpe-orientation-rad",
+               "mpe_size": "--mpe-size-mm", "mpe_angle": "--mpe-angle-rad"}
 
 
 def _positive(name: str, value: float | None, *, allow_zero: bool = False) -> None:
@@ -108,8 +135,8 @@ def _positive(name: str, value: float | None, *, allow_zero: bool = False) -> No
 def _handle_2(args: argparse.Namespace) -> Report:
     from pcmm_geo.artefacts.iso10360_2 import LengthMpe, evaluate_length_test, read_length_test_csv
 
-    _positive("--uncertainty", args.uncertainty, allow_zero=True)
-    _positive("--mpl-r0", args.mpl_r0)
+    _positive("--uncertainty-um", args.uncertainty, allow_zero=True)
+    _positive("--mpl-r0-um", args.mpl_r0)
     mpe = LengthMpe(args.mpe_a, args.mpe_k, args.mpe_b)
     result = evaluate_length_test(
         read_length_test_csv(args.file),
@@ -150,20 +177,43 @@ def _handle_2(args: argparse.Namespace) -> Report:
     statement = f"ISO 10360-2: {result.verdict} ({len(result.errors)} values, " + (
         ", ".join(f"{sum(e.verdict == v for e in result.errors)} {v}" for v in ("PASS", "NOT PROVEN", "FAIL"))
         if result.errors[0].verdict else f"{result.n_nonconforming} nonconforming") + ")"
-    lines = [
-        statement,
-        f"max |E0| = {result.max_abs_error * 1000:.3f} µm ({result.max_error_ratio:.2f} of MPE), "
-        f"max R0 = {result.max_range * 1000:.3f} µm",
-        f"decision rule: {result.decision_rule}",
-    ]
-    rule = f"{result.decision_rule}, MPE_E0 = {_mpe_text(mpe)}"
-    if result.test_uncertainty > 0:
-        rule += f", U = {1000 * result.test_uncertainty:g} µm"
-    if args.mpl_r0 is not None:
-        rule += f"; R0 <= {args.mpl_r0:g} µm"
+    lines = [f"max |E0| = {result.max_abs_error * 1000:.3f} µm ({result.max_error_ratio:.2f} of MPE), "
+             f"max R0 = {result.max_range * 1000:.3f} µm"]
+    rule_name = args.rule or ("iso14253" if args.uncertainty > 0 else "simple")
+    limits = f"MPE_E0 = {_mpe_text(mpe)}" + (f", R0 <= {args.mpl_r0:g} µm" if args.mpl_r0 is not None else "")
+    u_um = 1000 * result.test_uncertainty  # stated once, with the verdict
     plots = _plot(args, "plot_length_test", result)
+    verdict = Verdict(_passed(result.verdict), statement, _rule_text(rule_name, limits, "|E0|"),
+                      uncertainty=f"U = {u_um:g} µm (k = 2), test uncertainty as stated" if u_um > 0 else "",
+                      basis="the E0 values alone (no test uncertainty stated: --uncertainty-um)",
+                      conformity_text=_guarded_conformity(rule_name, _passed(result.verdict), u_um > 0))
     return Report(data=data, tables=tables, lines=lines, exit_code=EXIT_FAILURE if result.passed is False else EXIT_OK,
-                  plots=plots, verdict=Verdict(_passed(result.verdict), statement, rule))
+                  plots=plots, verdict=verdict)
+
+
+def _rule_text(rule: str, limits: str, value: str) -> str:
+    """The decision rule in ISO 14253-1 terms, once, with the limits it was applied to."""
+    if rule == "iso14253":
+        return (f"ISO 14253-1 default rule: conformity is proven when {value} + U <= MPE, nonconformity when "
+                f"{value} - U > MPE, otherwise neither is proven; {limits}")
+    if rule == "guarded":
+        return (f"guarded acceptance: a value is accepted only when {value} + U <= MPE (conformity proven), "
+                f"otherwise rejected (which does not prove nonconformity); {limits}")
+    return (f"simple acceptance (zero guard band, shared risk): a value is accepted when {value} <= MPE; U is not "
+            f"used, so neither conformity nor nonconformity is proven in ISO 14253-1 terms; {limits}")
+
+
+def _guarded_conformity(rule: str, passed: bool | None, has_u: bool = True) -> str:
+    """The ISO 14253-1 state where it does not follow from the verdict and U.
+
+    Guarded acceptance proves conformity, but its FAIL proves nothing (the value may lie within
+    U of the limit); simple acceptance with a stated U proves neither, as it does not use U.
+    """
+    if rule == "guarded" and passed is False:
+        return "nonconformity not proven: guarded acceptance fails a value within U of the limit too"
+    if rule == "simple" and has_u and passed is not None:
+        return "neither conformity nor nonconformity proven: simple acceptance does not use the stated U"
+    return ""
 
 
 def _passed(verdict: str) -> bool | None:
@@ -191,19 +241,19 @@ def _handle_5(args: argparse.Namespace) -> Report:
     from pcmm_geo.errors import InvalidInputError
     from pcmm_geo.io.points import read_points
 
-    _positive("--mpe-form", args.mpe_form)
-    _positive("--mpe-size", args.mpe_size)
+    _positive("--mpe-form-um", args.mpe_form)
+    _positive("--mpe-size-um", args.mpe_size)
     points = read_points(args.file, decimal=args.decimal)
     stated = read_reference_diameter(args.file)
     diameter = args.reference_diameter if args.reference_diameter is not None else stated
     if diameter is None:
-        raise InvalidInputError("--reference-diameter", "the sphere's calibrated diameter in mm "
+        raise InvalidInputError("--reference-diameter-mm", "the sphere's calibrated diameter in mm "
                                 f"(or a '# reference_diameter_mm: D' line in {args.file})", "neither")
     if stated is not None and args.reference_diameter is not None and stated != args.reference_diameter:
-        raise InvalidInputError("--reference-diameter", f"the {stated} mm that {args.file} states",
+        raise InvalidInputError("--reference-diameter-mm", f"the {stated} mm that {args.file} states",
                                 f"{args.reference_diameter} mm")
     for value in args.uncertainty or ():
-        _positive("--uncertainty", value, allow_zero=True)
+        _positive("--uncertainty-um", value, allow_zero=True)
     result = evaluate_probing(
         points,
         diameter,
@@ -234,20 +284,27 @@ def _handle_5(args: argparse.Namespace) -> Report:
         ["quantity", "value", "unit"],
         [["P_FTU", result.form_error * 1000, "µm"], ["P_STU", result.size_error * 1000, "µm"],
          ["fitted diameter", result.fitted_diameter, "mm"], ["reference diameter", result.reference_diameter, "mm"],
-         ["points", result.n, "1"]],
+         ["points", result.n, ""]],
     )
+    plots = _plot(args, "plot_probing_test", result, points)
+    exit_code = EXIT_FAILURE if result.passed is False else EXIT_OK
+    if args.mpe_form is None and args.mpe_size is None:
+        return Report(data=data, tables=[table], plots=plots, exit_code=exit_code,
+                      lines=["no verdict: no MPE stated (--mpe-form-um, --mpe-size-um)"])
     verdict = result.verdict
     if result.test_uncertainty is not None and (result.form_verdict or result.size_verdict):
         verdict += f" (P_FTU {result.form_verdict or '-'}, P_STU {result.size_verdict or '-'})"
-    lines = [f"verdict: {verdict}", f"decision rule: {result.decision_rule}"]
-    limits = [f"P_FTU <= {args.mpe_form:g} µm" if args.mpe_form is not None else "",
-              f"|P_STU| <= {args.mpe_size:g} µm" if args.mpe_size is not None else ""]
-    rule = (f"{result.decision_rule}: " + " and ".join(t for t in limits if t)) if any(limits) \
-        else "none (no MPE stated)"
-    plots = _plot(args, "plot_probing_test", result, points)
-    return Report(data=data, tables=[table], lines=lines, plots=plots,
-                  verdict=Verdict(_passed(verdict.split(" ")[0]), f"ISO 10360-5: {verdict}", rule),
-                  exit_code=EXIT_FAILURE if result.passed is False else EXIT_OK)
+    limits = "P is " + " and ".join(text for text in (
+        f"P_FTU against MPE_PFTU = {args.mpe_form:g} µm" if args.mpe_form is not None else "",
+        f"|P_STU| against MPE_PSTU = {args.mpe_size:g} µm" if args.mpe_size is not None else "") if text)
+    u_form, u_size = args.uncertainty if args.uncertainty is not None else (0.0, 0.0)
+    return Report(data=data, tables=[table], plots=plots, exit_code=exit_code,
+                  verdict=Verdict(
+                      _passed(verdict.split(" ")[0]), f"ISO 10360-5: {verdict}",
+                      _rule_text("iso14253" if args.uncertainty is not None else "simple", limits, "P"),
+                      uncertainty=(f"U(P_FTU) = {u_form:g} µm, U(P_STU) = {u_size:g} µm (k = 2), test uncertainties "
+                                   "as stated") if args.uncertainty is not None else "",
+                      basis="the P_FTU and P_STU values alone (no test uncertainty stated: --uncertainty-um)"))
 
 
 def _handle_6(args: argparse.Namespace) -> Report:
@@ -255,7 +312,7 @@ def _handle_6(args: argparse.Namespace) -> Report:
     from pcmm_geo.artefacts.iso10360_6_io import load_reference_cases, read_element_parameters
 
     for name in ("mpe_position", "mpe_orientation", "mpe_size", "mpe_angle"):
-        _positive("--" + name.replace("_", "-"), getattr(args, name))
+        _positive(_P6_OPTIONS[name], getattr(args, name))
     cases = load_reference_cases(args.reference)
     results = fit_with_pcmm_geo(cases) if args.results is None else read_element_parameters(args.results)
     mpe = HarnessMpe(args.mpe_position, args.mpe_orientation, args.mpe_size, args.mpe_angle)
@@ -282,14 +339,16 @@ def _handle_6(args: argparse.Namespace) -> Report:
     statement = (f"ISO 10360-6: {'PASS' if report.passed else 'FAIL'} "
                  f"({len(report.cases) - report.n_failed}/{len(report.cases)} cases within MPE)")
     verdict = Verdict(report.passed, statement,
-                      f"every deviation <= its MPE: position {mpe.position:g} mm, orientation {mpe.orientation:g} rad, "
-                      f"size {mpe.size:g} mm, angle {mpe.angle:g} rad")
+                      f"simple acceptance: every deviation <= its MPE (position {mpe.position:g} mm, orientation "
+                      f"{mpe.orientation:g} rad, size {mpe.size:g} mm, angle {mpe.angle:g} rad)",
+                      basis="the deviations of the tested results from the reference results, which are exact to "
+                            "the digits given; no U is applied")
     if args.markdown:
         import sys
 
         print("pcmm iso10360-6: warning: --markdown is deprecated and will be removed in the next release; "
               "use --report FILE.md", file=sys.stderr)
-        return Report(data=data, lines=[report.to_markdown().rstrip("\n")], plots=plots, verdict=verdict,
+        return Report(data=data, lines=[report.to_markdown().rstrip("\n")], plots=plots,
                       exit_code=EXIT_OK if report.passed else EXIT_FAILURE)
     table = Table(
         "ISO 10360-6 software test",
@@ -298,5 +357,5 @@ def _handle_6(args: argparse.Namespace) -> Report:
           "pass" if c.passed else f"FAIL {c.note}".strip()]
          for c in report.cases],
     )
-    return Report(data=data, tables=[table], lines=[statement], plots=plots, verdict=verdict,
+    return Report(data=data, tables=[table], plots=plots, verdict=verdict,
                   exit_code=EXIT_OK if report.passed else EXIT_FAILURE)

@@ -1,4 +1,4 @@
-"""``pcmm qif show|verify FILE``: what a QIF results file holds, and a second opinion on its results."""
+"""``pcmm qif show|verify|validate FILE``: what a QIF file holds, a second opinion on its results, its schema check."""
 
 from __future__ import annotations
 
@@ -12,13 +12,14 @@ from pcmm_geo.cli._output import (
     add_json_flag,
     add_overwrite_flag,
     add_report_flag,
+    refuse_renamed_options,
 )
 
 
 def register(subparsers: Any) -> None:
     parser = subparsers.add_parser(
         "qif",
-        help="QIF 3.0 results files: show what one holds, verify its results by refitting",
+        help="QIF 3.0 results files: show what one holds, verify its results by refitting, validate it",
         description="Read a QIF 3.0 results file (ISO 23952) from an external CMM. The file is untrusted: DTDs, "
                     "entities and external references are refused, depth and size are bounded.",
     )
@@ -49,12 +50,30 @@ def register(subparsers: Any) -> None:
                              "the CMM reported (its working plane)")
     verify.add_argument("--compensated", choices=("yes", "no"),
                         help="for point sets without a Compensated flag: are the points surface points?")
-    verify.add_argument("--probe-radius", type=float, metavar="MM", help="probe radius in mm, overriding the file's")
+    verify.add_argument("--probe-radius-mm", dest="probe_radius", type=float, metavar="MM",
+                        help="probe radius in mm, overriding the file's")
+    refuse_renamed_options(verify, {"--probe-radius": "--probe-radius-mm"})
     _add_limits(verify)
     add_report_flag(verify)
     add_overwrite_flag(verify)
     add_json_flag(verify)
     verify.set_defaults(handler=_handle_verify)
+
+    validate = actions.add_parser(
+        "validate",
+        help="check a QIF file against the QIF 3.0 XML schema (shipped with pcmm_geo)",
+        description="Validate a QIF file against the QIF 3.0 XML schema (ISO 23952; the schema ships with pcmm_geo) "
+                    "with lxml. Exit status 0 when the file is valid, 1 when it is not (the first errors are listed "
+                    "with their line numbers), 2 when it cannot be read, is not well-formed XML or is refused as "
+                    "hostile (a DTD, entities, nesting deeper than 2048, larger than --max-mb).",
+    )
+    validate.add_argument("file", help="QIF file")
+    validate.add_argument("--max-mb", type=float, metavar="MB", default=None,
+                          help="largest QIF file read, in MB (default 1024)")
+    validate.add_argument("--errors", type=int, metavar="N", default=10,
+                          help="how many schema errors to list (default 10; --json lists all)")
+    add_json_flag(validate)
+    validate.set_defaults(handler=_handle_validate)
 
 
 def _add_limits(parser: argparse.ArgumentParser) -> None:
@@ -68,15 +87,20 @@ def _add_limits(parser: argparse.ArgumentParser) -> None:
     text.add_argument("--encoding", default="utf-8", help="text encoding (Windows software: often cp1252)")
 
 
-def _read(args: argparse.Namespace) -> Any:
-    from pcmm_geo.cmm.files import read_cmm_document
+def _max_bytes(args: argparse.Namespace) -> int | None:
     from pcmm_geo.errors import InvalidInputError
 
-    limit = None
-    if args.max_mb is not None:
-        if not (args.max_mb > 0 and args.max_mb < 1e9):
-            raise InvalidInputError("--max-mb", "a positive size in MB", repr(args.max_mb))
-        limit = int(args.max_mb * 1024 * 1024)
+    if args.max_mb is None:
+        return None
+    if not (args.max_mb > 0 and args.max_mb < 1e9):
+        raise InvalidInputError("--max-mb", "a positive size in MB", repr(args.max_mb))
+    return int(args.max_mb * 1024 * 1024)
+
+
+def _read(args: argparse.Namespace) -> Any:
+    from pcmm_geo.cmm.files import read_cmm_document
+
+    limit = _max_bytes(args)
     return read_cmm_document(args.file, units=args.units, angle_unit=args.angle_unit, size_values=args.size_values,
                              encoding=args.encoding, max_bytes=limit)
 
@@ -216,10 +240,40 @@ def _handle_verify(args: argparse.Namespace) -> Report:
     summary = result.summary()
     statement = (f"{summary['agree']} features agree, {summary['disagree']} disagree, "
                  f"{summary['not_checked']} not checked")
-    lines.append(statement)
     lines += [f"left out by the reader: {problem}" for problem in result.problems]
     verdict = Verdict(result.agrees if summary["agree"] + summary["disagree"] else None, statement,
                       f"a feature agrees when every compared quantity of its refit (diameter, location, direction) "
-                      f"differs from the CMM's by at most {tolerance:g} mm (angles: {tolerance:g} mm / feature size)")
+                      f"differs from the CMM's by at most {tolerance:g} mm (angles: {tolerance:g} mm / feature size)",
+                      basis="the differences between pcmm_geo's refit of each feature's points and the values the "
+                            "CMM reported; the measurement uncertainty of the points is not taken into account")
     return Report(data=result.to_dict(), tables=[table], lines=lines,
                   exit_code=0 if result.agrees else EXIT_FAILURE, verdict=verdict)
+
+
+def _handle_validate(args: argparse.Namespace) -> Report:
+    import re
+
+    from pcmm_geo.errors import InvalidInputError
+    from pcmm_geo.io.cmm import validate_qif
+    from pcmm_geo.io.cmm.qif._xml import DEFAULT_MAX_BYTES
+    from pcmm_geo.io.cmm.qif.reader import QIF3_NAMESPACE
+
+    if args.errors < 1:
+        raise InvalidInputError("--errors", "a positive number of errors to list", repr(args.errors))
+    limit = _max_bytes(args)
+    namespace = "{" + QIF3_NAMESPACE + "}"  # element names are all in it: shown without it
+    errors = tuple(error.replace(namespace, "") for error in
+                   validate_qif(args.file, max_bytes=DEFAULT_MAX_BYTES if limit is None else limit))
+    listed = []
+    for error in errors:
+        match = re.match(r"line (\d+): (.*)", error, re.DOTALL)
+        listed.append({"line": int(match.group(1)), "message": match.group(2)} if match else
+                      {"line": None, "message": error})
+    data = {"file": args.file, "schema": "QIF 3.0", "valid": not errors, "n_errors": len(errors), "errors": listed}
+    if not errors:
+        return Report(data=data, lines=[f"{args.file}: valid QIF 3.0"])
+    shown = errors[:args.errors]
+    lines = [f"{args.file}: not valid QIF 3.0, {len(errors)} schema error{'s' if len(errors) > 1 else ''}"
+             + (f" (the first {len(shown)} listed)" if len(shown) < len(errors) else "")]
+    lines += [f"  {error}" for error in shown]
+    return Report(data=data, lines=lines, exit_code=EXIT_FAILURE)

@@ -14,6 +14,7 @@ from pcmm_geo.cli._output import (
     add_overwrite_flag,
     add_plot_flag,
     add_report_flag,
+    refuse_renamed_options,
 )
 
 
@@ -29,7 +30,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         ),
     )
     parser.add_argument("points", type=Path)
-    parser.add_argument("--distance-threshold", type=float, default=0.02, metavar="MM",
+    parser.add_argument("--distance-threshold-mm", dest="distance_threshold", type=float, default=0.02, metavar="MM",
                         help="largest distance of a point from its surface (default 0.02 mm)")
     parser.add_argument("--max-normal-angle-deg", type=float, default=20.0, metavar="DEG",
                         help="largest angle between a point's normal and the surface's while searching (default 20)")
@@ -42,6 +43,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     add_overwrite_flag(parser)
     add_decimal_flag(parser)
     add_json_flag(parser)
+    refuse_renamed_options(parser, {"--distance-threshold": "--distance-threshold-mm"})
     parser.set_defaults(handler=handle)
 
 

@@ -12,8 +12,9 @@ from pcmm_geo.cli._output import (
     add_overwrite_flag,
     add_plot_flag,
     add_report_flag,
+    refuse_renamed_options,
 )
-from pcmm_geo.cli._record import UncertaintyEntry
+from pcmm_geo.cli._record import Condition, UncertaintyEntry
 
 
 def register(subparsers: Any) -> None:
@@ -46,34 +47,40 @@ def register(subparsers: Any) -> None:
     ntc.set_defaults(handler=_handle_thermistor)
 
     corr = actions.add_parser("correct-length", help="correct a measured length to 20 °C (ISO 1) with a budget")
-    corr.add_argument("--length", type=float, required=True, help="measured length in mm")
+    corr.add_argument("--length-mm", dest="length", type=float, required=True, help="measured length in mm")
     corr.add_argument("--temperature", type=float, required=True, help="workpiece temperature in °C")
     corr.add_argument("--alpha", type=float, required=True, help="workpiece expansion coefficient in 1/K")
     corr.add_argument("--scale-temperature", type=float, default=20.0, help="machine scale temperature in °C")
     corr.add_argument("--scale-alpha", type=float, default=0.0, help="scale expansion coefficient in 1/K (0)")
-    corr.add_argument("--u-length", type=float, default=0.0, help="standard uncertainty of the length in mm")
+    corr.add_argument("--u-length-mm", dest="u_length", type=float, default=0.0,
+                      help="standard uncertainty of the length in mm")
     corr.add_argument("--u-alpha", type=float, default=0.0, help="standard uncertainty of alpha in 1/K")
     corr.add_argument("--u-temperature", type=float, default=0.0, help="standard uncertainty of T in K")
     corr.add_argument("--u-scale-alpha", type=float, default=0.0, help="standard uncertainty of scale alpha in 1/K")
     corr.add_argument("--u-scale-temperature", type=float, default=0.0, help="standard uncertainty of scale T in K")
     _add_outputs(corr, "the uncertainty budget (|c| u of each input)")
     add_json_flag(corr)
+    refuse_renamed_options(corr, {"--length": "--length-mm", "--u-length": "--u-length-mm"})
     corr.set_defaults(handler=_handle_correct)
 
     tri = actions.add_parser("triangle", help="frame triangle corners for side temperatures (eqs 4.2-4.9)")
     tri.add_argument("--temperatures", type=float, nargs=3, required=True, metavar=("T_AB", "T_AC", "T_BC"),
                      help="side temperatures in °C")
-    tri.add_argument("--side", type=float, default=650.0, help="nominal side length in mm (default 650)")
+    tri.add_argument("--side-mm", dest="side", type=float, default=650.0,
+                     help="nominal side length in mm (default 650)")
     tri.add_argument("--alpha", type=float, default=23.1e-6, help="expansion coefficient in 1/K (aluminium)")
     _add_outputs(tri, "the nominal and the expanded triangle (displacements magnified)")
     add_json_flag(tri)
+    refuse_renamed_options(tri, {"--side": "--side-mm"})
     tri.set_defaults(handler=_handle_triangle)
 
     table = actions.add_parser("table", help="tip displacement in µm per K per member over the working volume")
     table.add_argument("--points-per-axis", type=int, default=3, help="grid points per axis (default 3)")
-    table.add_argument("--size", type=float, default=100.0, help="edge of the working cube in mm (default 100)")
+    table.add_argument("--size-mm", dest="size", type=float, default=100.0,
+                       help="edge of the working cube in mm (default 100)")
     _add_outputs(table, "the largest tip displacement per K of each member")
     add_json_flag(table)
+    refuse_renamed_options(table, {"--size": "--size-mm"})
     table.set_defaults(handler=_handle_table)
 
 
@@ -171,8 +178,12 @@ def _handle_correct(args: argparse.Namespace) -> Report:
              f"u = {res.standard_uncertainty * 1000:.3f} µm, U(k=2) = {res.expanded_uncertainty() * 1000:.3f} µm"]
     uncertainty = UncertaintyEntry("length at 20 °C", res.value, res.standard_uncertainty, "mm", coverage_factor=2.0,
                                    method="GUM, first-order propagation of the budget above")
+    environment = [Condition("workpiece temperature", args.temperature, "°C"),
+                   Condition("u(workpiece temperature)", args.u_temperature, "K"),
+                   Condition("machine scale temperature", args.scale_temperature, "°C"),
+                   Condition("u(scale temperature)", args.u_scale_temperature, "K")]
     return Report(data=data, tables=[table], lines=lines, plots=_plot(args, "plot_length_correction", res),
-                  uncertainties=[uncertainty])
+                  uncertainties=[uncertainty], environment=environment)
 
 
 def _handle_triangle(args: argparse.Namespace) -> Report:
@@ -192,7 +203,10 @@ def _handle_triangle(args: argparse.Namespace) -> Report:
         rows.append([name.upper(), now[0], now[1], (now[0] - before[0]) * 1000, (now[1] - before[1]) * 1000])
     table = Table("Frame corners (A pinned, B sliding in x)", ["corner", "x / mm", "y / mm", "dx / µm", "dy / µm"],
                   rows)
-    return Report(data=data, tables=[table], plots=_plot(args, "plot_frame_triangle", nominal, tri))
+    environment = [Condition(f"frame side {side} temperature", value, "°C")
+                   for side, value in zip(("AB", "AC", "BC"), args.temperatures, strict=True)]
+    return Report(data=data, tables=[table], plots=_plot(args, "plot_frame_triangle", nominal, tri),
+                  environment=environment)
 
 
 def _handle_table(args: argparse.Namespace) -> Report:

@@ -5,7 +5,15 @@ from __future__ import annotations
 import argparse
 from typing import Any
 
-from pcmm_geo.cli._output import Report, Table, add_json_flag, add_overwrite_flag, add_plot_flag, add_report_flag
+from pcmm_geo.cli._output import (
+    Report,
+    Table,
+    add_json_flag,
+    add_overwrite_flag,
+    add_plot_flag,
+    add_report_flag,
+    refuse_renamed_options,
+)
 
 TASKS = ("gauge-block", "sphere", "distance")
 
@@ -24,16 +32,20 @@ def register(subparsers: Any) -> None:
     )
     parser.add_argument("task", choices=TASKS, help="measurement task")
     parser.add_argument("--calibration", metavar="CAL.json",
-                        help="calibration file with a covariance (pcmm calibrate --probing-u ... --out)")
-    parser.add_argument("--length", type=float, default=100.0, help="gauge block / distance length in mm (100)")
-    parser.add_argument("--diameter", type=float, default=25.0, help="sphere diameter in mm (25)")
+                        help="calibration file with a covariance (pcmm calibrate --probing-u-mm ... --out)")
+    parser.add_argument("--length-mm", dest="length", type=float, default=100.0,
+                        help="gauge block / distance length in mm (100)")
+    parser.add_argument("--diameter-mm", dest="diameter", type=float, default=25.0, help="sphere diameter in mm (25)")
     parser.add_argument("--points", type=int, default=None,
                         help="probings per gauge-block face (5) or on the sphere (25)")
-    parser.add_argument("--center", type=float, nargs=3, metavar=("X", "Y", "Z"),
-                        help="artefact center in the machine frame, mm (default: middle of the working volume)")
-    parser.add_argument("--laser-u", type=float, default=0.0005, help="laser reading u in mm (0.0005)")
-    parser.add_argument("--encoder-u", type=float, default=0.0002, help="encoder reading u in mm (0.0002)")
-    parser.add_argument("--probing-u", type=float, default=0.0, help="probing scatter u along the normal, mm (0)")
+    parser.add_argument("--centre-mm", "--center-mm", dest="center", type=float, nargs=3, metavar=("X", "Y", "Z"),
+                        help="artefact centre in the machine frame, mm (default: middle of the working volume)")
+    parser.add_argument("--laser-u-mm", dest="laser_u", type=float, default=0.0005,
+                        help="laser reading u in mm (0.0005)")
+    parser.add_argument("--encoder-u-mm", dest="encoder_u", type=float, default=0.0002,
+                        help="encoder reading u in mm (0.0002)")
+    parser.add_argument("--probing-u-mm", dest="probing_u", type=float, default=0.0,
+                        help="probing scatter u along the normal, mm (0)")
     parser.add_argument("--arm-temperature-u", type=float, default=0.0, help="u of each arm temperature, K (0)")
     parser.add_argument("--column-temperature-u", type=float, default=0.0, help="u of each column temperature, K")
     parser.add_argument("--machine-temperature", type=float, default=20.0, help="mean machine temperature, degC")
@@ -49,6 +61,14 @@ def register(subparsers: Any) -> None:
     add_report_flag(parser)
     add_overwrite_flag(parser)
     add_json_flag(parser)
+    refuse_renamed_options(parser, {
+        "--length": "--length-mm",
+        "--diameter": "--diameter-mm",
+        "--laser-u": "--laser-u-mm",
+        "--encoder-u": "--encoder-u-mm",
+        "--probing-u": "--probing-u-mm",
+        "--center": "--centre-mm",
+    })
     parser.set_defaults(handler=_handle)
 
 
@@ -70,8 +90,8 @@ def _machine(args: argparse.Namespace) -> tuple[Any, float, Any, Any, str]:
         raise FileFormatError(str(args.calibration), "expected a calibrated tip radius (raw tip probings), got none")
     entry = load_covariance(args.calibration)
     if entry is None:
-        raise FileFormatError(str(args.calibration), "expected a 'covariance' entry (pcmm calibrate --probing-u "
-                              "U --laser-u U --out FILE), got none")
+        raise FileFormatError(str(args.calibration), "expected a 'covariance' entry (pcmm calibrate --probing-u-mm "
+                              "U --laser-u-mm U --out FILE), got none")
     from pcmm_geo.machine.calibration.calfile import load_stored_machine
 
     machine = load_stored_machine(args.calibration)  # a damaged machine entry is an error, not a fallback
@@ -121,7 +141,7 @@ def _handle(args: argparse.Namespace) -> Report:
     plots: list[str] = []
     lines = [
         f"machine: {source}",
-        f"{task.quantity} {task.nominal:g} mm: U = {1000 * result.expanded_uncertainty:.3f} µm "
+        f"{task.quantity.replace('_', ' ')} {task.nominal:g} mm: U = {1000 * result.expanded_uncertainty:.3f} µm "
         f"(k = {result.coverage_factor:.2f}, {100 * result.coverage_probability:.0f} % "
         f"{result.interval_kind} interval, {result.n_trials} trials; {result.message})",
     ]
@@ -131,7 +151,7 @@ def _handle(args: argparse.Namespace) -> Report:
     if args.plot:
         from pcmm_geo.plots.uncertainty import plot_monte_carlo
 
-        written = plot_monte_carlo(result, args.plot, nominal=task.nominal, overwrite=args.overwrite,
+        written = plot_monte_carlo(result, args.plot, nominal=task.nominal, overwrite=args.overwrite, gum=gum,
                                    title=f"{args.task} {task.nominal:g} mm: U = "
                                    f"{1000 * result.expanded_uncertainty:.3f} µm (95 %)")
         data["plot"] = str(written)
@@ -149,10 +169,19 @@ def _handle(args: argparse.Namespace) -> Report:
              1000 * (gum.coverage_interval[1] - task.nominal)]] if gum is not None else []),
     )
     gum_parts = {entry.name: entry.contribution for entry in gum.budget} if gum is not None else {}
+    from pcmm_geo.uncertainty.virtual_cmm import GROUP_LABELS
+
     budget = Table(
-        "Budget (one input group varied at a time)",
-        ["input group", "u_i(y) Monte Carlo / µm", "share", "u_i(y) GUM / µm"],
-        [[entry.name, 1000 * entry.contribution, entry.share, 1000 * gum_parts.get(entry.name, float("nan"))]
-         for entry in result.budget],
+        "Budget: contribution of each input group to u (one group varied at a time)",
+        ["input group", "Monte Carlo / µm", "share of u²", "GUM / µm"],
+        [[GROUP_LABELS.get(entry.name, entry.name), 1000 * entry.contribution, entry.share,
+          1000 * gum_parts.get(entry.name, float("nan"))] for entry in result.budget],
     )
-    return Report(data=data, tables=[summary, budget], lines=lines, plots=plots)
+    from pcmm_geo.cli._record import Condition
+
+    environment = [Condition("machine temperature", args.machine_temperature, "°C"),
+                   Condition("u(arm temperature)", args.arm_temperature_u, "K"),
+                   Condition("u(column temperature)", args.column_temperature_u, "K"),
+                   Condition("workpiece temperature", args.workpiece_temperature, "°C"),
+                   Condition("u(workpiece temperature)", args.workpiece_temperature_u, "K")]
+    return Report(data=data, tables=[summary, budget], lines=lines, plots=plots, environment=environment)

@@ -8,6 +8,7 @@ function returning residuals and their analytic Jacobian in *standard position*
 from __future__ import annotations
 
 import dataclasses
+import math
 import warnings
 from collections.abc import Callable
 from dataclasses import dataclass, field
@@ -21,9 +22,8 @@ from pcmm_geo.errors import (
     DegenerateGeometryError,
     IllConditionedWarning,
     InvalidInputError,
-    TooFewPointsError,
 )
-from pcmm_geo.fit._kernels._inputs import check_magnitude, real_array
+from pcmm_geo.fit._kernels._inputs import check_magnitude, check_point_values, point_array, real_array
 from pcmm_geo.fit._kernels._tall import tall_lstsq, tall_svd
 
 __all__ = [
@@ -32,6 +32,7 @@ __all__ = [
     "Tolerances",
     "TOL",
     "as_points",
+    "check_points",
     "as_weights",
     "solve_least_squares",
     "SolverOutcome",
@@ -108,26 +109,26 @@ def as_points(
     DegenerateGeometryError
         All points identical (when ``min_points > 1``).
     """
-    arr = real_array(points, name)
-    shape_text = " or ".join(f"(N, {d})" for d in dims)
-    if arr.ndim != 2 or arr.shape[1] not in dims:
-        raise InvalidInputError(name, f"shape {shape_text}", f"shape {arr.shape}")
-    if arr.shape[0] < min_points:
-        raise TooFewPointsError(element, min_points, arr.shape[0])
-    # one sum is much cheaper than an element-wise mask; it is only non-finite when a value
-    # is (or when finite values overflow, which the mask then tells apart)
-    if not np.isfinite(arr.sum()):
-        bad = ~np.isfinite(arr)
-        if bad.any():
-            row = int(np.argwhere(bad)[0, 0])
-            raise InvalidInputError(name, "finite coordinates", f"{arr[row].tolist()} in row {row}")
-    check_magnitude(arr, name)
-    if min_points > 1:
-        spread = np.ptp(arr, axis=0).max()
-        scale = max(np.abs(arr).max(), 1.0)
-        if spread <= TOL.identical * scale:
-            raise DegenerateGeometryError(element, f"all {arr.shape[0]} points are identical")
-    return np.ascontiguousarray(arr)
+    arr = point_array(points, element=element, dims=dims, min_points=min_points, name=name)
+    check_points(arr, element=element, min_points=min_points, name=name)
+    return arr
+
+
+def check_points(arr: FloatArray, *, element: str, min_points: int, name: str = "points") -> None:
+    """The value checks of :func:`as_points` on an array from :func:`~pcmm_geo.fit._kernels._inputs.point_array`.
+
+    A fit that reads every point in a pass of its own (the chunked fits of many points)
+    skips this and checks the extremes of that pass instead
+    (:func:`~pcmm_geo.fit._kernels._inputs.check_point_extremes`).
+
+    Raises
+    ------
+    InvalidInputError
+        NaN or inf (row named), coordinates beyond ``MAX_COORDINATE``.
+    DegenerateGeometryError
+        All points identical (when ``min_points > 1``).
+    """
+    check_point_values(arr, element=element, min_points=min_points, identical=TOL.identical, name=name)
 
 
 def as_weights(weights: ArrayLike | None, n: int, *, element: str) -> FloatArray | None:
@@ -426,10 +427,12 @@ class FitResult:
     certificate: Certificate | None = None
 
     @property
-    def std_errors(self) -> dict[str, float]:
-        """Standard uncertainty of each parameter (square root of the covariance diagonal)."""
+    def std_errors(self) -> FloatArray:
+        """Standard uncertainties (P,), mm / rad, ordered like ``parameters`` (a dict until 0.1, see NamedValues)."""
+        from pcmm_geo._deprecation import NamedValues
+
         diag = np.sqrt(np.clip(np.diag(self.covariance), 0.0, None))
-        return dict(zip(self.parameter_names, diag.tolist(), strict=True))
+        return NamedValues(diag, self.parameter_names, f"{type(self).__name__}.std_errors")
 
     @property
     def sum_of_squares(self) -> float:
@@ -442,22 +445,28 @@ class FitResult:
         for f in dataclasses.fields(self):
             value = getattr(self, f.name)
             out[f.name] = _jsonable(value)
-        out["std_errors"] = self.std_errors
+        out["std_errors"] = np.asarray(self.std_errors).tolist()
         return out
 
-    def __repr__(self) -> str:  # compact: geometry and statistics, not N residuals
-        geometry = ", ".join(
-            f"{f.name}={_short(getattr(self, f.name))}"
-            for f in dataclasses.fields(self)
-            if f.name not in _BASE_FIELDS
-        )
+    def __repr__(self) -> str:
+        """Compact: the fields that apply (no NaN / None placeholders such as a Gaussian fit's ``r_in``)."""
+        geometry = [f"{f.name}={_short(getattr(self, f.name))}" for f in dataclasses.fields(self)
+                    if f.name not in _BASE_FIELDS and _applies(getattr(self, f.name), self.n)]
+        geometry += [f"criterion={self.criterion!r}"] if self.criterion != "gaussian" else []
         return (
-            f"{type(self).__name__}({geometry}, n={self.n}, rms={self.rms:.6g}, form={self.form:.6g}, "
+            f"{type(self).__name__}({', '.join(geometry)}, n={self.n}, rms={self.rms:.6g}, form={self.form:.6g}, "
             f"converged={self.converged})"
         )
 
 
 _BASE_FIELDS = {f.name for f in dataclasses.fields(FitResult)}
+
+
+def _applies(value: Any, n: int) -> bool:
+    """False for placeholders of fields that do not apply (None, NaN) and for per-point arrays (N, ...)."""
+    if isinstance(value, np.ndarray) and value.ndim and value.shape[0] == n and value.size > 3:
+        return False
+    return value is not None and not (isinstance(value, float) and math.isnan(value))
 
 
 def _short(value: Any) -> str:

@@ -2,7 +2,13 @@
 
 Every public fit converts its arguments here, so that the same bad input gets the same
 typed error everywhere: complex numbers, strings, ragged lists, NaN/inf, coordinates
-whose squares overflow float64, and non-scalar or non-positive lengths.
+whose squares overflow float64, identical points, and non-scalar or non-positive lengths.
+
+The value checks of a point array need only its coordinate-wise extremes and whether any
+value is not finite.  :func:`check_point_values` takes them in a few fast passes over the
+whole array; a fit that reads every point anyway (the chunked moments of many points)
+takes them from that pass and calls :func:`check_point_extremes` instead, so validation
+costs no pass of its own.  Either way a refusal names the offending row.
 """
 
 from __future__ import annotations
@@ -12,7 +18,7 @@ import numbers
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from pcmm_geo.errors import InvalidInputError
+from pcmm_geo.errors import DegenerateGeometryError, InvalidInputError, TooFewPointsError
 
 FloatArray = NDArray[np.float64]
 
@@ -92,6 +98,114 @@ def check_magnitude(arr: FloatArray, name: str) -> None:
             f"coordinates of magnitude at most {MAX_COORDINATE:g} mm (their squares must not overflow float64)",
             f"{biggest:g}{where}",
         )
+
+
+def point_array(points: ArrayLike, *, element: str, dims: tuple[int, ...] = (3,), min_points: int = 1,
+                name: str = "points") -> FloatArray:
+    """``points`` as a C-contiguous float64 ``(N, D)`` array, ``D`` in ``dims``, ``N >= min_points``.
+
+    Only the type, shape and count are checked here (no pass over the values, no copy of a
+    C-contiguous float64 array); :func:`check_point_values` or :func:`check_point_extremes`
+    checks the values.
+
+    Raises
+    ------
+    InvalidInputError
+        Wrong shape or values that are not real numbers.
+    TooFewPointsError
+        Fewer than ``min_points`` rows.
+    """
+    arr = real_array(points, name)
+    if arr.ndim != 2 or arr.shape[1] not in dims:
+        shape_text = " or ".join(f"(N, {d})" for d in dims)
+        raise InvalidInputError(name, f"shape {shape_text}", f"shape {arr.shape}")
+    if arr.shape[0] < min_points:
+        raise TooFewPointsError(element, min_points, arr.shape[0])
+    return np.ascontiguousarray(arr)
+
+
+#: rows folded into one row by :func:`column_extremes` (the reduction then runs over long contiguous rows)
+_FOLD_ROWS = 1024
+
+
+def column_extremes(arr: FloatArray) -> tuple[FloatArray, FloatArray]:
+    """Coordinate-wise minimum and maximum of a C-contiguous ``(N, D)`` array (NaN if a column has one).
+
+    ``arr.min(axis=0)`` reduces over rows of ``D`` numbers, which numpy does one short row at
+    a time; folding ``_FOLD_ROWS`` rows into one long row first makes both reductions run
+    over contiguous memory (about twenty times faster for ``D = 3``).
+
+    Examples
+    --------
+    >>> low, high = column_extremes(np.arange(12.0).reshape(4, 3))
+    >>> low.tolist(), high.tolist()
+    ([0.0, 1.0, 2.0], [9.0, 10.0, 11.0])
+    """
+    rows, dim = arr.shape
+    whole = rows - rows % _FOLD_ROWS
+    parts_low, parts_high = [], []
+    if whole:
+        folded = arr[:whole].reshape(-1, _FOLD_ROWS * dim)
+        parts_low.append(folded.min(axis=0).reshape(_FOLD_ROWS, dim).min(axis=0))
+        parts_high.append(folded.max(axis=0).reshape(_FOLD_ROWS, dim).max(axis=0))
+    if whole < rows:
+        parts_low.append(arr[whole:].min(axis=0))
+        parts_high.append(arr[whole:].max(axis=0))
+    return np.minimum.reduce(parts_low), np.maximum.reduce(parts_high)
+
+
+def check_point_values(arr: FloatArray, *, element: str, min_points: int, identical: float,
+                       name: str = "points") -> None:
+    """Refuse NaN/inf, coordinates beyond ``MAX_COORDINATE`` and (``min_points > 1``) identical points.
+
+    ``identical``: points within ``identical`` times the largest coordinate magnitude (at
+    least 1 mm) of each other count as one point.
+
+    Raises
+    ------
+    InvalidInputError
+        A value that is not finite (its row named) or beyond ``MAX_COORDINATE``.
+    DegenerateGeometryError
+        All points identical.
+    """
+    # one sum is much cheaper than an element-wise mask; it is only non-finite when a value
+    # is (or when finite values overflow, which the mask then tells apart)
+    if not np.isfinite(arr.sum()):
+        bad = ~np.isfinite(arr)
+        if bad.any():
+            row = int(np.argwhere(bad)[0, 0])
+            raise InvalidInputError(name, "finite coordinates", f"{arr[row].tolist()} in row {row}")
+    check_magnitude(arr, name)
+    if min_points > 1 and arr.size:
+        _refuse_identical(*column_extremes(arr), count=arr.shape[0], element=element, identical=identical)
+
+
+def check_point_extremes(arr: FloatArray, lower: FloatArray, upper: FloatArray, *, element: str, min_points: int,
+                         identical: float, name: str = "points") -> None:
+    """:func:`check_point_values` from the coordinate-wise extremes of ``arr``, found by a pass of the caller.
+
+    ``lower`` and ``upper`` may be rounded by a unit in the last place (e.g. taken relative to
+    a shift); they are NaN or infinite when ``arr`` holds such a value.  When they show a
+    problem the full check runs, which names the row.
+
+    Raises
+    ------
+    InvalidInputError, DegenerateGeometryError
+        As :func:`check_point_values`.
+    """
+    extremes = np.concatenate([lower, upper])
+    if not np.all(np.isfinite(extremes)) or float(np.abs(extremes).max()) > MAX_COORDINATE * (1.0 - 1e-12):
+        check_point_values(arr, element=element, min_points=min_points, identical=identical, name=name)
+        return
+    if min_points > 1:
+        _refuse_identical(lower, upper, count=arr.shape[0], element=element, identical=identical)
+
+
+def _refuse_identical(lower: FloatArray, upper: FloatArray, *, count: int, element: str, identical: float) -> None:
+    spread = float(np.max(upper - lower))
+    scale = max(float(np.abs(lower).max()), float(np.abs(upper).max()), 1.0)
+    if spread <= identical * scale:
+        raise DegenerateGeometryError(element, f"all {count} points are identical")
 
 
 def positive_length(value: object, name: str) -> float:

@@ -13,7 +13,13 @@ of sparse data that the principal axes miss.  One implementation serves all thre
 
 The polished directions start the full fit; :func:`pcmm_geo.fit._axial.solve_axial` then
 compares the minima it converges to and warns when two are practically equally good.
-Private to :mod:`pcmm_geo.fit`.
+
+The wrong minima the screening exists for come from sparse or partial data.  A cylinder of
+many points that surround its fitted axis (:func:`surrounds_axis`: more than
+:data:`DENSE_POINTS` points, no gap in azimuth wider than :data:`FULL_COVERAGE_GAP`) is
+fitted from the principal axes alone; the screening runs when the data are sparse, or when
+that fit leaves a wider gap (a partial surface), and the fit is then repeated from the
+screened directions too.  Private to :mod:`pcmm_geo.fit`.
 """
 
 from __future__ import annotations
@@ -323,6 +329,42 @@ _WORTH_FITTING = 2.0
 #: Above this many points the data determine the element well (the failures the screening
 #: exists for are sparse sets): a coarser screening (60 directions, 2 polish levels) suffices.
 DENSE_POINTS = 200
+
+
+#: Largest gap in azimuth about the fitted axis (rad) for which dense data count as surrounding
+#: it (a full surface): 45 degrees, i.e. at least 7/8 of the circumference covered without a hole.
+FULL_COVERAGE_GAP = np.radians(45.0)
+
+
+def largest_azimuth_gap(across: FloatArray) -> float:
+    """Largest angle (rad) between consecutive azimuths of points about an axis, wrapping round.
+
+    ``across`` (N, 2) are the points' coordinates across the axis, relative to it (the axis
+    through the origin).  2 pi for a single direction.
+
+    Examples
+    --------
+    >>> angles = np.radians([0.0, 90.0, 180.0, 200.0])
+    >>> round(float(np.degrees(largest_azimuth_gap(np.c_[np.cos(angles), np.sin(angles)]))), 6)
+    160.0
+    """
+    azimuth = np.sort(np.arctan2(across[:, 1], across[:, 0]))
+    if azimuth.size == 0:
+        return 2.0 * np.pi
+    gaps = np.diff(azimuth, append=azimuth[0] + 2.0 * np.pi)
+    return float(gaps.max())
+
+
+def surrounds_axis(count: int, across: FloatArray) -> bool:
+    """True for dense data surrounding the fitted axis: no direction screening needed.
+
+    ``count`` points (more than :data:`DENSE_POINTS`), ``across`` their coordinates across the
+    fitted axis relative to it; the largest gap in azimuth must not exceed
+    :data:`FULL_COVERAGE_GAP`.  The robustness scan (``benchmarks/fit_robustness.py``,
+    ``docs/fit-robustness.md``) checks that dense full cylinders fitted without screening reach
+    the global minimum and that dense partial ones are screened.
+    """
+    return count > DENSE_POINTS and largest_azimuth_gap(across) <= FULL_COVERAGE_GAP
 
 
 def screened_directions(centred: FloatArray, reduced_cost: ReducedCost) -> list[FloatArray]:

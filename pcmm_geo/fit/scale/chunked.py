@@ -64,6 +64,15 @@ def reduce_chunks(points: FloatArray, kernel: Kernel, args: tuple, out: FloatArr
     return total
 
 
+def map_chunks(points: FloatArray, function: Callable[..., FloatArray], args: tuple,
+               columns: int | None = None) -> FloatArray:
+    """``function(chunk, *args)`` per chunk of ``CHUNK_ROWS`` rows, into one (N,) or (N, columns) array."""
+    out = np.empty(len(points) if columns is None else (len(points), columns))
+    for start in range(0, len(points), CHUNK_ROWS):
+        out[start:start + CHUNK_ROWS] = function(points[start:start + CHUNK_ROWS], *args)
+    return out
+
+
 def in_memory(points: FloatArray) -> Reducer:
     """The reducer of an in-memory array."""
 
@@ -77,16 +86,19 @@ def in_memory(points: FloatArray) -> Reducer:
 
 
 def moments_kernel(chunk: FloatArray, shift: FloatArray, *, out: FloatArray | None = None) -> Sums:
-    """Count, first and second moments of ``chunk - shift``, ``sum |q|^2 q`` and ``sum |q|^2``; extremes.
+    """All moments of ``q = chunk - shift`` from one matrix product, and the coordinate extremes.
 
-    ``total`` packs ``[n, sum q (D), sum q q^T (D*D), sum |q|^2 q (D), sum |q|^2]``.
+    The chunk is written transposed into an augmented block ``A = [1; q; |q|^2]`` of shape
+    (D + 2, rows); ``A A^T`` (BLAS) holds the count, ``sum q``, ``sum |q|^2``, ``sum q q^T``
+    and ``sum |q|^2 q`` (and ``sum |q|^4``, unused).  ``total`` is ``A A^T`` flattened.
     """
     del out
-    relative = chunk.T - shift[:, None]  # (D, rows): contiguous rows for the reductions below
-    squared = np.einsum("ij,ij->j", relative, relative)
-    total = np.concatenate([[len(chunk)], relative.sum(axis=1), np.einsum("ik,jk->ij", relative, relative).ravel(),
-                            np.einsum("ik,k->i", relative, squared), [squared.sum()]])
-    return Sums(total, relative.min(axis=1) + shift, relative.max(axis=1) + shift)
+    dim = chunk.shape[1]
+    block = np.empty((dim + 2, len(chunk)))
+    block[0] = 1.0
+    relative = np.subtract(chunk.T, shift[:, None], out=block[1:dim + 1])  # (D, rows), C order
+    np.einsum("ij,ij->j", relative, relative, out=block[dim + 1])
+    return Sums(np.matmul(block, block.T).ravel(), relative.min(axis=1) + shift, relative.max(axis=1) + shift)
 
 
 @dataclass(frozen=True)
@@ -125,19 +137,21 @@ class Moments:
 def moments(reduce: Reducer, shift: FloatArray) -> Moments:
     """Moments of the data about their centroid, from a single pass relative to ``shift`` (a data point)."""
     dim = shift.size
-    sums = reduce(moments_kernel, (shift,), None)
-    total = sums.total
-    count = int(total[0] + 0.5)
-    first = total[1:1 + dim]
-    second_moment = total[1 + dim:1 + dim + dim * dim].reshape(dim, dim)
-    cubic = total[1 + dim + dim * dim:1 + 2 * dim + dim * dim]
-    squared_sum = float(total[-1])
+    with np.errstate(over="ignore", invalid="ignore"):  # sums beyond float64 show as inf / NaN (callers check)
+        sums = reduce(moments_kernel, (shift,), None)
+    products = sums.total.reshape(dim + 2, dim + 2)
+    count = int(products[0, 0] + 0.5)
+    first = products[0, 1:dim + 1]
+    second_moment = products[1:dim + 1, 1:dim + 1]
+    cubic = products[1:dim + 1, dim + 1]
+    squared_sum = float(products[0, dim + 1])
     mean = first / count
-    scatter = second_moment - count * np.outer(mean, mean)
-    scatter = (scatter + scatter.T) / 2.0
-    # sum |q - m|^2 (q - m) expanded over the sums relative to the shift
-    third = cubic - squared_sum * mean - 2.0 * second_moment @ mean + 2.0 * count * float(mean @ mean) * mean
-    second = squared_sum - count * float(mean @ mean)
+    with np.errstate(over="ignore", invalid="ignore"):
+        scatter = second_moment - count * np.outer(mean, mean)
+        scatter = (scatter + scatter.T) / 2.0
+        # sum |q - m|^2 (q - m) expanded over the sums relative to the shift
+        third = cubic - squared_sum * mean - 2.0 * second_moment @ mean + 2.0 * count * float(mean @ mean) * mean
+        second = squared_sum - count * float(mean @ mean)
     return Moments(count=count, centroid=shift + mean, scatter=scatter, third=third, second=second,
                    lower=sums.low, upper=sums.high)
 
@@ -157,23 +171,29 @@ class NormalEquations:
 
     @classmethod
     def from_sums(cls, sums: Sums, size: int) -> NormalEquations:
-        """Unpack ``[gram (P*P), rhs (P), cost]`` and the residual extremes of a pass."""
-        total = sums.total
-        return cls(gram=total[:size * size].reshape(size, size), rhs=total[size * size:size * size + size],
-                   cost=float(total[-1]), low=float(sums.low[0]), high=float(sums.high[0]))
+        """Unpack a pass of :func:`gram_sums` over blocks ``[design (size rows); residuals]``."""
+        products = sums.total.reshape(size + 1, size + 1)
+        return cls(gram=products[:size, :size].copy(), rhs=products[:size, size].copy(),
+                   cost=float(products[size, size]), low=float(sums.low[0]), high=float(sums.high[0]))
+
+
+def gram_sums(block: FloatArray) -> Sums:
+    """Per-chunk sums of a Gauss-Newton pass from one matrix product.
+
+    ``block`` (P + 1, rows) stacks ``design = -J^T`` (P rows) over the residuals ``r``;
+    ``block block^T`` (BLAS) holds ``J^T J``, ``-J^T r`` and ``r.r``.  The residual extremes
+    come with it.
+    """
+    residuals = block[-1]
+    products = np.matmul(block, block.T).ravel()
+    if residuals.size == 0:
+        return Sums(products, np.array([np.inf]), np.array([-np.inf]))
+    return Sums(products, np.array([residuals.min()]), np.array([residuals.max()]))
 
 
 def pack_normal_equations(design: FloatArray, residuals: FloatArray) -> Sums:
-    """Per-chunk sums of a pass for ``J = -design.T``: ``[design design^T, design r, r.r]`` and extremes.
-
-    ``design`` is stored transposed, shape (P, rows).  The products are einsum loops, not BLAS:
-    for a 4 x 4 result BLAS threads only add start-up and contention costs.
-    """
-    total = np.concatenate([np.einsum("ik,jk->ij", design, design).ravel(), np.einsum("ik,k->i", design, residuals),
-                            [np.einsum("k,k->", residuals, residuals)]])
-    if len(residuals) == 0:
-        return Sums(total, np.array([np.inf]), np.array([-np.inf]))
-    return Sums(total, np.array([residuals.min()]), np.array([residuals.max()]))
+    """:func:`gram_sums` of ``design`` (P, rows), stored transposed, and ``residuals`` (rows,)."""
+    return gram_sums(np.vstack([design, residuals[None, :]]))
 
 
 def solve_scaled(gram: FloatArray, rhs: FloatArray) -> FloatArray | None:

@@ -28,7 +28,9 @@ import numpy as np
 from numpy.typing import NDArray
 
 from pcmm_geo.errors import DegenerateGeometryError, InvalidInputError
+from pcmm_geo.fit._kernels import _tall
 from pcmm_geo.fit._kernels._core import TOL, rotation_to_z
+from pcmm_geo.fit._kernels._inputs import check_point_extremes
 from pcmm_geo.fit.scale.chunked import (
     IllConditionedSteps,
     Moments,
@@ -38,6 +40,7 @@ from pcmm_geo.fit.scale.chunked import (
     covariance_from_gram,
     gauss_newton,
     in_memory,
+    map_chunks,
     moments,
     pack_normal_equations,
 )
@@ -45,8 +48,9 @@ from pcmm_geo.fit.scale.sphere import SphereSolution, fit_nsphere_chunked
 
 FloatArray = NDArray[np.float64]
 
-#: points of the strided subsample whose in-memory fit starts the cylinder iteration
-SUBSAMPLE_ROWS = 20_000
+#: points of the strided subsample whose in-memory fit starts the cylinder iteration (at most; fewer than
+#: ``_tall.TALL_ROWS``, so that the subsample is fitted by the orthogonal routines, not by this module again)
+SUBSAMPLE_ROWS = 19_999
 #: a singular-value ratio below this (from a Gram matrix, so not below ~1e-8) is not trusted
 _GRAM_DEGENERATE = 1e-7
 
@@ -68,6 +72,10 @@ class Source:
         array in memory, a lazy dask array for dask input.
     lazy : bool
         True for dask input: residual statistics then need a pass of their own.
+    check : callable or None
+        ``(lower, upper)``: the value checks of in-memory points from the coordinate extremes of
+        the moment pass (:func:`~pcmm_geo.fit._kernels._inputs.check_point_extremes`, which
+        names the row of a bad value); None for dask input.
     """
 
     reduce: Reducer
@@ -75,23 +83,34 @@ class Source:
     every: Callable[[int], FloatArray]
     rows: Callable[..., Any]
     lazy: bool
+    check: Callable[[FloatArray, FloatArray], None] | None = None
 
 
-def numpy_source(points: FloatArray) -> Source:
-    """An in-memory (N, 3) float64 array as a :class:`Source`."""
+def numpy_source(points: FloatArray, *, element: str, min_points: int) -> Source:
+    """An in-memory (N, 3) float64 array, its values not checked yet, as a :class:`Source`.
+
+    Per-row results are computed chunk by chunk into one output array (no temporaries of
+    the size of the data).
+    """
 
     def rows(function: Callable[..., FloatArray], *args: Any, columns: int | None = None) -> FloatArray:
-        del columns
-        return function(points, *args)
+        return map_chunks(points, function, args, columns)
+
+    def check(lower: FloatArray, upper: FloatArray) -> None:
+        check_point_extremes(points, lower, upper, element=element, min_points=min_points, identical=TOL.identical)
 
     return Source(reduce=in_memory(points), first_row=lambda: points[0].copy(), every=lambda stride: points[::stride],
-                  rows=rows, lazy=False)
+                  rows=rows, lazy=False, check=check)
 
 
 def checked_moments(source: Source, element: str) -> tuple[Moments, FloatArray]:
     """Moments about the centroid (one pass, relative to the first point); refuse NaN/inf and identical points."""
     shift = np.asarray(source.first_row(), dtype=np.float64)
     data = moments(source.reduce, shift)
+    if source.check is not None:
+        source.check(data.lower, data.upper)
+        if not data.finite:  # valid coordinates whose sums overflow: the orthogonal routines take them
+            raise IllConditionedSteps(element)
     if not data.finite or not np.all(np.isfinite(shift)):
         raise InvalidInputError("points", "finite coordinates", "NaN or inf among the points")
     scale = max(float(np.abs(np.r_[data.lower, data.upper]).max()), 1.0)
@@ -242,7 +261,7 @@ def fit_cylinder_scaled(source: Source, radius: float | None, axis_hint: Any = N
     eigen, _ = _principal(data)
     if not np.sqrt(eigen[2]) > _GRAM_DEGENERATE * np.sqrt(eigen[0]):
         raise IllConditionedSteps("cylinder")
-    stride = max(1, math.ceil(data.count / SUBSAMPLE_ROWS))
+    stride = max(1, math.ceil(data.count / min(SUBSAMPLE_ROWS, _tall.TALL_ROWS - 1)))
     start = fit_cylinder(np.ascontiguousarray(source.every(stride), dtype=np.float64), radius=radius,
                          axis_hint=axis_hint)
     rotation = rotation_to_z(start.axis)

@@ -29,8 +29,8 @@ from pcmm_geo.fit.scale.chunked import (
     Sums,
     covariance_from_gram,
     gauss_newton,
+    gram_sums,
     moments,
-    pack_normal_equations,
 )
 
 FloatArray = NDArray[np.float64]
@@ -41,16 +41,26 @@ _FLAT = 1e-12
 
 def sphere_kernel(chunk: FloatArray, center: FloatArray, radius: float, fixed: bool, *,
                   out: FloatArray | None = None) -> Sums:
-    """Normal equations of one chunk for the sphere ``center``, ``radius`` (free radius unless ``fixed``)."""
+    """Normal equations of one chunk for the sphere ``center``, ``radius`` (free radius unless ``fixed``).
+
+    One block (P + 1, rows) holds the negated Jacobian transposed -- unit vectors ``u`` from
+    the centre, and ones for a free radius -- over the residuals ``|p - c| - r``; its Gram
+    matrix (:func:`~pcmm_geo.fit.scale.chunked.gram_sums`) is the whole contribution of the chunk.
+    """
     dim = chunk.shape[1]
-    design = np.empty((dim + (not fixed), len(chunk)))  # transposed Jacobian (negated): unit vectors, ones
-    relative = np.subtract(chunk.T, center[:, None], out=design[:dim])
+    size = dim + (not fixed)
+    block = np.empty((size + 1, len(chunk)))
+    relative = np.subtract(chunk.T, center[:, None], out=block[:dim])  # (D, rows), C order
     distance = np.sqrt(np.einsum("ij,ij->j", relative, relative))
-    residuals = np.subtract(distance, radius, out=out)
-    np.divide(relative, np.where(distance > 0.0, distance, 1.0), out=relative)
+    residuals = np.subtract(distance, radius, out=block[size])
+    if out is not None:
+        out[:] = residuals
+    if distance.size and not distance.min() > 0.0:  # a point at the centre: its unit vector is taken as 0
+        distance[distance == 0.0] = 1.0
+    np.divide(relative, distance, out=relative)
     if not fixed:
-        design[dim] = 1.0
-    return pack_normal_equations(design, residuals)
+        block[dim] = 1.0
+    return gram_sums(block)
 
 
 @dataclass(frozen=True)
@@ -95,6 +105,8 @@ def fit_nsphere_chunked(
         No convergence.
     """
     data = moments(reduce, shift) if data is None else data
+    if not data.finite:  # sums overflowed (coordinates far beyond any CMM's range)
+        raise IllConditionedSteps(element)
     dim = shift.size
     count = data.count
     eigen = np.linalg.eigvalsh(data.scatter)

@@ -22,10 +22,15 @@ line 2-D, chebyshev       global  all straight lines in the plane
 circle, chebyshev / mcc   global  all circles (3-D points: in their least-squares plane)
 sphere, chebyshev / mcc   global  all spheres
 circle / sphere, mic      global  empty circles / spheres centred in the points' convex hull
-line 3-D, chebyshev       local   axes near the least-squares axis
-cylinder, all criteria    local   axes near the least-squares axis
-cone, chebyshev           local   axes near the least-squares axis
+line 3-D, chebyshev       global  all straight lines (every axis direction) [*]
+cylinder, chebyshev/mcc   global  the axis region (default: within 45 deg of the least-squares
+                                  axis, crossing within 2R of it) [*]
+cylinder, mic             global  the axes of that region that the points surround [*]
+cone, chebyshev           local   cones near the least-squares cone
 ========================  ======  ==========================================================
+
+[*] branch and bound over axis cells (:mod:`pcmm_geo.fit.zone.axial`): "global" when the proven
+bound closes to 1e-9 mm within the search budget, else "local" with the bound proven so far.
 
 Methods (``docs/minimum-zone.md`` has the details and the proofs):
 
@@ -39,8 +44,12 @@ Methods (``docs/minimum-zone.md`` has the details and the proofs):
   Voronoi vertex inside the hull or where a Voronoi edge crosses the hull; it is the MIC when its
   contact points surround it, else the data (a partial arc or cap) have no MIC and the fit raises.
 
+- 3-D line and cylinder: a branch and bound over boxes of axes with rigorous bounds of the point
+  distances over each box (first order per point, second order for weighted sums of the contacts'
+  distances), the region's edge constraints included; see :mod:`pcmm_geo.fit.zone.axial`.
+
 The exact answer is then refined by Newton's method on the KKT system of its contacts (sequential
-linear programs, scipy's HiGHS, plus that Newton finish are the local method of the axial elements).
+linear programs, scipy's HiGHS, plus that Newton finish are the local method of the cone).
 
 Also here: :func:`evaluate_form` (ISO straightness, flatness, roundness, sphericity,
 cylindricity with a PASS / FAIL / NOT PROVEN verdict, :func:`~pcmm_geo.fit.zone.form.decide_form`),

@@ -17,13 +17,16 @@ The measurement uncertainty is not part of this rule (a zone of measured points,
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 from numpy.typing import ArrayLike
 
 from pcmm_geo.errors import InvalidInputError
 from pcmm_geo.fit._kernels._core import FitResult
+
+if TYPE_CHECKING:
+    from pcmm_geo.fit.zone.axial.region import AxisRegion, SearchBudget
 
 __all__ = ["CHARACTERISTICS", "FORM_DECISION_RULE", "FormEvaluation", "decide_form", "evaluate_form"]
 
@@ -164,7 +167,14 @@ class FormEvaluation:
         }
 
 
-def evaluate_form(points: ArrayLike, element: str, tolerance: float | None = None) -> FormEvaluation:
+def evaluate_form(
+    points: ArrayLike,
+    element: str,
+    tolerance: float | None = None,
+    *,
+    axis_region: AxisRegion | None = None,
+    search_budget: SearchBudget | None = None,
+) -> FormEvaluation:
     """Evaluate the form deviation of ``points`` by the minimum zone of ``element``.
 
     Parameters
@@ -174,6 +184,10 @@ def evaluate_form(points: ArrayLike, element: str, tolerance: float | None = Non
     element : {"line", "plane", "circle", "sphere", "cylinder", "cone"}
     tolerance : float, optional
         Form tolerance (mm, positive) for a verdict (:func:`decide_form`).
+    axis_region : AxisRegion, optional
+        Cylinder: the axes searched (see :func:`pcmm_geo.fit.fit_cylinder`).
+    search_budget : SearchBudget, optional
+        Cylinder, 3-D line: limits of the global axis search.
 
     Returns
     -------
@@ -200,7 +214,14 @@ def evaluate_form(points: ArrayLike, element: str, tolerance: float | None = Non
         raise InvalidInputError("element", "one of " + ", ".join(CHARACTERISTICS), repr(element))
     if tolerance is not None and not (np.isfinite(tolerance) and tolerance > 0):
         raise InvalidInputError("tolerance", "a positive finite number of mm", repr(tolerance))
-    result: FitResult = getattr(fit_module, f"fit_{element}")(points, criterion="chebyshev")
+    search: dict[str, Any] = {}
+    if axis_region is not None:
+        search["axis_region"] = axis_region
+    if search_budget is not None:
+        search["search_budget"] = search_budget
+    if search and element not in ("cylinder", "line"):
+        raise InvalidInputError("axis_region / search_budget", "element cylinder or line", repr(element))
+    result: FitResult = getattr(fit_module, f"fit_{element}")(points, criterion="chebyshev", **search)
     data = np.array(points, dtype=float)
     residuals = np.asarray(result.residuals)
     is_3d_line = element == "line" and result.parameters.size == 6

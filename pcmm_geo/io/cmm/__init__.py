@@ -12,7 +12,8 @@ function                        reads / writes
 :func:`write_qif`               :class:`CmmDocument` -> QIF 3.0 document (schema-valid)
 :func:`results_document`        build a :class:`CmmDocument` for the writer from
                                 :class:`FeatureReport` records (ids assigned)
-:func:`validate_qif`            check a file against the QIF 3.0 XML schema (lxml)
+:func:`validate_qif`            check a file against the QIF 3.0 XML schema (lxml; the
+                                schema ships with pcmm_geo)
 :func:`read_dmis`               DMIS output (``FA(..)=FEAT/...``, ``TA(..)=TOL/...``)
 :func:`read_calypso_table`      ZEISS CALYPSO ``*_chr.txt`` characteristic tables
 :func:`read_pcdmis_xyzijk`      PC-DMIS XYZIJK text -> :class:`MeasuredPointSet` with normals

@@ -53,8 +53,7 @@ import re
 from pathlib import Path
 
 from pcmm_geo.errors import FileFormatError, InvalidInputError
-from pcmm_geo.io._text import excerpt, parse_decimal
-from pcmm_geo.io.cmm._lines import iter_text_lines
+from pcmm_geo.io._text import excerpt, iter_text_lines, parse_decimal
 from pcmm_geo.io.cmm.document import CmmDocument
 from pcmm_geo.io.cmm.model import Characteristic, FeatureItem, MeasurementResults, Tolerance, Units
 
@@ -116,6 +115,8 @@ def read_calypso_table(path: str | Path, *, units: str | None = None, angle_unit
         No header, a row that cannot be read, inconsistent deviation or verdict, no ``END``.
     InvalidInputError
         ``units`` missing or unknown, ``angle_unit`` unknown.
+    FileNotFoundError
+        The file does not exist.
     """
     if units not in _UNITS:
         raise InvalidInputError("units", "'mm' or 'inch' (a CALYPSO table does not state its unit)", repr(units))

@@ -63,8 +63,7 @@ from pathlib import Path
 import numpy as np
 
 from pcmm_geo.errors import FileFormatError
-from pcmm_geo.io._text import excerpt, parse_decimal
-from pcmm_geo.io.cmm._lines import iter_text_lines
+from pcmm_geo.io._text import excerpt, iter_text_lines, parse_decimal
 from pcmm_geo.io.cmm.document import CmmDocument
 from pcmm_geo.io.cmm.model import (
     Characteristic,
@@ -310,6 +309,8 @@ def read_dmis(path: str | Path, *, units: str | None = None, angle_unit: str | N
         A statement that cannot be read, a missing unit, a direction that is not one, naming file and line.
     InvalidInputError
         An unknown ``units``, ``angle_unit`` or ``size_values``.
+    FileNotFoundError
+        The file does not exist.
     """
     from pcmm_geo.errors import InvalidInputError
 

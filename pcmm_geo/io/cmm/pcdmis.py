@@ -38,8 +38,7 @@ from pathlib import Path
 import numpy as np
 
 from pcmm_geo.errors import FileFormatError
-from pcmm_geo.io._text import excerpt, parse_decimal
-from pcmm_geo.io.cmm._lines import iter_text_lines
+from pcmm_geo.io._text import excerpt, iter_text_lines, parse_decimal
 from pcmm_geo.io.cmm.model import MeasuredPointSet
 
 __all__ = ["is_pcdmis_xyzijk", "read_pcdmis_xyzijk"]
@@ -79,6 +78,8 @@ def read_pcdmis_xyzijk(path: str | Path, *, encoding: str = "utf-8") -> Measured
         No ``XYZIJK`` first line, a line with a number count that is not a point, mixed lines with
         and without vectors, a non-unit vector, a field that is not a number, no points -- naming
         file and line.
+    FileNotFoundError
+        The file does not exist.
     """
     name = str(path)
     lines = iter_text_lines(path, encoding=encoding)

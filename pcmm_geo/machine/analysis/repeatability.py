@@ -383,19 +383,22 @@ def read_arm_table_csv(path: str | Path, header: Sequence[str]) -> tuple[tuple[s
     FileFormatError
         Wrong header, field count, non-finite or non-numeric values (with the line number), no rows.
     """
-    from pcmm_geo.io._text import read_text_lines
+    from pcmm_geo.io._text import excerpt, read_csv_rows
 
     file = Path(path)
     expected = tuple(header)
-    lines = [(n, text.strip()) for n, text in read_text_lines(file)]
-    lines = [(n, text) for n, text in lines if text and not text.startswith("#")]
-    if not lines or tuple(f.strip().lower() for f in lines[0][1].split(",")) != expected:
-        got = lines[0][1][:80] if lines else "an empty file"
-        raise FileFormatError(str(file), f"expected header {','.join(expected)!r}, got {got!r}",
-                              lines[0][0] if lines else None)
+
+    def check_header(line: int | None, cells: tuple[str, ...] | None) -> None:  # before the rest is read
+        if cells is None or tuple(f.strip().lower() for f in cells) != expected:
+            got = excerpt(",".join(cells)) if cells is not None else "an empty file"
+            raise FileFormatError(str(file), f"expected header {','.join(expected)!r}, got {got}", line)
+
+    rows = read_csv_rows(file, check_header=check_header).rows
+    if not rows:
+        check_header(None, None)
     labels, values = [], []
-    for number, text in lines[1:]:
-        fields = [f.strip() for f in text.split(",")]
+    for number, cells in rows[1:]:
+        fields = [f.strip() for f in cells]
         if len(fields) != 4:
             raise FileFormatError(str(file), f"expected 4 fields, got {len(fields)}", number)
         try:

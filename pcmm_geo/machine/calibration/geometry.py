@@ -166,7 +166,7 @@ def fit_center_line(centers: ArrayLike, *, what: str) -> FittedLine:
     if arr.shape[0] < 2:
         raise TooFewPointsError(f"slider line {what}", 2, arr.shape[0])
     if np.ptp(arr, axis=0).max() <= 1e-12 * max(1.0, float(np.abs(arr).max())):
-        raise DegenerateGeometryError(f"slider line {what}", "all joint centers coincide")
+        raise DegenerateGeometryError(f"slider line {what}", "all joint centres coincide")
     fitted = fit_line(arr)
     centroid = np.asarray(fitted.point, dtype=float)
     direction = np.asarray(fitted.direction, dtype=float)

@@ -32,7 +32,7 @@ from __future__ import annotations
 
 import math
 import re
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -128,18 +128,14 @@ class LaserTable:
         return self.readings[[index[pos] for pos in positions]]
 
 
-def _data_lines(path: Path) -> list[tuple[int, list[str]]]:
-    from pcmm_geo.io._text import read_text_lines
+def _data_lines(path: Path, check_header: Callable[[int, list[str]], None]) -> list[tuple[int, list[str]]]:
+    """Rows (fields stripped) without blank and ``#`` lines; ``check_header`` sees the first row before the rest."""
+    from pcmm_geo.io._text import read_csv_rows
 
-    rows = []
-    for number, raw in read_text_lines(path):
-        line = raw.strip()
-        if not line or line.startswith("#"):
-            continue
-        rows.append((number, [field.strip() for field in line.split(",")]))
-    if not rows:
+    table = read_csv_rows(path, check_header=lambda line, cells: check_header(line, [c.strip() for c in cells]))
+    if not table.rows:
         raise FileFormatError(str(path), "expected a header and data rows, got an empty file")
-    return rows
+    return [(number, [field.strip() for field in cells]) for number, cells in table.rows]
 
 
 def _integer(text: str) -> int:
@@ -194,25 +190,36 @@ def read_probings(path: str | Path) -> ProbedFeatures:
     ((1, 2), [3.0, 3.0, -400.0], 3.0)
     """
     file = Path(path)
-    rows = _data_lines(file)
-    first_line, first = rows[0]
+
+    def check_header(line: int, first: list[str]) -> None:  # before the rest of the file is read
+        _probings_layout(file, line, first)
+
+    rows = _data_lines(file, check_header)
+    kind = _probings_layout(file, *rows[0])
+    if kind == "raw":
+        return _read_raw(file, rows[1:])
+    return _read_export(file, rows if kind == "headerless" else rows[1:])
+
+
+def _probings_layout(file: Path, line: int, first: list[str]) -> str:
+    """``"raw"``, ``"export"`` or ``"headerless"`` (an export without header) from the first row; else refused."""
     header = tuple(field.lower() for field in first)
     if header == RAW_HEADER:
-        return _read_raw(file, rows[1:])
+        return "raw"
     if header == EXPORT_HEADER:
-        return _read_export(file, rows[1:])
+        return "export"
     if len(first) == 5:
         try:
-            [float(field) for field in first[:3]]
+            [parse_decimal(field) for field in first[:3]]
         except ValueError:
             pass
         else:
-            return _read_export(file, rows)
+            return "headerless"
     raise FileFormatError(
         str(file),
         f"expected header {','.join(RAW_HEADER)!r} or {','.join(EXPORT_HEADER)!r} (or 5 numbers per row), "
         f"got {excerpt(','.join(first))}",
-        first_line,
+        line,
     )
 
 
@@ -353,11 +360,13 @@ def read_lasers(path: str | Path) -> LaserTable:
     See the module docstring.
     """
     file = Path(path)
-    rows = _data_lines(file)
-    header_line, header = rows[0]
-    if tuple(field.lower() for field in header) != LASER_HEADER:
-        raise FileFormatError(str(file), f"expected header {','.join(LASER_HEADER)!r}, got {','.join(header)!r}",
-                              header_line)
+
+    def check_header(line: int, header: list[str]) -> None:  # before the rest of the file is read
+        if tuple(field.lower() for field in header) != LASER_HEADER:
+            raise FileFormatError(str(file), f"expected header {','.join(LASER_HEADER)!r}, got "
+                                  f"{excerpt(','.join(header))}", line)
+
+    rows = _data_lines(file, check_header)
     positions: list[int] = []
     readings: list[list[float]] = []
     for line, fields in rows[1:]:

@@ -41,7 +41,7 @@ same for the tetrahedron and its mirror image; ``v1`` fixes the handedness only 
 knows the frame it is written in, and the thesis does not say.  Taken as tip -> joint in a
 right-handed frame, as printed, the triad a, b, c turns counter-clockwise seen from the
 joints (``det v1 = +0.84``), the machine's turns clockwise: put into the machine, the
-printed triad hangs the tip *above* the pivots (``pcmm kinematics forward --heights 400
+printed triad hangs the tip *above* the pivots (``pcmm kinematics forward --heights-mm 400
 400 400`` gave z = 709.4 mm with pivots at 400 mm).  The machine fixes the handedness:
 
 * thesis 2.6.4: arms a, b, c run *clockwise seen from above*; Table 4.1 and Appendix D's

@@ -120,14 +120,14 @@ def trilaterate(
     base = np.linalg.norm(to_second, axis=-1)
     scale = np.maximum(np.abs(centre_arr).max(axis=(-1, -2)), 1.0)
     if np.any(base <= 1e-12 * scale):
-        raise DegenerateGeometryError("trilateration", "two sphere centers coincide")
+        raise DegenerateGeometryError("trilateration", "two sphere centres coincide")
     e_x = to_second / base[..., None]
     to_third = third - first
     along = np.einsum("...i,...i->...", e_x, to_third)
     perpendicular = to_third - along[..., None] * e_x
     offset = np.linalg.norm(perpendicular, axis=-1)
     if np.any(offset <= 1e-12 * scale):
-        raise DegenerateGeometryError("trilateration", "the three sphere centers are collinear")
+        raise DegenerateGeometryError("trilateration", "the three sphere centres are collinear")
     e_y = perpendicular / offset[..., None]
     e_z = np.cross(e_x, e_y)
     r1, r2, r3 = radius_arr[..., 0], radius_arr[..., 1], radius_arr[..., 2]

@@ -63,7 +63,7 @@ def draw_calibration_3d(axes: Any, calibration: TetrahedronCalibration) -> None:
         colour = ARM_COLOURS[arm]
         segment = _line_extent(calibration, arm)
         centres = np.array([sphere.center for sphere in calibration.joint_spheres[arm]])
-        axes.plot(*segment.T, color=colour, linewidth=1.5, label=f"arm {arm}: slider line, joint centers")
+        axes.plot(*segment.T, color=colour, linewidth=1.5, label=f"arm {arm}: slider line, joint centres")
         axes.scatter(*centres.T, color=colour, s=28, depthshade=False)
         plotted += [segment, centres]
     tip = np.asarray(calibration.tip_center, dtype=float)
@@ -82,7 +82,7 @@ def draw_calibration_3d(axes: Any, calibration: TetrahedronCalibration) -> None:
         for ends in perpendiculars:
             axes.plot(*ends.T, color="grey", linestyle=":", linewidth=1.0)
         axes.plot([], [], color="grey", linestyle=":", label="common perpendiculars")
-    axes.scatter(*tip, marker="*", s=140, color="black", depthshade=False, label="tip center")
+    axes.scatter(*tip, marker="*", s=140, color="black", depthshade=False, label="tip centre")
     if float(np.linalg.norm(probe - pairwise)) >= visible:
         axes.scatter(*probe, marker="x", s=70, color="red", depthshade=False, label="probe point eq 7.2")
         axes.scatter(*pairwise, marker="+", s=90, color="purple", depthshade=False,
@@ -94,7 +94,7 @@ def draw_calibration_3d(axes: Any, calibration: TetrahedronCalibration) -> None:
     axes.set_xlabel("x / mm")
     axes.set_ylabel("y / mm")
     axes.set_zlabel("z / mm", labelpad=8)
-    axes.set_title("Slider paths, joint centers and probe point (fig 7.2; equal scale on x, y, z)")
+    axes.set_title("Slider paths, joint centres and probe point (fig 7.2; equal scale on x, y, z)")
     axes.legend(loc="upper center", bbox_to_anchor=(0.5, -0.1), ncol=2, fontsize=7)
 
 
@@ -113,14 +113,14 @@ def draw_miss_distances(axes: Any, calibration: TetrahedronCalibration) -> None:
     tip = np.asarray(calibration.tip_center, dtype=float)
     labels, values, colours = [], [], []
     for arm in ARMS:
-        labels.append(f"line {arm} to tip center")
+        labels.append(f"line {arm} to tip centre")
         values.append(float(calibration.slider_lines[arm].tip_offset))
         colours.append(ARM_COLOURS[arm])
     for pair in PAIRS:
         labels.append(f"skew distance {pair[0]}-{pair[1]}")
         values.append(float(calibration.skew_distances[pair]))
         colours.append("grey")
-    labels += ["eq 7.2 point to tip center", "pairwise point to tip center"]
+    labels += ["eq 7.2 point to tip centre", "pairwise point to tip centre"]
     values += [float(np.linalg.norm(np.asarray(calibration.probe_point) - tip)),
                float(np.linalg.norm(np.asarray(calibration.probe_point_pairwise) - tip))]
     colours += ["red", "purple"]

@@ -132,7 +132,7 @@ def plot_pose(
     heights : array_like, shape (3,)
         Pivot height readings of arms a, b, c (mm).
     tip : array_like, shape (3,)
-        Probe-tip center (mm).
+        Probe-tip centre (mm).
     path : str or Path
         Destination, ``.png``, ``.svg`` or ``.pdf``.
     residuals : array_like, shape (9,), optional
@@ -215,7 +215,7 @@ def plot_trilateration(
     Parameters
     ----------
     pivots : array_like, shape (3, 3)
-        Pivot centers a, b, c (mm).
+        Pivot centres a, b, c (mm).
     lengths : array_like, shape (3,)
         Pivot-to-tip lengths (mm).
     lower, upper : array_like, shape (3,)

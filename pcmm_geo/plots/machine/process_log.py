@@ -122,7 +122,7 @@ def _plot_uncertainty(axes: object, processed: ProcessedLog, rows: np.ndarray) -
     axes.plot(rows, np.where(finite, bound, np.nan), color="black", linewidth=0.7, linestyle="--",  # type: ignore
               label="bound U (k = 2) + R")
     if np.isfinite(processed.max_bound):
-        axes.axhline(processed.max_bound, color="red", linewidth=0.8, linestyle=":", label="--max-bound")  # type: ignore
+        axes.axhline(processed.max_bound, color="red", linewidth=0.8, linestyle=":", label="--max-bound-mm")  # type: ignore
     top = float(np.nanmax(np.where(finite, bound, np.nan))) if finite.any() else 1.0
     if (~finite).any():
         axes.scatter(rows[~finite], np.full(int((~finite).sum()), 2.0 * top), marker="^", color="red", s=16,  # type: ignore

@@ -1,6 +1,6 @@
 """Sensitivity map of the micro-CMM over its working cube: every grid point, one panel per z level.
 
-Each panel is one layer of the grid (x-y positions relative to the cube center), coloured
+Each panel is one layer of the grid (x-y positions relative to the cube centre), coloured
 by the laser-to-tip amplification ``laser_gain`` on one shared logarithmic scale; points
 where the lasers are blind (singular ``dL/dh``, infinite gain) are drawn as red crosses and
 counted in the figure title.  The last panel gives the probe-to-laser movement ratio of each
@@ -102,9 +102,9 @@ def plot_sensitivity(sensitivity: Sensitivity, path: str | Path, *, overwrite: b
         axes.set_xlim(-half, half)
         axes.set_ylim(-half, half)
         axes.set_aspect("equal")
-        axes.set_title(f"z - center = {level + 0.0:+.1f} mm ({int(singular.sum())} singular)", fontsize=9)
-        axes.set_xlabel("x - center / mm", fontsize=8)
-        axes.set_ylabel("y - center / mm", fontsize=8)
+        axes.set_title(f"z - centre = {level + 0.0:+.1f} mm ({int(singular.sum())} singular)", fontsize=9)
+        axes.set_xlabel("x - centre / mm", fontsize=8)
+        axes.set_ylabel("y - centre / mm", fontsize=8)
         axes.tick_params(labelsize=7)
     if mappable is not None:
         bar = figure.colorbar(mappable, ax=level_axes, label="laser gain / (mm tip per mm laser), log scale",

@@ -75,7 +75,7 @@ def test_calypso_angles_unknown_symbols_and_encodings(tmp_path: Path) -> None:
             "END\n")
     path = tmp_path / "angle_chr.txt"
     path.write_bytes((header + rows).encode("cp1252"))
-    with pytest.raises(FileFormatError, match="not utf-8 text") as caught:
+    with pytest.raises(FileFormatError, match="not UTF-8 text") as caught:
         read_calypso_table(path, units="mm")
     assert caught.value.line == 2
     with pytest.raises(FileFormatError, match="pass angle_unit"):
@@ -133,7 +133,7 @@ def test_binary_and_missing_files(tmp_path: Path) -> None:
     with pytest.raises(FileFormatError, match="binary data") as caught:
         read_pcdmis_xyzijk(binary)
     assert caught.value.line == 3
-    with pytest.raises(FileFormatError, match="cannot be read"):
+    with pytest.raises(FileNotFoundError):
         read_pcdmis_xyzijk(tmp_path / "missing.xyz")
     with pytest.raises(FileFormatError, match="is a directory"):
         read_calypso_table(tmp_path, units="mm")

@@ -136,7 +136,7 @@ def test_workplanes_and_encodings(tmp_path: Path) -> None:
     np.testing.assert_allclose(document.feature("Q").actual.location, [2.0, 7.0, 0.0], atol=1e-15)  # z=r cos, x=r sin
     latin = tmp_path / "latin.dmo"
     latin.write_bytes("$$ Prüfbericht\nUNITS/MM,ANGDEC\nFA(P)=FEAT/POINT,CART,1,2,3,0,0,1\n".encode("cp1252"))
-    with pytest.raises(FileFormatError, match="not utf-8 text: byte 0xfc") as caught:
+    with pytest.raises(FileFormatError, match="not UTF-8 text: byte 0xfc") as caught:
         read_dmis(latin)
     assert caught.value.line == 1
     assert read_dmis(latin, encoding="cp1252").feature("P").actual.location.tolist() == [1.0, 2.0, 3.0]

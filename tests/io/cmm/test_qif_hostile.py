@@ -91,7 +91,7 @@ def test_nothing_is_fetched_from_the_network(tmp_path: Path, local_server: str, 
     with pytest.raises(UnsafeXmlError):
         read_qif(path)
     with pytest.raises(UnsafeXmlError):
-        validate_qif(path, DATA / "xsd")
+        validate_qif(path)
     assert _Recorder.requests == []
 
 

@@ -23,7 +23,6 @@ from pcmm_geo.io.cmm import (
 )
 
 DATA = Path(__file__).resolve().parents[2] / "data" / "qif"
-XSD = DATA / "xsd"
 FORM = {"circle": "circularity", "cylinder": "cylindricity", "sphere": "sphericity", "plane": "flatness",
         "line": "straightness", "cone": "conicity"}
 
@@ -131,7 +130,7 @@ def _assert_same(written: CmmDocument, read: CmmDocument, tolerance: float = 1e-
 def test_written_files_validate_and_read_back_to_1e_12_mm(tmp_path: Path, unit: str) -> None:
     document = results_document(_reports())
     path = write_qif(document, tmp_path / f"results_{unit}.qif", linear_unit=unit)
-    assert validate_qif(path, XSD) == ()
+    assert validate_qif(path) == ()
     back = read_qif(path)
     assert back.problems == () and back.units.linear_unit == unit
     _assert_same(document, back)
@@ -143,7 +142,7 @@ def test_a_read_document_writes_back_unchanged(tmp_path: Path) -> None:
     first = write_qif(results_document(_reports(seed=11)), tmp_path / "first.qif", linear_unit="inch")
     document = read_qif(first)
     second = write_qif(document, tmp_path / "second.qif")
-    assert validate_qif(second, XSD) == ()
+    assert validate_qif(second) == ()
     _assert_same(document, read_qif(second))
 
 
@@ -156,7 +155,7 @@ def test_numbers_are_written_in_the_schema_types(tmp_path: Path) -> None:
     text = path.read_text(encoding="utf-8")
     assert "<Diameter combinedUncertainty=\"0.000000005\">0.000000125</Diameter>" in text
     assert "<Location>1e-20 -3e-300 1.0</Location>" in text
-    assert validate_qif(path, XSD) == ()
+    assert validate_qif(path) == ()
     sphere = read_qif(path).feature("TINY")
     assert sphere.actual.location.tolist() == [1e-20, -3e-300, 1.0]
     assert (sphere.actual.diameter, sphere.actual.form, sphere.actual.uncertainty) == (1.25e-7, 1e-12,
@@ -168,7 +167,7 @@ def test_the_validator_finds_what_is_wrong(tmp_path: Path) -> None:
     broken = tmp_path / "broken.qif"
     broken.write_text(path.read_text(encoding="utf-8").replace("<InternalExternal>INTERNAL</InternalExternal>", ""),
                       encoding="utf-8")
-    errors = validate_qif(broken, XSD)
+    errors = validate_qif(broken)
     assert len(errors) == 1 and "Expected is one of" in errors[0] and "InternalExternal" in errors[0]
     assert errors[0].startswith("line ")
     with pytest.raises(InvalidInputError, match=r"QIFDocument\.xsd"):
@@ -177,7 +176,7 @@ def test_the_validator_finds_what_is_wrong(tmp_path: Path) -> None:
 
 def test_the_public_samples_validate() -> None:
     for name in ("QIF_PTS_SAMPLE.QIF", "WIDGET_QIF_RESULTS.QIF", "SheetMetal_QIF_Results_6_samples.QIF"):
-        assert validate_qif(DATA / "samples" / name, XSD) == ()
+        assert validate_qif(DATA / "samples" / name) == ()
 
 
 def test_a_file_is_not_overwritten_unless_asked(tmp_path: Path) -> None:
@@ -240,7 +239,7 @@ def test_missing_lxml_names_the_extra(monkeypatch: pytest.MonkeyPatch) -> None:
     monkeypatch.setitem(sys.modules, "lxml", None)
     try:
         with pytest.raises(MissingDependencyError, match=r"pip install 'pcmm_geo\[qif\]'") as caught:
-            validate_qif(DATA / "samples" / "QIF_PTS_SAMPLE.QIF", XSD)
+            validate_qif(DATA / "samples" / "QIF_PTS_SAMPLE.QIF")
         assert (caught.value.package, caught.value.extra) == ("lxml", "qif")
     finally:
         schema._schema.cache_clear()

@@ -1,6 +1,7 @@
 """Untrusted XML in, a small tree out: defusedxml's expat parser, bounded depth and size, streamed number lists.
 
-A CMM file is untrusted input.  :func:`parse_xml` parses it with defusedxml's parser
+A CMM file (or the XML section of a scanner's E57 file) is untrusted input.  :func:`parse_xml`
+(:func:`parse_xml_chunks` for XML that is part of a larger file) parses it with defusedxml's parser
 (``forbid_dtd``, ``forbid_entities``, ``forbid_external``: no DTD at all, so no entity
 expansion and nothing fetched from a file or the network) and refuses, with an
 :class:`~pcmm_geo.errors.UnsafeXmlError` naming the file and line:
@@ -24,7 +25,7 @@ from __future__ import annotations
 
 import os
 import re
-from collections.abc import Callable
+from collections.abc import Callable, Iterable, Iterator
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -33,7 +34,8 @@ import numpy as np
 from pcmm_geo._optional import require
 from pcmm_geo.errors import FileFormatError, UnsafeXmlError
 
-__all__ = ["DEFAULT_MAX_BYTES", "DEFAULT_MAX_DEPTH", "MAX_TEXT_CHARS", "Node", "NumberList", "parse_xml"]
+__all__ = ["DEFAULT_MAX_BYTES", "DEFAULT_MAX_DEPTH", "MAX_TEXT_CHARS", "Node", "NumberList", "parse_xml",
+           "parse_xml_chunks"]
 
 #: default largest file read (bytes); pass ``max_bytes=`` for larger scanner files
 DEFAULT_MAX_BYTES = 1 << 30
@@ -306,8 +308,6 @@ def parse_xml(path: str | Path, *, max_bytes: int = DEFAULT_MAX_BYTES, max_depth
     MissingDependencyError
         defusedxml is not installed (extra ``qif``).
     """
-    defused = require("defusedxml.ElementTree", purpose="reading XML files from CMMs")
-    defused_common = require("defusedxml.common", purpose="reading XML files from CMMs")
     name = str(path)
     try:
         size = os.stat(path).st_size
@@ -318,23 +318,54 @@ def parse_xml(path: str | Path, *, max_bytes: int = DEFAULT_MAX_BYTES, max_depth
     if size > max_bytes:
         raise UnsafeXmlError(name, f"file of {size} bytes exceeds the limit of {max_bytes} bytes "
                              "(raise max_bytes for larger files)", limit=max_bytes)
+
+    def chunks() -> Iterator[bytes]:
+        with open(path, "rb") as stream:
+            while chunk := stream.read(_READ_CHUNK):
+                yield chunk
+
+    return parse_xml_chunks(name, chunks(), max_bytes=max_bytes, max_depth=max_depth, stream_rule=stream_rule)
+
+
+def parse_xml_chunks(name: str, chunks: Iterable[bytes], *, max_bytes: int = DEFAULT_MAX_BYTES,
+                     max_depth: int = DEFAULT_MAX_DEPTH,
+                     stream_rule: StreamRule = lambda node: None) -> tuple[Node, str | None]:
+    """Parse untrusted XML arriving as byte chunks (e.g. the XML section of an E57 file) as :func:`parse_xml` does.
+
+    ``name`` is the file named in errors; ``chunks`` are read one by one, never joined, and
+    refused once they add up to more than ``max_bytes``.  An ``OSError`` raised while the
+    chunks are read becomes a :class:`~pcmm_geo.errors.FileFormatError`; any other error of
+    the chunk source passes through unchanged.  Raises what :func:`parse_xml` raises.
+
+    Examples
+    --------
+    >>> root, namespace = parse_xml_chunks("memory.xml", [b"<a xmlns='urn:x'><b>1</b>", b"</a>"])
+    >>> root.tag, namespace, root.child("b").text
+    ('a', 'urn:x', '1')
+    >>> try:
+    ...     parse_xml_chunks("memory.xml", [b"<!DOCTYPE a [<!ENTITY e 'x'>]><a>&e;</a>"])
+    ... except UnsafeXmlError as exc:
+    ...     print(exc.reason[:44])
+    has a document type declaration (DTD); refus
+    """
+    defused = require("defusedxml.ElementTree", purpose="reading XML files from CMMs and scanners")
+    defused_common = require("defusedxml.common", purpose="reading XML files from CMMs and scanners")
     target = _Target(name, max_depth, stream_rule)
     parser = defused.DefusedXMLParser(target=target, forbid_dtd=True, forbid_entities=True, forbid_external=True)
     target.expat = parser.parser
     parser.parser.buffer_size = _READ_CHUNK
     read = 0
     try:
-        with open(path, "rb") as stream:
-            while chunk := stream.read(_READ_CHUNK):
-                read += len(chunk)
-                if read > max_bytes:
-                    raise UnsafeXmlError(name, f"file exceeds the limit of {max_bytes} bytes while reading",
-                                         limit=max_bytes)
-                parser.feed(chunk)
-            root = parser.close()
+        for chunk in chunks:
+            read += len(chunk)
+            if read > max_bytes:
+                raise UnsafeXmlError(name, f"file exceeds the limit of {max_bytes} bytes while reading",
+                                     limit=max_bytes)
+            parser.feed(chunk)
+        root = parser.close()
     except defused_common.DTDForbidden:
-        raise UnsafeXmlError(name, "has a document type declaration (DTD); refused: QIF needs none and a DTD "
-                             "can declare entities or fetch external files", target.line()) from None
+        raise UnsafeXmlError(name, "has a document type declaration (DTD); refused: QIF and E57 need none and "
+                             "a DTD can declare entities or fetch external files", target.line()) from None
     except defused_common.EntitiesForbidden as exc:
         raise UnsafeXmlError(name, f"declares the entity {exc.name!r}; refused (entity expansion)",
                              target.line()) from None

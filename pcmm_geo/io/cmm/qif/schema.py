@@ -1,10 +1,11 @@
 """Validate a QIF file against the QIF 3.0 XML schema with lxml (libxml2).
 
-The schema is not bundled with pcmm_geo: pass the folder holding ``QIFDocument.xsd`` (the QIF
-3.0 schema as published by the Digital Metrology Standards Consortium in its public
-qif-community repository, ``bindings/CPP-Kramer/schema``, Boost Software License).  libxml2
-checks the schema's keys and key references too (``xmlschema`` reports false key-reference
-errors on QIF's multi-line selectors).
+The QIF 3.0 schema travels with pcmm_geo as package data (``pcmm_geo/data/qif-3.0-xsd``: the
+schema as published by the Digital Metrology Standards Consortium in its public qif-community
+repository, ``bindings/CPP-Kramer/schema``, under the Boost Software License, whose text lies
+beside it); ``schema_dir`` points at another copy.  libxml2 checks the schema's keys and key
+references too (``xmlschema`` reports false key-reference errors on QIF's multi-line selectors).
+The schema's import of the W3C signature schema names a web address: it is skipped, never fetched.
 
 The file is parsed without DTDs, entities or network access (``resolve_entities=False``,
 ``no_network=True``, ``load_dtd=False``) and within ``max_bytes``; it is untrusted here as well.
@@ -14,6 +15,7 @@ from __future__ import annotations
 
 import os
 from functools import lru_cache
+from importlib.resources import files
 from pathlib import Path
 from typing import Any
 
@@ -21,7 +23,33 @@ from pcmm_geo._optional import require
 from pcmm_geo.errors import FileFormatError, InvalidInputError, UnsafeXmlError
 from pcmm_geo.io.cmm.qif._xml import DEFAULT_MAX_BYTES
 
-__all__ = ["validate_qif"]
+__all__ = ["bundled_schema_dir", "validate_qif"]
+
+#: libxml2's deepest element nesting (with ``huge_tree``); deeper documents are refused as hostile
+_LIBXML2_MAX_DEPTH = 2048
+#: bytes of a file searched for its prolog (a longer prolog is left to the check after parsing)
+_PROLOG_BYTES = 1 << 20
+
+
+def bundled_schema_dir() -> Path:
+    """Folder of the QIF 3.0 schema shipped with pcmm_geo (``QIFDocument.xsd`` and the files it includes).
+
+    Raises
+    ------
+    InvalidInputError
+        The package is installed where its data are not plain files (a zip archive): pass ``schema_dir``.
+
+    Examples
+    --------
+    >>> folder = bundled_schema_dir()
+    >>> (folder / "QIFDocument.xsd").is_file(), (folder / "LICENSE.md").is_file()
+    (True, True)
+    """
+    folder = Path(str(files("pcmm_geo").joinpath("data", "qif-3.0-xsd")))
+    if not (folder / "QIFDocument.xsd").is_file():
+        raise InvalidInputError("schema_dir", "a folder holding QIFDocument.xsd (pcmm_geo's own copy is not a "
+                                "plain file here)", str(folder))
+    return folder
 
 
 @lru_cache(maxsize=4)
@@ -31,15 +59,17 @@ def _schema(entry: str) -> Any:
     return etree.XMLSchema(etree.parse(entry, parser))
 
 
-def validate_qif(path: str | Path, schema_dir: str | Path, *, max_bytes: int = DEFAULT_MAX_BYTES) -> tuple[str, ...]:
+def validate_qif(path: str | Path, schema_dir: str | Path | None = None, *,
+                 max_bytes: int = DEFAULT_MAX_BYTES) -> tuple[str, ...]:
     """Schema errors of a QIF file (empty when it is valid QIF 3.0).
 
     Parameters
     ----------
     path : str or Path
         The QIF file.
-    schema_dir : str or Path
-        Folder holding ``QIFDocument.xsd`` and the files it includes.
+    schema_dir : str or Path, optional
+        Folder holding ``QIFDocument.xsd`` and the files it includes; default: the copy shipped
+        with pcmm_geo (:func:`bundled_schema_dir`).
     max_bytes : int
         Largest file accepted.
 
@@ -53,7 +83,7 @@ def validate_qif(path: str | Path, schema_dir: str | Path, *, max_bytes: int = D
     InvalidInputError
         ``schema_dir`` holds no ``QIFDocument.xsd``.
     UnsafeXmlError
-        The file is larger than ``max_bytes`` or has a DTD.
+        The file is larger than ``max_bytes``, has a DTD or nests deeper than libxml2 accepts (2048).
     FileFormatError
         The file is not well-formed XML or cannot be read.
     MissingDependencyError
@@ -61,11 +91,12 @@ def validate_qif(path: str | Path, schema_dir: str | Path, *, max_bytes: int = D
 
     Examples
     --------
-    >>> from pathlib import Path
-    >>> tests = Path(__file__).resolve().parents[3] / "tests" / "data" / "qif"
-    >>> validate_qif(tests / "samples" / "QIF_PTS_SAMPLE.QIF", tests / "xsd")  # doctest: +SKIP
+    >>> from importlib.resources import files
+    >>> validate_qif(files("pcmm_geo") / "data/appendix_cd/cmm_export.qif")  # doctest: +SKIP
     ()
     """
+    if schema_dir is None:
+        schema_dir = bundled_schema_dir()
     entry = Path(schema_dir) / "QIFDocument.xsd"
     if not entry.is_file():
         raise InvalidInputError("schema_dir", "a folder holding QIFDocument.xsd (the QIF 3.0 schema)",
@@ -79,15 +110,48 @@ def validate_qif(path: str | Path, schema_dir: str | Path, *, max_bytes: int = D
         raise FileFormatError(name, f"cannot be read: {exc.strerror or exc}") from None
     if size > max_bytes:
         raise UnsafeXmlError(name, f"file of {size} bytes exceeds the limit of {max_bytes} bytes", limit=max_bytes)
+    _refuse_doctype(name)
     parser = etree.XMLParser(resolve_entities=False, no_network=True, load_dtd=False, huge_tree=True)
     try:
         document = etree.parse(name, parser)
     except etree.XMLSyntaxError as exc:
+        if "Excessive depth" in str(exc.msg):
+            raise UnsafeXmlError(name, f"elements nested deeper than {_LIBXML2_MAX_DEPTH}; refused",
+                                 line=exc.lineno, limit=_LIBXML2_MAX_DEPTH) from None
         raise FileFormatError(name, f"not well-formed XML: {exc.msg}", exc.lineno) from None
     except OSError as exc:
         raise FileFormatError(name, f"cannot be read: {exc}") from None
-    if document.docinfo.internalDTD is not None or document.docinfo.system_url:
+    if document.docinfo.internalDTD is not None or document.docinfo.system_url:  # a prolog _refuse_doctype missed
         raise UnsafeXmlError(name, "has a document type declaration (DTD); refused")
     if schema.validate(document):
         return ()
     return tuple(f"line {error.line}: {error.message}" for error in schema.error_log)
+
+
+def _refuse_doctype(name: str) -> None:
+    """Refuse a document type declaration in the prolog before libxml2 sees it (its entities are never parsed).
+
+    The prolog is an XML declaration, comments, processing instructions and white space before
+    the root element's start tag; anything else there is left to the parser to report.
+    """
+    try:
+        with open(name, "rb") as handle:
+            head = handle.read(_PROLOG_BYTES)
+    except OSError as exc:
+        raise FileFormatError(name, f"cannot be read: {exc.strerror or exc}") from None
+    position = 3 if head.startswith(b"\xef\xbb\xbf") else 0
+    while True:
+        while position < len(head) and head[position] in b" \t\r\n":
+            position += 1
+        if head.startswith(b"<!DOCTYPE", position):
+            raise UnsafeXmlError(name, "has a document type declaration (DTD); refused",
+                                 line=head.count(b"\n", 0, position) + 1)
+        for opening, closing in ((b"<?", b"?>"), (b"<!--", b"-->")):
+            if head.startswith(opening, position):
+                end = head.find(closing, position + len(opening))
+                if end < 0:
+                    return
+                position = end + len(closing)
+                break
+        else:
+            return

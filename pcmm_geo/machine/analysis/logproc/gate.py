@@ -34,7 +34,7 @@ non-centrality ``delta0`` with ``P(|N(delta0, 1)| > k) = beta0``: ``delta0 = 4.1
 :data:`MIN_REDUNDANCY`) cannot be checked at all: its MDB is infinite, and so is the external
 reliability of every point it moves (:mod:`~pcmm_geo.machine.analysis.logproc.reliability`).
 
-With an explicit tolerance ``T`` (``closure_tolerance``, ``--max-closure``) a row is refused when
+With an explicit tolerance ``T`` (``closure_tolerance``, ``--max-closure-mm``) a row is refused when
 the length of its three corrections exceeds ``T``; a fault then passes as long as
 ``r_i nabla <= T`` and the MDB at power ``beta0`` is ``(T + z_beta0 sigma_vi) / r_i``.
 

@@ -3,7 +3,7 @@
 How the pieces combine (flags of :class:`ProcessedLog`, ``pcmm process-log`` options)
 ----------------------------------------------------------------------------------
 1. *Gate* (``inconsistent``): a reading whose w-test fails (or, with ``closure_tolerance`` /
-   ``--max-closure MM``, a row whose closure residual exceeds MM) is refused.  By default the
+   ``--max-closure-mm MM``, a row whose closure residual exceeds MM) is refused.  By default the
    log is refused (:class:`~pcmm_geo.errors.InconsistentMeasurementError`, exit 2).  With
    ``on_inconsistent="flag"`` / ``--keep-inconsistent`` the reading is left out, the log is
    adjusted again, and so on; rows that lost a reading are ``inconsistent`` and give no point.
@@ -14,10 +14,10 @@ How the pieces combine (flags of :class:`ProcessedLog`, ``pcmm process-log`` opt
    lies within it of the truth unless an undetected fault exceeds the MDB (the w-test finds
    such a fault with probability ``power``) or the noise exceeds U.  ``tip_reliability`` is
    infinite where a reading that no test can check moves the tip (``unbounded``, warned
-   about).  ``max_bound`` / ``--max-bound MM`` leaves points with a larger bound out
+   about).  ``max_bound`` / ``--max-bound-mm MM`` leaves points with a larger bound out
    (``over_bound``; exit 0, listed).
 4. *Uncertainty* (``uncertain``): ``tip_uncertainty`` above ``max_tip_uncertainty`` /
-   ``--max-tip-u`` (default 1 mm): kept, flagged, warned about; ``--refuse-uncertain`` makes such
+   ``--max-tip-u-mm`` (default 1 mm): kept, flagged, warned about; ``--refuse-uncertain`` makes such
    a probe point refuse the log (exit 2).
 The gate decides first (it changes the adjustment), the other flags describe the final one.
 """

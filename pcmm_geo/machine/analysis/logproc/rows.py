@@ -126,27 +126,35 @@ def read_log(path: str | Path, *, allow_unterminated: bool = False) -> Measureme
     from pcmm_geo.io._text import excerpt, read_csv_rows
 
     name = str(path)
-    table = read_csv_rows(path)
+
+    def is_header(cells: tuple[str, ...]) -> bool:
+        return [h.strip().lower() for h in cells[: len(LOG_COLUMNS)]] == list(LOG_COLUMNS)
+
+    def check_header(line: int, cells: tuple[str, ...]) -> None:  # before the rest of the file is read
+        if is_header(cells):
+            return
+        if not _all_numbers(cells):
+            raise FileFormatError(
+                name, f"expected header {','.join(LOG_COLUMNS)} (or {len(LOG_COLUMNS)} numeric columns without "
+                f"header), got {excerpt(','.join(cells))}", line=line,
+            )
+        if len(cells) != len(LOG_COLUMNS):
+            raise FileFormatError(
+                name, f"expected header {','.join(LOG_COLUMNS)}, or {len(LOG_COLUMNS)} numeric columns without "
+                f"header (seed Table 3.2), got {len(cells)} numeric columns", line=line,
+            )
+
+    table = read_csv_rows(path, check_header=check_header)
     # ``# key: value`` metadata lines (written by pcmm_geo.acquisition.acqlog) are skipped by
     # read_csv_rows; columns after the seven Table 3.2 columns (sequence number, time, raw counts)
     # are ignored.
     if not table.rows:
         raise FileFormatError(name, f"expected header {','.join(LOG_COLUMNS)} and data rows, got no rows")
-    header_line, header = table.rows[0]
-    if [h.strip().lower() for h in header[: len(LOG_COLUMNS)]] == list(LOG_COLUMNS):
+    header = table.rows[0][1]
+    if is_header(header):
         data_rows, n_columns, headerless = table.rows[1:], len(header), False
-    elif _all_numbers(header):
-        if len(header) != len(LOG_COLUMNS):
-            raise FileFormatError(
-                name, f"expected header {','.join(LOG_COLUMNS)}, or {len(LOG_COLUMNS)} numeric columns without "
-                f"header (seed Table 3.2), got {len(header)} numeric columns", line=header_line,
-            )
+    else:  # seven numbers (check_header refused anything else)
         data_rows, n_columns, headerless = table.rows, len(LOG_COLUMNS), True
-    else:
-        raise FileFormatError(
-            name, f"expected header {','.join(LOG_COLUMNS)} (or {len(LOG_COLUMNS)} numeric columns without header), "
-            f"got {excerpt(','.join(header))}", line=header_line,
-        )
     torn = table.unterminated_row
     if torn is not None and not allow_unterminated:
         raise FileFormatError(

@@ -187,19 +187,21 @@ def read_numcal_csv(path: str | Path) -> NumcalData:
     [0.0, 5.5]
     """
     file = Path(path)
-    from pcmm_geo.io._text import read_text_lines
+    from pcmm_geo.io._text import read_csv_rows
 
-    lines = [(n, raw.strip()) for n, raw in read_text_lines(file)]
-    lines = [(n, text) for n, text in lines if text and not text.startswith("#")]
-    header = tuple(f.strip().lower() for f in lines[0][1].split(",")) if lines else ()
-    if header not in (_HEADER, _HEADER_ALL):
-        got = lines[0][1] if lines else "an empty file"
-        raise FileFormatError(str(file), f"expected header {','.join(_HEADER)!r} or {','.join(_HEADER_ALL)!r}, "
-                              f"got {got[:200]!r}", lines[0][0] if lines else None)
-    width = len(header)
+    def check_header(line: int | None, cells: tuple[str, ...] | None) -> None:  # before the rest is read
+        if cells is None or tuple(f.strip().lower() for f in cells) not in (_HEADER, _HEADER_ALL):
+            got = excerpt(",".join(cells)) if cells is not None else "an empty file"
+            raise FileFormatError(str(file), f"expected header {','.join(_HEADER)!r} or {','.join(_HEADER_ALL)!r}, "
+                                  f"got {got}", line)
+
+    rows = read_csv_rows(file, check_header=check_header).rows
+    if not rows:
+        check_header(None, None)
+    width = len(rows[0][1])
     moved, values = [], []
-    for number, text in lines[1:]:
-        fields = [f.strip() for f in text.split(",")]
+    for number, cells in rows[1:]:
+        fields = [f.strip() for f in cells]
         if len(fields) != width:
             raise FileFormatError(str(file), f"expected {width} fields, got {len(fields)}", number)
         if fields[0].lower() not in ARMS:
