@@ -201,7 +201,7 @@ def test_max_bound_leaves_points_out_and_the_cli_reports_r_and_the_bound(clean, 
 
 
 def test_cli_takes_the_calibration_files_covariance_into_every_point(tmp_path: Path) -> None:
-    """``pcmm calibrate --probing-u-mm --laser-u-mm --out CAL.json`` then ``pcmm process-log --calibration CAL.json``."""
+    """``pcmm calibrate --probing-u-mm --laser-u-mm --out CAL.json``, then ``pcmm process-log --calibration``."""
     from pcmm_geo.cli.machine_commands.kinematics import load_machine_file
     from pcmm_geo.demo import CALIBRATION_LASERS, DemoSettings, simulate_probings, true_machine
     from pcmm_geo.machine.calibration.probings import write_lasers_csv, write_probings_csv
@@ -220,14 +220,15 @@ def test_cli_takes_the_calibration_files_covariance_into_every_point(tmp_path: P
         return subprocess.run([pcmm, *args], capture_output=True, text=True, timeout=300, check=False)
 
     cal, bare = tmp_path / "cal.json", tmp_path / "bare.json"
-    assert run("calibrate", str(probe_file), str(laser_file), "--probing-u-mm", "0.002", "--laser-u-mm", "0.002", "--out",
-               str(cal)).returncode == 0
+    assert run("calibrate", str(probe_file), str(laser_file), "--probing-u-mm", "0.002", "--laser-u-mm", "0.002",
+               "--out", str(cal)).returncode == 0
     assert run("calibrate", str(probe_file), str(laser_file), "--out", str(bare)).returncode == 0
     machine = load_machine_file(str(cal))  # the calibrated tetrahedron on the thesis' columns
     h0 = machine.reference_heights + np.array([0.0, 60.0, -50.0])
     path = write_log(tmp_path / "log.csv", synthesise_log(machine, h0, MOVES))
     heights = [repr(float(h)) for h in h0]
-    with_covariance = run("process-log", str(path), "--calibration", str(cal), "--initial-heights-mm", *heights, "--json")
+    with_covariance = run("process-log", str(path), "--calibration", str(cal), "--initial-heights-mm", *heights,
+                          "--json")
     without = run("process-log", str(path), "--calibration", str(bare), "--initial-heights-mm", *heights, "--json")
     assert with_covariance.returncode == 0 and without.returncode == 0, with_covariance.stderr
     data, reference = json.loads(with_covariance.stdout), json.loads(without.stdout)
