@@ -90,7 +90,8 @@ def plot_processed_log(processed: ProcessedLog, path: str | Path, *, overwrite: 
 
     residual_axes = figure.add_subplot(grid[1, 1], sharex=height_axes)
     closure_um = 1000.0 * np.asarray(processed.closure_residual, dtype=float)
-    residual_axes.plot(rows, np.maximum(closure_um, 1e-9), color="tab:purple", linewidth=0.8, label="closure")
+    residual_axes.plot(rows, np.where(closure_um > 0, closure_um, np.nan), color="tab:purple", linewidth=0.8,
+                       label="closure")
     if processed.closure_tolerance is not None:
         residual_axes.axhline(1000.0 * processed.closure_tolerance, color="tab:grey", linewidth=0.8, linestyle="--",
                               label="refused above")
@@ -102,6 +103,7 @@ def plot_processed_log(processed: ProcessedLog, path: str | Path, *, overwrite: 
                           label=f"refused rows ({int(refused.sum())})")
         path_axes.legend(loc="upper left", fontsize=8)
     residual_axes.set_yscale("log")
+    _plain_log_labels(residual_axes)
     residual_axes.set_ylabel("closure residual / µm")
     residual_axes.set_title("Laser misfit per row (w-test per reading)", fontsize=10)
     residual_axes.legend(fontsize=8)
@@ -116,11 +118,12 @@ def _plot_uncertainty(axes: object, processed: ProcessedLog, rows: np.ndarray) -
     reliability = np.asarray(processed.tip_reliability, dtype=float)
     bound = np.asarray(processed.bound, dtype=float)
     finite = np.isfinite(bound)
-    axes.plot(rows, np.where(np.isfinite(u), u, np.nan), color="tab:blue", linewidth=0.9, label="u")  # type: ignore
-    axes.plot(rows, np.where(np.isfinite(reliability), reliability, np.nan), color="tab:orange",  # type: ignore
-              linewidth=0.9, label="R (external reliability)")
-    axes.plot(rows, np.where(finite, bound, np.nan), color="black", linewidth=0.7, linestyle="--",  # type: ignore
-              label="bound U (k = 2) + R")
+    shown = np.isfinite(u) & (u > 0)  # the datum row (held) has u = 0: nothing to draw on a log scale
+    axes.plot(rows, np.where(shown, u, np.nan), color="tab:blue", linewidth=0.9, label="u")  # type: ignore
+    axes.plot(rows, np.where(np.isfinite(reliability) & (reliability > 0), reliability, np.nan),  # type: ignore
+              color="tab:orange", linewidth=0.9, label="R (external reliability)")
+    axes.plot(rows, np.where(finite & (bound > 0), bound, np.nan), color="black", linewidth=0.7,  # type: ignore
+              linestyle="--", label="bound U (k = 2) + R")
     if np.isfinite(processed.max_bound):
         axes.axhline(processed.max_bound, color="red", linewidth=0.8, linestyle=":", label="--max-bound-mm")  # type: ignore
     top = float(np.nanmax(np.where(finite, bound, np.nan))) if finite.any() else 1.0
@@ -132,7 +135,20 @@ def _plot_uncertainty(axes: object, processed: ProcessedLog, rows: np.ndarray) -
         axes.scatter(rows[ambiguous], np.where(finite, bound, 2.0 * top)[ambiguous], marker="o",  # type: ignore
                      facecolors="none", edgecolors="tab:red", s=20, label=f"ambiguous ({int(ambiguous.sum())})")
     axes.set_yscale("log")  # type: ignore
+    _plain_log_labels(axes)
+    values = np.concatenate([u, reliability])
+    values = values[np.isfinite(values) & (values > 0)]
+    low = float(values.min()) if values.size else top / 10.0
+    axes.set_ylim(low / 1.5, 12.0 * top)  # type: ignore  # room for the legend above the curves
     axes.set_xlabel("log row")  # type: ignore
     axes.set_ylabel("mm")  # type: ignore
     axes.set_title("Tip uncertainty u, external reliability R and stated bound per row", fontsize=10)  # type: ignore
-    axes.legend(fontsize=7, ncol=2)  # type: ignore
+    axes.legend(fontsize=7, ncol=3, loc="upper center")  # type: ignore
+
+
+def _plain_log_labels(axes: object) -> None:
+    """Tick labels of a log axis as plain numbers (0.2, 0.4), not powers of ten (2 x 10^-1)."""
+    from matplotlib.ticker import LogFormatter
+
+    axes.yaxis.set_major_formatter(LogFormatter())  # type: ignore
+    axes.yaxis.set_minor_formatter(LogFormatter(labelOnlyBase=False, minor_thresholds=(1.5, 0.6)))  # type: ignore
