@@ -30,6 +30,7 @@ gate still tests every reading.
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
@@ -143,6 +144,7 @@ def branch_hypotheses(
     travel: FloatArray | None = None,
     beam: int = BEAM,
     avoid: tuple[int, float] | None = None,
+    progress: Callable[[int], None] | None = None,
 ) -> list[Hypothesis]:
     """The best hypothesis of all segment heights, then its competitors (module notes).
 
@@ -155,7 +157,8 @@ def branch_hypotheses(
     ``(3, 2)`` the height readings each column can reach (minima beyond it are not candidates).
     A segment whose first row has no reading left starts at the arm's previous height.
     ``avoid = (segment, height)`` drops that segment's branch at ``height`` (1 um): the best
-    hypothesis that takes another branch there.
+    hypothesis that takes another branch there.  ``progress(row)`` is called as each segment's first
+    row is reached.
     """
     start = np.zeros(segments.count)
     start[:3] = datum
@@ -166,6 +169,8 @@ def branch_hypotheses(
     rivals: list[Hypothesis] = []
     for offset, segment in enumerate(range(3, segments.count)):
         row, arm = int(segments.birth[segment]), int(segments.arm[segment])
+        if progress is not None:
+            progress(row)
         direction = int(segments.direction[segment])
         reach = None if travel is None else travel[arm]
         usable = np.isfinite(sigmas[row]).any()

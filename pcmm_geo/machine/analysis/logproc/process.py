@@ -290,10 +290,13 @@ def process_log(
     sigmas[refused] = np.inf
     segments = _settle_start_rows(machine, log, sigmas, datum, limits.critical, travel)
     failed_rows = np.zeros(count, dtype=bool)
+    per_row = None if progress is None else _every_hundred_rows(progress, count)
     if progress is not None:
         progress(0, count)
     while True:
-        hypotheses = branch_hypotheses(geometry, log, segments, datum, sigmas, limits.critical, travel)
+        hypotheses = branch_hypotheses(geometry, log, segments, datum, sigmas, limits.critical, travel,
+                                       progress=per_row)
+        per_row = None  # the first pass walks the rows; the gate's passes repeat it
         adjustment = adjust(geometry, log, segments, hypotheses[0].values, sigmas,
                             geometry_gains=covariance is not None)
         lost = ~adjustment.kinematics.converged & ~failed_rows[adjustment.rows]
@@ -327,6 +330,19 @@ def process_log(
         progress(count, count)
     return _result(machine, log, segments, adjustment, influence, sigmas, refused, failed_rows, limits, per_arm,
                    covariance, max_tip_uncertainty, max_bound, rivals)
+
+
+def _every_hundred_rows(progress: Callable[[int, int], None], count: int) -> Callable[[int], None]:
+    """``progress(rows_done, count)`` at every hundredth row the branch search reaches."""
+    reported = [0]
+
+    def step(row: int) -> None:
+        mark = row // 100 * 100
+        if reported[0] < mark < count:
+            reported[0] = mark
+            progress(mark, count)
+
+    return step
 
 
 def _settle_start_rows(machine: RigidBodyMachine, log: MeasurementLog, sigmas: FloatArray, datum: FloatArray,
