@@ -110,9 +110,22 @@ def _resolve_reference(app: Any, env: Any, node: Any, contnode: Any) -> Any:
     if owner is not None and owner in objects:  # a dataclass field, described in its class's Attributes list
         entry = objects[owner]
         return make_refnode(app.builder, node["refdoc"], entry.docname, entry.node_id, contnode, owner)
-    if _exists(target, node.get("py:module"), node.get("py:class")):
+    if _exists(target, node.get("py:module"), node.get("py:class")) or any(
+            _exists(target, namespace, None) for namespace in _docstring_namespaces(node)):
         return contnode
     return None
+
+
+def _docstring_namespaces(node: Any) -> list[str]:
+    """Where the docstring holding ``node`` was written: ``a.b.c.f`` -> ``["a.b.c", "a.b", "a"]``.
+
+    A public name defined in a private module is documented under its public name (the API
+    index's "Defined in private modules"), so Sphinx resolves its docstring's short names from the
+    public package; Python resolves them in the defining module, and so does this.
+    """
+    _, found, name = str(node.source or "").rpartition("docstring of ")
+    parts = name.split(".") if found else []
+    return [".".join(parts[:cut]) for cut in range(len(parts) - 1, 0, -1)]
 
 
 def _field_owner(target: str, module: str | None, cls: str | None) -> str | None:

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import textwrap
 from pathlib import Path
 from typing import TYPE_CHECKING
 
@@ -57,10 +58,10 @@ def plot_form_zone(evaluation: FormEvaluation, path: str | Path, *, overwrite: b
     deviations_um = 1000.0 * np.asarray(fit.residuals, dtype=float)
     contacts = np.asarray(fit.contacts, dtype=int)
     width_um = 1000.0 * evaluation.deviation
-    title = f"{evaluation.characteristic} {width_um:.4g} µm (minimum zone"
-    title += ", certified)" if evaluation.certified else ", NOT certified)"
+    title = f"{evaluation.characteristic} {width_um:.4g} µm"
     if evaluation.tolerance is not None:
-        title += f"  tolerance {1000.0 * evaluation.tolerance:.4g} µm: {evaluation.verdict.upper()}"
+        title += f", tolerance {1000.0 * evaluation.tolerance:.4g} µm: {evaluation.verdict.upper()}"
+    title += "\n" + textwrap.fill(_scope_words(evaluation), 110 if evaluation.element != "circle" else 80)
     is_circle = evaluation.element == "circle"
     figure = new_figure(6.5 if is_circle else 8.0, 7.0 if is_circle else 3.8)
     if is_circle:
@@ -69,6 +70,17 @@ def plot_form_zone(evaluation: FormEvaluation, path: str | Path, *, overwrite: b
         _band(figure, deviations_um, contacts, evaluation)
     figure.suptitle(title, fontsize=10)
     return save_figure(figure, path, overwrite=overwrite)
+
+
+def _scope_words(evaluation) -> str:
+    """What the width is proven to be: the global minimum, or a local one with its proven bound."""
+    if evaluation.scope == "global":
+        return f"global minimum zone over {evaluation.domain}" if evaluation.domain else "global minimum zone"
+    if not evaluation.certified:
+        return "zone about an unconverged fit, NOT a proven minimum"
+    if np.isfinite(evaluation.bound):
+        return f"local minimum zone; proven ≥ {1000.0 * evaluation.bound:.4g} µm"
+    return "local minimum zone; no global bound"
 
 
 def _polar(figure, evaluation, deviations_um, contacts, width_um) -> None:

@@ -92,3 +92,18 @@ def test_sparse_torus_warns_in_one_line_and_axis_hint_silences_it(tmp_path: Path
     np.testing.assert_allclose(data["center"], [0.0, 0.0, 500.0], atol=1e-9)
     refused = _run("fit", "plane", str(data_file), "--axis-hint", "0", "0", "1")
     assert refused.returncode == 2 and "--axis-hint" in refused.stderr
+
+
+def test_minimum_zone_fit_prints_its_scope(tmp_path: Path) -> None:
+    """A Chebyshev circle (exact method) states its scope: global over the circles of its plane."""
+    angles = np.linspace(0.0, 2.0 * np.pi, 40, endpoint=False)
+    radii = 7.0 + 0.004 * np.cos(5.0 * angles)
+    circle = tmp_path / "circle.csv"
+    np.savetxt(circle, np.c_[radii * np.cos(angles), radii * np.sin(angles), np.zeros(40)], delimiter=",",
+               header="x,y,z", comments="")
+    done = _run("fit", "circle", str(circle), "--criterion", "chebyshev")
+    assert done.returncode == 0, done.stderr
+    scope_line = next(line for line in done.stdout.splitlines() if line.startswith("scope "))
+    assert scope_line.startswith("scope global;"), scope_line
+    # the zone of a 5-lobed profile is 2 x 0.004 mm wide (the lobes' peaks and valleys alternate)
+    assert "0.008" in done.stdout

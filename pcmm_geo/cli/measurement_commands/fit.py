@@ -143,9 +143,14 @@ def handle(args: argparse.Namespace) -> Report:
     ]
     lines.insert(0, result.message)
     if result.certificate is not None:
+        certificate = result.certificate
+        scope = f"scope {certificate.scope}"
+        if certificate.scope != "global":
+            scope += (f", proven bound {certificate.bound_mm:.6g} mm" if np.isfinite(certificate.bound_mm)
+                      else ", no proven global bound")
         lines.append(
-            f"contacts {result.contacts.tolist()}, KKT residual {result.certificate.kkt_residual:.3g}, "
-            f"certified {result.certificate.certified}"
+            f"{scope}; contacts {result.contacts.tolist()}, KKT residual {certificate.kkt_residual:.3g}, "
+            f"certified {certificate.certified}"
         )
     plots = []
     if args.plot is not None:

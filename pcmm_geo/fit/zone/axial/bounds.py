@@ -53,16 +53,16 @@ def _cross(u: FloatArray, v: FloatArray) -> FloatArray:
     ])
 
 
-def angular_radius(centre: FloatArray, half: FloatArray, axis: FloatArray) -> FloatArray:
+def angular_radius(center: FloatArray, half: FloatArray, axis: FloatArray) -> FloatArray:
     """Largest angle (rad) between each cell's centre direction and a direction of the cell, shape (K,).
 
     In the gnomonic chart ``(a, b)`` the directions within an angle of ``d_c`` form a
     convex set (a conic's interior), so the largest angle over the square is at a corner.
     """
-    largest = np.zeros(len(centre))
+    largest = np.zeros(len(center))
     for sign_a in (-1.0, 1.0):
         for sign_b in (-1.0, 1.0):
-            corner_tilt = np.column_stack([centre[:, 2] + sign_a * half[:, 2], centre[:, 3] + sign_b * half[:, 3]])
+            corner_tilt = np.column_stack([center[:, 2] + sign_a * half[:, 2], center[:, 3] + sign_b * half[:, 3]])
             corner = directions(corner_tilt)
             sine = np.linalg.norm(_cross(corner, axis), axis=1)
             cosine = np.einsum("kj,kj->k", corner, axis)
@@ -135,7 +135,7 @@ class CellTerms:
 class CellShape:
     """Centre axes and sizes of cells (K,): what the bounds need besides the points."""
 
-    centre: FloatArray
+    center: FloatArray
     half: FloatArray
     axis: FloatArray
     first: FloatArray
@@ -144,17 +144,17 @@ class CellShape:
     phi: FloatArray
 
     @classmethod
-    def of(cls, centre: FloatArray, half: FloatArray) -> CellShape:
-        axis = directions(centre[:, 2:4])
+    def of(cls, center: FloatArray, half: FloatArray) -> CellShape:
+        axis = directions(center[:, 2:4])
         first, second = plane_basis(axis)
-        foot = np.zeros((len(centre), 3))
-        foot[:, :2] = centre[:, :2]
-        phi = np.minimum(angular_radius(centre, half, axis), np.pi / 2)
-        return cls(centre, half, axis, first, second, foot, phi)
+        foot = np.zeros((len(center), 3))
+        foot[:, :2] = center[:, :2]
+        phi = np.minimum(angular_radius(center, half, axis), np.pi / 2)
+        return cls(center, half, axis, first, second, foot, phi)
 
 
 def cell_terms(
-    points: FloatArray, centre: FloatArray | CellShape, half: FloatArray | None = None, *, radial: bool = False
+    points: FloatArray, center: FloatArray | CellShape, half: FloatArray | None = None, *, radial: bool = False
 ) -> CellTerms:
     """Distances of ``points`` (S, 3) from the centre axes of cells ``centre``/``half`` (K, 4) or a :class:`CellShape`.
 
@@ -162,8 +162,8 @@ def cell_terms(
     minus the foot ``X``'s coordinates: the radial coordinates are then accurate to the
     rounding of the coordinates, even for points on the axis.
     """
-    shape = centre if isinstance(centre, CellShape) else CellShape.of(centre, half)  # type: ignore[arg-type]
-    k = len(shape.centre)
+    shape = center if isinstance(center, CellShape) else CellShape.of(center, half)  # type: ignore[arg-type]
+    k = len(shape.center)
     frames = np.concatenate([shape.axis, shape.first, shape.second])  # (3K, 3)
     coords = frames @ points.T  # (3K, S)
     shift = np.einsum("kj,kj->k", np.tile(shape.foot, (3, 1)), frames)
@@ -178,7 +178,7 @@ def cell_terms(
         on_axis = np.nonzero(rho == 0)
         radial_unit[on_axis] = shape.first[on_axis[0]]
     phi = shape.phi
-    scale = float(np.abs(points).max(initial=0.0)) + float(np.abs(shape.centre[:, :2]).max(initial=0.0))
+    scale = float(np.abs(points).max(initial=0.0)) + float(np.abs(shape.center[:, :2]).max(initial=0.0))
     return CellTerms(
         rho=rho,
         height=height,
@@ -205,7 +205,7 @@ def axis_distances(points: FloatArray, x: FloatArray) -> FloatArray:
     return np.hypot(u, v)
 
 
-def centre_values(rho: FloatArray, mode: str) -> FloatArray:
+def center_values(rho: FloatArray, mode: str) -> FloatArray:
     """Objective (to minimise) at the centre axes: ``max``, ``max - min`` or ``-min`` of ``rho`` (K,)."""
     if mode == "mcc":
         return rho.max(axis=1)

@@ -27,7 +27,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from pcmm_geo.fit.zone._solver import ZoneSolution
-from pcmm_geo.fit.zone.axial.bounds import CellShape, CellTerms, axis_distances, cell_terms, centre_values, point_bounds
+from pcmm_geo.fit.zone.axial.bounds import CellShape, CellTerms, axis_distances, cell_terms, center_values, point_bounds
 from pcmm_geo.fit.zone.axial.lagrange import Multipliers, balanced_bound, multiplier_bound
 from pcmm_geo.fit.zone.axial.surround import Surround
 
@@ -82,7 +82,7 @@ class Cells:
     ``inside`` (K,): every axis of the cell is surrounded by the data (MIC)."""
 
     chart: IndexArray
-    centre: FloatArray
+    center: FloatArray
     half: FloatArray
     inside: NDArray[np.bool_]
 
@@ -91,7 +91,7 @@ class Cells:
 
     def take(self, rows: IndexArray | NDArray[np.bool_]) -> Cells:
         """The cells selected by an index or mask."""
-        return Cells(self.chart[rows], self.centre[rows], self.half[rows], self.inside[rows])
+        return Cells(self.chart[rows], self.center[rows], self.half[rows], self.inside[rows])
 
 
 @dataclass(frozen=True)
@@ -131,7 +131,7 @@ def _rows(item: CellShape | CellTerms, rows: NDArray[np.bool_]) -> CellShape | C
 
 def _touches_region(cells: Cells, domain: Domain) -> NDArray[np.bool_]:
     """Cells that hold at least one axis of the region (nearest box point inside both discs)."""
-    gap = np.maximum(np.abs(cells.centre) - cells.half, 0.0)
+    gap = np.maximum(np.abs(cells.center) - cells.half, 0.0)
     return (np.hypot(gap[:, 0], gap[:, 1]) <= domain.offset) & (np.hypot(gap[:, 2], gap[:, 3]) <= domain.tan_max)
 
 
@@ -232,13 +232,13 @@ class _Search:
 
     # -- bounds --------------------------------------------------------------------------
     def bounds(
-        self, chart: int, centre: FloatArray, half: FloatArray, subset: IndexArray
+        self, chart: int, center: FloatArray, half: FloatArray, subset: IndexArray
     ) -> tuple[FloatArray, FloatArray, NDArray[np.bool_]]:
         """Lower bounds, centre values on ``subset`` and the per-point activity of ``subset`` (chunked)."""
         points = self.domain.charts[chart][subset]
         step = max(1, _CHUNK // max(len(subset), 1))
-        lower = np.empty(len(centre))
-        values = np.empty(len(centre))
+        lower = np.empty(len(center))
+        values = np.empty(len(center))
         active = np.zeros(len(subset), dtype=bool)
         inc = self.incumbent
         known = [multipliers for k, _, multipliers in self.known if k == chart]
@@ -246,9 +246,9 @@ class _Search:
             contact_index, slots = np.unique(np.concatenate([m.contacts for m in known]), return_inverse=True)
             contact_points = self.domain.charts[chart][contact_index]
             bounds_of = np.cumsum([0] + [len(m.contacts) for m in known])
-        for start in range(0, len(centre), step):
+        for start in range(0, len(center), step):
             block = slice(start, start + step)
-            shape = CellShape.of(centre[block], half[block])
+            shape = CellShape.of(center[block], half[block])
             terms = cell_terms(points, shape)
             bound, low, high = point_bounds(terms, self.mode)
             if known:
@@ -267,7 +267,7 @@ class _Search:
                 balanced = balanced_bound(pool, _rows(shape, live), pool_terms, self.mode)
                 bound[live] = np.maximum(bound[live], balanced)
             lower[block] = bound
-            values[block] = centre_values(terms.rho, self.mode)
+            values[block] = center_values(terms.rho, self.mode)
             self._margins.append(float(np.median(terms.eps + self.extent * terms.sin_phi)))
             live = bound < inc.value - self.tolerance
             if live.any():
@@ -321,7 +321,7 @@ class _Search:
             if len(self.working) > 2 * _NET_POINTS:
                 tiers.append(self.net())
             for subset, cover in tiers:
-                bound, value, _ = self.bounds(int(k), cells.centre[rows], cells.half[rows], subset)
+                bound, value, _ = self.bounds(int(k), cells.center[rows], cells.half[rows], subset)
                 lower[rows] = np.maximum(lower[rows], bound)
                 values[rows] = value
                 rows = rows[lower[rows] < self.incumbent.value - self.tolerance]
@@ -336,7 +336,7 @@ class _Search:
                     break
             if len(rows) == 0:
                 continue
-            bound, value, act = self.bounds(int(k), cells.centre[rows], cells.half[rows], self.working)
+            bound, value, act = self.bounds(int(k), cells.center[rows], cells.half[rows], self.working)
             lower[rows] = np.maximum(lower[rows], bound)
             values[rows] = value
             active |= act
@@ -356,11 +356,11 @@ class _Search:
     def _explore_lowest(self, cells: Cells, lower: FloatArray) -> None:
         """Weights that balance the extreme points at the live cell of least bound, unless known there already."""
         row = int(np.argmin(lower))
-        chart, centre, half = int(cells.chart[row]), cells.centre[row], cells.half[row]
+        chart, center, half = int(cells.chart[row]), cells.center[row], cells.half[row]
         for k, x, _ in self.known:
-            if k == chart and np.all(np.abs(x - centre) <= 2.0 * half):
+            if k == chart and np.all(np.abs(x - center) <= 2.0 * half):
                 return
-        x = clip_to_region(centre[None, :], self.domain)[0]
+        x = clip_to_region(center[None, :], self.domain)[0]
         found = self.balance(chart, x)
         if found is not None:
             self.known = [*self.known, (chart, x, found)][-_MAX_KNOWN:]
@@ -372,10 +372,10 @@ class _Search:
         inside = cells.inside.copy()
         rows = np.flatnonzero(~inside)
         if len(rows):
-            upper, lower = self.surround.cell_depth(cells.centre[rows], cells.half[rows])
+            upper, lower = self.surround.cell_depth(cells.center[rows], cells.half[rows])
             keep[rows[upper < 0]] = False
             inside[rows[lower > 0]] = True
-        return Cells(cells.chart, cells.centre, cells.half, inside).take(keep)
+        return Cells(cells.chart, cells.center, cells.half, inside).take(keep)
 
     def _candidates(self, cells: Cells, values: FloatArray) -> None:
         """Evaluate the most promising cell centres (moved into the region) on all points.
@@ -387,7 +387,7 @@ class _Search:
         order = order[values[order] < self.incumbent.value]
         for k in np.unique(cells.chart[order]):
             rows = order[cells.chart[order] == k][:_CANDIDATES]
-            x = clip_to_region(cells.centre[rows], self.domain)
+            x = clip_to_region(cells.center[rows], self.domain)
             if self.surround is not None:
                 x = x[cells.inside[rows] | self.surround.surrounded(x)]
             if len(x):
@@ -401,13 +401,13 @@ class _Search:
         """
         points = self.domain.charts[0][self.working]
         reach = max(float(np.sqrt(np.einsum("ij,ij->i", points, points).max(initial=0.0))), 1e-300)
-        centre, half, chart, inside = cells.centre, cells.half, cells.chart, cells.inside
-        q2 = 1.0 + centre[:, 2] ** 2 + centre[:, 3] ** 2
+        center, half, chart, inside = cells.center, cells.half, cells.chart, cells.inside
+        q2 = 1.0 + center[:, 2] ** 2 + center[:, 3] ** 2
         effect = np.column_stack([
             half[:, 0],
             half[:, 1],
-            reach * half[:, 2] * np.sqrt(1.0 + centre[:, 3] ** 2) / q2,
-            reach * half[:, 3] * np.sqrt(1.0 + centre[:, 2] ** 2) / q2,
+            reach * half[:, 2] * np.sqrt(1.0 + center[:, 3] ** 2) / q2,
+            reach * half[:, 3] * np.sqrt(1.0 + center[:, 2] ** 2) / q2,
         ])
         cut = effect >= 0.5 * effect.max(axis=1, keepdims=True)
         for dim in range(4):
@@ -416,16 +416,16 @@ class _Search:
                 continue
             half = half.copy()
             half[rows, dim] *= 0.5
-            twin = centre[rows].copy()
+            twin = center[rows].copy()
             twin[:, dim] += half[rows, dim]
-            centre = centre.copy()
-            centre[rows, dim] -= half[rows, dim]
+            center = center.copy()
+            center[rows, dim] -= half[rows, dim]
             chart = np.concatenate([chart, chart[rows]])
-            centre = np.vstack([centre, twin])
+            center = np.vstack([center, twin])
             half = np.vstack([half, half[rows]])
             inside = np.concatenate([inside, inside[rows]])
             cut = np.vstack([cut, cut[rows]])
-        return Cells(chart, centre, half, inside)
+        return Cells(chart, center, half, inside)
 
 
 def branch_and_bound(
@@ -443,7 +443,7 @@ def branch_and_bound(
     search = _Search(domain, mode, incumbent, hooks, tolerance)
     cells = Cells(
         chart=np.array([root[0] for root in domain.roots], dtype=np.intp),
-        centre=np.array([root[1] for root in domain.roots], dtype=float),
+        center=np.array([root[1] for root in domain.roots], dtype=float),
         half=np.array([root[2] for root in domain.roots], dtype=float),
         inside=np.zeros(len(domain.roots), dtype=bool),
     )

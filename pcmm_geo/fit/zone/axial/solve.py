@@ -10,7 +10,7 @@ from numpy.typing import NDArray
 from pcmm_geo.fit.zone._common import GLOBAL_GAP_MM
 from pcmm_geo.fit.zone._models import axis_distance
 from pcmm_geo.fit.zone._solver import ZoneSolution, assess
-from pcmm_geo.fit.zone.axial.bounds import axis_distances, centre_values
+from pcmm_geo.fit.zone.axial.bounds import axis_distances, center_values
 from pcmm_geo.fit.zone.axial.polish import balanced_multipliers, make_polisher, on_edge
 from pcmm_geo.fit.zone.axial.region import ResolvedRegion, SearchBudget
 from pcmm_geo.fit.zone.axial.search import Domain, Hooks, Incumbent, branch_and_bound, clip_to_region
@@ -89,7 +89,7 @@ def _run(
     surround: Surround | None,
 ) -> AxialOptimum:
     def evaluate(chart: int, x: FloatArray) -> FloatArray:
-        return centre_values(axis_distances(points_by_chart[chart], x), mode)
+        return center_values(axis_distances(points_by_chart[chart], x), mode)
 
     local_polish = make_polisher(domain, mode, size)
 
@@ -130,7 +130,7 @@ def _run(
     x = best.x
     direction_local = np.array([x[2], x[3], 1.0]) / np.sqrt(1.0 + x[2] ** 2 + x[3] ** 2)
     distances = axis_distances(points_by_chart[best.chart], x[None, :])[0]
-    value = float(centre_values(distances[None, :], mode)[0]) if np.isfinite(best.value) else np.inf
+    value = float(center_values(distances[None, :], mode)[0]) if np.isfinite(best.value) else np.inf
     bound = min(outcome.bound, value)
     solution = best.polished
     if solution is None and np.isfinite(value):

@@ -88,13 +88,13 @@ class Surround:
             self._support = (self.points[self.hull] @ _cube_directions(_GRID).T).max(axis=0)
         return self._support[_cube_index(u, _GRID)] + self.extent * self.table_chord
 
-    def cell_depth(self, centre: FloatArray, half: FloatArray) -> tuple[FloatArray, FloatArray]:
+    def cell_depth(self, center: FloatArray, half: FloatArray) -> tuple[FloatArray, FloatArray]:
         """Upper and lower bounds (K,) of the depth of every axis of each cell (mm)."""
-        ring = cell_terms(self.points[self.ring], centre, half)
+        ring = cell_terms(self.points[self.ring], center, half)
         axis = ring.axis
         first, second = plane_basis(axis)
-        foot = np.zeros((len(centre), 3))
-        foot[:, :2] = centre[:, :2]
+        foot = np.zeros((len(center), 3))
+        foot[:, :2] = center[:, :2]
         # how far the projected points can move relative to the axis over the cell
         height = np.maximum(
             self.support_upper(axis) - np.einsum("kj,kj->k", foot, axis),
