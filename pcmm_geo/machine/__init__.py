@@ -89,9 +89,9 @@ _LAZY = {
     "ParameterLawFit": "analysis.parameter_laws",
     "table_8_errors": "analysis.parameter_laws",
     # log processing: closure test and tip uncertainty
-    "CLOSURE_SIGMAS": "analysis.logproc_closure",
-    "SEED_LASER_SIGMA": "analysis.logproc_closure",
-    "DEFAULT_MAX_TIP_UNCERTAINTY": "analysis.logproc_uncertainty",
+    "SEED_LASER_SIGMA": "analysis.logproc",
+    "SEED_LASER_STEPS": "analysis.logproc",
+    "DEFAULT_MAX_TIP_UNCERTAINTY": "analysis.logproc",
     # start-position repeatability (thesis 6.3, Tables 6.6/6.7)
     "StartReadings": "analysis.repeatability",
     "StartRepeatability": "analysis.repeatability",

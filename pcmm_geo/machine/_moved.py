@@ -50,7 +50,12 @@ MOVED: dict[str, str] = {
     "pcmm_geo.machine.calibration.numcal_data": "pcmm_geo.machine.calibration.numerical.numcal_data",
     "pcmm_geo.machine.calibration.identifiability": "pcmm_geo.machine.calibration.numerical.identifiability",
     "pcmm_geo.machine.logproc": "pcmm_geo.machine.analysis.logproc",
-    "pcmm_geo.machine.logproc_rows": "pcmm_geo.machine.analysis.logproc_rows",
+    "pcmm_geo.machine.logproc_rows": "pcmm_geo.machine.analysis.logproc.rows",
+    # issue 22: log processing became the sub-package pcmm_geo.machine.analysis.logproc
+    "pcmm_geo.machine.analysis.logproc_rows": "pcmm_geo.machine.analysis.logproc.rows",
+    "pcmm_geo.machine.analysis.logproc_synthesis": "pcmm_geo.machine.analysis.logproc.synthesis",
+    "pcmm_geo.machine.analysis.logproc_uncertainty": "pcmm_geo.machine.analysis.logproc.uncertainty",
+    "pcmm_geo.machine.analysis.logproc_closure": "pcmm_geo.machine.analysis.logproc.gate",
     "pcmm_geo.machine.sensitivity": "pcmm_geo.machine.analysis.sensitivity",
     "pcmm_geo.machine.session": "pcmm_geo.acquisition.session",
     "pcmm_geo.machine.acqlog": "pcmm_geo.acquisition.acqlog",

@@ -223,7 +223,7 @@ def test_process_log_plot_report_and_progress(long_log: tuple[Path, list[str], n
     assert done.returncode == 0 and done.stderr == ""
     data = json.loads(done.stdout)
     np.testing.assert_allclose(data["probe_points"], truth, atol=1e-6)
-    assert_picture(plot, 12.0, 6.0)
+    assert_picture(plot, 12.0, 8.0)  # issue 22: a third panel, u and R per row
     first = data["probe_rows"][0]
     x, y, z = data["probe_points"][0]
     assert f"| {first} | 1 | {x:.6f} | {y:.6f} | {z:.6f} |" in " ".join(report.read_text(encoding="utf-8").split())

@@ -7,7 +7,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from pcmm_geo.errors import FileFormatError, InvalidInputError, OutputExistsError
+from pcmm_geo.errors import FileFormatError, IllConditionedWarning, InvalidInputError, OutputExistsError
 from pcmm_geo.machine.analysis.logproc import (
     LOG_COLUMNS,
     MeasurementLog,
@@ -43,7 +43,7 @@ def test_round_trip_synthesised_log(slopes) -> None:
     log = synthesise_log(machine, h0, moves)
     assert len(log) == 2 * len(moves)
     np.testing.assert_array_equal(log.start_stop[:4], [1, 0, 1, 0])
-    # no warning with slanted columns either: the datum holds the common height (logproc_closure.first_row_pose)
+    # slanted columns too: the datum holds all three start heights
     out = process_log(machine, log, initial_heights=h0)
     truth_tips = machine.forward(heights=heights).tip
     assert np.abs(out.heights - heights).max() < 1e-6
@@ -82,8 +82,11 @@ def test_direction_flag_is_checked() -> None:
     wrong = log.direction.copy()
     wrong[3] = 1  # motor 2 went down but the row says up
     flipped = MeasurementLog(log.start_stop, log.probe, log.motor, wrong, log.lasers)
-    out = process_log(machine, flipped, initial_heights=h0)
+    with pytest.warns(IllConditionedWarning, match="1 of 4 log rows stand on a height that moved against"):
+        out = process_log(machine, flipped, initial_heights=h0)
     np.testing.assert_array_equal(out.direction_consistent, [True, True, True, False])
+    # issue 22: a contradicted direction means a wrong branch or a wrong flag: no bound is stated
+    assert np.isinf(out.bound[3]) and np.all(np.isfinite(out.bound[:3]))
 
 
 def test_csv_round_trip(tmp_path: Path) -> None:

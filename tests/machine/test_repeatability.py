@@ -12,7 +12,7 @@ import pytest
 from pcmm_geo.acquisition.acqlog import AcquisitionLog, LogRow
 from pcmm_geo.acquisition.simulators.cmm import START_POSITION, SimulatedMicroCMM
 from pcmm_geo.errors import FileFormatError, InvalidInputError, TooFewPointsError
-from pcmm_geo.machine.analysis.logproc_rows import MeasurementLog, write_log
+from pcmm_geo.machine.analysis.logproc.rows import MeasurementLog, write_log
 from pcmm_geo.machine.analysis.repeatability import (
     arm_statistics,
     read_start_readings_csv,

@@ -128,7 +128,7 @@ def test_calibration_demo_and_log_plots(tmp_path: Path) -> None:
     calls: list[tuple[int, int]] = []
     processed = process_log(machine, log, initial_heights=start, progress=lambda *done_total: calls.append(done_total))
     assert calls == [(0, 240), (100, 240), (200, 240), (240, 240)]
-    _assert_real_picture(plot_processed_log(processed, tmp_path / "log.png"), 12.0, 6.0)
+    _assert_real_picture(plot_processed_log(processed, tmp_path / "log.png"), 12.0, 8.0)  # third panel: u, R, bound
 
 
 def test_fit_residual_plot(tmp_path: Path) -> None:

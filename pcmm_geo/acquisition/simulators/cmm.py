@@ -24,6 +24,7 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 from dataclasses import dataclass
+from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -36,7 +37,8 @@ from pcmm_geo.acquisition.simulators.faults import RECOVERABLE_FAULTS, FaultPlan
 from pcmm_geo.acquisition.simulators.pty import PtyServer, VirtualClock, VirtualPort
 from pcmm_geo.errors import InvalidInputError
 
-__all__ = ["OFF_LEVEL_START_OFFSETS", "START_POSITION", "GaugeBlock", "SimulatedMicroCMM", "SimulatedRig"]
+__all__ = ["OFF_LEVEL_START_OFFSETS", "START_POSITION", "GaugeBlock", "SimulatedMicroCMM", "SimulatedRig",
+           "simulated_truth"]
 
 #: the seed's default motor position, microsteps (Appendix A step 20)
 START_POSITION = 247_500
@@ -92,7 +94,7 @@ class SimulatedMicroCMM:
         the *level* pose, as in the thesis (6.3: "each pivot point was starting at the same
         vertical point", one encoder count for all motors).  Near level the lasers hardly see
         the heights and processed points have millimetre uncertainties
-        (:mod:`pcmm_geo.machine.analysis.logproc_uncertainty`); an off-level start such as
+        (:mod:`pcmm_geo.machine.analysis.logproc.uncertainty`); an off-level start such as
         ``reference_heights + OFF_LEVEL_START_OFFSETS`` keeps a session well conditioned.
     laser_noise, dead_spot, settle_scatter : float
         Defect model parameters, mm (see module docstring); 0 disables each.
@@ -371,3 +373,33 @@ class SimulatedRig:
 
     def __exit__(self, *exc_info: object) -> None:
         self.close()
+
+
+def simulated_truth(path: str | Path) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """``(heights (N, 3), tips (N, 3))`` of every data row of a simulated acquisition log: the simulator's truth.
+
+    The heights follow from the logged motor positions and the log's ``start_position_usteps``
+    and ``start_heights_mm`` (written by ``pcmm acquire --simulate``); the tips from the seed
+    machine's forward kinematics, as the simulator computed them (no dead spot: a session with
+    ``--defects`` has other truth).  This is the independent truth that processed logs are tested
+    against.
+
+    Raises
+    ------
+    FileFormatError
+        The file is not an acquisition log of the simulated machine (no ``start_heights_mm``).
+    """
+    from pcmm_geo.acquisition.acqlog import read_log
+    from pcmm_geo.errors import FileFormatError
+
+    contents = read_log(path)
+    metadata = contents.metadata
+    if "start_heights_mm" not in metadata or "start_position_usteps" not in metadata:
+        raise FileFormatError(str(path), "expected an acquisition log of the simulated machine (start_heights_mm, "
+                              "start_position_usteps), got none")
+    simulator = SimulatedMicroCMM(start_position=int(metadata["start_position_usteps"]),
+                                  start_heights=[float(v) for v in metadata["start_heights_mm"].split()])
+    heights = simulator.heights_for(np.array([row.pos_usteps for row in contents.rows], dtype=float))
+    machine = simulator.machine
+    hint = np.broadcast_to(machine.reference_lasers, heights.shape)
+    return heights, np.asarray(machine.forward(heights=heights, lasers_hint=hint).tip)

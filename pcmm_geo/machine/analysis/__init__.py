@@ -3,14 +3,10 @@
 What lives here:
 
 - :mod:`~pcmm_geo.machine.analysis.logproc` -- processing of the seed's measurement log
-  (thesis 3.6, Table 3.2; 5.2; Appendix D) into probe-tip positions, with the rigid-body model
-  or the seed's DPKM;
-- :mod:`~pcmm_geo.machine.analysis.logproc_rows` -- the log's rows: array type, CSV reader
-  and writer;
-- :mod:`~pcmm_geo.machine.analysis.logproc_closure` -- the closure test of each log row and the
-  derivation of its default tolerance, the first row's datum and the level-pose mirror;
-- :mod:`~pcmm_geo.machine.analysis.logproc_uncertainty` -- the tip uncertainty of every log row;
-- :mod:`~pcmm_geo.machine.analysis.logproc_synthesis` -- synthetic logs from known heights;
+  (thesis 3.6, Table 3.2; 5.2; Appendix D) into probe-tip positions: a sub-package with the
+  rows and their CSV form, the network adjustment of the pivot heights, Baarda's w-test per
+  laser reading, the tip uncertainty and external reliability of every row, mirror-pose
+  ambiguity, synthetic logs, and the seed's own DPKM processing;
 - :mod:`~pcmm_geo.machine.analysis.parameter_laws` -- the seed DPKM's ``d_i`` and ``beta_in`` as
   linear laws of the lasers (thesis 8.2, Table 8.2), fitted from calibration positions;
 - :mod:`~pcmm_geo.machine.analysis.sensitivity` -- sensitivity of the tip to laser and encoder

@@ -67,7 +67,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from pcmm_geo.errors import ConvergenceError, InvalidInputError
 from pcmm_geo.fit.skew import angle_between
-from pcmm_geo.machine.analysis.logproc_rows import MeasurementLog
+from pcmm_geo.machine.analysis.logproc.rows import MeasurementLog
 from pcmm_geo.machine.kinematics.dpkm import PAIRS, START_OF_RANGE
 from pcmm_geo.machine.kinematics.model_parts import ARMS, as_readings, check_arm_keys
 

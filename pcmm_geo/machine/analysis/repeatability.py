@@ -314,7 +314,7 @@ def start_readings_from_logs(paths: Sequence[str | Path]) -> StartReadings:
     A pcmm_geo acquisition log (``pcmm acquire``) is read with
     :func:`pcmm_geo.acquisition.acqlog.read_log`; its first row is the reading right after homing
     and the pre-sequence, and must be a start row at the recorded start position.  Any other file
-    is read as a thesis Table 3.2 log with :func:`pcmm_geo.machine.analysis.logproc_rows.read_log`;
+    is read as a thesis Table 3.2 log with :func:`pcmm_geo.machine.analysis.logproc.rows.read_log`;
     its first row must be a start row (``start_stop`` 1).
 
     Parameters
@@ -335,7 +335,7 @@ def start_readings_from_logs(paths: Sequence[str | Path]) -> StartReadings:
     TooFewPointsError
         Fewer than two logs.
     """
-    from pcmm_geo.machine.analysis.logproc_rows import read_log as read_table_3_2_log
+    from pcmm_geo.machine.analysis.logproc.rows import read_log as read_table_3_2_log
 
     if len(paths) < 2:
         raise TooFewPointsError("start repeatability (logs)", 2, len(paths))

@@ -1,4 +1,4 @@
-"""Plot of a processed measurement log: tip path with probe points, pivot heights, closure residuals."""
+"""Plot of a processed measurement log: tip path with probe points, pivot heights, closure residuals, u and R."""
 
 from __future__ import annotations
 
@@ -16,7 +16,12 @@ __all__ = ["plot_processed_log"]
 
 
 def plot_processed_log(processed: ProcessedLog, path: str | Path, *, overwrite: bool = False) -> Path:
-    """Write the log plot: 3-D tip path and probe points; pivot heights and closure residual per row.
+    """Write the log plot: 3-D tip path and probe points; pivot heights, closure residual, u and R per row.
+
+    The lower right panel shows each row's standard uncertainty ``u`` (the 3-D point's,
+    ``sqrt(trace C)``), its external reliability ``R`` (largest tip shift of an undetected laser
+    fault of minimal detectable size) and the stated bound ``U (k = 2) + R``; unbounded rows are
+    marked at the top of the axis.
 
     Parameters
     ----------
@@ -56,8 +61,8 @@ def plot_processed_log(processed: ProcessedLog, path: str | Path, *, overwrite: 
     check_plot_path(path, overwrite=overwrite)
     tips = np.asarray(processed.tips, dtype=float)
     rows = np.arange(1, len(tips) + 1)
-    figure = new_figure(12.0, 6.0)
-    grid = figure.add_gridspec(2, 2, width_ratios=(1.2, 1.0))
+    figure = new_figure(12.0, 8.0)
+    grid = figure.add_gridspec(3, 2, width_ratios=(1.2, 1.0))
 
     path_axes = figure.add_subplot(grid[:, 0], projection="3d")
     path_axes.plot(*tips.T, color="tab:grey", linewidth=0.8, label="tip path")
@@ -85,20 +90,65 @@ def plot_processed_log(processed: ProcessedLog, path: str | Path, *, overwrite: 
 
     residual_axes = figure.add_subplot(grid[1, 1], sharex=height_axes)
     closure_um = 1000.0 * np.asarray(processed.closure_residual, dtype=float)
-    residual_axes.plot(rows, np.maximum(closure_um, 1e-9), color="tab:purple", linewidth=0.8, label="closure")
-    limit_um = 1000.0 * np.asarray(processed.closure_tolerance, dtype=float)
-    if np.isfinite(limit_um).any():
-        residual_axes.plot(rows, limit_um, color="tab:grey", linewidth=0.8, linestyle="--", label="refused above")
+    residual_axes.plot(rows, np.where(closure_um > 0, closure_um, np.nan), color="tab:purple", linewidth=0.8,
+                       label="closure")
+    if processed.closure_tolerance is not None:
+        residual_axes.axhline(1000.0 * processed.closure_tolerance, color="tab:grey", linewidth=0.8, linestyle="--",
+                              label="refused above")
     refused = np.asarray(processed.inconsistent, dtype=bool)
     if refused.any():
         residual_axes.scatter(rows[refused], np.maximum(closure_um[refused], 1e-9), color="red", marker="x", s=24,
-                              label=f"inconsistent ({int(refused.sum())})")
+                              label=f"refused ({int(refused.sum())})")
         path_axes.scatter(*tips[refused].T, color="red", marker="x", s=30, depthshade=False,
-                          label=f"inconsistent rows ({int(refused.sum())})")
+                          label=f"refused rows ({int(refused.sum())})")
         path_axes.legend(loc="upper left", fontsize=8)
     residual_axes.set_yscale("log")
-    residual_axes.set_xlabel("log row")
+    _plain_log_labels(residual_axes)
     residual_axes.set_ylabel("closure residual / µm")
-    residual_axes.set_title("Loop-closure residual per row", fontsize=10)
+    residual_axes.set_title("Laser misfit per row (w-test per reading)", fontsize=10)
     residual_axes.legend(fontsize=8)
+
+    _plot_uncertainty(figure.add_subplot(grid[2, 1], sharex=height_axes), processed, rows)
     return save_figure(figure, path, overwrite=overwrite)
+
+
+def _plot_uncertainty(axes: object, processed: ProcessedLog, rows: np.ndarray) -> None:
+    """u, R and U + R per row on a log scale; unbounded rows as triangles at the top."""
+    u = np.asarray(processed.tip_uncertainty, dtype=float)
+    reliability = np.asarray(processed.tip_reliability, dtype=float)
+    bound = np.asarray(processed.bound, dtype=float)
+    finite = np.isfinite(bound)
+    shown = np.isfinite(u) & (u > 0)  # the datum row (held) has u = 0: nothing to draw on a log scale
+    axes.plot(rows, np.where(shown, u, np.nan), color="tab:blue", linewidth=0.9, label="u")  # type: ignore
+    axes.plot(rows, np.where(np.isfinite(reliability) & (reliability > 0), reliability, np.nan),  # type: ignore
+              color="tab:orange", linewidth=0.9, label="R (external reliability)")
+    axes.plot(rows, np.where(finite & (bound > 0), bound, np.nan), color="black", linewidth=0.7,  # type: ignore
+              linestyle="--", label="bound U (k = 2) + R")
+    if np.isfinite(processed.max_bound):
+        axes.axhline(processed.max_bound, color="red", linewidth=0.8, linestyle=":", label="--max-bound-mm")  # type: ignore
+    top = float(np.nanmax(np.where(finite, bound, np.nan))) if finite.any() else 1.0
+    if (~finite).any():
+        axes.scatter(rows[~finite], np.full(int((~finite).sum()), 2.0 * top), marker="^", color="red", s=16,  # type: ignore
+                     label=f"unbounded ({int((~finite).sum())})")
+    ambiguous = np.asarray(processed.ambiguous, dtype=bool)
+    if ambiguous.any():
+        axes.scatter(rows[ambiguous], np.where(finite, bound, 2.0 * top)[ambiguous], marker="o",  # type: ignore
+                     facecolors="none", edgecolors="tab:red", s=20, label=f"ambiguous ({int(ambiguous.sum())})")
+    axes.set_yscale("log")  # type: ignore
+    _plain_log_labels(axes)
+    values = np.concatenate([u, reliability])
+    values = values[np.isfinite(values) & (values > 0)]
+    low = float(values.min()) if values.size else top / 10.0
+    axes.set_ylim(low / 1.5, 12.0 * top)  # type: ignore  # room for the legend above the curves
+    axes.set_xlabel("log row")  # type: ignore
+    axes.set_ylabel("mm")  # type: ignore
+    axes.set_title("Tip uncertainty u, external reliability R and stated bound per row", fontsize=10)  # type: ignore
+    axes.legend(fontsize=7, ncol=3, loc="upper center")  # type: ignore
+
+
+def _plain_log_labels(axes: object) -> None:
+    """Tick labels of a log axis as plain numbers (0.2, 0.4), not powers of ten (2 x 10^-1)."""
+    from matplotlib.ticker import LogFormatter
+
+    axes.yaxis.set_major_formatter(LogFormatter())  # type: ignore
+    axes.yaxis.set_minor_formatter(LogFormatter(labelOnlyBase=False, minor_thresholds=(1.5, 0.6)))  # type: ignore

@@ -1,48 +1,43 @@
-"""Uncertainty of the probe tips of a processed log (:func:`~pcmm_geo.machine.analysis.logproc.process_log`).
+"""What the tip uncertainty of a processed log is, and the limit above which a point is marked.
 
-What is propagated
-------------------
-Each row's tip is a function of the row's inputs: its three lasers (independent,
-standard uncertainty ``laser_sigma``) and, after row 1, the three heights it starts from,
-whose covariance ``C`` the closure test already carries from row to row
-(:mod:`~pcmm_geo.machine.analysis.logproc_closure`: ``C_next = G C_in G^T``).  The same
-batched finite-difference solve that gives ``G`` gives the tip's Jacobian ``T`` (3 x 6,
-3 x 3 on row 1), and the tip covariance is the first-order (GUM 5.1.2) law
+Definition for a 3-D point
+--------------------------
+Each row's tip comes with its first-order covariance ``C`` (3 x 3, mm^2,
+:attr:`~pcmm_geo.machine.analysis.logproc.ProcessedLog.tip_covariance`): the laser readings
+propagated through the network adjustment (``sum_i sigma_i^2 s_i s_i^T`` over all readings,
+:mod:`~pcmm_geo.machine.analysis.logproc.reliability`), plus, when the calibration file holds
+one, the calibration's covariance propagated the same way.  The standard uncertainty of the
+point is one number, ``u = tip_uncertainty = sqrt(trace C) = sqrt(u_x^2 + u_y^2 + u_z^2)``: the
+root-mean-square length of its error vector.  ``U = 2 u`` used as the radius of a ball about the
+point covers the true point with probability at least 95.4 % for every Gaussian ``C`` (95.4 %
+when the error lies along one line, 98.2 % for a flat isotropic one, 99.3 % for a round one),
+so "within U (k = 2)" is a statement at (at least) 95 %.  ``tip_u`` gives ``u_x, u_y, u_z``.
 
-``U_tip = T C_in T^T``,  ``C_in = diag(laser_sigma^2 I_3, C)``.
+``u`` is relative to the datum (the start heights of row 1, held exactly); the lasers never see
+a height common to all pivots, so its ``z`` part grows along a log as every new height inherits
+the errors of the ones it was measured against.  The calibration's part is systematic: the
+same parameter error moves all points of a log together.  A row standing on a height the
+lasers do not determine (:attr:`~pcmm_geo.machine.analysis.logproc.adjustment.Adjustment.undetermined`)
+has ``u = inf``.
 
-``tip_uncertainty = sqrt(trace U_tip)`` is the root-mean-square length of the tip error
-(``sqrt(u_x^2 + u_y^2 + u_z^2)``).  It is relative to the datum of row 1 (the lasers
-cannot see a common height of all pivots, so the datum's own error shifts every point
-alike and is not included).  Errors of the machine model (calibration) are not included:
-this is the part the lasers contribute, a lower bound of the points' uncertainty.
-
-Why it matters: near the level pose
------------------------------------
+Near the level pose
+-------------------
 With the pivots at nearly equal heights the distances between them change only with the
-square of their height differences, so the lasers hardly see the heights and ``T`` is
-large: a row there can be millimetres wrong and still close (the closure residual is as
-blind as the solve).  With the default ``laser_sigma`` (28.9 um, the thesis' 50 um laser
-accuracy) and the DPKM machine, short logs give (mm): pivots (0, +60, -50) mm from level
-0.11-0.14; (0, +20, -15) 0.31-0.44; (0, +5, -4) 1.2-1.9; (0, +1, -1) 3.8-5.3; the tip
-moves about ten times as much as the lasers, which is this mechanism's gain.  The first-order value is
-validated against a seeded Monte Carlo over synthesised logs in
-``tests/machine/test_logproc_uncertainty.py``.  Very close to level (where the Jacobian
-itself changes within one laser sigma) the first-order value becomes optimistic; such rows
-are far above any useful limit anyway.
+square of their height differences, so the lasers hardly see the heights and ``u`` is large:
+a 12.5 um reading step leaves a height 2 mm from level uncertain by about 1 mm.  There the
+first-order value is a poor description (the true error is a square root of the laser error),
+but it errs on the large side as long as the branch is right; the branch is what
+:mod:`~pcmm_geo.machine.analysis.logproc.ambiguity` checks.
 
 The limit
 ---------
-:data:`DEFAULT_MAX_TIP_UNCERTAINTY` = 1 mm.  A micro-CMM point whose standard
-uncertainty is a millimetre or more is not a measurement at the machine's purpose; the
-value separates the well-conditioned poses above (0.1-0.6 mm with the thesis' lasers,
-pivots 15 mm or more apart in height) from the near-level ones (1 mm and more within
-about 5 mm of level).  Pass your own limit for your sensors and task.  A row above it
-is *marked* (``uncertain``), not dropped: the point is consistent with its readings,
-only poorly determined, and it comes with its uncertainty.  But a point whose
-uncertainty is millimetres must not pass for a measurement, so
-:func:`flag_uncertain_tips` warns (:class:`~pcmm_geo.errors.IllConditionedWarning`) with
-the count, and ``pcmm process-log`` lists ``u`` and "u ok" for every point.
+:data:`DEFAULT_MAX_TIP_UNCERTAINTY` = 1 mm.  A micro-CMM point whose standard uncertainty is a
+millimetre or more is not a measurement at the machine's purpose; the value separates the
+well-conditioned poses (0.1-0.6 mm with the thesis' lasers, pivots 15 mm or more apart in
+height) from the near-level ones.  Pass your own limit for your sensors and task.  A row above
+it is *marked* (``uncertain``), not dropped: the point is consistent with its readings, only
+poorly determined, and it comes with its uncertainty; :func:`flag_uncertain_tips` warns
+(:class:`~pcmm_geo.errors.IllConditionedWarning`) with the count.
 
 Examples
 --------
