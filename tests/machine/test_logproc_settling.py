@@ -41,12 +41,30 @@ def test_faulty_reading_read_as_a_large_further_move_gets_no_bound(tmp_path: Pat
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
         out = process_log(machine, faulty, initial_heights=start)
-    assert any("1 of 120 log rows stand on an unsettled start row" in str(w.message) for w in caught)
+    assert any("2 of 120 log rows stand on an unsettled start row" in str(w.message) for w in caught)
     error = np.linalg.norm(out.tips - truth, axis=1)
     assert not out.inconsistent.any()
     assert error[2] > 30.0 and abs(out.heights[2, 0] - out.heights[1, 0]) > 10 * SETTLING_PLAY  # still misread
-    assert out.unbounded.tolist() == [row == 2 for row in range(len(out.tips))]  # flagged, no bound stated
+    assert np.flatnonzero(out.unbounded).tolist() == [1, 2]  # the stop row and the start row: no bound stated
     assert np.all(error <= out.bound + 1e-9)  # every point within its bound, or unbounded
+
+
+def test_faulty_stop_row_followed_by_a_start_row_that_seems_to_move_back_gets_no_bound(tmp_path: Path) -> None:
+    """Seed 2, level start, stop row 4 (0-based 3), laser a 5 mm off: read as a 50 mm move of pivot a and
+    a 52 mm further move back on the next start row. Before: the stop row's tip 44.7 mm off, bound 40.2 mm."""
+    path = tmp_path / "level_2.csv"
+    with contextlib.redirect_stdout(io.StringIO()):
+        assert main(["acquire", "--simulate", "--seed", "2", "--moves", "60", "--settle", "0",
+                     "--out", str(path)]) == 0
+    start = [float(v) for v in read_acquisition_log(path).metadata["start_heights_mm"].split()]
+    _, truth = simulated_truth(path)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        out = process_log(RigidBodyMachine.from_dpkm(), with_reading_fault(read_log(path), 3, 0, 5.0),
+                          initial_heights=start)
+    error = np.linalg.norm(out.tips - truth, axis=1)
+    assert error[3] > 40.0 and out.unbounded[3] and out.unbounded[4]
+    assert np.all(error <= out.bound + 1e-9)
 
 
 def test_further_move_within_the_play_is_no_flag() -> None:

@@ -166,14 +166,15 @@ def change_uncertainty(adjustment: Adjustment, segments: FloatArray, previous: F
 def implausible_settling(adjustment: Adjustment, segments: LogSegments, start_stop: NDArray[np.int64],
                          critical: float, play: float = SETTLING_PLAY) -> NDArray[np.bool_]:
     """Segments begun by an unsettled start row whose adjusted further move exceeds ``play`` by more than
-    ``critical`` of its standard uncertainty (mm).
+    ``critical`` of its standard uncertainty (mm), and the segments they continue.
 
     The row logic reads such a row as the previous motor's further move (thesis 3.5).  A stepper
     stops at its count, so what still moves is the tetrahedron settling within the play at the
     sliders; a larger further move is not settling but a reading the row logic mistook for one (a
     faulty laser near the level pose, where one laser's change reads as a large height change).
-    Its first-order reliability describes the adjusted pose, not the distance to the true one: the
-    rows standing on it get no bound (``unbounded``).
+    Either row of the pair may hold it (a faulty stop row is followed by a start row that seems to
+    move back).  Their first-order reliability describes the adjusted pose, not the distance to the
+    true one: the rows standing on either height get no bound (``unbounded``).
     """
     births = segments.birth
     further = np.flatnonzero((segments.previous >= 0) & (births > 0) & (start_stop[births] == 1))
@@ -185,5 +186,7 @@ def implausible_settling(adjustment: Adjustment, segments: LogSegments, start_st
     if suspects.size:
         sigma = change_uncertainty(adjustment, suspects, segments.previous[suspects])
         excess = np.abs(adjustment.values[suspects] - adjustment.values[segments.previous[suspects]]) - play
-        implausible[suspects] = excess > critical * sigma
+        flagged = suspects[excess > critical * sigma]
+        implausible[flagged] = True
+        implausible[segments.previous[flagged]] = True  # the stop row before may hold the faulty reading
     return implausible
