@@ -13,8 +13,10 @@ How the pieces combine (flags of :class:`ProcessedLog`, ``pcmm process-log`` opt
 3. *Bound* (``bound = 2 tip_uncertainty + tip_reliability + ambiguity``): an accepted point
    lies within it of the truth unless an undetected fault exceeds the MDB (the w-test finds
    such a fault with probability ``power``) or the noise exceeds U.  ``tip_reliability`` is
-   infinite where a reading that no test can check moves the tip (``unbounded``, warned
-   about).  ``max_bound`` / ``--max-bound-mm MM`` leaves points with a larger bound out
+   infinite where a reading that no test can check moves the tip, or the tip stands on an
+   unsettled start row read as a further move beyond the settling play (R is first order;
+   :func:`~pcmm_geo.machine.analysis.logproc.reliability.implausible_settling`): ``unbounded``, warned
+   about.  ``max_bound`` / ``--max-bound-mm MM`` leaves points with a larger bound out
    (``over_bound``; exit 0, listed).
 4. *Uncertainty* (``uncertain``): ``tip_uncertainty`` above ``max_tip_uncertainty`` /
    ``--max-tip-u-mm`` (default 1 mm): kept, flagged, warned about; ``--refuse-uncertain`` makes such
@@ -48,8 +50,10 @@ from pcmm_geo.machine.analysis.logproc.gate import (
 )
 from pcmm_geo.machine.analysis.logproc.geometry import GEOMETRY_PARAMETERS
 from pcmm_geo.machine.analysis.logproc.reliability import (
+    SETTLING_PLAY,
     change_uncertainty,
     geometry_tip_covariance,
+    implausible_settling,
     reading_influence,
 )
 from pcmm_geo.machine.analysis.logproc.rows import MeasurementLog
@@ -160,7 +164,8 @@ class ProcessedLog:
 
     @property
     def unbounded(self) -> BoolArray:
-        """Consistent rows whose bound is not finite (a reading no test can check moves them)."""
+        """Consistent rows whose bound is not finite (an unchecked reading, a contradicted direction or an
+        implausible further move)."""
         return ~np.isfinite(self.bound) & ~self.inconsistent
 
     def __repr__(self) -> str:
@@ -438,10 +443,12 @@ def _result(
     direction = ~contradicted[segments.active].any(axis=1)
     unchecked = consistent & ~np.isfinite(reliability)
     reliability[~direction] = np.inf  # a branch (or the direction flag) is wrong: no bound can be stated
+    settling = implausible_settling(adjustment, segments, log.start_stop, limits.critical)[segments.active].any(axis=1)
+    reliability[settling] = np.inf  # a further move beyond the play: not settling, R (first order) does not hold
     bound = 2.0 * tip_uncertainty + reliability + ambiguity
     over_bound = consistent & ~(bound <= max_bound)
     probe_rows = np.flatnonzero(probe & consistent & ~over_bound)
-    _warn_flags(ambiguous & consistent, ambiguity, unchecked, consistent & ~direction)
+    _warn_flags(ambiguous & consistent, ambiguity, unchecked, consistent & ~direction, consistent & settling)
     return ProcessedLog(
         heights=heights, tips=kinematics.tips[source], probe_rows=probe_rows, probe_points=kinematics.tips[source][
             probe_rows], rejected_probe_rows=np.flatnonzero(probe & (inconsistent | over_bound)),
@@ -473,7 +480,8 @@ def _contradicted_segments(adjustment: Adjustment, segments: object, critical: f
     return contradicted
 
 
-def _warn_flags(ambiguous: BoolArray, ambiguity: FloatArray, unbounded: BoolArray, contradicted: BoolArray) -> None:
+def _warn_flags(ambiguous: BoolArray, ambiguity: FloatArray, unbounded: BoolArray, contradicted: BoolArray,
+                settling: BoolArray) -> None:
     if ambiguous.any():
         warnings.warn(
             f"{int(ambiguous.sum())} of {len(ambiguous)} log rows are ambiguous: another pose (the mirror image about "
@@ -492,5 +500,11 @@ def _warn_flags(ambiguous: BoolArray, ambiguity: FloatArray, unbounded: BoolArra
             f"{int(contradicted.sum())} of {len(contradicted)} log rows stand on a height that moved against its "
             "recorded motor direction: the pose is on the wrong branch (mirror image) or the direction flag is "
             "wrong; no bound is stated for them",
+            IllConditionedWarning, stacklevel=3,
+        )
+    if settling.any():
+        warnings.warn(
+            f"{int(settling.sum())} of {len(settling)} log rows stand on an unsettled start row read as a further move "
+            f"beyond the settling play ({SETTLING_PLAY:g} mm): likely a faulty reading; no bound is stated for them",
             IllConditionedWarning, stacklevel=3,
         )

@@ -41,12 +41,17 @@ from pcmm_geo.machine.analysis.logproc.adjustment import Adjustment
 from pcmm_geo.machine.analysis.logproc.gate import GateLimits
 from pcmm_geo.machine.analysis.logproc.segments import LogSegments
 
-__all__ = ["Influence", "change_uncertainty", "geometry_tip_covariance", "reading_influence"]
+__all__ = ["SETTLING_PLAY", "Influence", "change_uncertainty", "geometry_tip_covariance", "implausible_settling",
+           "reading_influence"]
 
 FloatArray = NDArray[np.float64]
 
 #: a tip moving less than this per mm of a reading's fault (mm/mm) counts as not moved by it
 NO_EFFECT = 1e-9
+#: largest height change (mm) a pivot can make while the tetrahedron settles after its motor stopped: the
+#: play at the sliders (thesis 6: a pivot moved about 4 mm before the lasers followed; thesis 3.5: the
+#: motors stop at their count, only the tetrahedron settles)
+SETTLING_PLAY = 4.0
 #: floats held at once by one chunk of the influence loop
 _CHUNK_FLOATS = 4_000_000
 
@@ -156,3 +161,32 @@ def change_uncertainty(adjustment: Adjustment, segments: FloatArray, previous: F
         columns = columns[3:]  # the datum is fixed
         result[part] = np.sqrt(np.clip(np.sum(columns * adjustment.solve(columns), axis=0), 0.0, None))
     return result
+
+
+def implausible_settling(adjustment: Adjustment, segments: LogSegments, start_stop: NDArray[np.int64],
+                         critical: float, play: float = SETTLING_PLAY) -> NDArray[np.bool_]:
+    """Segments begun by an unsettled start row whose adjusted further move exceeds ``play`` by more than
+    ``critical`` of its standard uncertainty (mm), and the segments they continue.
+
+    The row logic reads such a row as the previous motor's further move (thesis 3.5).  A stepper
+    stops at its count, so what still moves is the tetrahedron settling within the play at the
+    sliders; a larger further move is not settling but a reading the row logic mistook for one (a
+    faulty laser near the level pose, where one laser's change reads as a large height change).
+    Either row of the pair may hold it (a faulty stop row is followed by a start row that seems to
+    move back).  Their first-order reliability describes the adjusted pose, not the distance to the
+    true one: the rows standing on either height get no bound (``unbounded``).
+    """
+    births = segments.birth
+    further = np.flatnonzero((segments.previous >= 0) & (births > 0) & (start_stop[births] == 1))
+    implausible = np.zeros(segments.count, dtype=bool)
+    if further.size == 0:
+        return implausible
+    change = np.abs(adjustment.values[further] - adjustment.values[segments.previous[further]])
+    suspects = further[change > play]
+    if suspects.size:
+        sigma = change_uncertainty(adjustment, suspects, segments.previous[suspects])
+        excess = np.abs(adjustment.values[suspects] - adjustment.values[segments.previous[suspects]]) - play
+        flagged = suspects[excess > critical * sigma]
+        implausible[flagged] = True
+        implausible[segments.previous[flagged]] = True  # the stop row before may hold the faulty reading
+    return implausible
