@@ -24,8 +24,9 @@ Thread modes (``--threads``): ``single`` sets ``OPENBLAS_NUM_THREADS``, ``OMP_NU
 environment as it is and lets every library use its default; ``both`` (the default) runs the
 two one after the other.  Each mode runs in a fresh child process, since BLAS reads its thread
 count when it loads.  Beside every figure the table records the thread mode, the 1-minute load
-average before and after the case and whether the machine was quiet (load below 0.25 per
-core); the thread variables and the pools threadpoolctl sees are listed under the table.
+average before and after the case, the share of CPU other processes used during it and whether
+the machine was quiet (others below 5 %; the load average counts the benchmark itself, see
+``_environment``); the thread variables and the pools threadpoolctl sees are listed under the table.
 
 The table is printed; ``--output PATH`` also writes it as Markdown (refusing an existing file
 unless ``--overwrite``) and ``--update-doc docs/benchmarks.md`` replaces the generated section
@@ -79,7 +80,7 @@ def table_lines(results: Sequence[CaseResult]) -> list[str]:
     """Markdown table of all contenders, with the thread mode, load average and quietness of each case."""
     lines = [
         "| case | threads | contender | best / s | median / s | deviation from truth (mm / rad) | target "
-        "| ratio / rate | met | 1-min load before -> after | quiet |",
+        "| ratio / rate | met | 1-min load before -> after; others' CPU | quiet |",
         "|---|---|---|---|---|---|---|---|---|---|---|",
     ]
     for result in results:
@@ -120,8 +121,9 @@ def report_lines(results: Sequence[CaseResult], failures: Sequence[str], command
             lines.append(f"- {result.threads}: {environment.describe_threads(result.before)}")
     quiet = [environment.is_quiet(result.before, result.after) for result in results]
     if any(value is False for value in quiet):
-        lines += ["", "**Not a quiet machine** for the cases marked so (1-minute load at or above "
-                  f"{environment.QUIET_LOAD} per core): their times are not quiet-machine figures."]
+        lines += ["", "**Not a quiet machine** for the cases marked so (other processes used "
+                  f"{100 * environment.QUIET_SHARE:.0f} % or more of the CPU during the case): their times are "
+                  "not quiet-machine figures."]
     if failures:
         lines += ["", "Cases that could not run:", "", *[f"- {failure}" for failure in failures]]
     return lines
