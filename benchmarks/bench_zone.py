@@ -371,7 +371,8 @@ def axial_small_sets_case(sets: int) -> list[list]:
 def _print(title: str, rows: list[dict]) -> None:
     keys = [k for k in rows[0] if k not in ("contender", "seconds", "note")]
     print(f"\n### {title}\n")
-    print("| contender | time / s | " + " | ".join(k.replace("_", " ") for k in keys) + " | note |")
+    print("| contender | time / s | " + " | ".join(k.replace("_", " ").replace("center", "centre") for k in keys)
+          + " | note |")
     print("|---|---|" + "---|" * len(keys) + "---|")
     for row in rows:
         cells = " | ".join(f"{row[k]:.2e}" for k in keys)

@@ -129,7 +129,7 @@ def stream_sphere_case(n_points: int, repeat: int) -> CaseResult:
     threads = os.environ.get("OPENBLAS_NUM_THREADS", "default")
     contenders = [
         Contender("pcmm fit sphere (3 GB address-space cap)", ours[0],
-                  {"center vs peer fit": center_diff, "radius vs peer fit": radius_diff},
+                  {"centre vs peer fit": center_diff, "radius vs peer fit": radius_diff},
                   f"peak RSS {peak:.0f} MB (array {n_points * 24 / 1e6:.0f} MB); whole command, interpreter "
                   f"start included; runs {', '.join(f'{r[0]:.3g}' for r in pcmm_runs)} s"),
         Contender("open3d read .xyz + fit_sphere (in memory)", best_peer["total_s"], {},

@@ -125,7 +125,7 @@ def dask_sphere_case(n_points: int, compare_points: int, chunk: int, threads: in
     del threads
     equal = _child(compare_points, chunk, compare=True)
     big = _child(n_points, chunk, compare=False)
-    deviations = {"center vs in-memory": equal["in_memory_center_difference_mm"],
+    deviations = {"centre vs in-memory": equal["in_memory_center_difference_mm"],
                   "radius vs in-memory": equal["in_memory_radius_difference_mm"]}
     contenders = [
         Contender(f"fit_sphere(dask), {compare_points:,} points", equal["seconds"], deviations,

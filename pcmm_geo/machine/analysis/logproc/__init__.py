@@ -24,7 +24,7 @@ tips, each with its covariance, its external reliability and its flags
 - :mod:`~pcmm_geo.machine.analysis.logproc.dpkm` -- the seed's own processing, for comparison.
 
 How the seed used the rows (Appendix D, lines 98-257), and what is kept
-----------------------------------------------------------------------
+-----------------------------------------------------------------------
 * Row 1 sets the datum.  Here it is the start position (``initial_heights``): the thesis starts
   every log at one encoder count for all motors (6.3), so all three start heights are known and
   the first row's lasers check them.

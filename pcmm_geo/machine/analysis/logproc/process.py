@@ -1,7 +1,7 @@
 """Probe points from a Table 3.2 log: network adjustment, gate, uncertainty and reliability of every row.
 
 How the pieces combine (flags of :class:`ProcessedLog`, ``pcmm process-log`` options)
-----------------------------------------------------------------------------------
+-------------------------------------------------------------------------------------
 1. *Gate* (``inconsistent``): a reading whose w-test fails (or, with ``closure_tolerance`` /
    ``--max-closure-mm MM``, a row whose closure residual exceeds MM) is refused.  By default the
    log is refused (:class:`~pcmm_geo.errors.InconsistentMeasurementError`, exit 2).  With
@@ -21,6 +21,7 @@ How the pieces combine (flags of :class:`ProcessedLog`, ``pcmm process-log`` opt
 4. *Uncertainty* (``uncertain``): ``tip_uncertainty`` above ``max_tip_uncertainty`` /
    ``--max-tip-u-mm`` (default 1 mm): kept, flagged, warned about; ``--refuse-uncertain`` makes such
    a probe point refuse the log (exit 2).
+
 The gate decides first (it changes the adjustment), the other flags describe the final one.
 """
 
