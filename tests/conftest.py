@@ -87,6 +87,7 @@ EXTRAS_NEEDED = {
     "cli/test_bad_input.py::test_bad_file_gives_one_line_naming_it_and_exit_2[calibrate feature": "qif",
     "cli/test_bad_input.py::test_hostile_qif_gives_one_line_and_writes_nothing": "qif",
     "cli/test_cli_qif.py": "qif",
+    "cli/test_cli_cmm_files.py": "qif",
     "cmm/test_qif_pts_sample.py": "qif",
     "cmm/test_reference_qif.py": "qif",
     "machine/test_calibration_qif.py": "qif",
