@@ -4,11 +4,13 @@ nitpicky references, and a broken reference does fail it."""
 
 from __future__ import annotations
 
+import contextlib
 import os
 import re
 import shutil
 import subprocess
 import sys
+from collections.abc import Iterator
 from pathlib import Path
 
 import pytest
@@ -77,13 +79,44 @@ def _sphinx(source: Path, out: Path) -> subprocess.CompletedProcess[str]:
 
 @pytest.fixture(scope="module")
 def site(tmp_path_factory: pytest.TempPathFactory) -> Path:
-    """The whole site, built once from a copy of ``docs/`` with warnings as errors and nitpicky references."""
-    tmp_path = tmp_path_factory.mktemp("site")
-    source = tmp_path / "docs"
-    shutil.copytree(DOCS, source, ignore=shutil.ignore_patterns("_build", "generated"))
-    done = _sphinx(source, tmp_path / "build")
-    assert done.returncode == 0, done.stderr[-6000:]
-    return tmp_path / "build" / "html"
+    """The whole site, built once per test session from a copy of ``docs/`` with warnings as errors and
+    nitpicky references.
+
+    Parallel workers (pytest-xdist) share one build: the first to take the lock builds it in the session's
+    common temporary folder, the others wait and read it (a failed build is reported by each).
+    """
+    root = tmp_path_factory.getbasetemp()
+    if os.environ.get("PYTEST_XDIST_WORKER"):
+        root = root.parent  # common to the session's workers
+    folder = root / "docs-site"
+    with _session_lock(root / "docs-site.lock"):
+        outcome = folder / "outcome.txt"
+        if not outcome.exists():
+            if folder.exists():
+                shutil.rmtree(folder)
+            source = folder / "docs"
+            shutil.copytree(DOCS, source, ignore=shutil.ignore_patterns("_build", "generated"))
+            done = _sphinx(source, folder / "build")
+            outcome.write_text("ok" if done.returncode == 0 else done.stderr[-6000:] or "failed", encoding="utf-8")
+    result = outcome.read_text(encoding="utf-8")
+    assert result == "ok", result
+    return folder / "build" / "html"
+
+
+@contextlib.contextmanager
+def _session_lock(path: Path) -> Iterator[None]:
+    """An exclusive lock on ``path`` across processes (POSIX ``flock``; elsewhere workers build their own site)."""
+    try:
+        import fcntl
+    except ImportError:  # pragma: no cover - not POSIX
+        yield
+        return
+    with path.open("a") as handle:
+        fcntl.flock(handle, fcntl.LOCK_EX)
+        try:
+            yield
+        finally:
+            fcntl.flock(handle, fcntl.LOCK_UN)
 
 
 def test_docs_build_with_warnings_as_errors_and_nitpicky_references(site: Path) -> None:

@@ -14,8 +14,10 @@ Four scans, all seeded, all against the simulator's own heights and tips
     row: refused or accepted; an accepted fault must lie below its MDB, and every point within
     U (k = 2) + R (+ ambiguity) of the truth.
 ``power``
-    sessions with Gaussian noise at the stated sigma, a fault of exactly the MDB on one reading:
-    the fraction refused (Baarda: at least the power, 80 %), with a binomial interval.
+    sessions with Gaussian noise at the stated sigma, a fault of the MDB (or a multiple of it) on one
+    reading: the fraction refused (Baarda: the power, 80 % at one MDB) beside the theory's
+    ``P(|N(delta, 1)| > k)``, with a binomial interval, split by whether the fault changed the
+    log's segments (read as a further move of the motor).
 ``mdb``
     ranges of the redundancy numbers, MDBs and external reliabilities.
 
@@ -157,34 +159,71 @@ def scan_faults(paths: dict, every: int) -> dict:
     return results
 
 
-def scan_power(paths: dict, rng: np.random.Generator, trials: int, sigma: float) -> dict:
-    """Faults of exactly the MDB (from the processing of the noisy log without the fault) on readings of every arm."""
-    refused = total = 0
-    examples = []
+def theoretical_power(noncentrality: float, critical: float) -> float:
+    """``P(|N(delta, 1)| > k)``: the w-test's power against a fault of ``delta`` standard deviations."""
+    from scipy.stats import norm
+
+    return float(norm.sf(critical - noncentrality) + norm.cdf(-critical - noncentrality))
+
+
+def scan_power(paths: dict, rng: np.random.Generator, trials: int, sigma: float,
+               multiples: tuple[float, ...] = (1.0,)) -> dict:
+    """Faults of ``multiple`` times the MDB (from the processing of the noisy log without the fault) on one reading.
+
+    A trial draws fresh Gaussian noise, processes the log without a fault (a log refused then is a false alarm,
+    not a power trial), puts a fault of the stated multiple of that reading's MDB with a random sign on a random
+    reading of a row that begins a height, and processes again.  Trials are split by whether the faulty log kept
+    the segments of the clean one: a fault that makes the next start row look like a further move of the motor
+    (thesis 3.5: the tetrahedron settling) changes the model the w-test works in, and the MDB of the clean model
+    no longer applies to it.
+    """
+    from pcmm_geo.machine.analysis.logproc.gate import gate_limits
+
+    limits = gate_limits(0.001, 0.8)
+    entries = {m: {"trials": 0, "refused": 0, "same_segments": [0, 0], "other_segments": [0, 0]} for m in multiples}
+    false_alarms = clean_trials = 0
     for (start, _), path in paths.items():
         if start != "off":
             continue
         clean = read_log(path)
-        for trial in range(trials):
+        for _trial in range(trials):
             noisy = with_laser_noise(clean, rng, sigma, SEED_LASER_STEPS)
+            clean_trials += 1
             try:
                 reference = process(path, noisy, laser_sigma=sigma)
             except REFUSED:
-                continue  # a false alarm of the clean noisy log: not a power trial
+                false_alarms += 1
+                continue
             observed = np.flatnonzero(np.isfinite(reference.mdb).all(axis=1) & (reference.moved_arm >= 0))
             row = int(rng.choice(observed))
             arm = int(rng.integers(3))
-            size = float(reference.mdb[row, arm]) * float(rng.choice((-1.0, 1.0)))
-            total += 1
-            try:
-                process(path, with_reading_fault(noisy, row, arm, size), laser_sigma=sigma)
-            except REFUSED:
-                refused += 1
-            if trial < 3:
-                examples.append({"row": row, "arm": arm, "mdb_mm": abs(size)})
-    return {"trials": total, "refused": refused, "fraction": refused / max(total, 1),
-            "interval": binomial_interval(refused, total), "stated_power": 0.8, "sigma_mm": sigma,
-            "examples": examples}
+            sign = float(rng.choice((-1.0, 1.0)))
+            for multiple in multiples:
+                entry = entries[multiple]
+                size = float(reference.mdb[row, arm]) * sign * multiple
+                out = process(path, with_reading_fault(noisy, row, arm, size), laser_sigma=sigma,
+                              on_inconsistent="flag")
+                refused = bool(out.inconsistent.any())
+                kind = "same_segments" if np.array_equal(out.moved_arm, reference.moved_arm) else "other_segments"
+                entry["trials"] += 1
+                entry["refused"] += int(refused)
+                entry[kind][0] += int(refused)
+                entry[kind][1] += 1
+    result: dict = {"sigma_mm": sigma, "stated_power": 0.8, "clean_logs": clean_trials,
+                    "clean_logs_refused": false_alarms,
+                    "clean_logs_refused_interval": binomial_interval(false_alarms, max(clean_trials, 1))}
+    for multiple, entry in entries.items():
+        same, other = entry["same_segments"], entry["other_segments"]
+        result[f"{multiple:g} MDB"] = {
+            "theory": theoretical_power(multiple * limits.noncentrality, limits.critical),
+            "trials": entry["trials"], "refused": entry["refused"],
+            "fraction": entry["refused"] / max(entry["trials"], 1),
+            "interval": binomial_interval(entry["refused"], entry["trials"]),
+            "same_segments": {"trials": same[1], "refused": same[0], "fraction": same[0] / max(same[1], 1),
+                              "interval": binomial_interval(same[0], same[1])},
+            "read_as_further_move": {"trials": other[1], "refused": other[0]},
+        }
+    return result
 
 
 def reliability_ranges(paths: dict) -> dict:
@@ -211,15 +250,25 @@ def reliability_ranges(paths: dict) -> dict:
 def run(arguments: argparse.Namespace) -> dict:
     rng = np.random.default_rng(arguments.rng_seed)
     started = time.perf_counter()
+    only = set(arguments.only or ("sessions", "faults", "power", "reliability"))
+    seeds = max(arguments.seeds if only & {"sessions", "reliability"} else 0,
+                arguments.fault_seeds if "faults" in only else 0, arguments.power_seeds if "power" in only else 0)
+    report: dict = {"seeds": arguments.seeds, "moves": arguments.moves}
     with tempfile.TemporaryDirectory() as folder:
         paths = {(start, seed): acquire(Path(folder), seed, start, arguments.moves)
-                 for start in ("level", "off") for seed in range(1, arguments.seeds + 1)}
-        report = {"seeds": arguments.seeds, "moves": arguments.moves, "sessions": scan_sessions(paths, rng)}
-        fault_paths = {key: path for key, path in paths.items() if key[1] <= arguments.fault_seeds}
-        report["faults"] = scan_faults(fault_paths, arguments.every)
-        power_paths = {key: path for key, path in paths.items() if key[1] <= arguments.fault_seeds}
-        report["power"] = scan_power(power_paths, rng, arguments.trials, arguments.power_sigma)
-        report["reliability"] = reliability_ranges(paths)
+                 for start in ("level", "off") for seed in range(1, seeds + 1)}
+        session_paths = {key: path for key, path in paths.items() if key[1] <= arguments.seeds}
+        if "sessions" in only:
+            report["sessions"] = scan_sessions(session_paths, rng)
+        if "faults" in only:
+            fault_paths = {key: path for key, path in paths.items() if key[1] <= arguments.fault_seeds}
+            report["faults"] = scan_faults(fault_paths, arguments.every)
+        if "power" in only:
+            power_paths = {key: path for key, path in paths.items() if key[1] <= arguments.power_seeds}
+            report["power"] = scan_power(power_paths, rng, arguments.trials, arguments.power_sigma,
+                                         tuple(arguments.power_multiples))
+        if "reliability" in only:
+            report["reliability"] = reliability_ranges(session_paths)
     report["seconds"] = round(time.perf_counter() - started, 1)
     return report
 
@@ -231,6 +280,11 @@ def main_(argv: list[str] | None = None) -> int:
     parser.add_argument("--fault-seeds", type=int, default=4, help="sessions per start in the fault scan (default 4)")
     parser.add_argument("--every", type=int, default=3, help="fault on every k-th row (default 3)")
     parser.add_argument("--trials", type=int, default=100, help="power trials per session (default 100)")
+    parser.add_argument("--power-seeds", type=int, default=4, help="off-level sessions in the power scan (default 4)")
+    parser.add_argument("--power-multiples", type=float, nargs="+", default=[1.0],
+                        help="fault sizes of the power scan in MDBs (default 1)")
+    parser.add_argument("--only", choices=("sessions", "faults", "power", "reliability"), nargs="+",
+                        help="run only these scans")
     parser.add_argument("--power-sigma", type=float, default=0.02, help="Gaussian noise of the power scan, mm")
     parser.add_argument("--rng-seed", type=int, default=22)
     parser.add_argument("--quick", action="store_true", help="4 seeds, 2 fault sessions, every 8th row, 30 trials")
@@ -238,6 +292,7 @@ def main_(argv: list[str] | None = None) -> int:
     arguments = parser.parse_args(argv)
     if arguments.quick:
         arguments.seeds, arguments.fault_seeds, arguments.every, arguments.trials = 4, 2, 8, 30
+        arguments.power_seeds = 2
     report = run(arguments)
     text = json.dumps(report, indent=1)
     if arguments.out:

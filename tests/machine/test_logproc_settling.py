@@ -13,11 +13,12 @@ import warnings
 from pathlib import Path
 
 import numpy as np
+import pytest
 
 from pcmm_geo.acquisition.acqlog import read_log as read_acquisition_log
 from pcmm_geo.acquisition.simulators.cmm import simulated_truth
 from pcmm_geo.cli import main
-from pcmm_geo.errors import IllConditionedWarning
+from pcmm_geo.errors import IllConditionedWarning, InconsistentMeasurementError
 from pcmm_geo.machine.analysis.logproc import MeasurementLog, process_log, read_log
 from pcmm_geo.machine.analysis.logproc.reliability import SETTLING_PLAY
 from pcmm_geo.machine.analysis.logproc.synthesis import with_reading_fault
@@ -49,22 +50,28 @@ def test_faulty_reading_read_as_a_large_further_move_gets_no_bound(tmp_path: Pat
     assert np.all(error <= out.bound + 1e-9)  # every point within its bound, or unbounded
 
 
-def test_faulty_stop_row_followed_by_a_start_row_that_seems_to_move_back_gets_no_bound(tmp_path: Path) -> None:
-    """Seed 2, level start, stop row 4 (0-based 3), laser a 5 mm off: read as a 50 mm move of pivot a and
-    a 52 mm further move back on the next start row. Before: the stop row's tip 44.7 mm off, bound 40.2 mm."""
+def test_faulty_stop_row_followed_by_a_start_row_that_seems_to_move_back_is_refused(tmp_path: Path) -> None:
+    """Seed 2, level start, stop row 4 (0-based 3), laser a 5 mm off: the next start row differs from it as if
+    pivot a had moved back 52 mm.  A settling tetrahedron follows its motor (thesis 3.5), so a difference against
+    the motor's direction is no further move: the start row reads the same pose and the w-test finds the fault.
+    Before: read as a move and a move back, the stop row's tip 44.7 mm off and accepted, unbounded."""
     path = tmp_path / "level_2.csv"
     with contextlib.redirect_stdout(io.StringIO()):
         assert main(["acquire", "--simulate", "--seed", "2", "--moves", "60", "--settle", "0",
                      "--out", str(path)]) == 0
     start = [float(v) for v in read_acquisition_log(path).metadata["start_heights_mm"].split()]
     _, truth = simulated_truth(path)
+    faulty = with_reading_fault(read_log(path), 3, 0, 5.0)
+    with pytest.raises(InconsistentMeasurementError, match=r"log row 4: .*stop row, laser a: w = 1\d\d "):
+        process_log(RigidBodyMachine.from_dpkm(), faulty, initial_heights=start)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
-        out = process_log(RigidBodyMachine.from_dpkm(), with_reading_fault(read_log(path), 3, 0, 5.0),
-                          initial_heights=start)
+        out = process_log(RigidBodyMachine.from_dpkm(), faulty, initial_heights=start, on_inconsistent="flag")
+    assert np.argwhere(out.faulty_readings).tolist() == [[3, 0]]
+    assert out.moved_arm[4] == -1  # the start row: another reading of the stop row's pose
     error = np.linalg.norm(out.tips - truth, axis=1)
-    assert error[3] > 40.0 and out.unbounded[3] and out.unbounded[4]
-    assert np.all(error <= out.bound + 1e-9)
+    kept = ~out.inconsistent
+    assert np.all(error[kept] <= out.bound[kept] + 1e-9)
 
 
 def test_further_move_within_the_play_is_no_flag() -> None:

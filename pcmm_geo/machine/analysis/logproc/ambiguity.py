@@ -42,6 +42,7 @@ from pcmm_geo.machine.analysis.logproc.segments import (
     LogSegments,
     reading_weights,
     segment_misfit,
+    taylor_shift,
 )
 from pcmm_geo.machine.kinematics import _pose_solver as solver
 
@@ -79,8 +80,7 @@ def _admissible(segments: LogSegments, values: FloatArray, segment: int) -> tupl
 def _reach(coefficients: FloatArray, estimate: float, critical: float, low: float, high: float) -> float:
     """Signed shift from ``estimate`` to the farthest height in ``[low, high]`` with a misfit within ``critical^2``."""
     level = float(np.polyval(coefficients, estimate)) + critical**2
-    shifted = np.poly1d(coefficients)(np.poly1d([1.0, estimate])).coeffs  # in s - estimate
-    shifted = np.concatenate([np.zeros(5 - len(shifted)), shifted])
+    shifted = np.array(taylor_shift([float(value) for value in coefficients], estimate))  # in s - estimate
     shifted[-1] -= level
     roots = np.roots(shifted) if np.any(shifted[:-1]) else np.zeros(0)
     ends = [r.real + estimate for r in roots if abs(r.imag) <= 1e-9 * max(1.0, abs(r))]

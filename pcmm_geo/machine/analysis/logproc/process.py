@@ -34,7 +34,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from pcmm_geo.errors import ConvergenceError, IllConditionedWarning, InvalidInputError
+from pcmm_geo.errors import ConvergenceError, InvalidInputError
 from pcmm_geo.machine.analysis.logproc.adjustment import Adjustment, adjust
 from pcmm_geo.machine.analysis.logproc.ambiguity import competing_fits, find_ambiguities
 from pcmm_geo.machine.analysis.logproc.branches import branch_hypotheses
@@ -51,11 +51,11 @@ from pcmm_geo.machine.analysis.logproc.gate import (
 )
 from pcmm_geo.machine.analysis.logproc.geometry import GEOMETRY_PARAMETERS
 from pcmm_geo.machine.analysis.logproc.reliability import (
-    SETTLING_PLAY,
     change_uncertainty,
     geometry_tip_covariance,
     implausible_settling,
     reading_influence,
+    warn_flags,
 )
 from pcmm_geo.machine.analysis.logproc.rows import MeasurementLog
 from pcmm_geo.machine.analysis.logproc.segments import STILL, LogSegments, moved_further, segment_log
@@ -369,7 +369,8 @@ def _settle_start_rows(machine: RigidBodyMachine, log: MeasurementLog, sigmas: F
     settled = frozenset(
         row for row in starts
         if np.all(np.isfinite(sigmas[[row, row - 1]])) and not moved_further(
-            log.lasers[row] - log.lasers[row - 1], gains[index[row - 1]][:, segments.moved_arm[row]], per_arm, critical)
+            log.lasers[row] - log.lasers[row - 1], gains[index[row - 1]][:, segments.moved_arm[row]], per_arm, critical,
+            int(log.direction[row - 1]))
     )
     return segment_log(log, critical * np.sqrt(2.0) * per_arm, settled) if settled else segments
 
@@ -449,7 +450,7 @@ def _result(
     bound = 2.0 * tip_uncertainty + reliability + ambiguity
     over_bound = consistent & ~(bound <= max_bound)
     probe_rows = np.flatnonzero(probe & consistent & ~over_bound)
-    _warn_flags(ambiguous & consistent, ambiguity, unchecked, consistent & ~direction, consistent & settling)
+    warn_flags(ambiguous & consistent, ambiguity, unchecked, consistent & ~direction, consistent & settling)
     return ProcessedLog(
         heights=heights, tips=kinematics.tips[source], probe_rows=probe_rows, probe_points=kinematics.tips[source][
             probe_rows], rejected_probe_rows=np.flatnonzero(probe & (inconsistent | over_bound)),
@@ -479,33 +480,3 @@ def _contradicted_segments(adjustment: Adjustment, segments: object, critical: f
         sigma = change_uncertainty(adjustment, moved[suspects], segments.previous[moved[suspects]])
         contradicted[moved[suspects]] = change[suspects] < -np.maximum(STILL, critical * sigma)
     return contradicted
-
-
-def _warn_flags(ambiguous: BoolArray, ambiguity: FloatArray, unbounded: BoolArray, contradicted: BoolArray,
-                settling: BoolArray) -> None:
-    if ambiguous.any():
-        warnings.warn(
-            f"{int(ambiguous.sum())} of {len(ambiguous)} log rows are ambiguous: another pose (the mirror image about "
-            f"the level of the other pivots) fits the lasers and the motor directions as well, its tip up to "
-            f"{float(ambiguity[ambiguous].max()):.3g} mm away; their bound includes it",
-            IllConditionedWarning, stacklevel=3,
-        )
-    if unbounded.any():
-        warnings.warn(
-            f"{int(unbounded.sum())} of {len(unbounded)} log rows are unbounded: a reading that no test can check "
-            "(redundancy number 0) moves their tip, so an undetected fault of any size would",
-            IllConditionedWarning, stacklevel=3,
-        )
-    if contradicted.any():
-        warnings.warn(
-            f"{int(contradicted.sum())} of {len(contradicted)} log rows stand on a height that moved against its "
-            "recorded motor direction: the pose is on the wrong branch (mirror image) or the direction flag is "
-            "wrong; no bound is stated for them",
-            IllConditionedWarning, stacklevel=3,
-        )
-    if settling.any():
-        warnings.warn(
-            f"{int(settling.sum())} of {len(settling)} log rows stand on an unsettled start row read as a further move "
-            f"beyond the settling play ({SETTLING_PLAY:g} mm): likely a faulty reading; no bound is stated for them",
-            IllConditionedWarning, stacklevel=3,
-        )

@@ -32,19 +32,22 @@ Cost: one sparse solve per reading, in chunks; ``O(N R)`` for ``N`` rows and ``R
 
 from __future__ import annotations
 
+import warnings
 from dataclasses import dataclass
 
 import numpy as np
 from numpy.typing import NDArray
 
+from pcmm_geo.errors import IllConditionedWarning
 from pcmm_geo.machine.analysis.logproc.adjustment import Adjustment
 from pcmm_geo.machine.analysis.logproc.gate import GateLimits
 from pcmm_geo.machine.analysis.logproc.segments import LogSegments
 
 __all__ = ["SETTLING_PLAY", "Influence", "change_uncertainty", "geometry_tip_covariance", "implausible_settling",
-           "reading_influence"]
+           "reading_influence", "warn_flags"]
 
 FloatArray = NDArray[np.float64]
+BoolArray = NDArray[np.bool_]
 
 #: a tip moving less than this per mm of a reading's fault (mm/mm) counts as not moved by it
 NO_EFFECT = 1e-9
@@ -190,3 +193,34 @@ def implausible_settling(adjustment: Adjustment, segments: LogSegments, start_st
         implausible[flagged] = True
         implausible[segments.previous[flagged]] = True  # the stop row before may hold the faulty reading
     return implausible
+
+
+def warn_flags(ambiguous: BoolArray, ambiguity: FloatArray, unbounded: BoolArray, contradicted: BoolArray,
+                settling: BoolArray) -> None:
+    """One :class:`~pcmm_geo.errors.IllConditionedWarning` per kind of row whose bound is wide or not stated."""
+    if ambiguous.any():
+        warnings.warn(
+            f"{int(ambiguous.sum())} of {len(ambiguous)} log rows are ambiguous: another pose (the mirror image about "
+            f"the level of the other pivots) fits the lasers and the motor directions as well, its tip up to "
+            f"{float(ambiguity[ambiguous].max()):.3g} mm away; their bound includes it",
+            IllConditionedWarning, stacklevel=3,
+        )
+    if unbounded.any():
+        warnings.warn(
+            f"{int(unbounded.sum())} of {len(unbounded)} log rows are unbounded: a reading that no test can check "
+            "(redundancy number 0) moves their tip, so an undetected fault of any size would",
+            IllConditionedWarning, stacklevel=3,
+        )
+    if contradicted.any():
+        warnings.warn(
+            f"{int(contradicted.sum())} of {len(contradicted)} log rows stand on a height that moved against its "
+            "recorded motor direction: the pose is on the wrong branch (mirror image) or the direction flag is "
+            "wrong; no bound is stated for them",
+            IllConditionedWarning, stacklevel=3,
+        )
+    if settling.any():
+        warnings.warn(
+            f"{int(settling.sum())} of {len(settling)} log rows stand on an unsettled start row read as a further move "
+            f"beyond the settling play ({SETTLING_PLAY:g} mm): likely a faulty reading; no bound is stated for them",
+            IllConditionedWarning, stacklevel=3,
+        )

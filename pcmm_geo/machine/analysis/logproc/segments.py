@@ -46,7 +46,8 @@ from pcmm_geo.machine.analysis.logproc.geometry import PAIRS
 from pcmm_geo.machine.analysis.logproc.rows import MeasurementLog
 from pcmm_geo.machine.kinematics import _pose_solver as solver
 
-__all__ = ["LogSegments", "misfit_minima", "moved_further", "reading_weights", "segment_log", "segment_misfit"]
+__all__ = ["LogSegments", "misfit_minima", "moved_further", "reading_weights", "segment_log", "segment_misfit",
+           "taylor_shift"]
 
 FloatArray = NDArray[np.float64]
 IntArray = NDArray[np.int64]
@@ -193,10 +194,14 @@ def segment_misfit(
     ascending = polynomials[:, :, ::-1]  # (R, pair, degree 0..2)
     if per_row:
         products = np.einsum("rpq,rpi,rqj->rij", weights, ascending, ascending)  # (R, 3, 3)
-        return np.stack([np.trace(products[:, ::-1], offset=offset, axis1=1, axis2=2) for offset in range(2, -3, -1)],
-                        axis=1)
+        return products.reshape(count, 9) @ _DEGREE_OF_PRODUCT
     products = np.einsum("rpq,rpi,rqj->ij", weights, ascending, ascending)  # (3, 3): degree i times degree j
-    return np.array([np.trace(products[::-1], offset=offset) for offset in range(2, -3, -1)])  # degree 4 first
+    return products.reshape(9) @ _DEGREE_OF_PRODUCT
+
+
+#: (9, 5): the entry (i, j) of a product of two quadratics' coefficients (ascending) goes to degree i + j,
+#: columns highest degree first
+_DEGREE_OF_PRODUCT = np.array([[1.0 if i + j == 4 - k else 0.0 for k in range(5)] for i in range(3) for j in range(3)])
 
 
 def _cubic_real_roots(a: float, b: float, c: float, d: float) -> list[float]:
@@ -230,7 +235,7 @@ def _cubic_real_roots(a: float, b: float, c: float, d: float) -> list[float]:
     return roots
 
 
-def _taylor(coefficients: list[float], about: float) -> list[float]:
+def taylor_shift(coefficients: list[float], about: float) -> list[float]:
     """Coefficients (highest first) of ``p(about + x)`` for ``p`` given highest first (repeated Horner division)."""
     values = list(coefficients)
     degree = len(values) - 1
@@ -247,7 +252,7 @@ def misfit_minima(coefficients: FloatArray, about: float = 0.0) -> tuple[FloatAr
     stay of moderate size) in closed form, polished by Newton's method, and checked against
     :func:`numpy.roots` when a polished root does not make the slope vanish.
     """
-    shifted = _taylor([float(value) for value in coefficients], about)
+    shifted = taylor_shift([float(value) for value in coefficients], about)
     a, b, c, d, _ = shifted
     if not a > 0.0:
         return np.zeros(0), np.zeros(0)
@@ -261,7 +266,8 @@ def misfit_minima(coefficients: FloatArray, about: float = 0.0) -> tuple[FloatAr
     return minima + about, np.polyval(shifted, minima)
 
 
-def moved_further(difference: FloatArray, gain: FloatArray, sigmas: FloatArray, critical: float) -> bool:
+def moved_further(difference: FloatArray, gain: FloatArray, sigmas: FloatArray, critical: float,
+                  direction: int = 0) -> bool:
     """Whether a start row's laser difference from the row before ``(3,)`` is a further move of the previous motor.
 
     ``gain`` ``(3,)`` is ``dl/dH`` of that motor at the row before (mm/mm), ``sigmas`` the readings'
@@ -269,7 +275,10 @@ def moved_further(difference: FloatArray, gain: FloatArray, sigmas: FloatArray, 
     when a height change ``delta`` explains it (the rest within ``critical^2``, chi-square with two
     degrees of freedom read conservatively) and ``delta`` itself is beyond ``critical`` standard
     deviations.  A single faulty laser is not a move (its pattern is not the gain's), unless the
-    gain is nearly that laser's alone (near level), where the seed's rule stands.
+    gain is nearly that laser's alone (near level), where the seed's rule stands.  With the motor's
+    recorded ``direction`` (+1 up, -1 down; 0 unknown) the height change must also go that way:
+    the tetrahedron settles after the motor stopped by following it (thesis 3.5), so a difference
+    that would take the pivot back is a faulty reading of the same pose, for the gate.
 
     Examples
     --------
@@ -278,6 +287,8 @@ def moved_further(difference: FloatArray, gain: FloatArray, sigmas: FloatArray, 
     True
     >>> bool(moved_further(np.array([0.0, 0.2, 0.0]), gain, np.full(3, 0.01), 3.29))  # laser b off by 0.2 mm
     False
+    >>> bool(moved_further(gain * 2.0, gain, np.full(3, 0.01), 3.29, direction=-1))  # 2 mm back down
+    False
     """
     weight = 1.0 / (2.0 * np.asarray(sigmas, dtype=float) ** 2)
     information = float(np.sum(weight * gain**2))
@@ -285,4 +296,5 @@ def moved_further(difference: FloatArray, gain: FloatArray, sigmas: FloatArray, 
         return False
     delta = float(np.sum(weight * gain * difference)) / information
     rest = float(np.sum(weight * (difference - gain * delta) ** 2))
-    return rest <= critical**2 and abs(delta) * np.sqrt(information) > critical
+    along = delta * np.sign(direction) if direction else abs(delta)
+    return rest <= critical**2 and along * np.sqrt(information) > critical
