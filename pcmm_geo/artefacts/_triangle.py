@@ -299,8 +299,9 @@ class NeighbourLists:
     distance, slightly enlarged) describe every triangle, ``listed_radius[t]`` is the largest
     radius in the list of ``t``.  ``centroid_axes`` are the centroid coordinates, one array
     per axis, with an infinite entry ``F`` for the padding; ``tree`` a k-d tree over the centroids.
-    ``near_axes`` are the same in float32 relative to ``origin`` (the centre of their box), at most
-    ``extent`` from it in each coordinate: the list test reads half the memory.
+    ``listed_near[t]`` (3, width) holds the centroids of the list of ``t`` in float32 relative to
+    ``origin`` (the centre of their box; at most ``extent`` from it in each coordinate; infinite
+    for the padding): the list test reads one contiguous row per point, half the bytes of float64.
     """
 
     listed: IntArray
@@ -312,7 +313,7 @@ class NeighbourLists:
     tree: Any
     origin: FloatArray
     extent: float
-    near_axes: tuple[NDArray[np.float32], NDArray[np.float32], NDArray[np.float32]]
+    listed_near: NDArray[np.float32]
 
 
 @dataclass(frozen=True)
@@ -391,16 +392,17 @@ def neighbour_lists(triangles: FloatArray) -> NeighbourLists:
     distance, listed = distance.reshape(count, asked), listed.reshape(count, asked)
     # a full list is complete only below its last distance; rounding of the distances is allowed for
     within = np.where(np.isfinite(distance[:, -1]), distance[:, -1], bound)
-    within = within * (1.0 - SLACK) - ROUNDING * (1.0 + np.abs(centroids).max(axis=1))
+    size = np.maximum(np.maximum(np.abs(centroid_rows[0]), np.abs(centroid_rows[1])), np.abs(centroid_rows[2]))
+    within = within * (1.0 - SLACK) - ROUNDING * (1.0 + size)
     listed[listed == np.arange(count)[:, None]] = count  # the triangle itself is not listed (padding: count)
     listed_radius = np.take(np.append(radius, 0.0), listed).max(axis=1)
     axes = tuple(np.append(values, np.inf) for values in centroid_rows)
     origin = (centroid_rows.min(axis=1) + centroid_rows.max(axis=1)) / 2.0
-    near = tuple(np.append(values - centre, np.inf).astype(np.float32) for values, centre in zip(centroid_rows, origin,
-                                                                                                  strict=True))
+    near = np.stack([np.take(np.append(values - centre, np.inf).astype(np.float32), listed)
+                     for values, centre in zip(centroid_rows, origin, strict=True)], axis=1)  # (F, 3, width)
     return NeighbourLists(listed=listed, complete_within=within, centroids=centroids, radius=radius,
                           listed_radius=listed_radius, centroid_axes=axes, tree=tree, origin=origin,
-                          extent=float(np.abs(centroids - origin).max()), near_axes=near)
+                          extent=float(np.abs(centroids - origin).max()), listed_near=near)
 
 
 def listed_pairs(lists: NeighbourLists, coordinates: FloatArray, reach: FloatArray, face_index: IntArray,
@@ -432,19 +434,20 @@ def listed_pairs(lists: NeighbourLists, coordinates: FloatArray, reach: FloatArr
     for start in range(0, coordinates.shape[1], _LISTED_POINTS_PER_BLOCK):
         rows = start + np.flatnonzero(local[start:start + _LISTED_POINTS_PER_BLOCK])
         candidate = np.take(face_index, rows)
-        listed = np.take(lists.listed, candidate, axis=0)
+        near = np.take(lists.listed_near, candidate, axis=0)  # (points, 3, width)
         limit = (np.take(reach, rows) + np.take(lists.listed_radius, candidate) + np.take(allowance, rows))
         limit = (limit * (1.0 + 1e-6)).astype(np.float32)
-        squared = np.zeros(listed.shape, dtype=np.float32)
-        for axis in range(3):
-            offset = np.take(lists.near_axes[axis], listed)
-            offset -= np.take(near_points[axis], rows)[:, None]
+        squared = near[:, 0] - np.take(near_points[0], rows)[:, None]
+        squared *= squared
+        for axis in (1, 2):
+            offset = near[:, axis] - np.take(near_points[axis], rows)[:, None]
             offset *= offset
             squared += offset
         limit *= limit
         hit = np.flatnonzero(squared <= limit[:, None])  # the padding is infinitely far
-        points.append(np.take(rows, hit // width))
-        triangles.append(np.take(listed.ravel(), hit))
+        row_of_hit = hit // width
+        points.append(np.take(rows, row_of_hit))
+        triangles.append(np.take(lists.listed, np.take(candidate, row_of_hit) * width + hit % width))
     return np.concatenate(points), np.concatenate(triangles), np.flatnonzero(~local)
 
 
