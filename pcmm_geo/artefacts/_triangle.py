@@ -14,8 +14,10 @@ from four planes per triangle (:func:`bounding_planes`), cheaper than the exact 
 equal to it wherever the nearest point lies inside the triangle or on an edge.
 
 The mesh-wide helpers of the index build come last: :func:`twin_edges` (is the mesh a closed
-oriented manifold, and which face lies across each edge), :func:`enclosed_volume` and
-:func:`feature_normals` (the pseudo-normals of the sign rule).
+oriented manifold, and which face lies across each edge), :func:`enclosed_volume`,
+:func:`edge_normals` and :func:`corner_normals` (the pseudo-normals of the sign rule).  They
+work on coordinates stored by axis (one contiguous row per coordinate), which keeps numpy's
+passes over the mesh few and cheap.
 """
 
 from __future__ import annotations
@@ -134,40 +136,64 @@ def _dot(left: FloatArray, right: FloatArray) -> FloatArray:
     return np.einsum("ij,ij->i", left, right)
 
 
-def bounding_planes(triangles: FloatArray) -> FloatArray:
+def bounding_planes(triangles: FloatArray) -> tuple[FloatArray, FloatArray]:
     """The plane of each triangle and the three planes through its edges perpendicular to it.
 
     Returns a (16, F) array (one contiguous row per coefficient, for fast gathers): the unit
     normal ``n`` and the outward unit edge normals ``m_k`` (in the triangle's plane, edge
     ``k`` from corner ``k`` to ``k + 1``) as rows 0-11, then the four offsets ``-n.a``,
     ``-m_k.v_k``.  A degenerate triangle (no area) gets zeros, which make
-    :func:`within_reach` keep every pair it is in.
+    :func:`within_reach` keep every pair it is in.  Also returns the (3, F) area vectors
+    ``(b - a) x (c - a)`` (twice the vector area; ``n`` is this one normalised), which the
+    enclosed volume and the corner angles reuse.
 
     For a point ``p`` with ``h = n.p - n.a`` and ``e = max(0, max_k m_k.p - m_k.v_k)``,
     ``sqrt(h^2 + e^2)`` is at most the distance from ``p`` to the triangle: the triangle lies
     in its plane, inside each edge's half-plane.  The bound is the distance itself when the
     nearest point lies inside the triangle or on an edge, and smaller only in a corner region.
     """
-    corners = np.asarray(triangles, dtype=np.float64)
-    cross = np.cross(corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0])
-    length = np.linalg.norm(cross, axis=1)
-    scale = np.abs(corners).max(axis=(1, 2)) + 1.0
+    corners = _by_axis(triangles)  # (corner, axis, F): every coordinate a contiguous row
+    area_vectors = _cross_rows(corners[1] - corners[0], corners[2] - corners[0])
+    length = np.sqrt(_dot_rows(area_vectors, area_vectors))
+    scale = np.abs(corners).max(axis=(0, 1)) + 1.0
     usable = length > 1e-14 * scale * scale
-    normal = np.zeros_like(cross)
-    normal[usable] = cross[usable] / length[usable, None]
-    planes = np.zeros((16, len(corners)))
-    planes[0:3] = normal.T
-    planes[12] = -_dot(normal, corners[:, 0])
+    planes = np.empty((16, corners.shape[2]))
+    normal = planes[0:3]
+    np.divide(area_vectors, np.where(usable, length, np.inf), out=normal)  # zero where degenerate
+    planes[12] = -_dot_rows(normal, corners[0])
     for k in range(3):
-        start, end = corners[:, k], corners[:, (k + 1) % 3]
-        outward = np.cross(end - start, normal)
-        size = np.linalg.norm(outward, axis=1)
-        fine = usable & (size > 0.0)
-        outward[fine] /= size[fine, None]
-        outward[~fine] = 0.0
-        planes[3 + 3 * k:6 + 3 * k] = outward.T
-        planes[13 + k] = -_dot(outward, start)
-    return planes
+        start = corners[k]
+        outward = planes[3 + 3 * k:6 + 3 * k]
+        outward[:] = _cross_rows(corners[(k + 1) % 3] - start, normal)
+        size = np.sqrt(_dot_rows(outward, outward))
+        outward /= np.where(usable & (size > 0.0), size, np.inf)
+        planes[13 + k] = -_dot_rows(outward, start)
+    return planes, area_vectors
+
+
+def _by_axis(triangles: FloatArray) -> FloatArray:
+    """Triangles (F, 3, 3) rearranged as (corner, axis, F), contiguous."""
+    return np.ascontiguousarray(np.asarray(triangles, dtype=np.float64).transpose(1, 2, 0))
+
+
+def _cross_rows(left: FloatArray, right: FloatArray) -> FloatArray:
+    """Cross products of vectors stored as rows of coordinates, (3, M) x (3, M) -> (3, M)."""
+    out = np.empty_like(left)
+    np.multiply(left[1], right[2], out=out[0])
+    out[0] -= left[2] * right[1]
+    np.multiply(left[2], right[0], out=out[1])
+    out[1] -= left[0] * right[2]
+    np.multiply(left[0], right[1], out=out[2])
+    out[2] -= left[1] * right[0]
+    return out
+
+
+def _dot_rows(left: FloatArray, right: FloatArray) -> FloatArray:
+    """Dot products of vectors stored as rows of coordinates, (3, M) . (3, M) -> (M,)."""
+    out = left[0] * right[0]
+    out += left[1] * right[1]
+    out += left[2] * right[2]
+    return out
 
 
 def within_reach(planes: FloatArray, triangle_of_pair: IntArray, coordinates: FloatArray,
@@ -215,29 +241,51 @@ def twin_edges(faces: IntArray, vertex_count: int) -> IntArray | None:
     >>> twin_edges(tetrahedron[:3], 4) is None  # a face missing: open
     True
     """
-    start = np.asarray(faces, dtype=np.int64).ravel()
-    end = np.asarray(faces, dtype=np.int64)[:, [1, 2, 0]].ravel()
-    if np.any(start == end):
+    start = np.asarray(faces, dtype=np.int64)
+    end = np.empty_like(start)
+    end[:, :2], end[:, 2] = start[:, 1:], start[:, 0]
+    start, end = start.ravel(), end.ravel()
+    if len(start) % 2 or np.any(start == end):
         return None
-    key = start * vertex_count + end
-    order = np.argsort(key)
-    ordered = key[order]
-    if np.any(ordered[1:] == ordered[:-1]):
+    # one sort by (undirected edge, direction): a closed oriented 2-manifold gives every undirected
+    # edge exactly twice, once each way, i.e. sorted keys in pairs (2 e, 2 e + 1)
+    key = np.minimum(start, end) * vertex_count
+    key += np.maximum(start, end)
+    key *= 2
+    key += start > end
+    order = _sorting_order(key)
+    forward, backward = order[0::2], order[1::2]
+    first, second = key[forward], key[backward]
+    if np.any(first % 2) or not np.array_equal(second, first + 1):
         return None
-    reverse = end * vertex_count + start
-    position = np.minimum(np.searchsorted(ordered, reverse), len(ordered) - 1)
-    if not np.array_equal(ordered[position], reverse):
-        return None
-    return order[position]
+    twins = np.empty_like(order)
+    twins[forward] = backward
+    twins[backward] = forward
+    return twins
+
+
+def _sorting_order(key: IntArray) -> IntArray:
+    """``np.argsort(key)`` (ties in index order) for int64 keys: a plain sort of key and index packed in one
+    integer when both fit in 63 bits (numpy's vectorised sort is several times faster than its argsort)."""
+    index_bits = max(1, (len(key) - 1).bit_length())
+    if len(key) == 0 or int(key.min()) < 0 or int(key.max()) >= 1 << (63 - index_bits):
+        return np.argsort(key)
+    packed = key << index_bits
+    packed |= np.arange(len(key))
+    packed.sort()
+    packed &= (1 << index_bits) - 1
+    return packed
 
 
 def corner_angles(triangles: FloatArray) -> FloatArray:
-    """Interior angle (rad) at each corner of each triangle, (F, 3); 0 at a corner of a degenerate triangle."""
-    angles = np.empty(triangles.shape[:2])
+    """Interior angle (rad) at each corner of each triangle, (F, 3); 0 or pi at a corner of a degenerate triangle."""
+    corners = _by_axis(triangles)
+    # |cross| of the two edges at a corner is twice the area, the same at every corner
+    doubled_area = np.sqrt(_dot_rows(*(2 * [_cross_rows(corners[1] - corners[0], corners[2] - corners[0])])))
+    angles = np.empty((corners.shape[2], 3))
     for k in range(3):
-        first = triangles[:, (k + 1) % 3] - triangles[:, k]
-        second = triangles[:, (k + 2) % 3] - triangles[:, k]
-        angles[:, k] = np.arctan2(np.linalg.norm(np.cross(first, second), axis=1), _dot(first, second))
+        at = corners[k]
+        angles[:, k] = np.arctan2(doubled_area, _dot_rows(corners[(k + 1) % 3] - at, corners[(k + 2) % 3] - at))
     return angles
 
 
@@ -251,8 +299,9 @@ class NeighbourLists:
     distance, slightly enlarged) describe every triangle, ``listed_radius[t]`` is the largest
     radius in the list of ``t``.  ``centroid_axes`` are the centroid coordinates, one array
     per axis, with an infinite entry ``F`` for the padding; ``tree`` a k-d tree over the centroids.
-    ``near_axes`` are the same in float32 relative to ``origin`` (the centre of their box), at most
-    ``extent`` from it in each coordinate: the list test reads half the memory.
+    ``listed_near[t]`` (3, width) holds the centroids of the list of ``t`` in float32 relative to
+    ``origin`` (the centre of their box; at most ``extent`` from it in each coordinate; infinite
+    for the padding): the list test reads one contiguous row per point, half the bytes of float64.
     """
 
     listed: IntArray
@@ -264,7 +313,7 @@ class NeighbourLists:
     tree: Any
     origin: FloatArray
     extent: float
-    near_axes: tuple[NDArray[np.float32], NDArray[np.float32], NDArray[np.float32]]
+    listed_near: NDArray[np.float32]
 
 
 @dataclass(frozen=True)
@@ -328,25 +377,32 @@ def neighbour_lists(triangles: FloatArray) -> NeighbourLists:
     """The centroid neighbour lists of every triangle (see :func:`listed_pairs`)."""
     from scipy.spatial import cKDTree
 
-    count = len(triangles)
-    centroids = triangles.mean(axis=1)
-    radius = np.linalg.norm(triangles - centroids[:, None, :], axis=2).max(axis=1) * (1.0 + SLACK)
+    corners = _by_axis(triangles)
+    count = corners.shape[2]
+    centroid_rows = corners[0] + corners[1]
+    centroid_rows += corners[2]
+    centroid_rows /= 3.0
+    squared = np.max([_dot_rows(corner - centroid_rows, corner - centroid_rows) for corner in corners], axis=0)
+    radius = np.sqrt(squared) * (1.0 + SLACK)
+    centroids = np.ascontiguousarray(centroid_rows.T)
     asked = min(_LISTED_NEIGHBOURS, count)
     bound = _LISTED_REACH * float(radius.max())
-    tree = cKDTree(centroids)
+    tree = cKDTree(centroids, balanced_tree=False)  # sliding midpoint: quicker to build, as quick to ask
     distance, listed = tree.query(centroids, k=asked, distance_upper_bound=bound, workers=-1)
     distance, listed = distance.reshape(count, asked), listed.reshape(count, asked)
     # a full list is complete only below its last distance; rounding of the distances is allowed for
     within = np.where(np.isfinite(distance[:, -1]), distance[:, -1], bound)
-    within = within * (1.0 - SLACK) - ROUNDING * (1.0 + np.abs(centroids).max(axis=1))
+    size = np.maximum(np.maximum(np.abs(centroid_rows[0]), np.abs(centroid_rows[1])), np.abs(centroid_rows[2]))
+    within = within * (1.0 - SLACK) - ROUNDING * (1.0 + size)
     listed[listed == np.arange(count)[:, None]] = count  # the triangle itself is not listed (padding: count)
-    listed_radius = np.append(radius, 0.0)[listed].max(axis=1)
-    axes = tuple(np.append(centroids[:, axis], np.inf) for axis in range(3))
-    origin = (centroids.min(axis=0) + centroids.max(axis=0)) / 2.0
-    near = tuple(np.append(centroids[:, axis] - origin[axis], np.inf).astype(np.float32) for axis in range(3))
+    listed_radius = np.take(np.append(radius, 0.0), listed).max(axis=1)
+    axes = tuple(np.append(values, np.inf) for values in centroid_rows)
+    origin = (centroid_rows.min(axis=1) + centroid_rows.max(axis=1)) / 2.0
+    near = np.stack([np.take(np.append(values - centre, np.inf).astype(np.float32), listed)
+                     for values, centre in zip(centroid_rows, origin, strict=True)], axis=1)  # (F, 3, width)
     return NeighbourLists(listed=listed, complete_within=within, centroids=centroids, radius=radius,
                           listed_radius=listed_radius, centroid_axes=axes, tree=tree, origin=origin,
-                          extent=float(np.abs(centroids - origin).max()), near_axes=near)
+                          extent=float(np.abs(centroids - origin).max()), listed_near=near)
 
 
 def listed_pairs(lists: NeighbourLists, coordinates: FloatArray, reach: FloatArray, face_index: IntArray,
@@ -378,32 +434,39 @@ def listed_pairs(lists: NeighbourLists, coordinates: FloatArray, reach: FloatArr
     for start in range(0, coordinates.shape[1], _LISTED_POINTS_PER_BLOCK):
         rows = start + np.flatnonzero(local[start:start + _LISTED_POINTS_PER_BLOCK])
         candidate = np.take(face_index, rows)
-        listed = np.take(lists.listed, candidate, axis=0)
+        near = np.take(lists.listed_near, candidate, axis=0)  # (points, 3, width)
         limit = (np.take(reach, rows) + np.take(lists.listed_radius, candidate) + np.take(allowance, rows))
         limit = (limit * (1.0 + 1e-6)).astype(np.float32)
-        squared = np.zeros(listed.shape, dtype=np.float32)
-        for axis in range(3):
-            offset = np.take(lists.near_axes[axis], listed)
-            offset -= np.take(near_points[axis], rows)[:, None]
+        squared = near[:, 0] - np.take(near_points[0], rows)[:, None]
+        squared *= squared
+        for axis in (1, 2):
+            offset = near[:, axis] - np.take(near_points[axis], rows)[:, None]
             offset *= offset
             squared += offset
         limit *= limit
         hit = np.flatnonzero(squared <= limit[:, None])  # the padding is infinitely far
-        points.append(np.take(rows, hit // width))
-        triangles.append(np.take(listed.ravel(), hit))
+        row_of_hit = hit // width
+        points.append(np.take(rows, row_of_hit))
+        triangles.append(np.take(lists.listed, np.take(candidate, row_of_hit) * width + hit % width))
     return np.concatenate(points), np.concatenate(triangles), np.flatnonzero(~local)
 
 
-def enclosed_volume(triangles: FloatArray) -> float:
-    """Signed volume (mm^3) enclosed by closed triangles (divergence theorem), about the centre of their box."""
-    centre = (triangles.min(axis=(0, 1)) + triangles.max(axis=(0, 1))) / 2.0
-    a, b, c = (triangles[:, k] - centre for k in range(3))
-    return float(np.einsum("ij,ij->", a, np.cross(b, c))) / 6.0
+def enclosed_volume(triangles: FloatArray, area_vectors: FloatArray | None = None) -> float:
+    """Signed volume (mm^3) enclosed by closed triangles (divergence theorem), about the centre of their box.
+
+    ``area_vectors``: the (3, F) ``(b - a) x (c - a)`` of :func:`bounding_planes`, if at hand;
+    ``(a - o) . ((b - a) x (c - a))`` equals ``(a - o) . ((b - o) x (c - o))``, six times the
+    volume of the tetrahedron of the face and the centre ``o``.
+    """
+    corners = _by_axis(triangles)
+    if area_vectors is None:
+        area_vectors = _cross_rows(corners[1] - corners[0], corners[2] - corners[0])
+    centre = (corners.min(axis=(0, 2)) + corners.max(axis=(0, 2))) / 2.0
+    return float(np.sum(_dot_rows(corners[0] - centre[:, None], area_vectors))) / 6.0
 
 
-def feature_normals(mesh: Any, faces: IntArray, triangles: FloatArray, face_normals: FloatArray,
-                     twins: IntArray | None) -> tuple[FloatArray, FloatArray]:
-    """Edge pseudo-normals (F, 3, 3) and angle-weighted vertex pseudo-normals (F, 3, 3).
+def edge_normals(mesh: Any, faces: IntArray, face_normals: FloatArray, twins: IntArray | None) -> FloatArray:
+    """Edge pseudo-normals (F, 3, 3): edge ``k`` of each face (v0v1, v1v2, v2v0), unnormalised.
 
     An edge's pseudo-normal is the sum of the normals of the faces sharing it: the face and
     its twin across the edge for a closed oriented mesh (``twins``), else every face trimesh
@@ -411,14 +474,17 @@ def feature_normals(mesh: Any, faces: IntArray, triangles: FloatArray, face_norm
     """
     count = len(faces)
     if twins is not None:
-        edge_normals = face_normals[:, None, :] + face_normals[twins // 3].reshape(count, 3, 3)
-    else:
-        unique_edges = np.asarray(mesh.faces_unique_edges, dtype=np.int64)  # (F, 3): v0v1, v1v2, v2v0
-        edge_sum = np.zeros((int(unique_edges.max()) + 1, 3))
-        np.add.at(edge_sum, unique_edges.ravel(), np.repeat(face_normals, 3, axis=0))
-        edge_normals = edge_sum[unique_edges]
+        return face_normals[:, None, :] + np.take(face_normals, twins // 3, axis=0).reshape(count, 3, 3)
+    unique_edges = np.asarray(mesh.faces_unique_edges, dtype=np.int64)  # (F, 3): v0v1, v1v2, v2v0
+    edge_sum = np.zeros((int(unique_edges.max()) + 1, 3))
+    np.add.at(edge_sum, unique_edges.ravel(), np.repeat(face_normals, 3, axis=0))
+    return edge_sum[unique_edges]
+
+
+def corner_normals(faces: IntArray, triangles: FloatArray, face_normals: FloatArray) -> FloatArray:
+    """Angle-weighted vertex pseudo-normals (F, 3, 3) at each corner of each face, unnormalised."""
     weighted = face_normals[:, None, :] * corner_angles(triangles)[:, :, None]
     vertex_count = int(faces.max()) + 1
     vertex_sum = np.column_stack([np.bincount(faces.ravel(), weights=weighted[:, :, axis].ravel(),
                                               minlength=vertex_count) for axis in range(3)])
-    return edge_normals, vertex_sum[faces]
+    return np.take(vertex_sum, faces, axis=0)

@@ -65,8 +65,9 @@ from pcmm_geo.artefacts._triangle import (
     SizeClass,
     bounding_planes,
     closest_on_triangles,
+    corner_normals,
+    edge_normals,
     enclosed_volume,
-    feature_normals,
     listed_pairs,
     neighbour_lists,
     pairs_within,
@@ -157,16 +158,17 @@ def check_closed_mesh(mesh: trimesh.Trimesh, *, what: str = "mesh") -> None:
     if faces.ndim != 2 or len(faces) == 0:
         raise InvalidInputError(what, "a mesh with at least one triangle", "no triangles")
     vertices = np.asarray(mesh.vertices, dtype=float)
-    _check_closed(mesh, twin_edges(faces, len(vertices)), vertices[faces], what)
+    twins = twin_edges(faces, len(vertices))
+    _check_closed(mesh, twins, enclosed_volume(vertices[faces]) if twins is not None else 0.0, what)
 
 
-def _check_closed(mesh: trimesh.Trimesh, twins: IntArray | None, triangles: FloatArray, what: str) -> None:
-    """:func:`check_closed_mesh` given the twin edges (None: not a closed oriented manifold) and the triangles.
+def _check_closed(mesh: trimesh.Trimesh, twins: IntArray | None, volume: float, what: str) -> None:
+    """:func:`check_closed_mesh` given the twin edges (None: not a closed oriented manifold) and the enclosed volume.
 
     A closed, consistently oriented mesh with a positive enclosed volume passes at once; any
     other goes through trimesh's checks, which name what is wrong.
     """
-    if twins is not None and enclosed_volume(triangles) > 0.0:
+    if twins is not None and volume > 0.0:
         return
     expected = "a closed mesh (watertight, consistently oriented, outward normals) for signed distances"
     if not mesh.is_watertight:
@@ -240,7 +242,8 @@ class SurfaceIndex:
         Pseudo-normal (sum of the two face normals) of edge ``k`` of each face, the edge
         opposite corner ``(k + 2) % 3`` (edges v0v1, v1v2, v2v0).
     corner_normals : ndarray, shape (F, 3, 3)
-        Angle-weighted pseudo-normal of the vertex at each corner.
+        Angle-weighted pseudo-normal of the vertex at each corner (made on first use: only
+        points nearest to a vertex need it).
     planes : ndarray, shape (16, F)
         Each triangle's plane and edge planes, for a lower bound of the distance
         (:func:`~pcmm_geo.artefacts._triangle.bounding_planes`).
@@ -255,7 +258,6 @@ class SurfaceIndex:
     triangles: FloatArray
     face_normals: FloatArray
     edge_normals: FloatArray
-    corner_normals: FloatArray
     planes: FloatArray
     neighbours: NeighbourLists
     scene_origin: FloatArray
@@ -285,15 +287,15 @@ class SurfaceIndex:
         vertices = np.asarray(mesh.vertices, dtype=float)
         if not np.all(np.isfinite(vertices)):
             raise InvalidInputError("mesh", "finite vertex coordinates", "NaN or inf")
-        triangles = vertices[faces]
+        triangles = np.take(vertices, faces, axis=0)
         twins = twin_edges(faces, len(vertices))
+        planes, area_vectors = bounding_planes(triangles)
         if require_closed:
-            _check_closed(mesh, twins, triangles, "mesh")
-        planes = bounding_planes(triangles)
+            _check_closed(mesh, twins, enclosed_volume(triangles, area_vectors) if twins is not None else 0.0, "mesh")
         face_normals = np.ascontiguousarray(planes[0:3].T)
-        edge_normals, corner_normals = feature_normals(mesh, faces, triangles, face_normals, twins)
-        return cls(triangles=triangles, face_normals=face_normals, edge_normals=edge_normals,
-                   corner_normals=corner_normals, planes=planes, neighbours=neighbour_lists(triangles),
+        return cls(triangles=triangles, face_normals=face_normals,
+                   edge_normals=edge_normals(mesh, faces, face_normals, twins), planes=planes,
+                   neighbours=neighbour_lists(triangles),
                    scene_origin=(vertices.min(axis=0) + vertices.max(axis=0)) / 2, vertices=vertices, faces=faces)
 
     @property
@@ -304,6 +306,15 @@ class SurfaceIndex:
             if groups is None:
                 groups = self._cache["size_classes"] = size_classes(self.neighbours)
         return groups
+
+    @property
+    def corner_normals(self) -> FloatArray:
+        """Angle-weighted vertex pseudo-normals at each corner, (F, 3, 3) (made on first use)."""
+        with _BUILDING:
+            normals = self._cache.get("corner_normals")
+            if normals is None:
+                normals = self._cache["corner_normals"] = corner_normals(self.faces, self.triangles, self.face_normals)
+        return normals
 
     def __getstate__(self) -> dict[str, Any]:
         # the open3d scene does not pickle (dask workers): each process builds its own
@@ -456,8 +467,9 @@ class SurfaceIndex:
         edge = (np.argmax(on_zero[at_edge], axis=1) + 1) % 3
         normals[at_edge] = self.edge_normals[face_index[at_edge], edge]
         at_vertex = np.flatnonzero(zero_count >= 2)
-        corner = np.argmax(barycentric[at_vertex], axis=1)
-        normals[at_vertex] = self.corner_normals[face_index[at_vertex], corner]
+        if len(at_vertex):
+            corner = np.argmax(barycentric[at_vertex], axis=1)
+            normals[at_vertex] = self.corner_normals[face_index[at_vertex], corner]
         length = np.linalg.norm(normals, axis=1, keepdims=True)
         return normals / np.where(length > 0.0, length, 1.0), zero_count == 0
 
