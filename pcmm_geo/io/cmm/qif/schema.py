@@ -7,8 +7,10 @@ beside it); ``schema_dir`` points at another copy.  libxml2 checks the schema's 
 references too (``xmlschema`` reports false key-reference errors on QIF's multi-line selectors).
 The schema's import of the W3C signature schema names a web address: it is skipped, never fetched.
 
-The file is parsed without DTDs, entities or network access (``resolve_entities=False``,
-``no_network=True``, ``load_dtd=False``) and within ``max_bytes``; it is untrusted here as well.
+The file is untrusted here as well: within ``max_bytes``, it is first read by defusedxml's expat
+parser (no DTD, so no entity and nothing external; depth and well-formedness checked, each
+refusal with its line), and only then parsed by libxml2, still without DTDs, entities or
+network access (``resolve_entities=False``, ``no_network=True``, ``load_dtd=False``).
 """
 
 from __future__ import annotations
@@ -28,8 +30,6 @@ __all__ = ["bundled_schema_dir", "validate_qif"]
 
 #: libxml2's deepest element nesting (with ``huge_tree``); deeper documents are refused as hostile
 _LIBXML2_MAX_DEPTH = 2048
-#: bytes of a file searched for its prolog (a longer prolog is left to the check after parsing)
-_PROLOG_BYTES = 1 << 20
 
 
 def bundled_schema_dir() -> Path:
@@ -114,7 +114,7 @@ def validate_qif(path: str | Path, schema_dir: str | Path | None = None, *,
     if size > max_bytes:
         raise UnsafeXmlError(name, f"file of {size} bytes exceeds the limit of {max_bytes} bytes "
                              f"(raise {spell_setting('max_bytes')} for larger files)", limit=max_bytes)
-    _refuse_doctype(name)
+    _screen(name)
     parser = etree.XMLParser(resolve_entities=False, no_network=True, load_dtd=False, huge_tree=True)
     try:
         document = etree.parse(name, parser)
@@ -125,37 +125,45 @@ def validate_qif(path: str | Path, schema_dir: str | Path | None = None, *,
         raise FileFormatError(name, f"not well-formed XML: {exc.msg}", exc.lineno) from None
     except OSError as exc:
         raise FileFormatError(name, f"cannot be read: {exc}") from None
-    if document.docinfo.internalDTD is not None or document.docinfo.system_url:  # a prolog _refuse_doctype missed
-        raise UnsafeXmlError(name, "has a document type declaration (DTD); refused")
     if schema.validate(document):
         return ()
     return tuple(f"line {error.line}: {error.message}" for error in schema.error_log)
 
 
-def _refuse_doctype(name: str) -> None:
-    """Refuse a document type declaration in the prolog before libxml2 sees it (its entities are never parsed).
+def _screen(name: str) -> None:
+    """Read the file once with defusedxml's expat parser before libxml2 sees it.
 
-    The prolog is an XML declaration, comments, processing instructions and white space before
-    the root element's start tag; anything else there is left to the parser to report.
+    A document type declaration (so any entity or external reference), nesting deeper than
+    libxml2 accepts, or XML that is not well formed is refused here with its line; the element
+    events are counted, nothing is kept.
     """
+    expatreader = require("defusedxml.expatreader", purpose="reading untrusted QIF files safely")
+    defused = require("defusedxml", purpose="reading untrusted QIF files safely")
+    from xml.sax import SAXParseException
+    from xml.sax.handler import ContentHandler
+
+    parser = expatreader.create_parser(forbid_dtd=True, forbid_entities=True, forbid_external=True)
+
+    class Depth(ContentHandler):
+        level = 0
+
+        def startElementNS(self, element: object, qualified: object, attributes: object) -> None:
+            self.level += 1
+            if self.level > _LIBXML2_MAX_DEPTH:
+                raise UnsafeXmlError(name, f"elements nested deeper than {_LIBXML2_MAX_DEPTH}; refused",
+                                     line=parser.getLineNumber(), limit=_LIBXML2_MAX_DEPTH)
+
+        def endElementNS(self, element: object, qualified: object) -> None:
+            self.level -= 1
+
+    parser.setFeature("http://xml.org/sax/features/namespaces", True)
+    parser.setContentHandler(Depth())
     try:
-        with open(name, "rb") as handle:
-            head = handle.read(_PROLOG_BYTES)
+        parser.parse(name)
+    except defused.DTDForbidden:
+        raise UnsafeXmlError(name, "has a document type declaration (DTD); refused",
+                             line=parser.getLineNumber()) from None
+    except SAXParseException as exc:
+        raise FileFormatError(name, f"not well-formed XML: {exc.getMessage()}", exc.getLineNumber()) from None
     except OSError as exc:
         raise FileFormatError(name, f"cannot be read: {exc.strerror or exc}") from None
-    position = 3 if head.startswith(b"\xef\xbb\xbf") else 0
-    while True:
-        while position < len(head) and head[position] in b" \t\r\n":
-            position += 1
-        if head.startswith(b"<!DOCTYPE", position):
-            raise UnsafeXmlError(name, "has a document type declaration (DTD); refused",
-                                 line=head.count(b"\n", 0, position) + 1)
-        for opening, closing in ((b"<?", b"?>"), (b"<!--", b"-->")):
-            if head.startswith(opening, position):
-                end = head.find(closing, position + len(opening))
-                if end < 0:
-                    return
-                position = end + len(closing)
-                break
-        else:
-            return
