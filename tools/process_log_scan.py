@@ -48,6 +48,7 @@ from pcmm_geo.acquisition.simulators.cmm import OFF_LEVEL_START_OFFSETS, simulat
 from pcmm_geo.cli import main  # noqa: E402
 from pcmm_geo.errors import ConvergenceError, InconsistentMeasurementError, OutOfRangeError  # noqa: E402
 from pcmm_geo.machine.analysis.logproc import SEED_LASER_STEPS, process_log, read_log  # noqa: E402
+from pcmm_geo.machine.analysis.logproc.gate import DEFAULT_ALPHA, DEFAULT_POWER, gate_limits, w_test_power  # noqa: E402
 from pcmm_geo.machine.analysis.logproc.synthesis import with_laser_noise, with_reading_fault  # noqa: E402
 from pcmm_geo.machine.kinematics.model import RigidBodyMachine  # noqa: E402
 
@@ -159,13 +160,6 @@ def scan_faults(paths: dict, every: int) -> dict:
     return results
 
 
-def theoretical_power(noncentrality: float, critical: float) -> float:
-    """``P(|N(delta, 1)| > k)``: the w-test's power against a fault of ``delta`` standard deviations."""
-    from scipy.stats import norm
-
-    return float(norm.sf(critical - noncentrality) + norm.cdf(-critical - noncentrality))
-
-
 def scan_power(paths: dict, rng: np.random.Generator, trials: int, sigma: float,
                multiples: tuple[float, ...] = (1.0,)) -> dict:
     """Faults of ``multiple`` times the MDB (from the processing of the noisy log without the fault) on one reading.
@@ -177,9 +171,7 @@ def scan_power(paths: dict, rng: np.random.Generator, trials: int, sigma: float,
     (thesis 3.5: the tetrahedron settling) changes the model the w-test works in, and the MDB of the clean model
     no longer applies to it.
     """
-    from pcmm_geo.machine.analysis.logproc.gate import gate_limits
-
-    limits = gate_limits(0.001, 0.8)
+    limits = gate_limits(DEFAULT_ALPHA, DEFAULT_POWER)
     entries = {m: {"trials": 0, "refused": 0, "same_segments": [0, 0], "other_segments": [0, 0]} for m in multiples}
     false_alarms = clean_trials = 0
     for (start, _), path in paths.items():
@@ -209,13 +201,13 @@ def scan_power(paths: dict, rng: np.random.Generator, trials: int, sigma: float,
                 entry["refused"] += int(refused)
                 entry[kind][0] += int(refused)
                 entry[kind][1] += 1
-    result: dict = {"sigma_mm": sigma, "stated_power": 0.8, "clean_logs": clean_trials,
+    result: dict = {"sigma_mm": sigma, "stated_power": DEFAULT_POWER, "clean_logs": clean_trials,
                     "clean_logs_refused": false_alarms,
                     "clean_logs_refused_interval": binomial_interval(false_alarms, max(clean_trials, 1))}
     for multiple, entry in entries.items():
         same, other = entry["same_segments"], entry["other_segments"]
         result[f"{multiple:g} MDB"] = {
-            "theory": theoretical_power(multiple * limits.noncentrality, limits.critical),
+            "theory": w_test_power(multiple * limits.noncentrality, limits.critical),
             "trials": entry["trials"], "refused": entry["refused"],
             "fraction": entry["refused"] / max(entry["trials"], 1),
             "interval": binomial_interval(entry["refused"], entry["trials"]),

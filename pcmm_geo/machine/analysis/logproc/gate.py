@@ -81,6 +81,7 @@ __all__ = [
     "gate_limits",
     "reading_error",
     "reading_sigmas",
+    "w_test_power",
     "worst_reading",
 ]
 
@@ -173,9 +174,24 @@ def gate_limits(alpha: float = DEFAULT_ALPHA, power: float = DEFAULT_POWER,
     if tolerance is not None and not (np.isfinite(tolerance) and tolerance > 0):
         raise InvalidInputError("closure_tolerance", "a positive finite number of mm", str(tolerance))
     critical = float(norm.isf(alpha / 2.0))
-    found = lambda delta: norm.sf(critical - delta) + norm.cdf(-critical - delta) - power  # noqa: E731
-    noncentrality = float(brentq(found, 0.0, critical + 10.0, xtol=1e-12))
+    noncentrality = float(brentq(lambda delta: w_test_power(delta, critical) - power, 0.0, critical + 10.0,
+                                 xtol=1e-12))
     return GateLimits(float(alpha), float(power), critical, noncentrality, tolerance)
+
+
+def w_test_power(noncentrality: float, critical: float) -> float:
+    """``P(|N(delta, 1)| > k)``: the probability that a w-test with critical value ``k`` finds a fault that
+    shifts its statistic by ``delta`` standard deviations.
+
+    Examples
+    --------
+    >>> limits = gate_limits(0.001, 0.8)
+    >>> round(w_test_power(limits.noncentrality, limits.critical), 6)
+    0.8
+    """
+    from scipy.stats import norm
+
+    return float(norm.sf(critical - noncentrality) + norm.cdf(-critical - noncentrality))
 
 
 def worst_reading(

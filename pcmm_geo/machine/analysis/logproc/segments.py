@@ -147,6 +147,11 @@ def reading_weights(distances: FloatArray, gradients: FloatArray, sigmas: FloatA
     return np.einsum("rji,rj,rjk->rik", inverse, weight, inverse)
 
 
+#: (9, 5): the entry (i, j) of a product of two quadratics' coefficients (ascending) goes to degree i + j,
+#: columns highest degree first
+_DEGREE_OF_PRODUCT = np.array([[1.0 if i + j == 4 - k else 0.0 for k in range(5)] for i in range(3) for j in range(3)])
+
+
 def segment_misfit(
     geometry: solver.Geometry,
     distances: FloatArray,
@@ -197,11 +202,6 @@ def segment_misfit(
         return products.reshape(count, 9) @ _DEGREE_OF_PRODUCT
     products = np.einsum("rpq,rpi,rqj->ij", weights, ascending, ascending)  # (3, 3): degree i times degree j
     return products.reshape(9) @ _DEGREE_OF_PRODUCT
-
-
-#: (9, 5): the entry (i, j) of a product of two quadratics' coefficients (ascending) goes to degree i + j,
-#: columns highest degree first
-_DEGREE_OF_PRODUCT = np.array([[1.0 if i + j == 4 - k else 0.0 for k in range(5)] for i in range(3) for j in range(3)])
 
 
 def _cubic_real_roots(a: float, b: float, c: float, d: float) -> list[float]:
