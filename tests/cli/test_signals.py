@@ -26,8 +26,12 @@ pytestmark = pytest.mark.skipif(sys.platform == "win32", reason="POSIX signals")
 
 # the child: pcmm with a writer that stops (and says so) half-way; the parent then signals it
 _SHIM = r"""
-import sys, time
+import signal, sys, time
 from pathlib import Path
+
+# a job started in the background by a non-interactive shell inherits SIGINT ignored (POSIX), and Python then
+# installs no KeyboardInterrupt handler: restore it, as an interactive terminal would have it
+signal.signal(signal.SIGINT, signal.default_int_handler)
 
 marker = Path(sys.argv[1])
 mode = sys.argv[2]
