@@ -386,10 +386,21 @@ class _Search:
         order = np.argsort(values)
         order = order[values[order] < self.incumbent.value]
         for k in np.unique(cells.chart[order]):
-            rows = order[cells.chart[order] == k][:_CANDIDATES]
-            x = clip_to_region(cells.center[rows], self.domain)
-            if self.surround is not None:
-                x = x[cells.inside[rows] | self.surround.surrounded(x)]
+            rows = order[cells.chart[order] == k]
+            if self.surround is None:
+                rows = rows[:_CANDIDATES]
+                x = clip_to_region(cells.center[rows], self.domain)
+            else:
+                # MIC: the lowest values are mostly axes the data do not surround (their empty
+                # cylinder is unbounded); take the best cells known to be surrounded as well
+                rows = np.concatenate([rows[cells.inside[rows]][:_CANDIDATES], rows[~cells.inside[rows]][:_CANDIDATES]])
+                x = clip_to_region(cells.center[rows], self.domain)
+                within = np.all(np.abs(x - cells.center[rows]) <= cells.half[rows], axis=1)
+                sure = cells.inside[rows] & within
+                unsure = np.flatnonzero(~sure)
+                if len(unsure):
+                    sure[unsure] = self.surround.surrounded(x[unsure])
+                x = x[sure]
             if len(x):
                 self.offer(int(k), x)
 

@@ -31,6 +31,8 @@ IndexArray = NDArray[np.intp]
 _SECTORS = 16
 _GRID = 64  # support-table cells per cube-face side
 _PROBES = 32  # directions normal to the axis tried for the upper bound
+_GENERATORS = 24  # hulls of at most this many vertices: exact support values and centre depths
+_CHUNK = 2_000_000  # cells x candidates x vertices per vectorised block
 
 
 def _cube_directions(grid: int) -> FloatArray:
@@ -81,6 +83,8 @@ class Surround:
         outer = [int(np.flatnonzero(sector == s)[np.argmax(radius[sector == s])]) for s in range(_SECTORS)
                  if np.any(sector == s)]
         self.ring = np.array(outer, dtype=np.intp)
+        self.vertices = points[hull] if len(hull) else points
+        self.exact = len(self.vertices) <= _GENERATORS
 
     def support_upper(self, u: FloatArray) -> FloatArray:
         """Upper bound of the support function ``max_i u . P_i`` for unit ``u`` (..., 3)."""
@@ -96,16 +100,22 @@ class Surround:
         foot = np.zeros((len(center), 3))
         foot[:, :2] = center[:, :2]
         # how far the projected points can move relative to the axis over the cell
-        height = np.maximum(
-            self.support_upper(axis) - np.einsum("kj,kj->k", foot, axis),
-            self.support_upper(-axis) + np.einsum("kj,kj->k", foot, axis),
-        )
+        along = np.einsum("kj,kj->k", foot, axis)
+        if self.exact:  # few hull vertices: exact support values, no table
+            heights = axis @ self.vertices.T
+            height = np.maximum(heights.max(axis=1) - along, along - heights.min(axis=1))
+        else:
+            height = np.maximum(self.support_upper(axis) - along, self.support_upper(-axis) + along)
         reach = self.extent + np.linalg.norm(foot, axis=1)
         moved_all = height * ring.sin_phi + reach * ring.one_minus_cos + ring.eps + ring.slack
-        # upper bound: min over probe directions u normal to d_c of H(u) - u . X_c
-        turn = np.linspace(0.0, 2 * np.pi, _PROBES, endpoint=False)
-        probes = np.cos(turn)[None, :, None] * first[:, None, :] + np.sin(turn)[None, :, None] * second[:, None, :]
-        upper = (self.support_upper(probes) - np.einsum("kpj,kj->kp", probes, foot)).min(axis=1) + moved_all
+        if self.exact:
+            upper = self.centre_depth_upper(first, second, foot) + moved_all
+        else:
+            # min over probe directions u normal to d_c of H(u) - u . X_c (from the table: an
+            # error that does not shrink with the cell)
+            turn = np.linspace(0.0, 2 * np.pi, _PROBES, endpoint=False)
+            probes = np.cos(turn)[None, :, None] * first[:, None, :] + np.sin(turn)[None, :, None] * second[:, None, :]
+            upper = (self.support_upper(probes) - np.einsum("kpj,kj->kp", probes, foot)).min(axis=1) + moved_all
         # lower bound: star polygon of the outer ring around the centre trace
         rel = self.points[self.ring][None, :, :] - foot[:, None, :]
         u = np.einsum("ksj,kj->ks", rel, first)
@@ -122,6 +132,40 @@ class Surround:
         moved = (np.abs(ring.height) * ring.sin_phi[:, None] + ring.rho * ring.one_minus_cos[:, None]).max(axis=1)
         lower = polygon - moved - ring.eps - ring.slack
         return upper, lower
+
+    def centre_depth_upper(self, first: FloatArray, second: FloatArray, foot: FloatArray) -> FloatArray:
+        """Depths (K,) of the axes through ``foot`` normal to ``first``, ``second`` (hulls of few vertices).
+
+        Every unit ``w`` normal to the axis gives ``depth <= max_i w . (P_i - X)`` over the hull
+        vertices.  The candidates are the normals of the chords between the vertices (both
+        ways) and the directions from the vertices to the trace: the nearest edge or vertex
+        of the projected hull is among them, so the bound is the depth itself (to rounding).
+        """
+        vertices = self.vertices
+        first_i, second_i = np.triu_indices(len(vertices), k=1)
+        out = np.empty(len(foot))
+        n_candidates = 2 * len(first_i) + len(vertices)
+        step = max(1, _CHUNK // max(len(vertices) * n_candidates, 1))
+        for start in range(0, len(foot), step):
+            rows = slice(start, start + step)
+            qx = first[rows] @ vertices.T - np.einsum("kj,kj->k", first[rows], foot[rows])[:, None]  # (K, H)
+            qy = second[rows] @ vertices.T - np.einsum("kj,kj->k", second[rows], foot[rows])[:, None]
+            cx, cy = qx[:, second_i] - qx[:, first_i], qy[:, second_i] - qy[:, first_i]
+            length = np.hypot(cx, cy)
+            radius = np.hypot(qx, qy)
+            with np.errstate(divide="ignore", invalid="ignore"):
+                wx = np.concatenate([cy / length, -qx / radius], axis=1)  # (K, C): chord normals, toward the trace
+                wy = np.concatenate([-cx / length, -qy / radius], axis=1)
+            support = (wx[:, :, None] * qx[:, None, :] + wy[:, :, None] * qy[:, None, :]).max(axis=2)
+            m = len(first_i)
+            chord_support = support[:, :m]
+            # the other normal of each chord: max of -w . q = -(min of w . q)
+            other = -(wx[:, :m, None] * qx[:, None, :] + wy[:, :m, None] * qy[:, None, :]).min(axis=2)
+            candidates = np.concatenate([chord_support, other, support[:, m:]], axis=1)
+            # a degenerate candidate (coincident points, a vertex on the trace) is no direction: skip it
+            candidates = np.where(np.isfinite(candidates), candidates, np.inf)
+            out[rows] = candidates.min(axis=1)
+        return out
 
     def depth(self, x: FloatArray) -> float:
         """Depth (mm) of one axis ``x = (x0, y0, a, b)``: negative when the data do not surround it."""
