@@ -29,6 +29,7 @@ from pcmm_geo.fit.zone._common import Proof, mode_of, shared_fields
 from pcmm_geo.fit.zone._models import FloatArray, cone_distance
 from pcmm_geo.fit.zone._solver import solve_minimax
 from pcmm_geo.fit.zone.axial.region import AxisRegion, SearchBudget, as_budget, resolve_region
+from pcmm_geo.fit.zone.axial.search import EDGE_REASON
 from pcmm_geo.fit.zone.axial.solve import AxialOptimum, cylinder_search, line_search
 
 _RUNAWAY = 2.0
@@ -103,6 +104,13 @@ def cylinder_minimax(
             else f"no axis of the region that the points surround was found ({optimum.stop_reason})"
         )
         raise DegenerateGeometryError("cylinder", reason)
+    if mode == "mic" and optimum.stop_reason == EDGE_REASON:
+        raise DegenerateGeometryError(
+            "cylinder",
+            f"the largest empty cylinders found run onto the edge of the points' projection (radius "
+            f"{-optimum.value:.9g} mm, proven <= {-optimum.bound:.9g} mm, their axes ever closer to that edge): the "
+            "points surround no empty cylinder whose maximum could be proven",
+        )
     if mode == "mic":
         from pcmm_geo.fit.zone.axial.surround import Surround
 

@@ -19,6 +19,7 @@ extreme in some live cell, and evaluates candidate axes on all points.
 from __future__ import annotations
 
 import dataclasses
+import itertools
 import time
 from collections.abc import Callable
 from dataclasses import dataclass
@@ -439,6 +440,38 @@ class _Search:
         return Cells(chart, center, half, inside)
 
 
+#: stop reason of a MIC search whose best axes run onto the edge of the surrounded axes
+EDGE_REASON = "the best axes ran onto the edge of the axes the points surround"
+_EDGE_RUN = 4  # generations in a row of improving incumbents ever closer to that edge
+_EDGE_SHRINK = 0.75  # ... each at most this fraction of the previous one's depth
+_EDGE_DEPTH = 1e-2  # ... the last within this fraction of its radius
+
+
+class _EdgeWatch:
+    """Whether the MIC incumbents run onto the edge of the surrounded axes.
+
+    There the supremum of the inscribed radius is approached on the edge (an axis on the
+    boundary of the points' projection: no empty cylinder is surrounded), where the bounds,
+    blind to the surround constraint, are only first-order in the cell size: the proof
+    cannot close, so the search stops (a heuristic stop: the bound so far stays proven).
+    """
+
+    def __init__(self) -> None:
+        self.history: list[tuple[float, float]] = []
+
+    def runs_onto_edge(self, surround: Surround, incumbent: Incumbent) -> bool:
+        if not np.isfinite(incumbent.value):
+            return False
+        depth = surround.depth(incumbent.x)
+        self.history.append((incumbent.value, depth))
+        recent = self.history[-(_EDGE_RUN + 1):]
+        if len(recent) <= _EDGE_RUN:
+            return False
+        steps = itertools.pairwise(recent)
+        closing = all(new[0] < old[0] and 0.0 < new[1] <= _EDGE_SHRINK * old[1] for old, new in steps)
+        return closing and depth <= _EDGE_DEPTH * abs(incumbent.value)
+
+
 def branch_and_bound(
     domain: Domain,
     mode: str,
@@ -462,11 +495,15 @@ def branch_and_bound(
     generation = 0
     reason = "proof complete"
     lower = np.zeros(0)
+    edge = _EdgeWatch()
     while True:
         generation += 1
         evaluated += len(cells)
         cells, lower = search.generation(cells)
         if len(cells) == 0:
+            break
+        if search.surround is not None and edge.runs_onto_edge(search.surround, search.incumbent):
+            reason = EDGE_REASON
             break
         if evaluated >= max_cells:
             reason = f"cell budget of {max_cells} cells exhausted"
