@@ -29,8 +29,8 @@ from pcmm_geo.fit.zone._common import Proof, mode_of, shared_fields
 from pcmm_geo.fit.zone._models import FloatArray, cone_distance
 from pcmm_geo.fit.zone._solver import solve_minimax
 from pcmm_geo.fit.zone.axial.region import AxisRegion, SearchBudget, as_budget, resolve_region
-from pcmm_geo.fit.zone.axial.search import EDGE_REASON
 from pcmm_geo.fit.zone.axial.solve import AxialOptimum, cylinder_search, line_search
+from pcmm_geo.fit.zone.axial.surround import EDGE_REASON
 
 _RUNAWAY = 2.0
 METHOD = "branch-and-bound+kkt-polish"

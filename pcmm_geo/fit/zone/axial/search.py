@@ -19,7 +19,6 @@ extreme in some live cell, and evaluates candidate axes on all points.
 from __future__ import annotations
 
 import dataclasses
-import itertools
 import time
 from collections.abc import Callable
 from dataclasses import dataclass
@@ -30,7 +29,7 @@ from numpy.typing import NDArray
 from pcmm_geo.fit.zone._solver import ZoneSolution
 from pcmm_geo.fit.zone.axial.bounds import CellShape, CellTerms, axis_distances, cell_terms, center_values, point_bounds
 from pcmm_geo.fit.zone.axial.lagrange import Multipliers, balanced_bound, multiplier_bound
-from pcmm_geo.fit.zone.axial.surround import Surround
+from pcmm_geo.fit.zone.axial.surround import EDGE_REASON, EdgeWatch, Surround
 
 FloatArray = NDArray[np.float64]
 IndexArray = NDArray[np.intp]
@@ -440,38 +439,6 @@ class _Search:
         return Cells(chart, center, half, inside)
 
 
-#: stop reason of a MIC search whose best axes run onto the edge of the surrounded axes
-EDGE_REASON = "the best axes ran onto the edge of the axes the points surround"
-_EDGE_RUN = 4  # generations in a row of improving incumbents ever closer to that edge
-_EDGE_SHRINK = 0.75  # ... each at most this fraction of the previous one's depth
-_EDGE_DEPTH = 1e-2  # ... the last within this fraction of its radius
-
-
-class _EdgeWatch:
-    """Whether the MIC incumbents run onto the edge of the surrounded axes.
-
-    There the supremum of the inscribed radius is approached on the edge (an axis on the
-    boundary of the points' projection: no empty cylinder is surrounded), where the bounds,
-    blind to the surround constraint, are only first-order in the cell size: the proof
-    cannot close, so the search stops (a heuristic stop: the bound so far stays proven).
-    """
-
-    def __init__(self) -> None:
-        self.history: list[tuple[float, float]] = []
-
-    def runs_onto_edge(self, surround: Surround, incumbent: Incumbent) -> bool:
-        if not np.isfinite(incumbent.value):
-            return False
-        depth = surround.depth(incumbent.x)
-        self.history.append((incumbent.value, depth))
-        recent = self.history[-(_EDGE_RUN + 1):]
-        if len(recent) <= _EDGE_RUN:
-            return False
-        steps = itertools.pairwise(recent)
-        closing = all(new[0] < old[0] and 0.0 < new[1] <= _EDGE_SHRINK * old[1] for old, new in steps)
-        return closing and depth <= _EDGE_DEPTH * abs(incumbent.value)
-
-
 def branch_and_bound(
     domain: Domain,
     mode: str,
@@ -495,14 +462,15 @@ def branch_and_bound(
     generation = 0
     reason = "proof complete"
     lower = np.zeros(0)
-    edge = _EdgeWatch()
+    edge = EdgeWatch()
     while True:
         generation += 1
         evaluated += len(cells)
         cells, lower = search.generation(cells)
         if len(cells) == 0:
             break
-        if search.surround is not None and edge.runs_onto_edge(search.surround, search.incumbent):
+        if search.surround is not None and edge.runs_onto_edge(search.surround, search.incumbent.value,
+                                                               search.incumbent.x):
             reason = EDGE_REASON
             break
         if evaluated >= max_cells:

@@ -9,16 +9,24 @@ cell of axes (see :mod:`~pcmm_geo.fit.zone.axial.bounds`) the projected points m
 relative to the axis by at most ``|h| sin(phi) + rho (1 - cos(phi)) + eps``, and the depth
 is 1-Lipschitz in the points, which gives
 
-* an upper bound: ``H(u) - u . X_c`` for a few unit ``u`` normal to ``d_c``, with ``H``
-  read from a table of the support function on a cube-map grid of directions
-  (``H(u) <= H(u_k) + R_max |u - u_k|``), plus the largest move -- a cell with a
-  negative upper bound holds no axis the data surround;
+* an upper bound: ``H(u) - u . X_c`` for unit ``u`` normal to ``d_c``, plus the largest
+  move -- a cell with a negative upper bound holds no axis the data surround.  For hulls of
+  few vertices ``u`` runs over the normals of the chords between the projected vertices and
+  the directions from them to the trace, which hold the minimiser: the centre term is the
+  depth itself and the bound tightens with the cell.  Larger hulls take ``H`` from a table of
+  the support function on a cube-map grid of directions (``H(u) <= H(u_k) + R_max |u -
+  u_k|``) at a few probe directions;
 * a lower bound: the distance from the trace to the edges of the star polygon of a few
   outer points ordered by angle around it (that polygon lies in the hull), minus the
   largest move -- a cell with a positive lower bound holds only surrounded axes.
+
+Where the largest empty cylinders approach the edge of the surrounded axes, the supremum
+lies on that edge and the search cannot close its proof there (:class:`EdgeWatch`).
 """
 
 from __future__ import annotations
+
+import itertools
 
 import numpy as np
 from numpy.typing import NDArray
@@ -187,3 +195,36 @@ class Surround:
         _, lower = self.cell_depth(x, np.zeros_like(x))
         sure = lower > 0
         return np.array([bool(sure[i]) or self.depth(row) > 0 for i, row in enumerate(x)], dtype=bool)
+
+
+#: stop reason of a MIC search whose best axes run onto the edge of the surrounded axes
+EDGE_REASON = "the best axes ran onto the edge of the axes the points surround"
+_EDGE_RUN = 4  # generations in a row of improving incumbents ever closer to that edge
+_EDGE_SHRINK = 0.75  # ... each at most this fraction of the previous one's depth
+_EDGE_DEPTH = 1e-2  # ... the last within this fraction of its radius
+
+
+class EdgeWatch:
+    """Whether the MIC incumbents run onto the edge of the surrounded axes.
+
+    There the supremum of the inscribed radius is approached on the edge (an axis on the
+    boundary of the points' projection: no empty cylinder is surrounded), where the bounds,
+    blind to the surround constraint, are only first-order in the cell size: the proof
+    cannot close, so the search stops (a heuristic stop: the bound so far stays proven).
+    """
+
+    def __init__(self) -> None:
+        self.history: list[tuple[float, float]] = []
+
+    def runs_onto_edge(self, surround: Surround, value: float, x: FloatArray) -> bool:
+        """Record the incumbent (objective ``value``, axis ``x``) of a generation; True when the run is on."""
+        if not np.isfinite(value):
+            return False
+        depth = surround.depth(x)
+        self.history.append((value, depth))
+        recent = self.history[-(_EDGE_RUN + 1):]
+        if len(recent) <= _EDGE_RUN:
+            return False
+        steps = itertools.pairwise(recent)
+        closing = all(new[0] < old[0] and 0.0 < new[1] <= _EDGE_SHRINK * old[1] for old, new in steps)
+        return closing and depth <= _EDGE_DEPTH * abs(value)
