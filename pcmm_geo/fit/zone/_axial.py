@@ -97,19 +97,20 @@ def cylinder_minimax(
     region = resolve_region(axis_region, centroid, gauss.axis, gauss.point, gauss.radius)
     budget = as_budget(search_budget)
     optimum = cylinder_search(points, mode, region, gauss.point, gauss.axis, budget)
+    effort = f" (branch and bound: {optimum.cells} cells, {optimum.generations} generations)"
     if not np.isfinite(optimum.value):
         reason = (
             "the points surround no axis of the region: there is no inscribed cylinder"
             if optimum.finished
             else f"no axis of the region that the points surround was found ({optimum.stop_reason})"
         )
-        raise DegenerateGeometryError("cylinder", reason)
+        raise DegenerateGeometryError("cylinder", reason + effort)
     if mode == "mic" and optimum.stop_reason == EDGE_REASON:
         raise DegenerateGeometryError(
             "cylinder",
             f"the largest empty cylinders found run onto the edge of the points' projection (radius "
             f"{-optimum.value:.9g} mm, proven <= {-optimum.bound:.9g} mm, their axes ever closer to that edge): the "
-            "points surround no empty cylinder whose maximum could be proven",
+            "points surround no empty cylinder whose maximum could be proven" + effort,
         )
     if mode == "mic":
         from pcmm_geo.fit.zone.axial.surround import Surround
@@ -121,7 +122,7 @@ def cylinder_minimax(
             raise DegenerateGeometryError(
                 "cylinder",
                 "the points do not surround an empty cylinder: the largest empty cylinder of the region "
-                "has its axis on the edge of the points' projection",
+                "has its axis on the edge of the points' projection" + effort,
             )
     axis = canonical_axis(optimum.direction)
     point = optimum.point + float((centroid - optimum.point) @ axis) * axis
