@@ -72,7 +72,7 @@ def test_centre_depth_is_the_depth_for_small_hulls() -> None:
         axis = directions(x[:, 2:4])
         first, second = plane_basis(axis)
         foot = np.c_[x[:, :2], np.zeros(len(x))]
-        bound = surround.centre_depth_upper(first, second, foot)
+        bound = surround.center_depth_upper(first, second, foot)
         for k, row in enumerate(x):
             depth = _independent_depth(points, row)
             if depth > 0:

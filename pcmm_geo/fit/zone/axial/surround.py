@@ -117,7 +117,7 @@ class Surround:
         reach = self.extent + np.linalg.norm(foot, axis=1)
         moved_all = height * ring.sin_phi + reach * ring.one_minus_cos + ring.eps + ring.slack
         if self.exact:
-            upper = self.centre_depth_upper(first, second, foot) + moved_all
+            upper = self.center_depth_upper(first, second, foot) + moved_all
         else:
             # min over probe directions u normal to d_c of H(u) - u . X_c (from the table: an
             # error that does not shrink with the cell)
@@ -141,7 +141,7 @@ class Surround:
         lower = polygon - moved - ring.eps - ring.slack
         return upper, lower
 
-    def centre_depth_upper(self, first: FloatArray, second: FloatArray, foot: FloatArray) -> FloatArray:
+    def center_depth_upper(self, first: FloatArray, second: FloatArray, foot: FloatArray) -> FloatArray:
         """Depths (K,) of the axes through ``foot`` normal to ``first``, ``second`` (hulls of few vertices).
 
         Every unit ``w`` normal to the axis gives ``depth <= max_i w . (P_i - X)`` over the hull
