@@ -48,6 +48,7 @@ myst_heading_anchors = 4  # [benchmarks.md#results-...](...) links reach their s
 autosummary_generate = True
 autosummary_imported_members = False
 autodoc_typehints = "none"  # the numpydoc sections state types, shapes and units
+autodoc_use_type_comments = False  # annotations only: no re-reading of every function's source for `# type:` comments
 # members defined in each module (not re-exports, which would be described twice), documented or not
 autodoc_default_options = {"members": True, "undoc-members": True, "ignore-module-all": True}
 autodoc_member_order = "bysource"
