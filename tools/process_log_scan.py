@@ -11,8 +11,8 @@ Four scans, all seeded, all against the simulator's own heights and tips
     20 um processed with that as its standard deviation.
 ``faults``
     noise-free sessions, one reading at a time made wrong by 0.05-5 mm, every arm, every k-th
-    row: refused or accepted; an accepted fault must lie below its MDB, and every point within
-    U (k = 2) + R (+ ambiguity) of the truth.
+    row (stop rows and start rows alternately): refused or accepted; an accepted fault must lie
+    below its MDB, and every point within U (k = 2) + R (+ ambiguity) of the truth.
 ``power``
     sessions with Gaussian noise at the stated sigma, a fault of the MDB (or a multiple of it) on one
     reading: the fraction refused (Baarda: the power, 80 % at one MDB) beside the theory's
@@ -136,7 +136,8 @@ def scan_faults(paths: dict, every: int) -> dict:
         _, truth = simulated_truth(path)
         entry = results.setdefault(start, {"cases": 0, "refused": 0, "accepted": 0, "accepted_above_mdb": 0,
                                            "accepted_outside_bound": 0, "refused_by_size": {}})
-        for row in range(1, len(clean), every):
+        for index, row in enumerate(range(1, len(clean), every)):
+            row += index % 2 if every % 2 == 0 else 0  # stop rows (odd) and start rows (even) alike
             for arm in range(3):
                 for size in SIZES:
                     entry["cases"] += 1

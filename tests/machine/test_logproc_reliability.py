@@ -238,3 +238,54 @@ def test_cli_takes_the_calibration_files_covariance_into_every_point(tmp_path: P
     assert np.all(u > u0) and np.all(u**2 - u0**2 > 1e-6)  # at least (1 um)^2 from the calibration
     text = run("process-log", str(path), "--calibration", str(cal), "--initial-heights-mm", *heights)
     assert "and the calibration's covariance" in text.stdout
+
+
+def test_mdb_under_either_reading_of_a_start_row_is_that_of_an_independent_hat_matrix() -> None:
+    """Near the level pose a fault in laser i of a stop row can make the start row after it look like a further
+    move of the motor (where c_i^2 > 1/2 of that motor's gain): the stated MDB of such a reading is the larger of
+    its MDBs in both models.  The other model's MDB must equal the one from the hat matrix of that model's design
+    matrix (the start row begins a height of the row's motor), built by central differences of the forward
+    kinematics at the processed heights, and the criterion must be that gain's."""
+    from pcmm_geo.machine.analysis.logproc.gate import gate_limits
+    from pcmm_geo.machine.analysis.logproc.segments import segment_log
+
+    machine = RigidBodyMachine.from_dpkm()
+    h0 = machine.reference_heights
+    sigma = 0.01
+    log = with_laser_noise(synthesise_log(machine, h0, MOVES), np.random.default_rng(5), sigma)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")  # ambiguity near level is not the point here
+        out = process_log(machine, log, initial_heights=h0, laser_sigma=sigma, laser_steps=(0, 0, 0),
+                          on_inconsistent="flag")
+    limits = gate_limits()
+    own = limits.mdb(out.laser_sigmas, out.redundancy)
+    settled = frozenset(int(r) for r in np.flatnonzero((log.start_stop == 1) & (out.moved_arm < 0)) if r > 0)
+    weights = np.tile(1.0 / out.laser_sigmas**2, len(log))
+    widened = 0
+    for row in np.flatnonzero((log.start_stop == 0) & (out.moved_arm >= 0)):
+        start = int(row) + 1
+        if start not in settled:
+            continue
+        arm = int(log.motor[row]) - 1
+        step = np.zeros(3)
+        step[arm] = 1e-4
+        gain = (machine.forward(heights=out.heights[row] + step).lasers
+                - machine.forward(heights=out.heights[row] - step).lasers) / 2e-4
+        pattern = (gain / out.laser_sigmas) ** 2 / np.sum((gain / out.laser_sigmas) ** 2)
+        other = segment_log(log, None, settled - {start})  # the start row begins a height of the row's motor
+        assert other.observed.all() and other.count == 3 + np.sum(out.moved_arm >= 0) + 1  # one height more
+        design = np.zeros((3 * len(log), other.count - 3))
+        for segment in range(3, other.count):
+            standing = other.active[:, other.arm[segment]] == segment
+            shift = np.zeros((len(log), 3))
+            shift[standing, other.arm[segment]] = 1e-4
+            up = machine.forward(heights=out.heights + shift).lasers
+            down = machine.forward(heights=out.heights - shift).lasers
+            design[:, segment - 3] = ((up - down) / 2e-4).ravel()
+        hat = design @ np.linalg.solve(design.T @ (weights[:, None] * design), design.T * weights)
+        redundancy = (1.0 - np.diag(hat)).reshape(-1, 3)[[row, start]]
+        expected = np.where(pattern > 0.5, np.maximum(own[[row, start]], limits.mdb(out.laser_sigmas, redundancy)),
+                            own[[row, start]])
+        np.testing.assert_allclose(out.mdb[[row, start]], expected, rtol=2e-3)  # r near 0: digits
+        widened += int(np.sum(out.mdb[[row, start]] > 1.2 * own[[row, start]]))
+    assert widened >= 3  # near level the other model matters

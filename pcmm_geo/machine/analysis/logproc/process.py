@@ -52,6 +52,7 @@ from pcmm_geo.machine.analysis.logproc.gate import (
 from pcmm_geo.machine.analysis.logproc.geometry import GEOMETRY_PARAMETERS
 from pcmm_geo.machine.analysis.logproc.reliability import (
     change_uncertainty,
+    further_move_mdb,
     geometry_tip_covariance,
     implausible_settling,
     reading_influence,
@@ -92,7 +93,9 @@ class ProcessedLog:
     w_test, redundancy, mdb : ndarray, shape (N, 3)
         Per reading: Baarda's w (NaN where it cannot be tested or was left out), the redundancy
         number (0..1) and the minimal detectable bias (inf: uncontrolled),
-        :mod:`~pcmm_geo.machine.analysis.logproc.gate`.
+        :mod:`~pcmm_geo.machine.analysis.logproc.gate`; near the level pose the larger of a reading's
+        MDBs with the next start row settled or read as a further move,
+        :func:`~pcmm_geo.machine.analysis.logproc.reliability.further_move_mdb`.
     faulty_readings : ndarray of bool, shape (N, 3)
         Readings the gate refused and left out (``on_inconsistent="flag"``).
     inconsistent : ndarray of bool, shape (N,)
@@ -332,6 +335,10 @@ def process_log(
     if winner is not adjustment:
         adjustment = winner
         influence = reading_influence(adjustment, segments, sigmas[adjustment.rows], limits)
+    floor = further_move_mdb(adjustment, segments, log.start_stop, log.motor, influence.redundancy,
+                             sigmas[adjustment.rows], limits)
+    if floor is not None:  # the MDB whichever way a start row is read
+        influence = reading_influence(adjustment, segments, sigmas[adjustment.rows], limits, mdb_floor=floor)
     if progress is not None:
         progress(count, count)
     return _result(machine, log, segments, adjustment, influence, sigmas, refused, failed_rows, limits, per_arm,

@@ -20,6 +20,23 @@ lasers never see it, so nothing pulls it back).  The same vectors give everythin
   test can check (``r_i = 0``, infinite MDB) that moves a row's tip makes that row's reliability
   infinite: the point is *unbounded*.
 
+The MDB under either reading of a start row
+-------------------------------------------
+A start row that repeats the pose of the row before within its noise observes the same heights
+(:mod:`~pcmm_geo.machine.analysis.logproc.segments`, row logic).  A fault in a reading of either
+row changes their difference, and where the previous motor's laser gain ``g`` is nearly one
+laser's (``c_i^2 = (g_i / sigma_i)^2 / sum_k (g_k / sigma_k)^2 > 1/2``, near the level pose)
+the difference ``f e_i`` of a fault ``f`` in laser ``i`` has the pattern of a further move of
+that motor for ``k sigma_i sqrt(2) / |c_i| < |f| <= k sigma_i sqrt(2) / sqrt(1 - c_i^2)``
+(:func:`~pcmm_geo.machine.analysis.logproc.segments.moved_further`).  The log is then adjusted
+with one more height, which absorbs part of the fault: the w-test of that reading works in the
+other model, with a smaller redundancy.  The stated MDB of such a reading is the larger of its
+MDBs in the two models (:func:`further_move_mdb`): a fault at least that large is found with
+the stated power whichever way the rows are read.  The second model's redundancy comes from the
+first's factorisation: splitting a segment at the start row adds one unknown with design
+column ``b`` (the segment's column on the rows from the start row on), and
+``r_i' = r_i - w_i e_i^2 / (b^T W e)`` with ``e = b - A N^-1 A^T W b``.
+
 The calibration's covariance ``Sigma_theta`` (tetrahedron parameters,
 :data:`~pcmm_geo.machine.analysis.logproc.geometry.GEOMETRY_PARAMETERS`) reaches the tips the
 same way: a parameter change moves every row's lasers by ``dl/dtheta`` (a systematic error,
@@ -43,8 +60,8 @@ from pcmm_geo.machine.analysis.logproc.adjustment import Adjustment
 from pcmm_geo.machine.analysis.logproc.gate import GateLimits
 from pcmm_geo.machine.analysis.logproc.segments import LogSegments
 
-__all__ = ["SETTLING_PLAY", "Influence", "change_uncertainty", "geometry_tip_covariance", "implausible_settling",
-           "reading_influence", "warn_flags"]
+__all__ = ["SETTLING_PLAY", "Influence", "change_uncertainty", "further_move_mdb", "geometry_tip_covariance",
+           "implausible_settling", "reading_influence", "warn_flags"]
 
 FloatArray = NDArray[np.float64]
 BoolArray = NDArray[np.bool_]
@@ -87,11 +104,14 @@ def _row_gains(adjustment: Adjustment, segments: LogSegments, name: str) -> Floa
 
 
 def reading_influence(
-    adjustment: Adjustment, segments: LogSegments, sigmas: FloatArray, limits: GateLimits, *, tips: bool = True
+    adjustment: Adjustment, segments: LogSegments, sigmas: FloatArray, limits: GateLimits, *, tips: bool = True,
+    mdb_floor: FloatArray | None = None,
 ) -> Influence:
     """Redundancy numbers and MDBs of all readings; with ``tips``, the tip covariance and reliability per row.
 
-    ``sigmas`` ``(R, 3)`` are the standard uncertainties of the observed rows' readings.
+    ``sigmas`` ``(R, 3)`` are the standard uncertainties of the observed rows' readings;
+    ``mdb_floor`` ``(R, 3)`` (mm), MDBs the stated ones may not be below (:func:`further_move_mdb`);
+    the external reliability uses the stated MDBs.
     """
     weights = adjustment.weights.ravel()
     readings = weights.size
@@ -115,6 +135,8 @@ def reading_influence(
         shift = adjustment.solve(columns * weights[part])  # z_i (free, c)
         redundancy[part] = np.clip(1.0 - np.sum(columns * shift, axis=0), 0.0, 1.0) * (weights[part] > 0)
         mdb[part] = np.where(weights[part] > 0, limits.mdb(sigma_flat[part], redundancy[part]), np.inf)
+        if mdb_floor is not None:
+            mdb[part] = np.maximum(mdb[part], mdb_floor.ravel()[part])
         if gains is None or covariance is None or reliability is None:
             continue
         moved = np.concatenate([np.zeros((3, len(part))), shift])[segments.active]  # (N, 3, c)
@@ -127,6 +149,55 @@ def reading_influence(
             worst = np.where((size > NO_EFFECT) & effective, size * mdb[part], 0.0)
         reliability = np.maximum(reliability, worst.max(axis=1))
     return Influence(redundancy.reshape(-1, 3), mdb.reshape(-1, 3), covariance, reliability)
+
+
+def further_move_mdb(adjustment: Adjustment, segments: LogSegments, start_stop: NDArray[np.int64],
+                     motor: NDArray[np.int64], redundancy: FloatArray, sigmas: FloatArray,
+                     limits: GateLimits) -> FloatArray | None:
+    """MDBs ``(R, 3)`` (mm; 0 where it does not apply) of the readings of a row and the start row after it that
+    repeats its pose, in the model where that start row is read as a further move of the row's motor (module
+    notes), for the readings whose fault can have that pattern (``c_i^2 > 1/2``); None when no row pair has one.
+
+    ``start_stop`` and ``motor`` (1-based) are the log's columns, ``redundancy`` the readings' redundancy
+    numbers in the adjustment as it stands and ``sigmas`` ``(R, 3)`` their standard uncertainties.
+    """
+    rows = adjustment.rows
+    position = {int(row): index for index, row in enumerate(rows)}
+    weights = adjustment.weights
+    gains = adjustment.kinematics.laser_gain  # (R, laser, arm)
+    floor = np.zeros_like(weights)
+    design = None
+    for index in range(len(rows) - 1):
+        row, start = int(rows[index]), int(rows[index + 1])
+        if start != row + 1 or start_stop[start] != 1 or segments.moved_arm[start] >= 0:
+            continue
+        arm = int(motor[row]) - 1
+        segment = int(segments.active[start, arm])
+        information = gains[index, :, arm] ** 2 * weights[index]
+        with np.errstate(invalid="ignore", divide="ignore"):
+            pattern = information / np.sum(information)  # c_i^2
+        candidates = (pattern > 0.5) & (weights[index] > 0)
+        if segment < 3 or not candidates.any():
+            continue
+        if design is None:
+            design = adjustment.design()
+        later = np.flatnonzero((rows >= start) & (segments.active[rows, arm] == segment))
+        split = np.zeros_like(weights)
+        split[later] = gains[later, :, arm]  # the column of the new height: the segment's from the start row on
+        answer = adjustment.solve(np.asarray(design.T @ (weights * split).ravel()))
+        misfit = split.ravel() - np.asarray(design @ answer).ravel()
+        denominator = float(np.sum(weights.ravel() * split.ravel() * misfit))
+        if not denominator > 0:
+            continue
+        for observed in (index, position.get(start, -1)):
+            if observed < 0:
+                continue
+            chosen = candidates & (weights[observed] > 0)
+            other = redundancy[observed] - weights[observed] * misfit.reshape(-1, 3)[observed] ** 2 / denominator
+            floor[observed] = np.where(chosen, np.maximum(floor[observed],
+                                                          limits.mdb(sigmas[observed], np.clip(other, 0.0, 1.0))),
+                                       floor[observed])
+    return floor if floor.any() else None
 
 
 def geometry_tip_covariance(adjustment: Adjustment, segments: LogSegments, covariance: FloatArray) -> FloatArray:

@@ -245,25 +245,34 @@ def taylor_shift(coefficients: list[float], about: float) -> list[float]:
     return values
 
 
+def _horner(coefficients: list[float] | tuple[float, ...], x: float) -> float:
+    """``p(x)`` for ``p`` given highest first (the order of :func:`numpy.polyval`, on Python floats)."""
+    value = 0.0
+    for coefficient in coefficients:
+        value = value * x + coefficient
+    return value
+
+
 def misfit_minima(coefficients: FloatArray, about: float = 0.0) -> tuple[FloatArray, FloatArray]:
     """``(heights, misfits)`` of the local minima of a quartic (coefficients highest first, leading one > 0).
 
     The stationary points are solved in ``h - about`` (pass a height near them: the coefficients
     stay of moderate size) in closed form, polished by Newton's method, and checked against
-    :func:`numpy.roots` when a polished root does not make the slope vanish.
+    :func:`numpy.roots` when a polished root does not make the slope vanish.  Scalar arithmetic on
+    Python floats: the branch search calls this for every hypothesis of every segment.
     """
     shifted = taylor_shift([float(value) for value in coefficients], about)
     a, b, c, d, _ = shifted
     if not a > 0.0:
         return np.zeros(0), np.zeros(0)
-    slope = np.array([4.0 * a, 3.0 * b, 2.0 * c, d])
-    stationary = np.array(_cubic_real_roots(*slope))
-    scale = np.abs(slope) @ np.array([np.abs(stationary) ** k for k in (3, 2, 1, 0)])
-    if np.any(np.abs(np.polyval(slope, stationary)) > 1e-8 * scale):
+    slope = (4.0 * a, 3.0 * b, 2.0 * c, d)
+    stationary = _cubic_real_roots(*slope)
+    magnitudes = [abs(value) for value in slope]
+    if any(abs(_horner(slope, x)) > 1e-8 * _horner(magnitudes, abs(x)) for x in stationary):
         roots = np.roots(slope)
-        stationary = roots[np.abs(roots.imag) <= 1e-9 * np.maximum(1.0, np.abs(roots))].real
-    minima = np.sort(np.array([x for x in stationary if (12.0 * a * x + 6.0 * b) * x + 2.0 * c > 0.0]))
-    return minima + about, np.polyval(shifted, minima)
+        stationary = [float(root.real) for root in roots if abs(root.imag) <= 1e-9 * max(1.0, abs(root))]
+    minima = sorted(x for x in stationary if (12.0 * a * x + 6.0 * b) * x + 2.0 * c > 0.0)
+    return np.array(minima) + about, np.array([_horner(shifted, x) for x in minima])
 
 
 def moved_further(difference: FloatArray, gain: FloatArray, sigmas: FloatArray, critical: float,
