@@ -113,16 +113,6 @@ def _parsed_graph(root: Path) -> dict[str, frozenset[str]]:
     return graph
 
 
-@functools.cache
-def _parsed_package_graph() -> dict[str, frozenset[str]]:
-    return {module: frozenset(targets) for module, targets in import_graph().items()}
-
-
-def package_graph() -> dict[str, set[str]]:
-    """:func:`import_graph` of the package, parsed once per test process; a fresh copy for each caller."""
-    return {module: set(targets) for module, targets in _parsed_package_graph().items()}
-
-
 def cycle_components(graph: dict[str, set[str]]) -> list[set[str]]:
     """Strongly connected components with more than one module (Tarjan)."""
     index: dict[str, int] = {}
@@ -254,18 +244,18 @@ def test_walker_sees_function_level_and_relative_imports_and_cycles(tmp_path: Pa
 
 
 def test_every_module_has_a_layer() -> None:
-    unplaced = [module for module in package_graph() if layer_of(module) is None]
+    unplaced = [module for module in import_graph() if layer_of(module) is None]
     assert unplaced == [], f"add these to LAYERS in {__file__}: {unplaced}"
 
 
 def test_no_import_cycles() -> None:
-    graph = _without_shims(package_graph())
+    graph = _without_shims(import_graph())
     paths = [_cycle_path(graph, c) for c in cycle_components(graph)]
     assert paths == [], "import cycles:\n" + "\n".join(" -> ".join(path) for path in paths)
 
 
 def test_no_upward_or_sideways_imports() -> None:
-    problems = layer_violations(_without_shims(package_graph()))
+    problems = layer_violations(_without_shims(import_graph()))
     assert problems == [], "\n".join(problems)
 
 
@@ -279,13 +269,13 @@ def test_no_upward_or_sideways_imports() -> None:
      ("pcmm_geo.machine.analysis.logproc", "pcmm_geo.machine.calibration.result")],
 )
 def test_the_rules_reject_the_imports_the_brief_forbids(importer: str, imported: str) -> None:
-    graph = _without_shims(package_graph())
+    graph = _without_shims(import_graph())
     graph[importer] = graph[importer] | {imported}
     assert len(layer_violations(graph)) == 1
 
 
 def test_nothing_outside_the_cli_imports_the_cli() -> None:
-    graph = package_graph()
+    graph = import_graph()
     entry_points = ("pcmm_geo.cli", "pcmm_geo.__main__")  # __main__ is ``python -m pcmm_geo`` = pcmm
     users = sorted(m for m, targets in graph.items() if not m.startswith(entry_points)
                    for t in targets if t.startswith("pcmm_geo.cli"))
@@ -293,7 +283,7 @@ def test_nothing_outside_the_cli_imports_the_cli() -> None:
 
 
 def test_shims_are_only_the_listed_modules() -> None:
-    graph = package_graph()
+    graph = import_graph()
     assert SHIMS <= set(graph)
     assert all(not (targets & SHIMS) for module, targets in graph.items() if module != "pcmm_geo.machine")
 
@@ -337,7 +327,7 @@ def test_fit_kernels_and_zone_solvers_sit_below_the_element_modules() -> None:
     The element modules dispatch ``criterion=`` to the zone solvers and pass their Gaussian start and
     result class in, so the solvers never import them back (this is what keeps fit free of cycles).
     """
-    graph = package_graph()
+    graph = import_graph()
     kernel_imports = sorted(
         f"{module} -> {target}"
         for module, targets in graph.items() if module.startswith("pcmm_geo.fit._kernels")
