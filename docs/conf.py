@@ -357,6 +357,8 @@ def _numpydoc_with_its_template_compiled_once() -> None:
     from numpydoc import docscrape_sphinx
     from sphinx.jinja2glue import BuiltinTemplateLoader
 
+    if not (hasattr(docscrape_sphinx, "get_doc_object_orig") and hasattr(numpydoc_extension, "get_doc_object")):
+        return  # another numpydoc: its own (slower) path, the same pages
     compiled: dict[int, Any] = {}
 
     def template_for(builder: Any) -> Any:
