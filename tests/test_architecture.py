@@ -19,6 +19,7 @@ fail.  The most specific prefix of :data:`LAYERS` names a module's layer.
 from __future__ import annotations
 
 import ast
+import functools
 import warnings
 from collections.abc import Iterable
 from pathlib import Path
@@ -70,7 +71,7 @@ def module_files(root: Path) -> dict[str, Path]:
 
 
 def _targets(node: ast.Import | ast.ImportFrom, module: str, is_package: bool, known: Iterable[str]) -> list[str]:
-    known = set(known)
+    known = known if isinstance(known, set | frozenset | dict) else set(known)
     if isinstance(node, ast.Import):
         names = [alias.name for alias in node.names]
     else:
@@ -91,9 +92,16 @@ def _targets(node: ast.Import | ast.ImportFrom, module: str, is_package: bool, k
 
 
 def import_graph(root: Path = PACKAGE_ROOT) -> dict[str, set[str]]:
-    """Module -> set of the package's modules it imports (anywhere in its source)."""
-    files = module_files(root)
-    graph: dict[str, set[str]] = {}
+    """Module -> set of the package's modules it imports (anywhere in its source); a fresh copy each call."""
+    return {module: set(targets) for module, targets in _parsed_graph(root).items()}
+
+
+@functools.lru_cache(maxsize=8)
+def _parsed_graph(root: Path) -> dict[str, frozenset[str]]:
+    """The import graph of the package at ``root``, parsed once per test session (``root`` is a tree no test edits
+    while the session runs; the walker's own test writes a new folder)."""
+    files = module_files(root)  # a dict: membership without copying its names for every import
+    graph: dict[str, frozenset[str]] = {}
     for module, path in files.items():
         tree = ast.parse(path.read_text(encoding="utf-8"), filename=str(path))
         edges: set[str] = set()
@@ -101,7 +109,7 @@ def import_graph(root: Path = PACKAGE_ROOT) -> dict[str, set[str]]:
             if isinstance(node, ast.Import | ast.ImportFrom):
                 edges.update(_targets(node, module, path.name == "__init__.py", files))
         edges.discard(module)
-        graph[module] = edges
+        graph[module] = frozenset(edges)
     return graph
 
 

@@ -1,7 +1,7 @@
 """Independent multi-start reference for the axial fits, and the sparse data sets they are scanned on.
 
 The reference shares no code with :mod:`pcmm_geo.fit`: it runs MINPACK's Levenberg-Marquardt
-(``scipy.optimize.least_squares(method="lm")``, finite-difference Jacobian, no re-centring)
+(``scipy.optimize.leastsq``, analytic Jacobian, no re-centring)
 from many starting axes -- a Fibonacci lattice on the hemisphere, the principal axes and
 the generating element -- and keeps the least sum of squares.  Used by
 ``tests/fit/test_robustness.py`` (a few hundred sets) and ``benchmarks/fit_robustness.py``
@@ -50,18 +50,35 @@ class Reference:
 
 
 def _run(
-    residual: Callable[[FloatArray], FloatArray], x0: FloatArray
+    residual: Callable[[FloatArray], FloatArray], x0: FloatArray, jacobian: Callable[[FloatArray], FloatArray]
 ) -> tuple[float, FloatArray] | None:
-    from scipy.optimize import least_squares
+    from scipy.optimize import leastsq  # MINPACK's lmder, called directly (least_squares(method="lm") adds overhead)
 
     try:
-        sol = least_squares(residual, x0, method="lm", xtol=1e-15, ftol=1e-15, gtol=1e-15, max_nfev=4000)
-    except (ValueError, np.linalg.LinAlgError):
+        x = leastsq(residual, x0, Dfun=jacobian, full_output=True, xtol=1e-15, ftol=1e-15, gtol=1e-15, maxfev=4000)[0]
+    except (ValueError, TypeError, np.linalg.LinAlgError):
         return None
-    r = residual(sol.x)
+    r = residual(x)
     if not np.all(np.isfinite(r)):
         return None
-    return float(r @ r), sol.x
+    return float(r @ r), x
+
+
+def _axial_terms(local: FloatArray, p: FloatArray, centre: FloatArray) -> tuple[FloatArray, ...]:
+    """Distances of ``local`` points from the axis through ``centre`` along ``(p[0], p[1], 1)``, with derivatives.
+
+    Returns ``d``, ``norm`` (of ``(a, b, 1)``), ``h`` (along the axis), ``w`` (perpendicular vector),
+    ``rho = |w|`` and ``unit = w / rho``.  With ``d = (a, b, 1) / norm``: ``drho/dcentre = -unit``,
+    ``drho/da = -h unit_x / norm``, ``dh/dcentre = -d``, ``dh/da = w_x / norm`` (and ``b`` with ``y``).
+    """
+    norm = np.sqrt(1 + p[0] ** 2 + p[1] ** 2)
+    d = np.array([p[0], p[1], 1.0]) / norm
+    rel = local - centre
+    h = rel @ d
+    w = rel - h[:, None] * d
+    rho = np.sqrt(np.einsum("ij,ij->i", w, w))
+    unit = w / np.where(rho > 0, rho, 1.0)[:, None]
+    return d, norm, h, w, rho, unit
 
 
 def _axis_of(frame: tuple[FloatArray, FloatArray, FloatArray], a: float, b: float) -> FloatArray:
@@ -92,7 +109,12 @@ def cylinder_reference(points: FloatArray, truth_axis: FloatArray | None = None,
             rel = local - np.array([p[0], p[1], 0.0])
             return np.linalg.norm(np.cross(rel, d), axis=1) - p[4]
 
-        run = _run(residual, np.array([x0, y0, 0.0, 0.0, r0]))
+        def jacobian(p: FloatArray, local: FloatArray = local) -> FloatArray:
+            _, norm, h, _, _, unit = _axial_terms(local, p[2:4], np.array([p[0], p[1], 0.0]))
+            return np.column_stack([-unit[:, 0], -unit[:, 1], -h * unit[:, 0] / norm, -h * unit[:, 1] / norm,
+                                    -np.ones(len(h))])
+
+        run = _run(residual, np.array([x0, y0, 0.0, 0.0, r0]), jacobian)
         if run is not None and (best is None or run[0] < best.cost):
             best = Reference(run[0], _axis_of(frame, run[1][2], run[1][3]))
     assert best is not None
@@ -119,8 +141,16 @@ def cone_reference(points: FloatArray, truth_axis: FloatArray | None = None, cou
             rho = np.linalg.norm(rel - h[:, None] * d, axis=1)
             return (rho - p[4]) * np.cos(p[5]) - h * np.sin(p[5])
 
+        def jacobian(p: FloatArray, local: FloatArray = local) -> FloatArray:
+            d, norm, h, w, rho, unit = _axial_terms(local, p[2:4], np.array([p[0], p[1], 0.0]))
+            cos, sin = np.cos(p[5]), np.sin(p[5])
+            return np.column_stack([-unit[:, 0] * cos + d[0] * sin, -unit[:, 1] * cos + d[1] * sin,
+                                    (-h * unit[:, 0] * cos - w[:, 0] * sin) / norm,
+                                    (-h * unit[:, 1] * cos - w[:, 1] * sin) / norm,
+                                    np.full(len(h), -cos), -(rho - p[4]) * sin - h * cos])
+
         for start in (np.array([cx, cy, 0, 0, r0, np.arctan(slope)]), np.array([cx, cy, 0, 0, r0, -np.arctan(slope)])):
-            run = _run(residual, start.astype(float))
+            run = _run(residual, start.astype(float), jacobian)
             if run is not None and (best is None or run[0] < best.cost):
                 best = Reference(run[0], _axis_of(frame, run[1][2], run[1][3]))
     assert best is not None
@@ -153,7 +183,16 @@ def torus_reference(
                 rho = np.linalg.norm(rel - h[:, None] * d, axis=1)
                 return np.hypot(rho - p[5], h) - p[6]
 
-            run = _run(residual, np.array([cx, cy, z0, 0.0, 0.0, major, minor]))
+            def jacobian(p: FloatArray, local: FloatArray = local) -> FloatArray:
+                d, norm, h, w, rho, unit = _axial_terms(local, p[3:5], p[:3])
+                tube = np.where(np.hypot(rho - p[5], h) > 0, np.hypot(rho - p[5], h), 1.0)
+                along_rho, along_h = (rho - p[5]) / tube, h / tube  # d(tube) = along_rho d(rho) + along_h d(h)
+                return np.column_stack([-(along_rho[:, None] * unit + along_h[:, None] * d),
+                                        (-along_rho * h * unit[:, 0] + along_h * w[:, 0]) / norm,
+                                        (-along_rho * h * unit[:, 1] + along_h * w[:, 1]) / norm,
+                                        -along_rho, -np.ones(len(h))])
+
+            run = _run(residual, np.array([cx, cy, z0, 0.0, 0.0, major, minor]), jacobian)
             if run is not None and (best is None or run[0] < best.cost):
                 best = Reference(run[0], _axis_of(frame, run[1][3], run[1][4]))
     assert best is not None

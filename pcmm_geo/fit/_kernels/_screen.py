@@ -184,8 +184,9 @@ def batched_lm(
             break
         jac = np.where(ok[:, None, None], jac, 0.0)
         residuals = np.where(ok[:, None], residuals, 0.0)
-        normal = np.einsum("dni,dnj->dij", jac, jac)
-        gradient = np.einsum("dni,dn->di", jac, residuals)
+        jac_t = np.swapaxes(jac, 1, 2)
+        normal = jac_t @ jac
+        gradient = (jac_t @ residuals[..., None])[..., 0]
         diagonal = np.einsum("dii->di", normal)
         scale = np.where(diagonal > 0, diagonal, 1.0)
         system = normal + damping[:, None, None] * scale[:, :, None] * eye

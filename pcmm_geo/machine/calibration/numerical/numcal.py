@@ -133,11 +133,21 @@ def _solve(
         vector[free] = x
         return vector
 
+    last: dict[bytes, tuple[FloatArray, FloatArray]] = {}
+
+    def evaluate(x: FloatArray) -> tuple[FloatArray, FloatArray]:
+        # the solvers ask for the Jacobian at the point whose residuals they just took: compute both once
+        key = np.asarray(x, dtype=float).tobytes()
+        if key not in last:
+            last.clear()
+            last[key] = residuals_and_jacobian(data, full(x), pairs=pairs)  # type: ignore[arg-type]
+        return last[key]
+
     def fun(x: FloatArray) -> FloatArray:
-        return residuals_and_jacobian(data, full(x), pairs=pairs)[0]  # type: ignore[arg-type]
+        return evaluate(x)[0].copy()
 
     def jac(x: FloatArray) -> FloatArray:
-        return residuals_and_jacobian(data, full(x), pairs=pairs)[1][:, free]  # type: ignore[arg-type]
+        return evaluate(x)[1][:, free]
 
     evaluations = 0
     candidates: list[FloatArray] = []

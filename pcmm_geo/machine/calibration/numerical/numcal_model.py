@@ -6,6 +6,7 @@ See :mod:`pcmm_geo.machine.calibration.numerical.numcal` for the experiment and 
 from __future__ import annotations
 
 from collections.abc import Callable
+from functools import lru_cache
 from typing import Literal
 
 import numpy as np
@@ -29,20 +30,32 @@ Pairs = Literal["moved", "all"]
 
 
 def equation_rows(data: NumcalData, pairs: str = "moved") -> tuple[NDArray[np.int_], ...]:
-    """Per equation: sample index, arm i, arm in and pair index; ``pairs`` "moved" (one per sample) or "all"."""
-    count = len(data.moved)
+    """Per equation: sample index, arm i, arm in and pair index; ``pairs`` "moved" (one per sample) or "all".
+
+    The arrays are read-only (they are shared by every evaluation on the same samples).
+    """
+    if pairs not in ("moved", "all"):
+        raise InvalidInputError("pairs", "'moved' or 'all'", repr(pairs))
+    return _equation_rows(tuple(data.moved), pairs)
+
+
+@lru_cache(maxsize=64)
+def _equation_rows(moved: tuple[str, ...], pairs: str) -> tuple[NDArray[np.int_], ...]:
+    count = len(moved)
     if pairs == "moved":
         sample = np.arange(count)
-        first = np.array([ARMS.index(MOVED_PAIR[m][0]) for m in data.moved], dtype=int)
-        second = np.array([ARMS.index(MOVED_PAIR[m][1]) for m in data.moved], dtype=int)
-        pair = np.array([_PAIR_INDEX[MOVED_PAIR[m][2]] for m in data.moved], dtype=int)
-        return sample, first, second, pair
-    if pairs == "all":
+        first = np.array([ARMS.index(MOVED_PAIR[m][0]) for m in moved], dtype=int)
+        second = np.array([ARMS.index(MOVED_PAIR[m][1]) for m in moved], dtype=int)
+        pair = np.array([_PAIR_INDEX[MOVED_PAIR[m][2]] for m in moved], dtype=int)
+        rows: tuple[NDArray[np.int_], ...] = (sample, first, second, pair)
+    else:
         sample = np.repeat(np.arange(count), 3)
         first = np.tile([i for i, _ in PAIR_ARMS], count)
         second = np.tile([n for _, n in PAIR_ARMS], count)
-        return sample, first, second, np.tile([0, 1, 2], count)
-    raise InvalidInputError("pairs", "'moved' or 'all'", repr(pairs))
+        rows = (sample, first, second, np.tile([0, 1, 2], count))
+    for array in rows:
+        array.flags.writeable = False
+    return rows
 
 
 def residuals_and_jacobian(
@@ -76,8 +89,9 @@ def residuals_and_jacobian(
     implied = np.sqrt(rise**2 + base**2)
     residuals = distance - implied
     jac = np.zeros((rows.size, 9))
-    np.add.at(jac, (rows, first), (length_i - length_n * cosine) / distance)
-    np.add.at(jac, (rows, second), (length_n - length_i * cosine) / distance)
+    # the two arms of a pair differ, so each row receives each column once
+    jac[rows, first] = (length_i - length_n * cosine) / distance
+    jac[rows, second] = (length_n - length_i * cosine) / distance
     jac[rows, 3 + pair] = length_i * length_n * sine / distance
     jac[rows, 6 + pair] = -base / implied
     return residuals, jac
