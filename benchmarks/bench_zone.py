@@ -349,8 +349,9 @@ def axial_small_sets_case(sets: int) -> list[list]:
                 start = time.perf_counter()
                 try:
                     fit = fit_cylinder(points, criterion=criterion, search_budget=budget)
-                except DegenerateGeometryError:
+                except DegenerateGeometryError as refusal:
                     refused += 1
+                    print(f"refused, {criterion}, {n} points: {refusal}", file=sys.stderr)
                     continue
                 finally:
                     mine += time.perf_counter() - start
