@@ -21,7 +21,7 @@ from __future__ import annotations
 import ast
 import functools
 import warnings
-from collections.abc import Iterable
+from collections.abc import Collection
 from pathlib import Path
 
 import pytest
@@ -70,8 +70,7 @@ def module_files(root: Path) -> dict[str, Path]:
     return modules
 
 
-def _targets(node: ast.Import | ast.ImportFrom, module: str, is_package: bool, known: Iterable[str]) -> list[str]:
-    known = known if isinstance(known, set | frozenset | dict) else set(known)
+def _targets(node: ast.Import | ast.ImportFrom, module: str, is_package: bool, known: Collection[str]) -> list[str]:
     if isinstance(node, ast.Import):
         names = [alias.name for alias in node.names]
     else:
@@ -100,7 +99,7 @@ def import_graph(root: Path = PACKAGE_ROOT) -> dict[str, set[str]]:
 def _parsed_graph(root: Path) -> dict[str, frozenset[str]]:
     """The import graph of the package at ``root``, parsed once per test session (``root`` is a tree no test edits
     while the session runs; the walker's own test writes a new folder)."""
-    files = module_files(root)  # a dict: membership without copying its names for every import
+    files = module_files(root)
     graph: dict[str, frozenset[str]] = {}
     for module, path in files.items():
         tree = ast.parse(path.read_text(encoding="utf-8"), filename=str(path))

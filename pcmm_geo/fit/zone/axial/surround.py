@@ -164,12 +164,10 @@ class Surround:
             with np.errstate(divide="ignore", invalid="ignore"):
                 wx = np.concatenate([cy / length, -qx / radius], axis=1)  # (K, C): chord normals, toward the trace
                 wy = np.concatenate([-cx / length, -qy / radius], axis=1)
-            support = (wx[:, :, None] * qx[:, None, :] + wy[:, :, None] * qy[:, None, :]).max(axis=2)
+            products = wx[:, :, None] * qx[:, None, :] + wy[:, :, None] * qy[:, None, :]  # (K, C, H): w . q
             m = len(first_i)
-            chord_support = support[:, :m]
-            # the other normal of each chord: max of -w . q = -(min of w . q)
-            other = -(wx[:, :m, None] * qx[:, None, :] + wy[:, :m, None] * qy[:, None, :]).min(axis=2)
-            candidates = np.concatenate([chord_support, other, support[:, m:]], axis=1)
+            # each chord's other normal: max of -w . q = -(min of w . q)
+            candidates = np.concatenate([products.max(axis=2), -products[:, :m].min(axis=2)], axis=1)
             # a degenerate candidate (coincident points, a vertex on the trace) is no direction: skip it
             candidates = np.where(np.isfinite(candidates), candidates, np.inf)
             out[rows] = candidates.min(axis=1)

@@ -320,7 +320,7 @@ def process_log(
             sigmas[row] = np.inf
             continue
         observed_sigmas = sigmas[adjustment.rows]
-        influence = reading_influence(adjustment, segments, observed_sigmas, limits)
+        influence = reading_influence(adjustment, segments, observed_sigmas, limits, tips=False)  # the gate's part
         used = np.isfinite(observed_sigmas)
         worst = worst_reading(adjustment.residuals, observed_sigmas, influence.redundancy, used, limits)
         if worst is None:
@@ -334,11 +334,11 @@ def process_log(
                                     geometry_gains=covariance is not None)
     if winner is not adjustment:
         adjustment = winner
-        influence = reading_influence(adjustment, segments, sigmas[adjustment.rows], limits)
+        influence = reading_influence(adjustment, segments, sigmas[adjustment.rows], limits, tips=False)
+    # the MDB whichever way a start row is read, then tip covariance and reliability once, on the final adjustment
     floor = further_move_mdb(adjustment, segments, log.start_stop, log.motor, influence.redundancy,
                              sigmas[adjustment.rows], limits)
-    if floor is not None:  # the MDB whichever way a start row is read
-        influence = reading_influence(adjustment, segments, sigmas[adjustment.rows], limits, mdb_floor=floor)
+    influence = reading_influence(adjustment, segments, sigmas[adjustment.rows], limits, mdb_floor=floor)
     if progress is not None:
         progress(count, count)
     return _result(machine, log, segments, adjustment, influence, sigmas, refused, failed_rows, limits, per_arm,

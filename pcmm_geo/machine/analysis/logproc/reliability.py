@@ -162,7 +162,6 @@ def further_move_mdb(adjustment: Adjustment, segments: LogSegments, start_stop: 
     numbers in the adjustment as it stands and ``sigmas`` ``(R, 3)`` their standard uncertainties.
     """
     rows = adjustment.rows
-    position = {int(row): index for index, row in enumerate(rows)}
     weights = adjustment.weights
     gains = adjustment.kinematics.laser_gain  # (R, laser, arm)
     floor = np.zeros_like(weights)
@@ -189,9 +188,7 @@ def further_move_mdb(adjustment: Adjustment, segments: LogSegments, start_stop: 
         denominator = float(np.sum(weights.ravel() * split.ravel() * misfit))
         if not denominator > 0:
             continue
-        for observed in (index, position.get(start, -1)):
-            if observed < 0:
-                continue
+        for observed in (index, index + 1):  # the row and the start row (observed right after it)
             chosen = candidates & (weights[observed] > 0)
             other = redundancy[observed] - weights[observed] * misfit.reshape(-1, 3)[observed] ** 2 / denominator
             floor[observed] = np.where(chosen, np.maximum(floor[observed],
