@@ -94,9 +94,33 @@ EXTRAS_NEEDED = {
 }
 
 
+# Modules with tests of ten seconds and more (quiet 2-core machine): collected first, each module whole (its
+# module-scoped fixtures are built once), so that the parallel workers share out the short tests at the end
+# rather than one of them finishing a long test alone.
+FIRST_MODULES = (
+    "test_docs.py",
+    "acquisition/test_acq_process.py",
+    "uncertainty/test_demo_coverage.py",
+    "fit/test_zone_axial.py",
+    "fit/test_robustness.py",
+    "machine/test_numcal.py",
+    "plots/test_plots.py",
+    "fit/test_zone.py",
+    "cli/test_cli_calibrate.py",
+    "cli/test_cli_plots.py",
+)
+
+
 def pytest_collection_modifyitems(config: pytest.Config, items: list[pytest.Item]) -> None:
-    """Mark the tests of :data:`EXTRAS_NEEDED` with ``extras(<extra>)``."""
+    """Mark the tests of :data:`EXTRAS_NEEDED` with ``extras(<extra>)``; put :data:`FIRST_MODULES` first."""
     root = Path(__file__).parent
+    rank = {module: k for k, module in enumerate(FIRST_MODULES)}
+
+    def order(item: pytest.Item) -> int:
+        path = Path(str(item.path))
+        return rank.get(path.relative_to(root).as_posix(), len(rank)) if path.is_relative_to(root) else len(rank)
+
+    items.sort(key=order)  # stable: every module keeps its tests together and in order
     for item in items:
         if not Path(str(item.path)).is_relative_to(root):  # the library's doctests
             continue

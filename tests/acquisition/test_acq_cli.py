@@ -9,14 +9,16 @@ import sys
 import time
 from pathlib import Path
 
+from pcmm_runner import run_pcmm
+
 from pcmm_geo.acquisition.acqlog import read_log
 
 PCMM = str(Path(sys.executable).with_name("pcmm"))
 FAST = ["--simulate", "--settle", "0", "--timeout", "0.06", "--move-timeout", "0.12"]
 
 
-def _pcmm(*args: str, timeout: float = 60) -> subprocess.CompletedProcess[str]:
-    return subprocess.run([PCMM, *args], capture_output=True, text=True, timeout=timeout, check=False)
+def _pcmm(*args: str) -> subprocess.CompletedProcess[str]:
+    return run_pcmm(*args)
 
 
 def test_simulated_run_with_faults_json(tmp_path: Path) -> None:

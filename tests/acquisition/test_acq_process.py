@@ -18,6 +18,7 @@ The broad scans (many seeds, every arm and row, Monte Carlo power) are
 from __future__ import annotations
 
 import contextlib
+import functools
 import io
 import warnings
 from pathlib import Path
@@ -49,8 +50,14 @@ def acquire(folder: Path, seed: int, offsets: tuple[float, ...] | None = None, m
     return path
 
 
+@functools.cache
+def start_heights(path: Path) -> tuple[float, ...]:
+    """The start heights a session's log states (read once per log: the fault scans process each log 168 times)."""
+    return tuple(float(v) for v in read_acquisition_log(path).metadata["start_heights_mm"].split())
+
+
 def process(path: Path, log=None, **options):
-    start = [float(v) for v in read_acquisition_log(path).metadata["start_heights_mm"].split()]
+    start = list(start_heights(path))
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")  # uncertain / ambiguous / unbounded rows of level sessions are expected
         return process_log(MACHINE, read_log(path) if log is None else log, initial_heights=start, **options)

@@ -4,12 +4,12 @@ from __future__ import annotations
 
 import json
 import subprocess
-import sys
 import warnings
 from pathlib import Path
 
 import numpy as np
 import pytest
+from pcmm_runner import run_pcmm
 
 from pcmm_geo.acquisition.acqlog import read_log as read_acquisition_log
 from pcmm_geo.acquisition.simulators.cmm import (
@@ -22,12 +22,9 @@ from pcmm_geo.errors import InvalidInputError
 from pcmm_geo.machine.analysis.logproc import process_log, read_log
 from pcmm_geo.machine.kinematics.model import RigidBodyMachine
 
-PCMM = str(Path(sys.executable).with_name("pcmm"))
-
 
 def acquire(path: Path, *extra: str) -> subprocess.CompletedProcess[str]:
-    return subprocess.run([PCMM, "acquire", "--simulate", "--moves", "60", "--settle", "0", "--seed", "12",
-                           "--out", str(path), *extra], capture_output=True, text=True, timeout=120, check=False)
+    return run_pcmm("acquire", "--simulate", "--moves", "60", "--settle", "0", "--seed", "12", "--out", path, *extra)
 
 
 def tip_errors(path: Path):
@@ -58,8 +55,7 @@ def test_off_level_start_gives_points_within_their_uncertainty(tmp_path: Path) -
     assert np.all(out.tip_uncertainty < 0.3)  # 0.1-0.2 mm with the default 28.9 um laser sigma (0.4-0.6 before
     # issue 22: each height from its own row only)
     # the command takes the datum from the log's metadata (without it: the level heights, a mirrored branch)
-    proc = subprocess.run([PCMM, "process-log", str(off_level), "--json"], capture_output=True, text=True,
-                          timeout=120, check=False)
+    proc = run_pcmm("process-log", off_level, "--json")
     assert proc.returncode == 0 and proc.stderr == "", proc.stderr
     data = json.loads(proc.stdout)
     assert data["initial_heights"] == [400.0, 460.0, 340.0] and data["uncertain_data_rows"] == []
@@ -79,6 +75,5 @@ def test_start_heights_parameter() -> None:
 
 
 def test_start_offsets_need_simulate(tmp_path: Path) -> None:
-    proc = subprocess.run([PCMM, "acquire", "--start-offsets-mm", "0", "1", "2", "--out", str(tmp_path / "x.csv")],
-                          capture_output=True, text=True, timeout=60, check=False)
+    proc = run_pcmm("acquire", "--start-offsets-mm", "0", "1", "2", "--out", tmp_path / "x.csv")
     assert proc.returncode == 2 and "--start-offsets-mm" in proc.stderr and not (tmp_path / "x.csv").exists()

@@ -4,14 +4,13 @@ from __future__ import annotations
 
 import json
 import subprocess
-import sys
 from importlib.resources import files
 from pathlib import Path
 
 import numpy as np
 import pytest
+from pcmm_runner import run_pcmm
 
-PCMM = str(Path(sys.executable).with_name("pcmm"))
 EXAMPLES = files("pcmm_geo") / "data/examples"
 
 
@@ -20,7 +19,7 @@ def example(name: str) -> str:
 
 
 def run(*args: str) -> subprocess.CompletedProcess[str]:
-    return subprocess.run([PCMM, *args], capture_output=True, text=True, timeout=60, check=False)
+    return run_pcmm(*args)
 
 
 def assert_usage_error(proc: subprocess.CompletedProcess[str], text: str) -> None:

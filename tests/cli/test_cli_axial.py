@@ -4,18 +4,17 @@ from __future__ import annotations
 
 import json
 import subprocess
-import sys
 from pathlib import Path
 
 import numpy as np
 import pytest
+from pcmm_runner import run_pcmm
 
-PCMM = str(Path(sys.executable).with_name("pcmm"))
 AUDIT = Path(__file__).resolve().parents[1] / "data" / "zone_audit"
 
 
 def _run(*args: str) -> subprocess.CompletedProcess[str]:
-    return subprocess.run([PCMM, *args], capture_output=True, text=True, timeout=300)
+    return run_pcmm(*args)
 
 
 def _tube(path: Path) -> Path:

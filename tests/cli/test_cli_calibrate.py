@@ -4,11 +4,10 @@ from __future__ import annotations
 
 import json
 import subprocess
-import sys
-from pathlib import Path
 
 import numpy as np
 import pytest
+from pcmm_runner import run_pcmm
 
 from pcmm_geo.machine.calibration.numerical.numcal_data import (
     NumcalParameters,
@@ -18,11 +17,9 @@ from pcmm_geo.machine.calibration.numerical.numcal_data import (
 )
 from pcmm_geo.machine.calibration.seed import TABLE_7_1, appendix_cd_files
 
-PCMM = str(Path(sys.executable).with_name("pcmm"))
-
 
 def run(*args: str) -> subprocess.CompletedProcess[str]:
-    return subprocess.run([PCMM, *args], capture_output=True, text=True, timeout=120, check=False)
+    return run_pcmm(*args)
 
 
 @pytest.fixture(scope="module")

@@ -10,12 +10,11 @@ from __future__ import annotations
 
 import json
 import subprocess
-import sys
 from pathlib import Path
 
 import pytest
+from pcmm_runner import run_pcmm
 
-PCMM = str(Path(sys.executable).with_name("pcmm"))
 DATA = Path(__file__).parents[1] / "data"
 SAMPLE = DATA / "qif" / "samples" / "QIF_PTS_SAMPLE.QIF"  # 102259 bytes
 CMM = DATA / "cmm"
@@ -29,7 +28,7 @@ BRACKET_CHR = ("planid\tid\ttype\tidsymbol\tactual\tnominal\tuppertol\tlowertol\
 
 
 def _run(*args: str | Path) -> subprocess.CompletedProcess[str]:
-    return subprocess.run([PCMM, *map(str, args)], capture_output=True, text=True, timeout=300)
+    return run_pcmm(*args)
 
 
 def _refused(done: subprocess.CompletedProcess[str], command: str, *texts: str) -> str:

@@ -5,14 +5,13 @@ from __future__ import annotations
 import importlib.util
 import json
 import subprocess
-import sys
 from pathlib import Path
 
 import numpy as np
 import pytest
+from pcmm_runner import run_pcmm
 from scipy.spatial.transform import Rotation
 
-PCMM = str(Path(sys.executable).with_name("pcmm"))
 PACKAGE = Path(__file__).parents[2] / "pcmm_geo"
 EXAMPLES = PACKAGE / "data" / "examples"
 SCAN = EXAMPLES / "gauge_block_scan.csv"
@@ -20,7 +19,7 @@ NOMINAL = EXAMPLES / "gauge_block_nominal.stl"
 
 
 def _run(*args: str | Path) -> subprocess.CompletedProcess[str]:
-    return subprocess.run([PCMM, *map(str, args)], capture_output=True, text=True, timeout=300)
+    return run_pcmm(*args)
 
 
 def _example_pose() -> dict:

@@ -1,4 +1,5 @@
-"""``pcmm demo`` end to end, in a subprocess, against the simulated truth."""
+"""``pcmm demo`` end to end against the simulated truth: the installed console script in a subprocess once, then
+in process (:mod:`pcmm_runner`)."""
 
 from __future__ import annotations
 
@@ -9,6 +10,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from pcmm_runner import run_pcmm
 
 PCMM = str(Path(sys.executable).with_name("pcmm"))
 
@@ -54,7 +56,7 @@ def test_demo_plots_are_real_images_and_runs_never_overwrite(demo_run: tuple[dic
         image = matplotlib.image.imread(path)
         assert image.shape[0] > 200 and image.shape[1] > 200
         assert float(np.std(image[..., :3])) > 0.02  # not blank
-    again = subprocess.run([PCMM, "demo", "--json", "--out", str(out)], capture_output=True, text=True, timeout=300)
+    again = run_pcmm("demo", "--json", "--out", out)
     assert again.returncode == 0, again.stderr
     second = json.loads(again.stdout)["plots"]
     assert set(second).isdisjoint(data["plots"])
@@ -62,7 +64,7 @@ def test_demo_plots_are_real_images_and_runs_never_overwrite(demo_run: tuple[dic
 
 
 def test_demo_human_output_is_a_table() -> None:
-    done = subprocess.run([PCMM, "demo", "--no-plots"], capture_output=True, text=True, timeout=300)
+    done = run_pcmm("demo", "--no-plots")
     assert done.returncode == 0, done.stderr
     assert "gauge block" in done.stdout and "calibrated (rigid body)" in done.stdout
     assert "error / µm" in done.stdout

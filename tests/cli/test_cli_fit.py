@@ -8,13 +8,13 @@ import sys
 from pathlib import Path
 
 import numpy as np
+from pcmm_runner import run_pcmm
 
-PCMM = str(Path(sys.executable).with_name("pcmm"))
 NIST = Path(__file__).parents[1] / "data" / "nist"
 
 
 def _run(*args: str) -> subprocess.CompletedProcess[str]:
-    return subprocess.run([PCMM, *args], capture_output=True, text=True, timeout=120)
+    return run_pcmm(*args)
 
 
 def _reference(path: Path) -> np.ndarray:

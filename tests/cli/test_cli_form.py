@@ -4,18 +4,16 @@ from __future__ import annotations
 
 import json
 import subprocess
-import sys
 from pathlib import Path
 
 import numpy as np
+from pcmm_runner import run_pcmm
 
 from pcmm_geo.fit.zone.reference import make_minimax_reference
 
-PCMM = str(Path(sys.executable).with_name("pcmm"))
-
 
 def _run(*args: str) -> subprocess.CompletedProcess[str]:
-    return subprocess.run([PCMM, *args], capture_output=True, text=True, timeout=120)
+    return run_pcmm(*args)
 
 
 def _write(path: Path, points: np.ndarray) -> Path:

@@ -4,19 +4,17 @@ from __future__ import annotations
 
 import json
 import subprocess
-import sys
 from pathlib import Path
 
 import numpy as np
+from pcmm_runner import run_pcmm
 
 from pcmm_geo.machine.analysis.logproc import synthesise_log, write_log
 from pcmm_geo.machine.kinematics.model import RigidBodyMachine
 
-PCMM = str(Path(sys.executable).with_name("pcmm"))
-
 
 def run(*args: str) -> subprocess.CompletedProcess[str]:
-    return subprocess.run([PCMM, *args], capture_output=True, text=True, timeout=120, check=False)
+    return run_pcmm(*args)
 
 
 def run_json(*args: str) -> dict:

@@ -12,6 +12,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from pcmm_runner import run_pcmm
 
 from pcmm_geo.machine.analysis.logproc import synthesise_log, write_log
 from pcmm_geo.machine.calibration.numerical.numcal_data import (
@@ -28,7 +29,7 @@ DPI = 110
 
 
 def run(*args: str, cwd: Path | None = None) -> subprocess.CompletedProcess[str]:
-    return subprocess.run([PCMM, *args], capture_output=True, text=True, timeout=300, check=False, cwd=cwd)
+    return run_pcmm(*args, cwd=cwd)
 
 
 def run_with_terminal_stderr(*args: str) -> tuple[int, str, str]:

@@ -5,21 +5,20 @@ from __future__ import annotations
 
 import json
 import subprocess
-import sys
 from pathlib import Path
 
 import numpy as np
 import pytest
+from pcmm_runner import run_pcmm
 
 from pcmm_geo.machine.analysis.laser_ratio import ReadingLimits
 from pcmm_geo.machine.analysis.laser_ratio_model import synthesise_ratio_record
 
-PCMM = str(Path(sys.executable).with_name("pcmm"))
 EXAMPLES = Path(__file__).resolve().parents[2] / "pcmm_geo" / "data" / "examples"
 
 
 def run(*args: str) -> subprocess.CompletedProcess[str]:
-    return subprocess.run([PCMM, *args], capture_output=True, text=True, timeout=180, check=False)
+    return run_pcmm(*args)
 
 
 def run_json(*args: str) -> dict:

@@ -5,17 +5,15 @@ from __future__ import annotations
 import json
 import math
 import subprocess
-import sys
 from importlib.resources import files
 from pathlib import Path
 
 import pytest
-
-PCMM = str(Path(sys.executable).with_name("pcmm"))
+from pcmm_runner import run_pcmm
 
 
 def run(*args: str) -> subprocess.CompletedProcess[str]:
-    return subprocess.run([PCMM, *args], capture_output=True, text=True, timeout=60, check=False)
+    return run_pcmm(*args)
 
 
 def run_json(*args: str) -> dict:

@@ -5,11 +5,10 @@ from __future__ import annotations
 import json
 import math
 import subprocess
-import sys
-from pathlib import Path
 
 import numpy as np
 import pytest
+from pcmm_runner import run_pcmm
 
 from pcmm_geo.machine.calibration import calibrate_tetrahedron
 from pcmm_geo.machine.calibration.geometry import angle_between_deg, seed_printed_angle_deg
@@ -141,8 +140,7 @@ def test_issue_commands_calibrate_then_forward(tmp_path):
 
 
 def _pcmm(*args: str) -> subprocess.CompletedProcess[str]:
-    return subprocess.run([str(Path(sys.executable).with_name("pcmm")), *args], capture_output=True, text=True,
-                          timeout=120, check=False)
+    return run_pcmm(*args)
 
 
 def _tip_z(document: dict) -> float:

@@ -9,11 +9,10 @@ from __future__ import annotations
 
 import json
 import subprocess
-import sys
-from pathlib import Path
 
 import numpy as np
 import pytest
+from pcmm_runner import run_pcmm
 
 from pcmm_geo.errors import InconsistentMeasurementError, InvalidInputError, NoRealSolutionError, OutOfRangeError
 from pcmm_geo.machine.kinematics.dpkm import TABLE_3_1_DEAD_DISTANCE
@@ -26,7 +25,6 @@ from pcmm_geo.machine.kinematics.limits import (
 )
 from pcmm_geo.machine.kinematics.model import RigidBodyMachine
 
-PCMM = str(Path(sys.executable).with_name("pcmm"))
 SEED = RigidBodyMachine.from_dpkm()
 LOW = 400.0 - 247_500 * 6.35 / 12_800  # the seed's reference heights (400 mm) sit at the park position
 HIGH = LOW + 450.0
@@ -203,7 +201,7 @@ def test_inverse_failure_without_a_reach_violation_is_no_real_solution() -> None
 
 
 def run_cli(*args: str) -> subprocess.CompletedProcess[str]:
-    return subprocess.run([PCMM, "kinematics", *args], capture_output=True, text=True, timeout=120, check=False)
+    return run_pcmm("kinematics", *args)
 
 
 @pytest.mark.parametrize(

@@ -172,17 +172,10 @@ def test_seed_direction_rule_fails_when_pivot_stays_above_its_neighbour() -> Non
 
 def test_read_log_accepts_acquisition_logs_with_metadata_and_extra_columns(tmp_path: Path) -> None:
     """A durable acquisition log (``# key: value`` header, raw-count columns) reads as Table 3.2."""
-    import subprocess
-    import sys
+    from pcmm_runner import run_pcmm
 
     out = tmp_path / "run.csv"
-    pcmm = Path(sys.executable).with_name("pcmm")
-    subprocess.run(
-        [str(pcmm), "acquire", "--simulate", "--moves", "4", "--settle", "0", "--seed", "3", "--out", str(out)],
-        check=True,
-        capture_output=True,
-        timeout=120,
-    )
+    run_pcmm("acquire", "--simulate", "--moves", "4", "--settle", "0", "--seed", "3", "--out", out).check_returncode()
     text = out.read_text()
     data_lines = [line for line in text.splitlines()[1:] if line and not line.startswith("#")]
     log = read_log(out)

@@ -11,11 +11,11 @@ from __future__ import annotations
 
 import json
 import subprocess
-import sys
 from pathlib import Path
 
 import numpy as np
 import pytest
+from pcmm_runner import run_pcmm
 
 from pcmm_geo.errors import ConvergenceError, InconsistentMeasurementError, InvalidInputError, OutOfRangeError
 from pcmm_geo.machine.analysis.logproc import (
@@ -244,11 +244,10 @@ def test_bad_gating_arguments(clean) -> None:
         process_log(machine, log, initial_heights=h0, model_covariance=np.eye(3))
 
 
-PCMM = str(Path(sys.executable).with_name("pcmm"))
 
 
 def run(*args: str) -> subprocess.CompletedProcess[str]:
-    return subprocess.run([PCMM, *args], capture_output=True, text=True, timeout=120, check=False)
+    return run_pcmm(*args)
 
 
 def test_cli_refuses_an_inconsistent_row_and_keeps_it_only_when_asked(clean, tmp_path: Path) -> None:

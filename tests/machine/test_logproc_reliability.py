@@ -11,14 +11,13 @@ logs with MDB faults.
 from __future__ import annotations
 
 import json
-import subprocess
-import sys
 import warnings
 from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
 import pytest
+from pcmm_runner import run_pcmm
 from scipy.stats import binom
 
 from pcmm_geo.errors import InconsistentMeasurementError
@@ -185,18 +184,15 @@ def test_max_bound_leaves_points_out_and_the_cli_reports_r_and_the_bound(clean, 
     np.testing.assert_array_equal(np.sort(np.r_[bounded.probe_rows, bounded.rejected_probe_rows]), out.probe_rows)
     assert bounded.over_bound.sum() == np.sum(out.bound > limit) and np.sum(out.bound[out.probe_rows] > limit) > 0
     path = write_log(tmp_path / "log.csv", log)
-    pcmm = str(Path(sys.executable).with_name("pcmm"))
     heights = [repr(float(h)) for h in h0]
-    proc = subprocess.run([pcmm, "process-log", str(path), "--initial-heights-mm", *heights, "--json", "--max-bound-mm",
-                           repr(limit)], capture_output=True, text=True, timeout=120, check=False)
+    proc = run_pcmm("process-log", path, "--initial-heights-mm", *heights, "--json", "--max-bound-mm", repr(limit))
     assert proc.returncode == 0, proc.stderr
     data = json.loads(proc.stdout)
     np.testing.assert_allclose(data["tip_reliability_mm"], out.tip_reliability, rtol=1e-9)
     np.testing.assert_allclose(data["bound_mm"], out.bound, rtol=1e-9)
     assert data["over_bound_data_rows"] == (np.flatnonzero(bounded.over_bound) + 1).tolist()
     assert [len(row) for row in data["mdb_mm"]] == [3] * len(log)
-    table = subprocess.run([pcmm, "process-log", str(path), "--initial-heights-mm", *heights], capture_output=True,
-                           text=True, timeout=120, check=False)
+    table = run_pcmm("process-log", path, "--initial-heights-mm", *heights)
     assert "R / mm" in table.stdout and "U+R / mm" in table.stdout and "stated bound U (k = 2) + R" in table.stdout
 
 
@@ -214,10 +210,7 @@ def test_cli_takes_the_calibration_files_covariance_into_every_point(tmp_path: P
             points[(f"joint_{arm}", position)] = pts
     probe_file = write_probings_csv(tmp_path / "probings.csv", points)
     laser_file = write_lasers_csv(tmp_path / "lasers.csv", [1, 2, 3], CALIBRATION_LASERS)
-    pcmm = str(Path(sys.executable).with_name("pcmm"))
-
-    def run(*args: str) -> subprocess.CompletedProcess[str]:
-        return subprocess.run([pcmm, *args], capture_output=True, text=True, timeout=300, check=False)
+    run = run_pcmm
 
     cal, bare = tmp_path / "cal.json", tmp_path / "bare.json"
     assert run("calibrate", str(probe_file), str(laser_file), "--probing-u-mm", "0.002", "--laser-u-mm", "0.002",

@@ -10,12 +10,12 @@ from __future__ import annotations
 
 import json
 import subprocess
-import sys
 import warnings
 from pathlib import Path
 
 import numpy as np
 import pytest
+from pcmm_runner import run_pcmm
 
 from pcmm_geo.errors import IllConditionedWarning, InvalidInputError
 from pcmm_geo.machine.analysis.logproc import (
@@ -33,7 +33,6 @@ MOVES = [(1, 6.0, True), (2, -5.0, True), (3, 4.0, True)]
 TRIALS = 200
 #: count step of the ILD1302 lasers as a standard uncertainty (12.46 um / sqrt(12)), mm
 COUNT_SIGMA = 0.0036
-PCMM = str(Path(sys.executable).with_name("pcmm"))
 
 
 def noisy_copy(log: MeasurementLog, rng: np.random.Generator, sigma: float) -> MeasurementLog:
@@ -156,7 +155,7 @@ def test_flag_uncertain_tips_rules() -> None:
 
 
 def run(*args: str) -> subprocess.CompletedProcess[str]:
-    return subprocess.run([PCMM, *args], capture_output=True, text=True, timeout=120, check=False)
+    return run_pcmm(*args)
 
 
 def test_cli_reports_u_warns_and_refuses_on_request(tmp_path: Path) -> None:

@@ -4,17 +4,15 @@ from __future__ import annotations
 
 import json
 import subprocess
-import sys
 from pathlib import Path
 
 import numpy as np
 import pytest
-
-PCMM = str(Path(sys.executable).with_name("pcmm"))
+from pcmm_runner import run_pcmm
 
 
 def run(*args: str) -> subprocess.CompletedProcess[str]:
-    return subprocess.run([PCMM, *args], capture_output=True, text=True, timeout=300, check=False)
+    return run_pcmm(*args)
 
 
 @pytest.fixture(scope="module")

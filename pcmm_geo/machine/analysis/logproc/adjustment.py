@@ -188,12 +188,11 @@ def _curvature(geometry: solver.Geometry, kinematics: RowKinematics, heights: Fl
     beyond it), where Gauss-Newton crawls.  Forward differences of the analytic ``dl/dH``.
     """
     step = 1e-4
-    second = np.empty((len(heights), 3, 3, 3))  # row, laser, arm a, arm b
-    for arm in range(3):
-        shifted = heights.copy()
-        shifted[:, arm] += step
-        second[..., arm] = (row_kinematics(geometry, shifted, kinematics.lasers).laser_gain
-                            - kinematics.laser_gain) / step
+    count = len(heights)
+    shifted = np.tile(heights, (3, 1))  # the three shifts at once: rows of arm 0, then 1, then 2
+    shifted.reshape(3, count, 3)[np.arange(3), :, np.arange(3)] += step
+    gains = row_kinematics(geometry, shifted, np.tile(kinematics.lasers, (3, 1))).laser_gain.reshape(3, count, 3, 3)
+    second = np.moveaxis((gains - kinematics.laser_gain) / step, 0, -1)  # row, laser, arm a, arm b
     blocks = np.einsum("rj,rjab->rab", weights * residuals, 0.5 * (second + second.transpose(0, 1, 3, 2)))
     rows = np.repeat(active[:, :, None], 3, axis=2) - 3
     columns = np.repeat(active[:, None, :], 3, axis=1) - 3
