@@ -128,7 +128,7 @@ def _circumcentres(q: np.ndarray, triples: np.ndarray) -> np.ndarray:
 
 
 @functools.lru_cache(maxsize=64)
-def _subsets(n: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def _subsets(n: int) -> tuple[np.ndarray, np.ndarray]:
     """Index triples (T, 3) and disjoint pairs of pairs (P, 4) of ``n`` points.
 
     Two pairs that share a point are equidistant from their three points only at those points'
@@ -140,19 +140,19 @@ def _subsets(n: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     quads = np.hstack([pairs[first], pairs[second]])
     disjoint = (quads[:, 0] != quads[:, 2]) & (quads[:, 0] != quads[:, 3]) & (quads[:, 1] != quads[:, 2]) & (
         quads[:, 1] != quads[:, 3])
-    return triples, quads[disjoint], pairs
+    return triples, quads[disjoint]
 
 
 def _zone_candidates(q: np.ndarray) -> np.ndarray:
     """Candidate centres (..., C, 2) of the minimum-zone annulus of ``q`` (..., N, 2): 3 points on one circle, or
     2 + 2 on the two (non-finite where the points give none)."""
-    triples, quads, _ = _subsets(q.shape[-2])
+    triples, quads = _subsets(q.shape[-2])
     i, j, k, m = quads.T
-    qi, qj, qk, qm = q[..., i, :], q[..., j, :], q[..., k, :], q[..., m, :]
     # |c - qi| = |c - qj| and |c - qk| = |c - qm|: two linear equations A c = b
-    a1, a2 = 2 * (qj - qi), 2 * (qm - qk)
-    b1 = (qj * qj).sum(axis=-1) - (qi * qi).sum(axis=-1)
-    b2 = (qm * qm).sum(axis=-1) - (qk * qk).sum(axis=-1)
+    a1, a2 = 2 * (q[..., j, :] - q[..., i, :]), 2 * (q[..., m, :] - q[..., k, :])
+    squared = (q * q).sum(axis=-1)  # |q|^2 of each point, once
+    b1 = squared[..., j] - squared[..., i]
+    b2 = squared[..., m] - squared[..., k]
     det = a1[..., 0] * a2[..., 1] - a1[..., 1] * a2[..., 0]
     with np.errstate(divide="ignore", invalid="ignore"):
         split = np.stack([(b1 * a2[..., 1] - b2 * a1[..., 1]) / det, (a1[..., 0] * b2 - a2[..., 0] * b1) / det],
