@@ -242,6 +242,16 @@ def _scan(path: Path) -> tuple[dict[str, str], tuple[str, ...], list[LogRow], by
     return metadata, columns, rows, tail, whole_end
 
 
+def _comment_entries(entries: Mapping[str, Any], name: str) -> dict[str, str]:
+    """``entries`` as text, checked for ``# key: value`` lines (InvalidInputError naming ``name[key]``)."""
+    checked = {}
+    for key, value in entries.items():
+        if any(c in str(key) for c in "\n\r:") or any(c in str(value) for c in "\n\r"):
+            raise InvalidInputError(f"{name}[{key!r}]", "a one-line key without ':' and a one-line value", str(value))
+        checked[str(key)] = str(value)
+    return checked
+
+
 def _torn_column_line(data: bytes) -> int:
     """Bytes missing from a column line torn at its end, when the rest of the header is provably whole.
 
@@ -336,11 +346,7 @@ class AcquisitionLog:
         path = Path(path)
         entries = {"schema": LOG_SCHEMA, "created_utc": utc_now(), "software": f"pcmm_geo {__version__}"}
         entries.update({f"unit.{k}": v for k, v in COLUMN_UNITS.items()})
-        for key, value in (metadata or {}).items():
-            text = str(value)
-            if "\n" in str(key) or "\r" in str(key) or ":" in str(key) or "\n" in text or "\r" in text:
-                raise InvalidInputError(f"metadata[{key!r}]", "a one-line key without ':' and a one-line value", text)
-            entries[str(key)] = text
+        entries.update(_comment_entries(metadata or {}, "metadata"))
         header = "# pcmm_geo acquisition log\n" + "".join(f"# {k}: {v}\n" for k, v in entries.items())
         header += ",".join(LOG_COLUMNS) + "\n"
         check_unlocked(path)  # a log another session appends to is not replaced under it
@@ -436,11 +442,7 @@ class AcquisitionLog:
 
     def note(self, entries: Mapping[str, Any]) -> None:
         """Record ``# key: value`` lines between rows (durably; one-line keys without ``:`` and values)."""
-        for key, value in entries.items():
-            if any(c in str(key) for c in "\n\r:") or any(c in str(value) for c in "\n\r"):
-                raise InvalidInputError(f"entries[{key!r}]", "a one-line key without ':' and a one-line value",
-                                        str(value))
-        self._write("".join(f"# {key}: {value}\n" for key, value in entries.items()))
+        self._write("".join(f"# {key}: {value}\n" for key, value in _comment_entries(entries, "entries").items()))
 
     def append(self, row: LogRow) -> LogRow:
         """Write one row durably (single write, flush, fsync); fills ``seq`` and ``t_utc`` if unset.
