@@ -113,7 +113,7 @@ def test_two_sessions_started_together_never_interleave(tmp_path: Path) -> None:
     """Whatever the order: either both ran one after the other or one was refused; rows are never mixed."""
     log = tmp_path / "run.csv"
     assert _acquire(log, moves=2) == 0
-    arguments = ["acquire", "--simulate", "--moves", "30", "--settle", "0.002", "--transport", "pty",
+    arguments = ["acquire", "--simulate", "--moves", "15", "--settle", "0.002", "--transport", "pty",
                  "--start-offsets-mm", *OFFSETS, "--out", str(log), "--resume"]
     children = [subprocess.Popen([sys.executable, "-m", "pcmm_geo", *arguments, "--seed", str(seed)], cwd=tmp_path,
                                  env=_env(), stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
@@ -123,7 +123,7 @@ def test_two_sessions_started_together_never_interleave(tmp_path: Path) -> None:
     assert codes in ([0, 0], [0, 2]), errors
     rows = read_log(log).rows
     assert [row.seq for row in rows] == list(range(len(rows)))
-    assert len(rows) == 4 + 60 * codes.count(0)
+    assert len(rows) == 4 + 30 * codes.count(0)
     if codes == [0, 2]:
         assert any("in use by another acquisition session" in text for text in errors)
 
