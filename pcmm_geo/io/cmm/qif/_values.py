@@ -10,9 +10,9 @@ import numpy as np
 
 from pcmm_geo.errors import QifError
 from pcmm_geo.io.cmm.model import FeatureGeometry, Units
-from pcmm_geo.io.cmm.qif._xml import Node
+from pcmm_geo.io.cmm.qif._xml import XS_DOUBLE, Node
 
-__all__ = ["QifContext", "snake_type"]
+__all__ = ["QifContext", "snake_type", "xs_double", "xs_integer"]
 
 #: millimetres per unit, by the unit names QIF files use (lower case)
 _MM_PER = {
@@ -35,6 +35,50 @@ _FACTOR_TOLERANCE = 1e-9
 #: a unit vector's length may differ from 1 by this much
 UNIT_VECTOR_TOLERANCE = 1e-3
 _CAMEL = re.compile(r"(?<=[a-z0-9])(?=[A-Z])")
+#: the lexical space of ``xs:integer`` (and its restrictions such as ``xs:unsignedInt``)
+XS_INTEGER = re.compile(r"[+-]?[0-9]+")
+
+
+def xs_double(text: str) -> float:
+    """A number in the lexical space of ``xs:double`` (surrounding XML whitespace allowed); else ValueError.
+
+    Stricter than :class:`float`, which also reads ``3_3.2``, Arabic-Indic or full-width digits
+    (all as 33.2): numbers nobody wrote in a QIF file.
+
+    Examples
+    --------
+    >>> xs_double(" 1.5E3 "), xs_double("-.5")
+    (1500.0, -0.5)
+    >>> for bad in ("3_3.2", "\u0663\u0663.\u0662", "\uff13\uff13.2", "1,5", "inf"):
+    ...     try:
+    ...         xs_double(bad)
+    ...     except ValueError:
+    ...         print("refused", ascii(bad))
+    refused '3_3.2'
+    refused '\u0663\u0663.\u0662'
+    refused '\uff13\uff13.2'
+    refused '1,5'
+    refused 'inf'
+    """
+    stripped = text.strip(" \t\r\n")
+    if not XS_DOUBLE.fullmatch(stripped):
+        raise ValueError(f"not an xs:double: {stripped[:40]!r}")
+    return float(stripped)
+
+
+def xs_integer(text: str) -> int:
+    """An integer in the lexical space of ``xs:integer`` (ASCII digits); else ValueError."""
+    stripped = text.strip(" \t\r\n")
+    if not XS_INTEGER.fullmatch(stripped) or len(stripped) > 30:
+        raise ValueError(f"not an xs:integer: {stripped[:40]!r}")
+    return int(stripped)
+
+
+#: geometry elements of a feature nominal / measurement -> the quantities each sets (each at most once)
+_GEOMETRY_TAGS = {"Location": ("location",), "Normal": ("normal",), "Direction": ("direction",),
+                  "Axis": ("location", "direction"), "Diameter": ("diameter",), "DiameterMin": ("diameter_min",),
+                  "DiameterMax": ("diameter_max",), "Length": ("length",), "Width": ("width",), "Form": ("form",),
+                  "HalfAngle": ("half_angle",), "FullAngle": ("half_angle",)}
 
 
 def snake_type(tag: str, suffix: str) -> str:
@@ -165,7 +209,7 @@ class QifContext:
     def number(self, node: Node) -> float:
         text = node.text.strip()
         try:
-            value = float(text)
+            value = xs_double(text)
         except ValueError:
             raise self.error(node, f"expected a number, got {text[:40]!r}") from None
         if not math.isfinite(value):
@@ -179,7 +223,7 @@ class QifContext:
         values = []
         for token in tokens:
             try:
-                value = float(token)
+                value = xs_double(token)
             except ValueError:
                 raise self.error(node, f"expected a number, got {token[:40]!r}") from None
             if not math.isfinite(value):
@@ -188,11 +232,22 @@ class QifContext:
         return np.array(values)
 
     def value(self, node: Node, quantity: str = "linear", *, pmi: bool = False) -> float:
-        """A length (mm) or angle (rad) from the element's text and unit."""
-        return self.number(node) * self.factor(node, quantity, pmi=pmi)
+        """A length (mm) or angle (rad) from the element's text and unit (finite after the conversion too)."""
+        return self.converted(node, self.number(node) * self.factor(node, quantity, pmi=pmi), node.text)
+
+    def converted(self, node: Node, value: float, text: str) -> float:
+        """``value`` (already in mm or rad) when finite: ``1e307`` inch would overflow to inf."""
+        if not math.isfinite(value):
+            raise self.error(node, f"{text.strip()[:40]} overflows the float range when converted to mm or rad")
+        return value
 
     def point(self, node: Node) -> np.ndarray:
-        return self.numbers(node, 3) * self.factor(node, "linear")
+        with np.errstate(over="ignore"):
+            point = self.numbers(node, 3) * self.factor(node, "linear")
+        if not np.isfinite(point).all():
+            raise self.error(node, f"{' '.join(node.text.split())[:60]} overflows the float range when converted "
+                             "to mm")
+        return point
 
     def unit_vector(self, node: Node) -> np.ndarray:
         vector = self.numbers(node, 3)
@@ -203,7 +258,7 @@ class QifContext:
 
     def integer(self, node: Node, text: str, what: str, *, minimum: int = 1) -> int:
         try:
-            value = int(text.strip())
+            value = xs_integer(text)
         except ValueError:
             raise self.error(node, f"{what}: expected an integer, got {text.strip()[:40]!r}") from None
         if value < minimum:
@@ -224,12 +279,12 @@ class QifContext:
         if text is None:
             return None
         try:
-            value = float(text)
+            value = xs_double(text)
         except ValueError:
             raise self.error(node, f"combinedUncertainty: expected a number, got {text[:40]!r}") from None
         if not math.isfinite(value) or value < 0:
             raise self.error(node, f"combinedUncertainty: expected a finite number >= 0, got {text[:40]!r}")
-        return value * self.factor(node, quantity, pmi=pmi)
+        return self.converted(node, value * self.factor(node, quantity, pmi=pmi), text)
 
     # -- references -------------------------------------------------------------------------
     def reference(self, node: Node | None, kinds: tuple[str, ...]) -> int | None:
@@ -269,8 +324,16 @@ class QifContext:
             if u is not None:
                 uncertainty[name] = u
 
+        seen: dict[str, Node] = {}
         for child in node.children:
             tag = child.tag
+            if tag in _GEOMETRY_TAGS:
+                for name in _GEOMETRY_TAGS[tag]:
+                    if name in seen:
+                        first = seen[name]
+                        raise self.error(child, f"a second {tag} element ({name} is also given by the {first.tag} "
+                                         f"on line {first.line}): which one is meant?")
+                    seen[name] = child
             if tag == "Location":
                 values["location"] = self.point(child)
                 note("location", child, "linear")

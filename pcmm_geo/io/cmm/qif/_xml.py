@@ -35,7 +35,7 @@ from pcmm_geo._optional import require
 from pcmm_geo.errors import FileFormatError, UnsafeXmlError
 from pcmm_geo.io.cmm.settings import SpellSetting, python_setting
 
-__all__ = ["DEFAULT_MAX_BYTES", "DEFAULT_MAX_DEPTH", "MAX_TEXT_CHARS", "Node", "NumberList", "parse_xml",
+__all__ = ["DEFAULT_MAX_BYTES", "DEFAULT_MAX_DEPTH", "MAX_TEXT_CHARS", "XS_DOUBLE", "DuplicateElementError", "Node", "NumberList", "parse_xml",
            "parse_xml_chunks"]
 
 #: default largest file read (bytes); pass ``max_bytes=`` for larger scanner files
@@ -45,6 +45,8 @@ DEFAULT_MAX_DEPTH = 64
 #: most characters of text in an element that is not a streamed number list
 MAX_TEXT_CHARS = 1 << 20
 _READ_CHUNK = 1 << 20
+#: the lexical space of ``xs:double`` (XML Schema part 2, 3.2.5), ASCII digits only
+XS_DOUBLE = re.compile(r"[+-]?(?:[0-9]+(?:\.[0-9]*)?|\.[0-9]+)(?:[eE][+-]?[0-9]+)?|[+-]?INF|NaN")
 _BOOLEAN_WORDS = {"true": 1.0, "false": 0.0, "1": 1.0, "0": 0.0}
 
 
@@ -130,10 +132,16 @@ class NumberList:
                                       self._line_of_token(segment, bad))
             return np.array([_BOOLEAN_WORDS[t] for t in tokens])
         try:
+            if not segment.isascii() or "_" in segment:  # float() reads 3_3.2 and non-ASCII digits: xs:double not
+                raise ValueError(segment)
             numbers = np.array(tokens, dtype=np.float64)
         except ValueError:
-            bad = next(k for k, t in enumerate(tokens) if not _is_float(t))
-            raise NumberListError(f"expected a number, got {tokens[bad][:40]!r}",
+            bad = next((k for k, t in enumerate(tokens) if not _is_float(t)), None)
+            if bad is None:  # a separator that is not XML whitespace (a no-break space)
+                odd = next(c for c in segment if not c.isascii())
+                raise NumberListError(f"expected numbers separated by XML white space, got {odd!r}",
+                                      self.first_line + self._newlines) from None
+            raise NumberListError(f"expected a number (xs:double), got {tokens[bad][:40]!r}",
                                   self._line_of_token(segment, bad)) from None
         if not np.isfinite(numbers).all():
             bad = int(np.flatnonzero(~np.isfinite(numbers))[0])
@@ -143,11 +151,8 @@ class NumberList:
 
 
 def _is_float(token: str) -> bool:
-    try:
-        float(token)
-    except ValueError:
-        return False
-    return True
+    """``token`` is in the lexical space of ``xs:double`` (ASCII digits, no ``_``)."""
+    return XS_DOUBLE.fullmatch(token) is not None
 
 
 class Node:
@@ -178,8 +183,19 @@ class Node:
         return "/".join(reversed(parts))
 
     def child(self, tag: str) -> Node | None:
-        """The first child named ``tag`` (None if absent)."""
-        return next((c for c in self.children if c.tag == tag), None)
+        """The one child named ``tag`` (None if absent).
+
+        Raises :class:`DuplicateElementError` when there are two: an element the reader takes
+        once (a ``Diameter``, ``Points``, ``ProbeRadius``) is never picked first- or last-wins.
+        Repeated elements are read with :meth:`all`.
+        """
+        found = None
+        for candidate in self.children:
+            if candidate.tag == tag:
+                if found is not None:
+                    raise DuplicateElementError(found, candidate)
+                found = candidate
+        return found
 
     def all(self, tag: str) -> list[Node]:
         """Every child named ``tag``."""
@@ -187,6 +203,15 @@ class Node:
 
     def __repr__(self) -> str:
         return f"<Node {self.tag} line {self.line} ({len(self.children)} children)>"
+
+
+class DuplicateElementError(Exception):
+    """Two children of one name where one is read (:meth:`Node.child`); the reader names the second."""
+
+    def __init__(self, first: Node, second: Node) -> None:
+        super().__init__(f"a second {second.tag} element (the first on line {first.line}) where one is read: "
+                         "which one is meant?")
+        self.first, self.second = first, second
 
 
 #: decides whether an element's text is a streamed number list: (node) -> NumberList or None

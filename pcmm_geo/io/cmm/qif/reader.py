@@ -61,10 +61,11 @@ from pcmm_geo.io.cmm.model import (
     Transform,
 )
 from pcmm_geo.io.cmm.qif._characteristics import read_characteristics
-from pcmm_geo.io.cmm.qif._values import QifContext, snake_type
+from pcmm_geo.io.cmm.qif._values import QifContext, snake_type, xs_integer
 from pcmm_geo.io.cmm.qif._xml import (
     DEFAULT_MAX_BYTES,
     DEFAULT_MAX_DEPTH,
+    DuplicateElementError,
     Node,
     NumberList,
     NumberListFailure,
@@ -132,6 +133,14 @@ def read_qif(
         set_id = node.parent.attrib.get("id") if node.parent is not None else None
         raise QifError(name, failure.list_reason, qif_id=set_id, element=node.path(), line=failure.line) from None
     context = QifContext(name)
+    try:
+        return _read_document(context, root, namespace)
+    except DuplicateElementError as exc:
+        raise context.error(exc.second, str(exc)) from None
+
+
+def _read_document(context: QifContext, root: Node, namespace: str | None) -> CmmDocument:
+    name = context.path
     _check_document(context, root, namespace)
     _index_ids(context, root)
     context.read_units(root)
@@ -173,7 +182,7 @@ def _stream_rule(path: str, size: int, node: Node) -> NumberList | None:
     if count_text is None:
         return NumberList(None, boolean=node.tag == "Compensations")
     try:
-        count = int(count_text)
+        count = xs_integer(count_text)
     except ValueError:
         raise QifError(path, f"count: expected an integer, got {count_text[:40]!r}", qif_id=where["qif_id"],
                        element=parent.path(), line=parent.line or None) from None
@@ -328,7 +337,10 @@ def _point_set(context: QifContext, node: Node, results_id: int | None) -> Measu
         linear = context.factor(points_node, "linear")
     points = raw.reshape(count, 3)
     if linear != 1.0:
-        points *= linear  # in place: the streamed array is the only copy
+        with np.errstate(over="ignore"):
+            points *= linear  # in place: the streamed array is the only copy
+        if not np.isfinite(points).all():
+            raise context.error(points_node, "a coordinate overflows the float range when converted to mm")
     normals = _per_point_list(context, node, "Normals", count, 3)
     if normals is not None:
         lengths = np.linalg.norm(normals, axis=1)
@@ -342,9 +354,14 @@ def _point_set(context: QifContext, node: Node, results_id: int | None) -> Measu
     if flags is not None and np.all(flags == flags[0]) and count:
         compensated, flags = bool(flags[0]), None
     radius_node = node.child("ProbeRadius")
-    radius = None if radius_node is None else context.number(radius_node) * linear
+    radius = None if radius_node is None else context.converted(radius_node, context.number(radius_node) * linear,
+                                                                 radius_node.text)
     if radii is not None:
-        radii = radii * linear
+        with np.errstate(over="ignore"):
+            radii = radii * linear
+        if not np.isfinite(radii).all():
+            raise context.error(node.child("ProbeRadii"), "a probe radius overflows the float range when converted "  # type: ignore[arg-type]
+                                "to mm")
         if count and np.all(radii == radii[0]):
             radius, radii = float(radii[0]), None
     if radius_node is not None and radius is not None and radius < 0:

@@ -1,0 +1,115 @@
+"""QIF reader strictness (issue 31): xs:double numbers only, no duplicated single elements, no overflow to inf."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+
+from pcmm_geo.errors import QifError
+from pcmm_geo.io.cmm import read_qif
+
+SAMPLES = Path(__file__).resolve().parents[2] / "data" / "qif" / "samples"
+PTS_SAMPLE = SAMPLES / "QIF_PTS_SAMPLE.QIF"
+INCH_UNIT = ("<UnitName>mm</UnitName>\n        <UnitConversion>\n          <Factor>0.001</Factor>",
+             "<UnitName>inch</UnitName>\n        <UnitConversion>\n          <Factor>0.0254</Factor>")
+
+
+def _edited(tmp_path: Path, *edits: tuple[str, str]) -> Path:
+    text = PTS_SAMPLE.read_text(encoding="utf-8")
+    for old, new in edits:
+        assert old in text, old
+        text = text.replace(old, new, 1)
+    path = tmp_path / "edited.qif"
+    path.write_text(text, encoding="utf-8")
+    return path
+
+
+# float() reads every one of these as 33.2 (or 3.545...): numbers nobody wrote in a QIF file
+NOT_XS_DOUBLE = ["3_3.2", "\u0663\u0663.\u0662", "\uff13\uff13.2", "33,2", "0x21"]
+
+
+@pytest.mark.parametrize("bad", NOT_XS_DOUBLE)
+def test_a_size_that_is_not_an_xs_double_is_refused(tmp_path: Path, bad: str) -> None:
+    path = _edited(tmp_path, ("<Diameter>12.091599179226</Diameter>", f"<Diameter>{bad}</Diameter>"))
+    with pytest.raises(QifError, match="expected a number") as caught:
+        read_qif(path)
+    assert caught.value.element.endswith("CircleFeatureMeasurement/Diameter") and caught.value.line == 999
+
+
+@pytest.mark.parametrize("bad", NOT_XS_DOUBLE)
+def test_a_streamed_coordinate_that_is_not_an_xs_double_is_refused(tmp_path: Path, bad: str) -> None:
+    path = _edited(tmp_path, ("3.54516458565 0.0037440421", f"{bad} 0.0037440421"))
+    with pytest.raises(QifError, match="expected a number") as caught:
+        read_qif(path)
+    assert caught.value.element.endswith("MeasuredPointSet/Points") and caught.value.line == 1095
+
+
+@pytest.mark.parametrize("bad", ["0.0008_0940233", "\uff10 0 -1"])
+def test_a_location_or_normal_that_is_not_xs_double_is_refused(tmp_path: Path, bad: str) -> None:
+    old = "<Location>0.00080940233 0.00031692348" if "_" in bad else "<Normal>0 0 -1"
+    new = f"<Location>{bad} 0.00031692348" if "_" in bad else f"<Normal>{bad}"
+    with pytest.raises(QifError, match="expected a number"):
+        read_qif(_edited(tmp_path, (old, new)))
+
+
+def test_an_integer_with_an_underscore_or_foreign_digits_is_refused(tmp_path: Path) -> None:
+    with pytest.raises(QifError, match="count: expected an integer"):
+        read_qif(_edited(tmp_path, ('<MeasuredPointSet id="29" count="219">', '<MeasuredPointSet id="29" count="2_19">')))
+    with pytest.raises(QifError, match="expected an integer"):
+        read_qif(_edited(tmp_path, ("<WholePointSetId>29</WholePointSetId>",
+                                    "<WholePointSetId>\u0662\u0669</WholePointSetId>")))
+
+
+def test_valid_xs_double_forms_are_read(tmp_path: Path) -> None:
+    """Exponents, a leading point and a trailing point are xs:double: read, not refused."""
+    path = _edited(tmp_path, ("<Diameter>12.091599179226</Diameter>", "<Diameter>1.2091599179226E1</Diameter>"),
+                   ("3.54516458565 0.0037440421", "+3.54516458565 .0037440421"))
+    document = read_qif(path)
+    assert document.feature("DATUMB").actual.diameter == pytest.approx(12.091599179226, rel=1e-15)
+    assert document.points_of(document.feature("DATUMB")).points[0, :2].tolist() == [3.54516458565, 0.0037440421]
+
+
+@pytest.mark.parametrize(("old", "new", "element"), [
+    ("<Diameter>12.091599179226</Diameter>", "<Diameter>12.091599179226</Diameter><Diameter>13</Diameter>",
+     "Diameter"),
+    ("<Compensated>false</Compensated>", "<Compensated>false</Compensated><Compensated>true</Compensated>",
+     "Compensated"),
+    ("<ProbeRadius>2.49978271104</ProbeRadius>",
+     "<ProbeRadius>2.49978271104</ProbeRadius><ProbeRadius>1</ProbeRadius>", "ProbeRadius"),
+    ("<Normal>0 0 -1</Normal>", "<Normal>0 0 -1</Normal><Normal>0 0 1</Normal>", "Normal"),
+])
+def test_a_duplicated_single_element_is_refused_naming_it(tmp_path: Path, old: str, new: str, element: str) -> None:
+    with pytest.raises(QifError, match=f"a second {element}") as caught:
+        read_qif(_edited(tmp_path, (old, new)))
+    assert caught.value.element.endswith("/" + element)
+
+
+def test_duplicated_points_are_refused(tmp_path: Path) -> None:
+    path = _edited(tmp_path, ('<MeasuredPointSet id="29" count="219">\n            <Points>',
+                              '<MeasuredPointSet id="29" count="219">\n            <Points>' + "0 0 0 " * 219 +
+                              "</Points><Points>"))
+    with pytest.raises(QifError, match="a second Points element") as caught:
+        read_qif(path)
+    assert caught.value.element.endswith("MeasuredPointSet/Points")
+
+
+def test_a_size_that_overflows_when_converted_to_mm_is_refused(tmp_path: Path) -> None:
+    """1e307 inch is 2.54e308 mm: beyond the float range; it would read as inf and 'PASS'."""
+    path = _edited(tmp_path, INCH_UNIT, ("<Diameter>12.091599179226</Diameter>", "<Diameter>1e307</Diameter>"))
+    with pytest.raises(QifError, match="overflows the float range") as caught:
+        read_qif(path)
+    assert caught.value.element.endswith("Diameter")
+    # 1e306 inch is finite in mm: read (the check is on the converted value, not on the number's size)
+    fine = _edited(tmp_path, INCH_UNIT, ("<Diameter>12.091599179226</Diameter>", "<Diameter>1e306</Diameter>"))
+    assert read_qif(fine).feature("DATUMB").actual.diameter == pytest.approx(2.54e307, rel=1e-12)
+
+
+@pytest.mark.parametrize(("old", "new"), [
+    ("3.54516458565 0.0037440421", "1e307 0.0037440421"),
+    ("<Location>0.00080940233", "<Location>1e307"),
+    ("<ProbeRadius>2.49978271104</ProbeRadius>", "<ProbeRadius>1e307</ProbeRadius>"),
+])
+def test_coordinates_and_radii_that_overflow_in_mm_are_refused(tmp_path: Path, old: str, new: str) -> None:
+    with pytest.raises(QifError, match="overflows the float range"):
+        read_qif(_edited(tmp_path, INCH_UNIT, (old, new)))
