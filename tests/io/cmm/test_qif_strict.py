@@ -55,7 +55,8 @@ def test_a_location_or_normal_that_is_not_xs_double_is_refused(tmp_path: Path, b
 
 def test_an_integer_with_an_underscore_or_foreign_digits_is_refused(tmp_path: Path) -> None:
     with pytest.raises(QifError, match="count: expected an integer"):
-        read_qif(_edited(tmp_path, ('<MeasuredPointSet id="29" count="219">', '<MeasuredPointSet id="29" count="2_19">')))
+        read_qif(_edited(tmp_path, ('<MeasuredPointSet id="29" count="219">',
+                                    '<MeasuredPointSet id="29" count="2_19">')))
     with pytest.raises(QifError, match="expected an integer"):
         read_qif(_edited(tmp_path, ("<WholePointSetId>29</WholePointSetId>",
                                     "<WholePointSetId>\u0662\u0669</WholePointSetId>")))

@@ -35,7 +35,8 @@ from pcmm_geo._optional import require
 from pcmm_geo.errors import FileFormatError, UnsafeXmlError
 from pcmm_geo.io.cmm.settings import SpellSetting, python_setting
 
-__all__ = ["DEFAULT_MAX_BYTES", "DEFAULT_MAX_DEPTH", "MAX_TEXT_CHARS", "XS_DOUBLE", "DuplicateElementError", "Node", "NumberList", "parse_xml",
+__all__ = ["DEFAULT_MAX_BYTES", "DEFAULT_MAX_DEPTH", "MAX_TEXT_CHARS", "XS_DOUBLE", "DuplicateElementError",
+           "Node", "NumberList", "parse_xml",
            "parse_xml_chunks"]
 
 #: default largest file read (bytes); pass ``max_bytes=`` for larger scanner files
