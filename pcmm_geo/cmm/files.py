@@ -77,7 +77,8 @@ def read_cmm_document(path: str | Path, *, units: str | None = None, angle_unit:
     path : str or Path
     units, angle_unit, size_values, encoding
         For the text formats that do not state them (see :func:`~pcmm_geo.io.cmm.read_dmis` and
-        :func:`~pcmm_geo.io.cmm.read_calypso_table`); refused for QIF, which states its units.
+        :func:`~pcmm_geo.io.cmm.read_calypso_table`); for QIF ``units`` and ``angle_unit`` only
+        when the file has no ``FileUnits`` (refused when it states its units).
     max_bytes : int, optional
         Largest QIF file read (default :data:`~pcmm_geo.io.cmm.DEFAULT_MAX_BYTES`).
     spell_setting : callable
@@ -99,11 +100,10 @@ def read_cmm_document(path: str | Path, *, units: str | None = None, angle_unit:
     kind = detect_format(path)
     document = None
     if kind == "qif":
-        for name, value in (("units", units), ("angle_unit", angle_unit), ("size_values", size_values)):
-            if value is not None:
-                raise InvalidInputError(spell_setting(name), "nothing for a QIF file (it states its units)", value)
+        if size_values is not None:
+            raise InvalidInputError(spell_setting("size_values"), "nothing for a QIF file (DMIS only)", size_values)
         document = cmm.read_qif(path, max_bytes=cmm.DEFAULT_MAX_BYTES if max_bytes is None else max_bytes,
-                                spell_setting=spell_setting)
+                                units=units, angle_unit=angle_unit, spell_setting=spell_setting)
     elif kind == "dmis":
         document = cmm.read_dmis(path, units=units, angle_unit=angle_unit, size_values=size_values,
                                  encoding=encoding, spell_setting=spell_setting)

@@ -55,6 +55,10 @@ def register(subparsers: Any) -> None:
                         help="for point sets without a Compensated flag: are the points surface points?")
     verify.add_argument("--probe-radius-mm", dest="probe_radius", type=float, metavar="MM",
                         help="probe radius in mm, overriding the file's")
+    verify.add_argument("--material-side", choices=("internal", "external"),
+                        help="material side of the circles, cylinders, spheres and cones whose file states none (a "
+                             "side the file contradicts is refused); without it their centres and axes are still "
+                             "compared, their diameters not")
     refuse_renamed_options(verify, {"--probe-radius": "--probe-radius-mm"})
     _add_limits(verify)
     add_report_flag(verify)
@@ -80,7 +84,8 @@ def register(subparsers: Any) -> None:
 
 def _add_limits(parser: argparse.ArgumentParser) -> None:
     add_max_mb_option(parser)
-    text = parser.add_argument_group("DMIS output and CALYPSO tables (which may not state their units)")
+    text = parser.add_argument_group("files that may not state their units (DMIS output, CALYPSO tables, QIF "
+                                     "without FileUnits)")
     text.add_argument("--units", choices=("mm", "cm", "m", "inch", "feet"), help="length unit of the file")
     text.add_argument("--angle-unit", choices=("degree", "radian"), help="angle unit of the file")
     text.add_argument("--size-values", choices=("actual", "deviation"),
@@ -164,7 +169,7 @@ def _handle_show(args: argparse.Namespace) -> Report:
     data = {"file": document.source, "format": document.format, "version": document.version,
             "application": document.application,
             "units": {"linear_unit": units.linear_unit, "mm_per_linear_unit": units.mm_per_linear_unit,
-                      "angular_unit": units.angular_unit},
+                      "angular_unit": units.angular_unit, "stated": units.stated},
             "features": features, "point_sets": sets, "characteristics": characteristics,
             "problems": list(document.problems)}
     tables = [
@@ -179,7 +184,9 @@ def _handle_show(args: argparse.Namespace) -> Report:
     ]
     origin = f"QIF {document.version or '(version not stated)'}" if document.format == "qif" else \
         document.format.upper()
-    lines = [f"{origin} written by {document.application or 'unknown'}; file units {units.linear_unit}"
+    unit_text = f"file units {units.linear_unit}" if units.stated else \
+        f"units not stated in the file, read as {units.linear_unit}"
+    lines = [f"{origin} written by {document.application or 'unknown'}; {unit_text}"
              + ("" if units.mm_per_linear_unit == 1.0 else " (converted to mm)")]
     lines += [f"left out: {problem}" for problem in document.problems]
     return Report(data=data, tables=[t for t in tables if t.rows], lines=lines)
@@ -212,14 +219,20 @@ def _shown(check: Any, name: str, factor: float) -> Any:
 
 
 def _handle_verify(args: argparse.Namespace) -> Report:
+    import math
+
     from pcmm_geo.cli._record import Verdict
     from pcmm_geo.cmm.verify import DEFAULT_TOLERANCE_MM, verify_document
+    from pcmm_geo.errors import InvalidInputError
 
     tolerance = DEFAULT_TOLERANCE_MM if args.tolerance_mm is None else args.tolerance_mm
+    if args.probe_radius is not None and not (math.isfinite(args.probe_radius) and args.probe_radius > 0):
+        raise InvalidInputError("--probe-radius-mm", "a positive probe radius (mm)", repr(args.probe_radius))
     document = _read(args)
     compensated = None if args.compensated is None else args.compensated == "yes"
     result = verify_document(document, tolerance_mm=tolerance, criterion=args.criterion,
-                             circle_plane=args.circle_plane, compensated=compensated, probe_radius=args.probe_radius)
+                             circle_plane=args.circle_plane, compensated=compensated, probe_radius=args.probe_radius,
+                             material_side=args.material_side)
     rows = []
     for check in result.features:
         compensation = check.compensation

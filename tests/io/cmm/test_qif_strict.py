@@ -6,7 +6,7 @@ from pathlib import Path
 
 import pytest
 
-from pcmm_geo.errors import QifError
+from pcmm_geo.errors import InvalidInputError, QifError
 from pcmm_geo.io.cmm import read_qif
 
 SAMPLES = Path(__file__).resolve().parents[2] / "data" / "qif" / "samples"
@@ -114,3 +114,30 @@ def test_a_size_that_overflows_when_converted_to_mm_is_refused(tmp_path: Path) -
 def test_coordinates_and_radii_that_overflow_in_mm_are_refused(tmp_path: Path, old: str, new: str) -> None:
     with pytest.raises(QifError, match="overflows the float range"):
         read_qif(_edited(tmp_path, INCH_UNIT, (old, new)))
+
+
+# ---------------------------------------------------------------------------------------------
+# a QIF file without FileUnits (9 of 112 public files): said so, and --units applies
+
+
+EXPLODED = SAMPLES / "Exploded_Results1.QIF"  # a public sample without FileUnits
+
+
+def test_units_not_stated_are_said_so_and_can_be_given() -> None:
+    assumed = read_qif(EXPLODED)
+    assert not assumed.units.stated and assumed.units.linear_unit == "mm"
+    note = next(p for p in assumed.problems if "units not stated" in p)
+    assert "the QIF 3.0 schema states no default" in note and "assumed" in note
+    inch = read_qif(EXPLODED, units="inch")
+    assert not inch.units.stated and (inch.units.linear_unit, inch.units.mm_per_linear_unit) == ("inch", 25.4)
+    assert "as given" in next(p for p in inch.problems if "units not stated" in p)
+    for mm, inches in zip(assumed.characteristics, inch.characteristics, strict=True):
+        assert inches.value == pytest.approx(25.4 * mm.value, rel=1e-15)
+
+
+def test_units_given_for_a_file_that_states_them_are_refused() -> None:
+    with pytest.raises(QifError, match="the file states its units") as caught:
+        read_qif(PTS_SAMPLE, units="mm")
+    assert caught.value.element.endswith("FileUnits/PrimaryUnits")
+    with pytest.raises(InvalidInputError, match="units"):
+        read_qif(EXPLODED, units="furlong")

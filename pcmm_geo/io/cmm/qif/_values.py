@@ -11,8 +11,9 @@ import numpy as np
 from pcmm_geo.errors import QifError
 from pcmm_geo.io.cmm.model import FeatureGeometry, Units
 from pcmm_geo.io.cmm.qif._xml import XS_DOUBLE, Node
+from pcmm_geo.io.cmm.settings import SpellSetting, python_setting
 
-__all__ = ["QifContext", "snake_type", "xs_double", "xs_integer"]
+__all__ = ["QIF_ANGLE_UNITS", "QIF_LENGTH_UNITS", "QifContext", "snake_type", "xs_double", "xs_integer"]
 
 #: millimetres per unit, by the unit names QIF files use (lower case)
 _MM_PER = {
@@ -30,6 +31,10 @@ _RAD_PER = {
     "arcminute": math.pi / 10800.0, "arcsecond": math.pi / 648000.0,
     "gradian": math.pi / 200.0, "grad": math.pi / 200.0,
 }
+#: ``units`` a QIF file without FileUnits may be read in
+QIF_LENGTH_UNITS = ("mm", "cm", "m", "inch", "feet")
+#: ``angle_unit`` a QIF file without FileUnits may be read in
+QIF_ANGLE_UNITS = ("degree", "radian")
 #: a stated conversion factor may differ from the exact one by this much (files truncate pi / 180)
 _FACTOR_TOLERANCE = 1e-9
 #: a unit vector's length may differ from 1 by this much
@@ -114,6 +119,8 @@ class QifContext:
     named_linear: dict[str, float] = field(default_factory=dict)
     named_angular: dict[str, float] = field(default_factory=dict)
     units_stated: bool = True
+    units_given: bool = False
+    spell: SpellSetting = python_setting
     _assumption_noted: bool = False
     ids: dict[int, Node] = field(default_factory=dict)
     problems: list[str] = field(default_factory=list)
@@ -131,12 +138,25 @@ class QifContext:
         return text
 
     # -- units ------------------------------------------------------------------------------
-    def read_units(self, root: Node) -> None:
-        """Primary (and PMI, other) units of ``FileUnits``; mm and degree assumed, and said so, without them."""
+    def read_units(self, root: Node, *, units: str | None = None, angle_unit: str | None = None) -> None:
+        """Primary (and PMI, other) units of ``FileUnits``; without them ``units`` / ``angle_unit``, else mm and degree.
+
+        The QIF 3.0 schema makes ``FileUnits`` optional and states no default unit; a file
+        without it is read in the units given, else in mm and degrees, and the document's
+        problems say which (never "the file states").  Units given for a file that states its
+        own are refused.
+        """
         file_units = root.child("FileUnits")
         primary = None if file_units is None else file_units.child("PrimaryUnits")
         if primary is None:
             self.units_stated = False
+            if units is not None:
+                self.linear, self.units_given = _Unit(units, _MM_PER[units]), True
+            if angle_unit is not None:
+                self.angular, self.units_given = _Unit(angle_unit, _RAD_PER[angle_unit]), True
+        elif units is not None or angle_unit is not None:
+            raise self.error(primary, f"the file states its units (FileUnits/PrimaryUnits); "
+                             f"{self.spell('units' if units is not None else 'angle_unit')} is for a file without them")
         else:
             for tag, attribute in (("LinearUnit", "linear"), ("AngularUnit", "angular"),
                                    ("PMILinearUnit", "pmi_linear"), ("PMIAngularUnit", "pmi_angular")):
@@ -192,7 +212,11 @@ class QifContext:
             return 1.0
         if not self.units_stated and not self._assumption_noted:
             self._assumption_noted = True
-            self.problems.append("QIFDocument has no FileUnits/PrimaryUnits: lengths read as mm, angles as degrees")
+            how = "as given" if self.units_given else \
+                f"assumed; {self.spell('units')} and {self.spell('angle_unit')} say otherwise"
+            self.problems.append(f"units not stated in the file (no FileUnits/PrimaryUnits; the QIF 3.0 schema states "
+                                 f"no default): lengths read as {self.linear.name}, angles as {self.angular.name} "
+                                 f"({how})")
         angular = quantity == "angular"
         attribute = node.attrib.get("angularUnit" if angular else "linearUnit")
         if attribute is not None:

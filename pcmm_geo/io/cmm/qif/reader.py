@@ -47,7 +47,7 @@ from pathlib import Path
 
 import numpy as np
 
-from pcmm_geo.errors import QifError
+from pcmm_geo.errors import InvalidInputError, QifError
 from pcmm_geo.io.cmm.document import CmmDocument
 from pcmm_geo.io.cmm.model import (
     CoordinateSystem,
@@ -61,7 +61,7 @@ from pcmm_geo.io.cmm.model import (
     Transform,
 )
 from pcmm_geo.io.cmm.qif._characteristics import read_characteristics
-from pcmm_geo.io.cmm.qif._values import QifContext, snake_type, xs_integer
+from pcmm_geo.io.cmm.qif._values import QIF_ANGLE_UNITS, QIF_LENGTH_UNITS, QifContext, snake_type, xs_integer
 from pcmm_geo.io.cmm.qif._xml import (
     DEFAULT_MAX_BYTES,
     DEFAULT_MAX_DEPTH,
@@ -86,7 +86,7 @@ _ORTHONORMAL_TOLERANCE = 1e-6
 
 def read_qif(
     path: str | Path, *, max_bytes: int = DEFAULT_MAX_BYTES, max_depth: int = DEFAULT_MAX_DEPTH,
-    spell_setting: SpellSetting = python_setting,
+    units: str | None = None, angle_unit: str | None = None, spell_setting: SpellSetting = python_setting,
 ) -> CmmDocument:
     """Read a QIF 3.0 document (see the module docstring).
 
@@ -98,6 +98,11 @@ def read_qif(
         Largest file accepted (default 1 GiB; raise it for scanner-size point clouds).
     max_depth : int
         Deepest element nesting accepted (default 64).
+    units : {"mm", "cm", "m", "inch", "feet"} or None
+        Length unit of a file without ``FileUnits`` (the QIF 3.0 schema states no default; mm is
+        assumed, and said so in ``problems``, when None).  Refused for a file that states its units.
+    angle_unit : {"degree", "radian"} or None
+        Angle unit of a file without ``FileUnits`` (degree assumed when None).
     spell_setting : callable
         How a size refusal names ``max_bytes`` (:mod:`pcmm_geo.io.cmm.settings`; the command
         line passes its option name).
@@ -120,6 +125,9 @@ def read_qif(
         defusedxml is not installed (``pip install 'pcmm_geo[qif]'``).
     """
     name = str(path)
+    for value, allowed, what in ((units, QIF_LENGTH_UNITS, "units"), (angle_unit, QIF_ANGLE_UNITS, "angle_unit")):
+        if value is not None and value not in allowed:
+            raise InvalidInputError(spell_setting(what), f"one of {', '.join(allowed)}", repr(value))
     try:
         size = os.stat(path).st_size
     except OSError:
@@ -132,18 +140,19 @@ def read_qif(
         node = failure.node
         set_id = node.parent.attrib.get("id") if node.parent is not None else None
         raise QifError(name, failure.list_reason, qif_id=set_id, element=node.path(), line=failure.line) from None
-    context = QifContext(name)
+    context = QifContext(name, spell=spell_setting)
     try:
-        return _read_document(context, root, namespace)
+        return _read_document(context, root, namespace, units, angle_unit)
     except DuplicateElementError as exc:
         raise context.error(exc.second, str(exc)) from None
 
 
-def _read_document(context: QifContext, root: Node, namespace: str | None) -> CmmDocument:
+def _read_document(context: QifContext, root: Node, namespace: str | None, units: str | None,
+                   angle_unit: str | None) -> CmmDocument:
     name = context.path
     _check_document(context, root, namespace)
     _index_ids(context, root)
-    context.read_units(root)
+    context.read_units(root, units=units, angle_unit=angle_unit)
     definitions, nominals, items = _read_features(context, root.child("Features"))
     transforms = {}
     transforms_node = root.child("Transforms")
