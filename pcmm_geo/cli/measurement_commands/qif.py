@@ -83,7 +83,9 @@ def register(subparsers: Any) -> None:
 
 
 def _add_limits(parser: argparse.ArgumentParser) -> None:
-    add_max_mb_option(parser)
+    add_max_mb_option(parser, "file read (QIF; DMIS output and CALYPSO tables: default 32 MiB)")
+    parser.add_argument("--format", choices=("qif", "dmis", "calypso"),
+                        help="the file's format (default: told by its content, e.g. a GEOPAK report saved as .txt)")
     text = parser.add_argument_group("files that may not state their units (DMIS output, CALYPSO tables, QIF "
                                      "without FileUnits)")
     text.add_argument("--units", choices=("mm", "cm", "m", "inch", "feet"), help="length unit of the file")
@@ -97,7 +99,8 @@ def _read(args: argparse.Namespace) -> Any:
     from pcmm_geo.cmm.files import read_cmm_document
 
     return read_cmm_document(args.file, units=args.units, angle_unit=args.angle_unit, size_values=args.size_values,
-                             encoding=args.encoding, max_bytes=max_bytes(args), spell_setting=cli_setting)
+                             encoding=args.encoding, max_bytes=max_bytes(args), spell_setting=cli_setting,
+                             format=args.format)
 
 
 def _vector(value: Any) -> list[float]:

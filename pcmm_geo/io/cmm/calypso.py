@@ -58,7 +58,7 @@ from pcmm_geo.errors import FileFormatError, InvalidInputError
 from pcmm_geo.io._text import excerpt, iter_text_lines, parse_decimal
 from pcmm_geo.io.cmm.document import CmmDocument
 from pcmm_geo.io.cmm.model import Characteristic, FeatureItem, MeasurementResults, Tolerance, Units
-from pcmm_geo.io.cmm.settings import SpellSetting, python_setting
+from pcmm_geo.io.cmm.settings import DEFAULT_MAX_TEXT_BYTES, SpellSetting, check_size, python_setting
 
 __all__ = ["CALYPSO_TYPES", "read_calypso_table"]
 
@@ -100,7 +100,8 @@ def _kind(symbol: str) -> tuple[str, str]:
 
 
 def read_calypso_table(path: str | Path, *, units: str | None = None, angle_unit: str | None = None,
-                       encoding: str = "utf-8", spell_setting: SpellSetting = python_setting) -> CmmDocument:
+                       encoding: str = "utf-8", spell_setting: SpellSetting = python_setting,
+                       max_bytes: int = DEFAULT_MAX_TEXT_BYTES) -> CmmDocument:
     """Read a CALYPSO characteristic table (see the module docstring).
 
     Parameters
@@ -113,6 +114,8 @@ def read_calypso_table(path: str | Path, *, units: str | None = None, angle_unit
         Unit of angle characteristics; required when the table has any.
     encoding : str
         Text encoding (CALYPSO on Windows: often ``"cp1252"``).
+    max_bytes : int
+        Largest file read (default :data:`~pcmm_geo.io.cmm.settings.DEFAULT_MAX_TEXT_BYTES`, 32 MiB).
     spell_setting : callable
         How the messages name ``units`` and ``angle_unit`` (:mod:`pcmm_geo.io.cmm.settings`;
         the command line passes its option names).
@@ -138,6 +141,7 @@ def read_calypso_table(path: str | Path, *, units: str | None = None, angle_unit
     if angle_unit is not None and angle_unit not in _ANGLES:
         raise InvalidInputError(spell_setting("angle_unit"), "'degree' or 'radian'", repr(angle_unit))
     name = str(path)
+    check_size(path, max_bytes, spell_setting)
     lines = iter_text_lines(path, encoding=encoding)
     header_line, header = next(((n, t) for n, t in lines if t.strip()), (0, ""))
     columns = [c.strip().lower() for c in header.rstrip("\t").split("\t")]

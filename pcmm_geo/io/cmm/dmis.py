@@ -93,7 +93,7 @@ from pcmm_geo.io.cmm.model import (
     Tolerance,
     Units,
 )
-from pcmm_geo.io.cmm.settings import SpellSetting, python_setting
+from pcmm_geo.io.cmm.settings import DEFAULT_MAX_TEXT_BYTES, SpellSetting, check_size, python_setting
 
 __all__ = ["DMIS_LENGTH_UNITS", "MAX_STATEMENT_CHARS", "read_dmis"]
 
@@ -326,7 +326,8 @@ def _tolerance_values(state: _State, line: int, label: str,
 
 def read_dmis(path: str | Path, *, units: str | None = None, angle_unit: str | None = None,
               size_values: str | None = None, encoding: str = "utf-8",
-              spell_setting: SpellSetting = python_setting) -> CmmDocument:
+              spell_setting: SpellSetting = python_setting,
+              max_bytes: int = DEFAULT_MAX_TEXT_BYTES) -> CmmDocument:
     """Read a DMIS output file (see the module docstring).
 
     Parameters
@@ -340,6 +341,8 @@ def read_dmis(path: str | Path, *, units: str | None = None, angle_unit: str | N
         What the number of a size tolerance result (DIAM, RAD, WIDTH, DISTB, CORTOL, ANGLB) is.
     encoding : str
         Text encoding of the file (GEOPAK and other Windows software: often ``"cp1252"``).
+    max_bytes : int
+        Largest file read (default :data:`~pcmm_geo.io.cmm.settings.DEFAULT_MAX_TEXT_BYTES`, 32 MiB).
     spell_setting : callable
         How the messages name ``units``, ``angle_unit`` and ``size_values``
         (:mod:`pcmm_geo.io.cmm.settings`; the command line passes its option names).
@@ -364,6 +367,7 @@ def read_dmis(path: str | Path, *, units: str | None = None, angle_unit: str | N
                                  (size_values, {"actual": 0, "deviation": 0}, "size_values")):
         if value is not None and value not in allowed:
             raise InvalidInputError(spell_setting(what), f"one of {', '.join(allowed)}", repr(value))
+    check_size(path, max_bytes, spell_setting)
     state = _State(str(path), _USER_UNITS.get(units or ""), _USER_ANGLES.get(angle_unit or ""), size_values,
                    spell_setting, units)
     features: dict[str, tuple[int, str, str | None, FeatureGeometry]] = {}

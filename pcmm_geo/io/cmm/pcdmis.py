@@ -42,7 +42,7 @@ from pathlib import Path
 import numpy as np
 
 from pcmm_geo.errors import FileFormatError
-from pcmm_geo.io._lines import decode_block, iter_blocks, text_codec
+from pcmm_geo.io._lines import decode_block, iter_blocks, open_regular, text_codec
 from pcmm_geo.io._text import excerpt, parse_decimal
 from pcmm_geo.io.cmm.model import MeasuredPointSet
 
@@ -56,9 +56,9 @@ _BLOCK = 65536
 def is_pcdmis_xyzijk(path: str | Path) -> bool:
     """True when the file's first line starts with ``XYZIJK`` (a PC-DMIS XYZ file)."""
     try:
-        with open(path, "rb") as stream:
+        with open_regular(path) as stream:
             head = stream.read(9)
-    except OSError:
+    except (OSError, ValueError):  # missing, a folder, a FIFO: the reader that follows names it
         return False
     return head.removeprefix(b"\xef\xbb\xbf").startswith(b"XYZIJK")
 

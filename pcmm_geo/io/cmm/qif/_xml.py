@@ -28,15 +28,17 @@ import re
 from collections.abc import Callable, Iterable, Iterator
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import BinaryIO
 
 import numpy as np
 
 from pcmm_geo._optional import require
 from pcmm_geo.errors import FileFormatError, UnsafeXmlError
+from pcmm_geo.io._lines import open_regular
 from pcmm_geo.io.cmm.settings import SpellSetting, python_setting
 
 __all__ = ["DEFAULT_MAX_BYTES", "DEFAULT_MAX_DEPTH", "MAX_TEXT_CHARS", "XS_DOUBLE", "DuplicateElementError",
-           "Node", "NumberList", "parse_xml",
+           "Node", "NumberList", "open_xml", "parse_xml",
            "parse_xml_chunks"]
 
 #: default largest file read (bytes); pass ``max_bytes=`` for larger scanner files
@@ -339,22 +341,37 @@ def parse_xml(path: str | Path, *, max_bytes: int = DEFAULT_MAX_BYTES, max_depth
         defusedxml is not installed (extra ``qif``).
     """
     name = str(path)
-    try:
-        size = os.stat(path).st_size
-    except OSError as exc:
-        raise FileFormatError(name, f"cannot be read: {exc.strerror or exc}") from None
-    if Path(path).is_dir():
-        raise FileFormatError(name, "is a directory, expected an XML file")
-    if size > max_bytes:
-        raise UnsafeXmlError(name, f"file of {size} bytes exceeds the limit of {max_bytes} bytes "
-                             f"(raise {spell_setting('max_bytes')} for larger files)", limit=max_bytes)
+    stream = open_xml(path, max_bytes, spell_setting)
 
     def chunks() -> Iterator[bytes]:
-        with open(path, "rb") as stream:
+        with stream:
             while chunk := stream.read(_READ_CHUNK):
                 yield chunk
 
     return parse_xml_chunks(name, chunks(), max_bytes=max_bytes, max_depth=max_depth, stream_rule=stream_rule)
+
+
+def open_xml(path: str | Path, max_bytes: int, spell_setting: SpellSetting = python_setting) -> BinaryIO:
+    """``path`` opened for reading bytes: a regular file (never a FIFO, a directory or a URL) of at most ``max_bytes``.
+
+    Raises
+    ------
+    FileFormatError
+        Missing, unreadable or not a regular file (a FIFO would block forever).
+    UnsafeXmlError
+        Larger than ``max_bytes``.
+    """
+    name = str(path)
+    try:
+        stream = open_regular(path, "an XML file")
+    except FileNotFoundError as exc:
+        raise FileFormatError(name, f"cannot be read: {exc.strerror or exc}") from None
+    size = os.fstat(stream.fileno()).st_size
+    if size > max_bytes:
+        stream.close()
+        raise UnsafeXmlError(name, f"file of {size} bytes exceeds the limit of {max_bytes} bytes "
+                             f"(raise {spell_setting('max_bytes')} for larger files)", limit=max_bytes)
+    return stream
 
 
 def parse_xml_chunks(name: str, chunks: Iterable[bytes], *, max_bytes: int = DEFAULT_MAX_BYTES,
@@ -412,6 +429,9 @@ def parse_xml_chunks(name: str, chunks: Iterable[bytes], *, max_bytes: int = DEF
         raise FileFormatError(name, f"not well-formed XML: {message}", line) from None
     except OSError as exc:
         raise FileFormatError(name, f"cannot be read: {exc.strerror or exc}") from None
+    except LookupError as exc:  # expat asks Python for the codec the XML declaration names
+        raise FileFormatError(name, f"the XML declaration names an encoding Python does not know ({exc})",
+                              target.line()) from None
     except RecursionError:  # pragma: no cover - the depth limit stops nesting long before
         raise UnsafeXmlError(name, "nesting too deep", target.line()) from None
     if root is None:
