@@ -60,7 +60,9 @@ def read_cmm_document(path: str | Path, *, units: str | None = None, angle_unit:
     """
     from pcmm_geo.errors import FileFormatError, InvalidInputError
     from pcmm_geo.io import cmm
+    from pcmm_geo.io._lines import refuse_irregular
 
+    refuse_irregular(path)  # a FIFO would block the reader forever
     kind = detect_format(path, format)
     limit = {} if max_bytes is None else {"max_bytes": max_bytes}
     document = None

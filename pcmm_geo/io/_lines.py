@@ -27,6 +27,7 @@ from pcmm_geo.errors import FileFormatError
 
 __all__ = [
     "open_regular",
+    "refuse_irregular",
     "BLOCK_BYTES",
     "EXCERPT_CHARS",
     "FIRST_BLOCK_BYTES",
@@ -185,6 +186,19 @@ def open_regular(path: str | Path, what: str = "a file") -> BinaryIO:
     except BaseException:
         os.close(handle)
         raise
+
+
+def refuse_irregular(path: str | Path, what: str = "a file") -> None:
+    """Refuse at once a path that exists and is not a regular file (a FIFO, a device, a directory).
+
+    For callers that decide something before a reader opens the file; a missing file is left
+    to the reader (which names it).
+    """
+    try:
+        mode = os.stat(path).st_mode
+    except OSError:
+        return
+    _refuse_irregular(str(path), mode, what)
 
 
 def _refuse_irregular(name: str, mode: int, what: str) -> None:

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import os
 from pathlib import Path
 
 import pytest
@@ -141,3 +142,19 @@ def test_units_given_for_a_file_that_states_them_are_refused() -> None:
     assert caught.value.element.endswith("FileUnits/PrimaryUnits")
     with pytest.raises(InvalidInputError, match="units"):
         read_qif(EXPLODED, units="furlong")
+
+
+def test_unknown_encoding_and_non_regular_files_are_typed_errors(tmp_path: Path) -> None:
+    from pcmm_geo.errors import FileFormatError
+    from pcmm_geo.io.cmm import validate_qif
+
+    path = tmp_path / "encoding.qif"
+    path.write_text('<?xml version="1.0" encoding="x-nonexistent"?>\n<QIFDocument/>\n')
+    for reader in (read_qif, validate_qif):
+        with pytest.raises(FileFormatError, match="names an encoding Python does not know"):
+            reader(path)
+    fifo = tmp_path / "pipe.qif"
+    os.mkfifo(fifo)
+    for reader in (read_qif, validate_qif):
+        with pytest.raises(FileFormatError, match=r"is a FIFO \(named pipe\)"):
+            reader(fifo)
