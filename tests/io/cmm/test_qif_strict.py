@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import os
+import tracemalloc
 from pathlib import Path
 
 import pytest
@@ -158,3 +159,45 @@ def test_unknown_encoding_and_non_regular_files_are_typed_errors(tmp_path: Path)
     for reader in (read_qif, validate_qif):
         with pytest.raises(FileFormatError, match=r"is a FIFO \(named pipe\)"):
             reader(fifo)
+
+
+# ---------------------------------------------------------------------------------------------
+# memory: bounded by an element count, not only by the file's size
+
+
+def _many_elements(path: Path, count: int) -> Path:
+    """A generated QIF-like file of ``count`` empty elements (4 bytes each in the file, ~250 in a tree)."""
+    with path.open("wb") as stream:
+        stream.write(b'<QIFDocument xmlns="http://qifstandards.org/xsd/qif3" versionQIF="3.0.0">')
+        for _ in range(count // 10_000):
+            stream.write(b"<a/>" * 10_000)
+        stream.write(b"</QIFDocument>")
+    return path
+
+
+def test_millions_of_empty_elements_are_refused_before_memory_grows(tmp_path: Path) -> None:
+    from pcmm_geo.errors import UnsafeXmlError
+    from pcmm_geo.io.cmm.qif._xml import parse_xml
+
+    path = _many_elements(tmp_path / "many.qif", 60_000)  # 240 kB of file
+    tracemalloc.start()
+    try:
+        with pytest.raises(UnsafeXmlError, match="more than 2000 elements") as caught:
+            read_qif(path, max_elements=2_000)
+        _, bounded = tracemalloc.get_traced_memory()
+        tracemalloc.reset_peak()
+        parse_xml(path, max_elements=1_000_000)  # the control: the same file, its whole tree
+        _, whole = tracemalloc.get_traced_memory()
+    finally:
+        tracemalloc.stop()
+    assert caught.value.limit == 2_000
+    assert whole > 6e6  # some 250 bytes an element
+    assert bounded < 3e6 and bounded < whole / 4
+
+
+def test_a_huge_id_is_not_echoed_whole(tmp_path: Path) -> None:
+    huge = "7" * 10_000_000
+    path = _edited(tmp_path, ('<MeasuredPointSet id="29" count="219">', f'<MeasuredPointSet id="{huge}" count="2_19">'))
+    with pytest.raises(QifError) as caught:
+        read_qif(path)
+    assert len(str(caught.value)) < 1_000 and "10000000 characters" in str(caught.value)

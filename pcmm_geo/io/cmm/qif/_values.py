@@ -9,11 +9,12 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from pcmm_geo.errors import QifError
+from pcmm_geo.io._lines import excerpt
 from pcmm_geo.io.cmm.model import FeatureGeometry, Units
 from pcmm_geo.io.cmm.qif._xml import XS_DOUBLE, Node
 from pcmm_geo.io.cmm.settings import SpellSetting, python_setting
 
-__all__ = ["QIF_ANGLE_UNITS", "QIF_LENGTH_UNITS", "QifContext", "snake_type", "xs_double", "xs_integer"]
+__all__ = ["QIF_ANGLE_UNITS", "QIF_LENGTH_UNITS", "QifContext", "short_id", "snake_type", "xs_double", "xs_integer"]
 
 #: millimetres per unit, by the unit names QIF files use (lower case)
 _MM_PER = {
@@ -39,6 +40,8 @@ QIF_ANGLE_UNITS = ("degree", "radian")
 _FACTOR_TOLERANCE = 1e-9
 #: a unit vector's length may differ from 1 by this much
 UNIT_VECTOR_TOLERANCE = 1e-3
+#: longest id quoted whole in a message
+_ID_CHARS = 40
 _CAMEL = re.compile(r"(?<=[a-z0-9])(?=[A-Z])")
 #: the lexical space of ``xs:integer`` (and its restrictions such as ``xs:unsignedInt``)
 XS_INTEGER = re.compile(r"[+-]?[0-9]+")
@@ -91,12 +94,17 @@ def snake_type(tag: str, suffix: str) -> str:
     return _CAMEL.sub("_", tag[: -len(suffix)] if tag.endswith(suffix) else tag).lower()
 
 
+def short_id(text: str | None) -> str | None:
+    """An id attribute as messages quote it: whole when short, else an excerpt (a 10 MB id is not echoed)."""
+    return text if text is None or len(text) <= _ID_CHARS else excerpt(text, _ID_CHARS)
+
+
 def owner_id(node: Node) -> str | None:
     """QIF id of the nearest element at or above ``node`` that has one."""
     current: Node | None = node
     while current is not None:
         if "id" in current.attrib:
-            return current.attrib["id"]
+            return short_id(current.attrib["id"])
         current = current.parent
     return None
 

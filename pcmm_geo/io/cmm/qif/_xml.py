@@ -8,6 +8,7 @@ expansion and nothing fetched from a file or the network) and refuses, with an
 
 - a document type declaration, an entity declaration or an external reference;
 - nesting deeper than ``max_depth`` elements;
+- more than ``max_elements`` elements (the tree's memory, some 250 bytes an element);
 - a file larger than ``max_bytes`` (checked before parsing and while reading: a scanner's
   point cloud is a legitimate large file, so the limit is a parameter);
 - more than :data:`MAX_TEXT_CHARS` characters of text in one ordinary element.
@@ -37,12 +38,14 @@ from pcmm_geo.errors import FileFormatError, UnsafeXmlError
 from pcmm_geo.io._lines import open_regular
 from pcmm_geo.io.cmm.settings import SpellSetting, python_setting
 
-__all__ = ["DEFAULT_MAX_BYTES", "DEFAULT_MAX_DEPTH", "MAX_TEXT_CHARS", "XS_DOUBLE", "DuplicateElementError",
-           "Node", "NumberList", "open_xml", "parse_xml",
-           "parse_xml_chunks"]
+__all__ = ["DEFAULT_MAX_BYTES", "DEFAULT_MAX_DEPTH", "DEFAULT_MAX_ELEMENTS", "MAX_TEXT_CHARS", "XS_DOUBLE",
+           "DuplicateElementError", "Node", "NumberList", "open_xml", "parse_xml", "parse_xml_chunks"]
 
 #: default largest file read (bytes); pass ``max_bytes=`` for larger scanner files
 DEFAULT_MAX_BYTES = 1 << 30
+#: default most elements in one document: each costs some 250 bytes of tree (a QIF file keeps
+#: its bulk, the points, in streamed number lists; its elements number thousands, rarely 10^5)
+DEFAULT_MAX_ELEMENTS = 1_000_000
 #: default deepest element nesting (QIF documents nest about 12 deep)
 DEFAULT_MAX_DEPTH = 64
 #: most characters of text in an element that is not a streamed number list
@@ -224,9 +227,12 @@ StreamRule = Callable[[Node], "NumberList | None"]
 class _Target:
     """Parser target building :class:`Node` objects, streaming marked number lists."""
 
-    def __init__(self, path: str, max_depth: int, stream_rule: StreamRule) -> None:
+    def __init__(self, path: str, max_depth: int, stream_rule: StreamRule,
+                 max_elements: int = DEFAULT_MAX_ELEMENTS) -> None:
         self.path = path
         self.max_depth = max_depth
+        self.max_elements = max_elements
+        self.elements = 0
         self.stream_rule = stream_rule
         self.expat = None
         self.root: Node | None = None
@@ -238,6 +244,11 @@ class _Target:
         return None if self.expat is None else self.expat.CurrentLineNumber
 
     def start(self, tag: str, attrib: dict[str, str]) -> None:
+        self.elements += 1
+        if self.elements > self.max_elements:
+            raise UnsafeXmlError(self.path, f"more than {self.max_elements} elements (the tree would need some "
+                                 f"{self.max_elements * 250 >> 20} MiB); refused (the limit is the readers' "
+                                 "max_elements)", self.line(), limit=self.max_elements)
         self.depth += 1
         if self.depth > self.max_depth:
             raise UnsafeXmlError(self.path, f"elements nested deeper than {self.max_depth}", self.line(),
@@ -307,8 +318,8 @@ class NumberListFailure(FileFormatError):
 
 
 def parse_xml(path: str | Path, *, max_bytes: int = DEFAULT_MAX_BYTES, max_depth: int = DEFAULT_MAX_DEPTH,
-              stream_rule: StreamRule = lambda node: None,
-              spell_setting: SpellSetting = python_setting) -> tuple[Node, str | None]:
+              stream_rule: StreamRule = lambda node: None, spell_setting: SpellSetting = python_setting,
+              max_elements: int = DEFAULT_MAX_ELEMENTS) -> tuple[Node, str | None]:
     """Parse an untrusted XML file into a :class:`Node` tree (see the module docstring).
 
     Parameters
@@ -318,6 +329,9 @@ def parse_xml(path: str | Path, *, max_bytes: int = DEFAULT_MAX_BYTES, max_depth
         Largest file accepted (bytes).
     max_depth : int
         Deepest element nesting accepted.
+    max_elements : int
+        Most elements accepted (:data:`DEFAULT_MAX_ELEMENTS`): the tree's memory is bounded by it,
+        whatever the file's size (a file of empty elements would need 60 times its size).
     stream_rule : callable
         ``rule(node) -> NumberList | None``, called at each element's start: a :class:`NumberList`
         makes that element's text a streamed number list.
@@ -348,7 +362,8 @@ def parse_xml(path: str | Path, *, max_bytes: int = DEFAULT_MAX_BYTES, max_depth
             while chunk := stream.read(_READ_CHUNK):
                 yield chunk
 
-    return parse_xml_chunks(name, chunks(), max_bytes=max_bytes, max_depth=max_depth, stream_rule=stream_rule)
+    return parse_xml_chunks(name, chunks(), max_bytes=max_bytes, max_depth=max_depth, stream_rule=stream_rule,
+                            max_elements=max_elements)
 
 
 def open_xml(path: str | Path, max_bytes: int, spell_setting: SpellSetting = python_setting) -> BinaryIO:
@@ -375,8 +390,8 @@ def open_xml(path: str | Path, max_bytes: int, spell_setting: SpellSetting = pyt
 
 
 def parse_xml_chunks(name: str, chunks: Iterable[bytes], *, max_bytes: int = DEFAULT_MAX_BYTES,
-                     max_depth: int = DEFAULT_MAX_DEPTH,
-                     stream_rule: StreamRule = lambda node: None) -> tuple[Node, str | None]:
+                     max_depth: int = DEFAULT_MAX_DEPTH, stream_rule: StreamRule = lambda node: None,
+                     max_elements: int = DEFAULT_MAX_ELEMENTS) -> tuple[Node, str | None]:
     """Parse untrusted XML arriving as byte chunks (e.g. the XML section of an E57 file) as :func:`parse_xml` does.
 
     ``name`` is the file named in errors; ``chunks`` are read one by one, never joined, and
@@ -397,7 +412,7 @@ def parse_xml_chunks(name: str, chunks: Iterable[bytes], *, max_bytes: int = DEF
     """
     defused = require("defusedxml.ElementTree", purpose="reading XML files from CMMs and scanners")
     defused_common = require("defusedxml.common", purpose="reading XML files from CMMs and scanners")
-    target = _Target(name, max_depth, stream_rule)
+    target = _Target(name, max_depth, stream_rule, max_elements)
     parser = defused.DefusedXMLParser(target=target, forbid_dtd=True, forbid_entities=True, forbid_external=True)
     target.expat = parser.parser
     parser.parser.buffer_size = _READ_CHUNK

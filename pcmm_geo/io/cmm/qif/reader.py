@@ -61,10 +61,18 @@ from pcmm_geo.io.cmm.model import (
     Transform,
 )
 from pcmm_geo.io.cmm.qif._characteristics import read_characteristics
-from pcmm_geo.io.cmm.qif._values import QIF_ANGLE_UNITS, QIF_LENGTH_UNITS, QifContext, snake_type, xs_integer
+from pcmm_geo.io.cmm.qif._values import (
+    QIF_ANGLE_UNITS,
+    QIF_LENGTH_UNITS,
+    QifContext,
+    short_id,
+    snake_type,
+    xs_integer,
+)
 from pcmm_geo.io.cmm.qif._xml import (
     DEFAULT_MAX_BYTES,
     DEFAULT_MAX_DEPTH,
+    DEFAULT_MAX_ELEMENTS,
     DuplicateElementError,
     Node,
     NumberList,
@@ -87,6 +95,7 @@ _ORTHONORMAL_TOLERANCE = 1e-6
 def read_qif(
     path: str | Path, *, max_bytes: int = DEFAULT_MAX_BYTES, max_depth: int = DEFAULT_MAX_DEPTH,
     units: str | None = None, angle_unit: str | None = None, spell_setting: SpellSetting = python_setting,
+    max_elements: int = DEFAULT_MAX_ELEMENTS,
 ) -> CmmDocument:
     """Read a QIF 3.0 document (see the module docstring).
 
@@ -98,6 +107,9 @@ def read_qif(
         Largest file accepted (default 1 GiB; raise it for scanner-size point clouds).
     max_depth : int
         Deepest element nesting accepted (default 64).
+    max_elements : int
+        Most elements accepted (default 10^6, some 250 MB of tree): a file of millions of empty
+        elements is refused before its tree fills the memory.
     units : {"mm", "cm", "m", "inch", "feet"} or None
         Length unit of a file without ``FileUnits`` (the QIF 3.0 schema states no default; mm is
         assumed, and said so in ``problems``, when None).  Refused for a file that states its units.
@@ -135,10 +147,10 @@ def read_qif(
     try:
         root, namespace = parse_xml(path, max_bytes=max_bytes, max_depth=max_depth,
                                     stream_rule=lambda node: _stream_rule(name, size, node),
-                                    spell_setting=spell_setting)
+                                    spell_setting=spell_setting, max_elements=max_elements)
     except NumberListFailure as failure:
         node = failure.node
-        set_id = node.parent.attrib.get("id") if node.parent is not None else None
+        set_id = short_id(node.parent.attrib.get("id")) if node.parent is not None else None
         raise QifError(name, failure.list_reason, qif_id=set_id, element=node.path(), line=failure.line) from None
     context = QifContext(name, spell=spell_setting)
     try:
@@ -180,7 +192,7 @@ def _stream_rule(path: str, size: int, node: Node) -> NumberList | None:
     parent = node.parent
     if parent is None or parent.tag != "MeasuredPointSet":
         return None
-    where = {"qif_id": parent.attrib.get("id"), "element": node.path(), "line": node.line or None}
+    where = {"qif_id": short_id(parent.attrib.get("id")), "element": node.path(), "line": node.line or None}
     if node.tag in _BINARY:
         raise QifError(path, f"{node.tag}: QIF 3.0 does not state the byte order of binary arrays; pcmm_geo does "
                        "not guess it (write the points as text: Points, Normals)", **where)
