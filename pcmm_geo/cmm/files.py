@@ -53,8 +53,8 @@ def read_cmm_document(path: str | Path, *, units: str | None = None, angle_unit:
     ------
     FileFormatError
         A file of none of these formats (points only: nothing to show or verify), one without any
-        measured feature or characteristic, or the readers' errors (QifError, UnsafeXmlError
-        naming file and line).
+        measured feature, characteristic or inspection status (a status-only file is read), or
+        the readers' errors (QifError, UnsafeXmlError naming file and line).
     InvalidInputError
         Units given for a QIF file; unknown units.
     """
@@ -78,8 +78,10 @@ def read_cmm_document(path: str | Path, *, units: str | None = None, angle_unit:
         document = cmm.read_calypso_table(path, units=units, angle_unit=angle_unit, encoding=encoding,
                                           spell_setting=spell_setting, **limit)
     if document is not None:
-        if not document.measured_features and not document.characteristics:
-            raise FileFormatError(str(path), "expected measured features or characteristics, got none")
+        if not document.measured_features and not document.characteristics and \
+                not any(results.inspection_status for results in document.results):
+            raise FileFormatError(str(path), "expected measured features, characteristics or an inspection status, "
+                                  "got none")
         return document
     what = "a PC-DMIS XYZIJK point file (fit it: pcmm fit ELEMENT FILE --compensated yes|no)" if kind == "pcdmis" \
         else "not a CMM results file"

@@ -152,3 +152,20 @@ def test_convert_reads_a_pcdmis_xyzijk_file(tmp_path: Path) -> None:
     assert done.returncode == 0, done.stderr
     rows = [line.split(",") for line in out.read_text().split()[1:]]
     assert len(rows) == 5 and [float(v) for v in rows[0]] == [10.0, 0.0, 5.0]
+
+
+def test_multi_sample_files_name_each_sample_and_status_only_files_are_read() -> None:
+    sheet = json.loads(run_pcmm("qif", "show", SAMPLES / "SheetMetal_QIF_Results_6_samples.QIF", "--json").stdout)
+    serials = [f"SN580280{k}" for k in range(1, 7)]
+    assert [r["serial_numbers"] for r in sheet["results"]] == [[s] for s in serials]
+    assert [r["inspection_status"] for r in sheet["results"]] == ["PASS", "FAIL", "FAIL", "PASS", "PASS", "FAIL"]
+    named = [(f["name"], f["sample"]) for f in sheet["features"] if f["name"] == "W1RFTMRA02"]
+    assert sorted(named) == [("W1RFTMRA02", s) for s in serials]  # six measurements, each with its sample
+    text = run_pcmm("qif", "show", SAMPLES / "SheetMetal_QIF_Results_6_samples.QIF").stdout
+    assert "W1RFTMRA02 [SN5802806]" in text
+    status = run_pcmm("qif", "show", SAMPLES / "mitutoyo_results_serialized_pass_fail_sample.QIF", "--json")
+    assert status.returncode == 0, status.stderr
+    only = json.loads(status.stdout)
+    assert only["results"] == [{"id": 2, "sample": None, "serial_numbers": ["SN#1234-56789"],
+                                "inspection_status": "PASS"}]
+    assert only["features"] == [] and only["characteristics"] == []

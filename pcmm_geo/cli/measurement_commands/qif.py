@@ -112,6 +112,7 @@ def _handle_show(args: argparse.Namespace) -> Report:
 
     document = _read(args)
     point_sets = document.point_sets
+    sample_of = _samples(document)
     feature_rows = []
     features = []
     for feature in document.measured_features:
@@ -121,13 +122,15 @@ def _handle_show(args: argparse.Namespace) -> Report:
             points = None
         actual = feature.actual
         location = _vector(actual.location)
-        feature_rows.append([feature.id, feature.name or "-", feature.type, 0 if points is None else len(points),
+        feature_rows.append([feature.id, _named(feature.name, sample_of.get(feature.results_id)), feature.type,
+                             0 if points is None else len(points),
                              "-" if points is None or points.compensated is None else points.compensated,
                              "-" if points is None or points.probe_radius is None else points.probe_radius,
                              (feature.internal_external or "-").lower(),
                              "-" if actual.diameter is None else actual.diameter,
                              *(location or ["-", "-", "-"])])
         features.append({"id": feature.id, "type": feature.type, "name": feature.name,
+                         "sample": sample_of.get(feature.results_id),
                          "n_points": 0 if points is None else len(points),
                          "internal_external": feature.internal_external,
                          "substitute_algorithm": feature.substitute_algorithm,
@@ -159,10 +162,12 @@ def _handle_show(args: argparse.Namespace) -> Report:
         # the feature measurements by QIF id; a table without measurements (CALYPSO) by the features it names
         features_cell = " ".join(str(i) for i in characteristic.feature_measurement_ids) or \
             ", ".join(name for name in names if name) or "-"
-        char_rows.append([characteristic.id, characteristic.name or "-", characteristic.type,
+        char_rows.append([characteristic.id, _named(characteristic.name, sample_of.get(characteristic.results_id)),
+                          characteristic.type,
                           _cell(characteristic.value), _cell(characteristic.nominal), _cell(lower), _cell(upper),
                           characteristic.quantity, characteristic.status or "-", features_cell])
         characteristics.append({"id": characteristic.id, "type": characteristic.type, "name": characteristic.name,
+                                "sample": sample_of.get(characteristic.results_id),
                                 "value": characteristic.value, "nominal": characteristic.nominal,
                                 "lower_limit": lower, "upper_limit": upper, "quantity": characteristic.quantity,
                                 "status": characteristic.status,
@@ -173,9 +178,16 @@ def _handle_show(args: argparse.Namespace) -> Report:
             "application": document.application,
             "units": {"linear_unit": units.linear_unit, "mm_per_linear_unit": units.mm_per_linear_unit,
                       "angular_unit": units.angular_unit, "stated": units.stated},
+            "results": [{"id": results.id, "sample": sample_of.get(results.id),
+                         "serial_numbers": list(results.serial_numbers),
+                         "inspection_status": results.inspection_status} for results in document.results],
             "features": features, "point_sets": sets, "characteristics": characteristics,
             "problems": list(document.problems)}
+    result_rows = [[results.id, sample_of.get(results.id) or "-", ", ".join(results.serial_numbers) or "-",
+                    results.inspection_status or "-"] for results in document.results
+                   if len(document.results) > 1 or results.inspection_status or results.serial_numbers]
     tables = [
+        Table("Measurement results (samples)", ["id", "sample", "serial numbers", "inspection status"], result_rows),
         Table(f"Measured features of {document.source}",
               ["id", "name", "type", "points", "compensated", "probe radius / mm", "side", "diameter / mm",
                "x / mm", "y / mm", "z / mm"], feature_rows),
@@ -193,6 +205,18 @@ def _handle_show(args: argparse.Namespace) -> Report:
              + ("" if units.mm_per_linear_unit == 1.0 else " (converted to mm)")]
     lines += [f"left out: {problem}" for problem in document.problems]
     return Report(data=data, tables=[t for t in tables if t.rows], lines=lines)
+
+
+def _samples(document: Any) -> dict[Any, str]:
+    """Results id -> how a multi-sample file's rows name their sample: its serial numbers, else its number."""
+    if len(document.results) < 2:
+        return {}
+    return {results.id: ", ".join(results.serial_numbers) or f"sample {number}"
+            for number, results in enumerate(document.results, start=1)}
+
+
+def _named(name: str | None, sample: str | None) -> str:
+    return (name or "-") if sample is None else f"{name or '-'} [{sample}]"
 
 
 def _feature_names(document: Any, characteristic: Any) -> list[str | None]:

@@ -329,11 +329,19 @@ def _read_results(context: QifContext, node: Node, definitions: dict, nominals: 
             systems[system_id] = CoordinateSystem(id=old.id, name=old.name, nominal_transform=old.nominal_transform,
                                                   actual_transform_id=transform_id)
     status = node.child("InspectionStatus")
+    serials = []
+    group = node.child("ActualComponentIds")
+    for id_node in [] if group is None else group.all("Id"):
+        component = context.reference(id_node, ("ActualComponent",))
+        serial = None if component is None else context.text(context.ids[component].child("SerialNumber"))
+        if serial is not None:
+            serials.append(serial)
     return MeasurementResults(
         id=results_id, features=tuple(features), point_sets=point_sets,
         characteristics=read_characteristics(context, node.child("MeasuredCharacteristics"), results_id),
         actual_transforms=actuals,
-        inspection_status=None if status is None else context.text(status.child("InspectionStatusEnum")))
+        inspection_status=None if status is None else context.text(status.child("InspectionStatusEnum")),
+        serial_numbers=tuple(serials))
 
 
 def _point_set(context: QifContext, node: Node, results_id: int | None) -> MeasuredPointSet:
