@@ -61,9 +61,8 @@ class Compensation:
     side : {"internal", "external", "none", "unknown"}
         Material side of a feature of size; planes, lines and points are touched from outside
         the material (``"external"``, direction in ``outward``); ``"none"``: nothing applied;
-        ``"unknown"``: a circle, cylinder or sphere whose side nothing states: its centre and
-        axis do not depend on the side (the element offset moves the surface along its normals)
-        and are refitted, its diameter is not (None).
+        ``"unknown"``: nothing states the side of this circle, cylinder or sphere: its centre
+        and axis (independent of the side) are refitted, its diameter is not (None).
     inferred : bool
         The side was inferred from the nominal size (the file did not state it).
     source : str
@@ -338,13 +337,10 @@ def _round_compensation(fit: FitResult, radius: float, radius_source: str, conte
     try:
         kwargs, side_source = _side_arguments(context, material_side, normals, points)
     except NotRefittedError:
-        if not side_free:
+        if not side_free:  # an element offset moves the surface along its normals: centre and axis stay put
             raise
-        # the element offset moves the surface along its normals by the probe radius: centre and axis
-        # are the same on either side, only the size needs the side (left uncompared, as "unknown")
-        return fit, Compensation(radius, "unknown", False, f"{radius_source}; side unknown (no InternalExternal, "
-                                 "normals or nominal size): centre and axis do not depend on it, the size does and "
-                                 "is not refitted", "none")
+        return fit, Compensation(radius, "unknown", False, f"{radius_source}; side unknown: centre and axis do not "
+                                 "depend on it, the size does and is not refitted", "none")
     if "nominal_diameter" in kwargs and nominal_diameter is not None:
         kwargs["nominal_diameter"] = nominal_diameter
     try:

@@ -73,6 +73,7 @@ import numpy as np
 
 from pcmm_geo.errors import FileFormatError
 from pcmm_geo.io._text import excerpt, parse_decimal
+from pcmm_geo.io.cmm._dmis_checks import StatedTolerance, check_verdict
 from pcmm_geo.io.cmm._dmis_syntax import (
     MAX_STATEMENT_CHARS,
     half_unit,
@@ -276,8 +277,8 @@ def _is_numberish(text: str) -> bool:
     return bool(text) and (text[0].isdigit() or text[0] in "+-.") and text.upper() not in _QUALIFIERS
 
 
-def _tolerance(state: _State, line: int, label: str, fields: list[str]) -> _Nominal:
-    """The tolerance of ``T(label)``, finite in mm/rad, with the rounding of its numbers (see :class:`_Nominal`)."""
+def _tolerance(state: _State, line: int, label: str, fields: list[str]) -> StatedTolerance:
+    """The tolerance of ``T(label)``, finite in mm or rad, its modifiers noted (:class:`StatedTolerance`)."""
     kind, quantity, tolerance, nominal = _tolerance_values(state, line, label, fields)
     what = f"T({label})=TOL/{fields[0].upper()}"
     if tolerance is not None:
@@ -288,20 +289,7 @@ def _tolerance(state: _State, line: int, label: str, fields: list[str]) -> _Nomi
                 tolerance.min_value > tolerance.max_value:
             raise state.error(line, f"{what}: the lower tolerance is above the upper one")
     modified = any(f.strip().upper() in ("MMC", "LMC") for f in fields[1:])
-    return _Nominal(kind, quantity, tolerance, nominal, modified)
-
-
-@dataclass(frozen=True)
-class _Nominal:
-    """What ``T(label)`` states: type, quantity, tolerance, nominal size (design values: exact) and
-    whether a material modifier (MMC, LMC) makes the zone depend on the actual size (then its
-    verdict is not checked)."""
-
-    kind: str
-    quantity: str
-    tolerance: Tolerance | None
-    nominal: float | None
-    modified: bool = False
+    return StatedTolerance(kind, quantity, tolerance, nominal, modified)
 
 
 def _tolerance_values(state: _State, line: int, label: str,
@@ -372,7 +360,7 @@ def read_dmis(path: str | Path, *, units: str | None = None, angle_unit: str | N
                    spell_setting, units)
     features: dict[str, tuple[int, str, str | None, FeatureGeometry]] = {}
     nominals: dict[str, tuple[int, str, str | None, FeatureGeometry]] = {}
-    tolerances: dict[str, _Nominal] = {}
+    tolerances: dict[str, StatedTolerance] = {}
     results: list[tuple[int, str, list[str]]] = []
     reported_with: dict[str, list[str]] = {}
     for line, text in statements(path, encoding):
@@ -503,44 +491,10 @@ def _characteristic(state: _State, key: int, line: int, label: str, fields: list
     _finite(state, line, f"TA({label})=TOL/{keyword}", value, deviation, nominal)
     if stated is not None and numbers and quantity in ("linear", "angular"):
         factor = state.length_factor(line) if quantity == "linear" else state.angle_factor(line)
-        _check_verdict(state, line, f"TA({label})=TOL/{keyword}", status, stated, value, deviation,
+        check_verdict(state.path, line, f"TA({label})=TOL/{keyword}", status, stated, value, deviation,
                        factor * half_unit(texts[0]),
                        modified=stated.modified or any(w in ("MMC", "LMC") for w in words))
     linked = tuple(feature_ids[name] for name in features if name in feature_ids)
     return Characteristic(id=key, type=kind, name=label, value=value, nominal=nominal, deviation=deviation,
                           tolerance=tolerance, status=status, quantity=quantity, feature_measurement_ids=linked,
                           results_id=0)
-
-
-def _check_verdict(state: _State, line: int, what: str, status: str, stated: _Nominal, value: float | None,
-                   deviation: float | None, margin: float, *, modified: bool) -> None:
-    """Refuse an INTOL/OUTOL that the numbers contradict (beyond the rounding ``margin`` of the numbers written).
-
-    A geometric zone: the result must lie within ``[0, zone]`` for INTOL and above it for OUTOL
-    (not checked with MMC/LMC: the bonus tolerance depends on the actual size).  A size: the
-    deviation (read with ``size_values``) must lie within the lower and upper tolerance for INTOL.
-    """
-    tolerance = stated.tolerance
-    if tolerance is None:
-        return
-    if tolerance.value is not None:
-        if modified or value is None:
-            return
-        if value < -margin:
-            raise state.error(line, f"{what}: a negative form or location result ({value:g} mm)")
-        outside, inside = value > tolerance.value + margin, value < tolerance.value - margin
-        limits = f"the tolerance zone {tolerance.value:g}"
-        shown = value
-    else:
-        if deviation is None and value is not None and stated.nominal is not None:
-            deviation = value - stated.nominal
-        if deviation is None or tolerance.min_value is None or tolerance.max_value is None:
-            return
-        outside = not (tolerance.min_value - margin <= deviation <= tolerance.max_value + margin)
-        inside = tolerance.min_value + margin < deviation < tolerance.max_value - margin
-        limits = f"the tolerances [{tolerance.min_value:g}, {tolerance.max_value:g}]"
-        shown = deviation
-    if (status == "PASS" and outside) or (status == "FAIL" and inside):
-        verdict = "INTOL" if status == "PASS" else "OUTOL"
-        raise state.error(line, f"{what}: {verdict} contradicts the result {shown:g} and {limits} (mm or rad, "
-                          f"rounding {margin:.2g} allowed)")
