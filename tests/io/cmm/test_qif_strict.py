@@ -201,3 +201,10 @@ def test_a_huge_id_is_not_echoed_whole(tmp_path: Path) -> None:
     with pytest.raises(QifError) as caught:
         read_qif(path)
     assert len(str(caught.value)) < 1_000 and "10000000 characters" in str(caught.value)
+
+
+def test_a_unit_factor_that_overflows_is_refused(tmp_path: Path) -> None:
+    old, new = INCH_UNIT
+    path = _edited(tmp_path, (old, new.replace("inch", "parsec").replace("0.0254", "1e308")))
+    with pytest.raises(QifError, match="expected a positive finite conversion factor, got 1e308"):
+        read_qif(path)

@@ -205,8 +205,9 @@ class QifContext:
                 raise self.error(factor_node, f"unit {name!r} with the conversion factor {stated / si!r}, "
                                  f"expected {known / si!r}")
             return _Unit(name, known)
-        if stated <= 0.0:
-            raise self.error(factor_node, f"expected a positive conversion factor, got {stated / si!r}")
+        if not (0.0 < stated < math.inf):
+            raise self.error(factor_node, f"expected a positive finite conversion factor, got "
+                             f"{factor_node.text.strip()[:40]}")
         return _Unit(name or "(unnamed)", stated)
 
     def units(self) -> Units:
