@@ -211,7 +211,7 @@ class Node:
         return f"<Node {self.tag} line {self.line} ({len(self.children)} children)>"
 
 
-class DuplicateElementError(Exception):
+class DuplicateElementError(ValueError):
     """Two children of one name where one is read (:meth:`Node.child`); the reader names the second."""
 
     def __init__(self, first: Node, second: Node) -> None:
