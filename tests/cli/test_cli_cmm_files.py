@@ -62,7 +62,7 @@ def test_reader_messages_name_the_options(tmp_path: Path) -> None:
                          "exceeds the limit of 52428 bytes (raise --max-mb for larger files)")
         assert "max_bytes" not in error
     _refused(_run("qif", "show", SAMPLE, "--units", "mm"), "qif show",
-             "--units: expected nothing for a QIF file")
+             "the file states its units (FileUnits/PrimaryUnits); --units is for a file without them")
 
 
 def test_a_stated_material_side_that_contradicts_the_file_is_refused(tmp_path: Path) -> None:

@@ -17,9 +17,11 @@ function                        reads / writes
 :func:`read_dmis`               DMIS output (``FA(..)=FEAT/...``, ``TA(..)=TOL/...``)
 :func:`read_calypso_table`      ZEISS CALYPSO ``*_chr.txt`` characteristic tables
 :func:`read_pcdmis_xyzijk`      PC-DMIS XYZIJK text -> :class:`MeasuredPointSet` with normals
+:func:`detect_format`           which of these formats a file is, by its content
 ==============================  ===========================================================
 
-The readers never guess what a file does not say (units, a size beyond ``max_bytes``); their
+The readers never guess what a file does not say (units, a size beyond ``max_bytes``; the one
+assumption, mm for a QIF file without ``FileUnits``, is recorded in the document); their
 messages name the setting that would say it, spelled by ``spell_setting`` (default
 :func:`python_setting`: ``units='mm'``; the command line passes its option names).
 
@@ -61,6 +63,8 @@ _LAZY = {
     "read_dmis": "dmis",
     "read_calypso_table": "calypso",
     "read_pcdmis_xyzijk": "pcdmis",
+    "CMM_FORMATS": "detect",
+    "detect_format": "detect",
 }
 
 __all__ = sorted(_LAZY)
