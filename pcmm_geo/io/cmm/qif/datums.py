@@ -107,7 +107,7 @@ def read_datum_definitions(context: QifContext, root: Node) -> dict[int, DatumDe
         definitions[key] = DatumDefinition(
             id=key, label=label,
             feature_nominal_ids=_ids(context, node.child("FeatureNominalIds"), ("FeatureNominal",)),
-            datum_target_ids=_ids(context, node.child("DatumTargetIds"), ("DatumTargetDefinition",)))
+            datum_target_ids=_ids(context, node.child("DatumTargetIds"), ("DatumTarget", "DatumTargetDefinition")))
     return definitions
 
 
