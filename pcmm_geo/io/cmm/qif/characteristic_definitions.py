@@ -25,6 +25,8 @@ import os
 from dataclasses import dataclass, field
 from pathlib import Path
 
+import numpy as np
+
 from pcmm_geo.errors import QifError
 from pcmm_geo.io.cmm.model import Tolerance
 from pcmm_geo.io.cmm.qif._characteristics import _tolerance, quantity_of
@@ -76,7 +78,12 @@ class CharacteristicDefinition:
 
 @dataclass(frozen=True)
 class CharacteristicNominal:
-    """A QIF ``<Type>CharacteristicNominal``: the definition it refines and its target (mm or rad)."""
+    """A QIF ``<Type>CharacteristicNominal``: the definition it refines and its target (mm or rad).
+
+    ``direction``: a linear coordinate's ``XAXIS`` / ``YAXIS`` / ``ZAXIS``; ``analysis_mode`` and
+    ``analysis_vector`` (a unit ``(3,)`` array): how a distance or angle between is taken
+    (``ONEDIMENSIONAL`` along the vector, ``TWODIMENSIONAL`` perpendicular to it, ``THREEDIMENSIONAL``).
+    """
 
     id: int
     type: str
@@ -84,6 +91,7 @@ class CharacteristicNominal:
     target_value: float | None = None
     direction: str | None = None
     analysis_mode: str | None = None
+    analysis_vector: np.ndarray | None = None
     qif_element: str = ""
 
 
@@ -162,12 +170,13 @@ def _nominals(context: QifContext, group: Node | None) -> dict[int, Characterist
         kind = snake_type(node.tag, "CharacteristicNominal")
         key = context.id_of(node)
         target = node.child("TargetValue")
+        vector = node.child("AnalysisVector")
         out[key] = CharacteristicNominal(
             id=key, type=kind,
             definition_id=context.reference(node.child("CharacteristicDefinitionId"), ("CharacteristicDefinition",)),
             target_value=None if target is None else context.value(target, quantity_of(kind), pmi=True),
             direction=context.text(node.child("Direction")), analysis_mode=context.text(node.child("AnalysisMode")),
-            qif_element=node.tag)
+            analysis_vector=None if vector is None else context.unit_vector(vector), qif_element=node.tag)
     return out
 
 
