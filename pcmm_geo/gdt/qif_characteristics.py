@@ -184,6 +184,8 @@ def verify_characteristics(
     fraction: float = DEFAULT_FRACTION,
     tolerance_mm: float | None = None,
     use_points: bool = True,
+    compensated: bool | None = None,
+    probe_radius: float | None = None,
 ) -> CharacteristicVerification:
     """Recompute every characteristic measurement of a QIF document from its feature actuals (and points).
 
@@ -200,7 +202,12 @@ def verify_characteristics(
     tolerance_mm : float, optional
         A fixed agreement bound for lengths (mm) instead of the rule.
     use_points : bool
-        Recompute form characteristics the actuals do not carry from the feature's points.
+        Recompute from the feature's points where they exist: form characteristics the actuals do
+        not carry, and point profiles (the compensated point rather than the reported actual).
+    compensated : bool, optional
+        For point sets without a ``Compensated`` flag: are the points surface points?
+    probe_radius : float, optional
+        Overrides the file's probe radius (mm) in the refits.
 
     Returns
     -------
@@ -227,7 +234,8 @@ def verify_characteristics(
     for characteristic in document.characteristics:
         bound = _bound(characteristic, fraction, tolerance_mm)
         try:
-            result = recompute(document, definitions, characteristic, features, use_points=use_points)
+            result = recompute(document, definitions, characteristic, features, use_points=use_points,
+                               options={"compensated": compensated, "probe_radius": probe_radius})
         except PcmmGeoError as exc:  # a frame or refit that fails: that characteristic only
             result = Recomputation(None, "could not be recomputed: " + " ".join(str(exc).split()))
         checks.append(_judge(characteristic, result, bound, repeats))

@@ -11,7 +11,7 @@ from __future__ import annotations
 
 from collections.abc import Mapping
 from dataclasses import dataclass
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -177,7 +177,7 @@ def _position(document: CmmDocument, definitions: QifDefinitions | None, charact
 
 
 def _point_profile(document: CmmDocument, definitions: QifDefinitions | None, characteristic: Characteristic,
-                   feature: MeasuredFeature, use_points: bool) -> Recomputation:
+                   feature: MeasuredFeature, use_points: bool, options: Mapping[str, Any]) -> Recomputation:
     nominal = _nominal_geometry(document, feature)
     if feature.actual.location is None or nominal.location is None or nominal.normal is None:
         raise _NotComputable("a point profile needs the actual location and the nominal location and normal")
@@ -188,7 +188,7 @@ def _point_profile(document: CmmDocument, definitions: QifDefinitions | None, ch
         from pcmm_geo.errors import NotRefittedError
 
         try:
-            refit = refit_feature(document, feature)
+            refit = refit_feature(document, feature, **options)
         except NotRefittedError as exc:
             raise _NotComputable(f"the point could not be compensated: {exc}") from None
         if refit.location is not None:
@@ -271,16 +271,17 @@ def _angle(first: MeasuredFeature, second: MeasuredFeature, nominal: float | Non
     return min((theta, np.pi - theta), key=lambda t: abs(t - nominal))
 
 
-def form_from_points(document: CmmDocument, feature: MeasuredFeature, criterion: str) -> float:
+def form_from_points(document: CmmDocument, feature: MeasuredFeature, criterion: str, **options: Any) -> float:
     """Form deviation (mm): the range of the compensated points about the refit by ``criterion``.
 
     Plane: signed distances; circle: radial distances in its plane; cylinder: distances from the
     axis; sphere: distances from the centre; minus the radius.  With ``criterion="chebyshev"``
-    this range is the minimum-zone form (ISO 12781, 12181, 12180; the zone's width).
+    this range is the minimum-zone form (ISO 12781, 12181, 12180; the zone's width).  ``options``
+    (``compensated``, ``probe_radius``) go to :func:`~pcmm_geo.cmm.refit.refit_feature`.
     """
     from pcmm_geo.cmm.refit import refit_feature
 
-    refit = refit_feature(document, feature, criterion=criterion)
+    refit = refit_feature(document, feature, criterion=criterion, **options)
     points = refit.points
     if refit.location is None:
         raise _NotComputable("the refit has no location")
@@ -299,7 +300,7 @@ def form_from_points(document: CmmDocument, feature: MeasuredFeature, criterion:
 
 
 def _form(document: CmmDocument, characteristic: Characteristic, feature: MeasuredFeature,
-          use_points: bool) -> Recomputation:
+          use_points: bool, options: Mapping[str, Any]) -> Recomputation:
     if feature.actual.form is not None:
         return Recomputation(feature.actual.form, "the form the file reports for the feature actual", "actuals")
     if FORM_TYPES[characteristic.type] != feature.type:
@@ -309,8 +310,8 @@ def _form(document: CmmDocument, characteristic: Characteristic, feature: Measur
     from pcmm_geo.errors import NotRefittedError
 
     try:
-        zone = form_from_points(document, feature, "chebyshev")
-        least_squares = form_from_points(document, feature, "gaussian")
+        zone = form_from_points(document, feature, "chebyshev", **options)
+        least_squares = form_from_points(document, feature, "gaussian", **options)
     except NotRefittedError as exc:
         raise _NotComputable(f"the points could not be refitted: {exc}") from None
     return Recomputation(zone, f"the minimum-zone range of the feature's {feature.type} points", "points",
@@ -319,8 +320,13 @@ def _form(document: CmmDocument, characteristic: Characteristic, feature: Measur
 
 
 def recompute(document: CmmDocument, definitions: QifDefinitions | None, characteristic: Characteristic,
-              features: Mapping[int, MeasuredFeature], *, use_points: bool = True) -> Recomputation:
-    """Recompute one characteristic measurement (see the module docstring); never raises for a missing input."""
+              features: Mapping[int, MeasuredFeature], *, use_points: bool = True,
+              options: Mapping[str, Any] | None = None) -> Recomputation:
+    """Recompute one characteristic measurement (see the module docstring); never raises for a missing input.
+
+    ``options`` (``compensated``, ``probe_radius``) go to the refits of points.
+    """
+    options = {} if options is None else options
     kind = characteristic.type
     try:
         found = _features(characteristic, features)
@@ -335,7 +341,7 @@ def recompute(document: CmmDocument, definitions: QifDefinitions | None, charact
         if kind == "position":
             return _position(document, definitions, characteristic, feature)
         if kind == "point_profile":
-            return _point_profile(document, definitions, characteristic, feature, use_points)
+            return _point_profile(document, definitions, characteristic, feature, use_points, options)
         if kind == "linear_coordinate":
             return _linear_coordinate(document, definitions, characteristic, feature)
         if kind in ("distance_between", "angle_between"):
@@ -352,7 +358,7 @@ def recompute(document: CmmDocument, definitions: QifDefinitions | None, charact
             value, how = _distance(found[0], found[1])
             return Recomputation(value, f"the distance {how}", "actuals")
         if kind in FORM_TYPES:
-            return _form(document, characteristic, feature, use_points)
+            return _form(document, characteristic, feature, use_points, options)
         raise _NotComputable(f"pcmm_geo does not recompute {kind.replace('_', ' ')} characteristics from actuals")
     except _NotComputable as reason:
         return Recomputation(None, str(reason))
