@@ -1,4 +1,4 @@
-"""A second opinion on the characteristics of a QIF results file: each one recomputed from the CMM's own feature actuals.
+"""A second opinion on the characteristics of a QIF results file, each recomputed from the CMM's own feature actuals.
 
 A CMM's QIF results file reports characteristic values (a hole's diameter, its position to
 A|B|C, a point's profile deviation, a distance) next to the substitute features (actuals) they
@@ -43,8 +43,6 @@ from __future__ import annotations
 from collections.abc import Mapping
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any
-
-import numpy as np
 
 from pcmm_geo.errors import InvalidInputError, PcmmGeoError
 from pcmm_geo.gdt.qif_measures import Recomputation, recompute
@@ -239,14 +237,15 @@ def verify_characteristics(
         except PcmmGeoError as exc:  # a frame or refit that fails: that characteristic only
             result = Recomputation(None, "could not be recomputed: " + " ".join(str(exc).split()))
         checks.append(_judge(characteristic, result, bound, repeats))
-    rule = (f"a characteristic agrees when |reported - recomputed| <= "
+    rule = ("a characteristic agrees when |reported - recomputed| <= "
             + (f"{tolerance_mm:g} mm" if tolerance_mm is not None else
                f"max({DEFAULT_FLOOR_MM * 1000:g} µm, {fraction:g} x its tolerance width) "
                f"(angles: max({DEFAULT_FLOOR_RAD * 1e6:g} µrad, {fraction:g} x the tolerance))"))
     return CharacteristicVerification(source=document.source, checks=tuple(checks), rule=rule)
 
 
-def _judge(characteristic: Characteristic, result: Recomputation, bound: float, repeats: Mapping[int, int]) -> CharacteristicCheck:
+def _judge(characteristic: Characteristic, result: Recomputation, bound: float,
+           repeats: Mapping[int, int]) -> CharacteristicCheck:
     reported = characteristic.value
     base = {"id": characteristic.id, "name": characteristic.name, "type": characteristic.type,
             "unit": _unit(characteristic), "reported": reported, "bound": bound, "source": result.source}

@@ -1,4 +1,4 @@
-"""Datum reference frames from a CMM's feature actuals: the alignment a second opinion on a QIF file's characteristics uses.
+"""Datum reference frames from a CMM's feature actuals: the alignment of a second opinion on QIF characteristics.
 
 A QIF results file reports, for each datum feature, the substitute feature the CMM associated
 (a plane's point and normal, a cylinder's axis, a circle's centre and normal).  This module
@@ -207,10 +207,11 @@ def datum_frame(datums: list[DatumFeatureGeometry] | tuple[DatumFeatureGeometry,
             if length < _RANK:
                 continue
             # the constraint row @ p = row @ q, expressed on the orthonormal basis
-            projected = float(row @ datum.location) - sum(float(b @ row) * t for b, t in zip(basis, targets))
+            projected = float(row @ datum.location) - sum(
+                float(b @ row) * t for b, t in zip(basis, targets, strict=True))
             basis.append(rest / length)
             targets.append(projected / length)
-    origin = sum((t * b for b, t in zip(basis, targets)), np.zeros(3))
+    origin = sum((t * b for b, t in zip(basis, targets, strict=True)), np.zeros(3))
     stack = np.array(basis) if basis else np.zeros((0, 3))
     _, _, vt = np.linalg.svd(np.vstack([stack, np.zeros((3, 3))]))
     free = vt[len(basis):] if len(basis) < 3 else np.zeros((0, 3))
@@ -238,18 +239,20 @@ def frame_map(nominal: list[DatumFeatureGeometry], actual: list[DatumFeatureGeom
     """The map from measured into part coordinates by the datums (nominal and actual substitutes, same order).
 
     Each actual direction is first oriented like its nominal (a plane's normal or an axis may be
-    reported either way round).
+    reported either way round): the actuals are taken to be in the part's coordinates or in those
+    of a pre-aligned part (each actual direction within 90 degrees of its nominal), as a CMM
+    reports them after its alignment.
 
     Raises
     ------
     InvalidInputError
         ``nominal`` and ``actual`` differ in length or in kinds.
     """
-    if len(nominal) != len(actual) or any(n.kind != a.kind for n, a in zip(nominal, actual)):
+    if len(nominal) != len(actual) or any(n.kind != a.kind for n, a in zip(nominal, actual, strict=True)):
         raise InvalidInputError("actual", "the same datum kinds as nominal, in the same order",
                                 f"{[a.kind for a in actual]} for {[n.kind for n in nominal]}")
     oriented = []
-    for n, a in zip(nominal, actual):
+    for n, a in zip(nominal, actual, strict=True):
         direction = a.direction
         if direction is not None and n.direction is not None and float(np.dot(direction, n.direction)) < 0:
             direction = -np.asarray(direction, dtype=float)

@@ -1,4 +1,4 @@
-"""The recomputations behind :func:`pcmm_geo.gdt.qif_characteristics.verify_characteristics`, one per characteristic type.
+"""The recomputations behind :func:`~pcmm_geo.gdt.qif_characteristics.verify_characteristics`, one per type.
 
 Each takes a characteristic measurement of a :class:`~pcmm_geo.io.cmm.CmmDocument`, the
 definitions of :func:`~pcmm_geo.io.cmm.qif.characteristic_definitions.read_qif_definitions`

@@ -280,7 +280,7 @@ def _handle_verify(args: argparse.Namespace) -> Report:
 
 
 def _verify_characteristics(args: argparse.Namespace, document: Any, compensated: bool | None) -> Any:
-    """The second opinion on the file's characteristics (:func:`pcmm_geo.gdt.qif_characteristics.verify_characteristics`)."""
+    """Second opinion on the characteristics (:func:`pcmm_geo.gdt.qif_characteristics.verify_characteristics`)."""
     from pcmm_geo.errors import InvalidInputError
     from pcmm_geo.gdt.qif_characteristics import DEFAULT_FRACTION, verify_characteristics
 

@@ -1,4 +1,4 @@
-"""QIF characteristic definitions, nominals, items, datum definitions and datum reference frames, counted against the XML.
+"""QIF characteristic definitions, nominals, items, datums and datum reference frames, counted against the XML.
 
 The public qif-community samples shipped in tests/data/qif/samples (Boost licence) are read
 here; the NIST CTC / FTC product models (0.7 to 3 MB each, not shipped) are read from a local

@@ -1,4 +1,4 @@
-"""QIF characteristic definitions, nominals and items with their datums: what a second opinion needs beyond :func:`read_qif`.
+"""QIF characteristic definitions, nominals and items with their datums: what a second opinion needs beyond read_qif.
 
 :func:`read_qif` flattens each ``<Type>CharacteristicMeasurement`` with its item, nominal and
 definition into one :class:`~pcmm_geo.io.cmm.model.Characteristic`.  A second opinion on a
@@ -152,7 +152,8 @@ def _definitions(context: QifContext, group: Node | None) -> dict[int, Character
         kind = snake_type(node.tag, "CharacteristicDefinition")
         key = context.id_of(node)
         shape = node.child("ZoneShape")
-        frames = (context.reference(ref, ("DatumReferenceFrame",)) for ref in _descendants(node, "DatumReferenceFrameId"))
+        frames = (context.reference(ref, ("DatumReferenceFrame",))
+                  for ref in _descendants(node, "DatumReferenceFrameId"))
         out[key] = CharacteristicDefinition(
             id=key, type=kind, tolerance=_tolerance(context, node, quantity_of(kind)),
             non_tolerance=context.text(node.child("NonTolerance")),
