@@ -46,6 +46,7 @@ from typing import TYPE_CHECKING, Any
 
 from pcmm_geo.errors import InvalidInputError, PcmmGeoError
 from pcmm_geo.gdt.qif_measures import Recomputation, recompute
+from pcmm_geo.gdt.qif_orientation import orientation
 
 if TYPE_CHECKING:
     from pcmm_geo.io.cmm import Characteristic, CmmDocument
@@ -233,7 +234,8 @@ def verify_characteristics(
         bound = _bound(characteristic, fraction, tolerance_mm)
         try:
             result = recompute(document, definitions, characteristic, features, use_points=use_points,
-                               options={"compensated": compensated, "probe_radius": probe_radius})
+                               options={"compensated": compensated, "probe_radius": probe_radius},
+                               handlers={"perpendicularity": orientation, "parallelism": orientation})
         except PcmmGeoError as exc:  # a frame or refit that fails: that characteristic only
             result = Recomputation(None, "could not be recomputed: " + " ".join(str(exc).split()))
         checks.append(_judge(characteristic, result, bound, repeats))

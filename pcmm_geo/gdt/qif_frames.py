@@ -92,7 +92,7 @@ class FrameMap:
     """The map of measured coordinates into the part's coordinates with the datums in their nominal places.
 
     ``apply(x) = o_n + R_n R_a^T (x - o_a)``; ``rotate(v) = R_n R_a^T v``.  ``free_translations``
-    (part coordinates, unit rows) and ``rotation_free`` (about ``axis`` through ``centre``) are the
+    (part coordinates, unit rows) and ``rotation_free`` (about ``axis`` through ``center``) are the
     degrees of freedom the datums leave: a deviation's components along them do not count.
     """
 
@@ -112,7 +112,7 @@ class FrameMap:
         return self.nominal.rotation[:, 2]
 
     @property
-    def centre(self) -> FloatArray:
+    def center(self) -> FloatArray:
         return self.nominal.origin
 
     def rotate(self, vector: FloatArray) -> FloatArray:
@@ -134,8 +134,8 @@ class FrameMap:
             delta = delta - float(direction @ delta) * direction
         if self.rotation_free and self.nominal.z_defined and not len(self.free_translations):
             axis = self.axis
-            radial_actual = (mapped - self.centre) - float(axis @ (mapped - self.centre)) * axis
-            radial_nominal = (nominal_point - self.centre) - float(axis @ (nominal_point - self.centre)) * axis
+            radial_actual = (mapped - self.center) - float(axis @ (mapped - self.center)) * axis
+            radial_nominal = (nominal_point - self.center) - float(axis @ (nominal_point - self.center)) * axis
             size = float(np.linalg.norm(radial_nominal))
             along = float(axis @ delta) * axis
             if size == 0.0:

@@ -9,7 +9,7 @@ it was obtained, or None and why not.  The definitions are stated in
 
 from __future__ import annotations
 
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any
 
@@ -21,7 +21,8 @@ if TYPE_CHECKING:
     from pcmm_geo.io.cmm import Characteristic, CmmDocument, FeatureGeometry, MeasuredFeature
     from pcmm_geo.io.cmm.qif.characteristic_definitions import QifDefinitions
 
-__all__ = ["FORM_TYPES", "SIZE_TYPES", "Recomputation", "alignment", "form_from_points", "recompute"]
+__all__ = ["FORM_TYPES", "SIZE_TYPES", "Recomputation", "alignment", "datum_substitutes",
+           "form_from_points", "recompute"]
 
 #: size characteristics -> (actual attribute, factor)
 SIZE_TYPES = {"diameter": ("diameter", 1.0), "spherical_diameter": ("diameter", 1.0), "radius": ("diameter", 0.5),
@@ -48,8 +49,8 @@ class Recomputation:
     alternatives: tuple[tuple[str, float, bool], ...] = ()
 
 
-class _NotComputable(Exception):
-    pass
+class NotComputable(Exception):
+    """A characteristic whose inputs the file does not hold (the message says which); :func:`recompute` catches it."""
 
 
 def _direction(geometry: FeatureGeometry) -> np.ndarray | None:
@@ -58,56 +59,58 @@ def _direction(geometry: FeatureGeometry) -> np.ndarray | None:
 
 def _substitute(kind: str, geometry: FeatureGeometry, label: str, which: str) -> DatumFeatureGeometry:
     if geometry.location is None:
-        raise _NotComputable(f"datum {label}'s {which} feature has no location")
+        raise NotComputable(f"datum {label}'s {which} feature has no location")
     if kind in PLANE_TYPES or kind in AXIS_TYPES:
         direction = _direction(geometry)
         if direction is None:
-            raise _NotComputable(f"datum {label}'s {which} feature has no direction")
+            raise NotComputable(f"datum {label}'s {which} feature has no direction")
         return DatumFeatureGeometry("plane" if kind in PLANE_TYPES else "axis", geometry.location, direction, label)
     if kind in POINT_TYPES:
         return DatumFeatureGeometry("point", geometry.location, None, label)
-    raise _NotComputable(f"datum {label} is a {kind} feature, which pcmm_geo does not make a datum of")
+    raise NotComputable(f"datum {label} is a {kind} feature, which pcmm_geo does not make a datum of")
 
 
 def _datum_feature(document: CmmDocument, definitions: QifDefinitions, definition_id: int,
                    results_id: int | None) -> tuple[MeasuredFeature, str]:
     datum = definitions.datum_definitions.get(definition_id)
     if datum is None:
-        raise _NotComputable(f"datum definition {definition_id} is not in the file")
+        raise NotComputable(f"datum definition {definition_id} is not in the file")
     measured = [f for f in document.measured_features if f.results_id == results_id]
     if datum.feature_nominal_ids:
         found = [f for f in measured if (n := document.nominal_of(f)) is not None and n.id in datum.feature_nominal_ids]
         if not found:
-            raise _NotComputable(f"datum {datum.label}'s feature (nominal {datum.feature_nominal_ids[0]}) was not "
+            raise NotComputable(f"datum {datum.label}'s feature (nominal {datum.feature_nominal_ids[0]}) was not "
                                  "measured")
         return found[0], datum.label
-    names = {f"DATUM_{datum.label}".upper(), f"DATUM{datum.label}".upper(), f"DATUM {datum.label}".upper()}
+    names = {f"DATUM_{datum.label}".upper(), f"DATUM{datum.label}".upper(), f"DATUM {datum.label}".upper(),
+             datum.label.upper()}
     found = [f for f in measured if f.name is not None and f.name.upper() in names]
     if len(found) != 1:
-        raise _NotComputable(f"the file does not link datum {datum.label} to a feature (DatumDefinition has no "
-                             "FeatureNominalIds) and no single feature is named DATUM_" + datum.label)
+        raise NotComputable(f"the file does not link datum {datum.label} to a feature (DatumDefinition has no "
+                            f"FeatureNominalIds) and no single feature is named DATUM_{datum.label} or {datum.label}")
     return found[0], f"{datum.label} (the feature named {found[0].name}: the file links none)"
 
 
-def alignment(document: CmmDocument, definitions: QifDefinitions | None,
-              characteristic: Characteristic) -> tuple[FrameMap | None, str]:
-    """The measured-to-part map of the characteristic's datum reference frame (None: the file's coordinates).
+def datum_substitutes(document: CmmDocument, definitions: QifDefinitions | None, characteristic: Characteristic
+                      ) -> tuple[list[DatumFeatureGeometry], list[DatumFeatureGeometry], list[str], str]:
+    """Nominal and actual substitutes of the datums of the characteristic's frame, their labels, and the frame's words.
 
-    Raises ``_NotComputable`` (a module-private signal) with the reason when the frame cannot be built.
+    Empty lists: no frame or an empty one (the file's coordinates).  Raises ``NotComputable``
+    with the reason when a datum cannot be placed.
     """
     definition = None if definitions is None else definitions.definition_of(characteristic.definition_id)
     if definition is None or not definition.datum_reference_frame_ids:
-        return None, "in the file's coordinates (no datum reference frame)"
+        return [], [], [], "in the file's coordinates (no datum reference frame)"
     frame = definitions.datum_reference_frames.get(definition.datum_reference_frame_ids[0])  # type: ignore[union-attr]
     if frame is None or not frame.datums:
-        return None, "in the file's coordinates (an empty datum reference frame)"
+        return [], [], [], "in the file's coordinates (an empty datum reference frame)"
     nominal, actual, labels = [], [], []
     for datum in frame.datums:
         if datum.kind == "compound":
-            raise _NotComputable("a compound datum (common datum) is not evaluated")
+            raise NotComputable("a compound datum (common datum) is not evaluated")
         modifiers = [m for m in datum.material_modifiers if m not in ("NONE", "REGARDLESS")]
         if modifiers:
-            raise _NotComputable(f"a datum at {modifiers[0]} material boundary (datum feature shift) is not "
+            raise NotComputable(f"a datum at {modifiers[0]} material boundary (datum feature shift) is not "
                                  "evaluated")
         if datum.kind == "simple":
             feature, label = _datum_feature(document, definitions, datum.datum_definition_ids[0],  # type: ignore[arg-type]
@@ -116,15 +119,25 @@ def alignment(document: CmmDocument, definitions: QifDefinitions | None,
             found = [f for f in document.measured_features if f.results_id == characteristic.results_id
                      and (n := document.nominal_of(f)) is not None and n.id in datum.feature_ids]
             if not found:
-                raise _NotComputable(f"datum feature (nominal {datum.feature_ids}) was not measured")
+                raise NotComputable(f"datum feature (nominal {datum.feature_ids}) was not measured")
             feature, label = found[0], found[0].name or str(found[0].id)
         nominal_feature = document.nominal_of(feature)
         if nominal_feature is None:
-            raise _NotComputable(f"datum {label}'s feature has no nominal")
+            raise NotComputable(f"datum {label}'s feature has no nominal")
         nominal.append(_substitute(feature.type, nominal_feature.geometry, label, "nominal"))
         actual.append(_substitute(feature.type, feature.actual, label, "actual"))
         labels.append(label)
-    return frame_map(nominal, actual), f"in the frame {' | '.join(labels)} built from the datum features' actuals"
+    return nominal, actual, labels, f"in the frame {' | '.join(labels)} built from the datum features' actuals"
+
+
+def alignment(document: CmmDocument, definitions: QifDefinitions | None,
+              characteristic: Characteristic) -> tuple[FrameMap | None, str]:
+    """The measured-to-part map of the characteristic's datum reference frame (None: the file's coordinates).
+
+    Raises ``NotComputable`` with the reason when the frame cannot be built.
+    """
+    nominal, actual, _, words = datum_substitutes(document, definitions, characteristic)
+    return (frame_map(nominal, actual) if nominal else None), words
 
 
 def _mapped_deviation(frame: FrameMap | None, actual: np.ndarray, nominal: np.ndarray) -> np.ndarray:
@@ -134,14 +147,14 @@ def _mapped_deviation(frame: FrameMap | None, actual: np.ndarray, nominal: np.nd
 def _features(characteristic: Characteristic, features: Mapping[int, MeasuredFeature]) -> list[MeasuredFeature]:
     found = [features[i] for i in characteristic.feature_measurement_ids if i in features]
     if not found:
-        raise _NotComputable("the characteristic names no feature measurement")
+        raise NotComputable("the characteristic names no feature measurement")
     return found
 
 
 def _nominal_geometry(document: CmmDocument, feature: MeasuredFeature) -> FeatureGeometry:
     nominal = document.nominal_of(feature)
     if nominal is None:
-        raise _NotComputable(f"feature {feature.name or feature.id} has no nominal")
+        raise NotComputable(f"feature {feature.name or feature.id} has no nominal")
     return nominal.geometry
 
 
@@ -149,7 +162,7 @@ def _position(document: CmmDocument, definitions: QifDefinitions | None, charact
               feature: MeasuredFeature) -> Recomputation:
     nominal = _nominal_geometry(document, feature)
     if feature.actual.location is None or nominal.location is None:
-        raise _NotComputable(f"feature {feature.name or feature.id} has no actual or nominal location")
+        raise NotComputable(f"feature {feature.name or feature.id} has no actual or nominal location")
     frame, where = alignment(document, definitions, characteristic)
     definition = None if definitions is None else definitions.definition_of(characteristic.definition_id)
     zone = characteristic.zone_shape or (None if definition is None else definition.zone_shape)
@@ -158,13 +171,13 @@ def _position(document: CmmDocument, definitions: QifDefinitions | None, charact
         if feature.type in AXIS_TYPES and zone in (None, "diametrical"):
             axis = _direction(nominal)
             if axis is None:
-                raise _NotComputable("the nominal axis has no direction")
+                raise NotComputable("the nominal axis has no direction")
             return 2.0 * float(np.linalg.norm(delta - float(axis @ delta) * axis))
         if feature.type in _CENTRE_TYPES or zone == "spherical":
             return 2.0 * float(np.linalg.norm(delta))
         if feature.type in PLANE_TYPES and nominal.normal is not None:
             return 2.0 * abs(float(nominal.normal @ delta))
-        raise _NotComputable(f"a position of a {feature.type} with a {zone or 'unstated'} zone is not evaluated")
+        raise NotComputable(f"a position of a {feature.type} with a {zone or 'unstated'} zone is not evaluated")
 
     recomputed = value(_mapped_deviation(frame, feature.actual.location, nominal.location))
     how = f"2 x the deviation of the actual from the nominal location {where}"
@@ -180,7 +193,7 @@ def _point_profile(document: CmmDocument, definitions: QifDefinitions | None, ch
                    feature: MeasuredFeature, use_points: bool, options: Mapping[str, Any]) -> Recomputation:
     nominal = _nominal_geometry(document, feature)
     if feature.actual.location is None or nominal.location is None or nominal.normal is None:
-        raise _NotComputable("a point profile needs the actual location and the nominal location and normal")
+        raise NotComputable("a point profile needs the actual location and the nominal location and normal")
     frame, where = alignment(document, definitions, characteristic)
     location, source, what = feature.actual.location, "actuals", "the actual location"
     if use_points and feature.type in POINT_TYPES and feature.point_set_refs:
@@ -190,7 +203,7 @@ def _point_profile(document: CmmDocument, definitions: QifDefinitions | None, ch
         try:
             refit = refit_feature(document, feature, **options)
         except NotRefittedError as exc:
-            raise _NotComputable(f"the point could not be compensated: {exc}") from None
+            raise NotComputable(f"the point could not be compensated: {exc}") from None
         if refit.location is not None:
             location, source = refit.location, "points"
             what = f"the measured point ({refit.compensation.method})"
@@ -219,9 +232,9 @@ def _linear_coordinate(document: CmmDocument, definitions: QifDefinitions | None
         characteristic.nominal_id or -1)
     axis = None if nominal_record is None else _AXES.get((nominal_record.direction or "").upper())
     if axis is None:
-        raise _NotComputable("the linear coordinate names no XAXIS, YAXIS or ZAXIS direction")
+        raise NotComputable("the linear coordinate names no XAXIS, YAXIS or ZAXIS direction")
     if feature.actual.location is None:
-        raise _NotComputable(f"feature {feature.name or feature.id} has no actual location")
+        raise NotComputable(f"feature {feature.name or feature.id} has no actual location")
     frame, where = alignment(document, definitions, characteristic)
     mapped = feature.actual.location if frame is None else frame.apply(feature.actual.location)
     alternatives = () if frame is None else ((_RAW, float(feature.actual.location[axis]), False),)
@@ -232,7 +245,7 @@ def _linear_coordinate(document: CmmDocument, definitions: QifDefinitions | None
 def _distance(first: MeasuredFeature, second: MeasuredFeature) -> tuple[float, str]:
     a, b = first.actual, second.actual
     if a.location is None or b.location is None:
-        raise _NotComputable("a distance needs both features' actual locations")
+        raise NotComputable("a distance needs both features' actual locations")
     for plane, other, which in ((a, b, "first"), (b, a, "second")):
         if (first if which == "first" else second).type in PLANE_TYPES and plane.normal is not None:
             return abs(float(plane.normal @ (other.location - plane.location))), \
@@ -250,7 +263,7 @@ def _distance(first: MeasuredFeature, second: MeasuredFeature) -> tuple[float, s
 def _distance_along(first: MeasuredFeature, second: MeasuredFeature, vector: np.ndarray,
                     mode: str) -> Recomputation:
     if first.actual.location is None or second.actual.location is None:
-        raise _NotComputable("a distance needs both features' actual locations")
+        raise NotComputable("a distance needs both features' actual locations")
     delta = second.actual.location - first.actual.location
     along = float(vector @ delta)
     if mode == "ONEDIMENSIONAL":
@@ -264,7 +277,7 @@ def _distance_along(first: MeasuredFeature, second: MeasuredFeature, vector: np.
 def _angle(first: MeasuredFeature, second: MeasuredFeature, nominal: float | None) -> float:
     u, v = _direction(first.actual), _direction(second.actual)
     if u is None or v is None:
-        raise _NotComputable("an angle between needs both features' actual directions")
+        raise NotComputable("an angle between needs both features' actual directions")
     theta = float(np.arccos(np.clip(float(u @ v), -1.0, 1.0)))
     if nominal is None:
         return min(theta, np.pi - theta)
@@ -284,13 +297,13 @@ def form_from_points(document: CmmDocument, feature: MeasuredFeature, criterion:
     refit = refit_feature(document, feature, criterion=criterion, **options)
     points = refit.points
     if refit.location is None:
-        raise _NotComputable("the refit has no location")
+        raise NotComputable("the refit has no location")
     delta = points - refit.location
     if feature.type == "sphere":
         residuals = np.linalg.norm(delta, axis=1)
     else:
         if refit.direction is None:
-            raise _NotComputable("the refit has no direction")
+            raise NotComputable("the refit has no direction")
         along = delta @ refit.direction
         if feature.type == "plane":
             residuals = along
@@ -304,16 +317,16 @@ def _form(document: CmmDocument, characteristic: Characteristic, feature: Measur
     if feature.actual.form is not None:
         return Recomputation(feature.actual.form, "the form the file reports for the feature actual", "actuals")
     if FORM_TYPES[characteristic.type] != feature.type:
-        raise _NotComputable(f"{characteristic.type} of a {feature.type} feature is not evaluated")
+        raise NotComputable(f"{characteristic.type} of a {feature.type} feature is not evaluated")
     if not use_points or not feature.point_set_refs:
-        raise _NotComputable("the feature actual carries no form and the file holds no points for it")
+        raise NotComputable("the feature actual carries no form and the file holds no points for it")
     from pcmm_geo.errors import NotRefittedError
 
     try:
         zone = form_from_points(document, feature, "chebyshev", **options)
         least_squares = form_from_points(document, feature, "gaussian", **options)
     except NotRefittedError as exc:
-        raise _NotComputable(f"the points could not be refitted: {exc}") from None
+        raise NotComputable(f"the points could not be refitted: {exc}") from None
     return Recomputation(zone, f"the minimum-zone range of the feature's {feature.type} points", "points",
                          (("the range about the least-squares feature (an accepted association)", least_squares,
                            True),))
@@ -321,12 +334,16 @@ def _form(document: CmmDocument, characteristic: Characteristic, feature: Measur
 
 def recompute(document: CmmDocument, definitions: QifDefinitions | None, characteristic: Characteristic,
               features: Mapping[int, MeasuredFeature], *, use_points: bool = True,
-              options: Mapping[str, Any] | None = None) -> Recomputation:
+              options: Mapping[str, Any] | None = None,
+              handlers: Mapping[str, Callable[..., Recomputation]] | None = None) -> Recomputation:
     """Recompute one characteristic measurement (see the module docstring); never raises for a missing input.
 
-    ``options`` (``compensated``, ``probe_radius``) go to the refits of points.
+    ``options`` (``compensated``, ``probe_radius``) go to the refits of points; ``handlers`` maps
+    further characteristic types to functions ``(document, definitions, characteristic, feature,
+    use_points, options) -> Recomputation`` that may raise :class:`NotComputable`.
     """
     options = {} if options is None else options
+    handlers = {} if handlers is None else handlers
     kind = characteristic.type
     try:
         found = _features(characteristic, features)
@@ -335,7 +352,7 @@ def recompute(document: CmmDocument, definitions: QifDefinitions | None, charact
             attribute, factor = SIZE_TYPES[kind]
             value = getattr(feature.actual, attribute)
             if value is None:
-                raise _NotComputable(f"feature {feature.name or feature.id} has no actual {attribute}")
+                raise NotComputable(f"feature {feature.name or feature.id} has no actual {attribute}")
             return Recomputation(factor * value, f"the feature actual's {attribute}"
                                  + (" / 2" if factor != 1.0 else ""), "actuals")
         if kind == "position":
@@ -346,7 +363,7 @@ def recompute(document: CmmDocument, definitions: QifDefinitions | None, charact
             return _linear_coordinate(document, definitions, characteristic, feature)
         if kind in ("distance_between", "angle_between"):
             if len(found) != 2:
-                raise _NotComputable(f"a {kind.replace('_', ' ')} needs two features, the file names {len(found)}")
+                raise NotComputable(f"a {kind.replace('_', ' ')} needs two features, the file names {len(found)}")
             if kind == "angle_between":
                 return Recomputation(_angle(found[0], found[1], characteristic.nominal),
                                      "the angle between the two actual directions", "actuals")
@@ -359,6 +376,8 @@ def recompute(document: CmmDocument, definitions: QifDefinitions | None, charact
             return Recomputation(value, f"the distance {how}", "actuals")
         if kind in FORM_TYPES:
             return _form(document, characteristic, feature, use_points, options)
-        raise _NotComputable(f"pcmm_geo does not recompute {kind.replace('_', ' ')} characteristics from actuals")
-    except _NotComputable as reason:
+        if kind in handlers:
+            return handlers[kind](document, definitions, characteristic, feature, use_points, options)
+        raise NotComputable(f"pcmm_geo does not recompute {kind.replace('_', ' ')} characteristics from actuals")
+    except NotComputable as reason:
         return Recomputation(None, str(reason))

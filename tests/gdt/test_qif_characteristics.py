@@ -18,6 +18,7 @@ from pcmm_geo.cli import main
 from pcmm_geo.errors import InvalidInputError
 from pcmm_geo.gdt.qif_characteristics import verify_characteristics
 from pcmm_geo.gdt.qif_frames import DatumFeatureGeometry, datum_frame, frame_map
+from pcmm_geo.gdt.qif_orientation import thinnest_width_perpendicular_to
 from pcmm_geo.io.cmm import read_qif
 
 SAMPLES = Path(__file__).resolve().parents[1] / "data" / "qif" / "samples"
@@ -85,9 +86,20 @@ def test_degrees_of_freedom_the_datums_leave_float() -> None:
         frame_map([plane_a], [bore])
 
 
+@pytest.mark.parametrize("seed", range(5))
+def test_thinnest_zone_parallel_to_a_direction_is_the_short_side_of_a_box(seed: int) -> None:
+    rng = np.random.default_rng(seed)
+    box = rng.uniform(-0.5, 0.5, (400, 3)) * [10.0, 0.3, 5.0]
+    box[:8] = np.array([[sx * 5.0, sy * 0.15, sz * 2.5] for sx in (-1, 1) for sy in (-1, 1) for sz in (-1, 1)])
+    turned = box @ Rotation.from_euler("z", rng.uniform(0, np.pi)).as_matrix().T
+    assert abs(thinnest_width_perpendicular_to(turned, np.array([0.0, 0.0, 1.0])) - 0.3) < 1e-9
+    # about x instead: the box's extents across x are 0.3 (y) and 5 (z): 0.3 again; about y: 5 x 10 -> 5
+    assert abs(thinnest_width_perpendicular_to(box, np.array([0.0, 1.0, 0.0])) - 5.0) < 1e-9
+
+
 @pytest.mark.parametrize(("name", "counts"), [
     ("QIF_Results_Sample.QIF", (9, 0, 4)),
-    ("QIF_PTS_SAMPLE.QIF", (19, 2, 6)),
+    ("QIF_PTS_SAMPLE.QIF", (20, 2, 5)),
     ("WIDGET_QIF_RESULTS.QIF", (15, 9, 18)),
     ("SheetMetal_QIF_Results_6_samples.QIF", (102, 0, 126)),
     ("testPython30.qif", (3, 0, 4)),
