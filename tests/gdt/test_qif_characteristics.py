@@ -156,3 +156,17 @@ def test_a_reported_value_changed_by_hand_is_caught(tmp_path: Path, capsys: pyte
     profile = _changed(tmp_path, "<Value>-0.886195693015347</Value>", "<Value>-0.866195693015347</Value>")
     assert main(["qif", "verify", str(profile)]) == 1
     assert "disagrees" in capsys.readouterr().out
+
+
+def test_a_bad_agreement_fraction_is_refused(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    for bad in ("0", "1.5", "nan"):
+        assert main(["qif", "verify", str(SAMPLES / "QIF_Results_Sample.QIF"), "--characteristic-fraction", bad]) == 2
+        err = capsys.readouterr().err
+        assert "--characteristic-fraction" in err and len(err.strip().splitlines()) == 1
+    with pytest.raises(InvalidInputError, match="fraction"):
+        verify_characteristics(read_qif(SAMPLES / "QIF_Results_Sample.QIF"), fraction=0.0)
+    # the fraction is the rule: a 20 µm change of a diameter of tolerance width 0.8 mm disagrees at 1 %
+    # (bound 8 µm) and agrees at 5 % (bound 40 µm)
+    document = read_qif(_changed(tmp_path, "<Value>9.499476</Value>", "<Value>9.519476</Value>"))
+    assert verify_characteristics(document).summary()["disagrees"] == 1
+    assert verify_characteristics(document, fraction=0.05).summary()["disagrees"] == 0
