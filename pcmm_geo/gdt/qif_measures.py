@@ -183,10 +183,32 @@ def _position(document: CmmDocument, definitions: QifDefinitions | None, charact
     how = f"2 x the deviation of the actual from the nominal location {where}"
     condition = None if definition is None else definition.material_condition
     if condition in ("MAXIMUM", "LEAST"):
-        how += f" ({'MMC' if condition == 'MAXIMUM' else 'LMC'}: a bonus changes the tolerance, not this value)"
+        how += f"; {_bonus(document, characteristic, feature, condition)}"
     alternatives = () if frame is None else (
         (_RAW, value(feature.actual.location - nominal.location), False),)
     return Recomputation(recomputed, how, "actuals", alternatives)
+
+
+def _bonus(document: CmmDocument, characteristic: Characteristic, feature: MeasuredFeature, condition: str) -> str:
+    """The MMC / LMC bonus from the feature's actual size and its size tolerance, in words (ASME Y14.5 §10.3.3)."""
+    name = "MMC" if condition == "MAXIMUM" else "LMC"
+    sizes = [c for c in document.characteristics if c.type in ("diameter", "width") and c.tolerance is not None
+             and c.feature_measurement_ids == (feature.id,)]
+    definition = document.definition_of(feature)
+    side = feature.material_side or (None if definition is None else {
+        "INTERNAL": "internal", "EXTERNAL": "external"}.get(definition.internal_external or ""))
+    if not sizes or side is None:
+        return f"{name}: a bonus changes the tolerance, not this value (the size tolerance or the side is not stated)"
+    size = sizes[0]
+    lower, upper = size.tolerance.limits(size.nominal)  # type: ignore[union-attr]
+    actual = feature.actual.diameter if size.type == "diameter" else feature.actual.width
+    if lower is None or upper is None or actual is None:
+        return f"{name}: a bonus changes the tolerance, not this value (the size limits are not stated)"
+    if not lower <= actual <= upper:
+        return f"{name}: the actual size {actual:.6g} mm is outside its limits [{lower:.6g}, {upper:.6g}]: no bonus"
+    virtual = lower if (side == "internal") == (condition == "MAXIMUM") else upper
+    return (f"{name} bonus {abs(actual - virtual):.6g} mm from the actual size {actual:.6g} mm "
+            f"({name} size {virtual:.6g} mm)")
 
 
 def _point_profile(document: CmmDocument, definitions: QifDefinitions | None, characteristic: Characteristic,

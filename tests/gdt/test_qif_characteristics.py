@@ -125,6 +125,8 @@ def test_values_recomputed_from_the_actuals() -> None:
     widget = {c.id: c for c in verify_characteristics(read_qif(SAMPLES / "WIDGET_QIF_RESULTS.QIF")).checks}
     # the widget reports positions in its coordinates, ignoring the datum features' actual tilts
     assert widget[57].status == "disagrees" and "without the datum reference frame" in widget[57].reason
+    # MMC: the hole J of 19.007 mm (19 +-0.13) gains 19.007 - 18.87 mm; CYLINDER6 (4.878, 5 +-0.025) none
+    assert "MMC bonus 0.137 mm" in widget[57].reason and "outside its limits" in widget[87].reason
     assert widget[75].status == "not computable" and "MAXIMUM material boundary" in widget[75].reason
 
 
