@@ -1,7 +1,8 @@
 """QIF characteristic definitions, nominals, items, datums and datum reference frames, counted against the XML.
 
 The public qif-community samples shipped in tests/data/qif/samples (Boost licence) are read
-here; the NIST CTC / FTC product models (0.7 to 3 MB each, not shipped) are read from a local
+here, with an extract of the NIST CTC 01 model (its PMI sections, NIST_EXTRACT.md); the whole
+NIST CTC / FTC product models (0.7 to 3 MB each, not shipped) are read from a local
 checkout of github.com/QualityInformationFramework/qif-community named by the environment
 variable PCMM_QIF_COMMUNITY, and skipped without one.  Counts are checked against an
 independent count of the elements in the XML text (regular expressions, not the parser).
@@ -64,6 +65,18 @@ def test_every_definition_and_frame_of_the_shipped_samples_is_read(name: str, de
     read, xml = _counts(SAMPLES / name)
     assert read == xml
     assert (read["characteristic_definitions"], read["datum_reference_frames"]) == (definitions, frames)
+
+
+def test_the_shipped_extract_of_nist_ctc_01_reads_every_definition() -> None:
+    read, xml = _counts(SAMPLES / "nist_ctc_01_asme1_ap242_pmi.qif")  # see NIST_EXTRACT.md
+    assert read == xml
+    assert (read["characteristic_definitions"], read["characteristic_nominals"], read["datum_definitions"],
+            read["datum_reference_frames"], read["datums"]) == (14, 14, 3, 2, 4)
+    definitions = read_qif_definitions(SAMPLES / "nist_ctc_01_asme1_ap242_pmi.qif")
+    assert sorted(d.label for d in definitions.datum_definitions.values()) == ["A", "B", "C"]
+    assert all(len(d.feature_nominal_ids) == 1 for d in definitions.datum_definitions.values())
+    kinds = sorted(d.type for d in definitions.characteristic_definitions.values())
+    assert kinds.count("diameter") == 7 and kinds.count("position") == 2 and kinds.count("surface_profile") == 2
 
 
 @pytest.mark.skipif(COMMUNITY is None, reason="set PCMM_QIF_COMMUNITY to a checkout of qif-community")
