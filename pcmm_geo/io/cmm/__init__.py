@@ -17,6 +17,9 @@ function                        reads / writes
 :func:`read_dmis`               DMIS output (``FA(..)=FEAT/...``, ``TA(..)=TOL/...``)
 :func:`read_calypso_table`      ZEISS CALYPSO ``*_chr.txt`` characteristic tables
 :func:`read_pcdmis_xyzijk`      PC-DMIS XYZIJK text -> :class:`MeasuredPointSet` with normals
+:func:`read_qif_definitions`    characteristic definitions, nominals, items, datum
+                                definitions and datum reference frames of a QIF file ->
+                                :class:`QifDefinitions`
 ==============================  ===========================================================
 
 The readers never guess what a file does not say (units, a size beyond ``max_bytes``); their
@@ -61,6 +64,14 @@ _LAZY = {
     "read_dmis": "dmis",
     "read_calypso_table": "calypso",
     "read_pcdmis_xyzijk": "pcdmis",
+    "read_qif_definitions": "qif.characteristic_definitions",
+    "QifDefinitions": "qif.characteristic_definitions",
+    "CharacteristicDefinition": "qif.characteristic_definitions",
+    "CharacteristicNominal": "qif.characteristic_definitions",
+    "CharacteristicItem": "qif.characteristic_definitions",
+    "DatumDefinition": "qif.datums",
+    "DatumReferenceFrame": "qif.datums",
+    "DrfDatum": "qif.datums",
 }
 
 __all__ = sorted(_LAZY)
