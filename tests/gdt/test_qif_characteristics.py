@@ -43,19 +43,25 @@ ABC = [DatumFeatureGeometry("plane", np.array([10.0, 10.0, 0.0]), np.array([0.0,
        DatumFeatureGeometry("plane", np.array([4.0, 0.0, 2.0]), np.array([0.0, 1.0, 0.0]), "C")]
 
 
-@pytest.mark.parametrize("seed", range(12))
-def test_position_in_a_3_2_1_frame_is_exact_under_rigid_motions(seed: int) -> None:
+#: a plane and two bores perpendicular to it (the bores give the origin and the clocking)
+A_TWO_BORES = [ABC[0], DatumFeatureGeometry("axis", np.array([0.0, 0.0, -4.0]), np.array([0.0, 0.0, 1.0]), "B"),
+               DatumFeatureGeometry("axis", np.array([50.0, 0.0, 7.0]), np.array([0.0, 0.0, -1.0]), "C")]
+
+
+@pytest.mark.parametrize("datums", [ABC, A_TWO_BORES], ids=["three planes", "plane and two bores"])
+@pytest.mark.parametrize("seed", range(8))
+def test_position_in_a_3_2_1_frame_is_exact_under_rigid_motions(seed: int, datums: list) -> None:
     rng = np.random.default_rng(seed)
     rotation = Rotation.from_rotvec(rng.uniform(-0.15, 0.15, 3)).as_matrix()  # pre-aligned: within ~15 degrees
     shift = rng.uniform(-100, 100, 3)
-    actual = [_moved(d, rotation, shift, rng.uniform(-20, 20, 3)) for d in ABC]
-    if seed % 2:  # a reported normal may point the other way
-        actual[1] = DatumFeatureGeometry("plane", actual[1].location, -actual[1].direction, "B")
+    actual = [_moved(d, rotation, shift, rng.uniform(-20, 20, 3)) for d in datums]
+    if seed % 2:  # a reported normal or axis may point the other way
+        actual[1] = DatumFeatureGeometry(actual[1].kind, actual[1].location, -actual[1].direction, "B")
     dx, dy = rng.uniform(-0.2, 0.2, 2)
     height = rng.uniform(-5, 5)
     hole_nominal = np.array([30.0, 20.0, 0.0])
     hole_actual = rotation @ (hole_nominal + np.array([dx, dy, height])) + shift
-    delta = frame_map(ABC, actual).deviation(hole_actual, hole_nominal)
+    delta = frame_map(datums, actual).deviation(hole_actual, hole_nominal)
     np.testing.assert_allclose(delta, [dx, dy, height], atol=1e-9)
     in_plane = delta[:2]
     assert abs(2 * np.hypot(*in_plane) - 2 * np.hypot(dx, dy)) < 1e-9
