@@ -98,7 +98,9 @@ def datum_substitutes(document: CmmDocument, definitions: QifDefinitions | None,
     Empty lists: no frame or an empty one (the file's coordinates).  Raises ``NotComputable``
     with the reason when a datum cannot be placed.
     """
-    definition = None if definitions is None else definitions.definition_of(characteristic.definition_id)
+    if definitions is None:
+        return [], [], [], f"in the file's coordinates ({document.format} datum reference frames are not read)"
+    definition = definitions.definition_of(characteristic.definition_id)
     if definition is None or not definition.datum_reference_frame_ids:
         return [], [], [], "in the file's coordinates (no datum reference frame)"
     frame = definitions.datum_reference_frames.get(definition.datum_reference_frame_ids[0])  # type: ignore[union-attr]
