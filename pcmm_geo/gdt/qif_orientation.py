@@ -38,7 +38,9 @@ __all__ = ["orientation", "thinnest_width_perpendicular_to"]
 
 
 def thinnest_width_perpendicular_to(points: np.ndarray, direction: np.ndarray) -> float:
-    """Smallest ``max(p . m) - min(p . m)`` over unit ``m`` perpendicular to ``direction`` (mm).
+    """Width of the thinnest pair of planes parallel to ``direction`` that holds the points (mm).
+
+    The smallest ``max(p @ m) - min(p @ m)`` over unit ``m`` perpendicular to ``direction``.
 
     The points are projected onto the plane perpendicular to ``direction``; the thinnest strip
     holding a planar point set has one side along an edge of its convex hull (rotating calipers),
@@ -52,7 +54,6 @@ def thinnest_width_perpendicular_to(points: np.ndarray, direction: np.ndarray) -
     Returns
     -------
     float
-        The width of the thinnest pair of planes parallel to ``direction`` holding the points.
     """
     from scipy.spatial import ConvexHull, QhullError
 
