@@ -146,3 +146,23 @@ def test_a_small_frame_and_its_bad_variants(tmp_path: Path) -> None:
         with pytest.raises(QifError, match=words) as caught:
             read_qif_definitions(path)
         assert caught.value.line is not None and str(path) in str(caught.value)
+
+
+@pytest.mark.parametrize("name", ["billion_laughs.qif", "external_entity_file.qif", "deeply_nested.qif"])
+def test_hostile_files_are_refused_before_anything_is_read(name: str) -> None:
+    from pcmm_geo.errors import UnsafeXmlError
+
+    with pytest.raises(UnsafeXmlError):
+        read_qif_definitions(SAMPLES.parent / "hostile" / name)
+
+
+def test_the_command_names_a_bad_frame_in_one_line(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    from pcmm_geo.cli import main
+
+    text = (SAMPLES / "WIDGET_QIF_RESULTS.QIF").read_text()
+    path = tmp_path / "two_primaries.qif"
+    path.write_text(text.replace("<PrecedenceEnum>SECONDARY</PrecedenceEnum>", "<PrecedenceEnum>PRIMARY</PrecedenceEnum>",
+                                 1))
+    assert main(["qif", "verify", str(path)]) == 2
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1 and "two datums of the same precedence" in err and "id=52" in err
