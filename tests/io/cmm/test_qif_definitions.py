@@ -161,8 +161,8 @@ def test_the_command_names_a_bad_frame_in_one_line(tmp_path: Path, capsys: pytes
 
     text = (SAMPLES / "WIDGET_QIF_RESULTS.QIF").read_text()
     path = tmp_path / "two_primaries.qif"
-    path.write_text(text.replace("<PrecedenceEnum>SECONDARY</PrecedenceEnum>", "<PrecedenceEnum>PRIMARY</PrecedenceEnum>",
-                                 1))
+    second, first = "<PrecedenceEnum>SECONDARY</PrecedenceEnum>", "<PrecedenceEnum>PRIMARY</PrecedenceEnum>"
+    path.write_text(text.replace(second, first, 1))
     assert main(["qif", "verify", str(path)]) == 2
     err = capsys.readouterr().err.strip()
     assert len(err.splitlines()) == 1 and "two datums of the same precedence" in err and "id=52" in err
