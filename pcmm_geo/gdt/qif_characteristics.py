@@ -31,9 +31,10 @@ Definitions (mm and rad; ISO 1101 / ASME Y14.5 where a zone is involved):
 Agreement rule: ``|reported - recomputed| <= max(floor, fraction * tolerance width)`` with the
 tolerance width the zone (``ToleranceValue``) or the limits' span, ``fraction`` 1 % by default
 and ``floor`` 1 µm (1 µrad for angles).  1 % of the tolerance changes no conformance decision
-except within 1 % of a limit, and 1 µm covers a value printed to 3 decimals; files that print
-the actuals with fewer digits than the value (the sheet-metal samples print locations to
-0.01 mm) need a larger bound, which ``tolerance_mm`` sets.  A file's value that matches another
+except within 1 % of a limit, and 1 µm covers a value printed to 3 decimals; a file whose values
+were computed from more digits of the actuals than it prints needs a larger bound, which
+``tolerance_mm`` sets (the public samples do not: their values agree to 1e-11 mm with the
+printed actuals, e.g. the sheet-metal point profiles).  A file's value that matches another
 convention (the deviation in the file's coordinates without the datums) still disagrees; the
 reason names the convention it matches.
 """
