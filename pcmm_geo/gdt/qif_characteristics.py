@@ -14,7 +14,9 @@ Definitions (mm and rad; ISO 1101 / ASME Y14.5 where a zone is involved):
   coordinates by the datum reference frame built from the datum features' actuals
   (:mod:`pcmm_geo.gdt.qif_frames`); a diametrical zone of an axis (cylinder, circle, cone) gives
   ``2 |d_perp|``, the deviation perpendicular to the nominal axis; a spherical zone or a point,
-  sphere ``2 |d|``; a planar zone of a plane-like feature ``2 |d . n|``.  MMC / LMC changes the
+  sphere ``2 |d|``; a planar zone of a plane-like feature ``2 |d . n|``.  With points, ``d`` is
+  taken at the refitted centre, or at both ends of the refitted axis over its points' extent
+  (the largest counts: the whole axis must lie in the zone).  MMC / LMC changes the
   tolerance (bonus), not the value, and is reported in the reason where the size is known;
 - point profile (QIF ``PointProfileCharacteristic``): the signed deviation ``d . n`` of the
   actual point from the nominal along the nominal's normal (the sign the files use: + outside);

@@ -160,8 +160,29 @@ def _nominal_geometry(document: CmmDocument, feature: MeasuredFeature) -> Featur
     return nominal.geometry
 
 
+def _refitted_locations(document: CmmDocument, feature: MeasuredFeature, options: Mapping[str, Any]
+                        ) -> tuple[list[np.ndarray], str] | None:
+    """The refit's centre, or its axis' two ends over the points' extent; None without points or refit."""
+    from pcmm_geo.cmm.refit import REFITTED_TYPES, refit_feature
+    from pcmm_geo.errors import NotRefittedError
+
+    if not feature.point_set_refs or feature.type not in REFITTED_TYPES or feature.type == "plane":
+        return None
+    try:
+        refit = refit_feature(document, feature, **options)
+    except NotRefittedError:
+        return None
+    if refit.location is None:
+        return None
+    if feature.type in ("cylinder", "cone", "line") and refit.direction is not None:
+        along = (refit.points - refit.location) @ refit.direction
+        ends = [refit.location + t * refit.direction for t in (float(along.min()), float(along.max()))]
+        return ends, f"the ends of the refitted axis over its {len(refit.points)} points' extent"
+    return [refit.location], f"the centre refitted from its {len(refit.points)} points"
+
+
 def _position(document: CmmDocument, definitions: QifDefinitions | None, characteristic: Characteristic,
-              feature: MeasuredFeature) -> Recomputation:
+              feature: MeasuredFeature, use_points: bool, options: Mapping[str, Any]) -> Recomputation:
     nominal = _nominal_geometry(document, feature)
     if feature.actual.location is None or nominal.location is None:
         raise NotComputable(f"feature {feature.name or feature.id} has no actual or nominal location")
@@ -181,14 +202,24 @@ def _position(document: CmmDocument, definitions: QifDefinitions | None, charact
             return 2.0 * abs(float(nominal.normal @ delta))
         raise NotComputable(f"a position of a {feature.type} with a {zone or 'unstated'} zone is not evaluated")
 
-    recomputed = value(_mapped_deviation(frame, feature.actual.location, nominal.location))
-    how = f"2 x the deviation of the actual from the nominal location {where}"
+    from_actual = value(_mapped_deviation(frame, feature.actual.location, nominal.location))
+    refitted = _refitted_locations(document, feature, options) if use_points else None
+    alternatives: list[tuple[str, float, bool]] = []
+    if refitted is None:
+        recomputed, source = from_actual, "actuals"
+        how = f"2 x the deviation of the actual from the nominal location {where}"
+    else:
+        locations, what = refitted
+        recomputed = max(value(_mapped_deviation(frame, point, nominal.location)) for point in locations)
+        source, how = "points", f"2 x the largest deviation of {what} from the nominal {where}"
+        alternatives.append(("the deviation of the reported actual location (the CMM's feature, not the points)",
+                             from_actual, True))
     condition = None if definition is None else definition.material_condition
     if condition in ("MAXIMUM", "LEAST"):
         how += f"; {_bonus(document, characteristic, feature, condition)}"
-    alternatives = () if frame is None else (
-        (_RAW, value(feature.actual.location - nominal.location), False),)
-    return Recomputation(recomputed, how, "actuals", alternatives)
+    if frame is not None:
+        alternatives.append((_RAW, value(feature.actual.location - nominal.location), False))
+    return Recomputation(recomputed, how, source, tuple(alternatives))
 
 
 def _bonus(document: CmmDocument, characteristic: Characteristic, feature: MeasuredFeature, condition: str) -> str:
@@ -380,7 +411,7 @@ def recompute(document: CmmDocument, definitions: QifDefinitions | None, charact
             return Recomputation(factor * value, f"the feature actual's {attribute}"
                                  + (" / 2" if factor != 1.0 else ""), "actuals")
         if kind == "position":
-            return _position(document, definitions, characteristic, feature)
+            return _position(document, definitions, characteristic, feature, use_points, options)
         if kind == "point_profile":
             return _point_profile(document, definitions, characteristic, feature, use_points, options)
         if kind == "linear_coordinate":
