@@ -1,0 +1,468 @@
+"""Geometric characteristics from measured points in a datum reference frame (ISO 1101:2017, ASME Y14.5-2018).
+
+Definitions (one per clause and standard; ``docs/guide/gdt.md`` has the table):
+
+- **toleranced axis** of a cylinder: ISO 1101 / ISO 17450-3: the median line, approximated by the axis of
+  the associated least-squares cylinder over the points' extent along it (its two end points);
+  ASME: the axis of the unrelated actual mating envelope (MIC of a hole, MCC of a shaft), same extent;
+- **orientation** (parallelism, perpendicularity, angularity; ISO 1101 clauses 18.9-18.11): the zone
+  has the nominal orientation in the DRF and floats in every translation; a plane's value is the
+  distance between two parallel planes of that orientation containing its points, an axis's the
+  diameter of the cylinder (``dia``) or the width of the planes holding its end points.  When the DRF
+  leaves a rotation free, the zone turns about it to its narrowest (branch and bound over the angle
+  with a Lipschitz bound: value and proven lower bound);
+- **position** (ISO 1101 18.12; ASME 10.5): twice the largest distance of the axis's end points (or of the
+  centre / point) from the true position, minimised over the translations and rotations the DRF leaves
+  free (to first order in the rotation); MMC adds the bonus from the actual mating size (hole: MIC,
+  shaft: MCC), LMC from the actual minimum material size (hole: MCC, shaft: MIC).  A size outside its
+  limits is FAIL, never a negative bonus;
+- **flatness**: the minimum zone (:func:`pcmm_geo.fit.zone.evaluate_form`);
+- **runout** (ISO 1101 18.16-18.17): radial: spread of the distances from the DRF's z axis (total: all
+  points; circular: per cross-section, the points' heights rounded to 1 µm); axial: spread of the heights.
+
+Verdicts: ``PASS`` when the value (of a zone that contains every point) is within the tolerance plus a
+proven bonus; ``FAIL`` when a proven lower bound of the value exceeds the largest possible allowance
+(or the size is outside its limits); otherwise ``NOT PROVEN``.  No measurement uncertainty is included.
+"""
+
+from __future__ import annotations
+
+import heapq
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from pcmm_geo.errors import InvalidInputError
+from pcmm_geo.gdt.frame import DatumReferenceFrame
+
+__all__ = [
+    "CharacteristicResult",
+    "FeatureData",
+    "evaluate_flatness",
+    "evaluate_orientation",
+    "evaluate_position",
+    "evaluate_runout",
+    "size_evaluation",
+    "toleranced_axis",
+]
+
+FloatArray = NDArray[np.float64]
+_UNIT = {"x": np.array([1.0, 0, 0]), "y": np.array([0, 1.0, 0]), "z": np.array([0, 0, 1.0])}
+
+
+@dataclass(frozen=True)
+class FeatureData:
+    """A toleranced feature: its points (measurement coordinates) and nominal (DRF coordinates).
+
+    Attributes
+    ----------
+    name : str
+    element : {"plane", "cylinder", "sphere", "point"}
+    points : ndarray, shape (N, 3)
+        Measured points, mm, measurement coordinates.
+    point : ndarray, shape (3,)
+        Nominal point of the plane / axis, or centre, DRF coordinates, mm.
+    direction : ndarray, shape (3,)
+        Nominal outward normal (plane) or axis (cylinder), unit, DRF coordinates; NaN otherwise.
+    side : {"internal", "external"}
+        Material side of a feature of size (hole: internal).
+    diameter : float
+        Nominal diameter, mm (NaN when not a feature of size).
+    size_tolerance : tuple of float
+        Lower and upper deviations of the size, mm.
+    """
+
+    name: str
+    element: str
+    points: FloatArray
+    point: FloatArray
+    direction: FloatArray
+    side: str = "external"
+    diameter: float = float("nan")
+    size_tolerance: tuple[float, float] = (0.0, 0.0)
+
+
+@dataclass(frozen=True)
+class CharacteristicResult:
+    """A characteristic's value and verdict.
+
+    Attributes
+    ----------
+    name : str
+    characteristic : str
+        ``"position"``, ``"perpendicularity"`` ...
+    value_mm : float
+        Value of a zone that contains the feature (mm).
+    bound_mm : float
+        Proven lower bound of the value (= ``value_mm`` when exact), mm.
+    tolerance_mm : float
+    bonus_mm : float or None
+        Bonus from a material condition modifier (None without one).
+    verdict : {"PASS", "FAIL", "NOT PROVEN"}
+    datums : tuple of str
+    standard : str
+    details : dict
+        Sizes, end points, the reason of a FAIL on size, ...
+    """
+
+    name: str
+    characteristic: str
+    value_mm: float
+    bound_mm: float
+    tolerance_mm: float
+    bonus_mm: float | None
+    verdict: str
+    datums: tuple[str, ...]
+    standard: str
+    details: dict[str, Any] = field(default_factory=dict)
+
+    def to_dict(self) -> dict[str, Any]:
+        """JSON-ready record (``bonus_mm`` only where a modifier applies)."""
+        out: dict[str, Any] = {"name": self.name, "characteristic": self.characteristic, "value_mm": self.value_mm,
+                               "bound_mm": self.bound_mm, "tolerance_mm": self.tolerance_mm,
+                               "verdict": self.verdict, "datums": list(self.datums), "standard": self.standard}
+        if self.bonus_mm is not None:
+            out["bonus_mm"] = self.bonus_mm
+        out.update(self.details)
+        return out
+
+
+def decide(value: float, bound: float, allowed_low: float, allowed_high: float) -> str:
+    """PASS when ``value <= allowed_low``; FAIL when ``bound > allowed_high``; else NOT PROVEN."""
+    if value <= allowed_low:
+        return "PASS"
+    if np.isfinite(bound) and bound > allowed_high:
+        return "FAIL"
+    return "NOT PROVEN"
+
+
+def _free_axes(drf: DatumReferenceFrame) -> tuple[list[FloatArray], list[FloatArray]]:
+    """DRF unit vectors of the free translations and of the free rotation axes."""
+    trans = [_UNIT[n[1]] for n in drf.free if n.startswith("t")]
+    rots = [_UNIT[n[1]] for n in drf.free if n.startswith("r")]
+    return trans, rots
+
+
+def _rotate(v: FloatArray, axis: FloatArray, theta: float) -> FloatArray:
+    c, s = np.cos(theta), np.sin(theta)
+    return v * c + np.cross(axis, v) * s + axis * (axis @ v) * (1 - c)
+
+
+def _minimise_angle(fun: Any, lipschitz: float, *, tol: float = 1e-9, budget: int = 4000) -> tuple[float, float, float]:
+    """Branch and bound of ``fun(theta)`` over [-pi, pi]: (best value, proven lower bound, theta)."""
+    cells = 64
+    h = np.pi / cells
+    mids = -np.pi + h * (2 * np.arange(cells) + 1)
+    best_val, best_theta = np.inf, 0.0
+    heap: list[tuple[float, float, float]] = []
+    for m in mids:
+        v = float(fun(m))
+        if v < best_val:
+            best_val, best_theta = v, float(m)
+        heapq.heappush(heap, (v - lipschitz * h, float(m), h))
+    evaluations = cells
+    while heap and evaluations < budget:
+        low, m, half = heapq.heappop(heap)
+        if best_val - low <= tol:
+            heapq.heappush(heap, (low, m, half))
+            break
+        for child in (m - half / 2, m + half / 2):
+            v = float(fun(child))
+            evaluations += 1
+            if v < best_val:
+                best_val, best_theta = v, float(child)
+            heapq.heappush(heap, (v - lipschitz * half / 2, child, half / 2))
+    bound = min(best_val, heap[0][0]) if heap else best_val
+    return best_val, max(bound, 0.0), best_theta
+
+
+def toleranced_axis(points: FloatArray, feature: FeatureData, standard: str) -> tuple[FloatArray, FloatArray, Any]:
+    """End points (2, 3) of the toleranced axis over the points' extent, its direction and the fit.
+
+    ``points`` in DRF coordinates.  ISO: least-squares cylinder; ASME: unrelated actual mating
+    envelope (MIC for a hole, MCC for a shaft).
+    """
+    from pcmm_geo.fit import fit_cylinder
+
+    if standard == "ASME":
+        fit = fit_cylinder(points, criterion="mic" if feature.side == "internal" else "mcc")
+    else:
+        fit = fit_cylinder(points, axis_hint=feature.direction)
+    axis = np.asarray(fit.axis, dtype=float)
+    if axis @ feature.direction < 0:
+        axis = -axis
+    base = np.asarray(fit.point, dtype=float)
+    heights = (points - base) @ axis
+    ends = base + np.outer([heights.min(), heights.max()], axis)
+    return ends, axis, fit
+
+
+def size_evaluation(feature: FeatureData, modifier: str) -> dict[str, Any]:
+    """Sizes of a cylinder / sphere and the bonus of ``modifier`` ("MMC" / "LMC").
+
+    Returns a dict with ``mating_size_mm`` (hole: MIC, shaft: MCC diameter), ``minimum_material_size_mm``
+    (hole: MCC, shaft: MIC), the limits, ``size_ok`` and ``bonus_low_mm`` / ``bonus_high_mm`` (proven
+    range of the bonus: the mating envelope's certificate bounds it).
+    """
+    from pcmm_geo.fit import fit_cylinder, fit_sphere
+
+    fitter = fit_cylinder if feature.element == "cylinder" else fit_sphere
+    mic = fitter(feature.points, criterion="mic")
+    mcc = fitter(feature.points, criterion="mcc")
+
+    def dia_range(fit: Any, inscribed: bool) -> tuple[float, float]:
+        value = 2.0 * float(fit.radius)
+        bound = 2.0 * float(fit.certificate.bound_mm)
+        if fit.certificate.scope == "global" or not np.isfinite(bound):
+            return (value, value) if fit.certificate.scope == "global" else \
+                ((value, np.inf) if inscribed else (0.0, value))
+        return (value, bound) if inscribed else (bound, value)
+
+    mic_range, mcc_range = dia_range(mic, True), dia_range(mcc, False)
+    lo, hi = feature.diameter + feature.size_tolerance[0], feature.diameter + feature.size_tolerance[1]
+    hole = feature.side == "internal"
+    mating, minmat = (mic_range, mcc_range) if hole else (mcc_range, mic_range)
+    mmc_size, lmc_size = (lo, hi) if hole else (hi, lo)
+    # size limits: the mating envelope may not pass MMC, the minimum-material one not LMC
+    if hole:
+        size_ok = mating[0] >= mmc_size and minmat[1] <= lmc_size
+    else:
+        size_ok = mating[1] <= mmc_size and minmat[0] >= lmc_size
+    if modifier == "MMC":
+        bonus = sorted(abs(m - mmc_size) for m in mating)
+    elif modifier == "LMC":
+        bonus = sorted(abs(m - lmc_size) for m in minmat)
+    else:
+        bonus = [0.0, 0.0]
+    return {"mating_size_mm": 2.0 * float((mic if hole else mcc).radius),
+            "minimum_material_size_mm": 2.0 * float((mcc if hole else mic).radius),
+            "size_limits_mm": [lo, hi], "size_ok": bool(size_ok),
+            "bonus_low_mm": float(bonus[0]), "bonus_high_mm": float(bonus[1])}
+
+
+def _float_minimax(vectors: FloatArray, jacobians: FloatArray) -> float:
+    """``min_s max_k |v_k - J_k s|`` (convex; SLSQP on the epigraph); ``vectors`` (K, 3), ``jacobians`` (K, 3, P)."""
+    from scipy.optimize import minimize
+
+    if jacobians.shape[2] == 0:
+        return float(np.linalg.norm(vectors, axis=1).max())
+    p = jacobians.shape[2]
+
+    def resid(s: FloatArray) -> FloatArray:
+        return vectors - np.einsum("kij,j->ki", jacobians, s)
+
+    s0, *_ = np.linalg.lstsq(jacobians.reshape(-1, p), vectors.reshape(-1), rcond=None)
+    t0 = float(np.linalg.norm(resid(s0), axis=1).max())
+    res = minimize(lambda x: x[-1], np.r_[s0, t0], method="SLSQP",
+                   constraints=[{"type": "ineq",
+                                 "fun": lambda x: x[-1] ** 2 - np.einsum("ki,ki->k", resid(x[:-1]), resid(x[:-1]))}],
+                   options={"ftol": 1e-18, "maxiter": 500})
+    return float(np.linalg.norm(resid(res.x[:-1]), axis=1).max())
+
+
+def evaluate_position(
+    feature: FeatureData,
+    drf: DatumReferenceFrame,
+    tolerance_mm: float,
+    *,
+    name: str = "",
+    modifier: str = "RFS",
+    zone: str = "dia",
+) -> CharacteristicResult:
+    """Position of an axis (cylinder), a centre (sphere) or a point / plane (ISO 1101 18.12, ASME 10.5).
+
+    Parameters
+    ----------
+    feature : FeatureData
+    drf : DatumReferenceFrame
+    tolerance_mm : float
+        Zone diameter (``zone="dia"``) or width (plane), mm.
+    modifier : {"RFS", "MMC", "LMC"}
+    zone : {"dia", "width"}
+        Cylindrical / spherical zone, or two parallel planes (planes only).
+
+    Returns
+    -------
+    CharacteristicResult
+        ``details`` hold the end points' deviations and, with a modifier, the sizes.
+    """
+    if modifier not in ("RFS", "MMC", "LMC"):
+        raise InvalidInputError("modifier", "RFS, MMC or LMC", repr(modifier))
+    pts = drf.to_frame(feature.points)
+    trans, rots = _free_axes(drf)
+    details: dict[str, Any] = {}
+    if feature.element == "cylinder":
+        if zone != "dia":
+            raise InvalidInputError(f"{name or feature.name}: zone", "dia for the position of an axis", zone)
+        ends, _, _ = toleranced_axis(pts, feature, drf.standard)
+        d = feature.direction / np.linalg.norm(feature.direction)
+        proj = np.eye(3) - np.outer(d, d)
+        targets = ends
+    elif feature.element in ("sphere", "point"):
+        if feature.element == "sphere":
+            from pcmm_geo.fit import fit_sphere
+
+            targets = np.asarray(fit_sphere(pts).center, dtype=float)[None, :]
+        else:
+            targets = pts.mean(axis=0)[None, :]
+        proj = np.eye(3)
+    elif feature.element == "plane":
+        proj = np.eye(3)
+        targets = pts
+    else:
+        raise InvalidInputError(f"{name or feature.name}: element", "cylinder, sphere, point or plane", feature.element)
+    if feature.element == "plane":
+        n = feature.direction / np.linalg.norm(feature.direction)
+        dev = (targets - feature.point) @ n
+        floats = any(abs(t @ n) > 1e-12 for t in trans)
+        value = float(np.ptp(dev)) if floats else 2.0 * float(np.abs(dev).max())
+    else:
+        vectors = (targets - feature.point) @ proj.T
+        cols = [np.repeat((proj @ t)[None, :], len(targets), axis=0) for t in trans]
+        cols += [np.cross(r, targets) @ proj.T for r in rots]
+        jac = np.stack(cols, axis=2) if cols else np.zeros((len(targets), 3, 0))
+        value = 2.0 * _float_minimax(vectors, jac)
+        details["deviations_mm"] = vectors.tolist()
+    bonus: float | None = None
+    low = high = tolerance_mm
+    size_ok = True
+    if modifier != "RFS":
+        if feature.element not in ("cylinder", "sphere") or not np.isfinite(feature.diameter):
+            raise InvalidInputError(f"{name or feature.name}: {modifier}", "a feature of size with a diameter",
+                                    feature.element)
+        sizes = size_evaluation(feature, modifier)
+        size_ok = sizes.pop("size_ok")
+        details.update(sizes)
+        bonus = sizes["bonus_low_mm"]
+        low, high = tolerance_mm + sizes["bonus_low_mm"], tolerance_mm + sizes["bonus_high_mm"]
+    verdict = decide(value, value, low, high)
+    if not size_ok:
+        verdict = "FAIL"
+        details["reason"] = "size outside its limits"
+        bonus = 0.0
+    return CharacteristicResult(name or feature.name, "position", value, value, tolerance_mm, bonus, verdict,
+                                drf.datums, drf.standard, details)
+
+
+def evaluate_orientation(
+    feature: FeatureData,
+    drf: DatumReferenceFrame,
+    tolerance_mm: float,
+    *,
+    characteristic: str,
+    name: str = "",
+    zone: str = "width",
+    zone_normal: FloatArray | None = None,
+) -> CharacteristicResult:
+    """Parallelism, perpendicularity or angularity of a plane or an axis (ISO 1101 18.9-18.11).
+
+    Parameters
+    ----------
+    feature : FeatureData
+        A plane (zone: two planes with the nominal normal) or a cylinder (its toleranced axis).
+    drf : DatumReferenceFrame
+        Its constrained rotations orient the zone; free rotations let it turn.
+    tolerance_mm : float
+    characteristic : {"parallelism", "perpendicularity", "angularity"}
+    zone : {"width", "dia"}
+        Two parallel planes, or a cylinder (axes only) along the nominal axis.
+    zone_normal : ndarray, shape (3,), optional
+        Axes with ``zone="width"``: the planes' normal in the DRF (default: the primary datum's direction).
+
+    Returns
+    -------
+    CharacteristicResult
+        ``bound_mm`` is the proven lower bound when a rotation floats (branch and bound), else the value.
+    """
+    pts = drf.to_frame(feature.points)
+    _, rots = _free_axes(drf)
+    if len(rots) > 1:
+        raise InvalidInputError(f"{name or feature.name}: datums", "a DRF fixing the zone's orientation (a plane or "
+                                "an axis datum)", "+".join(drf.datums) or "none")
+    details: dict[str, Any] = {}
+    if feature.element == "plane":
+        rel = pts - pts.mean(axis=0)
+        base = feature.direction / np.linalg.norm(feature.direction)
+
+        def width(direction: FloatArray) -> float:
+            return float(np.ptp(rel @ direction))
+
+        scale = 2.0 * float(np.linalg.norm(rel, axis=1).max())
+    elif feature.element == "cylinder":
+        ends, _, _ = toleranced_axis(pts, feature, drf.standard)
+        u = ends[1] - ends[0]
+        details["axis_end_points_mm"] = ends.tolist()
+        if zone == "dia":
+            base = feature.direction / np.linalg.norm(feature.direction)
+
+            def width(direction: FloatArray) -> float:
+                return float(np.linalg.norm(u - (u @ direction) * direction))
+        else:
+            if zone_normal is None:
+                raise InvalidInputError(f"{name or feature.name}: zone", "dia, or a datum plane parallel to the axis",
+                                        "width without one")
+            base = np.asarray(zone_normal, dtype=float) / np.linalg.norm(zone_normal)
+
+            def width(direction: FloatArray) -> float:
+                return float(abs(u @ direction))
+        scale = 2.0 * float(np.linalg.norm(u))
+    else:
+        raise InvalidInputError(f"{name or feature.name}: element", "a plane or a cylinder", feature.element)
+    if rots and np.linalg.norm(np.cross(rots[0], base)) > 1e-12:
+        axis = rots[0]
+        value, bound, theta = _minimise_angle(lambda t: width(_rotate(base, axis, t)), scale)
+        details["zone_turned_deg"] = float(np.degrees(theta))
+    else:
+        value = bound = width(base)
+    verdict = decide(value, bound, tolerance_mm, tolerance_mm)
+    return CharacteristicResult(name or feature.name, characteristic, value, bound, tolerance_mm, None, verdict,
+                                drf.datums, drf.standard, details)
+
+
+def evaluate_flatness(feature: FeatureData, tolerance_mm: float, *, name: str = "") -> CharacteristicResult:
+    """Flatness: minimum-zone width with its proven lower bound (:func:`pcmm_geo.fit.zone.evaluate_form`)."""
+    from pcmm_geo.fit.zone.form import evaluate_form
+
+    ev = evaluate_form(feature.points, "plane", tolerance=tolerance_mm)
+    bound = ev.deviation if ev.scope == "global" else float(ev.bound)
+    return CharacteristicResult(name or feature.name, "flatness", float(ev.deviation), bound, tolerance_mm, None,
+                                ev.verdict, (), "ISO", {"scope": ev.scope})
+
+
+def evaluate_runout(
+    feature: FeatureData,
+    drf: DatumReferenceFrame,
+    tolerance_mm: float,
+    *,
+    total: bool,
+    name: str = "",
+) -> CharacteristicResult:
+    """Circular or total runout about the DRF's z axis (ISO 1101 18.16, 18.17).
+
+    A cylinder: radial runout (spread of the distances from the axis); a plane: axial runout (spread of
+    the heights; circular: per band of radius rounded to 1 µm).  Circular radial runout takes the
+    cross-sections as the points' heights rounded to 1 µm.
+    """
+    if any(n in drf.free for n in ("tx", "ty", "rx", "ry")):
+        raise InvalidInputError(f"{name or feature.name}: datums", "a datum axis (the DRF's z axis located)",
+                                "+".join(drf.datums))
+    pts = drf.to_frame(feature.points)
+    radius = np.hypot(pts[:, 0], pts[:, 1])
+    if feature.element == "cylinder":
+        values, keys = radius, np.round(pts[:, 2], 3)
+    elif feature.element == "plane":
+        values, keys = pts[:, 2], np.round(radius, 3)
+    else:
+        raise InvalidInputError(f"{name or feature.name}: element", "a cylinder or a plane", feature.element)
+    if total:
+        value = float(np.ptp(values))
+    else:
+        order = np.argsort(keys, kind="stable")
+        _, starts = np.unique(keys[order], return_index=True)
+        groups = np.split(values[order], starts[1:])
+        value = float(max(np.ptp(g) for g in groups))
+    kind = "total runout" if total else "circular runout"
+    return CharacteristicResult(name or feature.name, kind, value, value, tolerance_mm, None,
+                                decide(value, value, tolerance_mm, tolerance_mm), drf.datums, drf.standard, {})
