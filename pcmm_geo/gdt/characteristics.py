@@ -438,22 +438,32 @@ def evaluate_runout(
     *,
     total: bool,
     name: str = "",
+    axis_point: FloatArray | None = None,
+    axis_direction: FloatArray | None = None,
 ) -> CharacteristicResult:
-    """Circular or total runout about the DRF's z axis (ISO 1101 18.16, 18.17).
+    """Circular or total runout about the datum axis (ISO 1101 18.16, 18.17).
 
-    A cylinder: radial runout (spread of the distances from the axis); a plane: axial runout (spread of
-    the heights; circular: per band of radius rounded to 1 µm).  Circular radial runout takes the
-    cross-sections as the points' heights rounded to 1 µm.
+    The datum axis is the line through ``axis_point`` along ``axis_direction`` in the DRF (default: the
+    DRF's z axis); the DRF must locate it (no free translation across it, no free tilt).  A cylinder:
+    radial runout (spread of the distances from the axis; circular: per cross-section, the points' heights
+    rounded to 1 µm); a plane: axial runout (spread of the heights; circular: per band of radius rounded
+    to 1 µm).
     """
-    if any(n in drf.free for n in ("tx", "ty", "rx", "ry")):
-        raise InvalidInputError(f"{name or feature.name}: datums", "a datum axis (the DRF's z axis located)",
-                                "+".join(drf.datums))
-    pts = drf.to_frame(feature.points)
-    radius = np.hypot(pts[:, 0], pts[:, 1])
+    point = np.zeros(3) if axis_point is None else np.asarray(axis_point, dtype=float)
+    axis = _UNIT["z"] if axis_direction is None else np.asarray(axis_direction, dtype=float)
+    axis = axis / np.linalg.norm(axis)
+    trans, rots = _free_axes(drf)
+    if any(np.linalg.norm(np.cross(t, axis)) > 1e-9 for t in trans) or \
+            any(np.linalg.norm(np.cross(r, axis)) > 1e-9 for r in rots):
+        raise InvalidInputError(f"{name or feature.name}: datums", "a DRF that locates the datum axis",
+                                "+".join(drf.datums) + " leaves " + " ".join(drf.free))
+    rel = drf.to_frame(feature.points) - point
+    height = rel @ axis
+    radius = np.linalg.norm(rel - np.outer(height, axis), axis=1)
     if feature.element == "cylinder":
-        values, keys = radius, np.round(pts[:, 2], 3)
+        values, keys = radius, np.round(height, 3)
     elif feature.element == "plane":
-        values, keys = pts[:, 2], np.round(radius, 3)
+        values, keys = height, np.round(radius, 3)
     else:
         raise InvalidInputError(f"{name or feature.name}: element", "a cylinder or a plane", feature.element)
     if total:
