@@ -157,10 +157,12 @@ def build_drf(
     for assoc, nominal in datums:
         q = r_m @ np.asarray(nominal.point, dtype=float)
         target = assoc.point - q
+        # the rows use the nominal direction as placed (a datum nominally parallel to an earlier one adds nothing)
+        placed = None if not _has_direction(assoc) else r_m @ (nominal.direction / np.linalg.norm(nominal.direction))
         if assoc.element == "plane":
-            a = assoc.direction[None, :]
+            a = placed[None, :]
         elif assoc.element == "cylinder":
-            a = _frame_of(assoc.direction, _perp(assoc.direction))[:, 1:].T
+            a = _frame_of(placed, _perp(placed))[:, 1:].T
         else:
             a = np.eye(3)
         basis = _null(rows)

@@ -43,7 +43,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
 
 
 def handle(args: argparse.Namespace) -> Report:
-    from pcmm_geo.cli._record import Verdict
+    from pcmm_geo.cli._record import Method, Verdict
     from pcmm_geo.gdt.inspection import inspect_plan
 
     result = inspect_plan(args.plan)
@@ -73,4 +73,10 @@ def handle(args: argparse.Namespace) -> Report:
                       basis="zones of the points as measured in the DRFs of their datums; the points' measurement "
                             "uncertainty is not taken into account")
     exit_code = 0 if result.passed else EXIT_FAILURE
-    return Report(data=data, tables=tables, lines=[], exit_code=exit_code, verdict=verdict)
+    if result.plan.standard == "ASME":
+        method = Method("ASME Y14.5-2018, ASME Y14.5.1-2019", "datums (7), tolerances of form, orientation, "
+                        "location and runout (8-12)", "characteristics from measured points in their datum frames")
+    else:
+        method = Method("ISO 1101:2017, ISO 5459:2011", "geometrical tolerances (clause 18), datums and datum "
+                        "systems", "characteristics from measured points in their datum reference frames")
+    return Report(data=data, tables=tables, lines=[], exit_code=exit_code, verdict=verdict, method=method)
