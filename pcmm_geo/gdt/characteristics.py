@@ -249,17 +249,23 @@ def _float_minimax(vectors: FloatArray, jacobians: FloatArray) -> float:
     if jacobians.shape[2] == 0:
         return float(np.linalg.norm(vectors, axis=1).max())
     p = jacobians.shape[2]
+    flat = jacobians.reshape(-1, p)
+    s0, *_ = np.linalg.lstsq(flat, vectors.reshape(-1), rcond=None)
+    start = vectors - np.einsum("kij,j->ki", jacobians, s0)
+    sigma = float(np.linalg.norm(start, axis=1).max())
+    if sigma == 0.0:
+        return 0.0
+    scaled = start / sigma  # the problem in units of the least-squares start's largest residual
 
     def resid(s: FloatArray) -> FloatArray:
-        return vectors - np.einsum("kij,j->ki", jacobians, s)
+        return scaled - np.einsum("kij,j->ki", jacobians, s)
 
-    s0, *_ = np.linalg.lstsq(jacobians.reshape(-1, p), vectors.reshape(-1), rcond=None)
-    t0 = float(np.linalg.norm(resid(s0), axis=1).max())
-    res = minimize(lambda x: x[-1], np.r_[s0, t0], method="SLSQP",
+    res = minimize(lambda x: x[-1], np.r_[np.zeros(p), 1.0], method="SLSQP",
                    constraints=[{"type": "ineq",
                                  "fun": lambda x: x[-1] ** 2 - np.einsum("ki,ki->k", resid(x[:-1]), resid(x[:-1]))}],
-                   options={"ftol": 1e-18, "maxiter": 500})
-    return float(np.linalg.norm(resid(res.x[:-1]), axis=1).max())
+                   options={"ftol": 1e-15, "maxiter": 500})
+    best = min(1.0, float(np.linalg.norm(resid(res.x[:-1]), axis=1).max()))
+    return sigma * best
 
 
 def evaluate_position(
