@@ -29,6 +29,8 @@ import numpy as np
 SEED = 20261206
 DATUM_FORM_MM = 0.004
 BLOCK_MM = (120.0, 90.0, 30.0)
+#: points per feature of the shipped example
+EXAMPLE_POINTS = 150
 
 
 @dataclass
@@ -211,7 +213,7 @@ def main() -> None:
     parser.add_argument("--out-dir", type=Path, default=Path(__file__).resolve().parent)
     parser.add_argument("--overwrite", action="store_true")
     args = parser.parse_args()
-    part = make_part()
+    part = make_part(n_points=EXAMPLE_POINTS)
     files = {f"{name}.csv": part.measured(name) for name in part.points}
     targets = [args.out_dir / name for name in [*files, "plan.toml"]]
     if not args.overwrite and any(t.exists() for t in targets):

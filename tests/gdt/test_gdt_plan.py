@@ -1,0 +1,125 @@
+"""The TOML inspection plan, the frame grammar and ``pcmm inspect``."""
+
+from __future__ import annotations
+
+import json
+import shutil
+from pathlib import Path
+
+import numpy as np
+import pytest
+from pcmm_runner import run_pcmm
+
+from pcmm_geo.errors import FileFormatError
+from pcmm_geo.gdt import inspect_plan, parse_frame
+
+EXAMPLE_DIR = Path(__file__).parents[2] / "pcmm_geo" / "data" / "examples" / "gdt"
+
+
+@pytest.mark.parametrize(("text", "expected"), [
+    ("position dia 0.1 MMC | A | B | C", ("position", "dia", 0.1, "MMC", ("A", "B", "C"))),
+    ("⌖ ⌀0.1 Ⓜ | A | B | C", ("position", "dia", 0.1, "MMC", ("A", "B", "C"))),
+    ("⌖ Ø0.25Ⓛ|A|B", ("position", "dia", 0.25, "LMC", ("A", "B"))),
+    ("⊥ ⌀0.02 | A", ("perpendicularity", "dia", 0.02, "RFS", ("A",))),
+    ("// 0.05 | A", ("parallelism", "width", 0.05, "RFS", ("A",))),
+    ("∥ 0.05 | A", ("parallelism", "width", 0.05, "RFS", ("A",))),
+    ("∠ 0.1 | A | B", ("angularity", "width", 0.1, "RFS", ("A", "B"))),
+    ("flatness 0.01", ("flatness", "width", 0.01, "RFS", ())),
+    ("⌰ 0.03 | D", ("total runout", "width", 0.03, "RFS", ("D",))),
+    ("↗ 0.03 | D", ("circular runout", "width", 0.03, "RFS", ("D",))),
+    ("⌓ 0.2 | A | B | C", ("profile of a surface", "width", 0.2, "RFS", ("A", "B", "C"))),
+])
+def test_frames_in_ascii_and_iso_symbols(text, expected):
+    spec = parse_frame(text)
+    assert (spec.characteristic, spec.zone, spec.tolerance_mm, spec.modifier, spec.datums) == expected
+
+
+@pytest.mark.parametrize(("text", "reason"), [
+    ("wobble 0.1 | A", "unknown characteristic"),
+    ("position dia | A", "no tolerance"),
+    ("position dia 0.1 XYZ | A", "unknown token"),
+    ("position dia 0.1 | A MMB", "datum mobility"),
+    ("position dia 0.1 | BⓂ", "datum mobility"),
+    ("position dia 0.1 | A-B", "common datum"),
+    ("position dia -0.1 | A", "positive tolerance"),
+    ("position dia 0.1 | A | B | C | D", "more than three"),
+])
+def test_frames_the_grammar_does_not_know_are_refused_naming_the_line(text, reason):
+    with pytest.raises(FileFormatError, match=reason) as info:
+        parse_frame(text, path="plan.toml", line=17)
+    assert info.value.line == 17 and str(info.value).startswith("plan.toml:17:")
+
+
+def _copy_example(tmp_path: Path) -> Path:
+    for f in EXAMPLE_DIR.iterdir():
+        if f.suffix in (".csv", ".toml"):
+            shutil.copy(f, tmp_path / f.name)
+    return tmp_path / "plan.toml"
+
+
+def test_shipped_example_gives_the_constructed_answers(maker):
+    part = maker.make_part(n_points=maker.EXAMPLE_POINTS)
+    result = inspect_plan(EXAMPLE_DIR / "plan.toml")
+    by_name = {c.name: c for c in result.characteristics}
+    # the files hold coordinates rounded to 1 nm: answers to a few nm
+    for hole in part.holes:
+        c = by_name[f"position {hole.name}"]
+        assert abs(c.value_mm - hole.position_rfs()) < 1e-8
+        assert abs(c.bonus_mm - (hole.actual_diameter - 10.0)) < 1e-8
+    assert abs(by_name["parallelism TOP"].value_mm - part.top_slope * part.top_extent) < 1e-8
+    assert abs(by_name["perpendicularity H1"].value_mm - part.holes[0].perpendicularity()) < 1e-8
+    assert abs(by_name["flatness A"].value_mm - maker.DATUM_FORM_MM) < 1e-8
+    assert [c.verdict for c in result.characteristics] == ["PASS"] * 5 + ["FAIL"]
+    drf = result.frames["A|B|C"]
+    assert np.allclose(drf.rotation, part.rotation.T, atol=1e-9) and drf.free == ()
+
+
+def test_example_files_are_what_the_script_makes(maker, tmp_path):
+    import subprocess
+    import sys
+
+    subprocess.run([sys.executable, str(EXAMPLE_DIR / "make_gdt_example.py"), "--out-dir", str(tmp_path)],
+                   check=True)
+    for f in tmp_path.iterdir():
+        assert f.read_text() == (EXAMPLE_DIR / f.name).read_text(), f.name
+
+
+def test_pcmm_inspect_json_table_and_exit_codes(tmp_path):
+    plan = _copy_example(tmp_path)
+    done = run_pcmm("inspect", plan, "--json")
+    assert done.returncode == 1, done.stderr  # H3 fails
+    data = json.loads(done.stdout)
+    first = data["characteristics"][3]
+    assert {"name", "value_mm", "tolerance_mm", "bonus_mm", "verdict", "datums"} <= set(first)
+    assert first["datums"] == ["A", "B", "C"] and first["verdict"] == "PASS"
+    assert "bonus_mm" not in data["characteristics"][0]
+    assert set(data["datums"]) == {"A", "B", "C"} and data["datums"]["A"]["certificate"]["scope"] == "global"
+    # without the position frames everything passes: exit 0, and the table
+    text = plan.read_text()
+    plan.write_text(text[:text.index('[[characteristics]]\nname = "position H1"')])
+    done = run_pcmm("inspect", plan)
+    assert done.returncode == 0, done.stdout + done.stderr
+    assert "parallelism TOP" in done.stdout and "verdict: 3 characteristics: 3 PASS" in done.stdout
+
+
+def _line_of(text: str, needle: str) -> int:
+    return next(k for k, line in enumerate(text.splitlines(), start=1) if needle in line)
+
+
+@pytest.mark.parametrize(("edit", "needle", "message"), [
+    (('points = "H2.csv"', 'points = "missing.csv"'), 'points = "missing.csv"', "not found"),
+    (("position dia 0.1 MMC | A | B | C", "position dia 0.1 MMC | A | B | Q"), "| Q", "unknown datum 'Q'"),
+    (("parallelism 0.05 | A", "wobble 0.05 | A"), "wobble", "unknown characteristic"),
+    (("position dia 0.1 MMC | A | B | C", "position dia 0.1 MMC | A | B MMB | C"), "MMB", "datum mobility"),
+    (('C = "C"', 'C = "TOP"'), "position dia", "constrains"),
+    (('element = "cylinder"', 'element = "cone"'), 'element = "cone"', "element"),
+])
+def test_plan_errors_are_one_line_naming_the_plans_line_exit_2(tmp_path, edit, needle, message):
+    plan = _copy_example(tmp_path)
+    text = plan.read_text().replace(*edit, 1)
+    plan.write_text(text)
+    done = run_pcmm("inspect", plan)
+    assert done.returncode == 2, done.stdout + done.stderr
+    err = done.stderr.strip()
+    assert len(err.splitlines()) == 1 and message in err, err
+    assert f"plan.toml:{_line_of(text, needle)}:" in err, err
