@@ -123,3 +123,17 @@ def test_plan_errors_are_one_line_naming_the_plans_line_exit_2(tmp_path, edit, n
     err = done.stderr.strip()
     assert len(err.splitlines()) == 1 and message in err, err
     assert f"plan.toml:{_line_of(text, needle)}:" in err, err
+
+
+def test_guide_page_shows_what_pcmm_inspect_prints(tmp_path):
+    page = (Path(__file__).parents[2] / "docs" / "guide" / "gdt_with_datums.rst").read_text(encoding="utf-8")
+    shown = {" ".join(line.split()) for line in page.splitlines()}
+    plan = _copy_example(tmp_path)
+    done = run_pcmm("inspect", plan.name, cwd=tmp_path)
+    printed = [" ".join(line.split()) for line in done.stdout.splitlines()]
+    rows = [line for line in printed if line.startswith(("position H", "flatness A", "parallelism TOP",
+                                                         "perpendicularity H1", "A plane", "B plane", "C plane",
+                                                         "A|B|C", "verdict:"))]
+    assert len(rows) == 11
+    missing = [row for row in rows if row not in shown]
+    assert missing == []
