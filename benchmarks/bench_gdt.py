@@ -26,7 +26,7 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
-from _environment import environment_line  # noqa: E402
+from _environment import environment_line
 
 ROOT = Path(__file__).resolve().parents[1]
 
