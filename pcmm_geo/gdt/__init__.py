@@ -13,6 +13,7 @@ Public API (names load on first use):
 - :class:`FeatureData`, :class:`CharacteristicResult`, :func:`evaluate_position`,
   :func:`evaluate_orientation`, :func:`evaluate_flatness`, :func:`evaluate_runout`,
   :func:`toleranced_axis`, :func:`size_evaluation` (:mod:`~pcmm_geo.gdt.characteristics`);
+  :func:`evaluate_profile` (:mod:`~pcmm_geo.gdt.profile`);
 - :func:`parse_frame`, :class:`FrameSpec` (:mod:`~pcmm_geo.gdt.plan`); :func:`load_plan`,
   :func:`inspect_plan`, :class:`InspectionPlan`, :class:`InspectionResult` (:mod:`~pcmm_geo.gdt.inspection`).
 """
@@ -40,6 +41,7 @@ _LAZY = {
     "evaluate_runout": "characteristics",
     "size_evaluation": "characteristics",
     "toleranced_axis": "characteristics",
+    "evaluate_profile": "profile",
     "FrameSpec": "plan",
     "SYMBOLS": "plan",
     "parse_frame": "plan",

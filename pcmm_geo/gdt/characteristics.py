@@ -59,7 +59,7 @@ class FeatureData:
     Attributes
     ----------
     name : str
-    element : {"plane", "cylinder", "sphere", "point"}
+    element : {"plane", "cylinder", "sphere", "point", "surface"}
     points : ndarray, shape (N, 3)
         Measured points, mm, measurement coordinates.
     point : ndarray, shape (3,)
@@ -72,6 +72,8 @@ class FeatureData:
         Nominal diameter, mm (NaN when not a feature of size).
     size_tolerance : tuple of float
         Lower and upper deviations of the size, mm.
+    nominal_points, nominal_normals : ndarray, shape (M, 3), optional
+        A ``"surface"`` (profile): the nominal surface's points and outward normals, DRF coordinates.
     """
 
     name: str
@@ -82,6 +84,8 @@ class FeatureData:
     side: str = "external"
     diameter: float = float("nan")
     size_tolerance: tuple[float, float] = (0.0, 0.0)
+    nominal_points: FloatArray | None = None
+    nominal_normals: FloatArray | None = None
 
 
 @dataclass(frozen=True)

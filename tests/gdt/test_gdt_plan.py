@@ -137,3 +137,23 @@ def test_guide_page_shows_what_pcmm_inspect_prints(tmp_path):
     assert len(rows) == 11
     missing = [row for row in rows if row not in shown]
     assert missing == []
+
+
+def test_profile_of_a_surface_in_a_plan(maker, tmp_path):
+    from test_gdt_profile import _patch
+
+    part = maker.make_part(n_points=maker.EXAMPLE_POINTS)
+    nominal, normals, measured, _, _ = _patch(np.random.default_rng(2))
+    plan = _copy_example(tmp_path)
+    np.savetxt(tmp_path / "S_nominal.csv", nominal, fmt="%.12f", delimiter=",")
+    np.savetxt(tmp_path / "S_normals.csv", normals, fmt="%.12f", delimiter=",")
+    np.savetxt(tmp_path / "S.csv", measured @ part.rotation.T + part.translation, fmt="%.12f", delimiter=",")
+    text = plan.read_text()
+    text = text[:text.index("[[characteristics]]")]
+    text = text.replace("[datums]", '[features.S]\nelement = "surface"\npoints = "S.csv"\n'
+                        'nominal_points = "S_nominal.csv"\nnominal_normals = "S_normals.csv"\n\n[datums]')
+    text += '[[characteristics]]\nname = "profile S"\nfeature = "S"\nframe = "⌓ 0.025 | A | B | C"\n'
+    plan.write_text(text)
+    result = inspect_plan(plan)
+    (c,) = result.characteristics
+    assert c.characteristic == "profile of a surface" and abs(c.value_mm - 0.024) < 1e-8 and c.verdict == "PASS"
