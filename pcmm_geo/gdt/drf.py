@@ -181,9 +181,11 @@ def build_drf(
     drf_basis = _align(r_m.T @ basis) if basis.shape[1] else basis
     for k in range(drf_basis.shape[1]):
         free.append("t" + _axis_name(drf_basis[:, k], "free translation"))
-    # origin: the DRF origin is where the nominal origin lands
+    # free rotations turn about the last located datum (an axis or a centre), else about the origin
+    located = [n for a, n in datums if a.element in ("cylinder", "sphere", "point")]
+    pivot = np.asarray(located[-1].point, dtype=float) if located else np.zeros(3)
     return DatumReferenceFrame(r_m.T, origin, tuple(free), labels, standard,
-                               associations=tuple(a for a, _ in datums))
+                               associations=tuple(a for a, _ in datums), pivot=pivot)
 
 
 def _null(rows: list[FloatArray]) -> FloatArray:

@@ -47,6 +47,9 @@ class DatumReferenceFrame:
         Datum labels, primary first (empty for the measurement frame itself).
     standard : str
         ``"ISO"`` (ISO 5459) or ``"ASME"`` (Y14.5-2018): the rules the datums were associated by.
+    pivot : ndarray, shape (3,)
+        DRF coordinates of a point on every free rotation axis (a datum axis or centre; the origin
+        when the free rotations are about a datum plane's normal, whose position then also floats).
     """
 
     rotation: FloatArray
@@ -55,6 +58,7 @@ class DatumReferenceFrame:
     datums: tuple[str, ...] = ()
     standard: str = "ISO"
     associations: tuple[object, ...] = field(default=(), compare=False, repr=False)
+    pivot: FloatArray = field(default_factory=lambda: np.zeros(3))
 
     def __post_init__(self) -> None:
         rotation = np.asarray(self.rotation, dtype=float)
@@ -68,8 +72,13 @@ class DatumReferenceFrame:
         unknown = [name for name in self.free if name not in DEGREES_OF_FREEDOM]
         if unknown:
             raise InvalidInputError("free", f"names from {DEGREES_OF_FREEDOM}", repr(unknown))
+        pivot = np.asarray(self.pivot, dtype=float)
+        if pivot.shape != (3,) or not np.all(np.isfinite(pivot)):
+            raise InvalidInputError("pivot", "3 finite coordinates", repr(pivot.shape))
         rotation.flags.writeable = False
         origin.flags.writeable = False
+        pivot.flags.writeable = False
+        object.__setattr__(self, "pivot", pivot)
         object.__setattr__(self, "rotation", rotation)
         object.__setattr__(self, "origin", origin)
         object.__setattr__(self, "free", tuple(name for name in DEGREES_OF_FREEDOM if name in self.free))

@@ -31,7 +31,7 @@ __all__ = ["InspectionPlan", "InspectionResult", "PlannedCharacteristic", "inspe
 
 _ELEMENTS = ("plane", "cylinder", "sphere", "point", "surface")
 _SUPPORTED = {"position", "perpendicularity", "parallelism", "angularity", "flatness", "circular runout",
-              "total runout", "profile of a surface"}
+              "total runout", "profile of a surface", "concentricity"}
 
 
 @dataclass(frozen=True)
@@ -303,6 +303,8 @@ def _evaluate(planned: PlannedCharacteristic, frames: _Frames) -> Characteristic
                                  zone="dia" if spec.zone in ("dia", "sdia") else "width")
     if spec.modifier != "RFS" and kind != "position":
         raise FileFormatError(plan.path, f"{planned.name}: {spec.modifier} on {kind} is not supported", planned.line)
+    if kind == "concentricity":
+        return _concentricity(planned, plan, feature, drf)
     if kind == "profile of a surface":
         if feature.element != "surface":
             raise FileFormatError(plan.path, f"{planned.name}: profile needs a feature of element \"surface\" "
@@ -327,6 +329,32 @@ def _evaluate(planned: PlannedCharacteristic, frames: _Frames) -> Characteristic
                               planned.line)
     return evaluate_runout(feature, drf, spec.tolerance_mm, total=kind == "total runout", name=planned.name,
                            axis_point=primary.point, axis_direction=primary.direction)
+
+
+def _concentricity(planned: PlannedCharacteristic, plan: InspectionPlan, feature: FeatureData,
+                   drf: DatumReferenceFrame) -> CharacteristicResult:
+    """ISO 1101 18.13: coaxiality of an axis (concentricity of a centre) to the primary datum's axis (centre).
+
+    The zone (``dia``) is centred on the datum: the position of the feature whose true position is the
+    datum's nominal axis or centre, floating in what the DRF leaves free.
+    """
+    import dataclasses
+
+    spec = planned.frame
+    if plan.standard != "ISO":
+        raise FileFormatError(plan.path, f"{planned.name}: concentricity was removed in ASME Y14.5-2018",
+                              planned.line)
+    if not spec.datums or spec.zone == "width":
+        raise FileFormatError(plan.path, f"{planned.name}: concentricity needs dia and a datum", planned.line)
+    datum = plan.features[plan.datums[spec.datums[0]][0]]
+    if datum.element not in ("cylinder", "sphere", "point") or feature.element not in ("cylinder", "sphere", "point"):
+        raise FileFormatError(plan.path, f"{planned.name}: concentricity relates an axis or a centre to a datum "
+                              "axis or centre", planned.line)
+    direction = datum.direction if datum.element == "cylinder" else feature.direction
+    nominal = dataclasses.replace(feature, point=datum.point, direction=direction)
+    result = evaluate_position(nominal, drf, spec.tolerance_mm, name=planned.name)
+    return dataclasses.replace(result, characteristic="coaxiality" if feature.element == "cylinder" else
+                               "concentricity")
 
 
 def inspect_plan(plan: str | Path | InspectionPlan) -> InspectionResult:

@@ -110,7 +110,8 @@ def evaluate_profile(
     local = drf.to_frame(pts)
     trans = [_UNIT[f[1]] for f in drf.free if f.startswith("t")]
     rots = [_UNIT[f[1]] for f in drf.free if f.startswith("r")]
-    centre = local.mean(axis=0)
+    # rotations turn about the DRF's pivot unless every translation floats too (then any centre will do)
+    centre = local.mean(axis=0) if len(trans) == 3 else np.asarray(drf.pivot, dtype=float)
 
     def deviations(cloud: FloatArray) -> tuple[FloatArray, FloatArray]:
         _, j = tree.query(cloud)

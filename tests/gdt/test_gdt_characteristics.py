@@ -147,3 +147,57 @@ def test_runout_about_a_datum_axis_and_refusal_without_one(maker):
     assert circular.value_mm <= total.value_mm + 1e-15
     with pytest.raises(InvalidInputError, match="datum axis"):
         evaluate_runout(f, DatumReferenceFrame.measurement(), 0.01, total=True)
+
+
+def test_free_rotation_turns_about_the_datum_axis_not_the_origin(maker):
+    # A | B with B a hole: rotation about B's axis floats; H1's zone turns about it
+    part = maker.make_part(6, n_points=150, n_holes=3)
+    h1, h3 = part.holes[0], part.holes[2]
+    a = associate_datum(part.measured("A"), "plane", label="A", nominal_direction=[0, 0, 1])
+    b = associate_datum(part.measured("H3"), "cylinder", label="B", side="internal", nominal_direction=[0, 0, 1],
+                        parallel_to=a.direction)
+    drf = build_drf([(a, nominal_of([0, 0, 0], [0, 0, 1])), (b, nominal_of([*h3.centre, 0], [0, 0, 1]))])
+    assert drf.free == ("rz",) and np.allclose(drf.pivot, [*h3.centre, 0])
+    r = evaluate_position(_hole(part, h1), drf, 0.1)
+    # exact: B's measured axis is at its constructed offset; turn H1's true position about it
+    pivot = np.array(h3.centre) + np.array(h3.offset)  # B's actual axis (H3 is not tilted)
+    ends = np.array(h1.centre) + h1.end_deviations()
+    q = np.array(h1.centre) - np.array(h3.centre)
+
+    def value(theta):
+        c, s = np.cos(theta), np.sin(theta)
+        true = pivot + np.array([c * q[0] - s * q[1], s * q[0] + c * q[1]])
+        return 2 * np.linalg.norm(ends - true, axis=1).max()
+
+    thetas = np.linspace(-2e-3, 2e-3, 40001)
+    exact = min(value(t) for t in thetas)
+    assert abs(r.value_mm - exact) < 2e-5  # first order in the rotation: error ~ shift^2 / |q|
+    assert abs(r.value_mm - value(0.0)) > 1e-3  # the rotation did float
+
+
+def test_coaxiality_in_an_iso_plan_and_refused_under_asme(maker, tmp_path):
+    from pcmm_geo.errors import FileFormatError
+    from pcmm_geo.gdt import inspect_plan
+
+    rng = np.random.default_rng(4)
+    n = 300
+    theta, z = rng.uniform(0, 2 * np.pi, n), rng.uniform(0, 40, n)
+    shaft = np.c_[6 * np.cos(theta), 6 * np.sin(theta), z]  # datum D: axis z through the origin
+    theta2, z2 = rng.uniform(0, 2 * np.pi, n), rng.uniform(50, 80, n)
+    step = np.c_[0.004 + 9 * np.cos(theta2), -0.003 + 9 * np.sin(theta2), z2]  # off by (4, -3) um
+    np.savetxt(tmp_path / "D.csv", shaft, fmt="%.12f", delimiter=",")
+    np.savetxt(tmp_path / "E.csv", step, fmt="%.12f", delimiter=",")
+    plan = tmp_path / "plan.toml"
+    text = ('units = "mm"\n[features.D]\nelement = "cylinder"\npoints = "D.csv"\nside = "external"\n'
+            'point = [0, 0, 0]\naxis = [0, 0, 1]\ndiameter = 12\n'
+            '[features.E]\nelement = "cylinder"\npoints = "E.csv"\nside = "external"\npoint = [0, 0, 50]\n'
+            'axis = [0, 0, 1]\ndiameter = 18\n[datums]\nD = "D"\n'
+            '[[characteristics]]\nname = "coax E"\nfeature = "E"\nframe = "◎ ⌀0.012 | D"\n'
+            '[[characteristics]]\nname = "runout E"\nfeature = "E"\nframe = "⌰ 0.02 | D"\n')
+    plan.write_text(text, encoding="utf-8")
+    coax, runout = inspect_plan(plan).characteristics
+    assert coax.characteristic == "coaxiality" and abs(coax.value_mm - 0.010) < 1e-8 and coax.verdict == "PASS"
+    assert abs(runout.value_mm - np.ptp(np.hypot(step[:, 0], step[:, 1]))) < 1e-8
+    plan.write_text('standard = "ASME"\n' + text, encoding="utf-8")
+    with pytest.raises(FileFormatError, match="removed in ASME Y14.5-2018"):
+        inspect_plan(plan)
