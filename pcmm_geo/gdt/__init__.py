@@ -13,7 +13,8 @@ Public API (names load on first use):
 - :class:`FeatureData`, :class:`CharacteristicResult`, :func:`evaluate_position`,
   :func:`evaluate_orientation`, :func:`evaluate_flatness`, :func:`evaluate_runout`,
   :func:`toleranced_axis`, :func:`size_evaluation` (:mod:`~pcmm_geo.gdt.characteristics`);
-  :func:`evaluate_profile` (:mod:`~pcmm_geo.gdt.profile`);
+  :func:`evaluate_profile` (:mod:`~pcmm_geo.gdt.profile`); :func:`evaluate_coordinate`,
+  :func:`evaluate_distance`, :func:`evaluate_angle`, :func:`feature_location` (:mod:`~pcmm_geo.gdt.dimensions`);
 - :func:`parse_frame`, :class:`FrameSpec` (:mod:`~pcmm_geo.gdt.plan`); :func:`load_plan`,
   :func:`inspect_plan`, :class:`InspectionPlan`, :class:`InspectionResult` (:mod:`~pcmm_geo.gdt.inspection`).
 """
@@ -42,6 +43,10 @@ _LAZY = {
     "size_evaluation": "characteristics",
     "toleranced_axis": "characteristics",
     "evaluate_profile": "profile",
+    "evaluate_angle": "dimensions",
+    "evaluate_coordinate": "dimensions",
+    "evaluate_distance": "dimensions",
+    "feature_location": "dimensions",
     "FrameSpec": "plan",
     "SYMBOLS": "plan",
     "parse_frame": "plan",

@@ -124,13 +124,15 @@ class CharacteristicResult:
     details: dict[str, Any] = field(default_factory=dict)
 
     def to_dict(self) -> dict[str, Any]:
-        """JSON-ready record (``bonus_mm`` only where a modifier applies)."""
-        out: dict[str, Any] = {"name": self.name, "characteristic": self.characteristic, "value_mm": self.value_mm,
-                               "bound_mm": self.bound_mm, "tolerance_mm": self.tolerance_mm,
+        """JSON-ready record (``bonus_mm`` only where a modifier applies; an angle's values as ``*_rad``)."""
+        unit = self.details.get("unit", "mm")
+        bound = self.bound_mm if np.isfinite(self.bound_mm) else None
+        out: dict[str, Any] = {"name": self.name, "characteristic": self.characteristic, f"value_{unit}": self.value_mm,
+                               f"bound_{unit}": bound, f"tolerance_{unit}": self.tolerance_mm,
                                "verdict": self.verdict, "datums": list(self.datums), "standard": self.standard}
         if self.bonus_mm is not None:
             out["bonus_mm"] = self.bonus_mm
-        out.update(self.details)
+        out.update({k: v for k, v in self.details.items() if k != "unit"})
         return out
 
 

@@ -40,8 +40,9 @@ class PlannedCharacteristic:
 
     name: str
     feature: str
-    frame: FrameSpec
+    frame: FrameSpec | None
     line: int | None
+    dimension: dict[str, Any] | None = None
 
 
 @dataclass(frozen=True)
@@ -215,6 +216,9 @@ def load_plan(path: str | Path) -> InspectionPlan:
     planned = []
     for index, entry in enumerate(doc.get("characteristics", [])):
         keys = ("characteristics", index)
+        if isinstance(entry, dict) and "type" in entry:
+            planned.append(_dimension_entry(entry, index, keys, lines, features, datums, where, error))
+            continue
         if not isinstance(entry, dict) or not isinstance(entry.get("frame"), str):
             raise error((*keys, "frame"), f"characteristics[{index}]: frame = \"...\" is required")
         line = lines.get((*keys, "frame"), lines.get(keys))
@@ -233,6 +237,64 @@ def load_plan(path: str | Path) -> InspectionPlan:
             raise FileFormatError(where, f"{name}: {reason}", line)
         planned.append(PlannedCharacteristic(name, entry["feature"], spec, line))
     return InspectionPlan(where, standard, part_frame, features, datums, tuple(planned), lines)
+
+
+_DIMENSIONS = ("coordinate", "distance", "angle")
+
+
+def _dimension_entry(entry: dict[str, Any], index: int, keys: tuple[Any, ...], lines: dict[tuple[Any, ...], int],
+                     features: dict[str, FeatureData], datums: dict[str, tuple[str, str]], where: str,
+                     error: Any) -> PlannedCharacteristic:
+    """A ``type = "coordinate" | "distance" | "angle"`` entry, checked."""
+    name = str(entry.get("name", f"characteristic {index + 1}"))
+    kind = entry["type"]
+    line = lines.get((*keys, "type"), lines.get(keys))
+    if kind not in _DIMENSIONS:
+        raise error((*keys, "type"), f"{name}: type = {kind!r}: expected one of {', '.join(_DIMENSIONS)}")
+    names = [entry.get("feature")] if kind == "coordinate" else entry.get("features")
+    if not isinstance(names, list) or len(names) != (1 if kind == "coordinate" else 2):
+        key = "feature" if kind == "coordinate" else "features"
+        raise error((*keys, key), f"{name}: {key} = " + ('"NAME"' if kind == "coordinate" else '["NAME", "NAME"]') +
+                    " is required")
+    for feature in names:
+        if feature not in features:
+            raise error((*keys, "feature" if kind == "coordinate" else "features"),
+                        f"{name}: unknown feature {feature!r}")
+    unit = "deg" if kind == "angle" else ""
+    nominal_key, limits_key = ("nominal_deg", "limits_deg") if unit else ("nominal", "limits")
+    nominal, limits = entry.get(nominal_key), entry.get(limits_key)
+    if not isinstance(nominal, (int, float)) or isinstance(nominal, bool):
+        raise error((*keys, nominal_key), f"{name}: {nominal_key} = NUMBER is required")
+    if (not isinstance(limits, list) or len(limits) != 2 or not all(isinstance(v, (int, float)) for v in limits)
+            or limits[0] > limits[1]):
+        raise error((*keys, limits_key), f"{name}: {limits_key} = [lower, upper] deviations are required")
+    frame = entry.get("datums", "")
+    labels = tuple(p.strip() for p in frame.split("|") if p.strip()) if isinstance(frame, str) else ()
+    for label in labels:
+        if label not in datums:
+            raise error((*keys, "datums"), f"{name}: unknown datum {label!r}")
+    if kind == "coordinate" and entry.get("axis") not in ("x", "y", "z"):
+        raise error((*keys, "axis"), f"{name}: axis = \"x\" | \"y\" | \"z\" is required")
+    dimension = {"type": kind, "features": names, "nominal": float(nominal), "limits": (float(limits[0]),
+                 float(limits[1])), "datums": labels, "axis": entry.get("axis")}
+    return PlannedCharacteristic(name, names[0], None, line, dimension)
+
+
+def _evaluate_dimension(planned: PlannedCharacteristic, frames: _Frames) -> CharacteristicResult:
+    from pcmm_geo.gdt.dimensions import evaluate_angle, evaluate_coordinate, evaluate_distance
+
+    plan, dim = frames.plan, planned.dimension
+    assert dim is not None
+    feats = [plan.features[n] for n in dim["features"]]
+    labels = dim["datums"] or plan.part_frame
+    drf = frames.drf(labels) if labels else DatumReferenceFrame.measurement()
+    if dim["type"] == "coordinate":
+        return evaluate_coordinate(feats[0], drf, dim["axis"], dim["nominal"], dim["limits"], name=planned.name)
+    if dim["type"] == "distance":
+        return evaluate_distance(feats[0], feats[1], drf, dim["nominal"], dim["limits"], name=planned.name)
+    return evaluate_angle(feats[0], feats[1], float(np.radians(dim["nominal"])),
+                          (float(np.radians(dim["limits"][0])), float(np.radians(dim["limits"][1]))),
+                          name=planned.name)
 
 
 class _Frames:
@@ -291,6 +353,8 @@ class _Frames:
 def _evaluate(planned: PlannedCharacteristic, frames: _Frames) -> CharacteristicResult:
     plan = frames.plan
     spec = planned.frame
+    if spec is None:
+        return _evaluate_dimension(planned, frames)
     feature = plan.features[planned.feature]
     kind = spec.characteristic
     if kind == "flatness":

@@ -69,7 +69,15 @@ def test_shipped_example_gives_the_constructed_answers(maker):
     assert abs(by_name["parallelism TOP"].value_mm - part.top_slope * part.top_extent) < 1e-8
     assert abs(by_name["perpendicularity H1"].value_mm - part.holes[0].perpendicularity()) < 1e-8
     assert abs(by_name["flatness A"].value_mm - maker.DATUM_FORM_MM) < 1e-8
-    assert [c.verdict for c in result.characteristics] == ["PASS"] * 5 + ["FAIL"]
+    assert [c.verdict for c in result.characteristics] == ["PASS"] * 5 + ["FAIL"] + ["PASS"] * 3
+    h1, h2 = part.holes[0], part.holes[1]
+    assert abs(by_name["x H1"].value_mm - (h1.centre[0] + h1.offset[0])) < 1e-8
+    ends1 = np.array(h1.centre) + np.array(h1.offset)
+    ends2 = np.array(h2.centre) + np.array(h2.offset)
+    assert abs(by_name["H1 to H2"].value_mm - np.linalg.norm(ends2 - ends1)) < 1e-8
+    u = h1.axis()
+    n = np.array([-part.top_slope, 0.0, 1.0]) / np.hypot(part.top_slope, 1.0)
+    assert abs(by_name["H1 to TOP"].value_mm - np.arccos(abs(u @ n))) < 1e-9
     drf = result.frames["A|B|C"]
     assert np.allclose(drf.rotation, part.rotation.T, atol=1e-9) and drf.free == ()
 
@@ -100,6 +108,9 @@ def test_pcmm_inspect_json_table_and_exit_codes(tmp_path):
     done = run_pcmm("inspect", plan)
     assert done.returncode == 0, done.stdout + done.stderr
     assert "parallelism TOP" in done.stdout and "verdict: 3 characteristics: 3 PASS" in done.stdout
+    # the dimensions report their units
+    angle = next(c for c in data["characteristics"] if c["characteristic"] == "angle")
+    assert "value_rad" in angle and "value_mm" not in angle and abs(angle["value_deg"] - 0.0343775) < 1e-6
 
 
 def _line_of(text: str, needle: str) -> int:
@@ -113,6 +124,9 @@ def _line_of(text: str, needle: str) -> int:
     (("position dia 0.1 MMC | A | B | C", "position dia 0.1 MMC | A | B MMB | C"), "MMB", "datum mobility"),
     (('C = "C"', 'C = "TOP"'), "position dia", "constrains"),
     (('element = "cylinder"', 'element = "cone"'), 'element = "cone"', "element"),
+    (('type = "distance"', 'type = "volume"'), 'type = "volume"', "expected one of coordinate"),
+    (('features = ["H1", "H2"]', 'features = ["H1", "H9"]'), 'features = ["H1", "H9"]', "unknown feature 'H9'"),
+    (('axis = "x"', 'axis = "q"'), 'axis = "q"', "axis ="),
 ])
 def test_plan_errors_are_one_line_naming_the_plans_line_exit_2(tmp_path, edit, needle, message):
     plan = _copy_example(tmp_path)
@@ -133,8 +147,8 @@ def test_guide_page_shows_what_pcmm_inspect_prints(tmp_path):
     printed = [" ".join(line.split()) for line in done.stdout.splitlines()]
     rows = [line for line in printed if line.startswith(("position H", "flatness A", "parallelism TOP",
                                                          "perpendicularity H1", "A plane", "B plane", "C plane",
-                                                         "A|B|C", "verdict:"))]
-    assert len(rows) == 11
+                                                         "A|B|C", "verdict:", "x H1", "H1 to"))]
+    assert len(rows) == 14
     missing = [row for row in rows if row not in shown]
     assert missing == []
 
@@ -157,3 +171,18 @@ def test_profile_of_a_surface_in_a_plan(maker, tmp_path):
     result = inspect_plan(plan)
     (c,) = result.characteristics
     assert c.characteristic == "profile of a surface" and abs(c.value_mm - 0.024) < 1e-8 and c.verdict == "PASS"
+
+
+def test_a_coordinate_the_drf_cannot_place_is_refused_by_name(maker):
+    from pcmm_geo.errors import InvalidInputError
+    from pcmm_geo.gdt import FeatureData, associate_datum, build_drf, evaluate_coordinate
+    from pcmm_geo.gdt.drf import nominal_of
+
+    part = maker.make_part(1, n_points=100, n_holes=1)
+    a = associate_datum(part.measured("A"), "plane", label="A", nominal_direction=[0, 0, 1])
+    drf = build_drf([(a, nominal_of([0, 0, 0], [0, 0, 1]))])
+    h = part.holes[0]
+    f = FeatureData("H1", "cylinder", part.measured("H1"), np.array([*h.centre, 0.0]), np.array([0, 0, 1.0]))
+    with pytest.raises(InvalidInputError, match="H1: datums: expected a DRF that fixes the x translation"):
+        evaluate_coordinate(f, drf, "x", 30.0, (-0.1, 0.1), name="H1")
+    assert evaluate_coordinate(f, drf, "z", 0.0, (-0.1, 0.1), name="H1").verdict == "PASS"

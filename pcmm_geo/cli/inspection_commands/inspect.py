@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import math
 from pathlib import Path
 
 from pcmm_geo.cli._output import (
@@ -50,10 +51,16 @@ def handle(args: argparse.Namespace) -> Report:
     data = result.to_dict()
     rows = []
     for c in result.characteristics:
-        rows.append([c.name, c.characteristic, 1000.0 * c.value_mm, 1000.0 * c.tolerance_mm,
-                     "-" if c.bonus_mm is None else 1000.0 * c.bonus_mm, "|".join(c.datums) or "-", c.verdict])
+        if c.details.get("unit") == "rad":  # an angle: degrees at the edge
+            value, tolerance, unit = math.degrees(c.value_mm), math.degrees(c.tolerance_mm), "deg"
+        elif "limits_mm" in c.details:  # a dimension: millimetres, the tolerance as its limits' width
+            value, tolerance, unit = c.value_mm, c.tolerance_mm, "mm"
+        else:
+            value, tolerance, unit = 1000.0 * c.value_mm, 1000.0 * c.tolerance_mm, "µm"
+        rows.append([c.name, c.characteristic, value, tolerance, "-" if c.bonus_mm is None else 1000.0 * c.bonus_mm,
+                     unit, "|".join(c.datums) or "-", c.verdict])
     tables = [Table(f"characteristics of {args.plan} ({result.plan.standard})",
-                    ["name", "characteristic", "value µm", "tolerance µm", "bonus µm", "datums", "verdict"], rows)]
+                    ["name", "characteristic", "value", "tolerance", "bonus", "unit", "datums", "verdict"], rows)]
     datum_rows = []
     for label, d in result.datums.items():
         cert = d.certificate

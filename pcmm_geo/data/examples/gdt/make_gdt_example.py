@@ -12,7 +12,9 @@ an exact plane tilted by a known slope.  Every point is then moved by the rigid 
 - position of a hole RFS: ``2 max |(offset + h * tilt)|`` over the end heights ``h``;
 - at MMC its bonus ``diameter - (nominal + lower deviation)``;
 - parallelism of the top face to A: ``slope * extent``; perpendicularity of a hole to A (dia):
-  ``depth * |tilt|``.
+  ``depth * |tilt|``;
+- a hole's x coordinate in A|B|C (its least-squares axis at z = 0): nominal + offset; the distance of
+  two holes' axes at z = 0 and the angle between a hole's axis and the top face's normal likewise.
 
 Run ``python make_gdt_example.py --overwrite`` to regenerate the plan and points next to this script;
 the result depends only on ``SEED``.  :func:`make_part` is also what the tests and the benchmark use.
@@ -205,6 +207,15 @@ def plan_text(part: Part, *, modifier: str = "MMC") -> str:
         chars.append((f"position {hole.name}", hole.name, f"position dia 0.1 {modifier} | A | B | C"))
     for name, feature, frame in chars:
         out += ["[[characteristics]]", f'name = "{name}"', f'feature = "{feature}"', f'frame = "{frame}"', ""]
+    if len(part.holes) >= 2:
+        h1, h2 = part.holes[0], part.holes[1]
+        distance = float(np.hypot(h2.centre[0] - h1.centre[0], h2.centre[1] - h1.centre[1]))
+        out += ["[[characteristics]]", 'name = "x H1"', 'type = "coordinate"', 'feature = "H1"', 'axis = "x"',
+                f"nominal = {h1.centre[0]:g}", "limits = [-0.05, 0.05]", "",
+                "[[characteristics]]", 'name = "H1 to H2"', 'type = "distance"', 'features = ["H1", "H2"]',
+                f"nominal = {distance:g}", "limits = [-0.1, 0.1]", "",
+                "[[characteristics]]", 'name = "H1 to TOP"', 'type = "angle"', 'features = ["H1", "TOP"]',
+                "nominal_deg = 0", "limits_deg = [0, 0.05]", ""]
     return "\n".join(out)
 
 
