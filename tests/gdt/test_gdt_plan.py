@@ -186,3 +186,38 @@ def test_a_coordinate_the_drf_cannot_place_is_refused_by_name(maker):
     with pytest.raises(InvalidInputError, match="H1: datums: expected a DRF that fixes the x translation"):
         evaluate_coordinate(f, drf, "x", 30.0, (-0.1, 0.1), name="H1")
     assert evaluate_coordinate(f, drf, "z", 0.0, (-0.1, 0.1), name="H1").verdict == "PASS"
+
+
+def test_report_states_the_method_and_the_decision(tmp_path):
+    plan = _copy_example(tmp_path)
+    text = plan.read_text()
+    plan.write_text(text[:text.index('[[characteristics]]\nname = "position H1"')])
+    report = tmp_path / "inspection.md"
+    done = run_pcmm("inspect", plan, "--report", report)
+    assert done.returncode == 0, done.stderr
+    record = report.read_text(encoding="utf-8")
+    assert "ISO 1101:2017" in record and "3 characteristics: 3 PASS" in record
+    assert "parallelism TOP" in record
+    assert run_pcmm("inspect", plan, "--report", report).returncode == 2  # never over a file without --overwrite
+
+
+def test_sphere_and_point_datums_leave_rotations_free_and_position_of_a_centre(maker):
+    from pcmm_geo.gdt import FeatureData, associate_datum, build_drf, evaluate_position
+    from pcmm_geo.gdt.drf import nominal_of
+
+    rng = np.random.default_rng(12)
+    d = rng.standard_normal((200, 3))
+    d /= np.linalg.norm(d, axis=1)[:, None]
+    ball = np.array([10.0, 20.0, 5.0]) + 12.5 * d
+    s = associate_datum(ball, "sphere", label="S", side="external")
+    assert np.allclose(s.point, [10, 20, 5], atol=1e-9) and abs(s.radius - 12.5) < 1e-9
+    assert s.certificate.scope == "global"
+    drf = build_drf([(s, nominal_of([0, 0, 0], None))])
+    assert drf.free == ("rx", "ry", "rz") and np.allclose(drf.origin, [10, 20, 5], atol=1e-9)
+    # a second centre 50 mm away nominally, 30 um further: with every rotation free only the distance counts
+    other = np.array([10.0, 20.0, 5.0]) + np.array([0.6, 0.8, 0.0]) * 50.03 + 3.0 * d
+    f = FeatureData("T", "sphere", other, np.array([50.0, 0, 0]), np.full(3, np.nan))
+    r = evaluate_position(f, drf, 0.1, zone="dia")
+    assert abs(r.value_mm - 2 * 0.03) < 1e-6 and r.verdict == "PASS"
+    p = associate_datum(np.array([[1.0, 2.0, 3.0]]), "point", label="P")
+    assert np.allclose(p.point, [1, 2, 3]) and build_drf([(p, nominal_of([0, 0, 0], None))]).free == ("rx", "ry", "rz")
