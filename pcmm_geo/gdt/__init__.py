@@ -11,7 +11,7 @@ Public API (names load on first use):
 - :func:`associate_datum`, :class:`DatumAssociation`, :class:`DatumCertificate`, :data:`DATUM_CRITERIA`
   (:mod:`~pcmm_geo.gdt.datums`); :func:`build_drf`, :class:`DatumNominal` (:mod:`~pcmm_geo.gdt.drf`);
 - :class:`FeatureData`, :class:`CharacteristicResult`, :func:`evaluate_position`,
-  :func:`evaluate_orientation`, :func:`evaluate_flatness`, :func:`evaluate_runout`,
+  :func:`evaluate_position_pattern`, :func:`evaluate_orientation`, :func:`evaluate_flatness`, :func:`evaluate_runout`,
   :func:`toleranced_axis`, :func:`size_evaluation` (:mod:`~pcmm_geo.gdt.characteristics`);
   :func:`evaluate_profile` (:mod:`~pcmm_geo.gdt.profile`); :func:`evaluate_coordinate`,
   :func:`evaluate_distance`, :func:`evaluate_angle`, :func:`feature_location` (:mod:`~pcmm_geo.gdt.dimensions`);
@@ -39,6 +39,7 @@ _LAZY = {
     "evaluate_flatness": "characteristics",
     "evaluate_orientation": "characteristics",
     "evaluate_position": "characteristics",
+    "evaluate_position_pattern": "pattern",
     "evaluate_runout": "characteristics",
     "size_evaluation": "characteristics",
     "toleranced_axis": "characteristics",

@@ -27,7 +27,6 @@ proven bonus; ``FAIL`` when a proven lower bound of the value exceeds the larges
 
 from __future__ import annotations
 
-import heapq
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -35,7 +34,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from pcmm_geo.errors import InvalidInputError
-from pcmm_geo.gdt._floating import float_position
+from pcmm_geo.gdt._floating import float_position, minimise_angle
 from pcmm_geo.gdt.frame import DatumReferenceFrame
 
 __all__ = [
@@ -157,34 +156,6 @@ def _rotate(v: FloatArray, axis: FloatArray, theta: float) -> FloatArray:
     return v * c + np.cross(axis, v) * s + axis * (axis @ v) * (1 - c)
 
 
-def _minimise_angle(fun: Any, lipschitz: float, *, tol: float = 1e-9, budget: int = 4000) -> tuple[float, float, float]:
-    """Branch and bound of ``fun(theta)`` over [-pi, pi]: (best value, proven lower bound, theta)."""
-    cells = 64
-    h = np.pi / cells
-    mids = -np.pi + h * (2 * np.arange(cells) + 1)
-    best_val, best_theta = np.inf, 0.0
-    heap: list[tuple[float, float, float]] = []
-    for m in mids:
-        v = float(fun(m))
-        if v < best_val:
-            best_val, best_theta = v, float(m)
-        heapq.heappush(heap, (v - lipschitz * h, float(m), h))
-    evaluations = cells
-    while heap and evaluations < budget:
-        low, m, half = heapq.heappop(heap)
-        if best_val - low <= tol:
-            heapq.heappush(heap, (low, m, half))
-            break
-        for child in (m - half / 2, m + half / 2):
-            v = float(fun(child))
-            evaluations += 1
-            if v < best_val:
-                best_val, best_theta = v, float(child)
-            heapq.heappush(heap, (v - lipschitz * half / 2, child, half / 2))
-    bound = min(best_val, heap[0][0]) if heap else best_val
-    return best_val, max(bound, 0.0), best_theta
-
-
 def toleranced_axis(points: FloatArray, feature: FeatureData, standard: str) -> tuple[FloatArray, FloatArray, Any]:
     """End points (2, 3) of the toleranced axis over the points' extent, its direction and the fit.
 
@@ -249,6 +220,28 @@ def size_evaluation(feature: FeatureData, modifier: str) -> dict[str, Any]:
             "bonus_low_mm": float(bonus[0]), "bonus_high_mm": float(bonus[1])}
 
 
+def _position_targets(feature: FeatureData, drf: DatumReferenceFrame, name: str,
+                      zone: str) -> tuple[FloatArray, FloatArray]:
+    """What a position zone holds, DRF coordinates: an axis's end points, a centre, a point, a plane's points;
+    and the projection (3, 3) onto the zone's cross-section."""
+    pts = drf.to_frame(feature.points)
+    if feature.element == "cylinder":
+        if zone != "dia":
+            raise InvalidInputError(f"{name or feature.name}: zone", "dia for the position of an axis", zone)
+        ends, _, _ = toleranced_axis(pts, feature, drf.standard)
+        d = feature.direction / np.linalg.norm(feature.direction)
+        return ends, np.eye(3) - np.outer(d, d)
+    if feature.element == "sphere":
+        from pcmm_geo.fit import fit_sphere
+
+        return np.asarray(fit_sphere(pts).center, dtype=float)[None, :], np.eye(3)
+    if feature.element == "point":
+        return pts.mean(axis=0)[None, :], np.eye(3)
+    if feature.element == "plane":
+        return pts, np.eye(3)
+    raise InvalidInputError(f"{name or feature.name}: element", "cylinder, sphere, point or plane", feature.element)
+
+
 def evaluate_position(
     feature: FeatureData,
     drf: DatumReferenceFrame,
@@ -277,29 +270,9 @@ def evaluate_position(
     """
     if modifier not in ("RFS", "MMC", "LMC"):
         raise InvalidInputError("modifier", "RFS, MMC or LMC", repr(modifier))
-    pts = drf.to_frame(feature.points)
     trans, rots = _free_axes(drf)
     details: dict[str, Any] = {}
-    if feature.element == "cylinder":
-        if zone != "dia":
-            raise InvalidInputError(f"{name or feature.name}: zone", "dia for the position of an axis", zone)
-        ends, _, _ = toleranced_axis(pts, feature, drf.standard)
-        d = feature.direction / np.linalg.norm(feature.direction)
-        proj = np.eye(3) - np.outer(d, d)
-        targets = ends
-    elif feature.element in ("sphere", "point"):
-        if feature.element == "sphere":
-            from pcmm_geo.fit import fit_sphere
-
-            targets = np.asarray(fit_sphere(pts).center, dtype=float)[None, :]
-        else:
-            targets = pts.mean(axis=0)[None, :]
-        proj = np.eye(3)
-    elif feature.element == "plane":
-        proj = np.eye(3)
-        targets = pts
-    else:
-        raise InvalidInputError(f"{name or feature.name}: element", "cylinder, sphere, point or plane", feature.element)
+    targets, proj = _position_targets(feature, drf, name, zone)
     if feature.element == "plane":
         n = feature.direction / np.linalg.norm(feature.direction)
         dev = (targets - feature.point) @ n
@@ -396,7 +369,7 @@ def evaluate_orientation(
         raise InvalidInputError(f"{name or feature.name}: element", "a plane or a cylinder", feature.element)
     if rots and np.linalg.norm(np.cross(rots[0], base)) > 1e-12:
         axis = rots[0]
-        value, bound, theta = _minimise_angle(lambda t: width(_rotate(base, axis, t)), scale)
+        value, bound, theta = minimise_angle(lambda t: width(_rotate(base, axis, t)), scale)
         details["zone_turned_deg"] = float(np.degrees(theta))
     else:
         value = bound = width(base)
@@ -460,3 +433,4 @@ def evaluate_runout(
     kind = "total runout" if total else "circular runout"
     return CharacteristicResult(name or feature.name, kind, value, value, tolerance_mm, None,
                                 decide(value, value, tolerance_mm, tolerance_mm), drf.datums, drf.standard, {})
+

@@ -25,7 +25,7 @@ from pcmm_geo.gdt.characteristics import (
 from pcmm_geo.gdt.datums import DATUM_CRITERIA, DatumAssociation, associate_datum, default_criterion
 from pcmm_geo.gdt.drf import build_drf, nominal_of
 from pcmm_geo.gdt.frame import DatumReferenceFrame
-from pcmm_geo.gdt.plan import FrameSpec, parse_frame, read_plan_text
+from pcmm_geo.gdt.plan import FrameSpec, dimension_entry, parse_frame, read_plan_text
 
 __all__ = ["InspectionPlan", "InspectionResult", "PlannedCharacteristic", "inspect_plan", "load_plan"]
 
@@ -43,6 +43,7 @@ class PlannedCharacteristic:
     frame: FrameSpec | None
     line: int | None
     dimension: dict[str, Any] | None = None
+    pattern: str | None = None
 
 
 @dataclass(frozen=True)
@@ -217,7 +218,8 @@ def load_plan(path: str | Path) -> InspectionPlan:
     for index, entry in enumerate(doc.get("characteristics", [])):
         keys = ("characteristics", index)
         if isinstance(entry, dict) and "type" in entry:
-            planned.append(_dimension_entry(entry, index, keys, lines, features, datums, where, error))
+            name, names, line, dimension = dimension_entry(entry, index, keys, lines, features, datums, error)
+            planned.append(PlannedCharacteristic(name, names[0], None, line, dimension))
             continue
         if not isinstance(entry, dict) or not isinstance(entry.get("frame"), str):
             raise error((*keys, "frame"), f"characteristics[{index}]: frame = \"...\" is required")
@@ -235,49 +237,14 @@ def load_plan(path: str | Path) -> InspectionPlan:
             else:
                 reason = f"{spec.characteristic} is not supported yet"
             raise FileFormatError(where, f"{name}: {reason}", line)
-        planned.append(PlannedCharacteristic(name, entry["feature"], spec, line))
+        pattern = entry.get("pattern")
+        if pattern is not None and (not isinstance(pattern, str) or spec.characteristic != "position"):
+            raise error((*keys, "pattern"), f"{name}: pattern = \"NAME\" groups position frames only")
+        if pattern is None and standard == "ASME" and spec.characteristic == "position" and spec.datums \
+                and not entry.get("separate", False):
+            pattern = "simultaneous " + "|".join(spec.datums)  # ASME Y14.5-2018 7.19: the default
+        planned.append(PlannedCharacteristic(name, entry["feature"], spec, line, None, pattern))
     return InspectionPlan(where, standard, part_frame, features, datums, tuple(planned), lines)
-
-
-_DIMENSIONS = ("coordinate", "distance", "angle")
-
-
-def _dimension_entry(entry: dict[str, Any], index: int, keys: tuple[Any, ...], lines: dict[tuple[Any, ...], int],
-                     features: dict[str, FeatureData], datums: dict[str, tuple[str, str]], where: str,
-                     error: Any) -> PlannedCharacteristic:
-    """A ``type = "coordinate" | "distance" | "angle"`` entry, checked."""
-    name = str(entry.get("name", f"characteristic {index + 1}"))
-    kind = entry["type"]
-    line = lines.get((*keys, "type"), lines.get(keys))
-    if kind not in _DIMENSIONS:
-        raise error((*keys, "type"), f"{name}: type = {kind!r}: expected one of {', '.join(_DIMENSIONS)}")
-    names = [entry.get("feature")] if kind == "coordinate" else entry.get("features")
-    if not isinstance(names, list) or len(names) != (1 if kind == "coordinate" else 2):
-        key = "feature" if kind == "coordinate" else "features"
-        raise error((*keys, key), f"{name}: {key} = " + ('"NAME"' if kind == "coordinate" else '["NAME", "NAME"]') +
-                    " is required")
-    for feature in names:
-        if feature not in features:
-            raise error((*keys, "feature" if kind == "coordinate" else "features"),
-                        f"{name}: unknown feature {feature!r}")
-    unit = "deg" if kind == "angle" else ""
-    nominal_key, limits_key = ("nominal_deg", "limits_deg") if unit else ("nominal", "limits")
-    nominal, limits = entry.get(nominal_key), entry.get(limits_key)
-    if not isinstance(nominal, (int, float)) or isinstance(nominal, bool):
-        raise error((*keys, nominal_key), f"{name}: {nominal_key} = NUMBER is required")
-    if (not isinstance(limits, list) or len(limits) != 2 or not all(isinstance(v, (int, float)) for v in limits)
-            or limits[0] > limits[1]):
-        raise error((*keys, limits_key), f"{name}: {limits_key} = [lower, upper] deviations are required")
-    frame = entry.get("datums", "")
-    labels = tuple(p.strip() for p in frame.split("|") if p.strip()) if isinstance(frame, str) else ()
-    for label in labels:
-        if label not in datums:
-            raise error((*keys, "datums"), f"{name}: unknown datum {label!r}")
-    if kind == "coordinate" and entry.get("axis") not in ("x", "y", "z"):
-        raise error((*keys, "axis"), f"{name}: axis = \"x\" | \"y\" | \"z\" is required")
-    dimension = {"type": kind, "features": names, "nominal": float(nominal), "limits": (float(limits[0]),
-                 float(limits[1])), "datums": labels, "axis": entry.get("axis")}
-    return PlannedCharacteristic(name, names[0], None, line, dimension)
 
 
 def _evaluate_dimension(planned: PlannedCharacteristic, frames: _Frames) -> CharacteristicResult:
@@ -421,6 +388,33 @@ def _concentricity(planned: PlannedCharacteristic, plan: InspectionPlan, feature
                                "concentricity")
 
 
+def _evaluate_pattern(pattern: str, members: list[PlannedCharacteristic],
+                      frames: _Frames) -> tuple[CharacteristicResult, ...]:
+    """A simultaneous requirement: every member a position frame to the same datums."""
+    from pcmm_geo.gdt.pattern import evaluate_position_pattern
+
+    plan = frames.plan
+    first = members[0]
+    for member in members:
+        assert member.frame is not None
+        if member.frame.datums != first.frame.datums:  # type: ignore[union-attr]
+            raise FileFormatError(plan.path, f"{member.name}: pattern {pattern!r} mixes datum references "
+                                  f"({'|'.join(member.frame.datums)} and {'|'.join(first.frame.datums)})",  # type: ignore[union-attr]
+                                  member.line)
+    datums = first.frame.datums  # type: ignore[union-attr]
+    try:
+        drf = frames.drf(datums) if datums else DatumReferenceFrame.measurement()
+        return evaluate_position_pattern([plan.features[m.feature] for m in members], drf,
+                                         [m.frame.tolerance_mm for m in members],  # type: ignore[union-attr]
+                                         names=[m.name for m in members],
+                                         modifiers=[m.frame.modifier for m in members],  # type: ignore[union-attr]
+                                         pattern=pattern)
+    except FileFormatError:
+        raise
+    except PcmmGeoError as exc:
+        raise FileFormatError(plan.path, f"{first.name}: {exc}", first.line) from None
+
+
 def inspect_plan(plan: str | Path | InspectionPlan) -> InspectionResult:
     """Evaluate every characteristic of an inspection plan.
 
@@ -440,14 +434,21 @@ def inspect_plan(plan: str | Path | InspectionPlan) -> InspectionResult:
     if not isinstance(plan, InspectionPlan):
         plan = load_plan(plan)
     frames = _Frames(plan)
-    results = []
-    for planned in plan.characteristics:
+    results: dict[int, CharacteristicResult] = {}
+    groups: dict[str, list[int]] = {}
+    for index, planned in enumerate(plan.characteristics):
+        if planned.pattern is not None:
+            groups.setdefault(planned.pattern, []).append(index)
+            continue
         try:
-            results.append(_evaluate(planned, frames))
+            results[index] = _evaluate(planned, frames)
         except FileFormatError:
             raise
         except PcmmGeoError as exc:
             raise FileFormatError(plan.path, f"{planned.name}: {exc}", planned.line) from None
+    for pattern, members in groups.items():
+        results.update(zip(members, _evaluate_pattern(pattern, [plan.characteristics[i] for i in members], frames),
+                           strict=True))
     datums: dict[str, DatumAssociation] = {}
     named: dict[str, DatumReferenceFrame] = {}
     try:
@@ -459,4 +460,4 @@ def inspect_plan(plan: str | Path | InspectionPlan) -> InspectionResult:
         raise FileFormatError(plan.path, f"part.frame: {exc}", plan.lines.get(("part", "frame"))) from None
     for key, drf in frames.frames.items():
         named.setdefault("|".join(key), drf)
-    return InspectionResult(plan, tuple(results), datums, named)
+    return InspectionResult(plan, tuple(results[i] for i in range(len(plan.characteristics))), datums, named)

@@ -41,7 +41,7 @@ from typing import Any
 
 from pcmm_geo.errors import FileFormatError
 
-__all__ = ["SYMBOLS", "FrameSpec", "parse_frame", "read_plan_text", "locate_lines"]
+__all__ = ["SYMBOLS", "FrameSpec", "dimension_entry", "locate_lines", "parse_frame", "read_plan_text"]
 
 #: characteristic words and ISO 1101 symbols -> characteristic name
 SYMBOLS = {
@@ -193,3 +193,46 @@ def read_plan_text(path: str | Path) -> tuple[dict[str, Any], dict[tuple[Any, ..
         match = re.search(r"line (\d+)", str(exc))
         raise FileFormatError(str(path), f"TOML: {exc}", int(match.group(1)) if match else None) from None
     return document, locate_lines(text)
+
+
+_DIMENSIONS = ("coordinate", "distance", "angle")
+
+
+def dimension_entry(entry: dict[str, Any], index: int, keys: tuple[Any, ...], lines: dict[tuple[Any, ...], int],
+                    features: Any, datums: Any, error: Any) -> tuple[str, list[str], int | None, dict[str, Any]]:
+    """A ``type = "coordinate" | "distance" | "angle"`` entry, checked: (name, feature names, line, dimension).
+
+    ``error(keys, reason)`` makes the :class:`FileFormatError` naming the plan's line.
+    """
+    name = str(entry.get("name", f"characteristic {index + 1}"))
+    kind = entry["type"]
+    line = lines.get((*keys, "type"), lines.get(keys))
+    if kind not in _DIMENSIONS:
+        raise error((*keys, "type"), f"{name}: type = {kind!r}: expected one of {', '.join(_DIMENSIONS)}")
+    names = [entry.get("feature")] if kind == "coordinate" else entry.get("features")
+    if not isinstance(names, list) or len(names) != (1 if kind == "coordinate" else 2):
+        key = "feature" if kind == "coordinate" else "features"
+        raise error((*keys, key), f"{name}: {key} = " + ('"NAME"' if kind == "coordinate" else '["NAME", "NAME"]') +
+                    " is required")
+    for feature in names:
+        if feature not in features:
+            raise error((*keys, "feature" if kind == "coordinate" else "features"),
+                        f"{name}: unknown feature {feature!r}")
+    unit = "deg" if kind == "angle" else ""
+    nominal_key, limits_key = ("nominal_deg", "limits_deg") if unit else ("nominal", "limits")
+    nominal, limits = entry.get(nominal_key), entry.get(limits_key)
+    if not isinstance(nominal, (int, float)) or isinstance(nominal, bool):
+        raise error((*keys, nominal_key), f"{name}: {nominal_key} = NUMBER is required")
+    if (not isinstance(limits, list) or len(limits) != 2 or not all(isinstance(v, (int, float)) for v in limits)
+            or limits[0] > limits[1]):
+        raise error((*keys, limits_key), f"{name}: {limits_key} = [lower, upper] deviations are required")
+    frame = entry.get("datums", "")
+    labels = tuple(p.strip() for p in frame.split("|") if p.strip()) if isinstance(frame, str) else ()
+    for label in labels:
+        if label not in datums:
+            raise error((*keys, "datums"), f"{name}: unknown datum {label!r}")
+    if kind == "coordinate" and entry.get("axis") not in ("x", "y", "z"):
+        raise error((*keys, "axis"), f"{name}: axis = \"x\" | \"y\" | \"z\" is required")
+    dimension = {"type": kind, "features": names, "nominal": float(nominal), "limits": (float(limits[0]),
+                 float(limits[1])), "datums": labels, "axis": entry.get("axis")}
+    return name, names, line, dimension
