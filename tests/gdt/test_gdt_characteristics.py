@@ -201,3 +201,20 @@ def test_coaxiality_in_an_iso_plan_and_refused_under_asme(maker, tmp_path):
     plan.write_text('standard = "ASME"\n' + text, encoding="utf-8")
     with pytest.raises(FileFormatError, match=r"removed in ASME Y14\.5-2018"):
         inspect_plan(plan)
+
+
+def test_axial_runout_of_a_face_total_and_per_radius_band():
+    from pcmm_geo.gdt import DatumReferenceFrame
+
+    rng = np.random.default_rng(3)
+    radii = np.repeat([10.0, 20.0, 30.0], 60)
+    theta = rng.uniform(0, 2 * np.pi, len(radii))
+    wobble = 0.002 * np.cos(theta) * radii / 30.0  # a face tilted by 2 um over 30 mm: the band at r spreads 4 r/30 um
+    face = np.c_[radii * np.cos(theta), radii * np.sin(theta), 5.0 + wobble]
+    drf = DatumReferenceFrame(np.eye(3), np.zeros(3), free=("tz", "rz"), datums=("D",))
+    f = FeatureData("F", "plane", face, np.array([0, 0, 5.0]), np.array([0, 0, 1.0]))
+    total = evaluate_runout(f, drf, 0.01, total=True)
+    circular = evaluate_runout(f, drf, 0.01, total=False)
+    assert abs(total.value_mm - np.ptp(face[:, 2])) < 1e-12
+    band = face[radii == 30.0, 2]
+    assert abs(circular.value_mm - np.ptp(band)) < 1e-12 and circular.value_mm < 0.004 + 1e-12

@@ -90,3 +90,33 @@ def test_angularity_of_a_face_at_thirty_degrees(maker, seed):
     assert abs(r.value_mm - exact) < 1e-9
     assert abs(exact - 40 * np.sin(delta) * np.ptp(uv[:, 1]) / 40) < 1e-9
     assert r.verdict == ("PASS" if exact <= 0.05 else "FAIL")
+
+
+def test_asme_toleranced_axis_is_the_mating_envelopes_iso_the_least_squares(maker):
+    # a hole with a patch of points pushed outward (material removed there): the MIC, the hole's unrelated
+    # actual mating envelope, still rests on the exact cylinder; the least-squares axis leans toward the patch
+    from pcmm_geo.gdt import evaluate_position
+
+    part = maker.make_part(2, n_points=150, n_holes=1)
+    hole = part.holes[0]
+    pts = part.points["H1"].copy()
+    base = np.array([hole.centre[0] + hole.offset[0], hole.centre[1] + hole.offset[1], 0.0])
+    rel = pts - base
+    radial = rel - np.outer(rel @ hole.axis(), hole.axis())
+    patch = np.flatnonzero(radial[:, 0] > 0.8 * np.linalg.norm(radial, axis=1))
+    pts[patch] += 0.05 * radial[patch] / np.linalg.norm(radial[patch], axis=1)[:, None]
+    measured = pts @ part.rotation.T + part.translation
+    a = associate_datum(part.measured("A"), "plane", label="A", nominal_direction=[0, 0, 1])
+    b = associate_datum(part.measured("B"), "plane", label="B", nominal_direction=[1, 0, 0],
+                        perpendicular_to=(a.direction,))
+    c = associate_datum(part.measured("C"), "plane", label="C", nominal_direction=[0, 1, 0],
+                        perpendicular_to=(a.direction, b.direction))
+    pairs = [(a, nominal_of([0, 0, 0], [0, 0, 1])), (b, nominal_of([0, 0, 0], [1, 0, 0])),
+             (c, nominal_of([0, 0, 0], [0, 1, 0]))]
+    feature = FeatureData("H1", "cylinder", measured, np.array([*hole.centre, 0.0]), np.array([0, 0, 1.0]),
+                          "internal", 10.0, (0.0, 0.1))
+    asme = evaluate_position(feature, build_drf(pairs, standard="ASME"), 0.1)
+    iso = evaluate_position(feature, build_drf(pairs, standard="ISO"), 0.1)
+    assert len(patch) > 5
+    assert abs(asme.value_mm - hole.position_rfs()) < 1e-8
+    assert abs(iso.value_mm - hole.position_rfs()) > 1e-3
