@@ -12,7 +12,7 @@ Public API (names load on first use):
   (:mod:`~pcmm_geo.gdt.datums`); :func:`build_drf`, :class:`DatumNominal` (:mod:`~pcmm_geo.gdt.drf`);
 - :class:`FeatureData`, :class:`CharacteristicResult`, :func:`evaluate_position`,
   :func:`evaluate_position_pattern`, :func:`evaluate_orientation`, :func:`evaluate_flatness`, :func:`evaluate_runout`,
-  :func:`toleranced_axis`, :func:`size_evaluation` (:mod:`~pcmm_geo.gdt.characteristics`);
+  :func:`toleranced_axis`, :func:`size_evaluation`, :func:`apply_uncertainty` (:mod:`~pcmm_geo.gdt.characteristics`);
   :func:`evaluate_profile` (:mod:`~pcmm_geo.gdt.profile`); :func:`evaluate_coordinate`,
   :func:`evaluate_distance`, :func:`evaluate_angle`, :func:`feature_location` (:mod:`~pcmm_geo.gdt.dimensions`);
 - :func:`parse_frame`, :class:`FrameSpec` (:mod:`~pcmm_geo.gdt.plan`); :func:`load_plan`,
@@ -35,6 +35,7 @@ _LAZY = {
     "DatumNominal": "drf",
     "build_drf": "drf",
     "CharacteristicResult": "characteristics",
+    "apply_uncertainty": "characteristics",
     "FeatureData": "characteristics",
     "evaluate_flatness": "characteristics",
     "evaluate_orientation": "characteristics",

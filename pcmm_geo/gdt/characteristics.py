@@ -39,6 +39,7 @@ from pcmm_geo.gdt.frame import DatumReferenceFrame
 
 __all__ = [
     "CharacteristicResult",
+    "apply_uncertainty",
     "FeatureData",
     "evaluate_flatness",
     "evaluate_orientation",
@@ -434,3 +435,37 @@ def evaluate_runout(
     return CharacteristicResult(name or feature.name, kind, value, value, tolerance_mm, None,
                                 decide(value, value, tolerance_mm, tolerance_mm), drf.datums, drf.standard, {})
 
+
+def apply_uncertainty(result: CharacteristicResult, u: float | None) -> CharacteristicResult:
+    """The verdict under ISO 14253-1 with the characteristic's expanded uncertainty ``u`` (mm, k = 2), when stated.
+
+    :mod:`pcmm_geo.uncertainty.conformity`'s default rule applied to the zone's value (for conformity) and its
+    proven lower bound (for nonconformity); ``u=None`` returns ``result`` unchanged.
+
+    Conformity is proven when the zone's value plus U is within the allowance (tolerance plus the proven
+    bonus), nonconformity when its proven lower bound minus U exceeds the largest allowance; a size outside
+    its limits stays FAIL.
+    """
+    import dataclasses
+
+    from pcmm_geo.uncertainty.conformity import DECISION_RULE_TEXT, decide_conformity
+
+    if u is None:
+        return result
+    details = {**result.details, "expanded_uncertainty_mm": u, "decision_rule": DECISION_RULE_TEXT}
+    if result.details.get("reason") == "size outside its limits":
+        return dataclasses.replace(result, details=details)
+    if "limits_mm" in result.details:
+        low, high = result.details["limits_mm"]
+        verdict = decide_conformity(result.value_mm, u, lower_limit=low, upper_limit=high).verdict
+        return dataclasses.replace(result, verdict=verdict, details=details)
+    allowed_low = result.tolerance_mm + (result.bonus_mm or 0.0)
+    allowed_high = result.tolerance_mm + result.details.get("bonus_high_mm", result.bonus_mm or 0.0)
+    if decide_conformity(result.value_mm, u, upper_limit=allowed_low).verdict == "PASS":
+        verdict = "PASS"
+    elif np.isfinite(result.bound_mm) and decide_conformity(result.bound_mm, u,
+                                                            upper_limit=allowed_high).verdict == "FAIL":
+        verdict = "FAIL"
+    else:
+        verdict = "NOT PROVEN"
+    return dataclasses.replace(result, verdict=verdict, details=details)

@@ -17,6 +17,7 @@ from pcmm_geo.errors import FileFormatError, PcmmGeoError
 from pcmm_geo.gdt.characteristics import (
     CharacteristicResult,
     FeatureData,
+    apply_uncertainty,
     evaluate_flatness,
     evaluate_orientation,
     evaluate_position,
@@ -44,6 +45,7 @@ class PlannedCharacteristic:
     line: int | None
     dimension: dict[str, Any] | None = None
     pattern: str | None = None
+    uncertainty_mm: float | None = None
 
 
 @dataclass(frozen=True)
@@ -217,9 +219,16 @@ def load_plan(path: str | Path) -> InspectionPlan:
     planned = []
     for index, entry in enumerate(doc.get("characteristics", [])):
         keys = ("characteristics", index)
+        u = entry.get("uncertainty_mm") if isinstance(entry, dict) else None
+        if u is not None and (not isinstance(u, (int, float)) or isinstance(u, bool) or not 0 <= u < float("inf")):
+            raise error((*keys, "uncertainty_mm"), f"characteristics[{index}]: uncertainty_mm = {u!r}: expected "
+                        "the expanded uncertainty U >= 0 in mm")
         if isinstance(entry, dict) and "type" in entry:
             name, names, line, dimension = dimension_entry(entry, index, keys, lines, features, datums, error)
-            planned.append(PlannedCharacteristic(name, names[0], None, line, dimension))
+            if u is not None and dimension["type"] == "angle":
+                raise error((*keys, "uncertainty_mm"), f"{name}: uncertainty_mm does not apply to an angle")
+            planned.append(PlannedCharacteristic(name, names[0], None, line, dimension, None,
+                                                 None if u is None else float(u)))
             continue
         if not isinstance(entry, dict) or not isinstance(entry.get("frame"), str):
             raise error((*keys, "frame"), f"characteristics[{index}]: frame = \"...\" is required")
@@ -243,7 +252,8 @@ def load_plan(path: str | Path) -> InspectionPlan:
         if pattern is None and standard == "ASME" and spec.characteristic == "position" and spec.datums \
                 and not entry.get("separate", False):
             pattern = "simultaneous " + "|".join(spec.datums)  # ASME Y14.5-2018 7.19: the default
-        planned.append(PlannedCharacteristic(name, entry["feature"], spec, line, None, pattern))
+        planned.append(PlannedCharacteristic(name, entry["feature"], spec, line, None, pattern,
+                                             None if u is None else float(u)))
     return InspectionPlan(where, standard, part_frame, features, datums, tuple(planned), lines)
 
 
@@ -460,4 +470,6 @@ def inspect_plan(plan: str | Path | InspectionPlan) -> InspectionResult:
         raise FileFormatError(plan.path, f"part.frame: {exc}", plan.lines.get(("part", "frame"))) from None
     for key, drf in frames.frames.items():
         named.setdefault("|".join(key), drf)
-    return InspectionResult(plan, tuple(results[i] for i in range(len(plan.characteristics))), datums, named)
+    ordered = tuple(apply_uncertainty(results[i], plan.characteristics[i].uncertainty_mm)
+                    for i in range(len(plan.characteristics)))
+    return InspectionResult(plan, ordered, datums, named)

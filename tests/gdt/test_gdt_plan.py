@@ -221,3 +221,30 @@ def test_sphere_and_point_datums_leave_rotations_free_and_position_of_a_centre(m
     assert abs(r.value_mm - 2 * 0.03) < 1e-6 and r.verdict == "PASS"
     p = associate_datum(np.array([[1.0, 2.0, 3.0]]), "point", label="P")
     assert np.allclose(p.point, [1, 2, 3]) and build_drf([(p, nominal_of([0, 0, 0], None))]).free == ("rx", "ry", "rz")
+
+
+@pytest.mark.parametrize(("u", "expected"), [(0.0, "PASS"), (0.002, "PASS"), (0.005, "NOT PROVEN")])
+def test_stated_uncertainty_guards_the_verdict_iso_14253_1(tmp_path, u, expected):
+    # flatness of A is 4.000 um against 10 um and parallelism of TOP 21.6 um against 25 um
+    plan = _copy_example(tmp_path)
+    text = plan.read_text()
+    text = text[:text.index('[[characteristics]]\nname = "perpendicularity H1"')]
+    text = text.replace('frame = "parallelism 0.05 | A"', f'frame = "parallelism 0.025 | A"\nuncertainty_mm = {u}')
+    plan.write_text(text)
+    flat, par = inspect_plan(plan).characteristics
+    assert flat.verdict == "PASS" and "expanded_uncertainty_mm" not in flat.details
+    assert par.verdict == expected and par.details["expanded_uncertainty_mm"] == u
+
+
+def test_stated_uncertainty_proves_nonconformity_only_beyond_u(tmp_path):
+    plan = _copy_example(tmp_path)
+    text = plan.read_text()
+    text = text[:text.index('[[characteristics]]\nname = "perpendicularity H1"')]
+    for u, expected in ((0.001, "FAIL"), (0.003, "NOT PROVEN")):  # 21.6 um against 20 um
+        plan.write_text(text.replace('frame = "parallelism 0.05 | A"',
+                                     f'frame = "parallelism 0.020 | A"\nuncertainty_mm = {u}'))
+        assert inspect_plan(plan).characteristics[1].verdict == expected
+    plan.write_text(text.replace('frame = "parallelism 0.05 | A"', 'frame = "parallelism 0.020 | A"\n'
+                                 'uncertainty_mm = -1'))
+    with pytest.raises(FileFormatError, match="uncertainty_mm"):
+        inspect_plan(plan)
