@@ -301,6 +301,11 @@ class _Frames:
             if feature.element == "plane" and cos < 1e-9:
                 perpendicular.append(prior.direction)
                 names.append(f"perpendicular to {prior.label}")
+            elif feature.element == "plane" and prior.element == "cylinder" and cos > 1 - 1e-9:
+                # a face perpendicular to a datum axis (a shoulder): its normal is the axis
+                u, _, _ = np.linalg.svd(np.eye(3) - np.outer(prior.direction, prior.direction))
+                perpendicular += [u[:, 0], u[:, 1]]
+                names.append(f"perpendicular to the axis {prior.label}")
             elif feature.element == "cylinder" and cos > 1 - 1e-9 and parallel is None:
                 parallel = prior.direction
                 names.append(f"parallel to {prior.label}")

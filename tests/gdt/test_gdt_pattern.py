@@ -85,3 +85,31 @@ def test_asme_positions_to_the_same_datums_are_simultaneous_by_default(maker, tm
     plan.write_text("\n".join(lines).replace('frame = "position dia 0.1 | A | B"',
                                              'frame = "position dia 0.1 | A | B"\nseparate = true') + "\n")
     assert [c.verdict for c in inspect_plan(plan).characteristics] == ["PASS", "PASS"]
+
+
+def test_shaft_with_a_shoulder_face_as_secondary_datum(tmp_path):
+    # A: a shaft along z (MCC); B: its shoulder face, normal fixed to A's axis; the DRF leaves rz free
+    from pcmm_geo.gdt import inspect_plan
+
+    rng = np.random.default_rng(5)
+    theta, z = rng.uniform(0, 2 * np.pi, 300), rng.uniform(5, 40, 300)
+    tilt = 3e-4  # the shoulder face leans by 0.3 mrad: its datum plane is still normal to A's axis
+    shaft = np.c_[8 * np.cos(theta), 8 * np.sin(theta), z]
+    rr, phi = rng.uniform(9, 20, 300), rng.uniform(0, 2 * np.pi, 300)
+    face = np.c_[rr * np.cos(phi), rr * np.sin(phi), 5.0 - tilt * rr * np.cos(phi) - 0.001]
+    np.savetxt(tmp_path / "A.csv", shaft, delimiter=",", fmt="%.12f")
+    np.savetxt(tmp_path / "B.csv", face, delimiter=",", fmt="%.12f")
+    plan = tmp_path / "plan.toml"
+    plan.write_text('[features.A]\nelement = "cylinder"\npoints = "A.csv"\npoint = [0, 0, 0]\naxis = [0, 0, 1]\n'
+                    'diameter = 16\n[features.B]\nelement = "plane"\npoints = "B.csv"\nnormal = [0, 0, 1]\n'
+                    'point = [0, 0, 5]\n[datums]\nA = "A"\nB = "B"\n[[characteristics]]\nname = "t"\n'
+                    'feature = "B"\nframe = "⌰ 0.02 | A"\n[part]\nframe = "A|B"\n', encoding="utf-8")
+    result = inspect_plan(plan)
+    b = result.datums["B"]
+    assert "perpendicular to the axis A" in b.constrained_by
+    assert np.allclose(np.abs(b.direction), [0, 0, 1], atol=1e-12)
+    drf = result.frames["A|B"]
+    assert drf.free == ("rz",)
+    # the material is below the face (outward normal +z): the datum plane touches its highest point, and the
+    # nominal B point (0, 0, 5) lands there on A's axis
+    assert abs(drf.origin[2] - (face[:, 2].max() - 5.0)) < 1e-9 and np.hypot(*drf.origin[:2]) < 1e-9
