@@ -108,6 +108,11 @@ class DatumReferenceFrame:
         """Degrees of freedom the datums constrain (the complement of :attr:`free`)."""
         return tuple(name for name in DEGREES_OF_FREEDOM if name not in self.free)
 
+    def to_dict(self) -> dict[str, object]:
+        """JSON-ready: ``datums``, ``standard``, ``origin_mm``, ``axes`` (rows x, y, z), ``free``, ``pivot_mm``."""
+        return {"datums": list(self.datums), "standard": self.standard, "origin_mm": self.origin.tolist(),
+                "axes": self.rotation.tolist(), "free": list(self.free), "pivot_mm": self.pivot.tolist()}
+
     def to_frame(self, points: ArrayLike) -> FloatArray:
         """Measurement coordinates (N, 3) or (3,) -> DRF coordinates, same shape, mm."""
         return (np.asarray(points, dtype=float) - self.origin) @ self.rotation.T

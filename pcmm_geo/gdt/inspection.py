@@ -94,8 +94,7 @@ class InspectionResult:
             "plan": self.plan.path, "standard": self.plan.standard,
             "characteristics": [c.to_dict() for c in self.characteristics],
             "datums": {k: v.to_dict() for k, v in self.datums.items()},
-            "frames": {k: {"datums": list(f.datums), "origin_mm": f.origin.tolist(), "axes": f.rotation.tolist(),
-                           "free": list(f.free)} for k, f in self.frames.items()},
+            "frames": {k: f.to_dict() for k, f in self.frames.items()},
         }
 
 
