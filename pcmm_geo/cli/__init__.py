@@ -37,6 +37,7 @@ COMMAND_MODULES = (
     "measurement_commands.uncertainty",
     "measurement_commands.batch",
     "measurement_commands.qif",
+    "inspection_commands.inspect",
 )
 
 
