@@ -16,7 +16,11 @@ Public API (names load on first use):
   :func:`evaluate_profile` (:mod:`~pcmm_geo.gdt.profile`); :func:`evaluate_coordinate`,
   :func:`evaluate_distance`, :func:`evaluate_angle`, :func:`feature_location` (:mod:`~pcmm_geo.gdt.dimensions`);
 - :func:`parse_frame`, :class:`FrameSpec` (:mod:`~pcmm_geo.gdt.plan`); :func:`load_plan`,
-  :func:`inspect_plan`, :class:`InspectionPlan`, :class:`InspectionResult` (:mod:`~pcmm_geo.gdt.inspection`).
+  :func:`inspect_plan`, :class:`InspectionPlan`, :class:`InspectionResult` (:mod:`~pcmm_geo.gdt.inspection`);
+- the second opinion on a QIF file's characteristics (:mod:`~pcmm_geo.gdt.qif`):
+  :func:`verify_characteristics`, :class:`CharacteristicCheck`, :class:`CharacteristicVerification`
+  and the statuses :data:`AGREES`, :data:`DISAGREES`, :data:`NOT_COMPUTABLE`; frames from feature actuals
+  :func:`datum_frame`, :func:`frame_map`, :class:`DatumFrame`, :class:`FrameMap`, :class:`DatumFeatureGeometry`.
 """
 
 from __future__ import annotations
@@ -57,6 +61,18 @@ _LAZY = {
     "PlannedCharacteristic": "inspection",
     "inspect_plan": "inspection",
     "load_plan": "inspection",
+    "AGREES": "qif.characteristics",
+    "DISAGREES": "qif.characteristics",
+    "NOT_COMPUTABLE": "qif.characteristics",
+    "DEFAULT_FRACTION": "qif.characteristics",
+    "CharacteristicCheck": "qif.characteristics",
+    "CharacteristicVerification": "qif.characteristics",
+    "verify_characteristics": "qif.characteristics",
+    "DatumFeatureGeometry": "qif.frames",
+    "DatumFrame": "qif.frames",
+    "FrameMap": "qif.frames",
+    "datum_frame": "qif.frames",
+    "frame_map": "qif.frames",
 }
 
 __all__ = sorted(_LAZY)

@@ -16,9 +16,9 @@ from scipy.spatial.transform import Rotation
 
 from pcmm_geo.cli import main
 from pcmm_geo.errors import InvalidInputError
-from pcmm_geo.gdt.qif_characteristics import verify_characteristics
-from pcmm_geo.gdt.qif_frames import DatumFeatureGeometry, datum_frame, frame_map
-from pcmm_geo.gdt.qif_orientation import thinnest_width_perpendicular_to
+from pcmm_geo.gdt.qif.characteristics import verify_characteristics
+from pcmm_geo.gdt.qif.frames import DatumFeatureGeometry, datum_frame, frame_map
+from pcmm_geo.gdt.qif.orientation import thinnest_width_perpendicular_to
 from pcmm_geo.io.cmm import read_qif
 
 SAMPLES = Path(__file__).resolve().parents[1] / "data" / "qif" / "samples"

@@ -320,9 +320,9 @@ def _handle_verify(args: argparse.Namespace) -> Report:
 
 
 def _verify_characteristics(args: argparse.Namespace, document: Any, compensated: bool | None) -> Any:
-    """Second opinion on the characteristics (:func:`pcmm_geo.gdt.qif_characteristics.verify_characteristics`)."""
+    """Second opinion on the characteristics (:func:`pcmm_geo.gdt.qif.characteristics.verify_characteristics`)."""
     from pcmm_geo.errors import InvalidInputError
-    from pcmm_geo.gdt.qif_characteristics import DEFAULT_FRACTION, verify_characteristics
+    from pcmm_geo.gdt.qif.characteristics import DEFAULT_FRACTION, verify_characteristics
 
     fraction = DEFAULT_FRACTION if args.characteristic_fraction is None else args.characteristic_fraction
     if not 0.0 < fraction <= 1.0:  # also refuses nan

@@ -10,7 +10,7 @@ A QIF datum reference frame (``DatumReferenceFrame``) lists its datums with thei
   feature nominal (or measurement) id;
 - ``CompoundDatum``: several datums used together (``A-B``).
 
-Nothing here computes: :mod:`pcmm_geo.gdt.qif_frames` builds a frame from these records and the
+Nothing here computes: :mod:`pcmm_geo.gdt.qif.frames` builds a frame from these records and the
 feature actuals.  An empty ``DatumReferenceFrame`` (files write one for "no datums": the
 characteristic is evaluated in the file's coordinate system) reads as a frame with no datums.
 """

@@ -1,10 +1,10 @@
-"""The recomputations behind :func:`~pcmm_geo.gdt.qif_characteristics.verify_characteristics`, one per type.
+"""The recomputations behind :func:`~pcmm_geo.gdt.qif.characteristics.verify_characteristics`, one per type.
 
 Each takes a characteristic measurement of a :class:`~pcmm_geo.io.cmm.CmmDocument`, the
 definitions of :func:`~pcmm_geo.io.cmm.qif.characteristic_definitions.read_qif_definitions`
 and the feature actuals, and returns a :class:`Recomputation`: the value (mm or rad) and how
 it was obtained, or None and why not.  The definitions are stated in
-:mod:`pcmm_geo.gdt.qif_characteristics`.
+:mod:`pcmm_geo.gdt.qif.characteristics`.
 """
 
 from __future__ import annotations
@@ -15,7 +15,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from pcmm_geo.gdt.qif_frames import AXIS_TYPES, PLANE_TYPES, POINT_TYPES, DatumFeatureGeometry, FrameMap, frame_map
+from pcmm_geo.gdt.qif.frames import AXIS_TYPES, PLANE_TYPES, POINT_TYPES, DatumFeatureGeometry, FrameMap, frame_map
 
 if TYPE_CHECKING:
     from pcmm_geo.io.cmm import Characteristic, CmmDocument, FeatureGeometry, MeasuredFeature

@@ -12,7 +12,7 @@ Definitions (mm and rad; ISO 1101 / ASME Y14.5 where a zone is involved):
   width: the actual's width;
 - position (ISO 1101 §18.12, ASME Y14.5 §10): the actual location is put into the part's
   coordinates by the datum reference frame built from the datum features' actuals
-  (:mod:`pcmm_geo.gdt.qif_frames`); a diametrical zone of an axis (cylinder, circle, cone) gives
+  (:mod:`pcmm_geo.gdt.qif.frames`); a diametrical zone of an axis (cylinder, circle, cone) gives
   ``2 |d_perp|``, the deviation perpendicular to the nominal axis; a spherical zone or a point,
   sphere ``2 |d|``; a planar zone of a plane-like feature ``2 |d . n|``.  With points, ``d`` is
   taken at the refitted centre, or at both ends of the refitted axis over its points' extent
@@ -48,8 +48,8 @@ from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any
 
 from pcmm_geo.errors import InvalidInputError, PcmmGeoError
-from pcmm_geo.gdt.qif_measures import Recomputation, recompute
-from pcmm_geo.gdt.qif_orientation import orientation
+from pcmm_geo.gdt.qif.measures import Recomputation, recompute
+from pcmm_geo.gdt.qif.orientation import orientation
 
 if TYPE_CHECKING:
     from pcmm_geo.io.cmm import Characteristic, CmmDocument

@@ -27,8 +27,8 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from pcmm_geo.gdt.qif_frames import AXIS_TYPES, PLANE_TYPES
-from pcmm_geo.gdt.qif_measures import NotComputable, Recomputation, datum_substitutes
+from pcmm_geo.gdt.qif.frames import AXIS_TYPES, PLANE_TYPES
+from pcmm_geo.gdt.qif.measures import NotComputable, Recomputation, datum_substitutes
 
 if TYPE_CHECKING:
     from pcmm_geo.io.cmm import Characteristic, CmmDocument, MeasuredFeature
