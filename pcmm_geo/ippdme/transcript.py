@@ -59,6 +59,10 @@ def _utc() -> str:
     return datetime.now(UTC).strftime("%Y-%m-%dT%H:%M:%S.%f")[:-3] + "Z"
 
 
+def _line(obj: Mapping[str, Any]) -> str:
+    return json.dumps(obj, separators=(",", ":"), allow_nan=True) + "\n"
+
+
 class Transcript:
     """Append-only, fsync'ed JSON-lines transcript (see the module notes); ``None`` path: records are dropped."""
 
@@ -70,21 +74,34 @@ class Transcript:
         self._t0 = time.monotonic()
         if self.path is None:
             return
-        if self.path.exists() and not overwrite:
-            raise OutputExistsError(str(self.path))
         from pcmm_geo import __version__
 
+        from pcmm_geo._atomic import current_transaction
+
+        transaction = current_transaction()
+        if transaction is not None:  # a command's output: an allowed old file is moved aside, restorable
+            transaction.claim(self.path, overwrite=overwrite)
+            overwrite = False
+        self.path.parent.mkdir(parents=True, exist_ok=True)
         flags = os.O_WRONLY | os.O_CREAT | (os.O_TRUNC if overwrite else os.O_EXCL)
-        fd = os.open(self.path, flags, 0o644)
+        try:
+            fd = os.open(self.path, flags, 0o644)
+        except FileExistsError:
+            raise OutputExistsError(str(self.path)) from None
         self._handle = os.fdopen(fd, "w", encoding="utf-8", newline="\n")
         header = {"schema": TRANSCRIPT_SCHEMA, "created_utc": _utc(), "software": f"pcmm_geo {__version__}",
                   "settings": dict(settings)}
         self._write(header)
+        if transaction is not None:  # session records are a record: a failing command keeps them
+            transaction.keep_on_failure(self.path, self._kept, header_bytes=len(_line(header).encode("utf-8")))
         fsync_folder(self.path.parent)
+
+    def _kept(self) -> str | None:
+        return f"{self._seq} session records" if self._seq else None
 
     def _write(self, obj: Mapping[str, Any]) -> None:
         assert self._handle is not None
-        text = json.dumps(obj, separators=(",", ":"), allow_nan=True) + "\n"
+        text = _line(obj)
         with deferred():
             self._handle.write(text)
             self._handle.flush()
@@ -179,9 +196,7 @@ def measured_points(records: list[dict[str, Any]], *, conn: int | None = None) -
 
 def write_points_csv(path: str | os.PathLike[str], points: NDArray[np.float64], *, overwrite: bool = False) -> Path:
     """Write ``x,y,z`` rows (mm, 9 decimals) that :func:`pcmm_geo.io.read_points` and ``pcmm fit`` read."""
-    out = Path(path)
-    if out.exists() and not overwrite:
-        raise OutputExistsError(str(out))
+    from pcmm_geo._atomic import write_atomic
+
     text = "".join(f"{x:.9f},{y:.9f},{z:.9f}\n" for x, y, z in np.asarray(points, float).reshape(-1, 3))
-    out.write_text(text, encoding="utf-8")
-    return out
+    return write_atomic(Path(path), text, overwrite=overwrite)
