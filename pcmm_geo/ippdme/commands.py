@@ -9,7 +9,7 @@ transaction complete.
 from __future__ import annotations
 
 from collections.abc import Awaitable, Callable
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
 import numpy as np
 
@@ -17,12 +17,11 @@ from pcmm_geo.ippdme.machine import MoveRefused
 from pcmm_geo.ippdme.protocol import Command, EventTag, Name, Property, Text, format_number
 from pcmm_geo.ippdme.state import CSY_NAMES, TRANSFORM_NAMES
 
-if TYPE_CHECKING:  # pragma: no cover
-    from pcmm_geo.ippdme.session import Session
-
+#: the session a handler runs in (:class:`pcmm_geo.ippdme.session.Session`; not imported: it imports this module)
+Session = Any
 __all__ = ["HANDLERS", "KNOWN_METHODS", "CommandError"]
 
-Handler = Callable[["Session", Command], Awaitable[None]]
+Handler = Callable[[Any, Command], Awaitable[None]]
 #: items allowed in OnPtMeasReport (spec §6.3.2.6) and in Get / OnMoveReportE
 _REPORT_ITEMS = ("X", "Y", "Z", "IJK", "ER", "Q", "Tool.A", "Tool.B", "Tool.C")
 _POSITION_ITEMS = ("X", "Y", "Z", "Tool.A", "Tool.B", "Tool.C")
@@ -260,7 +259,10 @@ async def ptmeas(s: Session, cmd: Command) -> None:
         else:
             parts.append(f"{item}({format_number(0.0)})")
     await s.data(cmd, ", ".join(parts))
-    await s.travel(result.retract_position, tool.goto.values["Speed"].act)
+    # a retract between the contact and the approach point stays on the path just travelled
+    on_path = float(np.linalg.norm(result.retract_position - s.machine.position)) <= float(
+        np.linalg.norm(start - s.machine.position)) + 1e-9
+    await s.travel(result.retract_position, tool.goto.values["Speed"].act, check=not on_path)
 
 
 # ---------------------------------------------------------------------------------------- tools
@@ -413,7 +415,8 @@ KNOWN_METHODS = frozenset({
     "ScanOnCircleHint", "ScanOnLine", "ScanOnLineHint", "ScanInPlaneEndIsSphere", "ScanInPlaneEndIsPlane",
     "ScanInPlaneEndIsCyl", "ScanInCylEndIsSphere", "ScanInCylEndIsPlane", "ScanInCylEndIsCyl", "ScanUnknownHint",
     "ScanUnknownDensity", "ScanOnCurve", "ScanOnCurveHint", "ScanOnCurveDensity", "ScanOnHelix", "GoToE",
-    "PtMeasE", "ChangeToolE", "KeyPressE", "Tool", "FoundTool", "GoToPar", "PtMeasPar", "ScanPar", "SaveActiveCoordSystem",
+    "PtMeasE", "ChangeToolE", "KeyPressE", "Tool", "FoundTool", "GoToPar", "PtMeasPar", "ScanPar",
+    "SaveActiveCoordSystem",
     "LoadCoordSystem", "SaveCoordSystem", "DeleteCoordSystem", "EnumCoordSystems", "GetNamedCsyTransformation",
     "SetNamedCsyTransformation", "IJK", "X", "Y", "Z", "R", "ER", "Q",
 }) | frozenset(HANDLERS)

@@ -174,11 +174,14 @@ class SimulatedMachine:
         solution = machine.forward(heights=heights, lasers_hint=machine.reference_lasers, check_limits=False)
         return np.asarray(solution.tip, dtype=float).reshape(3)
 
-    def heights_for(self, tips: ArrayLike) -> FloatArray:
-        """Column heights ``(..., 3)`` the controller commands for tip centres, refusing unreachable ones (2500)."""
+    def heights_for(self, tips: ArrayLike, *, check: bool = True) -> FloatArray:
+        """Column heights ``(..., 3)`` the controller commands for tip centres, refusing unreachable ones (2500).
+
+        ``check=False`` solves without the workspace limits (points already checked).
+        """
         tips = np.asarray(tips, dtype=float)
         try:
-            solution = self.model.machine.inverse(tips)
+            solution = self.model.machine.inverse(tips, check_limits=check)
         except PcmmGeoError as exc:
             raise MoveRefused(2500, str(exc).splitlines()[0][:200]) from None
         if not np.all(solution.converged):
@@ -193,7 +196,7 @@ class SimulatedMachine:
     def collision(self, start: FloatArray, end: FloatArray) -> FloatArray | None:
         """Where a straight move's ball first touches a workpiece (None: free path)."""
         s = first_contact(self.workpieces, start, end, self.true_radius)
-        if s is None or s == 0.0 and np.linalg.norm(end - start) == 0:
+        if s is None or (s == 0.0 and np.linalg.norm(end - start) == 0):
             return None
         if s == 0.0:
             # already touching: moving away is free, pushing in is a collision
@@ -239,7 +242,7 @@ class SimulatedMachine:
         out: list[Any] = [None] * len(nominals)
         try:
             # physical minus commanded tip centre: smooth, constant to ~1e-5 mm over a search path
-            shift = self._true_pose(self.heights_for(c0))[0] - c0
+            shift = self._true_pose(self.heights_for(c0, check=False))[0] - c0
         except MoveRefused as exc:
             return [exc] * len(nominals)
         commanded = np.empty_like(c0)
@@ -275,7 +278,7 @@ class SimulatedMachine:
                 point=tips[k] - r_cal * directions[i], tip=tips[k], direction=directions[i], lasers=lasers[k],
                 heights=read_heights[k], effective_radius=r_cal, tip_uncertainty=float(u_both[k]),
                 laser_only_tip_uncertainty=float(u_lasers[k]),
-                poorly_resolved=bool(u_lasers[k] > self.max_tip_uncertainty) or np.isinf(u_lasers[k]),
+                poorly_resolved=bool(u_lasers[k] > self.max_tip_uncertainty or np.isinf(u_lasers[k])),
                 true_tip=true_tip[k],
             )
             out[i] = _Probed(result, commanded[i])

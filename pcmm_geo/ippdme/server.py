@@ -96,7 +96,7 @@ class DmeServer:
         reason = "closed by the client"
         try:
             reason = await self._read_loop(conn, reader, session, send, worker)
-        except (ConnectionError, asyncio.TimeoutError, OSError) as exc:
+        except (TimeoutError, ConnectionError, OSError) as exc:
             reason = f"dropped: {type(exc).__name__}"
         except asyncio.CancelledError:  # the server is stopping: end this client quietly
             reason = "server stopped"
@@ -114,7 +114,11 @@ class DmeServer:
                          send: Callable[[str], Any], worker: asyncio.Task[None]) -> str:
         while True:
             read = asyncio.ensure_future(reader.readuntil(b"\n"))
-            done, _ = await asyncio.wait({read, worker}, return_when=asyncio.FIRST_COMPLETED)
+            try:
+                done, _ = await asyncio.wait({read, worker}, return_when=asyncio.FIRST_COMPLETED)
+            except asyncio.CancelledError:
+                read.cancel()
+                raise
             if worker in done:  # the worker died (a client that does not read): drop the connection
                 read.cancel()
                 exc = worker.exception()

@@ -186,6 +186,11 @@ class Session:
                 error = CommandError(6)
             except MoveRefused as exc:
                 error = CommandError(exc.number, exc.detail)
+            except (TimeoutError, ConnectionError, asyncio.CancelledError):
+                raise
+            except Exception as exc:  # a fault of the server itself: answered, recorded, the session goes on
+                self.record("fault", method=cmd.method, error=f"{type(exc).__name__}: {exc}"[:500])
+                error = CommandError(511, type(exc).__name__)
         if error is not None:
             self._note(error.number, error.detail)
             await self._send(format_error(cmd.tag, error.number, cmd.method, error.detail))

@@ -75,7 +75,6 @@ class Transcript:
         if self.path is None:
             return
         from pcmm_geo import __version__
-
         from pcmm_geo._atomic import current_transaction
 
         transaction = current_transaction()
@@ -195,8 +194,8 @@ def measured_points(records: list[dict[str, Any]], *, conn: int | None = None) -
 
 
 def write_points_csv(path: str | os.PathLike[str], points: NDArray[np.float64], *, overwrite: bool = False) -> Path:
-    """Write ``x,y,z`` rows (mm, 9 decimals) that :func:`pcmm_geo.io.read_points` and ``pcmm fit`` read."""
+    """Write an ``x,y,z`` header and rows (mm, 9 decimals) for :func:`pcmm_geo.io.read_points` and ``pcmm fit``."""
     from pcmm_geo._atomic import write_atomic
 
-    text = "".join(f"{x:.9f},{y:.9f},{z:.9f}\n" for x, y, z in np.asarray(points, float).reshape(-1, 3))
+    text = "x,y,z\n" + "".join(f"{x:.9f},{y:.9f},{z:.9f}\n" for x, y, z in np.asarray(points, float).reshape(-1, 3))
     return write_atomic(Path(path), text, overwrite=overwrite)

@@ -26,7 +26,7 @@ def test_scripted_session_then_vanishing_client_then_new_session(model, center) 
         home = c.send("Get(X(), Y(), Z())").values()
         np.testing.assert_allclose([home["X"][0], home["Y"][0], home["Z"][0]], server.machine.home_position, atol=2e-6)
         assert c.send("EnumTools()").data == ['"RefTool"', '"NoTool"', '"Probe1"']
-        target = center + [3.0, -2.0, 20.0]
+        target = center + np.array([3.0, -2.0, 20.0])
         assert c.send(f"GoTo(X({num(target[0])}), Y({num(target[1])}), Z({num(target[2])}))").errors == []
         where = c.send("Get(X(), Y(), Z())").values()
         np.testing.assert_allclose([where["X"][0], where["Y"][0], where["Z"][0]], target, atol=2e-6)
@@ -40,7 +40,7 @@ def test_scripted_session_then_vanishing_client_then_new_session(model, center) 
         c.send("ClearAllErrors()")
         assert c.send("IsHomed()").data == ["IsHomed(1)"]
         # the session goes on: a probing on the sphere's top
-        top = center + [0.0, 0.0, 10.0]
+        top = center + np.array([0.0, 0.0, 10.0])
         reply = c.send(f"PtMeas(X({num(top[0])}), Y({num(top[1])}), Z({num(top[2])}), IJK(0,0,1))")
         assert reply.errors == []
         z = reply.values()["Z"][0]
@@ -56,7 +56,7 @@ def test_scripted_session_then_vanishing_client_then_new_session(model, center) 
         c.send("StartSession()")
         server.machine.homed = True  # homed by an earlier session (the 40 mm homing travel would take 4 s here)
         c.send("SetProp(Tool.GoToPar.Speed(1))")
-        far = server.machine.position + [0.0, 0.0, -5.0]
+        far = server.machine.position + np.array([0.0, 0.0, -5.0])
         c.raw(f"00100 GoTo(Z({num(far[2])}))\r\n".encode())
         assert c.readline() == "00100 &"
         time.sleep(0.5)
@@ -94,8 +94,9 @@ def test_hostile_lines_overlong_binary_flood(model, center) -> None:
     with running_server(model, [SphereWorkpiece(center, 20.0)]) as server:
         c = IppClient(server.port)
         c.send("StartSession()")
-        for bad, number in ((b"0001 Home()", 1), (b"00001Home()", 2), (b"00002 Home(", 502), (b"00003 GoTo(X(1e999))", 502),
-                            (b"00004 GoTo(X(12345678901234567))", 502), (b"E0000 Home()", 1), (b"00005 Home()\x00", 7)):
+        hostile = ((b"0001 Home()", 1), (b"00001Home()", 2), (b"00002 Home(", 502), (b"00003 GoTo(X(1e999))", 502),
+                   (b"00004 GoTo(X(12345678901234567))", 502), (b"E0000 Home()", 1), (b"00005 Home()\x00", 7))
+        for bad, number in hostile:
             c.raw(bad + b"\r\n")
             lines = []
             while not any(" ! " in x for x in lines):
