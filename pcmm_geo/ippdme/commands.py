@@ -112,7 +112,7 @@ async def get_dme_version(s: Session, cmd: Command) -> None:
 
 async def get_machine_class(s: Session, cmd: Command) -> None:
     _no_args(cmd)
-    await s.data(cmd, "GetMachineClass(CartCMM)")
+    await s.data(cmd, 'GetMachineClass("CartCMM")')
 
 
 async def enable_user(s: Session, cmd: Command) -> None:
@@ -175,6 +175,8 @@ async def get(s: Session, cmd: Command) -> None:
     for arg in cmd.args:
         if not isinstance(arg, Property) or arg.values or arg.name not in _POSITION_ITEMS:
             raise CommandError(509, f"Get takes X(), Y(), Z(), Tool.A(), Tool.B(), Tool.C(); got {arg!r}")
+        if arg.name in names:  # an enumeration names each item once (spec 6.1.3)
+            raise CommandError(509, f"{arg.name}() appears twice")
         names.append(arg.name)
     if not names:
         raise CommandError(509, "Get needs at least one item")
@@ -189,7 +191,7 @@ async def on_move_report(s: Session, cmd: Command) -> None:
                 interval = max(0.1, arg.values[0])
             else:
                 distance = arg.values[0]
-        elif isinstance(arg, Property) and not arg.values and arg.name in _POSITION_ITEMS:
+        elif isinstance(arg, Property) and not arg.values and arg.name in _POSITION_ITEMS and arg.name not in items:
             items.append(arg.name)
         else:
             raise CommandError(510, f"OnMoveReportE takes Time(s), Dis(mm) and X(), Y(), Z(); got {arg!r}")
@@ -392,7 +394,7 @@ async def align_tool(s: Session, cmd: Command) -> None:
         if not np.linalg.norm(second) > 0:
             raise CommandError(1010, "second vector")
         out += list(second / np.linalg.norm(second))
-    await s.data(cmd, f"AlignTool({', '.join(format_number(v) for v in out)})")
+    await s.data(cmd, f"({', '.join(format_number(v) for v in out)})")
 
 
 HANDLERS: dict[str, Handler] = {

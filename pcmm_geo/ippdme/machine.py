@@ -190,7 +190,9 @@ class SimulatedMachine:
 
     def check_path(self, start: FloatArray, end: FloatArray) -> None:
         """Refuse (2500) a straight move whose path leaves the workspace (checked every 5 mm)."""
-        count = max(2, int(np.ceil(np.linalg.norm(end - start) / _PATH_CHECK_MM)) + 1)
+        self.heights_for(np.asarray(end, dtype=float)[None])  # the target first: a far one costs one solve
+        # both ends reachable: the path is within the workspace's size (a few hundred mm), so few samples
+        count = min(400, max(2, int(np.ceil(np.linalg.norm(end - start) / _PATH_CHECK_MM)) + 1))
         self.heights_for(start + np.linspace(0.0, 1.0, count)[:, None] * (end - start))
 
     def collision(self, start: FloatArray, end: FloatArray) -> FloatArray | None:

@@ -67,7 +67,7 @@ ERRORS: dict[int, tuple[int, str]] = {
     1502: (3, "Tool not found"),
     2002: (3, "Type of probe does not allow this operation"),
     1503: (3, "Tool not defined"),
-    2500: (3, "Machine limit encountered (Move Out Of Limits)"),
+    2500: (3, "Machine limit encountered [Move Out Of Limits]"),
     2504: (3, "Collision"),
 }
 
@@ -141,14 +141,15 @@ def format_number(value: float) -> str:
     return "0.000000" if text == "-0.000000" else text
 
 
-def format_error(tag: str, number: int, method: str, detail: str = "") -> str:
-    """``TTTTT ! Error(severity, nnnn, "method", "text")`` for a spec error number (quotes removed from text)."""
+def format_error(tag: str, number: int, method: str) -> str:
+    """``TTTTT ! Error(severity, nnnn, "method", "text")`` for a spec error number.
+
+    The text is the spec's own for the number (§8.2): clients and the NIST response parser
+    check it; the server's details go to the transcript.
+    """
     severity, text = ERRORS.get(number, (3, "Error"))
-    if detail:
-        text = f"{text}: {detail}"
-    clean = "".join(ch for ch in text if 32 <= ord(ch) <= 126 and ch != '"')[:400]
     method = "".join(ch for ch in method if ch.isalnum())[:64] or "Server"
-    return f'{tag} ! Error({severity}, {number:04d}, "{method}", "{clean}")'
+    return f'{tag} ! Error({severity}, {number:04d}, "{method}", "{text}")'
 
 
 def parse_command(raw: bytes) -> Command:

@@ -74,7 +74,7 @@ class DmeServer:
         peer = str(writer.get_extra_info("peername"))
         if self._holder is not None:
             self.transcript.record(conn, "rejected", peer=peer, holder=self._holder)
-            line = format_error(SERVER_TAG, 8, "Connect", "another client holds the server; try again later")
+            line = format_error(SERVER_TAG, 8, "Connect")  # another client holds the server
             with contextlib.suppress(Exception):
                 writer.write(line.encode("ascii") + b"\r\n")
                 await asyncio.wait_for(writer.drain(), 2.0)
@@ -121,7 +121,7 @@ class DmeServer:
                 raise
             if worker in done:  # the worker died (a client that does not read): drop the connection
                 read.cancel()
-                exc = worker.exception()
+                exc = None if worker.cancelled() else worker.exception()
                 return f"dropped: {type(exc).__name__ if exc else 'worker ended'}"
             try:
                 raw = read.result()
@@ -130,14 +130,24 @@ class DmeServer:
                     self.transcript.record(conn, "in", line=_printable(exc.partial), complete=False)
                 return "closed by the client"
             except asyncio.LimitOverrunError:
-                self.transcript.record(conn, "refused", number=8, detail="line too long")
-                await send(format_error(SERVER_TAG, 8, "Server", f"line longer than {MAX_LINE_BYTES} bytes"))
+                self.transcript.record(conn, "error", number=8, detail=f"line longer than {MAX_LINE_BYTES} bytes")
+                await send(format_error(SERVER_TAG, 8, "Server"))
                 return "closed: line too long"
             raw = raw[:-1]
             if raw.endswith(b"\r"):
                 raw = raw[:-1]
             self.transcript.record(conn, "in", line=_printable(raw))
-            await session.receive(raw)
+            received = asyncio.ensure_future(session.receive(raw))  # may wait for room in the command queue
+            try:
+                await asyncio.wait({received, worker}, return_when=asyncio.FIRST_COMPLETED)
+            except asyncio.CancelledError:
+                received.cancel()
+                raise
+            if not received.done():  # the worker died while the queue was full: drop the connection
+                received.cancel()
+                exc = None if worker.cancelled() else worker.exception()
+                return f"dropped: {type(exc).__name__ if exc else 'worker ended'}"
+            received.result()
 
     @staticmethod
     async def _close(writer: asyncio.StreamWriter) -> None:

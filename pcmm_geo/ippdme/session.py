@@ -116,10 +116,13 @@ class Session:
     async def warn(self, cmd: Command, number: int, detail: str = "") -> None:
         """Send an error line without stopping the command (severity 0 or 1 warnings such as 0504)."""
         self._note(number, detail)
-        await self._send(format_error(cmd.tag, number, cmd.method, detail))
+        await self._send(format_error(cmd.tag, number, cmd.method))
 
     def _note(self, number: int, detail: str) -> None:
+        """Keep an error for GetXtdErrStatus, enter the error state (severity >= 2), transcript the detail."""
         severity, text = ERRORS.get(number, (3, "Error"))
+        if detail:
+            self.record("error", number=number, detail=detail[:500])
         if severity >= 2:
             self.error_severity = max(self.error_severity, severity)
         self.errors = ([*self.errors, (number, text)])[-_ERROR_MEMORY:]
@@ -130,12 +133,11 @@ class Session:
         try:
             cmd = parse_command(raw)
         except ProtocolError as exc:
-            self.record("refused", number=exc.number, detail=exc.detail)
             tag = exc.tag or SERVER_TAG
             if exc.tag:
                 await self._send(f"{tag} &")
             self._note(exc.number, exc.detail)
-            await self._send(format_error(tag, exc.number, exc.method, exc.detail))
+            await self._send(format_error(tag, exc.number, exc.method))
             if exc.tag:
                 await self._send(f"{tag} %")
             return
@@ -193,7 +195,7 @@ class Session:
                 error = CommandError(511, type(exc).__name__)
         if error is not None:
             self._note(error.number, error.detail)
-            await self._send(format_error(cmd.tag, error.number, cmd.method, error.detail))
+            await self._send(format_error(cmd.tag, error.number, cmd.method))
         await self._send(f"{cmd.tag} %")
 
     async def _abort_all(self) -> None:

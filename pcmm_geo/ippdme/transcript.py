@@ -18,8 +18,11 @@ and ``kind``:
     (``lasers_mm``, ``heights_mm`` -- the quantities of a seed Table 3.2 row), the tip
     uncertainty, ``poorly_resolved``, and the simulation's truth (``true_tip_mm``); or the
     refusal (``error``, ``detail``);
-``refused``
-    a line the parser refused.
+``error``
+    the server's detail of an error it answered (``number``, ``detail``; the wire carries the
+    spec's text only);
+``fault``
+    an unexpected failure inside the server, answered with 0511 (the session goes on).
 
 Durability as the acquisition log (:mod:`pcmm_geo.acquisition.acqlog`): a new file is created
 exclusively (its folder fsync'ed), each record is one ``write``, ``flush`` and ``os.fsync`` with
