@@ -233,7 +233,8 @@ class SimulatedMachine:
                    search: float, *, diagnostics: bool = True) -> list[Any]:
         """Probings of ``N`` nominal points ``(N, 3)`` along outward unit ``directions`` ``(N, 3)``, batched.
 
-        Returns per point a :class:`_Probed` or the :class:`MoveRefused` it met.  The machine's
+        Returns per point the probing (``.result``, a :class:`ProbeResult`; ``.tip_commanded``) or the
+        :class:`MoveRefused` it met.  The machine's
         position is not changed (the caller moves it); the noise is drawn in point order.
         ``diagnostics=False`` skips the tip uncertainties (NaN, never flagged): same points, faster.
         """

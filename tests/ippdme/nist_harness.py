@@ -6,7 +6,7 @@ holding ``testSuiteUtilities/`` and ``standAloneTestSuiteComponents/``).  The su
 response parser (``ParserResPC/source``) is compiled with g++ and reads the responses in the
 suite's ``.res`` layout (each response, CR LF, ``\\\\`` CR LF; ``:`` ends the file).
 
-Run as a script for the counts quoted in docs/guide/ippdme.md::
+Run as a script for the counts quoted in docs/guide/ippdme.rst::
 
     PYTHONPATH=. python tests/ippdme/nist_harness.py /path/to/nistippdmetestsuite
 """

@@ -139,7 +139,7 @@ def _coverage(errors: np.ndarray, u: float) -> None:
 def test_sphere_diameter_error_within_stated_u_in_95_percent_of_seeded_machines(model, center) -> None:
     """Same physics as the server's PtMeas (:meth:`SimulatedMachine.probe_many`), 30 true machines.
 
-    The recorded run over 1000 machines is in docs/guide/ippdme.md.
+    The recorded run over 1000 machines is in docs/guide/ippdme.rst.
     """
     normals = spiral(25)
     contacts = center + DIAMETER / 2 * normals

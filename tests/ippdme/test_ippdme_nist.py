@@ -2,7 +2,7 @@
 
 Runs only with a local copy of the suite (``PCMM_IPPDME_NIST_SUITE``, see nist_harness.py) and
 g++; the suite's files are not part of this repository.  The counts are recorded in
-docs/guide/ippdme.md.
+docs/guide/ippdme.rst.
 """
 
 from __future__ import annotations
