@@ -162,3 +162,68 @@ def test_abort_stops_a_move_and_requires_clear_all_errors(model, center) -> None
         assert c.send("StopAllDaemons()").numbers == [512]  # a warning (severity 1): no error state
         assert c.send("IsHomed()").errors == []
         c.close()
+
+
+def _rotation(theta: float, psi: float, phi: float) -> np.ndarray:
+    """Spec §6.3.3: x''' = R(phi) R(theta) R(psi) x, written out here independently (degrees in)."""
+    t, p, f = np.radians([theta, psi, phi])
+    r_psi = np.array([[np.cos(p), np.sin(p), 0], [-np.sin(p), np.cos(p), 0], [0, 0, 1]])
+    r_theta = np.array([[1, 0, 0], [0, np.cos(t), np.sin(t)], [0, -np.sin(t), np.cos(t)]])
+    r_phi = np.array([[np.cos(f), np.sin(f), 0], [-np.sin(f), np.cos(f), 0], [0, 0, 1]])
+    return r_phi @ r_theta @ r_psi
+
+
+def test_part_coordinate_system_tools_and_properties(model, center) -> None:
+    with running_server(model, [SphereWorkpiece(center, 20.0)]) as server:
+        c = IppClient(server.port)
+        c.send("StartSession()")
+        c.send("Home()")
+        origin, angles = np.array([-10.0, 2.0, 80.0]), (30.0, 400.0, -20.0)
+        reply = c.send(f"SetCsyTransformation(PartCsy, {', '.join(num(v) for v in (*origin, *angles))})")
+        assert reply.errors == []
+        back = c.send("GetCsyTransformation(PartCsy)").values()["GetCsyTransformation"]
+        np.testing.assert_allclose(back, [*origin, 30.0, 40.0, 340.0], atol=1e-6)  # Psi, Phi modulo 360
+        assert c.send("SetCsyTransformation(PartCsy, 0, 0, 0, 181, 0, 0)").numbers == [1007]
+        c.send("ClearAllErrors()")
+        assert c.send("SetCoordSystem(PartCsy)").errors == []
+        assert c.send("GetCoordSystem()").data == ["CoordSystem(PartCsy)"]
+        rotation = _rotation(30.0, 40.0, 340.0)
+        got = c.send("Get(X(), Y(), Z())").values()
+        expected = rotation @ (server.machine.position - origin)
+        np.testing.assert_allclose([got["X"][0], got["Y"][0], got["Z"][0]], expected, atol=2e-6)
+        # a GoTo in part coordinates ends at the machine point the transformation gives
+        machine_target = center + np.array([5.0, 5.0, 25.0])
+        part_target = rotation @ (machine_target - origin)
+        assert c.send(f"GoTo(X({num(part_target[0])}), Y({num(part_target[1])}), Z({num(part_target[2])}))"
+                      ).errors == []
+        np.testing.assert_allclose(server.machine.position, machine_target, atol=2e-6)
+        c.send("SetCoordSystem(MachineCsy)")
+        # tools and properties
+        assert c.send('ChangeTool("Probe2")').numbers == [1502]
+        c.send("ClearAllErrors()")
+        assert c.send('FindTool("RefTool")').errors == []
+        assert c.send("GetProp(FoundTool.Name(), Tool.Name())").data == ['FoundTool.Name("RefTool"), Tool.Name("Probe1")']
+        clamp = c.send("SetProp(Tool.PtMeasPar.Approach(50), Tool.GoToPar.Speed(5))")
+        assert clamp.numbers == [504] and clamp.errors[0][0] == 1  # a warning: the session goes on
+        values = c.send("GetProp(Tool.PtMeasPar.Approach(), Tool.PtMeasPar.Approach.Max(), Tool.GoToPar.Speed())")
+        assert values.values() == {"Tool.PtMeasPar.Approach": [20.0], "Tool.PtMeasPar.Approach.Max": [20.0],
+                                   "Tool.GoToPar.Speed": [5.0]}
+        assert c.send("SetProp(Tool.AvrRadius(2))").numbers == [510]  # read-only
+        c.send("ClearAllErrors()")
+        radius = c.send("GetProp(Tool.AvrRadius())").values()["Tool.AvrRadius"][0]
+        assert abs(radius - model.tip_radius) < 1e-6
+        assert c.send('ChangeTool("NoTool")').errors == []
+        top = center + np.array([0.0, 0.0, 10.0])
+        assert c.send(f"PtMeas(X({num(top[0])}), Y({num(top[1])}), Z({num(top[2])}), IJK(0,0,1))").numbers == [2002]
+        c.send("ClearAllErrors()")
+        c.send('ChangeTool("Probe1")')
+        assert c.send("GetProp(Tool.PtMeasPar.Approach())").values()["Tool.PtMeasPar.Approach"] == [2.0]  # Def again
+        assert c.send("AlignTool(0, 0, 1, 5)").data == ["(0.000000, 0.000000, 1.000000)"]
+        assert c.send("AlignTool(1, 0, 0, 5)").numbers == [1502]
+        c.send("ClearAllErrors()")
+        assert c.send("AlignPart(0, 0, 1, 1)").numbers == [501]
+        c.send("ClearAllErrors()")
+        # a probing whose search finds nothing: 1006, and the machine stops at the end of the search
+        air = center + np.array([0.0, 0.0, 30.0])
+        assert c.send(f"PtMeas(X({num(air[0])}), Y({num(air[1])}), Z({num(air[2])}), IJK(0,0,1))").numbers == [1006]
+        c.close()
