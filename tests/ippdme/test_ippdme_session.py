@@ -202,7 +202,8 @@ def test_part_coordinate_system_tools_and_properties(model, center) -> None:
         assert c.send('ChangeTool("Probe2")').numbers == [1502]
         c.send("ClearAllErrors()")
         assert c.send('FindTool("RefTool")').errors == []
-        assert c.send("GetProp(FoundTool.Name(), Tool.Name())").data == ['FoundTool.Name("RefTool"), Tool.Name("Probe1")']
+        names = c.send("GetProp(FoundTool.Name(), Tool.Name())").data
+        assert names == ['FoundTool.Name("RefTool"), Tool.Name("Probe1")']
         clamp = c.send("SetProp(Tool.PtMeasPar.Approach(50), Tool.GoToPar.Speed(5))")
         assert clamp.numbers == [504] and clamp.errors[0][0] == 1  # a warning: the session goes on
         values = c.send("GetProp(Tool.PtMeasPar.Approach(), Tool.PtMeasPar.Approach.Max(), Tool.GoToPar.Speed())")
