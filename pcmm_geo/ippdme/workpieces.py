@@ -9,7 +9,7 @@ its surface; the probe ball of radius ``r`` touches when the distance of its cen
 * :class:`BoxWorkpiece` -- a gauge block (rectangular box, exact box distance);
 * :class:`CylinderWorkpiece` -- a finite solid cylinder (exact, flat ends);
 * :class:`MeshWorkpiece` -- a closed triangle mesh (exact signed distances of
-  :func:`pcmm_geo.artefacts.cad_distance.surface_distances`; needs the ``mesh`` extra).
+  :func:`pcmm_geo.artefacts.cad_distance.surface_distances`; needs the ``cad`` extra).
 """
 
 from __future__ import annotations
@@ -170,7 +170,7 @@ class MeshWorkpiece:
         from pcmm_geo.artefacts.cad_distance import surface_distances
 
         result = surface_distances(np.atleast_2d(points) - self.offset, self.mesh, workers=1)
-        return np.asarray(result.distance, dtype=float)
+        return np.asarray(result.signed_distance, dtype=float)
 
     def describe(self) -> dict[str, Any]:
         return {"type": "mesh", "path": self.path, "offset_mm": self.offset.tolist()}
