@@ -41,7 +41,7 @@ def test_distances_match_closed_forms() -> None:
 def test_probed_plane_and_cylinder_lie_on_their_nominal_surfaces(model, center) -> None:
     plane_z = center[2] - 5.0
     machine = SimulatedMachine(model, [PlaneWorkpiece(center - [0.0, 0.0, 5.0], [0.0, 0.0, 1.0])], seed=1)
-    grid = np.array([[x, y, plane_z] for x in (-8.0, 0.0, 8.0) for y in (-8.0, 0.0, 8.0)]) + [center[0], center[1], 0.0]
+    grid = np.array([[center[0] + x, center[1] + y, plane_z] for x in (-8.0, 0.0, 8.0) for y in (-8.0, 0.0, 8.0)])
     up = np.tile([0.0, 0.0, 1.0], (len(grid), 1))
     points = np.array([r.result.point for r in machine.probe_many(grid, up, 2.0, 4.0, diagnostics=False)])
     plane = fit_plane(points)
