@@ -267,10 +267,7 @@ class SimulatedMachine:
                 out[i] = exc
             return out
         true_tip, true_lasers = self._true_pose(heights)
-        m = self.model
-        lasers = true_lasers + self.rng.normal(0.0, m.laser_sigma, true_lasers.shape)
-        counts = np.round((heights + self.rng.normal(0.0, m.encoder_sigma, heights.shape)) / m.microstep_mm)
-        read_heights = counts * m.microstep_mm
+        lasers, read_heights = self._read(true_lasers, heights)
         tips = self._reported_tip(lasers, read_heights)
         if diagnostics:
             u_both, u_lasers = self._tip_uncertainties(lasers, read_heights, tips)
@@ -286,6 +283,18 @@ class SimulatedMachine:
             )
             out[i] = _Probed(result, commanded[i])
         return out
+
+    def _read(self, true_lasers: FloatArray, heights: FloatArray) -> tuple[FloatArray, FloatArray]:
+        """Readings of a pose: lasers with noise, heights with encoder noise counted in microsteps (mm)."""
+        m = self.model
+        lasers = true_lasers + self.rng.normal(0.0, m.laser_sigma, true_lasers.shape)
+        counts = np.round((heights + self.rng.normal(0.0, m.encoder_sigma, heights.shape)) / m.microstep_mm)
+        return lasers, counts * m.microstep_mm
+
+    def readings(self, tip: FloatArray) -> tuple[FloatArray, FloatArray]:
+        """Laser and height readings ``(3,), (3,)`` (mm) at a commanded tip centre, as after a move."""
+        heights = self.heights_for(np.asarray(tip, dtype=float)[None], check=False)
+        return tuple(r[0] for r in self._read(self._true_pose(heights)[1], heights))  # type: ignore[return-value]
 
     def _true_pose(self, heights: FloatArray) -> tuple[FloatArray, FloatArray]:
         solution = self.true_machine.forward(heights=heights, lasers_hint=self.model.machine.reference_lasers,

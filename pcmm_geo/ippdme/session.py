@@ -230,7 +230,12 @@ class Session:
             hit = self.machine.collision(start, target)
         end = target if hit is None else hit
         await self._motion(start, end, speed)
-        self.record("move", from_mm=start.tolist(), to_mm=end.tolist(), collision=hit is not None)
+        try:  # the readings after the move, as a Table 3.2 row of the acquisition log would hold them
+            lasers, heights = self.machine.readings(end)
+            readings = {"lasers_mm": lasers.tolist(), "heights_mm": heights.tolist()}
+        except MoveRefused:
+            readings = {}
+        self.record("move", from_mm=start.tolist(), to_mm=end.tolist(), collision=hit is not None, **readings)
         if hit is not None:
             raise CommandError(2504, "the probe touched the workpiece during the move")
 

@@ -11,7 +11,8 @@ and ``kind``:
     a command line as received (``line``; bytes outside printable ASCII as ``\\xNN``) and a
     response line as sent;
 ``move``
-    a motion of the tip centre (``from_mm``, ``to_mm``, machine frame; ``collision``);
+    a motion of the tip centre (``from_mm``, ``to_mm``, machine frame; ``collision``) and the
+    readings after it (``lasers_mm``, ``heights_mm``: the quantities of a seed Table 3.2 row);
 ``point``
     a probing: the point as reported (``reported_mm`` in the client's system ``csy``) and in
     the machine frame (``point_mm``, ``tip_mm``), the readings latched at contact

@@ -81,6 +81,8 @@ def test_client_measures_a_sphere_and_pcmm_evaluates_the_replayed_points(model, 
     assert abs(error) <= SINGLE_RUN * u_sphere, (error, u_sphere)
     # the transcript replays to the same points, which pcmm's CLI evaluates
     _, records = read_transcript(tmp_path / "session.jsonl")
+    moves = [r for r in records if r["kind"] == "move"]
+    assert len(moves) >= 3 * 25 and all(0.0 < v < 200.0 for r in moves for v in r["lasers_mm"])  # laser range
     replayed = measured_points(records)
     np.testing.assert_allclose(replayed.points, measured, atol=2e-6)  # 6 decimals on the wire
     out = run_pcmm("serve", "--replay", tmp_path / "session.jsonl", "--points-out", tmp_path / "pts.csv", "--json")
