@@ -188,12 +188,13 @@ class SimulatedMachine:
             raise MoveRefused(2500, "no pose of the machine reaches the target")
         return np.asarray(solution.heights, dtype=float)
 
-    def check_path(self, start: FloatArray, end: FloatArray) -> None:
-        """Refuse (2500) a straight move whose path leaves the workspace (checked every 5 mm)."""
-        self.heights_for(np.asarray(end, dtype=float)[None])  # the target first: a far one costs one solve
+    def check_path(self, start: FloatArray, end: FloatArray) -> FloatArray:
+        """Refuse (2500) a straight move whose path leaves the workspace (checked every 5 mm); the end's heights."""
+        heights = self.heights_for(np.asarray(end, dtype=float)[None])  # the target first: a far one costs one solve
         # both ends reachable: the path is within the workspace's size (a few hundred mm), so few samples
         count = min(400, max(2, int(np.ceil(np.linalg.norm(end - start) / _PATH_CHECK_MM)) + 1))
         self.heights_for(start + np.linspace(0.0, 1.0, count)[:, None] * (end - start))
+        return heights[0]
 
     def collision(self, start: FloatArray, end: FloatArray) -> FloatArray | None:
         """Where a straight move's ball first touches a workpiece (None: free path)."""
@@ -291,10 +292,13 @@ class SimulatedMachine:
         counts = np.round((heights + self.rng.normal(0.0, m.encoder_sigma, heights.shape)) / m.microstep_mm)
         return lasers, counts * m.microstep_mm
 
-    def readings(self, tip: FloatArray) -> tuple[FloatArray, FloatArray]:
-        """Laser and height readings ``(3,), (3,)`` (mm) at a commanded tip centre, as after a move."""
-        heights = self.heights_for(np.asarray(tip, dtype=float)[None], check=False)
-        return tuple(r[0] for r in self._read(self._true_pose(heights)[1], heights))  # type: ignore[return-value]
+    def readings(self, tip: FloatArray, heights: FloatArray | None = None) -> tuple[FloatArray, FloatArray]:
+        """Laser and height readings ``(3,), (3,)`` (mm) at a commanded tip centre (its heights if known)."""
+        if heights is None:
+            h = self.heights_for(np.asarray(tip, dtype=float)[None], check=False)
+        else:
+            h = np.asarray(heights, dtype=float).reshape(1, 3)
+        return tuple(r[0] for r in self._read(self._true_pose(h)[1], h))  # type: ignore[return-value]
 
     def _true_pose(self, heights: FloatArray) -> tuple[FloatArray, FloatArray]:
         solution = self.true_machine.forward(heights=heights, lasers_hint=self.model.machine.reference_lasers,

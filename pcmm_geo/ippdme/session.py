@@ -222,17 +222,18 @@ class Session:
         start = self.machine.position.copy()
         target = np.asarray(target, dtype=float)
         hit = None
+        heights = None
         if check:
             try:
-                self.machine.check_path(start, target)
+                heights = self.machine.check_path(start, target)
             except MoveRefused as exc:
                 raise CommandError(exc.number, exc.detail) from None
             hit = self.machine.collision(start, target)
         end = target if hit is None else hit
         await self._motion(start, end, speed)
         try:  # the readings after the move, as a Table 3.2 row of the acquisition log would hold them
-            lasers, heights = self.machine.readings(end)
-            readings = {"lasers_mm": lasers.tolist(), "heights_mm": heights.tolist()}
+            lasers, read = self.machine.readings(end, heights if hit is None else None)
+            readings = {"lasers_mm": lasers.tolist(), "heights_mm": read.tolist()}
         except MoveRefused:
             readings = {}
         self.record("move", from_mm=start.tolist(), to_mm=end.tolist(), collision=hit is not None, **readings)
