@@ -197,6 +197,18 @@ class ServerThread:
             raise self._error
         return self
 
+    async def _shutdown(self) -> None:
+        """Stop listening, end every client task (each closes its connection), on the server's loop."""
+        await self.dme.close()
+        tasks = [t for t in asyncio.all_tasks() if t is not asyncio.current_task()]
+        for task in tasks:
+            task.cancel()
+        await asyncio.gather(*tasks, return_exceptions=True)
+
     def __exit__(self, *exc_info: object) -> None:
+        if self._loop.is_running():
+            done = asyncio.run_coroutine_threadsafe(self._shutdown(), self._loop)
+            with contextlib.suppress(Exception):
+                done.result(10.0)
         self._loop.call_soon_threadsafe(self._loop.stop)
         self._thread.join(30.0)
