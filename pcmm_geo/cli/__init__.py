@@ -31,6 +31,7 @@ COMMAND_MODULES = (
     "measurement_commands.micrometer",
     "measurement_commands.thermal",
     "machine_commands.acquire",
+    "machine_commands.serve",
     "measurement_commands.compare",
     "measurement_commands.segment",
     "measurement_commands.convert",
