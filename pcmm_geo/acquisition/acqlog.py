@@ -303,7 +303,7 @@ def read_log(path: str | os.PathLike[str], *, allow_partial: bool = False) -> Lo
 
 
 class AcquisitionLog:
-    """Append-only, fsync'ed CSV log; create with :meth:`create`, reopen with :meth:`resume`.
+    """Append-only, fsync'ed CSV log: :meth:`AcquisitionLog.create` makes one, :meth:`AcquisitionLog.resume` reopens it.
 
     Attributes
     ----------
