@@ -146,8 +146,16 @@ def results_document(features: Sequence[FeatureReport], *, application: str = "p
     InvalidInputError
         An unknown type or material side, a nominal lacking what QIF requires.
     """
+    names: dict[str, int] = {}
     for index, report in enumerate(features):
         _check(report, index)
+        if not isinstance(report.name, str) or not report.name.strip():
+            raise InvalidInputError(f"features[{index}].name", "a non-empty feature name", repr(report.name))
+        if report.name in names:
+            raise InvalidInputError(f"features[{index}].name", "a name no other feature has (features["
+                                    f"{names[report.name]}] has it; a file's features are chosen by name)",
+                                    repr(report.name))
+        names[report.name] = index
     counter = iter(range(1, 1 << 31))
     definitions, nominals, items = {}, {}, {}
     measured, point_sets, characteristics = [], {}, []
