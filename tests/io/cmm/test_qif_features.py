@@ -1,0 +1,206 @@
+"""The features part of written QIF: a refit keeps its file's nominal, side and size tolerance; several named features.
+
+Truth: the numbers the public sample ``QIF_PTS_SAMPLE.QIF`` states for CIRCLE1 (nominal diameter
+12 mm, location (-33.05, -4.35, ...), INTERNAL, DIA_CIRCLE1 12 +- 0.05 mm), the fits' own numbers
+(read back to 1e-12 relative) and the schema (every file written is validated with lxml).
+"""
+
+from __future__ import annotations
+
+import re
+from dataclasses import replace
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from pcmm_geo.cmm.export import file_feature, feature_report
+from pcmm_geo.errors import InvalidInputError
+from pcmm_geo.fit import fit_circle, fit_cylinder, fit_plane, fit_sphere
+from pcmm_geo.io.cmm import (
+    Characteristic,
+    CmmDocument,
+    FeatureGeometry,
+    FeatureReport,
+    Tolerance,
+    read_qif,
+    results_document,
+    validate_qif,
+    write_qif,
+)
+
+SAMPLE = Path(__file__).resolve().parents[2] / "data" / "qif" / "samples" / "QIF_PTS_SAMPLE.QIF"
+RTOL = 1e-12
+
+
+@pytest.fixture(scope="module")
+def sample() -> CmmDocument:
+    return read_qif(SAMPLE)
+
+
+def _close(written: object, read: object) -> None:
+    """Equal to 1e-12 relative (an absolute floor of 1e-12 mm for values near zero)."""
+    if written is None or read is None:
+        assert written is None and read is None
+        return
+    np.testing.assert_allclose(np.asarray(read, dtype=float), np.asarray(written, dtype=float), rtol=RTOL,
+                               atol=1e-12)
+
+
+def _refit(sample: CmmDocument, file_name: str, element: str, fit: object, **options: object) -> FeatureReport:
+    feature = sample.feature(file_name)
+    point_set = sample.points_of(feature)
+    points = point_set.points  # probe centres (Compensated=false): written so, with the file's probe radius
+    return feature_report(fit(points), element, points=points,  # type: ignore[operator]
+                          probe_radius=0.0 if point_set.compensated else point_set.probe_radius,
+                          from_file=file_feature(sample, feature), **options)  # type: ignore[arg-type]
+
+
+def _written(tmp_path: Path, reports: list[FeatureReport], name: str, unit: str = "mm") -> tuple[CmmDocument, Path]:
+    document = results_document(reports)
+    path = write_qif(document, tmp_path / name, linear_unit=unit)
+    assert validate_qif(path) == (), path.read_text()[:2000]
+    return document, path
+
+
+@pytest.mark.parametrize("unit", ["mm", "inch"])
+def test_refitting_circle1_keeps_its_nominal_side_and_size_tolerance(sample: CmmDocument, tmp_path: Path,
+                                                                     unit: str) -> None:
+    fit = fit_circle(sample.points_of(sample.feature("CIRCLE1")).points)
+    report = _refit(sample, "CIRCLE1", "circle", fit_circle)
+    _, path = _written(tmp_path, [report], f"circle1_{unit}.qif", unit)
+    text = path.read_text()
+    assert re.search(r"<Features>\s*<FeatureDefinitions n=\"1\">\s*<CircleFeatureDefinition id=\"\d+\">\s*"
+                     r"<InternalExternal>INTERNAL</InternalExternal>", text)
+    back = read_qif(path)
+    feature = back.feature("CIRCLE1")
+    assert back.item_of(feature).name == "CIRCLE1" and feature.internal_external == "INTERNAL"
+    definition, nominal = back.definition_of(feature), back.nominal_of(feature).geometry
+    _close(12.0, definition.diameter)  # the sample's nominal size
+    _close([-33.05, -4.35, -1.309995069701], nominal.location)  # the sample's nominal location
+    _close([0.0, 0.0, -1.0], nominal.normal)
+    (size,) = back.characteristics_of(feature)
+    assert (size.type, size.name, size.status) == ("diameter", "DIA_CIRCLE1", "NOT_ANALYZED")
+    _close(12.0, size.nominal)
+    _close(0.05, size.tolerance.max_value)
+    _close(-0.05, size.tolerance.min_value)
+    assert size.tolerance.defined_as_limit is False
+    assert size.feature_item_ids == (feature.item_id,)
+    _close(2.0 * fit.radius, size.value)  # the refit's value, not the file's 12.095569950907
+    _close(2.0 * fit.radius, feature.actual.diameter)
+    _close(np.asarray(fit.center), feature.actual.location)
+    assert abs(size.value - 12.095569950907) > 1e-6  # (the CMM's own value is not what is kept)
+
+
+def test_several_named_features_in_one_file_read_back_equal(sample: CmmDocument, tmp_path: Path) -> None:
+    reports = [
+        _refit(sample, "CIRCLE1", "circle", fit_circle, name="HOLE_A"),
+        _refit(sample, "CIRCLE2", "circle", fit_circle, name="HOLE_B"),
+        _refit(sample, "CYL_1", "cylinder", fit_cylinder, name="BORE"),
+        _refit(sample, "DATUMA", "plane", fit_plane, name="FACE"),
+    ]
+    rng = np.random.default_rng(7)
+    directions = rng.normal(size=(30, 3))
+    ball = 4.0 * directions / np.linalg.norm(directions, axis=1, keepdims=True) + [10.0, 20.0, 30.0]
+    reports.append(feature_report(fit_sphere(ball), "sphere", points=ball, name="BALL"))  # no nominal: no item
+    document, path = _written(tmp_path, reports, "five.qif")
+    back = read_qif(path)
+    assert [f.name for f in back.measured_features] == ["HOLE_A", "HOLE_B", "BORE", "FACE", "BALL"]
+    assert [i.name for i in back.feature_items.values()] == ["HOLE_A", "HOLE_B", "BORE", "FACE"]
+    assert len(back.feature_definitions) == len(back.feature_nominals) == 4
+    for written, read in zip(document.measured_features, back.measured_features, strict=True):
+        assert (read.id, read.type, read.item_id, read.internal_external) == (
+            written.id, written.type, written.item_id, written.internal_external)
+        for name in ("location", "normal", "direction", "diameter", "form"):
+            _close(getattr(written.actual, name), getattr(read.actual, name))
+        _close(written.actual.uncertainty.get("diameter"), read.actual.uncertainty.get("diameter"))
+        _close(document.points_of(written).points, back.points_of(read).points)
+        if written.item_id is None:
+            assert back.nominal_of(read) is None
+            continue
+        for name in ("location", "normal", "direction"):
+            _close(getattr(document.nominal_of(written).geometry, name), getattr(back.nominal_of(read).geometry, name))
+        _close(document.definition_of(written).diameter, back.definition_of(read).diameter)
+        assert back.definition_of(read).internal_external == document.definition_of(written).internal_external
+    for file_name, name in (("CIRCLE1", "HOLE_A"), ("CIRCLE2", "HOLE_B"), ("CYL_1", "BORE")):
+        stated = sample.definition_of(sample.feature(file_name))
+        kept = back.definition_of(back.feature(name))
+        _close(stated.diameter, kept.diameter)
+        assert kept.internal_external == stated.internal_external
+    for written, read in zip(document.characteristics, back.characteristics, strict=True):
+        assert (read.type, read.name, read.feature_item_ids, read.feature_measurement_ids) == (
+            written.type, written.name, written.feature_item_ids, written.feature_measurement_ids)
+        for name in ("value", "nominal", "uncertainty"):
+            _close(getattr(written, name), getattr(read, name))
+
+
+def test_what_a_refit_keeps_depends_on_the_element_and_on_the_file(sample: CmmDocument) -> None:
+    circle1 = sample.feature("CIRCLE1")
+    points = sample.points_of(circle1).points
+    kept = file_feature(sample, circle1)
+    as_cylinder = feature_report(fit_circle(points), "circle", from_file=replace(kept, type="cylinder"))
+    assert (as_cylinder.name, as_cylinder.nominal, as_cylinder.internal_external) == ("CIRCLE1", None, None)
+    assert as_cylinder.characteristics[0].tolerance is None  # another element: only the name
+    explicit = feature_report(fit_circle(points), "circle", from_file=kept, name="MINE", internal_external="EXTERNAL")
+    assert (explicit.name, explicit.internal_external) == ("MINE", "EXTERNAL")
+    _close(12.0, explicit.nominal.diameter)
+    # a nominal without what QIF requires, two diameter characteristics: not kept, and said so
+    nominal_id = sample.item_of(circle1).nominal_id
+    bare = replace(sample.feature_nominals[nominal_id], geometry=FeatureGeometry(location=np.zeros(3)))
+    size = next(c for c in sample.characteristics_of(circle1) if c.type == "diameter")
+    twice = replace(sample.results[0], characteristics=(*sample.results[0].characteristics, replace(size, id=99999)))
+    edited = replace(sample, feature_nominals={**sample.feature_nominals, nominal_id: bare}, results=(twice,))
+    lost = file_feature(edited, circle1)
+    assert lost.nominal is None and lost.size is None
+    assert lost.notes == (f"nominal not kept: the file's nominal {nominal_id} gives no normal",
+                          "size tolerance not kept: the file has 2 diameter characteristics of the feature "
+                          "(DIA_CIRCLE1, DIA_CIRCLE1)")
+
+
+def test_names_are_given_once_and_not_empty() -> None:
+    actual = FeatureGeometry(location=np.zeros(3), diameter=5.0)
+    with pytest.raises(InvalidInputError, match=r"features\[1\]\.name.*features\[0\] has it.*'BALL'"):
+        results_document([FeatureReport("sphere", "BALL", actual), FeatureReport("sphere", "BALL", actual)])
+    with pytest.raises(InvalidInputError, match=r"features\[0\]\.name: expected a non-empty feature name"):
+        results_document([FeatureReport("sphere", " ", actual)])
+
+
+def test_feature_records_that_do_not_link_are_refused(tmp_path: Path) -> None:
+    hole = FeatureReport("circle", "HOLE", FeatureGeometry(location=np.zeros(3), normal=np.array([0, 0, 1.0]),
+                                                           diameter=6.0),
+                         nominal=FeatureGeometry(location=np.zeros(3), normal=np.array([0, 0, 1.0]), diameter=6.0))
+    document = results_document([hole])
+    (item_id, item), (nominal_id, nominal) = next(iter(document.feature_items.items())), next(
+        iter(document.feature_nominals.items()))
+    cases = {
+        r"feature item \d+\.nominal_id: .* got 777, which the document does not hold":
+            replace(document, feature_items={item_id: replace(item, nominal_id=777)}),
+        r"feature item \d+\.nominal_id: .* which is not a sphere record":
+            replace(document, feature_items={item_id: replace(item, type="sphere")}),
+        r"feature nominal \d+\.definition_id: .* got None":
+            replace(document, feature_nominals={nominal_id: replace(nominal, definition_id=None)}),
+        r"feature measurement \d+\.item_id: .* got 555":
+            replace(document, results=(replace(document.results[0], features=(
+                replace(document.measured_features[0], item_id=555),)),)),
+    }
+    for n, (message, broken) in enumerate(cases.items()):
+        with pytest.raises(InvalidInputError, match=message):
+            write_qif(broken, tmp_path / f"broken{n}.qif")
+        assert not (tmp_path / f"broken{n}.qif").exists()
+    good = write_qif(document, tmp_path / "good.qif")  # the unbroken document is written and valid
+    assert validate_qif(good) == ()
+
+
+def test_a_size_tolerance_given_as_limits_is_written_as_limits(tmp_path: Path) -> None:
+    geometry = FeatureGeometry(location=np.ones(3), diameter=20.004)
+    ball = FeatureReport("sphere", "BALL", geometry, nominal=FeatureGeometry(location=np.ones(3), diameter=20.0),
+                         internal_external="EXTERNAL", characteristics=(Characteristic(
+                             id=0, type="spherical_diameter", value=20.004, nominal=20.0, status="PASS",
+                             tolerance=Tolerance(max_value=20.01, min_value=19.99, defined_as_limit=True)),))
+    _, path = _written(tmp_path, [ball], "limits.qif")
+    back = read_qif(path)
+    (size,) = back.characteristics
+    assert size.tolerance.defined_as_limit is True
+    _close((19.99, 20.01), size.tolerance.limits(size.nominal))
+    assert back.results[0].inspection_status == "PASS" and back.definition_of(
+        back.feature("BALL")).internal_external == "EXTERNAL"
