@@ -14,7 +14,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from pcmm_geo.cmm.export import file_feature, feature_report
+from pcmm_geo.cmm.export import feature_report, file_feature
 from pcmm_geo.errors import InvalidInputError
 from pcmm_geo.fit import fit_circle, fit_cylinder, fit_plane, fit_sphere
 from pcmm_geo.io.cmm import (
