@@ -120,8 +120,9 @@ def read_fit_input(args: argparse.Namespace, element: str) -> FitInput:
         if not getattr(args, "qif", None):
             raise InvalidInputError("--feature-name", "--qif OUT.qif as well (the name is written into the QIF)",
                                     "no --qif")
-        if not args.feature_name.strip():
-            raise InvalidInputError("--feature-name", "a non-empty name", repr(args.feature_name))
+        from pcmm_geo.io.cmm.qif.build import check_feature_name
+
+        check_feature_name(args.feature_name, "--feature-name")
     limit = max_bytes(args)
     if limit is not None and detect_format(args.file) != "qif":
         raise InvalidInputError("--max-mb", "a QIF file (the limit applies to QIF files)", str(args.file))

@@ -66,7 +66,12 @@ def test_form_qif_keeps_the_cylinders_nominal_and_a_two_d_fit_drops_the_placemen
 
 def test_feature_name_needs_qif_and_a_name() -> None:
     for extra, text in ((("--feature-name", "X"), "--feature-name: expected --qif OUT.qif as well"),
-                        (("--feature-name", " ", "--qif", "never.qif"), "--feature-name: expected a non-empty name")):
+                        (("--feature-name", " ", "--qif", "never.qif"),
+                         "--feature-name: expected a non-empty feature name"),
+                        (("--feature-name", "A  B", "--qif", "never.qif"),
+                         "--feature-name: expected a name that reads back the same"),
+                        (("--feature-name", "A\x07", "--qif", "never.qif"),
+                         "--feature-name: expected text XML 1.0 can hold")):
         done = _run("fit", "circle", SAMPLE, "--feature", "CIRCLE1", *extra)
         assert done.returncode == 2 and done.stdout == "" and done.stderr.count("\n") == 1, done.stderr
         assert text in done.stderr

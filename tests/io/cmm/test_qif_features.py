@@ -157,12 +157,23 @@ def test_what_a_refit_keeps_depends_on_the_element_and_on_the_file(sample: CmmDo
                           "(DIA_CIRCLE1, DIA_CIRCLE1)")
 
 
-def test_names_are_given_once_and_not_empty() -> None:
+def test_names_are_given_once_not_empty_and_xml_can_hold_them(tmp_path: Path) -> None:
     actual = FeatureGeometry(location=np.zeros(3), diameter=5.0)
     with pytest.raises(InvalidInputError, match=r"features\[1\]\.name.*features\[0\] has it.*'BALL'"):
         results_document([FeatureReport("sphere", "BALL", actual), FeatureReport("sphere", "BALL", actual)])
     with pytest.raises(InvalidInputError, match=r"features\[0\]\.name: expected a non-empty feature name"):
         results_document([FeatureReport("sphere", " ", actual)])
+    for bad, code in (("HOLE\x01", "0x0001"), ("HOLE\udcff", "0xdcff"), ("HOLE\ufffe", "0xfffe")):
+        with pytest.raises(InvalidInputError, match=rf"features\[0\]\.name: expected text XML 1.0 can hold.*{code}"):
+            results_document([FeatureReport("sphere", bad, actual)])
+    for bad in ("HOLE\tA", "HOLE  A", " HOLE", "HOLE\nA"):  # the reader joins words with one space
+        with pytest.raises(InvalidInputError, match=r"features\[0\]\.name: expected a name that reads back the same"):
+            results_document([FeatureReport("sphere", bad, actual)])
+    odd = 'HOLE <&> "1" \u00e9\u5b54'  # escaped, not refused
+    path = write_qif(results_document([FeatureReport("sphere", odd, actual, nominal=actual)]), tmp_path / "odd.qif")
+    assert validate_qif(path) == ()
+    back = read_qif(path)
+    assert back.measured_features[0].name == odd and next(iter(back.feature_items.values())).name == odd
 
 
 def test_feature_records_that_do_not_link_are_refused(tmp_path: Path) -> None:

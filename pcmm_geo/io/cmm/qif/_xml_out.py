@@ -8,6 +8,7 @@ are written in positional notation with the same shortest digits -- both read ba
 from __future__ import annotations
 
 import math
+import re
 from collections.abc import Iterable
 from typing import IO
 from xml.sax.saxutils import escape, quoteattr
@@ -17,7 +18,7 @@ import numpy as np
 from pcmm_geo.errors import InvalidInputError
 
 __all__ = ["ALGORITHMS", "CHARACTERISTIC_STATUSES", "INSPECTION_STATUSES", "QifText", "XmlText", "camel",
-           "decimal_text", "double_text"]
+           "check_xml_text", "decimal_text", "double_text"]
 
 #: QIF 3.0 enumerations the writer checks its input against
 INSPECTION_STATUSES = ("PASS", "FAIL", "REWORK", "SYSERROR", "UNKNOWN", "NOT_CALCULATED", "NOT_MEASURED",
@@ -27,6 +28,26 @@ CHARACTERISTIC_STATUSES = ("PASS", "FAIL", "REWORK", "SYSERROR", "INDETERMINATE"
 ALGORITHMS = ("BEZIER", "BSPLINE", "DEFAULT", "LEASTSQUARES", "MAXINSCRIBED", "MAXINNERLOCALSIZE",
                "MAXOUTERLOCALSIZE", "MINCIRCUMSCRIBED", "MININNERLOCALSIZE", "MINOUTERLOCALSIZE", "MINMAX", "NURBS",
                "ONESIDED", "UNDEFINED")
+
+
+#: characters XML 1.0 cannot hold (Char production): C0 controls but tab, LF, CR; surrogates; U+FFFE, U+FFFF
+_NOT_XML = re.compile("[\x00-\x08\x0b\x0c\x0e-\x1f\ud800-\udfff\ufffe\uffff]")
+
+
+def check_xml_text(text: str, what: str) -> str:
+    """``text`` unchanged, or :class:`InvalidInputError` naming ``what`` when XML 1.0 cannot hold a character of it.
+
+    Examples
+    --------
+    >>> check_xml_text("HOLE <A> é", "name")
+    'HOLE <A> é'
+    """
+    found = _NOT_XML.search(text)
+    if found is not None:
+        raise InvalidInputError(what, "text XML 1.0 can hold (no control characters but tab and line ends, no "
+                                "surrogates, no U+FFFE/U+FFFF)",
+                                f"{ord(found.group()):#06x} at position {found.start()}")
+    return text
 
 
 def camel(snake: str) -> str:
@@ -71,6 +92,7 @@ class XmlText:
         if text is None:
             self.raw(f"{pad}<{tag}{attributes_text(attributes)}/>\n")
         else:
+            check_xml_text(text, f"{tag} text")
             self.raw(f"{pad}<{tag}{attributes_text(attributes)}>{escape(text)}</{tag}>\n")
 
     def chain(self, *tags: str, text: str | None = None) -> None:
