@@ -13,6 +13,8 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from pcmm_geo.cmm.export import feature_report, file_feature
 from pcmm_geo.errors import InvalidInputError
@@ -215,3 +217,55 @@ def test_a_size_tolerance_given_as_limits_is_written_as_limits(tmp_path: Path) -
     _close((19.99, 20.01), size.tolerance.limits(size.nominal))
     assert back.results[0].inspection_status == "PASS" and back.definition_of(
         back.feature("BALL")).internal_external == "EXTERNAL"
+
+
+_KINDS = ("circle", "cylinder", "sphere", "plane", "line", "point", "cone")
+
+
+def _random_report(rng: np.random.Generator, kind: str, name: str, with_nominal: bool) -> FeatureReport:
+    axis = rng.normal(size=3)
+    axis /= np.linalg.norm(axis)
+    nominal = {"location": rng.normal(scale=200.0, size=3)}
+    if kind in ("circle", "plane", "point"):
+        nominal["normal"] = axis
+    if kind in ("cylinder", "line", "cone"):
+        nominal["direction"] = axis
+    if kind in ("circle", "cylinder", "sphere", "cone"):
+        nominal["diameter"] = float(rng.uniform(0.5, 80.0))
+    if kind == "cone":
+        nominal["half_angle"] = float(rng.uniform(0.05, 1.2))
+    actual = {key: value + rng.normal(scale=1e-3, size=np.shape(value)) for key, value in nominal.items()}
+    for key in ("normal", "direction"):
+        if key in actual:
+            actual[key] = actual[key] / np.linalg.norm(actual[key])
+    side = str(rng.choice(["INTERNAL", "EXTERNAL", "NOT_APPLICABLE"])) if kind in (
+        "circle", "cylinder", "sphere", "cone") and with_nominal else None
+    return FeatureReport(kind, name, FeatureGeometry(**actual), nominal=FeatureGeometry(**nominal) if with_nominal
+                         else None, internal_external=side)
+
+
+@settings(max_examples=12, deadline=None, derandomize=True)
+@given(kinds=st.lists(st.sampled_from(_KINDS), min_size=1, max_size=5),
+       nominals=st.lists(st.booleans(), min_size=5, max_size=5), seed=st.integers(0, 2**31),
+       unit=st.sampled_from(["mm", "inch"]))
+def test_any_set_of_named_features_validates_and_reads_back(tmp_path_factory: pytest.TempPathFactory,
+                                                            kinds: list[str], nominals: list[bool], seed: int,
+                                                            unit: str) -> None:
+    rng = np.random.default_rng(seed)
+    reports = [_random_report(rng, kind, f"F {k} {kind}", nominals[k]) for k, kind in enumerate(kinds)]
+    _, path = _written(tmp_path_factory.mktemp("any"), reports, "any.qif", unit)
+    back = read_qif(path)
+    assert [f.name for f in back.measured_features] == [r.name for r in reports]
+    assert [i.name for i in back.feature_items.values()] == [r.name for r in reports if r.nominal is not None]
+    for report, read in zip(reports, back.measured_features, strict=True):
+        for name in ("location", "normal", "direction", "diameter", "half_angle"):
+            _close(getattr(report.actual, name), getattr(read.actual, name))
+        if report.nominal is None:
+            assert back.nominal_of(read) is None
+            continue
+        geometry, definition = back.nominal_of(read).geometry, back.definition_of(read)
+        for name in ("location", "normal", "direction"):
+            _close(getattr(report.nominal, name), getattr(geometry, name))
+        for name in ("diameter", "half_angle"):
+            _close(getattr(report.nominal, name), getattr(definition, name))
+        assert read.internal_external == report.internal_external

@@ -9,6 +9,18 @@ value, uncertainty) and the inspection status.
 
 Numbers read back exactly (:mod:`~pcmm_geo.io.cmm.qif._xml_out`); point lists are written in blocks.
 
+Layout: one function per section, each taking the output (:class:`~pcmm_geo.io.cmm.qif._xml_out.QifText`,
+which converts mm and rad to the file's units) and the records.  The features part -- the
+``Features`` section (:func:`~pcmm_geo.io.cmm.qif._features_out.write_features`, ids checked to
+link first), the feature measurements and the point sets -- is
+:mod:`~pcmm_geo.io.cmm.qif._features_out`.  The characteristics part is here:
+:func:`characteristics_to_write` (checks, one record per item), :func:`write_characteristics`
+(the ``Characteristics`` section, after ``Features``) and
+:func:`write_characteristic_measurements` (``MeasuredCharacteristics`` of each results set, after
+the point sets).  A new characteristic type is added there: its name in the accepted types,
+its definition body (tolerance, zone shape, datums) in ``_char_definition``, its target in
+``_char_nominal``; the item and the measurement are the same for every type.
+
 Feature types written: circle, cylinder, sphere, plane, line, point, cone.  Characteristic types
 written: diameter, spherical_diameter, radius, spherical_radius, length, width (size: tolerance
 ``MaxValue``/``MinValue`` or ``NonTolerance``) and flatness, circularity, cylindricity,
