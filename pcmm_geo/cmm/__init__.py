@@ -18,6 +18,8 @@ name                              what it does
                                   :func:`~pcmm_geo.io.cmm.results_document`)
 :func:`file_feature`              what a file states about a feature that its refit keeps in
                                   the QIF written (name, nominal, side, size tolerance)
+:func:`verification_document`     every refit of a verification as one QIF results document
+                                  (``pcmm qif verify --qif``); one refit: :func:`refit_report`
 :func:`load_feature_points`       the points of one feature of a CMM file, with what the file
                                   says about their compensation (``pcmm fit FILE.qif``)
 :func:`read_cmm_document`         a QIF document, DMIS output or CALYPSO table, format detected
@@ -41,6 +43,8 @@ _LAZY = {
     "feature_report": "export",
     "FileFeature": "export",
     "file_feature": "export",
+    "refit_report": "export",
+    "verification_document": "export",
     "fit_results_document": "export",
     "FeaturePoints": "points",
     "detect_format": "files",

@@ -46,13 +46,15 @@ from numpy.typing import ArrayLike, NDArray
 from pcmm_geo.errors import InvalidInputError
 
 if TYPE_CHECKING:
+    from pcmm_geo.cmm.refit import Refit
+    from pcmm_geo.cmm.verify import Verification
     from pcmm_geo.fit import FitResult
     from pcmm_geo.fit.probe import ProbeCompensation
     from pcmm_geo.fit.zone.form import FormEvaluation
     from pcmm_geo.io.cmm import Characteristic, CmmDocument, FeatureGeometry, FeatureReport, MeasuredFeature
 
 __all__ = ["ALGORITHMS", "FORM_CHARACTERISTICS", "FileFeature", "feature_report", "file_feature",
-           "fit_results_document"]
+           "fit_results_document", "refit_report", "verification_document"]
 
 FloatArray = NDArray[np.float64]
 
@@ -66,7 +68,8 @@ ELEMENTS = ("circle", "cylinder", "sphere", "plane", "line", "cone")
 #: what a nominal of each element must give to be written (QIF 3.0 feature nominal and definition)
 _NOMINAL_NEEDS = {"circle": ("location", "normal", "diameter"), "cylinder": ("location", "direction", "diameter"),
                   "sphere": ("location", "diameter"), "plane": ("location", "normal"),
-                  "line": ("location", "direction"), "cone": ("location", "direction", "diameter", "half_angle")}
+                  "line": ("location", "direction"), "cone": ("location", "direction", "diameter", "half_angle"),
+                  "point": ("location",)}
 
 
 @dataclass(frozen=True, eq=False)
@@ -322,3 +325,96 @@ def fit_results_document(fit: FitResult, element: str, *, source: str = "", **op
     from pcmm_geo.io.cmm import results_document
 
     return results_document([feature_report(fit, element, **options)], source=source)
+
+
+def refit_report(document: CmmDocument, feature: MeasuredFeature, refit: Refit, *,
+                 name: str | None = None) -> FeatureReport:
+    """A refit of one feature of ``document`` (:func:`~pcmm_geo.cmm.refit.refit_feature`) as a record for the writer.
+
+    The refitted actuals (mm, rad; a plane's normal out of the material where the compensation
+    knows it; no diameter when the material side is unknown), the points exactly as the file
+    holds them (flags, radii, normals; common frame), the refit's criterion, and what the file
+    states about the feature (:func:`file_feature`): name, nominal, ``InternalExternal`` (the
+    side the compensation applied when it knew one) and size tolerance.
+
+    Parameters
+    ----------
+    document : CmmDocument
+    feature : MeasuredFeature
+        The feature refitted.
+    refit : Refit
+        Its refit.
+    name : str, optional
+        Name written (default: the file's, else the type in capitals and the QIF id).
+
+    Returns
+    -------
+    FeatureReport
+    """
+    from pcmm_geo.io.cmm import Characteristic, FeatureGeometry, FeatureReport
+
+    kept = file_feature(document, feature)
+    kind = refit.type
+    uncertainty: dict[str, float] = {}
+    if refit.fit is not None:
+        radius_u = _std(refit.fit, ("radius", "radius_at_point"))
+        if radius_u is not None and refit.diameter is not None:
+            uncertainty["diameter"] = 2.0 * radius_u
+        location_u = _std(refit.fit, ("center_x", "center_y", "center_z", "point_x", "point_y", "point_z"))
+        if location_u is not None:
+            uncertainty["location"] = location_u
+    outward = refit.compensation.outward
+    direction = None if refit.direction is None else np.asarray(refit.direction, dtype=float)
+    if kind == "plane" and direction is not None and outward is not None and float(direction @ outward) < 0:
+        direction = -direction  # QIF: a plane's normal points out of the material
+    normal = direction if kind in ("circle", "plane") else (outward if kind == "point" else None)
+    actual = FeatureGeometry(location=refit.location, normal=normal,
+                             direction=direction if kind in ("cylinder", "cone", "line") else None,
+                             diameter=refit.diameter, half_angle=refit.half_angle, uncertainty=uncertainty)
+    side = {"internal": "INTERNAL", "external": "EXTERNAL"}.get(refit.compensation.side) \
+        if kind in ("circle", "cylinder", "sphere", "cone") else None
+    nominal = kept.nominal
+    characteristics = []
+    size_type = _SIZE_CHARACTERISTICS.get(kind)
+    if size_type is not None and refit.diameter is not None:
+        size = Characteristic(id=0, type=size_type, value=float(refit.diameter), status="NOT_ANALYZED",
+                              uncertainty=uncertainty.get("diameter"))
+        if kept.size is not None:
+            size = replace(size, name=kept.size.name, nominal=kept.size.nominal, tolerance=kept.size.tolerance)
+        characteristics.append(size)
+    return FeatureReport(
+        type=kind, name=name or kept.name or f"{kind.upper()}_{feature.id}", actual=actual, nominal=nominal,
+        internal_external=None if nominal is None else (side or kept.internal_external),
+        points=document.points_of(feature, frame="common"), characteristics=tuple(characteristics),
+        substitute_algorithm=ALGORITHMS.get(refit.method, "LEASTSQUARES"))
+
+
+def verification_document(document: CmmDocument, verification: Verification) -> CmmDocument:
+    """Every feature refitted by :func:`~pcmm_geo.cmm.verify_document` in one QIF results document.
+
+    Each is written by :func:`refit_report`; features of the file not refitted (no points,
+    compensation unknown) are left out.  A name that two refitted features share is followed by
+    ``_<QIF id>`` to tell them apart.
+
+    Parameters
+    ----------
+    document : CmmDocument
+        The file verified.
+    verification : Verification
+        Its verification.
+
+    Returns
+    -------
+    CmmDocument
+        Ready for :func:`~pcmm_geo.io.cmm.write_qif`.
+    """
+    from pcmm_geo.io.cmm import results_document
+
+    features = {f.id: f for f in document.measured_features}
+    refitted = [(features[check.id], check.refit_result) for check in verification.features
+                if check.refit_result is not None]
+    names = [f.name or f"{f.type.upper()}_{f.id}" for f, _ in refitted]
+    reports = [refit_report(document, feature, refit,  # type: ignore[arg-type]
+                            name=name if names.count(name) == 1 else f"{name}_{feature.id}")
+               for (feature, refit), name in zip(refitted, names, strict=True)]
+    return results_document(reports, source=document.source)
