@@ -76,3 +76,19 @@ def test_feature_name_needs_qif_and_a_name() -> None:
         assert done.returncode == 2 and done.stdout == "" and done.stderr.count("\n") == 1, done.stderr
         assert text in done.stderr
     assert not Path("never.qif").exists()
+
+
+def test_verify_qif_writes_every_refit_in_one_file_which_verifies_itself(tmp_path: Path) -> None:
+    out = tmp_path / "refits.qif"
+    done = _run("qif", "verify", SAMPLE, "--qif", out)
+    assert done.returncode == 1, done.stderr  # the sample's own actuals disagree in 5 features
+    assert f"QIF: 9 refitted feature(s) written to {out} (9 with the file's nominal); 5 not refitted, left out" \
+        in done.stdout
+    assert validate_qif(out) == ()
+    back = read_qif(out)
+    assert back.definition_of(back.feature("CYL_1")).diameter == 30.0
+    again = _run("qif", "verify", out, "--json")
+    assert again.returncode == 0, again.stdout + again.stderr
+    assert json.loads(again.stdout)["summary"] == {"agree": 9, "disagree": 0, "not_checked": 0}
+    refused = _run("qif", "verify", SAMPLE, "--qif", out)  # never overwritten without --overwrite
+    assert refused.returncode == 2 and refused.stdout == "" and "--overwrite" in refused.stderr, refused.stderr

@@ -269,3 +269,45 @@ def test_any_set_of_named_features_validates_and_reads_back(tmp_path_factory: py
         for name in ("diameter", "half_angle"):
             _close(getattr(report.nominal, name), getattr(definition, name))
         assert read.internal_external == report.internal_external
+
+
+def test_every_refit_of_a_verification_goes_into_one_file_that_verifies_itself(sample: CmmDocument,
+                                                                              tmp_path: Path) -> None:
+    from pcmm_geo.cmm import verification_document, verify_document
+
+    verification = verify_document(sample)
+    refitted = [check for check in verification.features if check.refit_result is not None]
+    assert [c.name for c in refitted] == ["DATUMA", "DATUMB", "CIRCLE1", "CIRCLE2", "POINT1", "POINT2", "POINT4",
+                                          "CYL_1", "POINT6"]
+    document = verification_document(sample, verification)
+    path = write_qif(document, tmp_path / "refits.qif")
+    assert validate_qif(path) == ()
+    back = read_qif(path)
+    assert [f.name for f in back.measured_features] == [c.name for c in refitted]
+    assert len(back.feature_items) == 9  # every refitted feature of the sample has a nominal
+    for check, read in zip(refitted, back.measured_features, strict=True):
+        refit, stated = check.refit_result, sample.feature(check.id)
+        _close(refit.location, read.actual.location)
+        _close(refit.diameter, read.actual.diameter)
+        _close(refit.half_angle, read.actual.half_angle)
+        _close(sample.nominal_of(stated).geometry.location, back.nominal_of(read).geometry.location)
+        _close(sample.definition_of(stated).diameter, back.definition_of(read).diameter)
+        _close(sample.points_of(stated).points, back.points_of(read).points)
+        if read.type in ("circle", "cylinder"):
+            assert read.internal_external == refit.compensation.side.upper() == "INTERNAL"
+    _close(12.0, back.characteristics_of(back.feature("CIRCLE1"))[0].nominal)
+    again = verify_document(back)  # the refits of the written points are the actuals written
+    assert (again.verified, again.agrees, again.summary()["disagree"]) == (9, True, 0)
+    assert verification.agrees is False  # (the sample's own actuals disagree with their refits in 5 features)
+
+
+def test_refitted_features_sharing_a_name_are_told_apart_by_their_id(sample: CmmDocument, tmp_path: Path) -> None:
+    from pcmm_geo.cmm import verification_document, verify_document
+
+    results = sample.results[0]
+    renamed = tuple(replace(f, name="HOLE") if f.name in ("CIRCLE1", "CIRCLE2") else f for f in results.features)
+    twins = replace(sample, results=(replace(results, features=renamed),))
+    document = verification_document(twins, verify_document(twins))
+    names = [f.name for f in document.measured_features]
+    assert "HOLE_261" in names and "HOLE_509" in names and "HOLE" not in names
+    assert validate_qif(write_qif(document, tmp_path / "twins.qif")) == ()
