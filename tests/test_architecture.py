@@ -45,6 +45,7 @@ LAYERS: dict[str, int] = {
     "pcmm_geo.artefacts": 8,  # gauge blocks, ISO 10360, CAD comparison
     "pcmm_geo.testing": 9,  # helpers for users' tests
     "pcmm_geo.gdt": 9,  # GD&T: datums, reference frames, characteristics from points and from a CMM's actuals
+    "pcmm_geo.ippdme": 9,  # I++ DME server: protocol, sessions, a simulated machine on kinematics and uncertainty
     "pcmm_geo.data": 9,  # scripts that regenerate bundled example data
     "pcmm_geo.plots": 9,  # matplotlib figures of results
     "pcmm_geo.demo": 10,  # the end-to-end demo

@@ -31,12 +31,14 @@ COMMAND_MODULES = (
     "measurement_commands.micrometer",
     "measurement_commands.thermal",
     "machine_commands.acquire",
+    "machine_commands.serve",
     "measurement_commands.compare",
     "measurement_commands.segment",
     "measurement_commands.convert",
     "measurement_commands.uncertainty",
     "measurement_commands.batch",
     "measurement_commands.qif",
+    "inspection_commands.inspect",
 )
 
 

@@ -3,4 +3,86 @@
 Above :mod:`pcmm_geo.fit` (associations), :mod:`pcmm_geo.cmm` (files of external CMMs),
 :mod:`pcmm_geo.uncertainty` (conformity decisions) and :mod:`pcmm_geo.artefacts` (mesh distances
 for profile) in the layer table of ``tests/test_architecture.py``.
+
+Public API (names load on first use):
+
+- :class:`DatumReferenceFrame` (:mod:`~pcmm_geo.gdt.frame`): rotation rows = DRF x, y, z axes in
+  measurement coordinates, origin, free degrees of freedom;
+- :func:`associate_datum`, :class:`DatumAssociation`, :class:`DatumCertificate`, :data:`DATUM_CRITERIA`
+  (:mod:`~pcmm_geo.gdt.datums`); :func:`build_drf`, :class:`DatumNominal` (:mod:`~pcmm_geo.gdt.drf`);
+- :class:`FeatureData`, :class:`CharacteristicResult`, :func:`evaluate_position`,
+  :func:`evaluate_position_pattern`, :func:`evaluate_orientation`, :func:`evaluate_flatness`, :func:`evaluate_runout`,
+  :func:`toleranced_axis`, :func:`size_evaluation`, :func:`apply_uncertainty` (:mod:`~pcmm_geo.gdt.characteristics`);
+  :func:`evaluate_profile` (:mod:`~pcmm_geo.gdt.profile`); :func:`evaluate_coordinate`,
+  :func:`evaluate_distance`, :func:`evaluate_angle`, :func:`feature_location` (:mod:`~pcmm_geo.gdt.dimensions`);
+- :func:`parse_frame`, :class:`FrameSpec` (:mod:`~pcmm_geo.gdt.plan`); :func:`load_plan`,
+  :func:`inspect_plan`, :class:`InspectionPlan`, :class:`InspectionResult` (:mod:`~pcmm_geo.gdt.inspection`);
+- the second opinion on a QIF file's characteristics (:mod:`~pcmm_geo.gdt.qif`):
+  :func:`verify_characteristics`, :class:`CharacteristicCheck`, :class:`CharacteristicVerification`
+  and the statuses :data:`AGREES`, :data:`DISAGREES`, :data:`NOT_COMPUTABLE`; frames from feature actuals
+  :func:`datum_frame`, :func:`frame_map`, :class:`DatumFrame`, :class:`FrameMap`, :class:`DatumFeatureGeometry`.
 """
+
+from __future__ import annotations
+
+import importlib
+from typing import Any
+
+_LAZY = {
+    "DEGREES_OF_FREEDOM": "frame",
+    "DatumReferenceFrame": "frame",
+    "DATUM_CRITERIA": "datums",
+    "DatumAssociation": "datums",
+    "DatumCertificate": "datums",
+    "associate_datum": "datums",
+    "default_criterion": "datums",
+    "DatumNominal": "drf",
+    "build_drf": "drf",
+    "CharacteristicResult": "characteristics",
+    "apply_uncertainty": "characteristics",
+    "FeatureData": "characteristics",
+    "evaluate_flatness": "characteristics",
+    "evaluate_orientation": "characteristics",
+    "evaluate_position": "characteristics",
+    "evaluate_position_pattern": "pattern",
+    "evaluate_runout": "characteristics",
+    "size_evaluation": "characteristics",
+    "toleranced_axis": "characteristics",
+    "evaluate_profile": "profile",
+    "evaluate_angle": "dimensions",
+    "evaluate_coordinate": "dimensions",
+    "evaluate_distance": "dimensions",
+    "feature_location": "dimensions",
+    "FrameSpec": "plan",
+    "SYMBOLS": "plan",
+    "parse_frame": "plan",
+    "InspectionPlan": "inspection",
+    "InspectionResult": "inspection",
+    "PlannedCharacteristic": "inspection",
+    "inspect_plan": "inspection",
+    "load_plan": "inspection",
+    "AGREES": "qif.characteristics",
+    "DISAGREES": "qif.characteristics",
+    "NOT_COMPUTABLE": "qif.characteristics",
+    "DEFAULT_FRACTION": "qif.characteristics",
+    "CharacteristicCheck": "qif.characteristics",
+    "CharacteristicVerification": "qif.characteristics",
+    "verify_characteristics": "qif.characteristics",
+    "DatumFeatureGeometry": "qif.frames",
+    "DatumFrame": "qif.frames",
+    "FrameMap": "qif.frames",
+    "datum_frame": "qif.frames",
+    "frame_map": "qif.frames",
+}
+
+__all__ = sorted(_LAZY)
+
+
+def __getattr__(name: str) -> Any:
+    if name in _LAZY:
+        return getattr(importlib.import_module(f"pcmm_geo.gdt.{_LAZY[name]}"), name)
+    raise AttributeError(f"module 'pcmm_geo.gdt' has no attribute {name!r}")
+
+
+def __dir__() -> list[str]:
+    return sorted(set(globals()) | set(_LAZY))

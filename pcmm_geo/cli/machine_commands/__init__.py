@@ -1,5 +1,5 @@
 """``pcmm`` sub-commands about the machine itself: ``acquire``, ``calibrate``, ``kinematics``,
-``process-log``, ``numcal``, ``sensitivity``, ``repeatability``, ``laser-ratio``.
+``process-log``, ``numcal``, ``sensitivity``, ``repeatability``, ``laser-ratio``, ``serve``.
 
 Each module exposes ``register(subparsers)`` and only wires arguments to the library
 (:mod:`pcmm_geo.machine`, :mod:`pcmm_geo.acquisition`); it may import any library package and

@@ -38,9 +38,14 @@ def register(subparsers: Any) -> None:
         description="Refit every feature measurement that has points (the file's fitting algorithm, else "
                     "least squares; a 3-D circle in the least-squares plane of its points), compensate the probe "
                     "radius, bring points and actuals into the file's common frame and compare diameter, location "
-                    "and direction with what the CMM reported. Exit status 0 when at least one feature was compared "
-                    "and none disagrees; 1 when a feature disagrees or when nothing could be compared (no feature "
-                    "with points, compensation unknown: the file is not verified); 2 on bad input.",
+                    "and direction with what the CMM reported. Then recompute every characteristic the file holds "
+                    "the inputs for (sizes, position in the datum reference frame of the datum features' actuals, "
+                    "point profiles, linear coordinates, distances, angles, form from points) and compare it with "
+                    "the reported value (agrees within --characteristic-fraction of its tolerance, at least 1 µm). "
+                    "Exit status 0 when at least one feature or characteristic was compared and none disagrees; 1 "
+                    "when a feature or a characteristic disagrees or when nothing could be compared (no feature "
+                    "with points, compensation unknown, no characteristic computable: the file is not verified); 2 "
+                    "on bad input.",
     )
     verify.add_argument("file", help="QIF results file")
     verify.add_argument("--tolerance-mm", type=float, metavar="MM", default=None,
@@ -59,6 +64,9 @@ def register(subparsers: Any) -> None:
                         help="material side of the circles, cylinders, spheres and cones whose file states none (a "
                              "side the file contradicts is refused); without it their centres and axes are still "
                              "compared, their diameters not")
+    verify.add_argument("--characteristic-fraction", type=float, metavar="F", default=None,
+                        help="a characteristic agrees when it differs by at most F x its tolerance width "
+                             "(default 0.01), at least 1 µm (1 µrad)")
     refuse_renamed_options(verify, {"--probe-radius": "--probe-radius-mm"})
     _add_limits(verify)
     _add_qif_output(verify)
@@ -283,6 +291,7 @@ def _handle_verify(args: argparse.Namespace) -> Report:
     result = verify_document(document, tolerance_mm=tolerance, criterion=args.criterion,
                              circle_plane=args.circle_plane, compensated=compensated, probe_radius=args.probe_radius,
                              material_side=args.material_side)
+    characteristics = _verify_characteristics(args, document, compensated)
     rows = []
     for check in result.features:
         compensation = check.compensation
@@ -306,20 +315,60 @@ def _handle_verify(args: argparse.Namespace) -> Report:
     summary = result.summary()
     statement = (f"{summary['agree']} features agree, {summary['disagree']} disagree, "
                  f"{summary['not_checked']} not checked")
-    if result.agrees is None:
-        statement = f"nothing verified: {statement} (no feature could be compared with its refit)"
     lines += [f"left out by the reader: {problem}" for problem in result.problems]
-    verdict = Verdict(result.agrees, statement,
+    counts = characteristics.summary()
+    statement += (f"; {counts['agrees']} characteristics agree, {counts['disagrees']} disagree, "
+                  f"{counts['not_computable']} not computable")
+    agrees = False if result.agrees is False or characteristics.agrees is False else (
+        True if result.agrees or characteristics.agrees else None)
+    if agrees is None:
+        statement = (f"nothing verified: {statement} (no feature could be compared with its refit, no characteristic "
+                     "recomputed)")
+    lines += [f"characteristic {check.id} {check.name or ''}: {check.status}: {check.reason}"
+              for check in characteristics.checks if check.status != "agrees"]
+    verdict = Verdict(agrees, statement,
                       f"a feature agrees when every compared quantity of its refit (diameter, location, direction) "
-                      f"differs from the CMM's by at most {tolerance:g} mm (angles: {tolerance:g} mm / feature size)",
+                      f"differs from the CMM's by at most {tolerance:g} mm (angles: {tolerance:g} mm / feature size); "
+                      f"{characteristics.rule}",
                       basis="the differences between pcmm_geo's refit of each feature's points and the values the "
-                            "CMM reported; the measurement uncertainty of the points is not taken into account")
+                            "CMM reported, and between each characteristic recomputed from the feature actuals (or "
+                            "points) and its reported value; the measurement uncertainty of the points is not taken "
+                            "into account")
     data = result.to_dict()
+    data.update(characteristics=[check.to_dict() for check in characteristics.checks],
+                characteristics_summary=counts, characteristics_rule=characteristics.rule,
+                characteristics_agree=characteristics.agrees, overall_agrees=agrees)
     if args.qif:
         data["qif"], line = _write_refits(args, document, result)
         lines.append(line)
-    return Report(data=data, tables=[table], lines=lines,
-                  exit_code=0 if result.agrees is True else EXIT_FAILURE, verdict=verdict)
+    return Report(data=data, tables=[table, _characteristic_table(characteristics)], lines=lines,
+                  exit_code=0 if agrees is True else EXIT_FAILURE, verdict=verdict)
+
+
+def _verify_characteristics(args: argparse.Namespace, document: Any, compensated: bool | None) -> Any:
+    """Second opinion on the characteristics (:func:`pcmm_geo.gdt.qif.characteristics.verify_characteristics`)."""
+    from pcmm_geo.errors import InvalidInputError
+    from pcmm_geo.gdt.qif.characteristics import DEFAULT_FRACTION, verify_characteristics
+
+    fraction = DEFAULT_FRACTION if args.characteristic_fraction is None else args.characteristic_fraction
+    if not 0.0 < fraction <= 1.0:  # also refuses nan
+        raise InvalidInputError("--characteristic-fraction", "a fraction of the tolerance in (0, 1]", repr(fraction))
+    definitions = None
+    if document.format == "qif":
+        from pcmm_geo.io.cmm.qif._xml import DEFAULT_MAX_BYTES
+        from pcmm_geo.io.cmm.qif.characteristic_definitions import read_qif_definitions
+
+        definitions = read_qif_definitions(args.file, max_bytes=max_bytes(args) or DEFAULT_MAX_BYTES,
+                                           spell_setting=cli_setting)
+    return verify_characteristics(document, definitions, fraction=fraction, compensated=compensated,
+                                  probe_radius=args.probe_radius)
+
+
+def _characteristic_table(verification: Any) -> Table:
+    rows = [[check.id, check.name or "-", check.type, check.unit, _cell(check.reported), _cell(check.recomputed),
+             check.status] for check in verification.checks]
+    return Table("Characteristics: reported and recomputed (mm or rad)",
+                 ["id", "name", "type", "unit", "reported", "recomputed", "status"], rows)
 
 
 def _handle_validate(args: argparse.Namespace) -> Report:

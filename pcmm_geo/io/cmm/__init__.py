@@ -18,6 +18,9 @@ function                        reads / writes
 :func:`read_calypso_table`      ZEISS CALYPSO ``*_chr.txt`` characteristic tables
 :func:`read_pcdmis_xyzijk`      PC-DMIS XYZIJK text -> :class:`MeasuredPointSet` with normals
 :func:`detect_format`           which of these formats a file is, by its content
+:func:`read_qif_definitions`    characteristic definitions, nominals, items, datum
+                                definitions and datum reference frames of a QIF file ->
+                                :class:`QifDefinitions`
 ==============================  ===========================================================
 
 The readers never guess what a file does not say (units, a size beyond ``max_bytes``; the one
@@ -65,6 +68,14 @@ _LAZY = {
     "read_pcdmis_xyzijk": "pcdmis",
     "CMM_FORMATS": "detect",
     "detect_format": "detect",
+    "read_qif_definitions": "qif.characteristic_definitions",
+    "QifDefinitions": "qif.characteristic_definitions",
+    "CharacteristicDefinition": "qif.characteristic_definitions",
+    "CharacteristicNominal": "qif.characteristic_definitions",
+    "CharacteristicItem": "qif.characteristic_definitions",
+    "DatumDefinition": "qif.datums",
+    "DatumReferenceFrame": "qif.datums",
+    "DrfDatum": "qif.datums",
 }
 
 __all__ = sorted(_LAZY)

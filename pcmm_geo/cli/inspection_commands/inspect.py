@@ -1,0 +1,89 @@
+"""``pcmm inspect PLAN.toml``: datums, DRFs and GD&T characteristics of an inspection plan, with verdicts."""
+
+from __future__ import annotations
+
+import argparse
+import math
+from pathlib import Path
+
+from pcmm_geo.cli._output import (
+    EXIT_FAILURE,
+    Report,
+    Table,
+    add_decimal_flag,
+    add_json_flag,
+    add_overwrite_flag,
+    add_report_flag,
+)
+
+DECISION_RULE = (
+    "PASS if the value of a zone containing every point is within the tolerance (plus the bonus proven by the "
+    "mating envelope's certificate); FAIL if its proven lower bound exceeds the largest possible allowance or the "
+    "size is outside its limits; otherwise NOT PROVEN (measurement uncertainty not included)"
+)
+
+
+def register(subparsers: argparse._SubParsersAction) -> None:
+    parser = subparsers.add_parser(
+        "inspect",
+        help="GD&T with datums: evaluate the feature control frames of a TOML inspection plan",
+        description=(
+            "Read PLAN.toml (features with points files relative to it, datums, feature control frames such as "
+            "'position dia 0.1 MMC | A | B | C' or '⊥ ⌀0.02 | A'), associate the datums (ISO 5459 or ASME "
+            "Y14.5 by the plan's standard), build each datum reference frame and evaluate every characteristic. "
+            "Exit status 0 when all PASS, 1 on FAIL or NOT PROVEN, 2 on a plan error (one line naming the plan's "
+            "line). See the guide page 'GD&T with datums'."
+        ),
+    )
+    parser.add_argument("plan", type=Path, metavar="PLAN.toml")
+    add_report_flag(parser)
+    add_overwrite_flag(parser)
+    add_decimal_flag(parser)
+    add_json_flag(parser)
+    parser.set_defaults(handler=handle)
+
+
+def handle(args: argparse.Namespace) -> Report:
+    from pcmm_geo.cli._record import Method, Verdict
+    from pcmm_geo.gdt.inspection import inspect_plan
+
+    result = inspect_plan(args.plan)
+    data = result.to_dict()
+    rows = []
+    for c in result.characteristics:
+        if c.details.get("unit") == "rad":  # an angle: degrees at the edge
+            value, tolerance, unit = math.degrees(c.value_mm), math.degrees(c.tolerance_mm), "deg"
+        elif "limits_mm" in c.details:  # a dimension: millimetres, the tolerance as its limits' width
+            value, tolerance, unit = c.value_mm, c.tolerance_mm, "mm"
+        else:
+            value, tolerance, unit = 1000.0 * c.value_mm, 1000.0 * c.tolerance_mm, "µm"
+        rows.append([c.name, c.characteristic, value, tolerance, "-" if c.bonus_mm is None else 1000.0 * c.bonus_mm,
+                     unit, "|".join(c.datums) or "-", c.verdict])
+    tables = [Table(f"characteristics of {args.plan} ({result.plan.standard})",
+                    ["name", "characteristic", "value", "tolerance", "bonus", "unit", "datums", "verdict"], rows)]
+    datum_rows = []
+    for label, d in result.datums.items():
+        cert = d.certificate
+        datum_rows.append([label, d.element, d.criterion, 1000.0 * d.deviation_mm, cert.scope,
+                           " ".join(str(i) for i in cert.contacts.tolist()[:8]), ", ".join(d.constrained_by) or "-"])
+    if datum_rows:
+        tables.append(Table("datums", ["datum", "element", "association", "deviation µm", "scope", "contacts",
+                                       "constrained"], datum_rows))
+    frame_rows = [[key, " ".join(f"{v:.6f}" for v in f.origin), " ".join(f.free) or "none"]
+                  for key, f in result.frames.items()]
+    tables.append(Table("datum reference frames", ["frame", "origin (mm, measurement coordinates)", "free"],
+                        frame_rows))
+    counts = {v: sum(c.verdict == v for c in result.characteristics) for v in ("PASS", "FAIL", "NOT PROVEN")}
+    summary = ", ".join(f"{n} {v}" for v, n in counts.items() if n)
+    passed = True if result.passed else (False if counts["FAIL"] else None)
+    verdict = Verdict(passed, f"{len(result.characteristics)} characteristics: {summary or 'none'}", DECISION_RULE,
+                      basis="zones of the points as measured in the DRFs of their datums; the points' measurement "
+                            "uncertainty is not taken into account")
+    exit_code = 0 if result.passed else EXIT_FAILURE
+    if result.plan.standard == "ASME":
+        method = Method("ASME Y14.5-2018, ASME Y14.5.1-2019", "datums (7), tolerances of form, orientation, "
+                        "location and runout (8-12)", "characteristics from measured points in their datum frames")
+    else:
+        method = Method("ISO 1101:2017, ISO 5459:2011", "geometrical tolerances (clause 18), datums and datum "
+                        "systems", "characteristics from measured points in their datum reference frames")
+    return Report(data=data, tables=tables, lines=[], exit_code=exit_code, verdict=verdict, method=method)
