@@ -76,7 +76,12 @@ def add_cmm_input_flags(parser: argparse.ArgumentParser) -> None:
                              "do not say (a PC-DMIS XYZIJK export, recognised by its first line); checked against "
                              "QIF's Compensated flag")
     add_max_mb_option(parser, "QIF file read (FILE)")
-    parser.add_argument("--qif", metavar="OUT.qif", help="also write the result as a QIF 3.0 results document")
+    parser.add_argument("--qif", metavar="OUT.qif",
+                        help="also write the result as a QIF 3.0 results document (a feature of a QIF file keeps its "
+                             "name, nominal, InternalExternal and size tolerance)")
+    parser.add_argument("--feature-name", metavar="NAME",
+                        help="with --qif: the feature's name in the QIF written (default: its name in FILE, else the "
+                             "element in capitals)")
     declare_output(parser, "qif")
 
 
@@ -111,6 +116,13 @@ def read_fit_input(args: argparse.Namespace, element: str) -> FitInput:
     from pcmm_geo.cmm.points import load_feature_points, probe_radius_to_apply
     from pcmm_geo.errors import InvalidInputError
 
+    if getattr(args, "feature_name", None) is not None:
+        if not getattr(args, "qif", None):
+            raise InvalidInputError("--feature-name", "--qif OUT.qif as well (the name is written into the QIF)",
+                                    "no --qif")
+        from pcmm_geo.io.cmm.qif.build import check_feature_name
+
+        check_feature_name(args.feature_name, "--feature-name")
     limit = max_bytes(args)
     if limit is not None and detect_format(args.file) != "qif":
         raise InvalidInputError("--max-mb", "a QIF file (the limit applies to QIF files)", str(args.file))
@@ -145,13 +157,54 @@ def compensation_summary(compensation: Any, side_source: str, radius_source: str
 
 
 def write_qif_result(args: argparse.Namespace, fit: Any, element: str, source: Any, *, radius: float,
-                     compensation: Any = None, evaluation: Any = None) -> str:
-    """Write the fit (and form evaluation) as a QIF document to ``args.qif``; returns the path written."""
+                     compensation: Any = None, evaluation: Any = None) -> tuple[str, list[str]]:
+    """Write the fit (and form evaluation) as a QIF document to ``args.qif``.
+
+    A feature of a QIF file keeps what the file states about it (:func:`pcmm_geo.cmm.export.file_feature`),
+    except its nominal placement after ``--two-d`` (the 2-D fit lies in z = 0, the file's nominal does not).
+
+    Returns
+    -------
+    path : str
+        The file written.
+    lines : list of str
+        What was kept from the file and what not (empty for a point file).
+    """
+    import dataclasses as dc
+
     from pcmm_geo.cmm.export import fit_results_document
     from pcmm_geo.io.cmm import write_qif
 
-    name = source.feature.name if source.feature is not None and source.feature.name else None
+    kept = source.file_feature
+    notes: list[str] = []
+    if kept is not None and getattr(args, "two_d", False) and kept.nominal is not None:
+        kept = dc.replace(kept, nominal=None)
+        notes.append("QIF: the file's nominal placement is not written with a 2-D fit (it lies in z = 0)")
     document = fit_results_document(fit, element, points=source.points, normals=source.normals, probe_radius=radius,
-                                    compensation=compensation, evaluation=evaluation, name=name,
-                                    source=str(args.file))
-    return str(write_qif(document, args.qif, overwrite=bool(getattr(args, "overwrite", False))))
+                                    compensation=compensation, evaluation=evaluation,
+                                    name=getattr(args, "feature_name", None), from_file=kept, source=str(args.file))
+    path = str(write_qif(document, args.qif, overwrite=bool(getattr(args, "overwrite", False))))
+    if kept is not None:
+        notes += _kept_lines(document, kept, element)
+    return path, notes
+
+
+def _kept_lines(document: Any, kept: Any, element: str) -> list[str]:
+    """One line on what of the file's feature the QIF written keeps."""
+    if kept.type != element:
+        return [f"QIF: only the name is kept from the file's {kept.type} feature (fitted as a {element})"]
+    feature = document.measured_features[0]
+    parts = []
+    definition = document.definition_of(feature)
+    if definition is not None:
+        facts = ([] if definition.diameter is None else [f"diameter {definition.diameter:g} mm"]) + (
+            [] if definition.internal_external is None else [f"InternalExternal {definition.internal_external}"])
+        parts.append("nominal" + (f" ({', '.join(facts)})" if facts else ""))
+    size_char = next((c for c in document.characteristics if c.tolerance is not None and c.nominal is not None), None)
+    if size_char is not None:
+        lower, upper = size_char.tolerance.limits(size_char.nominal)
+        shown = " to ".join("-" if v is None else f"{v:g}" for v in (lower, upper))
+        parts.append(f"size characteristic {size_char.name} (nominal {size_char.nominal:g} mm, limits {shown} mm; "
+                     "status NOT_ANALYZED)")
+    lines = [f"QIF feature {feature.name}: kept from the file: {'; '.join(parts) if parts else 'the name only'}"]
+    return lines + [f"QIF: {note}" for note in kept.notes]

@@ -14,7 +14,12 @@ name                              what it does
 :func:`refit_feature`             the refit of one feature
 :func:`fit_results_document`      a fit (with form evaluation, verdict, uncertainty) as the QIF
                                   writer's records (``pcmm fit|form --qif``); one feature:
-                                  :func:`feature_report`
+                                  :func:`feature_report` (several: pass them to
+                                  :func:`~pcmm_geo.io.cmm.results_document`)
+:func:`file_feature`              what a file states about a feature that its refit keeps in
+                                  the QIF written (name, nominal, side, size tolerance)
+:func:`verification_document`     every refit of a verification as one QIF results document
+                                  (``pcmm qif verify --qif``); one refit: :func:`refit_report`
 :func:`load_feature_points`       the points of one feature of a CMM file, with what the file
                                   says about their compensation (``pcmm fit FILE.qif``)
 :func:`read_cmm_document`         a QIF document, DMIS output or CALYPSO table, format detected
@@ -36,6 +41,10 @@ _LAZY = {
         "Refit": "refit",
     "refit_feature": "refit",
     "feature_report": "export",
+    "FileFeature": "export",
+    "file_feature": "export",
+    "refit_report": "export",
+    "verification_document": "export",
     "fit_results_document": "export",
     "FeaturePoints": "points",
     "detect_format": "files",

@@ -10,12 +10,34 @@ uncertainty, and, from a :class:`~pcmm_geo.fit.zone.form.FormEvaluation`, the fo
 with its tolerance and verdict.  :func:`fit_results_document` wraps it into a
 :class:`~pcmm_geo.io.cmm.CmmDocument` ready for :func:`~pcmm_geo.io.cmm.write_qif`.
 
+A refit of a feature of a QIF file keeps what the file states about that feature
+(:func:`file_feature`): its name, its nominal (placement and nominal size, written as QIF
+``FeatureDefinition`` / ``FeatureNominal`` / ``FeatureItem``), its ``InternalExternal`` and its size
+characteristic's name, nominal and tolerance (written with the refitted value and status
+``NOT_ANALYZED``: the verdict is not this module's).  Several fitted features go into one file
+through :func:`~pcmm_geo.io.cmm.results_document`.
+
 QIF ``combinedUncertainty`` is written as the standard uncertainty (k = 1) of the fit; the probe
 radius is taken as exact unless the compensation says otherwise.
+
+Examples
+--------
+Two fitted features, each named, in one file:
+
+>>> import pathlib, tempfile
+>>> from pcmm_geo.fit import fit_plane, fit_sphere
+>>> from pcmm_geo.io.cmm import read_qif, results_document, write_qif
+>>> d = np.array([[1, 0, 0], [-1, 0, 0], [0, 1, 0], [0, -1, 0], [0, 0, 1.0]])
+>>> ball = feature_report(fit_sphere(5 * d), "sphere", name="BALL")
+>>> face = feature_report(fit_plane(d[:4] + [0, 0, 2.0]), "plane", name="TOP")
+>>> path = write_qif(results_document([ball, face]), pathlib.Path(tempfile.mkdtemp()) / "two.qif")
+>>> [(f.name, f.type) for f in read_qif(path).measured_features]
+[('BALL', 'sphere'), ('TOP', 'plane')]
 """
 
 from __future__ import annotations
 
+from dataclasses import dataclass, field, replace
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
@@ -24,12 +46,15 @@ from numpy.typing import ArrayLike, NDArray
 from pcmm_geo.errors import InvalidInputError
 
 if TYPE_CHECKING:
+    from pcmm_geo.cmm.refit import Refit
+    from pcmm_geo.cmm.verify import Verification
     from pcmm_geo.fit import FitResult
     from pcmm_geo.fit.probe import ProbeCompensation
     from pcmm_geo.fit.zone.form import FormEvaluation
-    from pcmm_geo.io.cmm import CmmDocument, FeatureGeometry, FeatureReport
+    from pcmm_geo.io.cmm import Characteristic, CmmDocument, FeatureGeometry, FeatureReport, MeasuredFeature
 
-__all__ = ["ALGORITHMS", "FORM_CHARACTERISTICS", "feature_report", "fit_results_document"]
+__all__ = ["ALGORITHMS", "FORM_CHARACTERISTICS", "FileFeature", "feature_report", "file_feature",
+           "fit_results_document", "refit_report", "verification_document"]
 
 FloatArray = NDArray[np.float64]
 
@@ -40,6 +65,87 @@ FORM_CHARACTERISTICS = {"circle": "circularity", "plane": "flatness", "cylinder"
                         "sphere": "sphericity", "line": "straightness", "cone": "conicity"}
 _SIZE_CHARACTERISTICS = {"circle": "diameter", "cylinder": "diameter", "sphere": "spherical_diameter"}
 ELEMENTS = ("circle", "cylinder", "sphere", "plane", "line", "cone")
+#: what a nominal of each element must give to be written (QIF 3.0 feature nominal and definition)
+_NOMINAL_NEEDS = {"circle": ("location", "normal", "diameter"), "cylinder": ("location", "direction", "diameter"),
+                  "sphere": ("location", "diameter"), "plane": ("location", "normal"),
+                  "line": ("location", "direction"), "cone": ("location", "direction", "diameter", "half_angle"),
+                  "point": ("location",)}
+
+
+@dataclass(frozen=True, eq=False)
+class FileFeature:
+    """What a file states about one of its features that a refit of its points keeps.
+
+    Attributes
+    ----------
+    type : str
+        The file's feature type (``"circle"``, ...); kept only by a refit of the same element.
+    name : str or None
+        The feature's name in the file.
+    nominal : FeatureGeometry or None
+        Nominal placement and size (QIF ``FeatureNominal`` with the definition's diameter,
+        length, half angle; mm, rad), None when the file gives none or not all QIF requires.
+    internal_external : str or None
+        QIF ``InternalExternal`` (``"INTERNAL"``, ``"EXTERNAL"``, ``"NOT_APPLICABLE"``).
+    size : Characteristic or None
+        The file's size characteristic of the feature (its name, ``nominal`` and ``tolerance``;
+        the file's value and verdict are not kept), None when there is none or more than one.
+    notes : tuple of str
+        What was not kept, and why.
+    """
+
+    type: str
+    name: str | None = None
+    nominal: FeatureGeometry | None = None
+    internal_external: str | None = None
+    size: Characteristic | None = None
+    notes: tuple[str, ...] = field(default=())
+
+
+def file_feature(document: CmmDocument, feature: MeasuredFeature) -> FileFeature:
+    """What ``document`` states about ``feature`` that a refit keeps (see :class:`FileFeature`).
+
+    Parameters
+    ----------
+    document : CmmDocument
+        The file read (usually by :func:`~pcmm_geo.io.cmm.read_qif`).
+    feature : MeasuredFeature
+        One of its feature measurements.
+
+    Returns
+    -------
+    FileFeature
+    """
+    from pcmm_geo.io.cmm import FeatureGeometry
+
+    notes = []
+    nominal = None
+    record = document.nominal_of(feature)
+    definition = document.definition_of(feature)
+    if record is not None and feature.type in _NOMINAL_NEEDS:
+        geometry = record.geometry
+        nominal = FeatureGeometry(
+            location=geometry.location, normal=geometry.normal, direction=geometry.direction,
+            diameter=definition.diameter if definition is not None and definition.diameter is not None
+            else geometry.diameter,
+            length=definition.length if definition is not None and definition.length is not None else geometry.length,
+            half_angle=definition.half_angle if definition is not None and definition.half_angle is not None
+            else geometry.half_angle)
+        missing = [name for name in _NOMINAL_NEEDS[feature.type] if getattr(nominal, name) is None]
+        if missing:
+            notes.append(f"nominal not kept: the file's nominal {record.id} gives no {', '.join(missing)}")
+            nominal = None
+    size = None
+    size_type = _SIZE_CHARACTERISTICS.get(feature.type)
+    if size_type is not None:
+        found = [c for c in document.characteristics_of(feature) if c.type == size_type]
+        if len(found) == 1:
+            size = found[0]
+        elif len(found) > 1:
+            notes.append(f"size tolerance not kept: the file has {len(found)} {size_type} characteristics of the "
+                         f"feature ({', '.join(str(c.name or c.id) for c in found)})")
+    return FileFeature(type=feature.type, name=feature.name, nominal=nominal,
+                       internal_external=feature.internal_external, size=size, notes=tuple(notes))
 
 
 def _three(vector: Any, fill: float = 0.0) -> FloatArray:
@@ -102,6 +208,7 @@ def feature_report(
     name: str | None = None,
     nominal: FeatureGeometry | None = None,
     internal_external: str | None = None,
+    from_file: FileFeature | None = None,
 ) -> FeatureReport:
     """One fitted feature as a :class:`~pcmm_geo.io.cmm.FeatureReport` for the QIF writer.
 
@@ -126,11 +233,17 @@ def feature_report(
         characteristic with its verdict (PASS, FAIL, INDETERMINATE when an uncertified zone
         exceeds the tolerance).
     name : str, optional
-        Feature name (default: the element type in capitals).
+        Feature name (default: the name in ``from_file``, else the element type in capitals).
     nominal : FeatureGeometry, optional
-        Nominal of the feature (lets QIF record the material side).
+        Nominal of the feature (lets QIF record the material side; default from ``from_file``).
+        Without a nominal QIF has no feature item: only the measurement (with its name) is written.
     internal_external : str, optional
-        QIF ``InternalExternal`` (default from ``compensation`` when a nominal is given).
+        QIF ``InternalExternal`` when a nominal is given (default: the side ``compensation``
+        applied, else the one in ``from_file``).
+    from_file : FileFeature, optional
+        What the file the points came from states about the feature (:func:`file_feature`): its
+        name, nominal, ``InternalExternal`` and size characteristic (name, nominal, tolerance)
+        are kept when ``element`` is the file's type (else only the name).
 
     Returns
     -------
@@ -146,6 +259,11 @@ def feature_report(
     if element not in ELEMENTS:
         raise InvalidInputError("element", f"one of {', '.join(ELEMENTS)} (QIF has no {element} feature record)",
                                 repr(element))
+    kept = from_file if from_file is not None and from_file.type == element else None
+    if from_file is not None:
+        name = name or from_file.name
+    if kept is not None and nominal is None:
+        nominal = kept.nominal
     outward = None if compensation is None or compensation.outward is None else _three(compensation.outward)
     form = None if evaluation is None else float(evaluation.deviation)
     actual = _geometry(fit, element, form, outward)
@@ -169,8 +287,11 @@ def feature_report(
     characteristics = []
     if element in _SIZE_CHARACTERISTICS:
         size_u = actual.uncertainty.get("diameter")
-        characteristics.append(Characteristic(id=0, type=_SIZE_CHARACTERISTICS[element], value=actual.diameter,
-                                              status="NOT_ANALYZED", uncertainty=size_u))
+        size = Characteristic(id=0, type=_SIZE_CHARACTERISTICS[element], value=actual.diameter,
+                              status="NOT_ANALYZED", uncertainty=size_u)
+        if kept is not None and kept.size is not None:
+            size = replace(size, name=kept.size.name, nominal=kept.size.nominal, tolerance=kept.size.tolerance)
+        characteristics.append(size)
     if evaluation is not None and evaluation.tolerance is not None:
         # straightness of a 3-D line: the smallest enclosing cylinder; of a 2-D line: two parallel lines
         zone = None if element != "line" else "diametrical" if np.size(fit.point) == 3 else "non_diametrical"
@@ -180,7 +301,9 @@ def feature_report(
                                               status=_status(evaluation), zone_shape=zone))
     if internal_external is None and nominal is not None and compensation is not None \
             and element in ("circle", "cylinder", "sphere", "cone"):
-        internal_external = compensation.side.upper()
+        internal_external = compensation.side.upper()  # the side applied to the numbers written
+    if internal_external is None and nominal is not None and kept is not None:
+        internal_external = kept.internal_external
     return FeatureReport(type=element, name=name or element.upper(), actual=actual, nominal=nominal,
                          internal_external=internal_external if nominal is not None else None, points=point_set,
                          characteristics=tuple(characteristics),
@@ -202,3 +325,96 @@ def fit_results_document(fit: FitResult, element: str, *, source: str = "", **op
     from pcmm_geo.io.cmm import results_document
 
     return results_document([feature_report(fit, element, **options)], source=source)
+
+
+def refit_report(document: CmmDocument, feature: MeasuredFeature, refit: Refit, *,
+                 name: str | None = None) -> FeatureReport:
+    """A refit of one feature of ``document`` (:func:`~pcmm_geo.cmm.refit.refit_feature`) as a record for the writer.
+
+    The refitted actuals (mm, rad; a plane's normal out of the material where the compensation
+    knows it; no diameter when the material side is unknown), the points exactly as the file
+    holds them (flags, radii, normals; common frame), the refit's criterion, and what the file
+    states about the feature (:func:`file_feature`): name, nominal, ``InternalExternal`` (the
+    side the compensation applied when it knew one) and size tolerance.
+
+    Parameters
+    ----------
+    document : CmmDocument
+    feature : MeasuredFeature
+        The feature refitted.
+    refit : Refit
+        Its refit.
+    name : str, optional
+        Name written (default: the file's, else the type in capitals and the QIF id).
+
+    Returns
+    -------
+    FeatureReport
+    """
+    from pcmm_geo.io.cmm import Characteristic, FeatureGeometry, FeatureReport
+
+    kept = file_feature(document, feature)
+    kind = refit.type
+    uncertainty: dict[str, float] = {}
+    if refit.fit is not None:
+        radius_u = _std(refit.fit, ("radius", "radius_at_point"))
+        if radius_u is not None and refit.diameter is not None:
+            uncertainty["diameter"] = 2.0 * radius_u
+        location_u = _std(refit.fit, ("center_x", "center_y", "center_z", "point_x", "point_y", "point_z"))
+        if location_u is not None:
+            uncertainty["location"] = location_u
+    outward = refit.compensation.outward
+    direction = None if refit.direction is None else np.asarray(refit.direction, dtype=float)
+    if kind == "plane" and direction is not None and outward is not None and float(direction @ outward) < 0:
+        direction = -direction  # QIF: a plane's normal points out of the material
+    normal = direction if kind in ("circle", "plane") else (outward if kind == "point" else None)
+    actual = FeatureGeometry(location=refit.location, normal=normal,
+                             direction=direction if kind in ("cylinder", "cone", "line") else None,
+                             diameter=refit.diameter, half_angle=refit.half_angle, uncertainty=uncertainty)
+    side = {"internal": "INTERNAL", "external": "EXTERNAL"}.get(refit.compensation.side) \
+        if kind in ("circle", "cylinder", "sphere", "cone") else None
+    nominal = kept.nominal
+    characteristics = []
+    size_type = _SIZE_CHARACTERISTICS.get(kind)
+    if size_type is not None and refit.diameter is not None:
+        size = Characteristic(id=0, type=size_type, value=float(refit.diameter), status="NOT_ANALYZED",
+                              uncertainty=uncertainty.get("diameter"))
+        if kept.size is not None:
+            size = replace(size, name=kept.size.name, nominal=kept.size.nominal, tolerance=kept.size.tolerance)
+        characteristics.append(size)
+    return FeatureReport(
+        type=kind, name=name or kept.name or f"{kind.upper()}_{feature.id}", actual=actual, nominal=nominal,
+        internal_external=None if nominal is None else (side or kept.internal_external),
+        points=document.points_of(feature, frame="common"), characteristics=tuple(characteristics),
+        substitute_algorithm=ALGORITHMS.get(refit.method, "LEASTSQUARES"))
+
+
+def verification_document(document: CmmDocument, verification: Verification) -> CmmDocument:
+    """Every feature refitted by :func:`~pcmm_geo.cmm.verify_document` in one QIF results document.
+
+    Each is written by :func:`refit_report`; features of the file not refitted (no points,
+    compensation unknown) are left out.  A name that two refitted features share is followed by
+    ``_<QIF id>`` to tell them apart.
+
+    Parameters
+    ----------
+    document : CmmDocument
+        The file verified.
+    verification : Verification
+        Its verification.
+
+    Returns
+    -------
+    CmmDocument
+        Ready for :func:`~pcmm_geo.io.cmm.write_qif`.
+    """
+    from pcmm_geo.io.cmm import results_document
+
+    features = {f.id: f for f in document.measured_features}
+    refitted = [(features[check.id], check.refit_result) for check in verification.features
+                if check.refit_result is not None]
+    names = [f.name or f"{f.type.upper()}_{f.id}" for f, _ in refitted]
+    reports = [refit_report(document, feature, refit,  # type: ignore[arg-type]
+                            name=name if names.count(name) == 1 else f"{name}_{feature.id}")
+               for (feature, refit), name in zip(refitted, names, strict=True)]
+    return results_document(reports, source=document.source)

@@ -30,6 +30,7 @@ from pcmm_geo.errors import FileFormatError, InvalidInputError
 from pcmm_geo.io.cmm import SpellSetting, python_setting
 
 if TYPE_CHECKING:
+    from pcmm_geo.cmm.export import FileFeature
     from pcmm_geo.fit import FitResult
     from pcmm_geo.fit.probe import ProbeCompensation
     from pcmm_geo.io.cmm import CmmDocument, MeasuredFeature
@@ -67,6 +68,9 @@ class FeaturePoints:
         Nominal diameter of the feature (mm), to infer the side.
     reported_normal : ndarray (3,) or None
         A normal the file reports for the feature (plane, point, line), out of the material.
+    file_feature : FileFeature or None
+        What the QIF file states about the feature that a refit written as QIF keeps (name,
+        nominal, ``InternalExternal``, size tolerance; :func:`~pcmm_geo.cmm.export.file_feature`).
     """
 
     points: FloatArray
@@ -79,6 +83,7 @@ class FeaturePoints:
     material_side: str | None = None
     nominal_diameter: float | None = None
     reported_normal: FloatArray | None = None
+    file_feature: FileFeature | None = None
 
     def describe(self) -> str:
         """One line: which feature of which file."""
@@ -166,6 +171,7 @@ def _choose(document: CmmDocument, element: str | None, key: str | None) -> Meas
 
 
 def _from_document(document: CmmDocument, *, element: str | None, feature: str | None) -> FeaturePoints:
+    from pcmm_geo.cmm.export import file_feature
     from pcmm_geo.cmm.refit import _context, _prepare_points
     from pcmm_geo.errors import NotRefittedError
 
@@ -188,7 +194,8 @@ def _from_document(document: CmmDocument, *, element: str | None, feature: str |
     return FeaturePoints(points, "qif", document.source, normals=normals, compensated=compensated,
                          probe_radius=radius, feature=chosen, material_side=context.side,
                          nominal_diameter=context.nominal_diameter,
-                         reported_normal=None if reported is None else np.asarray(reported, dtype=float))
+                         reported_normal=None if reported is None else np.asarray(reported, dtype=float),
+                         file_feature=file_feature(document, chosen))
 
 
 def probe_radius_to_apply(data: FeaturePoints, *, compensated: str | None = None,

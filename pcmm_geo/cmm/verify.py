@@ -80,6 +80,9 @@ class FeatureCheck:
     compared : tuple of str
         The ``difference`` keys that decided ``agrees``.
     tolerance_mm, angle_tolerance_rad, size_mm : float or None
+    refit_result : Refit or None
+        The refit itself (None when not refitted), e.g. to write it as QIF
+        (:func:`~pcmm_geo.cmm.export.verification_document`).
     """
 
     id: int
@@ -99,6 +102,7 @@ class FeatureCheck:
     tolerance_mm: float | None = None
     angle_tolerance_rad: float | None = None
     size_mm: float | None = None
+    refit_result: Refit | None = field(default=None, repr=False)
 
     def to_dict(self) -> dict[str, Any]:
         """The JSON object of the ``pcmm qif verify`` contract (DESIGN.md), plus what was compared."""
@@ -375,7 +379,7 @@ def _compare(document: CmmDocument, feature: MeasuredFeature, refit: Refit, tole
         reason += "; file: " + "; ".join(feature.problems)
     return FeatureCheck(feature.id, kind, feature.name, refit.n_points, agrees, reason, refit.method,
                         refit.method_source, refit.circle_plane, refit.compensation, reported, refit_values,
-                        difference, tuple(compared), tolerance, angle_tolerance, size)
+                        difference, tuple(compared), tolerance, angle_tolerance, size, refit_result=refit)
 
 
 def _in_nominal_plane(actual: FeatureGeometry, nominal: Any) -> bool:

@@ -163,10 +163,11 @@ def handle(args: argparse.Namespace) -> Report:
         plots.append(str(written))
         lines.append(f"plot: {written}")
     if args.qif:
-        written_qif = write_qif_result(args, result, args.element, source.data, radius=source.probe_radius,
-                                       compensation=compensation)
+        written_qif, kept_lines = write_qif_result(args, result, args.element, source.data,
+                                                   radius=source.probe_radius, compensation=compensation)
         data["qif"] = written_qif
         lines.append(f"QIF results written to {written_qif}")
+        lines += kept_lines
     covariance = np.asarray(result.covariance, dtype=float)
     blocks = [CovarianceBlock(f"{args.element} fit parameters", tuple(result.parameter_names), covariance)] \
         if covariance.size and np.all(np.isfinite(covariance)) and np.any(np.diag(covariance) > 0) else []

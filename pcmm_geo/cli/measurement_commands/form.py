@@ -109,9 +109,10 @@ def handle(args: argparse.Namespace) -> Report:
         plots.append(str(written))
         lines.append(f"plot: {written}")
     if args.qif:
-        data["qif"] = write_qif_result(args, fit, args.element, source.data, radius=source.probe_radius,
-                                       compensation=compensation, evaluation=evaluation)
+        data["qif"], kept_lines = write_qif_result(args, fit, args.element, source.data, radius=source.probe_radius,
+                                                   compensation=compensation, evaluation=evaluation)
         lines.append(f"QIF results written to {data['qif']}")
+        lines += kept_lines
     exit_code = EXIT_FAILURE if evaluation.tolerance is not None and evaluation.passed is not True else 0
     verdict = None
     if evaluation.tolerance is not None:

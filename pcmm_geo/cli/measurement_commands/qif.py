@@ -69,6 +69,7 @@ def register(subparsers: Any) -> None:
                              "(default 0.01), at least 1 µm (1 µrad)")
     refuse_renamed_options(verify, {"--probe-radius": "--probe-radius-mm"})
     _add_limits(verify)
+    _add_qif_output(verify)
     add_report_flag(verify)
     add_overwrite_flag(verify)
     add_json_flag(verify)
@@ -253,6 +254,28 @@ def _shown(check: Any, name: str, factor: float) -> Any:
     return scaled if name in check.compared else f"({scaled:.6g})"
 
 
+def _add_qif_output(verify: argparse.ArgumentParser) -> None:
+    """``qif verify --qif OUT.qif``: every refitted feature in one QIF results document."""
+    from pcmm_geo.cli._output import declare_output
+
+    verify.add_argument("--qif", metavar="OUT.qif",
+                        help="also write every refitted feature as a QIF 3.0 results document: the refits with the "
+                             "file's names, nominals, InternalExternal and size tolerances, and its points")
+    declare_output(verify, "qif")
+
+
+def _write_refits(args: argparse.Namespace, document: Any, result: Any) -> tuple[str, str]:
+    """Write the refits of ``result`` to ``args.qif``; the path and one line saying what was written."""
+    from pcmm_geo.cmm.export import verification_document
+    from pcmm_geo.io.cmm import write_qif
+
+    written = verification_document(document, result)
+    path = str(write_qif(written, args.qif, overwrite=bool(args.overwrite)))
+    n, left = len(written.measured_features), len(result.features) - len(written.measured_features)
+    return path, (f"QIF: {n} refitted feature(s) written to {path} ({len(written.feature_items)} with the file's "
+                  f"nominal){f'; {left} not refitted, left out' if left else ''}")
+
+
 def _handle_verify(args: argparse.Namespace) -> Report:
     import math
 
@@ -315,6 +338,9 @@ def _handle_verify(args: argparse.Namespace) -> Report:
     data.update(characteristics=[check.to_dict() for check in characteristics.checks],
                 characteristics_summary=counts, characteristics_rule=characteristics.rule,
                 characteristics_agree=characteristics.agrees, overall_agrees=agrees)
+    if args.qif:
+        data["qif"], line = _write_refits(args, document, result)
+        lines.append(line)
     return Report(data=data, tables=[table, _characteristic_table(characteristics)], lines=lines,
                   exit_code=0 if agrees is True else EXIT_FAILURE, verdict=verdict)
 

@@ -2,6 +2,7 @@
 
 :mod:`~pcmm_geo.io.cmm.qif.reader` (:func:`read_qif`), :mod:`~pcmm_geo.io.cmm.qif.build`
 (:class:`FeatureReport`, :func:`results_document`), :mod:`~pcmm_geo.io.cmm.qif.writer`
-(:func:`write_qif`), :mod:`~pcmm_geo.io.cmm.qif.schema` (:func:`validate_qif`); the hostile-XML
-guard is :mod:`~pcmm_geo.io.cmm.qif._xml`.  Use them through :mod:`pcmm_geo.io.cmm`.
+(:func:`write_qif`; its features part :mod:`~pcmm_geo.io.cmm.qif._features_out`),
+:mod:`~pcmm_geo.io.cmm.qif.schema` (:func:`validate_qif`); the hostile-XML guard is
+:mod:`~pcmm_geo.io.cmm.qif._xml`.  Use them through :mod:`pcmm_geo.io.cmm`.
 """

@@ -46,8 +46,9 @@ from pcmm_geo.io.cmm.model import (
     PointSetReference,
     Units,
 )
+from pcmm_geo.io.cmm.qif._xml_out import check_xml_text
 
-__all__ = ["INTERNAL_EXTERNAL", "NOMINAL_NEEDS", "FeatureReport", "results_document"]
+__all__ = ["INTERNAL_EXTERNAL", "NOMINAL_NEEDS", "FeatureReport", "check_feature_name", "results_document"]
 
 #: the values of QIF ``InternalExternal``
 INTERNAL_EXTERNAL = ("INTERNAL", "EXTERNAL", "NOT_APPLICABLE")
@@ -101,6 +102,31 @@ class FeatureReport:
     substitute_algorithm: str | None = "LEASTSQUARES"
 
 
+def check_feature_name(name: object, what: str = "name") -> str:
+    """``name`` when QIF can hold it and :func:`~pcmm_geo.io.cmm.read_qif` reads it back the same.
+
+    A feature name is not empty, holds only characters XML 1.0 can hold, and has no tab, line
+    end, leading, trailing or repeated space (the reader joins a name's words with one space).
+
+    Raises
+    ------
+    InvalidInputError
+        Naming ``what``.
+
+    Examples
+    --------
+    >>> check_feature_name("HOLE <A> 1")
+    'HOLE <A> 1'
+    """
+    if not isinstance(name, str) or not name.strip():
+        raise InvalidInputError(what, "a non-empty feature name", repr(name))
+    check_xml_text(name, what)
+    if name != " ".join(name.split()):
+        raise InvalidInputError(what, "a name that reads back the same: words separated by single spaces, no tab, "
+                                "line end or space at either end", repr(name))
+    return name
+
+
 def _check(report: FeatureReport, index: int) -> None:
     what = f"features[{index}] ({report.name!r})"
     if report.type not in FEATURE_TYPES:
@@ -146,8 +172,15 @@ def results_document(features: Sequence[FeatureReport], *, application: str = "p
     InvalidInputError
         An unknown type or material side, a nominal lacking what QIF requires.
     """
+    names: dict[str, int] = {}
     for index, report in enumerate(features):
         _check(report, index)
+        check_feature_name(report.name, f"features[{index}].name")
+        if report.name in names:
+            raise InvalidInputError(f"features[{index}].name", "a name no other feature has (features["
+                                    f"{names[report.name]}] has it; a file's features are chosen by name)",
+                                    repr(report.name))
+        names[report.name] = index
     counter = iter(range(1, 1 << 31))
     definitions, nominals, items = {}, {}, {}
     measured, point_sets, characteristics = [], {}, []
