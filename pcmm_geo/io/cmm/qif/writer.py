@@ -55,6 +55,15 @@ from pcmm_geo.io.cmm.qif._features_out import (
     write_point_sets,
 )
 from pcmm_geo.io.cmm.qif._xml_out import CHARACTERISTIC_STATUSES, INSPECTION_STATUSES, QifText, camel, decimal_text
+from pcmm_geo.io.cmm.qif.gdt_out import (
+    GDT_CHARACTERISTICS,
+    GdtRecords,
+    check_gdt_definition,
+    write_bonus,
+    write_datums,
+    write_frames,
+    write_gdt_definition,
+)
 
 __all__ = ["FORM_CHARACTERISTICS", "SIZE_CHARACTERISTICS", "write_qif"]
 
@@ -71,15 +80,16 @@ class _Writer:
     :func:`write_characteristic_measurements` and the inspection status.
     """
 
-    def __init__(self, document: CmmDocument, out: QifText) -> None:
+    def __init__(self, document: CmmDocument, out: QifText, gdt: GdtRecords | None = None) -> None:
         self.document = document
         self.out = out
+        self.gdt = gdt
 
     def write(self, qpid: str) -> None:
         out, document = self.out, self.document
         check_feature_links(document)
-        characteristics = characteristics_to_write(document)
-        next_id = max(self._all_ids(), default=0) + 1
+        characteristics = characteristics_to_write(document, self.gdt)
+        next_id = max([*self._all_ids(), *(self.gdt.ids() if self.gdt else ())], default=0) + 1
         standard_id = next_id if characteristics else None
         out.raw('<?xml version="1.0" encoding="UTF-8"?>\n')
         out.open("QIFDocument", xmlns="http://qifstandards.org/xsd/qif3", versionQIF="3.0.0",
@@ -100,9 +110,12 @@ class _Writer:
             out.close("Standard")
             out.close("StandardsDefinitions")
         self._units()
+        if self.gdt is not None:
+            write_datums(out, self.gdt, set(document.feature_nominals))
+            write_frames(out, self.gdt)
         write_features(out, document)
         if characteristics:
-            write_characteristics(out, characteristics, standard_id)  # type: ignore[arg-type]
+            write_characteristics(out, characteristics, standard_id, self.gdt)  # type: ignore[arg-type]
         if document.results:
             out.open("Results")
             out.open("MeasurementResultsSet", n=len(document.results))
@@ -143,7 +156,7 @@ class _Writer:
         out.open("MeasurementResults", id=results.id if results.id is not None else spare_id)
         write_measured_features(out, results.features, self.document.point_sets)
         write_point_sets(out, results.point_sets)
-        write_characteristic_measurements(out, results.characteristics)
+        write_characteristic_measurements(out, results.characteristics, self.gdt)
         status = results.inspection_status or "UNDEFINED"
         if status not in INSPECTION_STATUSES:
             raise InvalidInputError(f"results {results.id}.inspection_status",
@@ -156,12 +169,19 @@ class _Writer:
 # A new characteristic type needs: its name in the type lists (or a check in characteristics_to_write), its
 # definition body in _char_definition, its TargetValue in _char_nominal; the measurement is generic.
 
-def characteristics_to_write(document: CmmDocument) -> list[Characteristic]:
-    """One record per characteristic item (checked), in document order: what the section holds."""
+def characteristics_to_write(document: CmmDocument, gdt: GdtRecords | None = None) -> list[Characteristic]:
+    """One record per characteristic item (checked), in document order: what the section holds.
+
+    ``gdt``: the definitions of geometric characteristics (:data:`~pcmm_geo.io.cmm.qif.gdt_out.GDT_CHARACTERISTICS`)
+    and their datums; without it only size and form characteristics are written.
+    """
     seen: set[int] = set()
     unique = []
     for characteristic in document.characteristics:
-        if characteristic.type not in SIZE_CHARACTERISTICS + FORM_CHARACTERISTICS:
+        if gdt is not None and characteristic.type in GDT_CHARACTERISTICS:
+            check_gdt_definition(characteristic, gdt.characteristic_definitions.get(characteristic.definition_id or -1),
+                                 gdt)
+        elif characteristic.type not in SIZE_CHARACTERISTICS + FORM_CHARACTERISTICS:
             raise InvalidInputError(f"characteristic {characteristic.id}",
                                     f"one of {', '.join(SIZE_CHARACTERISTICS + FORM_CHARACTERISTICS)}",
                                     repr(characteristic.type))
@@ -185,11 +205,20 @@ def characteristics_to_write(document: CmmDocument) -> list[Characteristic]:
     return unique
 
 
-def write_characteristics(out: QifText, characteristics: list[Characteristic], standard_id: int) -> None:
+def write_characteristics(out: QifText, characteristics: list[Characteristic], standard_id: int,
+                          gdt: GdtRecords | None = None) -> None:
     """The ``Characteristics`` section: definitions, nominals and items of ``characteristics``."""
     out.open("Characteristics")
     out.leaf("FormalStandardId", str(standard_id))
-    for group, suffix, write in (("CharacteristicDefinitions", "CharacteristicDefinition", _char_definition),
+
+    def definition(out: QifText, tag: str, characteristic: Characteristic) -> None:
+        if gdt is not None and characteristic.type in GDT_CHARACTERISTICS:
+            write_gdt_definition(out, tag, characteristic,
+                                 gdt.characteristic_definitions[characteristic.definition_id])  # type: ignore[index]
+        else:
+            _char_definition(out, tag, characteristic)
+
+    for group, suffix, write in (("CharacteristicDefinitions", "CharacteristicDefinition", definition),
                                  ("CharacteristicNominals", "CharacteristicNominal", _char_nominal),
                                  ("CharacteristicItems", "CharacteristicItem", _char_item)):
         out.open(group, n=len(characteristics))
@@ -237,8 +266,9 @@ def _char_item(out: QifText, tag: str, characteristic: Characteristic) -> None:
     out.close(tag)
 
 
-def write_characteristic_measurements(out: QifText, characteristics: tuple[Characteristic, ...]) -> None:
-    """``MeasuredCharacteristics`` of one results set: status, item, feature measurements, value."""
+def write_characteristic_measurements(out: QifText, characteristics: tuple[Characteristic, ...],
+                                      gdt: GdtRecords | None = None) -> None:
+    """``MeasuredCharacteristics`` of one results set: status, item, feature measurements, value (and bonus)."""
     if not characteristics:
         return
     out.open("MeasuredCharacteristics")
@@ -253,13 +283,14 @@ def write_characteristic_measurements(out: QifText, characteristics: tuple[Chara
             out.ids("FeatureMeasurementIds", characteristic.feature_measurement_ids)
         if characteristic.value is not None:
             out.measured("Value", characteristic.value, characteristic.uncertainty)
+        write_bonus(out, characteristic, gdt)
         out.close(f"{camel(characteristic.type)}CharacteristicMeasurement")
     out.close("CharacteristicMeasurements")
     out.close("MeasuredCharacteristics")
 
 
 def write_qif(document: CmmDocument, path: str | Path, *, overwrite: bool = False, linear_unit: str = "mm",
-              qpid: str | None = None) -> Path:
+              qpid: str | None = None, gdt: GdtRecords | None = None) -> Path:
     """Write ``document`` as a QIF 3.0 results document (see the module docstring).
 
     Parameters
@@ -274,6 +305,9 @@ def write_qif(document: CmmDocument, path: str | Path, *, overwrite: bool = Fals
         Length unit of the file (values are converted; angles are written in degrees).
     qpid : str or None
         The document's QIF persistent id (a UUID); default a new random UUID.
+    gdt : GdtRecords or None
+        Datum definitions, datum reference frames and the definitions (and bonuses) of the document's
+        geometric characteristics (:mod:`~pcmm_geo.io.cmm.qif.gdt_out`).
 
     Returns
     -------
@@ -291,6 +325,6 @@ def write_qif(document: CmmDocument, path: str | Path, *, overwrite: bool = Fals
     qpid = str(uuid.UUID(qpid)) if qpid is not None else str(uuid.uuid4())
 
     def content(stream: IO[bytes]) -> None:
-        _Writer(document, QifText(stream, *_LINEAR_UNITS[linear_unit])).write(qpid)
+        _Writer(document, QifText(stream, *_LINEAR_UNITS[linear_unit]), gdt).write(qpid)
 
     return write_atomic(path, content, overwrite=overwrite)

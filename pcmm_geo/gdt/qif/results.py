@@ -1,0 +1,261 @@
+"""An inspection plan's results as a QIF 3.0 results file: features, datums, frames and characteristic measurements.
+
+:func:`inspection_to_qif` converts an :class:`~pcmm_geo.gdt.inspection.InspectionResult` to the
+plain records of :mod:`pcmm_geo.io.cmm` (``io`` does not know ``gdt``) and writes them with
+:func:`~pcmm_geo.io.cmm.write_qif`:
+
+- every feature of the plan (plane, cylinder, sphere, point) with its nominal (from the plan),
+  item, measured actual and its points, all in the coordinates of the part's datum reference frame
+  (``[part] frame``; the measurement coordinates without one).  Actuals: a datum feature of the
+  part frame, its associated datum (ISO 5459 tangent minimax plane -- QIF ``ONESIDED`` --, ASME
+  constrained least squares, MIC / MCC); a cylinder, its toleranced axis over the points' extent
+  (ISO least-squares, ASME the unrelated actual mating envelope) and diameter; a plane, its
+  least-squares plane; a sphere, its least-squares sphere; a point, the mean of its points;
+- a ``Diameter`` characteristic for each cylinder with a size tolerance (value: the actual's
+  diameter; PASS / FAIL against the limits);
+- ``DatumDefinitions`` (label, the datum feature's nominal) and one ``DatumReferenceFrame`` per
+  datum sequence the frames use (simple datums, RFS: ``MaterialModifier NONE``);
+- the characteristics: position (``DiametricalZone`` / ``SphericalZone`` / ``NonDiametricalZone``,
+  ``MaterialCondition`` MAXIMUM / LEAST / NONE and the ``Bonus``), perpendicularity,
+  parallelism, angularity (``DiametricalZone`` / ``PlanarZone``), flatness, circular and total
+  runout, coaxiality and concentricity.  Profile of a surface (its feature has no QIF feature
+  type the writer writes), coordinates, distances and angles between features are reported as not
+  written, by name.
+
+Status: ``PASS`` and ``FAIL`` as the verdict; ``NOT PROVEN`` is written as QIF
+``INDETERMINATE`` (the ``CharacteristicStatusEnum`` value for "the measurement does not decide";
+``NOT_ANALYZED`` would claim it was not evaluated).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from pcmm_geo.gdt.characteristics import CharacteristicResult, FeatureData, toleranced_axis
+from pcmm_geo.gdt.frame import DatumReferenceFrame
+from pcmm_geo.gdt.inspection import InspectionResult
+
+__all__ = ["QifExport", "STATUS_OF_VERDICT", "inspection_to_qif"]
+
+#: QIF CharacteristicStatusEnum value of each verdict
+STATUS_OF_VERDICT = {"PASS": "PASS", "FAIL": "FAIL", "NOT PROVEN": "INDETERMINATE"}
+_TYPES = {"position": "position", "perpendicularity": "perpendicularity", "parallelism": "parallelism",
+          "angularity": "angularity", "flatness": "flatness", "circular runout": "circular_runout",
+          "total runout": "total_runout", "coaxiality": "coaxiality", "concentricity": "concentricity"}
+_FEATURE_TYPES = {"plane": "plane", "cylinder": "cylinder", "sphere": "sphere", "point": "point"}
+_CONDITIONS = {"MMC": "MAXIMUM", "LMC": "LEAST", "RFS": "NONE"}
+
+
+@dataclass(frozen=True)
+class QifExport:
+    """What :func:`inspection_to_qif` wrote.
+
+    Attributes
+    ----------
+    path : Path
+    written : tuple of str
+        Names of the plan characteristics written (in plan order).
+    not_written : tuple of (str, str)
+        ``(name, reason)`` of each plan characteristic with no QIF record here.
+    features : tuple of str
+        Names of the features written.
+    frames : tuple of str
+        The datum reference frames written (``"A|B|C"``).
+    """
+
+    path: Path
+    written: tuple[str, ...]
+    not_written: tuple[tuple[str, str], ...]
+    features: tuple[str, ...]
+    frames: tuple[str, ...]
+
+    def to_dict(self) -> dict[str, object]:
+        """JSON-ready record."""
+        return {"path": str(self.path), "written": list(self.written),
+                "not_written": [{"name": n, "reason": r} for n, r in self.not_written],
+                "features": list(self.features), "frames": list(self.frames)}
+
+
+def _reason(result: CharacteristicResult, feature: FeatureData | None) -> str | None:
+    if result.characteristic not in _TYPES:
+        if result.characteristic.split()[0] in ("coordinate", "distance", "angle"):
+            return (f"{result.characteristic}: QIF has LinearCoordinate / DistanceBetween / AngleBetween "
+                    "characteristics, but pcmm_geo's QIF writer does not write them yet")
+        return f"{result.characteristic}: no QIF characteristic type is written for it"
+    if feature is None or feature.element not in _FEATURE_TYPES:
+        return "its feature (a nominal surface) has no QIF feature type the writer writes"
+    if not np.isfinite(result.value_mm):
+        return "its value is not finite"
+    return None
+
+
+def _actual(feature: FeatureData, frame: DatumReferenceFrame, association: object | None, standard: str) -> dict:
+    """Actual geometry (part-frame coordinates) of ``feature`` and the substitute algorithm's QIF name."""
+    from pcmm_geo.fit import fit_plane, fit_sphere
+    from pcmm_geo.io.cmm import FeatureGeometry
+
+    points = frame.to_frame(feature.points)
+    if association is not None:  # a datum of the part frame: its associated datum
+        point = frame.to_frame(association.point[None, :])[0]  # type: ignore[attr-defined]
+        direction = frame.direction_to_frame(association.direction[None, :])[0]  # type: ignore[attr-defined]
+        criterion = association.criterion  # type: ignore[attr-defined]
+        algorithm = {"minimax": "ONESIDED", "constrained-lsq": "LEASTSQUARES", "mic": "MAXINSCRIBED",
+                     "mcc": "MINCIRCUMSCRIBED"}.get(criterion, "DEFAULT")
+        if feature.element == "plane":
+            return {"actual": FeatureGeometry(location=point, normal=-direction), "algorithm": algorithm}
+        if feature.element == "cylinder":
+            if direction @ feature.direction < 0:
+                direction = -direction
+            heights = (points - point) @ direction
+            middle = point + 0.5 * (heights.min() + heights.max()) * direction
+            return {"actual": FeatureGeometry(location=middle, direction=direction,
+                                              diameter=2.0 * association.radius),  # type: ignore[attr-defined]
+                    "algorithm": algorithm}
+        return {"actual": FeatureGeometry(location=point, diameter=None if feature.element == "point"
+                                          else 2.0 * association.radius), "algorithm": algorithm}  # type: ignore[attr-defined]
+    if feature.element == "plane":
+        fit = fit_plane(points)
+        normal = np.asarray(fit.normal, dtype=float)
+        if normal @ feature.direction < 0:
+            normal = -normal
+        return {"actual": FeatureGeometry(location=np.asarray(fit.point, dtype=float), normal=normal),
+                "algorithm": "LEASTSQUARES"}
+    if feature.element == "cylinder":
+        ends, axis, fit = toleranced_axis(points, feature, standard)
+        algorithm = "LEASTSQUARES" if standard == "ISO" else (
+            "MAXINSCRIBED" if feature.side == "internal" else "MINCIRCUMSCRIBED")
+        return {"actual": FeatureGeometry(location=ends.mean(axis=0), direction=axis, diameter=2.0 * float(fit.radius)),
+                "algorithm": algorithm}
+    if feature.element == "sphere":
+        fit = fit_sphere(points)
+        return {"actual": FeatureGeometry(location=np.asarray(fit.center, dtype=float), diameter=float(fit.diameter)),
+                "algorithm": "LEASTSQUARES"}
+    return {"actual": FeatureGeometry(location=points.mean(axis=0)), "algorithm": "DEFAULT"}
+
+
+def inspection_to_qif(result: InspectionResult, path: str | Path, *, overwrite: bool = False) -> QifExport:
+    """Write an inspection's results as a schema-valid QIF 3.0 results file (see the module docstring).
+
+    Parameters
+    ----------
+    result : InspectionResult
+        From :func:`~pcmm_geo.gdt.inspection.inspect_plan`.
+    path : str or Path
+        The ``.qif`` file to write.
+    overwrite : bool
+        Replace an existing file (default: refuse).
+
+    Returns
+    -------
+    QifExport
+        The path, the characteristics written and those not written (by name, with the reason).
+
+    Raises
+    ------
+    OutputExistsError
+        ``path`` exists and ``overwrite`` is False.
+    InvalidInputError
+        A record QIF cannot hold (a non-finite number).
+    """
+    from pcmm_geo.io.cmm import Characteristic, FeatureGeometry, FeatureReport, MeasuredPointSet, Tolerance, write_qif
+    from pcmm_geo.io.cmm.qif.characteristic_definitions import CharacteristicDefinition
+    from pcmm_geo.io.cmm.qif.datums import DatumDefinition, DatumReferenceFrame, DrfDatum
+    from pcmm_geo.io.cmm.qif.gdt_out import GdtRecords
+
+    plan = result.plan
+    part = result.frames.get("|".join(plan.part_frame)) if plan.part_frame else None
+    frame = part if part is not None else DatumReferenceFrame.measurement()
+    datum_of_feature = {feature: label for label, (feature, _) in plan.datums.items()}
+    written, not_written, wanted = [], [], {}
+    for index, (planned, outcome) in enumerate(zip(plan.characteristics, result.characteristics, strict=True)):
+        reason = _reason(outcome, plan.features.get(planned.feature))
+        if reason is None:
+            wanted.setdefault(planned.feature, []).append(index)
+            written.append(outcome.name)
+        else:
+            not_written.append((outcome.name, reason))
+    sequences = sorted({result.characteristics[i].datums for ids in wanted.values() for i in ids
+                        if result.characteristics[i].datums}, key=lambda s: (len(s), s))
+    reports, meta = [], {}
+    for name, feature in plan.features.items():
+        if feature.element not in _FEATURE_TYPES:
+            continue
+        label = datum_of_feature.get(name)
+        association = result.datums.get(label) if label is not None else None
+        actual = _actual(feature, frame, association, plan.standard)
+        sized = feature.element in ("cylinder", "sphere") and np.isfinite(feature.diameter)
+        nominal = FeatureGeometry(
+            location=np.asarray(feature.point, dtype=float),
+            normal=feature.direction if feature.element == "plane" else None,
+            direction=feature.direction if feature.element == "cylinder" else None,
+            diameter=feature.diameter if sized else None)
+        characteristics = []
+        low, high = feature.size_tolerance
+        if feature.element == "cylinder" and sized and (low, high) != (0.0, 0.0):
+            diameter = float(actual["actual"].diameter)
+            ok = feature.diameter + low <= diameter <= feature.diameter + high
+            characteristics.append(Characteristic(
+                id=0, type="diameter", name=f"{name} diameter", value=diameter, nominal=feature.diameter,
+                tolerance=Tolerance(max_value=high, min_value=low), status="PASS" if ok else "FAIL"))
+        for index in wanted.get(name, ()):
+            outcome, planned = result.characteristics[index], plan.characteristics[index]
+            kind = _TYPES[outcome.characteristic]
+            zone = None
+            if planned.frame is not None and kind not in ("flatness", "circular_runout", "total_runout"):
+                dia = {"dia": "diametrical", "sdia": "spherical"}.get(planned.frame.zone)
+                zone = dia or ("non_diametrical" if kind == "position" else "planar")
+                if kind in ("coaxiality", "concentricity"):
+                    zone = "spherical" if feature.element in ("sphere", "point") else "diametrical"
+            meta[outcome.name] = (index, zone)
+            characteristics.append(Characteristic(
+                id=0, type=kind, name=outcome.name, value=outcome.value_mm, tolerance=Tolerance(value=outcome.tolerance_mm),
+                status=STATUS_OF_VERDICT[outcome.verdict], zone_shape=zone))
+        reports.append(FeatureReport(
+            type=_FEATURE_TYPES[feature.element], name=name, actual=actual["actual"], nominal=nominal,
+            internal_external=("INTERNAL" if feature.side == "internal" else "EXTERNAL") if sized else None,
+            points=MeasuredPointSet(id=None, points=frame.to_frame(feature.points), compensated=True),
+            characteristics=tuple(characteristics), substitute_algorithm=actual["algorithm"]))
+    from pcmm_geo.io.cmm import results_document
+
+    document = results_document(reports, application="pcmm_geo inspect", source=plan.path)
+    used = [*document.feature_definitions, *document.feature_nominals, *document.feature_items]
+    for results in document.results:
+        used += [results.id or 0, *results.point_sets, *(f.id for f in results.features)]
+        used += [k for c in results.characteristics for k in (c.id, c.item_id or 0, c.nominal_id or 0,
+                                                                c.definition_id or 0)]
+    counter = iter(range(max(used) + 1, 1 << 31))
+    nominal_of_feature = {item.name: item.nominal_id for item in document.feature_items.values()}
+    labels = sorted({label for sequence in sequences for label in sequence})
+    datum_ids = {label: next(counter) for label in labels}
+    datum_definitions = {datum_ids[label]: DatumDefinition(
+        id=datum_ids[label], label=label, feature_nominal_ids=(nominal_of_feature[plan.datums[label][0]],))
+        for label in labels}
+    frame_ids = {sequence: next(counter) for sequence in sequences}
+    precedences = ("PRIMARY", "SECONDARY", "TERTIARY")
+    frames = {key: DatumReferenceFrame(id=key, datums=tuple(
+        DrfDatum(precedence=precedences[k], kind="simple", datum_definition_ids=(datum_ids[label],),
+                 material_modifiers=("NONE",), referenced_component="ACTUAL") for k, label in enumerate(sequence)))
+        for sequence, key in frame_ids.items()}
+    definitions, bonuses = {}, {}
+    for characteristic in document.characteristics:
+        if characteristic.name not in meta:
+            continue
+        index, zone = meta[characteristic.name]
+        outcome, planned = result.characteristics[index], plan.characteristics[index]
+        modifier = planned.frame.modifier if planned.frame is not None else "RFS"
+        definitions[characteristic.definition_id] = CharacteristicDefinition(
+            id=characteristic.definition_id, type=characteristic.type,  # type: ignore[arg-type]
+            tolerance=Tolerance(value=outcome.tolerance_mm),
+            material_condition=_CONDITIONS[modifier] if characteristic.type in (
+                "position", "perpendicularity", "parallelism", "angularity") else None,
+            zone_shape=zone, datum_reference_frame_ids=(frame_ids[outcome.datums],) if outcome.datums else ())
+        if outcome.bonus_mm is not None:
+            bonuses[characteristic.id] = float(outcome.bonus_mm)
+    gdt = GdtRecords(datum_definitions=datum_definitions, datum_reference_frames=frames,
+                     characteristic_definitions=definitions, bonuses=bonuses)
+    written_path = write_qif(document, path, overwrite=overwrite, gdt=gdt)
+    return QifExport(path=written_path, written=tuple(written), not_written=tuple(not_written),
+                     features=tuple(r.name for r in reports), frames=tuple("|".join(s) for s in sequences))

@@ -1,0 +1,175 @@
+"""The GD&T part of the QIF writer: datum definitions, datum reference frames and geometric characteristic definitions.
+
+QIF 3.0 (``QIFDocument.xsd``, ``Characteristics.xsd``) keeps the datums at the document level --
+``DatumDefinitions`` (a ``DatumLabel`` and the datum feature's ``FeatureNominalIds``) after
+``FileUnits`` and ``DatumReferenceFrames`` (``Datums``, each a ``SimpleDatum`` with its
+``MaterialModifier`` and its ``Precedence``) before ``Features`` -- and a geometric characteristic
+definition names its frame by ``DatumReferenceFrameId``.  The records written are the reader's
+(:mod:`pcmm_geo.io.cmm.qif.datums`, :class:`~pcmm_geo.io.cmm.qif.characteristic_definitions.CharacteristicDefinition`),
+so what is written reads back as the same records.
+
+Definition bodies, in schema order (ISO 23952:2020 / QIF 3.0):
+
+- position: ``ToleranceValue``, ``DatumReferenceFrameId``, ``MaterialCondition``
+  (``MAXIMUM`` / ``LEAST`` / ``REGARDLESS``), ``ZoneShape`` (``DiametricalZone``,
+  ``SphericalZone``, ``NonDiametricalZone``);
+- perpendicularity, parallelism, angularity: ``ToleranceValue``, ``DatumReferenceFrameId``,
+  ``MaterialCondition``, ``ZoneShape`` (``DiametricalZone`` or ``PlanarZone``);
+- coaxiality / concentricity: ``ToleranceValue``, ``DatumReferenceFrameId``, ``ZoneShape``;
+- circular_runout, total_runout: ``ToleranceValue``, ``DatumReferenceFrameId``;
+- surface_profile, line_profile: ``ToleranceValue``, ``DatumReferenceFrameId`` (none: no datums).
+
+A position or orientation measurement carries its ``Bonus`` (MMC / LMC) after ``Value``.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+
+from pcmm_geo.errors import InvalidInputError
+from pcmm_geo.io.cmm.model import Characteristic
+from pcmm_geo.io.cmm.qif._xml_out import QifText, camel
+from pcmm_geo.io.cmm.qif.characteristic_definitions import CharacteristicDefinition
+from pcmm_geo.io.cmm.qif.datums import DatumDefinition, DatumReferenceFrame
+
+__all__ = ["GDT_CHARACTERISTICS", "GdtRecords", "check_gdt_definition", "write_bonus", "write_datums", "write_frames",
+           "write_gdt_definition"]
+
+#: geometric characteristic types this module writes (flatness and the other form types are the writer's)
+GDT_CHARACTERISTICS = ("position", "perpendicularity", "parallelism", "angularity", "coaxiality", "concentricity",
+                       "circular_runout", "total_runout", "surface_profile", "line_profile")
+_ORIENTATION = ("perpendicularity", "parallelism", "angularity")
+_ZONES = {"position": ("diametrical", "spherical", "non_diametrical"), "perpendicularity": ("diametrical", "planar"),
+          "parallelism": ("diametrical", "planar"), "angularity": ("diametrical", "planar"),
+          "coaxiality": ("diametrical",), "concentricity": ("spherical", "diametrical")}
+_CONDITIONS = ("MAXIMUM", "LEAST", "REGARDLESS", "NONE")
+_PRECEDENCES = ("PRIMARY", "SECONDARY", "TERTIARY")
+
+
+@dataclass(frozen=True)
+class GdtRecords:
+    """What the writer needs beyond a :class:`~pcmm_geo.io.cmm.document.CmmDocument` for GD&T characteristics.
+
+    Attributes
+    ----------
+    datum_definitions : dict of int to DatumDefinition
+        By QIF id; ``feature_nominal_ids`` name the datum features' nominals in the document.
+    datum_reference_frames : dict of int to DatumReferenceFrame
+        By QIF id; simple datums only (``kind="simple"``).
+    characteristic_definitions : dict of int to CharacteristicDefinition
+        By the ``definition_id`` of the document's characteristics: the definition written for it
+        (tolerance zone value in ``tolerance.value``, mm; zone shape; material condition; frame).
+    bonuses : dict of int to float
+        Bonus tolerance (mm) by characteristic measurement id, where a material modifier applies.
+    """
+
+    datum_definitions: Mapping[int, DatumDefinition] = field(default_factory=dict)
+    datum_reference_frames: Mapping[int, DatumReferenceFrame] = field(default_factory=dict)
+    characteristic_definitions: Mapping[int, CharacteristicDefinition] = field(default_factory=dict)
+    bonuses: Mapping[int, float] = field(default_factory=dict)
+
+    def ids(self) -> list[int]:
+        """Every QIF id these records use."""
+        return [*self.datum_definitions, *self.datum_reference_frames]
+
+
+def write_datums(out: QifText, records: GdtRecords, nominal_ids: set[int]) -> None:
+    """``DatumDefinitions`` (after ``FileUnits``); call :func:`write_frames` before ``Features``.
+
+    Raises
+    ------
+    InvalidInputError
+        A datum naming a feature nominal the document does not hold, a frame naming an unknown
+        datum, a datum that is not simple, a precedence other than PRIMARY / SECONDARY / TERTIARY.
+    """
+    if not records.datum_definitions:
+        return
+    out.open("DatumDefinitions", n=len(records.datum_definitions))
+    for key, datum in records.datum_definitions.items():
+        missing = [i for i in datum.feature_nominal_ids if i not in nominal_ids]
+        if missing:
+            raise InvalidInputError(f"datum definition {key}.feature_nominal_ids", "ids of feature nominals of the "
+                                    "document", str(missing))
+        out.open("DatumDefinition", id=key)
+        out.leaf("DatumLabel", datum.label)
+        if datum.feature_nominal_ids:
+            out.ids("FeatureNominalIds", datum.feature_nominal_ids)
+        out.close("DatumDefinition")
+    out.close("DatumDefinitions")
+
+
+def write_frames(out: QifText, records: GdtRecords) -> None:
+    """``DatumReferenceFrames`` (before ``Features``); an empty frame is written with no ``Datums``."""
+    if not records.datum_reference_frames:
+        return
+    out.open("DatumReferenceFrames", n=len(records.datum_reference_frames))
+    for key, frame in records.datum_reference_frames.items():
+        out.open("DatumReferenceFrame", id=key)
+        if frame.datums:
+            out.open("Datums", n=len(frame.datums))
+            for datum in frame.datums:
+                if datum.kind != "simple" or len(datum.datum_definition_ids) != 1 \
+                        or datum.datum_definition_ids[0] not in records.datum_definitions:
+                    raise InvalidInputError(f"datum reference frame {key}", "simple datums naming a datum "
+                                            "definition of the records", f"{datum.kind} {datum.datum_definition_ids}")
+                if datum.precedence not in _PRECEDENCES:
+                    raise InvalidInputError(f"datum reference frame {key}.precedence", ", ".join(_PRECEDENCES),
+                                            repr(datum.precedence))
+                modifier = datum.material_modifiers[0] if datum.material_modifiers else "NONE"
+                out.open("Datum")
+                out.open("SimpleDatum")
+                out.leaf("DatumDefinitionId", str(datum.datum_definition_ids[0]))
+                out.leaf("MaterialModifier", modifier)
+                out.leaf("ReferencedComponent", datum.referenced_component or "ACTUAL")
+                out.close("SimpleDatum")
+                out.chain("Precedence", "PrecedenceEnum", text=datum.precedence)
+                out.close("Datum")
+            out.close("Datums")
+        out.close("DatumReferenceFrame")
+    out.close("DatumReferenceFrames")
+
+
+def check_gdt_definition(characteristic: Characteristic, definition: CharacteristicDefinition | None,
+                         records: GdtRecords) -> None:
+    """Refuse a geometric characteristic whose definition the writer cannot write (names the characteristic)."""
+    what = f"characteristic {characteristic.id} ({characteristic.type})"
+    if definition is None:
+        raise InvalidInputError(what, "a CharacteristicDefinition in GdtRecords.characteristic_definitions", "none")
+    if definition.tolerance is None or definition.tolerance.value is None or definition.tolerance.value < 0:
+        raise InvalidInputError(f"{what}.tolerance.value", "a tolerance zone value >= 0 mm", "none")
+    zones = _ZONES.get(characteristic.type)
+    if zones is not None and definition.zone_shape not in zones:
+        raise InvalidInputError(f"{what}.zone_shape", " or ".join(zones), repr(definition.zone_shape))
+    if (characteristic.type == "position" or characteristic.type in _ORIENTATION) \
+            and (definition.material_condition or "NONE") not in _CONDITIONS:
+        raise InvalidInputError(f"{what}.material_condition", ", ".join(_CONDITIONS),
+                                repr(definition.material_condition))
+    for frame in definition.datum_reference_frame_ids:
+        if frame not in records.datum_reference_frames:
+            raise InvalidInputError(f"{what}.datum_reference_frame_ids", "frames of the records", str(frame))
+
+
+def write_gdt_definition(out: QifText, tag: str, characteristic: Characteristic,
+                         definition: CharacteristicDefinition) -> None:
+    """The ``<Type>CharacteristicDefinition`` of a geometric characteristic (checked by :func:`check_gdt_definition`)."""
+    kind = characteristic.type
+    out.open(tag, id=characteristic.definition_id)
+    out.leaf("ToleranceValue", out.length(definition.tolerance.value))  # type: ignore[union-attr,arg-type]
+    if definition.datum_reference_frame_ids:
+        out.leaf("DatumReferenceFrameId", str(definition.datum_reference_frame_ids[0]))
+    if kind == "position" or kind in _ORIENTATION:
+        out.leaf("MaterialCondition", definition.material_condition or "NONE")
+    if kind in _ZONES:
+        out.chain("ZoneShape", f"{camel(definition.zone_shape)}Zone")  # type: ignore[arg-type]
+    out.close(tag)
+
+
+def write_bonus(out: QifText, characteristic: Characteristic, records: GdtRecords | None) -> None:
+    """``Bonus`` of a position or orientation measurement (after ``Value``), where one is recorded."""
+    if records is None or characteristic.id not in records.bonuses:
+        return
+    if characteristic.type != "position" and characteristic.type not in _ORIENTATION:
+        raise InvalidInputError(f"characteristic {characteristic.id}.bonus", "a position or orientation "
+                                "characteristic (QIF has a Bonus only there)", characteristic.type)
+    out.measured("Bonus", records.bonuses[characteristic.id], None)
