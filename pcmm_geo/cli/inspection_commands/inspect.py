@@ -14,6 +14,7 @@ from pcmm_geo.cli._output import (
     add_json_flag,
     add_overwrite_flag,
     add_report_flag,
+    declare_output,
 )
 
 DECISION_RULE = (
@@ -37,6 +38,12 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     )
     parser.add_argument("plan", type=Path, metavar="PLAN.toml")
     add_report_flag(parser)
+    parser.add_argument("--qif", metavar="OUT.qif",
+                        help="also write the results as a QIF 3.0 results document: the features (nominals from the "
+                             "plan, actuals and points in the part's datum reference frame), datum definitions, datum "
+                             "reference frames and the characteristic measurements (NOT PROVEN as INDETERMINATE); "
+                             "characteristics with no QIF record written are listed by name")
+    declare_output(parser, "qif")
     add_overwrite_flag(parser)
     add_decimal_flag(parser)
     add_json_flag(parser)
@@ -86,4 +93,13 @@ def handle(args: argparse.Namespace) -> Report:
     else:
         method = Method("ISO 1101:2017, ISO 5459:2011", "geometrical tolerances (clause 18), datums and datum "
                         "systems", "characteristics from measured points in their datum reference frames")
-    return Report(data=data, tables=tables, lines=[], exit_code=exit_code, verdict=verdict, method=method)
+    lines = []
+    if args.qif:
+        from pcmm_geo.gdt.qif.results import inspection_to_qif
+
+        export = inspection_to_qif(result, args.qif, overwrite=bool(args.overwrite or args.overwrite_qif))
+        data["qif"] = export.to_dict()
+        lines.append(f"QIF: {len(export.written)} characteristic(s), {len(export.features)} feature(s) and "
+                     f"{len(export.frames)} datum reference frame(s) written to {export.path}")
+        lines += [f"QIF: not written: {name} ({reason})" for name, reason in export.not_written]
+    return Report(data=data, tables=tables, lines=lines, exit_code=exit_code, verdict=verdict, method=method)
