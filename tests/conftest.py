@@ -77,6 +77,7 @@ EXTRAS_NEEDED = {
     "io/cmm/test_qif_write.py": "qif",
     "io/cmm/test_qif_features.py": "qif",
     "cli/test_cli_qif_features.py": "qif",
+    "gdt/test_inspect_qif.py": "qif",
     # the schema's presence is checked in the core-only run too; validating needs lxml
     "io/cmm/test_qif_schema.py::test_validates_without_a_schema_dir": "qif",
     "io/cmm/test_qif_schema.py::test_a_doctype_is_refused_before_parsing_with_its_line": "qif",

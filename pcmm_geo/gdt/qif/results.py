@@ -211,7 +211,8 @@ def inspection_to_qif(result: InspectionResult, path: str | Path, *, overwrite: 
                     zone = "spherical" if feature.element in ("sphere", "point") else "diametrical"
             meta[outcome.name] = (index, zone)
             characteristics.append(Characteristic(
-                id=0, type=kind, name=outcome.name, value=outcome.value_mm, tolerance=Tolerance(value=outcome.tolerance_mm),
+                id=0, type=kind, name=outcome.name, value=outcome.value_mm,
+                tolerance=Tolerance(value=outcome.tolerance_mm),
                 status=STATUS_OF_VERDICT[outcome.verdict], zone_shape=zone))
         reports.append(FeatureReport(
             type=_FEATURE_TYPES[feature.element], name=name, actual=actual["actual"], nominal=nominal,

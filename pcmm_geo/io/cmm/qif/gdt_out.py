@@ -152,7 +152,7 @@ def check_gdt_definition(characteristic: Characteristic, definition: Characteris
 
 def write_gdt_definition(out: QifText, tag: str, characteristic: Characteristic,
                          definition: CharacteristicDefinition) -> None:
-    """The ``<Type>CharacteristicDefinition`` of a geometric characteristic (checked by :func:`check_gdt_definition`)."""
+    """The ``<Type>CharacteristicDefinition`` of a geometric characteristic (see :func:`check_gdt_definition`)."""
     kind = characteristic.type
     out.open(tag, id=characteristic.definition_id)
     out.leaf("ToleranceValue", out.length(definition.tolerance.value))  # type: ignore[union-attr,arg-type]

@@ -1,0 +1,170 @@
+"""``pcmm inspect --qif`` / :func:`inspection_to_qif`: the plan's results as a schema-valid QIF 3.0 results file.
+
+Truth: the inspection's own results (the numbers written must read back), the QIF 3.0 XSD (lxml),
+the plan's frames (labels and precedence), and an independent recomputation of every written
+characteristic from the written feature actuals and points (``pcmm qif verify``'s second opinion,
+:mod:`pcmm_geo.gdt.qif`), which must agree -- and must disagree with a value changed by hand.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+import shutil
+from pathlib import Path
+
+import pytest
+from pcmm_runner import run_pcmm
+
+from pcmm_geo.errors import InvalidInputError, OutputExistsError
+from pcmm_geo.gdt import inspect_plan
+from pcmm_geo.gdt.qif.results import inspection_to_qif
+
+EXAMPLE_DIR = Path(__file__).parents[2] / "pcmm_geo" / "data" / "examples" / "gdt"
+WRITTEN = ("flatness A", "parallelism TOP", "perpendicularity H1", "position H1", "position H2", "position H3")
+
+
+@pytest.fixture(scope="module")
+def written(tmp_path_factory):
+    result = inspect_plan(EXAMPLE_DIR / "plan.toml")
+    path = tmp_path_factory.mktemp("qif") / "inspect.qif"
+    return result, inspection_to_qif(result, path), path
+
+
+def test_the_example_plans_qif_is_schema_valid_and_says_what_it_left_out(written):
+    from pcmm_geo.io.cmm.qif.schema import validate_qif
+
+    _, export, path = written
+    assert validate_qif(path) == ()
+    assert export.written == WRITTEN
+    assert [name for name, _ in export.not_written] == ["x H1", "H1 to H2", "H1 to TOP"]
+    assert export.features == ("A", "B", "C", "TOP", "H1", "H2", "H3") and export.frames == ("A", "A|B|C")
+
+
+def test_values_statuses_and_bonuses_read_back(written):
+    from pcmm_geo.io.cmm import read_qif
+
+    result, _, path = written
+    document = read_qif(path)
+    read = {c.name: c for c in document.characteristics}
+    expected = {c.name: c for c in result.characteristics if c.name in WRITTEN}
+    assert set(expected) <= set(read)
+    for name, outcome in expected.items():
+        got = read[name]
+        assert got.value == pytest.approx(outcome.value_mm, rel=0, abs=1e-12), name
+        assert got.tolerance.value == pytest.approx(outcome.tolerance_mm, rel=0, abs=1e-15), name
+        assert got.status == outcome.verdict, name  # PASS / FAIL written as such
+    assert read["position H3"].status == "FAIL" and read["position H1"].zone_shape == "diametrical"
+    assert read["perpendicularity H1"].zone_shape == "diametrical" and read["parallelism TOP"].zone_shape == "planar"
+    # size characteristics of the holes: [10, 10.1] limits, the actual diameter
+    diameter = read["H1 diameter"]
+    assert diameter.tolerance.limits(diameter.nominal) == pytest.approx((10.0, 10.1), abs=1e-12)
+    assert diameter.value == pytest.approx(document.feature("H1").actual.diameter, abs=1e-12)
+    # the MMC bonus is written in the Bonus element of each position measurement
+    from lxml import etree
+
+    tree = etree.parse(str(path))
+    ns = {"q": "http://qifstandards.org/xsd/qif3"}
+    for name in ("position H1", "position H2", "position H3"):
+        bonus = tree.xpath(f"//q:PositionCharacteristicMeasurement[q:CharacteristicItemId = "
+                           f"//q:PositionCharacteristicItem[q:Name='{name}']/@id]/q:Bonus", namespaces=ns)
+        assert len(bonus) == 1 and float(bonus[0].text) == pytest.approx(expected[name].bonus_mm, abs=1e-12), name
+    assert not tree.xpath("//q:FlatnessCharacteristicMeasurement/q:Bonus", namespaces=ns)
+
+
+def test_definitions_datum_labels_and_frames_read_back(written):
+    from pcmm_geo.io.cmm import read_qif
+    from pcmm_geo.io.cmm.qif.characteristic_definitions import read_qif_definitions
+
+    result, _, path = written
+    definitions = read_qif_definitions(path)
+    document = read_qif(path)
+    assert definitions.counts()["datum_definitions"] == 3 and definitions.counts()["datum_reference_frames"] == 2
+    item_of_nominal = {item.nominal_id: item.name for item in document.feature_items.values()}
+    labels = {d.id: d.label for d in definitions.datum_definitions.values()}
+    for datum in definitions.datum_definitions.values():  # each datum names its plan feature's nominal
+        assert [item_of_nominal[i] for i in datum.feature_nominal_ids] == [result.plan.datums[datum.label][0]]
+    by_name = {c.name: c for c in document.characteristics}
+    planned = {c.name: c for c in result.characteristics}
+    for name in WRITTEN:
+        definition = definitions.definition_of(by_name[name].definition_id)
+        assert definition.tolerance.value == pytest.approx(planned[name].tolerance_mm, abs=1e-15)
+        frames = [definitions.datum_reference_frames[i] for i in definition.datum_reference_frame_ids]
+        read_labels = tuple(labels[d.datum_definition_ids[0]] for f in frames for d in f.datums)
+        assert read_labels == planned[name].datums, name
+        if frames:
+            assert [d.precedence for d in frames[0].datums] == ["PRIMARY", "SECONDARY", "TERTIARY"][:len(read_labels)]
+            assert all(d.material_modifiers == ("NONE",) for d in frames[0].datums)
+        expected = "MAXIMUM" if name.startswith("position") else (None if name.startswith("flatness") else "NONE")
+        assert definition.material_condition == expected, name
+
+
+def test_the_second_opinion_recomputes_every_written_characteristic_and_agrees(written, tmp_path):
+    from pcmm_geo.gdt.qif.characteristics import verify_characteristics
+    from pcmm_geo.io.cmm import read_qif
+
+    _, _, path = written
+    verification = verify_characteristics(read_qif(path))
+    statuses = {c.name: c.status for c in verification.checks}
+    assert statuses == {**dict.fromkeys(WRITTEN, "agrees"),
+                        **dict.fromkeys(("H1 diameter", "H2 diameter", "H3 diameter"), "agrees")}, \
+        [(c.name, c.reported, c.recomputed, c.reason) for c in verification.checks]
+    # a wrong answer is caught: position H3 reported 0.05 mm smaller than written (its tolerance is 0.1 mm)
+    text = path.read_text()
+    measured = verification.checks[[c.name for c in verification.checks].index("position H3")]
+    marker = f'<PositionCharacteristicMeasurement id="{measured.id}">'
+    head, tail = text.split(marker)
+    value_at = tail.index("<Value>") + len("<Value>")
+    end = tail.index("</Value>")
+    edited = tmp_path / "edited.qif"
+    edited.write_text(head + marker + tail[:value_at] + repr(float(tail[value_at:end]) - 0.05) + tail[end:])
+    wrong = {c.name: c.status for c in verify_characteristics(read_qif(edited)).checks}
+    assert wrong["position H3"] == "disagrees" and wrong["position H2"] == "agrees"
+
+
+def test_not_proven_is_written_as_indeterminate(written, tmp_path):
+    from pcmm_geo.io.cmm import read_qif
+
+    result = written[0]
+    changed = tuple(dataclasses.replace(c, verdict="NOT PROVEN") if c.name == "position H2" else c
+                    for c in result.characteristics)
+    path = inspection_to_qif(dataclasses.replace(result, characteristics=changed), tmp_path / "np.qif").path
+    statuses = {c.name: c.status for c in read_qif(path).characteristics}
+    assert statuses["position H2"] == "INDETERMINATE" and statuses["position H1"] == "PASS"
+
+
+def test_an_existing_file_is_refused_and_a_geometric_characteristic_without_definition_too(written, tmp_path):
+    from pcmm_geo.io.cmm import read_qif, write_qif
+    from pcmm_geo.io.cmm.qif.gdt_out import GdtRecords
+
+    result, _, path = written
+    before = path.read_bytes()
+    with pytest.raises(OutputExistsError):
+        inspection_to_qif(result, path)
+    assert path.read_bytes() == before
+    document = read_qif(path)
+    with pytest.raises(InvalidInputError, match="got 'parallelism'"):  # without GdtRecords: refused
+        write_qif(document, tmp_path / "plain.qif")
+    with pytest.raises(InvalidInputError, match="CharacteristicDefinition"):
+        write_qif(document, tmp_path / "empty.qif", gdt=GdtRecords())
+    assert not (tmp_path / "plain.qif").exists() and not (tmp_path / "empty.qif").exists()
+
+
+def test_pcmm_inspect_qif_writes_refuses_an_existing_file_and_overwrites_on_request(tmp_path):
+    for f in EXAMPLE_DIR.iterdir():
+        if f.suffix in (".toml", ".csv"):
+            shutil.copy(f, tmp_path / f.name)
+    out = tmp_path / "out.qif"
+    out.write_text("an older file")
+    done = run_pcmm("inspect", tmp_path / "plan.toml", "--qif", out, "--json", "--overwrite-qif")
+    assert done.returncode == 1, done.stderr  # H3 fails
+    data = json.loads(done.stdout)
+    assert data["qif"]["written"] == list(WRITTEN) and out.read_bytes().startswith(b"<?xml")
+    assert [n["name"] for n in data["qif"]["not_written"]] == ["x H1", "H1 to H2", "H1 to TOP"]
+    before = out.read_bytes()
+    done = run_pcmm("inspect", tmp_path / "plan.toml", "--qif", out)
+    assert done.returncode == 2 and "--overwrite-qif" in done.stderr and len(done.stderr.strip().splitlines()) == 1
+    assert out.read_bytes() == before and "QIF" not in done.stdout
+    done = run_pcmm("qif", "verify", out, "--json")
+    summary = json.loads(done.stdout)["characteristics_summary"]
+    assert summary.get("agrees") == 9 and not summary.get("disagrees") and not summary.get("not computable"), summary
