@@ -21,7 +21,14 @@ from pcmm_geo.gdt import inspect_plan
 from pcmm_geo.gdt.qif.results import inspection_to_qif
 
 EXAMPLE_DIR = Path(__file__).parents[2] / "pcmm_geo" / "data" / "examples" / "gdt"
-WRITTEN = ("flatness A", "parallelism TOP", "perpendicularity H1", "position H1", "position H2", "position H3")
+WRITTEN = ("flatness A", "parallelism TOP", "perpendicularity H1", "position H1", "position H2", "position H3",
+           "x H1", "H1 to H2", "H1 to TOP")
+SIZES = ("H1 diameter", "H2 diameter", "H3 diameter")
+
+
+def _width(tolerance) -> float:
+    """A zone's value, or the width of a dimension's limits."""
+    return tolerance.value if tolerance.value is not None else tolerance.max_value - tolerance.min_value
 
 
 @pytest.fixture(scope="module")
@@ -37,7 +44,7 @@ def test_the_example_plans_qif_is_schema_valid_and_says_what_it_left_out(written
     _, export, path = written
     assert validate_qif(path) == ()
     assert export.written == WRITTEN
-    assert [name for name, _ in export.not_written] == ["x H1", "H1 to H2", "H1 to TOP"]
+    assert export.not_written == ()
     assert export.features == ("A", "B", "C", "TOP", "H1", "H2", "H3") and export.frames == ("A", "A|B|C")
 
 
@@ -52,10 +59,16 @@ def test_values_statuses_and_bonuses_read_back(written):
     for name, outcome in expected.items():
         got = read[name]
         assert got.value == pytest.approx(outcome.value_mm, rel=0, abs=1e-12), name
-        assert got.tolerance.value == pytest.approx(outcome.tolerance_mm, rel=0, abs=1e-15), name
+        assert _width(got.tolerance) == pytest.approx(outcome.tolerance_mm, rel=0, abs=1e-12), name
         assert got.status == outcome.verdict, name  # PASS / FAIL written as such
     assert read["position H3"].status == "FAIL" and read["position H1"].zone_shape == "diametrical"
     assert read["perpendicularity H1"].zone_shape == "diametrical" and read["parallelism TOP"].zone_shape == "planar"
+    # dimensions: nominal and limits as the plan states them (the angle in degrees there, radians here)
+    assert read["x H1"].nominal == 30.0 and read["x H1"].tolerance.limits(30.0) == pytest.approx((29.95, 30.05))
+    assert read["H1 to H2"].tolerance.limits(read["H1 to H2"].nominal) == pytest.approx((59.9, 60.1))
+    angle = read["H1 to TOP"]
+    assert angle.quantity == "angular" and angle.nominal == 0.0
+    assert angle.tolerance.limits(0.0) == pytest.approx((0.0, 0.05 * 3.141592653589793 / 180), abs=1e-15)
     # size characteristics of the holes: [10, 10.1] limits, the actual diameter
     diameter = read["H1 diameter"]
     assert diameter.tolerance.limits(diameter.nominal) == pytest.approx((10.0, 10.1), abs=1e-12)
@@ -88,14 +101,16 @@ def test_definitions_datum_labels_and_frames_read_back(written):
     planned = {c.name: c for c in result.characteristics}
     for name in WRITTEN:
         definition = definitions.definition_of(by_name[name].definition_id)
-        assert definition.tolerance.value == pytest.approx(planned[name].tolerance_mm, abs=1e-15)
+        assert _width(definition.tolerance) == pytest.approx(planned[name].tolerance_mm, abs=1e-12)
         frames = [definitions.datum_reference_frames[i] for i in definition.datum_reference_frame_ids]
         read_labels = tuple(labels[d.datum_definition_ids[0]] for f in frames for d in f.datums)
-        assert read_labels == planned[name].datums, name
+        # a QIF dimension names no DRF: it is in the file's coordinates, the part frame A|B|C
+        assert read_labels == (() if name in ("x H1", "H1 to H2", "H1 to TOP") else planned[name].datums), name
         if frames:
             assert [d.precedence for d in frames[0].datums] == ["PRIMARY", "SECONDARY", "TERTIARY"][:len(read_labels)]
             assert all(d.material_modifiers == ("NONE",) for d in frames[0].datums)
-        expected = "MAXIMUM" if name.startswith("position") else (None if name.startswith("flatness") else "NONE")
+        expected = "MAXIMUM" if name.startswith("position") else "NONE" if name.split()[0] in (
+            "parallelism", "perpendicularity") else None
         assert definition.material_condition == expected, name
 
 
@@ -106,8 +121,7 @@ def test_the_second_opinion_recomputes_every_written_characteristic_and_agrees(w
     _, _, path = written
     verification = verify_characteristics(read_qif(path))
     statuses = {c.name: c.status for c in verification.checks}
-    assert statuses == {**dict.fromkeys(WRITTEN, "agrees"),
-                        **dict.fromkeys(("H1 diameter", "H2 diameter", "H3 diameter"), "agrees")}, \
+    assert statuses == dict.fromkeys(WRITTEN + SIZES, "agrees"), \
         [(c.name, c.reported, c.recomputed, c.reason) for c in verification.checks]
     # a wrong answer is caught: position H3 reported 0.05 mm smaller than written (its tolerance is 0.1 mm)
     text = path.read_text()
@@ -160,11 +174,26 @@ def test_pcmm_inspect_qif_writes_refuses_an_existing_file_and_overwrites_on_requ
     assert done.returncode == 1, done.stderr  # H3 fails
     data = json.loads(done.stdout)
     assert data["qif"]["written"] == list(WRITTEN) and out.read_bytes().startswith(b"<?xml")
-    assert [n["name"] for n in data["qif"]["not_written"]] == ["x H1", "H1 to H2", "H1 to TOP"]
+    assert data["qif"]["not_written"] == []
     before = out.read_bytes()
     done = run_pcmm("inspect", tmp_path / "plan.toml", "--qif", out)
     assert done.returncode == 2 and "--overwrite-qif" in done.stderr and len(done.stderr.strip().splitlines()) == 1
     assert out.read_bytes() == before and "QIF" not in done.stdout
     done = run_pcmm("qif", "verify", out, "--json")
     summary = json.loads(done.stdout)["characteristics_summary"]
-    assert summary.get("agrees") == 9 and not summary.get("disagrees") and not summary.get("not computable"), summary
+    assert summary.get("agrees") == 12 and not summary.get("disagrees") and not summary.get("not computable"), summary
+
+
+def test_a_characteristic_with_no_qif_record_is_reported_not_written_by_name(written, tmp_path):
+    from pcmm_geo.io.cmm import read_qif
+
+    result = written[0]
+    changed = tuple(dataclasses.replace(c, datums=("A",)) if c.name == "x H1" else
+                    dataclasses.replace(c, characteristic="symmetry") if c.name == "parallelism TOP" else c
+                    for c in result.characteristics)
+    export = inspection_to_qif(dataclasses.replace(result, characteristics=changed), tmp_path / "some.qif")
+    reasons = dict(export.not_written)
+    assert set(reasons) == {"x H1", "parallelism TOP"}
+    assert "frame A" in reasons["x H1"] and "symmetry" in reasons["parallelism TOP"]
+    names = {c.name for c in read_qif(export.path).characteristics}
+    assert names == set(WRITTEN + SIZES) - set(reasons)

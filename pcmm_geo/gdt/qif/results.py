@@ -9,7 +9,9 @@ plain records of :mod:`pcmm_geo.io.cmm` (``io`` does not know ``gdt``) and write
   (``[part] frame``; the measurement coordinates without one).  Actuals: a datum feature of the
   part frame, its associated datum (ISO 5459 tangent minimax plane -- QIF ``ONESIDED`` --, ASME
   constrained least squares, MIC / MCC); a cylinder, its toleranced axis over the points' extent
-  (ISO least-squares, ASME the unrelated actual mating envelope) and diameter; a plane, its
+  (ISO least-squares, ASME the unrelated actual mating envelope), its point at the nominal point's
+  height along the nominal axis (as :func:`~pcmm_geo.gdt.dimensions.feature_location`) and its
+  diameter; a plane, its
   least-squares plane; a sphere, its least-squares sphere; a point, the mean of its points;
 - a ``Diameter`` characteristic for each cylinder with a size tolerance (value: the actual's
   diameter; PASS / FAIL against the limits);
@@ -45,6 +47,7 @@ STATUS_OF_VERDICT = {"PASS": "PASS", "FAIL": "FAIL", "NOT PROVEN": "INDETERMINAT
 _TYPES = {"position": "position", "perpendicularity": "perpendicularity", "parallelism": "parallelism",
           "angularity": "angularity", "flatness": "flatness", "circular runout": "circular_runout",
           "total runout": "total_runout", "coaxiality": "coaxiality", "concentricity": "concentricity"}
+_DIMENSIONS = {"coordinate": "linear_coordinate", "distance": "distance_between", "angle": "angle_between"}
 _FEATURE_TYPES = {"plane": "plane", "cylinder": "cylinder", "sphere": "sphere", "point": "point"}
 _CONDITIONS = {"MMC": "MAXIMUM", "LMC": "LEAST", "RFS": "NONE"}
 
@@ -79,17 +82,30 @@ class QifExport:
                 "features": list(self.features), "frames": list(self.frames)}
 
 
-def _reason(result: CharacteristicResult, feature: FeatureData | None) -> str | None:
-    if result.characteristic not in _TYPES:
-        if result.characteristic.split()[0] in ("coordinate", "distance", "angle"):
-            return (f"{result.characteristic}: QIF has LinearCoordinate / DistanceBetween / AngleBetween "
-                    "characteristics, but pcmm_geo's QIF writer does not write them yet")
+def _kind(result: CharacteristicResult) -> str | None:
+    return _TYPES.get(result.characteristic) or _DIMENSIONS.get(result.characteristic.split()[0])
+
+
+def _reason(result: CharacteristicResult, features: list[FeatureData | None],
+            part_frame: tuple[str, ...]) -> str | None:
+    kind = _kind(result)
+    if kind is None:
         return f"{result.characteristic}: no QIF characteristic type is written for it"
-    if feature is None or feature.element not in _FEATURE_TYPES:
+    if kind == "linear_coordinate" and result.datums != part_frame:
+        return (f"a coordinate in the frame {'|'.join(result.datums) or 'of the measurement'}: QIF's "
+                "LinearCoordinate is in the file's coordinates, which are the part frame "
+                f"{'|'.join(part_frame) or 'of the measurement'}")
+    if any(feature is None or feature.element not in _FEATURE_TYPES for feature in features):
         return "its feature (a nominal surface) has no QIF feature type the writer writes"
     if not np.isfinite(result.value_mm):
         return "its value is not finite"
     return None
+
+
+def _at_nominal_height(point: np.ndarray, axis: np.ndarray, feature: FeatureData) -> np.ndarray:
+    """The point of an actual axis at the nominal point's height along the nominal axis (the CMM convention)."""
+    t = float((feature.point - point) @ feature.direction) / float(axis @ feature.direction)
+    return point + t * axis
 
 
 def _actual(feature: FeatureData, frame: DatumReferenceFrame, association: object | None, standard: str) -> dict:
@@ -109,9 +125,8 @@ def _actual(feature: FeatureData, frame: DatumReferenceFrame, association: objec
         if feature.element == "cylinder":
             if direction @ feature.direction < 0:
                 direction = -direction
-            heights = (points - point) @ direction
-            middle = point + 0.5 * (heights.min() + heights.max()) * direction
-            return {"actual": FeatureGeometry(location=middle, direction=direction,
+            location = _at_nominal_height(point, direction, feature)
+            return {"actual": FeatureGeometry(location=location, direction=direction,
                                               diameter=2.0 * association.radius),  # type: ignore[attr-defined]
                     "algorithm": algorithm}
         return {"actual": FeatureGeometry(location=point, diameter=None if feature.element == "point"
@@ -127,13 +142,47 @@ def _actual(feature: FeatureData, frame: DatumReferenceFrame, association: objec
         ends, axis, fit = toleranced_axis(points, feature, standard)
         algorithm = "LEASTSQUARES" if standard == "ISO" else (
             "MAXINSCRIBED" if feature.side == "internal" else "MINCIRCUMSCRIBED")
-        return {"actual": FeatureGeometry(location=ends.mean(axis=0), direction=axis, diameter=2.0 * float(fit.radius)),
+        location = _at_nominal_height(ends[0], axis, feature)
+        return {"actual": FeatureGeometry(location=location, direction=axis, diameter=2.0 * float(fit.radius)),
                 "algorithm": algorithm}
     if feature.element == "sphere":
         fit = fit_sphere(points)
         return {"actual": FeatureGeometry(location=np.asarray(fit.center, dtype=float), diameter=float(fit.diameter)),
                 "algorithm": "LEASTSQUARES"}
     return {"actual": FeatureGeometry(location=points.mean(axis=0)), "algorithm": "DEFAULT"}
+
+
+def _dimension(outcome: CharacteristicResult, dimension: dict, kind: str) -> object:
+    """A coordinate, distance or angle as an io Characteristic: nominal and deviations from the plan."""
+    from pcmm_geo.io.cmm import Characteristic, Tolerance
+
+    scale = np.pi / 180.0 if kind == "angle_between" else 1.0  # the plan states angles in degrees
+    low, high = (scale * float(v) for v in dimension["limits"])
+    ok = outcome.verdict
+    return Characteristic(id=0, type=kind, name=outcome.name, value=outcome.value_mm,
+                          nominal=scale * float(dimension["nominal"]),
+                          tolerance=Tolerance(max_value=high, min_value=low), status=STATUS_OF_VERDICT[ok],
+                          quantity="angular" if kind == "angle_between" else "linear")
+
+
+def _link_second_features(document: object, result: InspectionResult) -> object:
+    """A distance or angle between names both features' measurements and items (results_document links one)."""
+    import dataclasses
+
+    two = {planned.name: planned.dimension["features"] for planned in result.plan.characteristics
+           if planned.dimension is not None and len(planned.dimension["features"]) == 2}
+    sets = []
+    for results in document.results:  # type: ignore[attr-defined]
+        by_name = {f.name: f for f in results.features}
+        changed = []
+        for c in results.characteristics:
+            if c.name in two and c.type in ("distance_between", "angle_between"):
+                features = [by_name[n] for n in two[c.name]]
+                c = dataclasses.replace(c, feature_measurement_ids=tuple(f.id for f in features),
+                                        feature_item_ids=tuple(f.item_id for f in features if f.item_id is not None))
+            changed.append(c)
+        sets.append(dataclasses.replace(results, characteristics=tuple(changed)))
+    return dataclasses.replace(document, results=tuple(sets))  # type: ignore[type-var]
 
 
 def inspection_to_qif(result: InspectionResult, path: str | Path, *, overwrite: bool = False) -> QifExport:
@@ -161,7 +210,7 @@ def inspection_to_qif(result: InspectionResult, path: str | Path, *, overwrite: 
         A record QIF cannot hold (a non-finite number).
     """
     from pcmm_geo.io.cmm import Characteristic, FeatureGeometry, FeatureReport, MeasuredPointSet, Tolerance, write_qif
-    from pcmm_geo.io.cmm.qif.characteristic_definitions import CharacteristicDefinition
+    from pcmm_geo.io.cmm.qif.characteristic_definitions import CharacteristicDefinition, CharacteristicNominal
     from pcmm_geo.io.cmm.qif.datums import DatumDefinition, DatumReferenceFrame, DrfDatum
     from pcmm_geo.io.cmm.qif.gdt_out import GdtRecords
 
@@ -171,7 +220,8 @@ def inspection_to_qif(result: InspectionResult, path: str | Path, *, overwrite: 
     datum_of_feature = {feature: label for label, (feature, _) in plan.datums.items()}
     written, not_written, wanted = [], [], {}
     for index, (planned, outcome) in enumerate(zip(plan.characteristics, result.characteristics, strict=True)):
-        reason = _reason(outcome, plan.features.get(planned.feature))
+        names = planned.dimension["features"] if planned.dimension is not None else [planned.feature]
+        reason = _reason(outcome, [plan.features.get(n) for n in names], plan.part_frame)
         if reason is None:
             wanted.setdefault(planned.feature, []).append(index)
             written.append(outcome.name)
@@ -202,7 +252,11 @@ def inspection_to_qif(result: InspectionResult, path: str | Path, *, overwrite: 
                 tolerance=Tolerance(max_value=high, min_value=low), status="PASS" if ok else "FAIL"))
         for index in wanted.get(name, ()):
             outcome, planned = result.characteristics[index], plan.characteristics[index]
-            kind = _TYPES[outcome.characteristic]
+            kind = _kind(outcome)
+            if planned.dimension is not None:
+                characteristics.append(_dimension(outcome, planned.dimension, kind))  # type: ignore[arg-type]
+                meta[outcome.name] = (index, None)
+                continue
             zone = None
             if planned.frame is not None and kind not in ("flatness", "circular_runout", "total_runout"):
                 dia = {"dia": "diametrical", "sdia": "spherical"}.get(planned.frame.zone)
@@ -221,7 +275,8 @@ def inspection_to_qif(result: InspectionResult, path: str | Path, *, overwrite: 
             characteristics=tuple(characteristics), substitute_algorithm=actual["algorithm"]))
     from pcmm_geo.io.cmm import results_document
 
-    document = results_document(reports, application="pcmm_geo inspect", source=plan.path)
+    document = _link_second_features(results_document(reports, application="pcmm_geo inspect", source=plan.path),
+                                     result)
     used = [*document.feature_definitions, *document.feature_nominals, *document.feature_items]
     for results in document.results:
         used += [results.id or 0, *results.point_sets, *(f.id for f in results.features)]
@@ -240,12 +295,20 @@ def inspection_to_qif(result: InspectionResult, path: str | Path, *, overwrite: 
         DrfDatum(precedence=precedences[k], kind="simple", datum_definition_ids=(datum_ids[label],),
                  material_modifiers=("NONE",), referenced_component="ACTUAL") for k, label in enumerate(sequence)))
         for sequence, key in frame_ids.items()}
-    definitions, bonuses = {}, {}
+    definitions, bonuses, nominals = {}, {}, {}
     for characteristic in document.characteristics:
         if characteristic.name not in meta:
             continue
         index, zone = meta[characteristic.name]
         outcome, planned = result.characteristics[index], plan.characteristics[index]
+        if planned.dimension is not None:
+            nominals[characteristic.nominal_id] = CharacteristicNominal(
+                id=characteristic.nominal_id, type=characteristic.type,  # type: ignore[arg-type]
+                definition_id=characteristic.definition_id, target_value=characteristic.nominal,
+                direction=f"{planned.dimension.get('axis', 'x').upper()}AXIS"
+                if characteristic.type == "linear_coordinate" else None,
+                analysis_mode=None if characteristic.type == "linear_coordinate" else "THREEDIMENSIONAL")
+            continue
         modifier = planned.frame.modifier if planned.frame is not None else "RFS"
         definitions[characteristic.definition_id] = CharacteristicDefinition(
             id=characteristic.definition_id, type=characteristic.type,  # type: ignore[arg-type]
@@ -256,7 +319,7 @@ def inspection_to_qif(result: InspectionResult, path: str | Path, *, overwrite: 
         if outcome.bonus_mm is not None:
             bonuses[characteristic.id] = float(outcome.bonus_mm)
     gdt = GdtRecords(datum_definitions=datum_definitions, datum_reference_frames=frames,
-                     characteristic_definitions=definitions, bonuses=bonuses)
+                     characteristic_definitions=definitions, bonuses=bonuses, characteristic_nominals=nominals)
     written_path = write_qif(document, path, overwrite=overwrite, gdt=gdt)
     return QifExport(path=written_path, written=tuple(written), not_written=tuple(not_written),
                      features=tuple(r.name for r in reports), frames=tuple("|".join(s) for s in sequences))

@@ -30,15 +30,20 @@ from dataclasses import dataclass, field
 from pcmm_geo.errors import InvalidInputError
 from pcmm_geo.io.cmm.model import Characteristic
 from pcmm_geo.io.cmm.qif._xml_out import QifText, camel
-from pcmm_geo.io.cmm.qif.characteristic_definitions import CharacteristicDefinition
+from pcmm_geo.io.cmm.qif.characteristic_definitions import CharacteristicDefinition, CharacteristicNominal
 from pcmm_geo.io.cmm.qif.datums import DatumDefinition, DatumReferenceFrame
 
-__all__ = ["GDT_CHARACTERISTICS", "GdtRecords", "check_gdt_definition", "write_bonus", "write_datums", "write_frames",
-           "write_gdt_definition"]
+__all__ = ["DIMENSION_CHARACTERISTICS", "GDT_CHARACTERISTICS", "GdtRecords", "check_gdt_definition", "write_bonus",
+           "write_datums", "write_dimension_nominal", "write_frames", "write_gdt_definition"]
 
 #: geometric characteristic types this module writes (flatness and the other form types are the writer's)
 GDT_CHARACTERISTICS = ("position", "perpendicularity", "parallelism", "angularity", "coaxiality", "concentricity",
                        "circular_runout", "total_runout", "surface_profile", "line_profile")
+#: dimensional characteristic types whose nominal this module writes (Direction / AnalysisMode from the records)
+DIMENSION_CHARACTERISTICS = ("linear_coordinate", "distance_between", "angle_between")
+_AXES = ("XAXIS", "YAXIS", "ZAXIS")
+_MODES = {"distance_between": ("ONEDIMENSIONAL", "TWODIMENSIONAL", "THREEDIMENSIONAL"),
+          "angle_between": ("TWODIMENSIONAL", "THREEDIMENSIONAL")}
 _ORIENTATION = ("perpendicularity", "parallelism", "angularity")
 _ZONES = {"position": ("diametrical", "spherical", "non_diametrical"), "perpendicularity": ("diametrical", "planar"),
           "parallelism": ("diametrical", "planar"), "angularity": ("diametrical", "planar"),
@@ -62,12 +67,17 @@ class GdtRecords:
         (tolerance zone value in ``tolerance.value``, mm; zone shape; material condition; frame).
     bonuses : dict of int to float
         Bonus tolerance (mm) by characteristic measurement id, where a material modifier applies.
+    characteristic_nominals : dict of int to CharacteristicNominal
+        By the ``nominal_id`` of the document's linear coordinates (``direction``), distances and
+        angles between (``analysis_mode``, optional ``analysis_vector``); the target value is the
+        characteristic's ``nominal``.
     """
 
     datum_definitions: Mapping[int, DatumDefinition] = field(default_factory=dict)
     datum_reference_frames: Mapping[int, DatumReferenceFrame] = field(default_factory=dict)
     characteristic_definitions: Mapping[int, CharacteristicDefinition] = field(default_factory=dict)
     bonuses: Mapping[int, float] = field(default_factory=dict)
+    characteristic_nominals: Mapping[int, CharacteristicNominal] = field(default_factory=dict)
 
     def ids(self) -> list[int]:
         """Every QIF id these records use."""
@@ -134,6 +144,16 @@ def check_gdt_definition(characteristic: Characteristic, definition: Characteris
                          records: GdtRecords) -> None:
     """Refuse a geometric characteristic whose definition the writer cannot write (names the characteristic)."""
     what = f"characteristic {characteristic.id} ({characteristic.type})"
+    if characteristic.type in DIMENSION_CHARACTERISTICS:
+        nominal = records.characteristic_nominals.get(characteristic.nominal_id or -1)
+        if nominal is None:
+            raise InvalidInputError(what, "a CharacteristicNominal in GdtRecords.characteristic_nominals", "none")
+        if characteristic.type == "linear_coordinate" and nominal.direction not in _AXES:
+            raise InvalidInputError(f"{what}.direction", " or ".join(_AXES), repr(nominal.direction))
+        if characteristic.type in _MODES and nominal.analysis_mode not in _MODES[characteristic.type]:
+            raise InvalidInputError(f"{what}.analysis_mode", " or ".join(_MODES[characteristic.type]),
+                                    repr(nominal.analysis_mode))
+        return
     if definition is None:
         raise InvalidInputError(what, "a CharacteristicDefinition in GdtRecords.characteristic_definitions", "none")
     if definition.tolerance is None or definition.tolerance.value is None or definition.tolerance.value < 0:
@@ -173,3 +193,20 @@ def write_bonus(out: QifText, characteristic: Characteristic, records: GdtRecord
         raise InvalidInputError(f"characteristic {characteristic.id}.bonus", "a position or orientation "
                                 "characteristic (QIF has a Bonus only there)", characteristic.type)
     out.measured("Bonus", records.bonuses[characteristic.id], None)
+
+
+def write_dimension_nominal(out: QifText, tag: str, characteristic: Characteristic, records: GdtRecords) -> None:
+    """The ``<Type>CharacteristicNominal`` of a linear coordinate, distance or angle between (schema order)."""
+    nominal = records.characteristic_nominals[characteristic.nominal_id]  # type: ignore[index]
+    out.open(tag, id=characteristic.nominal_id)
+    out.leaf("CharacteristicDefinitionId", str(characteristic.definition_id))
+    if characteristic.nominal is not None:
+        out.leaf("TargetValue", out.angle(characteristic.nominal) if characteristic.type == "angle_between"
+                 else out.length(characteristic.nominal))
+    if characteristic.type == "linear_coordinate":
+        out.leaf("Direction", nominal.direction)  # type: ignore[arg-type]
+    else:
+        if nominal.analysis_vector is not None:
+            out.leaf("AnalysisVector", out.vector(nominal.analysis_vector))
+        out.leaf("AnalysisMode", nominal.analysis_mode)  # type: ignore[arg-type]
+    out.close(tag)

@@ -56,11 +56,13 @@ from pcmm_geo.io.cmm.qif._features_out import (
 )
 from pcmm_geo.io.cmm.qif._xml_out import CHARACTERISTIC_STATUSES, INSPECTION_STATUSES, QifText, camel, decimal_text
 from pcmm_geo.io.cmm.qif.gdt_out import (
+    DIMENSION_CHARACTERISTICS,
     GDT_CHARACTERISTICS,
     GdtRecords,
     check_gdt_definition,
     write_bonus,
     write_datums,
+    write_dimension_nominal,
     write_frames,
     write_gdt_definition,
 )
@@ -178,7 +180,7 @@ def characteristics_to_write(document: CmmDocument, gdt: GdtRecords | None = Non
     seen: set[int] = set()
     unique = []
     for characteristic in document.characteristics:
-        if gdt is not None and characteristic.type in GDT_CHARACTERISTICS:
+        if gdt is not None and characteristic.type in GDT_CHARACTERISTICS + DIMENSION_CHARACTERISTICS:
             check_gdt_definition(characteristic, gdt.characteristic_definitions.get(characteristic.definition_id or -1),
                                  gdt)
         elif characteristic.type not in SIZE_CHARACTERISTICS + FORM_CHARACTERISTICS:
@@ -218,8 +220,14 @@ def write_characteristics(out: QifText, characteristics: list[Characteristic], s
         else:
             _char_definition(out, tag, characteristic)
 
+    def nominal(out: QifText, tag: str, characteristic: Characteristic) -> None:
+        if gdt is not None and characteristic.type in DIMENSION_CHARACTERISTICS:
+            write_dimension_nominal(out, tag, characteristic, gdt)
+        else:
+            _char_nominal(out, tag, characteristic)
+
     for group, suffix, write in (("CharacteristicDefinitions", "CharacteristicDefinition", definition),
-                                 ("CharacteristicNominals", "CharacteristicNominal", _char_nominal),
+                                 ("CharacteristicNominals", "CharacteristicNominal", nominal),
                                  ("CharacteristicItems", "CharacteristicItem", _char_item)):
         out.open(group, n=len(characteristics))
         for characteristic in characteristics:
@@ -238,11 +246,12 @@ def _char_definition(out: QifText, tag: str, characteristic: Characteristic) -> 
     elif tolerance is None or (tolerance.max_value is None and tolerance.min_value is None):
         out.leaf("NonTolerance", "MEASURED")
     else:
+        quantity = out.angle if characteristic.type == "angle_between" else out.length
         out.open("Tolerance")
         if tolerance.max_value is not None:
-            out.leaf("MaxValue", out.length(tolerance.max_value))
+            out.leaf("MaxValue", quantity(tolerance.max_value))
         if tolerance.min_value is not None:
-            out.leaf("MinValue", out.length(tolerance.min_value))
+            out.leaf("MinValue", quantity(tolerance.min_value))
         out.leaf("DefinedAsLimit", "true" if tolerance.defined_as_limit else "false")
         out.close("Tolerance")
     out.close(tag)
@@ -281,8 +290,11 @@ def write_characteristic_measurements(out: QifText, characteristics: tuple[Chara
         out.leaf("CharacteristicItemId", str(characteristic.item_id))
         if characteristic.feature_measurement_ids:
             out.ids("FeatureMeasurementIds", characteristic.feature_measurement_ids)
+        if characteristic.type == "linear_coordinate":  # QIF requires the coordinate type of a coordinate
+            out.chain("TypeOfCoordinates", "CoordinateEnum", text="CARTESIAN_3D")
         if characteristic.value is not None:
-            out.measured("Value", characteristic.value, characteristic.uncertainty)
+            out.measured("Value", characteristic.value, characteristic.uncertainty,
+                         "angular" if characteristic.type == "angle_between" else "linear")
         write_bonus(out, characteristic, gdt)
         out.close(f"{camel(characteristic.type)}CharacteristicMeasurement")
     out.close("CharacteristicMeasurements")
