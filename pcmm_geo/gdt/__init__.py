@@ -20,7 +20,9 @@ Public API (names load on first use):
 - the second opinion on a QIF file's characteristics (:mod:`~pcmm_geo.gdt.qif`):
   :func:`verify_characteristics`, :class:`CharacteristicCheck`, :class:`CharacteristicVerification`
   and the statuses :data:`AGREES`, :data:`DISAGREES`, :data:`NOT_COMPUTABLE`; frames from feature actuals
-  :func:`datum_frame`, :func:`frame_map`, :class:`DatumFrame`, :class:`FrameMap`, :class:`DatumFeatureGeometry`.
+  :func:`datum_frame`, :func:`frame_map`, :class:`DatumFrame`, :class:`FrameMap`, :class:`DatumFeatureGeometry`;
+- an inspection's results as a QIF 3.0 results file: :func:`inspection_to_qif`, :class:`QifExport`
+  (:mod:`~pcmm_geo.gdt.qif.results`).
 """
 
 from __future__ import annotations
@@ -73,6 +75,8 @@ _LAZY = {
     "FrameMap": "qif.frames",
     "datum_frame": "qif.frames",
     "frame_map": "qif.frames",
+    "QifExport": "qif.results",
+    "inspection_to_qif": "qif.results",
 }
 
 __all__ = sorted(_LAZY)

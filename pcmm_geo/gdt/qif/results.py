@@ -20,9 +20,11 @@ plain records of :mod:`pcmm_geo.io.cmm` (``io`` does not know ``gdt``) and write
 - the characteristics: position (``DiametricalZone`` / ``SphericalZone`` / ``NonDiametricalZone``,
   ``MaterialCondition`` MAXIMUM / LEAST / NONE and the ``Bonus``), perpendicularity,
   parallelism, angularity (``DiametricalZone`` / ``PlanarZone``), flatness, circular and total
-  runout, coaxiality and concentricity.  Profile of a surface (its feature has no QIF feature
-  type the writer writes), coordinates, distances and angles between features are reported as not
-  written, by name.
+  runout, coaxiality and concentricity, each naming its DRF; coordinates (``LinearCoordinate``,
+  ``Direction`` XAXIS / YAXIS / ZAXIS; only in the part frame, the file's coordinates), distances
+  (``DistanceBetween``, ``AnalysisMode THREEDIMENSIONAL``) and angles (``AngleBetween``) with
+  their nominal and limits.  Profile of a surface (its feature has no QIF feature type the writer
+  writes) and a coordinate in another frame are reported as not written, by name.
 
 Status: ``PASS`` and ``FAIL`` as the verdict; ``NOT PROVEN`` is written as QIF
 ``INDETERMINATE`` (the ``CharacteristicStatusEnum`` value for "the measurement does not decide";

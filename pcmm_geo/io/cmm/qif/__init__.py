@@ -2,7 +2,8 @@
 
 :mod:`~pcmm_geo.io.cmm.qif.reader` (:func:`read_qif`), :mod:`~pcmm_geo.io.cmm.qif.build`
 (:class:`FeatureReport`, :func:`results_document`), :mod:`~pcmm_geo.io.cmm.qif.writer`
-(:func:`write_qif`; its features part :mod:`~pcmm_geo.io.cmm.qif._features_out`),
+(:func:`write_qif`; its features part :mod:`~pcmm_geo.io.cmm.qif._features_out`, its datums and
+geometric characteristics :mod:`~pcmm_geo.io.cmm.qif.gdt_out`),
 :mod:`~pcmm_geo.io.cmm.qif.schema` (:func:`validate_qif`); the hostile-XML guard is
 :mod:`~pcmm_geo.io.cmm.qif._xml`.  Use them through :mod:`pcmm_geo.io.cmm`.
 """

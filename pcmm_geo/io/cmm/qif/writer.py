@@ -25,7 +25,11 @@ Feature types written: circle, cylinder, sphere, plane, line, point, cone.  Char
 written: diameter, spherical_diameter, radius, spherical_radius, length, width (size: tolerance
 ``MaxValue``/``MinValue`` or ``NonTolerance``) and flatness, circularity, cylindricity,
 sphericity, straightness, conicity (form: ``ToleranceValue``, required by QIF -- a form value
-without a tolerance belongs in the feature's ``actual.form``).
+without a tolerance belongs in the feature's ``actual.form``).  With ``gdt``
+(:class:`~pcmm_geo.io.cmm.qif.gdt_out.GdtRecords`) also ``DatumDefinitions``,
+``DatumReferenceFrames`` and the geometric characteristics (position, orientation, runout,
+profile, coaxiality: their definitions and the ``Bonus``) and linear coordinates, distances and
+angles between (their nominals): :mod:`~pcmm_geo.io.cmm.qif.gdt_out`.
 
 Examples
 --------
