@@ -197,3 +197,12 @@ def test_a_characteristic_with_no_qif_record_is_reported_not_written_by_name(wri
     assert "frame A" in reasons["x H1"] and "symmetry" in reasons["parallelism TOP"]
     names = {c.name for c in read_qif(export.path).characteristics}
     assert names == set(WRITTEN + SIZES) - set(reasons)
+
+
+def test_the_guide_pages_excerpt_is_what_is_written(written):
+    page = (Path(__file__).parents[2] / "docs" / "guide" / "gdt_with_datums.rst").read_text(encoding="utf-8")
+    start = page.index("<PositionCharacteristicDefinition")
+    excerpt = page[start:page.index("   ...\n   <PositionCharacteristicMeasurement")]
+    text = " ".join(written[2].read_text(encoding="utf-8").split())
+    assert " ".join(excerpt.split()) in text
+    assert "QIF: 9 characteristic(s), 7 feature(s) and 2 datum reference frame(s) written to results.qif" in page
