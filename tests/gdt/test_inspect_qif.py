@@ -206,3 +206,70 @@ def test_the_guide_pages_excerpt_is_what_is_written(written):
     text = " ".join(written[2].read_text(encoding="utf-8").split())
     assert " ".join(excerpt.split()) in text
     assert "QIF: 9 characteristic(s), 7 feature(s) and 2 datum reference frame(s) written to results.qif" in page
+
+
+EXTRA = '''
+[[characteristics]]
+name = "angularity TOP"
+feature = "TOP"
+frame = "angularity 0.05 | A"
+
+[[characteristics]]
+name = "runout H1"
+feature = "H1"
+frame = "circular-runout 0.1 | D"
+
+[[characteristics]]
+name = "total runout H1"
+feature = "H1"
+frame = "total-runout 0.1 | D"
+
+[[characteristics]]
+name = "coaxiality H2"
+feature = "H2"
+frame = "◎ ⌀0.2 | D"
+
+[[characteristics]]
+name = "position H2 LMC"
+feature = "H2"
+frame = "position dia 0.2 LMC | A | B | C"
+'''
+
+
+def test_angularity_runout_coaxiality_and_lmc_are_schema_valid_and_read_back(tmp_path):
+    from pcmm_geo.gdt.qif.characteristics import verify_characteristics
+    from pcmm_geo.io.cmm import read_qif
+    from pcmm_geo.io.cmm.qif.characteristic_definitions import read_qif_definitions
+    from pcmm_geo.io.cmm.qif.schema import validate_qif
+
+    for f in EXAMPLE_DIR.iterdir():
+        if f.suffix in (".toml", ".csv"):
+            shutil.copy(f, tmp_path / f.name)
+    plan = tmp_path / "plan.toml"
+    plan.write_text(plan.read_text(encoding="utf-8").replace('C = "C"\n', 'C = "C"\nD = "H1"\n') + EXTRA,
+                    encoding="utf-8")
+    result = inspect_plan(plan)
+    export = inspection_to_qif(result, tmp_path / "more.qif")
+    assert validate_qif(export.path) == () and export.not_written == ()
+    assert export.frames == ("A", "D", "A|B|C")
+    document, definitions = read_qif(export.path), read_qif_definitions(export.path)
+    read = {c.name: c for c in document.characteristics}
+    labels = {d.id: d.label for d in definitions.datum_definitions.values()}
+    expected = {"angularity TOP": ("angularity", "NONE", "planar", ("A",)),
+                "runout H1": ("circular_runout", None, None, ("D",)),
+                "total runout H1": ("total_runout", None, None, ("D",)),
+                "coaxiality H2": ("coaxiality", None, "diametrical", ("D",)),
+                "position H2 LMC": ("position", "LEAST", "diametrical", ("A", "B", "C"))}
+    outcomes = {c.name: c for c in result.characteristics}
+    for name, (kind, condition, zone, datums) in expected.items():
+        definition = definitions.definition_of(read[name].definition_id)
+        frame = definitions.datum_reference_frames[definition.datum_reference_frame_ids[0]]
+        assert (read[name].type, definition.material_condition, definition.zone_shape) == (kind, condition, zone)
+        assert tuple(labels[d.datum_definition_ids[0]] for d in frame.datums) == datums
+        assert read[name].value == pytest.approx(outcomes[name].value_mm, abs=1e-12)
+        assert read[name].status == outcomes[name].verdict
+    # the second opinion: the LMC position agrees; angularity, runout and coaxiality it does not recompute
+    statuses = {c.name: c.status for c in verify_characteristics(document).checks}
+    assert statuses["position H2 LMC"] == "agrees"
+    assert {statuses[n] for n in ("angularity TOP", "runout H1", "total runout H1", "coaxiality H2")} == {
+        "not computable"}
