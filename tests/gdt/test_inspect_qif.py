@@ -273,3 +273,24 @@ def test_angularity_runout_coaxiality_and_lmc_are_schema_valid_and_read_back(tmp
     assert statuses["position H2 LMC"] == "agrees"
     assert {statuses[n] for n in ("angularity TOP", "runout H1", "total runout H1", "coaxiality H2")} == {
         "not computable"}
+
+
+def test_under_asme_the_datum_planes_are_named_constrained_and_the_second_opinion_agrees(tmp_path):
+    from pcmm_geo.gdt.qif.characteristics import verify_characteristics
+    from pcmm_geo.io.cmm import read_qif
+    from pcmm_geo.io.cmm.qif.schema import validate_qif
+
+    for f in EXAMPLE_DIR.iterdir():
+        if f.suffix in (".toml", ".csv"):
+            shutil.copy(f, tmp_path / f.name)
+    plan = tmp_path / "plan.toml"
+    plan.write_text(plan.read_text(encoding="utf-8").replace('standard = "ISO"', 'standard = "ASME"'),
+                    encoding="utf-8")
+    path = inspection_to_qif(inspect_plan(plan), tmp_path / "asme.qif").path
+    assert validate_qif(path) == ()
+    document = read_qif(path)
+    # ASME Y14.5.1 constrained least squares is not QIF's (unconstrained) LEASTSQUARES
+    assert {document.feature(n).substitute_algorithm for n in "ABC"} == {"CONSTRAINED_LEASTSQUARES"}
+    assert document.feature("H1").substitute_algorithm == "MAXINSCRIBED"  # the hole's mating envelope
+    statuses = {c.name: c.status for c in verify_characteristics(document).checks}
+    assert statuses == dict.fromkeys(WRITTEN + SIZES, "agrees")

@@ -8,7 +8,8 @@ plain records of :mod:`pcmm_geo.io.cmm` (``io`` does not know ``gdt``) and write
   item, measured actual and its points, all in the coordinates of the part's datum reference frame
   (``[part] frame``; the measurement coordinates without one).  Actuals: a datum feature of the
   part frame, its associated datum (ISO 5459 tangent minimax plane -- QIF ``ONESIDED`` --, ASME
-  constrained least squares, MIC / MCC); a cylinder, its toleranced axis over the points' extent
+  constrained least squares -- ``OtherSubstituteFeatureAlgorithm`` ``CONSTRAINED_LEASTSQUARES``,
+  not QIF's unconstrained ``LEASTSQUARES`` --, MIC / MCC); a cylinder, its toleranced axis over the points' extent
   (ISO least-squares, ASME the unrelated actual mating envelope), its point at the nominal point's
   height along the nominal axis (as :func:`~pcmm_geo.gdt.dimensions.feature_location`) and its
   diameter; a plane, its
@@ -120,7 +121,7 @@ def _actual(feature: FeatureData, frame: DatumReferenceFrame, association: objec
         point = frame.to_frame(association.point[None, :])[0]  # type: ignore[attr-defined]
         direction = frame.direction_to_frame(association.direction[None, :])[0]  # type: ignore[attr-defined]
         criterion = association.criterion  # type: ignore[attr-defined]
-        algorithm = {"minimax": "ONESIDED", "constrained-lsq": "LEASTSQUARES", "mic": "MAXINSCRIBED",
+        algorithm = {"minimax": "ONESIDED", "constrained-lsq": "CONSTRAINED_LEASTSQUARES", "mic": "MAXINSCRIBED",
                      "mcc": "MINCIRCUMSCRIBED"}.get(criterion, "DEFAULT")
         if feature.element == "plane":
             return {"actual": FeatureGeometry(location=point, normal=-direction), "algorithm": algorithm}
