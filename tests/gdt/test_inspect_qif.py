@@ -294,3 +294,27 @@ def test_under_asme_the_datum_planes_are_named_constrained_and_the_second_opinio
     assert document.feature("H1").substitute_algorithm == "MAXINSCRIBED"  # the hole's mating envelope
     statuses = {c.name: c.status for c in verify_characteristics(document).checks}
     assert statuses == dict.fromkeys(WRITTEN + SIZES, "agrees")
+
+
+def test_without_a_part_frame_the_file_is_in_the_frame_of_most_datums_and_agrees(tmp_path):
+    from pcmm_geo.gdt.qif.characteristics import verify_characteristics
+    from pcmm_geo.io.cmm import read_qif
+    from pcmm_geo.io.cmm.qif.schema import validate_qif
+
+    for f in EXAMPLE_DIR.iterdir():
+        if f.suffix in (".toml", ".csv"):
+            shutil.copy(f, tmp_path / f.name)
+    plan = tmp_path / "plan.toml"
+    text = plan.read_text(encoding="utf-8").replace('[part]\nframe = "A|B|C"\n', "")
+    start = text.index('[[characteristics]]\nname = "x H1"')  # a coordinate needs a frame: dropped
+    plan.write_text(text[:start] + text[text.index("[[characteristics]]", start + 5):], encoding="utf-8")
+    result = inspect_plan(plan)
+    assert result.plan.part_frame == () and result.datums == {}
+    export = inspection_to_qif(result, tmp_path / "noframe.qif")
+    assert validate_qif(export.path) == ()
+    # the distance was taken in measurement coordinates (no frame): not in the file's frame A|B|C
+    assert [name for name, _ in export.not_written] == ["H1 to H2"]
+    document = read_qif(export.path)
+    assert {document.feature(n).substitute_algorithm for n in "ABC"} == {"ONESIDED"}  # the datums, not LS planes
+    statuses = {c.name: c.status for c in verify_characteristics(document).checks}
+    assert statuses == dict.fromkeys(set(WRITTEN + SIZES) - {"x H1", "H1 to H2"}, "agrees")

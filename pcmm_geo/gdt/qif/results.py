@@ -6,8 +6,10 @@ plain records of :mod:`pcmm_geo.io.cmm` (``io`` does not know ``gdt``) and write
 
 - every feature of the plan (plane, cylinder, sphere, point) with its nominal (from the plan),
   item, measured actual and its points, all in the coordinates of the part's datum reference frame
-  (``[part] frame``; the measurement coordinates without one).  Actuals: a datum feature of the
-  part frame, its associated datum (ISO 5459 tangent minimax plane -- QIF ``ONESIDED`` --, ASME
+  (``[part] frame``; without one, the frame of the most datums the characteristics use -- the
+  plan's nominals are in the frame of each characteristic's datums --; without datums, the
+  measurement coordinates).  Actuals: a datum feature of the
+  file's frame, its associated datum (ISO 5459 tangent minimax plane -- QIF ``ONESIDED`` --, ASME
   constrained least squares -- ``OtherSubstituteFeatureAlgorithm`` ``CONSTRAINED_LEASTSQUARES``,
   not QIF's unconstrained ``LEASTSQUARES`` --, MIC / MCC); a cylinder, its toleranced axis over the points' extent
   (ISO least-squares, ASME the unrelated actual mating envelope), its point at the nominal point's
@@ -22,10 +24,10 @@ plain records of :mod:`pcmm_geo.io.cmm` (``io`` does not know ``gdt``) and write
   ``MaterialCondition`` MAXIMUM / LEAST / NONE and the ``Bonus``), perpendicularity,
   parallelism, angularity (``DiametricalZone`` / ``PlanarZone``), flatness, circular and total
   runout, coaxiality and concentricity, each naming its DRF; coordinates (``LinearCoordinate``,
-  ``Direction`` XAXIS / YAXIS / ZAXIS; only in the part frame, the file's coordinates), distances
-  (``DistanceBetween``, ``AnalysisMode THREEDIMENSIONAL``) and angles (``AngleBetween``) with
+  ``Direction`` XAXIS / YAXIS / ZAXIS), distances (``DistanceBetween``, ``AnalysisMode
+  THREEDIMENSIONAL``) -- both only in the file's frame -- and angles (``AngleBetween``) with
   their nominal and limits.  Profile of a surface (its feature has no QIF feature type the writer
-  writes) and a coordinate in another frame are reported as not written, by name.
+  writes) and a coordinate or distance in another frame are reported as not written, by name.
 
 Status: ``PASS`` and ``FAIL`` as the verdict; ``NOT PROVEN`` is written as QIF
 ``INDETERMINATE`` (the ``CharacteristicStatusEnum`` value for "the measurement does not decide";
@@ -36,12 +38,16 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 from pathlib import Path
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from pcmm_geo.gdt.characteristics import CharacteristicResult, FeatureData, toleranced_axis
 from pcmm_geo.gdt.frame import DatumReferenceFrame
 from pcmm_geo.gdt.inspection import InspectionResult
+
+if TYPE_CHECKING:
+    from pcmm_geo.io.cmm import Characteristic, CmmDocument
 
 __all__ = ["QifExport", "STATUS_OF_VERDICT", "inspection_to_qif"]
 
@@ -94,9 +100,10 @@ def _reason(result: CharacteristicResult, features: list[FeatureData | None],
     kind = _kind(result)
     if kind is None:
         return f"{result.characteristic}: no QIF characteristic type is written for it"
-    if kind == "linear_coordinate" and result.datums != part_frame:
-        return (f"a coordinate in the frame {'|'.join(result.datums) or 'of the measurement'}: QIF's "
-                "LinearCoordinate is in the file's coordinates, which are the part frame "
+    if kind in ("linear_coordinate", "distance_between") and result.datums != part_frame:
+        # a coordinate, and a distance taken at the nominal heights, depend on the frame they are in
+        return (f"a {result.characteristic.split()[0]} in the frame {'|'.join(result.datums) or 'of the measurement'}: "
+                "QIF's LinearCoordinate / DistanceBetween are in the file's coordinates, which are the frame "
                 f"{'|'.join(part_frame) or 'of the measurement'}")
     if any(feature is None or feature.element not in _FEATURE_TYPES for feature in features):
         return "its feature (a nominal surface) has no QIF feature type the writer writes"
@@ -155,7 +162,7 @@ def _actual(feature: FeatureData, frame: DatumReferenceFrame, association: objec
     return {"actual": FeatureGeometry(location=points.mean(axis=0)), "algorithm": "DEFAULT"}
 
 
-def _dimension(outcome: CharacteristicResult, dimension: dict, kind: str) -> object:
+def _dimension(outcome: CharacteristicResult, dimension: dict[str, Any], kind: str) -> Characteristic:
     """A coordinate, distance or angle as an io Characteristic: nominal and deviations from the plan."""
     from pcmm_geo.io.cmm import Characteristic, Tolerance
 
@@ -168,14 +175,14 @@ def _dimension(outcome: CharacteristicResult, dimension: dict, kind: str) -> obj
                           quantity="angular" if kind == "angle_between" else "linear")
 
 
-def _link_second_features(document: object, result: InspectionResult) -> object:
+def _link_second_features(document: CmmDocument, result: InspectionResult) -> CmmDocument:
     """A distance or angle between names both features' measurements and items (results_document links one)."""
     import dataclasses
 
     two = {planned.name: planned.dimension["features"] for planned in result.plan.characteristics
            if planned.dimension is not None and len(planned.dimension["features"]) == 2}
     sets = []
-    for results in document.results:  # type: ignore[attr-defined]
+    for results in document.results:
         by_name = {f.name: f for f in results.features}
         changed = []
         for c in results.characteristics:
@@ -185,7 +192,7 @@ def _link_second_features(document: object, result: InspectionResult) -> object:
                                         feature_item_ids=tuple(f.item_id for f in features if f.item_id is not None))
             changed.append(c)
         sets.append(dataclasses.replace(results, characteristics=tuple(changed)))
-    return dataclasses.replace(document, results=tuple(sets))  # type: ignore[type-var]
+    return dataclasses.replace(document, results=tuple(sets))
 
 
 def inspection_to_qif(result: InspectionResult, path: str | Path, *, overwrite: bool = False) -> QifExport:
@@ -214,17 +221,30 @@ def inspection_to_qif(result: InspectionResult, path: str | Path, *, overwrite: 
     """
     from pcmm_geo.io.cmm import Characteristic, FeatureGeometry, FeatureReport, MeasuredPointSet, Tolerance, write_qif
     from pcmm_geo.io.cmm.qif.characteristic_definitions import CharacteristicDefinition, CharacteristicNominal
-    from pcmm_geo.io.cmm.qif.datums import DatumDefinition, DatumReferenceFrame, DrfDatum
+    from pcmm_geo.io.cmm.qif.datums import DatumDefinition, DrfDatum
+    from pcmm_geo.io.cmm.qif.datums import DatumReferenceFrame as QifFrame
     from pcmm_geo.io.cmm.qif.gdt_out import GdtRecords
 
     plan = result.plan
-    part = result.frames.get("|".join(plan.part_frame)) if plan.part_frame else None
-    frame = part if part is not None else DatumReferenceFrame.measurement()
+    # the file's coordinates: the part frame; without one, the frame of the most datums the plan uses
+    # (the plan's nominals are in the frame of each characteristic's datums)
+    used = [key for key in result.frames if key]
+    file_frame = plan.part_frame or (tuple(max(used, key=lambda k: len(k.split("|"))).split("|")) if used else ())
+    frame = result.frames["|".join(file_frame)] if file_frame else DatumReferenceFrame.measurement()
+    associations = dict(result.datums)  # the part frame's datums, associated in precedence
+    if not plan.part_frame and file_frame:
+        from pcmm_geo.gdt.inspection import _Frames
+
+        frames_of_plan = _Frames(plan)
+        associations = {file_frame[k - 1]: frames_of_plan.association(file_frame[:k])
+                        for k in range(1, len(file_frame) + 1)}
     datum_of_feature = {feature: label for label, (feature, _) in plan.datums.items()}
-    written, not_written, wanted = [], [], {}
+    written: list[str] = []
+    not_written: list[tuple[str, str]] = []
+    wanted: dict[str, list[int]] = {}
     for index, (planned, outcome) in enumerate(zip(plan.characteristics, result.characteristics, strict=True)):
         names = planned.dimension["features"] if planned.dimension is not None else [planned.feature]
-        reason = _reason(outcome, [plan.features.get(n) for n in names], plan.part_frame)
+        reason = _reason(outcome, [plan.features.get(n) for n in names], file_frame)
         if reason is None:
             wanted.setdefault(planned.feature, []).append(index)
             written.append(outcome.name)
@@ -232,12 +252,13 @@ def inspection_to_qif(result: InspectionResult, path: str | Path, *, overwrite: 
             not_written.append((outcome.name, reason))
     sequences = sorted({result.characteristics[i].datums for ids in wanted.values() for i in ids
                         if result.characteristics[i].datums}, key=lambda s: (len(s), s))
-    reports, meta = [], {}
+    reports = []
+    meta: dict[str, tuple[int, str | None]] = {}
     for name, feature in plan.features.items():
         if feature.element not in _FEATURE_TYPES:
             continue
         label = datum_of_feature.get(name)
-        association = result.datums.get(label) if label is not None else None
+        association = associations.get(label) if label is not None else None
         actual = _actual(feature, frame, association, plan.standard)
         sized = feature.element in ("cylinder", "sphere") and np.isfinite(feature.diameter)
         nominal = FeatureGeometry(
@@ -294,7 +315,7 @@ def inspection_to_qif(result: InspectionResult, path: str | Path, *, overwrite: 
         for label in labels}
     frame_ids = {sequence: next(counter) for sequence in sequences}
     precedences = ("PRIMARY", "SECONDARY", "TERTIARY")
-    frames = {key: DatumReferenceFrame(id=key, datums=tuple(
+    frames = {key: QifFrame(id=key, datums=tuple(
         DrfDatum(precedence=precedences[k], kind="simple", datum_definition_ids=(datum_ids[label],),
                  material_modifiers=("NONE",), referenced_component="ACTUAL") for k, label in enumerate(sequence)))
         for sequence, key in frame_ids.items()}
