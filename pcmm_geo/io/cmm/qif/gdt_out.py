@@ -20,6 +20,12 @@ Definition bodies, in schema order (ISO 23952:2020 / QIF 3.0):
 - surface_profile, line_profile: ``ToleranceValue``, ``DatumReferenceFrameId`` (none: no datums).
 
 A position or orientation measurement carries its ``Bonus`` (MMC / LMC) after ``Value``.
+
+Dimensions: a ``LinearCoordinate`` nominal holds ``TargetValue`` and ``Direction`` (``XAXIS``,
+``YAXIS``, ``ZAXIS``; its measurement ``TypeOfCoordinates`` ``CARTESIAN_3D``, written by the
+writer), a ``DistanceBetween`` / ``AngleBetween`` nominal ``TargetValue``, the optional
+``AnalysisVector`` and ``AnalysisMode`` (:func:`write_dimension_nominal`); their definitions are
+the writer's limits (``Tolerance`` ``MaxValue`` / ``MinValue``, degrees for an angle).
 """
 
 from __future__ import annotations
