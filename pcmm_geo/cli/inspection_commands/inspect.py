@@ -40,7 +40,8 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     add_report_flag(parser)
     parser.add_argument("--qif", metavar="OUT.qif",
                         help="also write the results as a QIF 3.0 results document: the features (nominals from the "
-                             "plan, actuals and points in the part's datum reference frame), datum definitions, datum "
+                             "plan, actuals and points in the part's datum reference frame, else in the frame of the "
+                             "most datums), datum definitions, datum "
                              "reference frames and the characteristic measurements (NOT PROVEN as INDETERMINATE); "
                              "characteristics with no QIF record written are listed by name")
     declare_output(parser, "qif")
