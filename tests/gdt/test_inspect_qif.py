@@ -318,3 +318,33 @@ def test_without_a_part_frame_the_file_is_in_the_frame_of_most_datums_and_agrees
     assert {document.feature(n).substitute_algorithm for n in "ABC"} == {"ONESIDED"}  # the datums, not LS planes
     statuses = {c.name: c.status for c in verify_characteristics(document).checks}
     assert statuses == dict.fromkeys(set(WRITTEN + SIZES) - {"x H1", "H1 to H2"}, "agrees")
+
+
+def test_a_profile_of_a_surface_is_reported_not_written_by_name(maker, tmp_path):
+    import numpy as np
+    from test_gdt_profile import _patch
+
+    from pcmm_geo.io.cmm import read_qif
+    from pcmm_geo.io.cmm.qif.schema import validate_qif
+
+    part = maker.make_part(n_points=maker.EXAMPLE_POINTS)
+    nominal, normals, measured, _, _ = _patch(np.random.default_rng(2))
+    for f in EXAMPLE_DIR.iterdir():
+        if f.suffix in (".toml", ".csv"):
+            shutil.copy(f, tmp_path / f.name)
+    np.savetxt(tmp_path / "S_nominal.csv", nominal, fmt="%.12f", delimiter=",")
+    np.savetxt(tmp_path / "S_normals.csv", normals, fmt="%.12f", delimiter=",")
+    np.savetxt(tmp_path / "S.csv", measured @ part.rotation.T + part.translation, fmt="%.12f", delimiter=",")
+    plan = tmp_path / "plan.toml"
+    text = plan.read_text(encoding="utf-8")
+    text = text[:text.index('[[characteristics]]\nname = "perpendicularity H1"')]
+    text = text.replace("[datums]", '[features.S]\nelement = "surface"\npoints = "S.csv"\n'
+                        'nominal_points = "S_nominal.csv"\nnominal_normals = "S_normals.csv"\n\n[datums]')
+    plan.write_text(text + '[[characteristics]]\nname = "profile S"\nfeature = "S"\nframe = "⌓ 0.025 | A | B | C"\n',
+                    encoding="utf-8")
+    export = inspection_to_qif(inspect_plan(plan), tmp_path / "profile.qif")
+    assert validate_qif(export.path) == ()
+    assert export.written == ("flatness A", "parallelism TOP") and "S" not in export.features
+    ((name, reason),) = export.not_written
+    assert name == "profile S" and "SurfaceProfile" in reason
+    assert {c.name for c in read_qif(export.path).characteristics} == {"flatness A", "parallelism TOP", *SIZES}

@@ -55,7 +55,8 @@ __all__ = ["QifExport", "STATUS_OF_VERDICT", "inspection_to_qif"]
 STATUS_OF_VERDICT = {"PASS": "PASS", "FAIL": "FAIL", "NOT PROVEN": "INDETERMINATE"}
 _TYPES = {"position": "position", "perpendicularity": "perpendicularity", "parallelism": "parallelism",
           "angularity": "angularity", "flatness": "flatness", "circular runout": "circular_runout",
-          "total runout": "total_runout", "coaxiality": "coaxiality", "concentricity": "concentricity"}
+          "total runout": "total_runout", "coaxiality": "coaxiality", "concentricity": "concentricity",
+          "profile of a surface": "surface_profile"}
 _DIMENSIONS = {"coordinate": "linear_coordinate", "distance": "distance_between", "angle": "angle_between"}
 _FEATURE_TYPES = {"plane": "plane", "cylinder": "cylinder", "sphere": "sphere", "point": "point"}
 _CONDITIONS = {"MMC": "MAXIMUM", "LMC": "LEAST", "RFS": "NONE"}
@@ -106,7 +107,8 @@ def _reason(result: CharacteristicResult, features: list[FeatureData | None],
                 "QIF's LinearCoordinate / DistanceBetween are in the file's coordinates, which are the frame "
                 f"{'|'.join(part_frame) or 'of the measurement'}")
     if any(feature is None or feature.element not in _FEATURE_TYPES for feature in features):
-        return "its feature (a nominal surface) has no QIF feature type the writer writes"
+        return ("QIF has SurfaceProfile, but its feature (a nominal surface given by points and normals) has no "
+                "QIF feature type pcmm_geo's writer writes")
     if not np.isfinite(result.value_mm):
         return "its value is not finite"
     return None
