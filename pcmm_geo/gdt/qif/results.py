@@ -177,19 +177,22 @@ def _dimension(outcome: CharacteristicResult, dimension: dict[str, Any], kind: s
                           quantity="angular" if kind == "angle_between" else "linear")
 
 
-def _link_second_features(document: CmmDocument, result: InspectionResult) -> CmmDocument:
-    """A distance or angle between names both features' measurements and items (results_document links one)."""
+def _link_second_features(document: CmmDocument, result: InspectionResult,
+                          meta: list[tuple[int, str | None] | None]) -> CmmDocument:
+    """A distance or angle between names both features' measurements and items (results_document links one).
+
+    ``meta``: per characteristic of the document, in order, its plan index (None: a size).
+    """
     import dataclasses
 
-    two = {planned.name: planned.dimension["features"] for planned in result.plan.characteristics
-           if planned.dimension is not None and len(planned.dimension["features"]) == 2}
     sets = []
     for results in document.results:
         by_name = {f.name: f for f in results.features}
         changed = []
-        for c in results.characteristics:
-            if c.name in two and c.type in ("distance_between", "angle_between"):
-                features = [by_name[n] for n in two[c.name]]
+        for c, entry in zip(results.characteristics, meta, strict=True):
+            dimension = None if entry is None else result.plan.characteristics[entry[0]].dimension
+            if dimension is not None and len(dimension["features"]) == 2:
+                features = [by_name[n] for n in dimension["features"]]
                 c = dataclasses.replace(c, feature_measurement_ids=tuple(f.id for f in features),
                                         feature_item_ids=tuple(f.item_id for f in features if f.item_id is not None))
             changed.append(c)
@@ -230,8 +233,8 @@ def inspection_to_qif(result: InspectionResult, path: str | Path, *, overwrite: 
     plan = result.plan
     # the file's coordinates: the part frame; without one, the frame of the most datums the plan uses
     # (the plan's nominals are in the frame of each characteristic's datums)
-    used = [key for key in result.frames if key]
-    file_frame = plan.part_frame or (tuple(max(used, key=lambda k: len(k.split("|"))).split("|")) if used else ())
+    keys = [key for key in result.frames if key]
+    file_frame = plan.part_frame or (tuple(max(keys, key=lambda k: len(k.split("|"))).split("|")) if keys else ())
     frame = result.frames["|".join(file_frame)] if file_frame else DatumReferenceFrame.measurement()
     associations = dict(result.datums)  # the part frame's datums, associated in precedence
     if not plan.part_frame and file_frame:
@@ -255,7 +258,7 @@ def inspection_to_qif(result: InspectionResult, path: str | Path, *, overwrite: 
     sequences = sorted({result.characteristics[i].datums for ids in wanted.values() for i in ids
                         if result.characteristics[i].datums}, key=lambda s: (len(s), s))
     reports = []
-    meta: dict[str, tuple[int, str | None]] = {}
+    meta: list[tuple[int, str | None] | None] = []  # per characteristic, in document order: plan index, zone
     for name, feature in plan.features.items():
         if feature.element not in _FEATURE_TYPES:
             continue
@@ -276,12 +279,13 @@ def inspection_to_qif(result: InspectionResult, path: str | Path, *, overwrite: 
             characteristics.append(Characteristic(
                 id=0, type="diameter", name=f"{name} diameter", value=diameter, nominal=feature.diameter,
                 tolerance=Tolerance(max_value=high, min_value=low), status="PASS" if ok else "FAIL"))
+            meta.append(None)
         for index in wanted.get(name, ()):
             outcome, planned = result.characteristics[index], plan.characteristics[index]
             kind = _kind(outcome)
             if planned.dimension is not None:
                 characteristics.append(_dimension(outcome, planned.dimension, kind))  # type: ignore[arg-type]
-                meta[outcome.name] = (index, None)
+                meta.append((index, None))
                 continue
             zone = None
             if planned.frame is not None and kind not in ("flatness", "circular_runout", "total_runout"):
@@ -289,7 +293,7 @@ def inspection_to_qif(result: InspectionResult, path: str | Path, *, overwrite: 
                 zone = dia or ("non_diametrical" if kind == "position" else "planar")
                 if kind in ("coaxiality", "concentricity"):
                     zone = "spherical" if feature.element in ("sphere", "point") else "diametrical"
-            meta[outcome.name] = (index, zone)
+            meta.append((index, zone))
             characteristics.append(Characteristic(
                 id=0, type=kind, name=outcome.name, value=outcome.value_mm,
                 tolerance=Tolerance(value=outcome.tolerance_mm),
@@ -302,7 +306,7 @@ def inspection_to_qif(result: InspectionResult, path: str | Path, *, overwrite: 
     from pcmm_geo.io.cmm import results_document
 
     document = _link_second_features(results_document(reports, application="pcmm_geo inspect", source=plan.path),
-                                     result)
+                                     result, meta)
     used = [*document.feature_definitions, *document.feature_nominals, *document.feature_items]
     for results in document.results:
         used += [results.id or 0, *results.point_sets, *(f.id for f in results.features)]
@@ -322,10 +326,10 @@ def inspection_to_qif(result: InspectionResult, path: str | Path, *, overwrite: 
                  material_modifiers=("NONE",), referenced_component="ACTUAL") for k, label in enumerate(sequence)))
         for sequence, key in frame_ids.items()}
     definitions, bonuses, nominals = {}, {}, {}
-    for characteristic in document.characteristics:
-        if characteristic.name not in meta:
+    for characteristic, entry in zip(document.characteristics, meta, strict=True):
+        if entry is None:
             continue
-        index, zone = meta[characteristic.name]
+        index, zone = entry
         outcome, planned = result.characteristics[index], plan.characteristics[index]
         if planned.dimension is not None:
             nominals[characteristic.nominal_id] = CharacteristicNominal(
