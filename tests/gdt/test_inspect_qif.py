@@ -348,3 +348,20 @@ def test_a_profile_of_a_surface_is_reported_not_written_by_name(maker, tmp_path)
     ((name, reason),) = export.not_written
     assert name == "profile S" and "SurfaceProfile" in reason
     assert {c.name for c in read_qif(export.path).characteristics} == {"flatness A", "parallelism TOP", *SIZES}
+
+
+def test_characteristics_of_the_same_name_keep_their_own_definitions(written, tmp_path):
+    from pcmm_geo.io.cmm import read_qif
+    from pcmm_geo.io.cmm.qif.characteristic_definitions import read_qif_definitions
+
+    result = written[0]
+    renamed = tuple(dataclasses.replace(c, name="same") if c.name in ("position H3", "flatness A") else c
+                    for c in result.characteristics)
+    path = inspection_to_qif(dataclasses.replace(result, characteristics=renamed), tmp_path / "same.qif").path
+    definitions = read_qif_definitions(path)
+    same = sorted((c.type, c.value, definitions.definition_of(c.definition_id).material_condition)
+                  for c in read_qif(path).characteristics if c.name == "same")
+    outcomes = {c.name: c for c in result.characteristics}
+    assert [s[0] for s in same] == ["flatness", "position"] and same[1][2] == "MAXIMUM" and same[0][2] is None
+    assert same[0][1] == pytest.approx(outcomes["flatness A"].value_mm, abs=1e-12)
+    assert same[1][1] == pytest.approx(outcomes["position H3"].value_mm, abs=1e-12)
