@@ -72,8 +72,7 @@ Examples
 
 from __future__ import annotations
 
-import importlib
-from typing import Any
+from pcmm_geo._lazy import attach
 
 _LAZY = {
     "evaluate_form": "form",
@@ -85,18 +84,4 @@ _LAZY = {
     "CRITERIA": "_common",
 }
 
-__all__ = sorted(_LAZY)
-
-
-def __getattr__(name: str) -> Any:
-    module_name = _LAZY.get(name)
-    if module_name is None:
-        raise AttributeError(f"module 'pcmm_geo.fit.zone' has no attribute {name!r}")
-    module = importlib.import_module(f"pcmm_geo.fit.zone.{module_name}")
-    value = module if name == module_name else getattr(module, name)
-    globals()[name] = value
-    return value
-
-
-def __dir__() -> list[str]:
-    return sorted(set(globals()) | set(_LAZY))
+__getattr__, __dir__, __all__ = attach(__name__, _LAZY)
