@@ -5,10 +5,11 @@ The graph is built from the source with :mod:`ast`, not by importing anything: e
 inside functions and methods, and under ``if TYPE_CHECKING:``.  A function-level import
 only delays a cycle, it does not remove it, so the rule "no import cycles" is checked on
 all of them.  ``from pcmm_geo.x import y`` is an edge to the module ``pcmm_geo.x.y`` when
-that is a module, otherwise to ``pcmm_geo.x``.  Not seen (documented limits): imports by
-name through :mod:`importlib` (the lazy PEP 562 re-exports of ``pcmm_geo.machine`` and
-``pcmm_geo.machine.calibration``, which always point down into their own package) and the
-implicit import of parent packages' ``__init__``.
+that is a module, otherwise to ``pcmm_geo.x``.  A package's lazy PEP 562
+re-exports (:mod:`pcmm_geo._lazy`) are read from its type stub ``__init__.pyi``, which spells
+each of them as an import (tests/test_typing.py checks the stub and the lazy table agree).  Not
+seen (documented limits): other imports by name through :mod:`importlib` and the implicit
+import of parent packages' ``__init__``.
 
 Layers (DESIGN.md "Layers", BRIEF "Layout shows the architecture"; rank 0 lowest).  A
 module may import modules of its own layer and of lower ranks only; importing a higher rank
@@ -38,7 +39,9 @@ LAYERS: dict[str, int] = {
     "pcmm_geo.cmm": 3,  # files from external CMMs above fit and io: refit-and-compare, fits as QIF
     "pcmm_geo.machine.kinematics": 4,  # rigid-body model, seed DPKM, trilateration
     "pcmm_geo.acquisition": 5,  # drivers, simulators, sessions, durable logs; imports the kinematics it simulates
-    "pcmm_geo.machine": 6,  # machine/__init__ (lazy re-exports) and the deprecation finder
+    # machine/__init__: the facade re-exporting names of its three sub-layers (lazily; its stub spells them), so it
+    # ranks above them; nothing in the package imports it.  (Its deprecation finder _moved is a shim, below.)
+    "pcmm_geo.machine": 7,
     "pcmm_geo.machine.calibration": 6,  # ch. 6 and ch. 7 calibration, calibration files
     "pcmm_geo.machine.analysis": 6,  # log processing, sensitivity
     "pcmm_geo.uncertainty": 7,  # GUM, Monte Carlo, calibration covariance, virtual CMM, ISO 14253-1
@@ -104,11 +107,14 @@ def _parsed_graph(root: Path) -> dict[str, frozenset[str]]:
     files = module_files(root)
     graph: dict[str, frozenset[str]] = {}
     for module, path in files.items():
-        tree = ast.parse(path.read_text(encoding="utf-8"), filename=str(path))
         edges: set[str] = set()
-        for node in ast.walk(tree):
-            if isinstance(node, ast.Import | ast.ImportFrom):
-                edges.update(_targets(node, module, path.name == "__init__.py", files))
+        # a package's type stub (__init__.pyi) spells its lazy re-exports as imports: they are the package's edges
+        for source in (path, path.with_suffix(".pyi")):
+            if source is path or source.is_file():
+                tree = ast.parse(source.read_text(encoding="utf-8"), filename=str(source))
+                for node in ast.walk(tree):
+                    if isinstance(node, ast.Import | ast.ImportFrom):
+                        edges.update(_targets(node, module, path.name == "__init__.py", files))
         edges.discard(module)
         graph[module] = frozenset(edges)
     return graph
