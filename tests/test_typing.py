@@ -84,7 +84,8 @@ def test_each_stub_lists_exactly_its_packages_public_names(package: str) -> None
     module = importlib.import_module(package)
     stub = Path(module.__file__).with_suffix(".pyi")  # type: ignore[arg-type]
     assert stub.is_file(), f"{package} has lazy names but no {stub.name}"
-    assert stub_mismatches(stub.read_text(encoding="utf-8"), module._LAZY, module.__all__) == []
+    problems = stub_mismatches(stub.read_text(encoding="utf-8"), module._LAZY, module.__all__)
+    assert problems == [], f"{stub}: {problems}; `python tools/lazy_stubs.py` writes the stub from the table"
     assert set(module._LAZY) <= set(module.__all__) <= set(dir(module))
 
 
