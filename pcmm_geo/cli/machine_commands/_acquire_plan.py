@@ -3,7 +3,7 @@
 The start (``--start``): ``conditioned`` (default) commands, after homing, each motor to its offset
 from the seed's start position that :func:`~pcmm_geo.machine.analysis.conditioning.choose_start`
 picks from the start map (on the seed geometry
-:data:`~pcmm_geo.machine.analysis.conditioning.CONDITIONED_START_OFFSETS`, 50, 40, -90 mm; with
+:data:`~pcmm_geo.machine.analysis.conditioning.CONDITIONED_START_OFFSETS`, 70, -70, 0 mm; with
 ``--calibration`` the map of that machine); ``level`` is the thesis' start (one encoder count for all
 motors).  ``--start-offsets-mm`` (simulated machines) shifts the simulator's pivots at the start count
 instead, as before, and starts ``level`` unless ``--start`` says otherwise.  With ``--resume`` the start
@@ -82,7 +82,7 @@ def add_start_arguments(parser: argparse.ArgumentParser) -> None:
 
     parser.add_argument("--start", choices=START_NAMES, default=None,
                         help="start pose, commanded after homing: 'conditioned' (default) moves the pivots to the "
-                             "start the tip-uncertainty map picks (seed geometry: 50, 40, -90 mm from level; "
+                             "start the tip-uncertainty map picks (seed geometry: 70, -70, 0 mm from level; "
                              "docs/machine.md), where the lasers see the heights well over the programme's +-20 mm; "
                              "'level' is the thesis' start (one encoder count for all motors), where they hardly see "
                              "them and points carry millimetre uncertainties. Recorded as start_heights_mm and "

@@ -20,7 +20,7 @@ Examples
 >>> from pcmm_geo.machine.kinematics.model import RigidBodyMachine
 >>> m = RigidBodyMachine.from_dpkm()
 >>> level = predict_session(m, m.reference_heights, [(1, 2.0), (2, -3.0), (3, 2.5)])
->>> good = predict_session(m, m.reference_heights + [50.0, 40.0, -90.0], [(1, 2.0), (2, -3.0), (3, 2.5)])
+>>> good = predict_session(m, m.reference_heights + [70.0, -70.0, 0.0], [(1, 2.0), (2, -3.0), (3, 2.5)])
 >>> bool(level.max_tip_uncertainty > 1.0), bool(good.max_tip_uncertainty < 0.15)  # mm
 (True, True)
 """
