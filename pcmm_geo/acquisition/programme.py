@@ -119,7 +119,7 @@ def start_offsets_usteps(offsets_mm: Any, microstep_mm: float) -> tuple[int, int
     values = [float(v) for v in offsets_mm]
     if len(values) != 3 or not all(abs(v) < 1e4 for v in values):
         raise InvalidInputError("offsets_mm", "three finite offsets in mm", repr(offsets_mm))
-    a, b, c = (int(round(v / microstep_mm)) for v in values)
+    a, b, c = (round(v / microstep_mm) for v in values)
     return a, b, c
 
 

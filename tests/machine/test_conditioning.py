@@ -14,11 +14,11 @@ import numpy as np
 import pytest
 
 from pcmm_geo.errors import InvalidInputError
-from pcmm_geo.machine.analysis.conditioning import (
+from pcmm_geo.machine.analysis.conditioning import pose_conditioning
+from pcmm_geo.machine.analysis.conditioning_maps import (
     CONDITIONED_START_OFFSETS,
     StartMap,
     choose_start,
-    pose_conditioning,
     start_map,
     workspace_map,
 )

@@ -136,7 +136,7 @@ def plan_start(args: argparse.Namespace, start_position: int, span: int) -> Star
     from pcmm_geo.acquisition.programme import plan_random_programme, start_offsets_usteps
     from pcmm_geo.cli.machine_commands.kinematics import load_machine_file
     from pcmm_geo.errors import InvalidInputError
-    from pcmm_geo.machine.analysis.conditioning import CONDITIONED_START_OFFSETS, choose_start, start_map
+    from pcmm_geo.machine.analysis.conditioning_maps import CONDITIONED_START_OFFSETS, choose_start, start_map
     from pcmm_geo.machine.analysis.logproc import DEFAULT_MAX_TIP_UNCERTAINTY
     from pcmm_geo.machine.analysis.session_prediction import predict_session
 
@@ -157,8 +157,9 @@ def plan_start(args: argparse.Namespace, start_position: int, span: int) -> Star
     simulated_shift = np.zeros(3) if args.start_offsets is None else np.asarray(args.start_offsets, dtype=float)
     start_heights = machine.reference_heights + simulated_shift + np.asarray(offsets, dtype=float) * microstep
     starts = tuple(start_position + offset for offset in offsets)
-    moves = plan_random_programme(min(args.moves, MAX_PREDICTED_MOVES), step_usteps=max(2, int(round(args.step_mm / microstep))),
-                                  seed=args.seed, start_positions=starts, span=span)  # type: ignore[arg-type]
+    step = max(2, round(args.step_mm / microstep))
+    moves = plan_random_programme(min(args.moves, MAX_PREDICTED_MOVES), step_usteps=step, seed=args.seed,
+                                  start_positions=starts, span=span)  # type: ignore[arg-type]
     prediction = predict_session(machine, start_heights, [(motor, steps * microstep) for motor, steps in moves])
     limit = DEFAULT_MAX_TIP_UNCERTAINTY if args.max_tip_u is None else float(args.max_tip_u)
     return StartPlan(name, offsets, starts, start_heights, prediction, limit,  # type: ignore[arg-type]

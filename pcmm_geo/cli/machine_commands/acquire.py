@@ -34,9 +34,9 @@ def register(subparsers: Any) -> None:
             "pseudo-terminals, optionally with injected faults. After homing the stages go to a well-conditioned "
             "start (--start conditioned, the default; --start level: the thesis'), and before any device moves the "
             "tip uncertainty process-log will state along the planned path is predicted: a warning above 1 mm, a "
-            "refusal above --max-tip-u-mm, the whole plan with --plan-only. Every output (--out, --table-3-2) is checked "
-            "before any device is touched; if the command fails, the files it wrote are removed and the ones it "
-            "replaced restored, except a log holding measured rows, which is kept (continue it with --resume)."
+            "refusal above --max-tip-u-mm, the whole plan with --plan-only. Every output (--out, --table-3-2) is "
+            "checked before any device is touched; if the command fails, the files it wrote are removed and the ones "
+            "it replaced restored, except a log holding measured rows, which is kept (continue it with --resume)."
         ),
     )
     parser.add_argument("--simulate", action="store_true", help="use the simulated machine (pseudo-terminals)")
