@@ -7,7 +7,8 @@ picks from the start map (on the seed geometry
 ``--calibration`` the map of that machine); ``level`` is the thesis' start (one encoder count for all
 motors).  ``--start-offsets-mm`` (simulated machines) shifts the simulator's pivots at the start count
 instead, as before, and starts ``level`` unless ``--start`` says otherwise.  With ``--resume`` the start
-is the one the log records (``start_positions_usteps``; a log without it began level).
+is the one the log records (``start_positions_usteps``; a log without it began level), and the
+prediction is that of a session from the start (the resumed rows continue the log's last pose instead).
 
 The plan: the programme's moves while the probe touches nothing
 (:func:`~pcmm_geo.acquisition.programme.plan_random_programme`) from that start, and what the log
@@ -109,23 +110,28 @@ def check_start_arguments(args: argparse.Namespace) -> None:
         raise InvalidInputError("--out", "a log file to create (LOG.csv), unless --plan-only", "nothing")
 
 
-def _resumed_offsets(args: argparse.Namespace, start_position: int) -> tuple[int, int, int] | None:
-    """The start offsets an existing log records when it is resumed (None: not resuming)."""
+def _resumed_start(args: argparse.Namespace, start_position: int) -> tuple[tuple[int, int, int], Any] | None:
+    """The start offsets and heights (None: not stated) an existing log records when it is resumed (None: new log)."""
     from pathlib import Path
 
     if not (args.resume and args.out and Path(args.out).exists()):
         return None
+    import numpy as np
+
     from pcmm_geo.acquisition.acqlog import read_log
     from pcmm_geo.errors import FileFormatError
 
-    recorded = read_log(args.out, allow_partial=True).metadata.get("start_positions_usteps")
-    if recorded is None:
-        return (0, 0, 0)  # logs written before commanded starts began level
+    metadata = read_log(args.out, allow_partial=True).metadata
+    recorded, heights = metadata.get("start_positions_usteps"), metadata.get("start_heights_mm")
     try:
+        stated = None if heights is None else np.array([float(value) for value in heights.split()])
+        if recorded is None:
+            return (0, 0, 0), stated  # logs written before commanded starts began level
         a, b, c = (int(value) - start_position for value in recorded.split())
     except ValueError:
-        raise FileFormatError(args.out, f"start_positions_usteps: expected three integers, got {recorded!r}") from None
-    return a, b, c
+        raise FileFormatError(args.out, f"start_positions_usteps / start_heights_mm: expected three numbers, got "
+                              f"{recorded!r} / {heights!r}") from None
+    return (a, b, c), stated
 
 
 def plan_start(args: argparse.Namespace, start_position: int, span: int) -> StartPlan:
@@ -147,15 +153,17 @@ def plan_start(args: argparse.Namespace, start_position: int, span: int) -> Star
     if name == "conditioned":
         chosen = CONDITIONED_START_OFFSETS if args.calibration is None else choose_start(start_map(machine))
         offsets = start_offsets_usteps(chosen, microstep)
-    resumed = _resumed_offsets(args, start_position)
-    if resumed is not None:  # the log's datum is where it began
-        if args.start is not None and resumed != offsets:
-            raise InvalidInputError("--start", f"the start the log began at (offsets {list(resumed)} microsteps) "
-                                    "when resuming", args.start)
-        name = name if resumed == offsets else ("level" if resumed == (0, 0, 0) else "recorded")
-        offsets = resumed
     simulated_shift = np.zeros(3) if args.start_offsets is None else np.asarray(args.start_offsets, dtype=float)
-    start_heights = machine.reference_heights + simulated_shift + np.asarray(offsets, dtype=float) * microstep
+    resumed = _resumed_start(args, start_position)
+    stated = None
+    if resumed is not None:  # the log's datum is where it began
+        if args.start is not None and resumed[0] != offsets:
+            raise InvalidInputError("--start", f"the start the log began at (offsets {list(resumed[0])} microsteps) "
+                                    "when resuming", args.start)
+        name = name if resumed[0] == offsets else ("level" if resumed[0] == (0, 0, 0) else "recorded")
+        offsets, stated = resumed
+    start_heights = (machine.reference_heights + simulated_shift + np.asarray(offsets, dtype=float) * microstep
+                     if stated is None or stated.shape != (3,) else stated)
     starts = tuple(start_position + offset for offset in offsets)
     step = max(2, round(args.step_mm / microstep))
     moves = plan_random_programme(min(args.moves, MAX_PREDICTED_MOVES), step_usteps=step, seed=args.seed,
