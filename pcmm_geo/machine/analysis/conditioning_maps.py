@@ -92,7 +92,7 @@ class StartMap:
     def eligible(self) -> NDArray[np.bool_]:
         """Starts whose whole box is reachable and unambiguous and keeps every two pivots apart (n, n).
 
-        Apart: by :data:`MIN_SEPARATION` (20 mm, what the off-level start ``0 60 -60`` keeps).  The 27 poses of
+        Apart: by :data:`MIN_SEPARATION` (20 mm, about what the off-level start ``0 60 -60`` keeps).  The 27 poses of
         the box can miss a pose where two pivots are level, and near it the third pivot's mirror is exact
         and the reading that sees the pair's height difference loses its redundancy: with pivots a and b
         10 mm apart at the start (offsets 50, 40, -90 mm) laser c's redundancy numbers fell to 2e-4-1e-2 and
