@@ -197,3 +197,14 @@ def test_hardware_sessions_command_the_start_too(tmp_path: Path) -> None:
     truth = MACHINE.forward(heights=rig.cmm.heights_for([row.pos_usteps for row in contents.rows])).tip
     # within U (k = 2), plus the 1e-6 mm to which the log states the start heights
     assert np.all(np.linalg.norm(out_hw.tips - truth, axis=1) <= 2 * out_hw.tip_uncertainty + 1e-5)
+
+
+def test_a_calibrated_machine_gets_the_start_its_own_map_picks(tmp_path: Path) -> None:
+    """``--calibration`` searches that machine's start map (no stored constant): the seed machine's own file gives
+    the seed's start."""
+    seed_file = tmp_path / "seed.json"
+    seed_file.write_text(json.dumps(MACHINE.to_dict()), encoding="utf-8")
+    code, out, err = run("acquire", "--plan-only", "--moves", "5", "--calibration", str(seed_file), "--json")
+    assert code == 0, err
+    heights = np.array(json.loads(out)["rows"][0]["heights_mm"])
+    np.testing.assert_allclose(heights, MACHINE.reference_heights + CONDITIONED_START_OFFSETS, atol=1e-3)
