@@ -101,6 +101,7 @@ EXTRAS_NEEDED = {
 FIRST_MODULES = (
     "test_docs.py",
     "acquisition/test_acq_process.py",
+    "acquisition/test_acq_plan.py",
     "uncertainty/test_demo_coverage.py",
     "fit/test_zone_axial.py",
     "fit/test_robustness.py",

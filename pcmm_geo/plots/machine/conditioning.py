@@ -77,8 +77,8 @@ def plot_conditioning_maps(workspace: WorkspaceMap, starts: StartMap, chosen: np
     if ambiguous.any():
         left.contourf(workspace.x - x0, workspace.y - y0, ambiguous.T.astype(float), levels=[0.5, 1.5], colors="none",
                       hatches=["////"])
-    left.contour(workspace.x - x0, workspace.y - y0, np.nan_to_num(workspace.tip_u, nan=np.inf).T,
-                 levels=[0.1, 1.0], colors=["white", "red"], linewidths=1.0)
+    left.contour(workspace.x - x0, workspace.y - y0, u.T, levels=[0.1, 1.0], colors=["white", "red"],
+                 linewidths=1.0)
     left.plot([0.0], [0.0], marker="x", color="red", markersize=10, mew=2, label="level start's tip")
     left.set_title(f"Worst single-move tip u over the workspace\n(plane z = {workspace.z:.1f} mm through the level "
                    "start's tip; contours 0.1 mm white, 1 mm red)", fontsize=9)
@@ -91,8 +91,8 @@ def plot_conditioning_maps(workspace: WorkspaceMap, starts: StartMap, chosen: np
     right.imshow(box.T, origin="lower", extent=start_extent, cmap=cmap, norm=norm, interpolation="nearest")
     right.contour(starts.axis, starts.axis, starts.eligible.T.astype(float), levels=[0.5], colors="white",
                   linewidths=1.2)
-    right.contour(starts.axis, starts.axis, np.nan_to_num(starts.box_tip_u, nan=np.inf).T, levels=[0.1],
-                  colors="black", linewidths=0.8, linestyles="--")
+    right.contour(starts.axis, starts.axis, box.T, levels=[0.1], colors="black", linewidths=0.8,
+                  linestyles="--")  # masked where unreachable: no contour along the edge of the reachable starts
     right.plot([0.0], [0.0], marker="x", color="red", markersize=10, mew=2, label="level (thesis): unbounded")
     right.plot([60.0], [-60.0], marker="s", color="orange", markersize=7, linestyle="none",
                label="offsets 0 60 -60")
