@@ -9,6 +9,7 @@ without ``pyplot``, so no global matplotlib backend is switched.
 - :func:`plot_calibration` -- tetrahedron calibration in 3-D (thesis fig 7.2) and miss distances.
 - :func:`plot_gauge_block` -- per-face plane residuals and the lengths of every method.
 - :func:`plot_sensitivity` -- workspace sensitivity map, one panel per z level, singular points counted.
+- :func:`plot_conditioning_maps` -- predicted tip uncertainty over the workspace and over session start poses.
 - :func:`plot_fit_residuals` -- residuals of a fit where the points lie (angle, height, in-plane maps).
 - :func:`plot_processed_log` -- tip path, pivot heights and closure residuals of a log.
 - :func:`plot_tip_errors`, :func:`plot_demo_overview` -- the end-to-end demo.
@@ -41,6 +42,7 @@ _LAZY = {
     "plot_calibration": "machine.calibration",
     "plot_gauge_block": "gauge_block",
     "plot_sensitivity": "machine.sensitivity",
+    "plot_conditioning_maps": "machine.conditioning",
     "plot_fit_residuals": "fit_residuals",
     "plot_processed_log": "machine.process_log",
     "plot_tip_errors": "demo",

@@ -7,6 +7,7 @@ from .demo import plot_tip_errors as plot_tip_errors
 from .fit_residuals import plot_fit_residuals as plot_fit_residuals
 from .gauge_block import plot_gauge_block as plot_gauge_block
 from .machine.calibration import plot_calibration as plot_calibration
+from .machine.conditioning import plot_conditioning_maps as plot_conditioning_maps
 from .machine.machine_state import plot_numerical_calibration as plot_numerical_calibration
 from .machine.machine_state import plot_pose as plot_pose
 from .machine.machine_state import plot_trilateration as plot_trilateration
