@@ -267,7 +267,7 @@ def _handle_verify(args: argparse.Namespace) -> Report:
     compensated = None if args.compensated is None else args.compensated == "yes"
     result = verify_document(document, tolerance_mm=tolerance, criterion=args.criterion,
                              circle_plane=args.circle_plane, compensated=compensated, probe_radius=args.probe_radius,
-                             material_side=args.material_side)
+                             material_side=args.material_side, spell_setting=cli_setting)
     characteristics = _verify_characteristics(args, document, compensated)
     rows = []
     for check in result.features:
