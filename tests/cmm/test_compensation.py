@@ -98,7 +98,7 @@ def test_the_material_side_in_order_of_authority() -> None:
     assert side_arguments(None, required=False) == ({}, "")
     with pytest.raises(InvalidInputError, match=r"^material_side: expected 'internal' \(or no material_side\)"):
         side_arguments("external", file_side="internal", internal_external="INTERNAL")
-    with pytest.raises(InvalidInputError, match="^--material-side: expected internal or external"):
+    with pytest.raises(InvalidInputError, match=r"^--material-side: expected internal or external"):
         side_arguments(None, spell_setting=_dashed)
 
 
