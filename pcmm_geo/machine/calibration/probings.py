@@ -35,6 +35,7 @@ import re
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
@@ -98,6 +99,27 @@ class ProbedFeatures:
         """Joint centers, shape (K, 3, 3): position, arm (a, b, c), xyz (mm)."""
         return np.array([[self.joints[arm][pos].center for arm in ARMS] for pos in self.positions])
 
+    @classmethod
+    def from_csv(cls, path: str | Path) -> ProbedFeatures:
+        """Read a probings CSV: raw ``feature,position,x,y,z`` or the ``x,y,z,d,r`` export (:func:`read_probings`)."""
+        return read_probings(path)
+
+    @classmethod
+    def from_qif(cls, path: str | Path, **options: Any) -> ProbedFeatures:
+        """The balls of a QIF results file; ``options`` and the notes on the refit: :func:`~pcmm_geo.machine.\
+calibration.qif_probings.read_qif_probings`."""
+        from pcmm_geo.machine.calibration.qif_probings import read_qif_probings
+
+        return read_qif_probings(path, **options).features
+
+    @classmethod
+    def from_points(cls, points: Mapping[Any, Any]) -> ProbedFeatures:
+        """Fit the balls to arrays (mm): ``{"joint_a": [(N, 3) per position] or {position: (N, 3)}, ...,
+        "tip": (N, 3)}``, or ``{(feature, position): (N, 3)}`` (:func:`probed_features_from_points`)."""
+        from pcmm_geo.machine.calibration.tetrahedron import points_by_role
+
+        return probed_features_from_points(points_by_role(points))
+
 
 @dataclass(frozen=True)
 class LaserTable:
@@ -106,6 +128,23 @@ class LaserTable:
     positions: tuple[int, ...]
     readings: FloatArray
     source: str = "<arrays>"
+
+    @classmethod
+    def from_csv(cls, path: str | Path) -> LaserTable:
+        """Read ``position,laser_a,laser_b,laser_c`` (:func:`read_lasers`)."""
+        return read_lasers(path)
+
+    @classmethod
+    def from_readings(cls, readings: Any, positions: tuple[int, ...] | None = None) -> LaserTable:
+        """Readings (K, 3) in the order of ``positions`` (default 1 ... K), or ``{position: (3,)}``."""
+        from pcmm_geo.machine.calibration.tetrahedron import check_readings
+
+        if isinstance(readings, Mapping):
+            keys = tuple(int(k) for k in readings)
+            values = np.array([np.asarray(readings[k], dtype=float) for k in readings])
+            return cls(keys, check_readings(values, len(keys), "lasers"))
+        values = check_readings(readings, None if positions is None else len(positions), "lasers")
+        return cls(tuple(range(1, len(values) + 1)) if positions is None else tuple(positions), values)
 
     def at(self, positions: tuple[int, ...]) -> FloatArray:
         """Readings (K, 3) in the order of ``positions``.
