@@ -59,8 +59,8 @@ def read_cmm_document(path: str | Path, *, units: str | None = None, angle_unit:
         Units given for a QIF file; unknown units.
     """
     from pcmm_geo.errors import FileFormatError, InvalidInputError
-    from pcmm_geo.io._lines import refuse_irregular
     from pcmm_geo.io.cmm import DEFAULT_MAX_BYTES, read_calypso_table, read_dmis, read_qif
+    from pcmm_geo.io.text import refuse_irregular
 
     refuse_irregular(path)  # a FIFO would block the reader forever
     kind = detect_format(path, format)

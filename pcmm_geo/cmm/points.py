@@ -123,7 +123,7 @@ def load_feature_points(path: str | Path, *, element: str | None = None, feature
         ``feature`` given for a file that is not QIF.
     """
     from pcmm_geo.cmm.files import detect_format
-    from pcmm_geo.io._lines import refuse_irregular
+    from pcmm_geo.io.text import refuse_irregular
 
     file = Path(path)
     refuse_irregular(file)  # a FIFO would block the reader forever

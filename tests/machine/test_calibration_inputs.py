@@ -1,4 +1,4 @@
-"""Typed calibration inputs: ProbedFeatures.from_csv / from_qif / from_points, LaserTable.from_csv / from_readings."""
+"""Typed calibration inputs: ProbedFeatures.from_csv / from_points (and read_qif_probings), LaserTable.from_*."""
 
 from __future__ import annotations
 
@@ -10,7 +10,7 @@ import pytest
 from pcmm_geo.errors import InvalidInputError
 from pcmm_geo.machine.calibration import calibrate_tetrahedron
 from pcmm_geo.machine.calibration.probings import LaserTable, ProbedFeatures, write_probings_csv
-from pcmm_geo.machine.calibration.qif_probings import write_qif_probings
+from pcmm_geo.machine.calibration.qif_probings import read_qif_probings, write_qif_probings
 from pcmm_geo.machine.calibration.seed import appendix_cd_files
 
 CENTRE = np.array([1.0, 2.0, 3.0])
@@ -38,14 +38,14 @@ def test_from_points_fits_the_balls_exactly() -> None:
         ProbedFeatures.from_points({"joint_d": [_ball(CENTRE, 1.0)]})
 
 
-def test_from_csv_and_from_qif_give_the_same_balls(tmp_path: Path) -> None:
+def test_from_csv_and_the_qif_route_give_the_same_balls(tmp_path: Path) -> None:
     points = {("tip", None): _ball(CENTRE, 1.0)}
     points.update({(f"joint_{arm}", position): _ball(CENTRE + np.array([10.0 * k, 5.0 * position, 0.0]), 6.35)
                    for k, arm in enumerate("abc") for position in (1, 2)})
     csv = write_probings_csv(tmp_path / "probings.csv", points)
     from_csv = ProbedFeatures.from_csv(csv)
     qif = write_qif_probings(from_csv, tmp_path / "probings.qif", probe_radius=0.5)
-    from_qif = ProbedFeatures.from_qif(qif)
+    from_qif = read_qif_probings(qif).features
     for arm in "abc":
         for position in (1, 2):
             np.testing.assert_allclose(from_qif.joints[arm][position].center, from_csv.joints[arm][position].center,
@@ -74,5 +74,5 @@ def test_typed_inputs_calibrate_as_the_paths_do() -> None:
         assert typed.beta_deg[pair] == pytest.approx(beta, abs=1e-12)
     for arm, d in by_path.dead_distance.items():
         assert typed.dead_distance[arm] == pytest.approx(d, abs=1e-12)
-    with pytest.raises(InvalidInputError, match="from_csv, from_qif, from_points"):
+    with pytest.raises(InvalidInputError, match="from_csv, from_points, read_qif_probings"):
         calibrate_tetrahedron(42, lasers)  # type: ignore[arg-type]

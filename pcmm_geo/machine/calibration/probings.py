@@ -43,8 +43,9 @@ from numpy.typing import NDArray
 from pcmm_geo._atomic import write_atomic
 from pcmm_geo._deprecation import renamed_fields, renamed_parameters
 from pcmm_geo.errors import FileFormatError, PcmmGeoError
-from pcmm_geo.io._text import excerpt, parse_decimal
+from pcmm_geo.io.text import excerpt, parse_decimal
 from pcmm_geo.machine.calibration.geometry import FittedSphere, fit_probed_sphere
+from pcmm_geo.machine.calibration.inputs import check_readings, points_by_role
 
 __all__ = [
     "ARMS",
@@ -105,19 +106,9 @@ class ProbedFeatures:
         return read_probings(path)
 
     @classmethod
-    def from_qif(cls, path: str | Path, **options: Any) -> ProbedFeatures:
-        """The balls of a QIF results file; ``options`` and the notes on the refit: :func:`~pcmm_geo.machine.\
-calibration.qif_probings.read_qif_probings`."""
-        from pcmm_geo.machine.calibration.qif_probings import read_qif_probings
-
-        return read_qif_probings(path, **options).features
-
-    @classmethod
     def from_points(cls, points: Mapping[Any, Any]) -> ProbedFeatures:
         """Fit the balls to arrays (mm): ``{"joint_a": [(N, 3) per position] or {position: (N, 3)}, ...,
         "tip": (N, 3)}``, or ``{(feature, position): (N, 3)}`` (:func:`probed_features_from_points`)."""
-        from pcmm_geo.machine.calibration.tetrahedron import points_by_role
-
         return probed_features_from_points(points_by_role(points))
 
 
@@ -137,8 +128,6 @@ class LaserTable:
     @classmethod
     def from_readings(cls, readings: Any, positions: tuple[int, ...] | None = None) -> LaserTable:
         """Readings (K, 3) in the order of ``positions`` (default 1 ... K), or ``{position: (3,)}``."""
-        from pcmm_geo.machine.calibration.tetrahedron import check_readings
-
         if isinstance(readings, Mapping):
             keys = tuple(int(k) for k in readings)
             values = np.array([np.asarray(readings[k], dtype=float) for k in readings])
@@ -169,7 +158,7 @@ class LaserTable:
 
 def _data_lines(path: Path, check_header: Callable[[int, list[str]], None]) -> list[tuple[int, list[str]]]:
     """Rows (fields stripped) without blank and ``#`` lines; ``check_header`` sees the first row before the rest."""
-    from pcmm_geo.io._text import read_csv_rows
+    from pcmm_geo.io.text import read_csv_rows
 
     table = read_csv_rows(path, check_header=lambda line, cells: check_header(line, [c.strip() for c in cells]))
     if not table.rows:

@@ -48,6 +48,7 @@ from numpy.typing import ArrayLike, NDArray
 from pcmm_geo.errors import CalibrationError, InvalidInputError
 from pcmm_geo.fit.skew import mean_pairwise_midpoint, nearest_point_to_lines, pairwise_closest_points
 from pcmm_geo.machine.calibration.geometry import angle_between, fit_center_line, seed_printed_angle_deg
+from pcmm_geo.machine.calibration.inputs import check_readings
 from pcmm_geo.machine.calibration.probings import (
     ARMS,
     LaserTable,
@@ -69,8 +70,6 @@ __all__ = [
     "as_probed_features",
     "b_in_from_lasers",
     "calibrate_tetrahedron",
-    "check_readings",
-    "points_by_role",
     "seed_printed_angle_deg",
 ]
 
@@ -79,32 +78,6 @@ START_OF_RANGE = 60.0
 
 
 # ---------------------------------------------------------------------------------------------- inputs
-def points_by_role(probings: Mapping[Any, Any]) -> dict[tuple[str, int | None], Any]:
-    """Probed points by arm: ``{"joint_a": [(N, 3) per position] or {position: (N, 3)}, ..., "tip": (N, 3)}``
-    as ``{(feature, position): (N, 3)}``.
-
-    Raises
-    ------
-    InvalidInputError
-        A key that is none of ``joint_a``, ``joint_b``, ``joint_c``, ``tip`` or a tuple.
-    """
-    points: dict[tuple[str, int | None], Any] = {}
-    for key, value in probings.items():
-        if isinstance(key, tuple):
-            points[key] = value
-        elif key == "tip":
-            points[("tip", None)] = value
-        elif key in ("joint_a", "joint_b", "joint_c"):
-            items = value.items() if isinstance(value, Mapping) else enumerate(value, start=1)
-            for position, pts in items:
-                points[(key, int(position))] = pts
-        else:
-            raise InvalidInputError(
-                "probings", "keys 'joint_a', 'joint_b', 'joint_c', 'tip' or (feature, position)", repr(key)
-            )
-    return points
-
-
 def as_probed_features(probings: ProbedFeatures | str | Path | Mapping[Any, Any]) -> ProbedFeatures:
     """The probings as :class:`ProbedFeatures`: one already, a CSV path (:meth:`ProbedFeatures.from_csv`) or arrays
     (:meth:`ProbedFeatures.from_points`).
@@ -121,8 +94,8 @@ def as_probed_features(probings: ProbedFeatures | str | Path | Mapping[Any, Any]
     if isinstance(probings, Mapping):
         return ProbedFeatures.from_points(probings)
     raise InvalidInputError(
-        "probings", "ProbedFeatures (from_csv, from_qif, from_points), a CSV path or a mapping of probed points",
-        type(probings).__name__
+        "probings", "ProbedFeatures (from_csv, from_points, read_qif_probings), a CSV path or a mapping of probed "
+        "points", type(probings).__name__
     )
 
 
@@ -135,26 +108,6 @@ def as_laser_table(lasers: LaserTable | str | Path | ArrayLike | Mapping[int, Ar
     if isinstance(lasers, (str, Path)):
         return LaserTable.from_csv(lasers)
     return LaserTable.from_readings(lasers, None if isinstance(lasers, Mapping) else positions)
-
-
-def check_readings(value: Any, count: int | None, name: str) -> FloatArray:
-    """Laser readings as a finite (K, 3) array (``count`` rows when given).
-
-    Raises
-    ------
-    InvalidInputError
-        Another shape, NaN or inf; ``what`` is ``name``.
-    """
-    try:
-        arr = np.asarray(value, dtype=float)
-    except (TypeError, ValueError):
-        raise InvalidInputError(name, "laser readings of shape (K, 3)", type(value).__name__) from None
-    if arr.ndim != 2 or arr.shape[1] != 3 or (count is not None and arr.shape[0] != count):
-        want = f"({count}, 3)" if count is not None else "(M, 3)"
-        raise InvalidInputError(name, f"laser readings of shape {want} (arms a, b, c)", f"shape {arr.shape}")
-    if not np.all(np.isfinite(arr)):
-        raise InvalidInputError(name, "finite laser readings", "NaN or inf")
-    return arr
 
 
 # ------------------------------------------------------------------------------------------ calculation
@@ -276,10 +229,10 @@ def calibrate_tetrahedron(
     probings : ProbedFeatures
         The probed balls (mm, CMM₁ frame), made by :meth:`ProbedFeatures.from_csv` (raw
         ``feature,position,x,y,z`` or the seed's ``x,y,z,d,r`` export, see
-        :mod:`pcmm_geo.machine.calibration.probings`), :meth:`ProbedFeatures.from_qif` or
-        :meth:`ProbedFeatures.from_points` (``{"joint_a": [(N, 3) per position] or
-        {position: (N, 3)}, ..., "tip": (N, 3)}``).  A CSV path or such a mapping is still
-        read with them (:func:`as_probed_features`).
+        :mod:`pcmm_geo.machine.calibration.probings`), :meth:`ProbedFeatures.from_points`
+        (``{"joint_a": [(N, 3) per position] or {position: (N, 3)}, ..., "tip": (N, 3)}``) or
+        :func:`~pcmm_geo.machine.calibration.qif_probings.read_qif_probings` (its ``.features``).
+        A CSV path or such a mapping is still read with them (:func:`as_probed_features`).
     lasers : LaserTable
         Laser readings per slider position (mm, arms a, b, c), made by
         :meth:`LaserTable.from_csv` (``position,laser_a,laser_b,laser_c``) or
