@@ -123,7 +123,8 @@ def read_fit_input(args: argparse.Namespace, element: str) -> FitInput:
         raise InvalidInputError("--max-mb", "a QIF file (the limit applies to QIF files)", str(args.file))
     data = load_feature_points(args.file, element=element, feature=args.feature, decimal=args.decimal,
                                max_bytes=limit, spell_setting=cli_setting)
-    radius, source = probe_radius_to_apply(data, compensated=args.compensated, probe_radius=args.probe_radius,
+    compensated = None if args.compensated is None else args.compensated == "yes"  # the library's bool
+    radius, source = probe_radius_to_apply(data, compensated=compensated, probe_radius=args.probe_radius,
                                            spell_setting=cli_setting)
     if args.material_side is not None and radius == 0:
         raise InvalidInputError("--material-side", "a probe radius to apply (--probe-radius-mm or probe centres in the "
