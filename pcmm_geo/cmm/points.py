@@ -229,9 +229,10 @@ def probe_radius_to_apply(data: FeaturePoints, *, compensated: bool | str | None
         compensated = compensated == "yes"
     point_set = MeasuredPointSet(id=None, points=data.points, compensated=data.compensated,
                                  probe_radius=data.probe_radius)
-    plan = plan_compensation(point_set, compensated=compensated, probe_radius=probe_radius, where=data.describe(),
-                             unstated="refuse" if data.format in UNFLAGGED_FORMATS else "surface", strict=True,
-                             spell_setting=spell_setting)
+    unflagged = data.format in UNFLAGGED_FORMATS
+    where = f"{data.describe()} ({data.format} format)" if unflagged else data.describe()
+    plan = plan_compensation(point_set, compensated=compensated, probe_radius=probe_radius, where=where,
+                             unstated="refuse" if unflagged else "surface", strict=True, spell_setting=spell_setting)
     return plan.radius, plan.radius_source
 
 
