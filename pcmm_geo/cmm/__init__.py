@@ -23,6 +23,8 @@ name                              what it does
 :func:`load_feature_points`       the points of one feature of a CMM file, with what the file
                                   says about their compensation (``pcmm fit FILE.qif``)
 :func:`read_cmm_document`         a QIF document, DMIS output or CALYPSO table, format detected
+:func:`plan_compensation`         probe compensation decided once (file flags and the caller's
+                                  statement -> radius, side, sources; :class:`Compensation`)
 ================================  =================================================================
 """
 
@@ -36,8 +38,10 @@ _LAZY = {
     "Verification": "verify",
     "verify_document": "verify",
     "verify_qif": "verify",
-    "Compensation": "refit",
-        "Refit": "refit",
+    "Compensation": "compensation",
+    "CompensationPlan": "compensation",
+    "plan_compensation": "compensation",
+    "Refit": "refit",
     "refit_feature": "refit",
     "feature_report": "export",
     "FileFeature": "export",

@@ -294,7 +294,7 @@ def _calibration_covariance(path: str | None, machine: Any) -> Any:
     import numpy as np
 
     from pcmm_geo.errors import FileFormatError
-    from pcmm_geo.io._text import read_json_file
+    from pcmm_geo.io.text import read_json_file
     from pcmm_geo.machine.analysis.logproc import GEOMETRY_PARAMETERS
     from pcmm_geo.machine.calibration.calfile import load_covariance
 

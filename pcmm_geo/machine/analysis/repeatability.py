@@ -388,7 +388,7 @@ def read_arm_table_csv(path: str | Path, header: Sequence[str]) -> tuple[tuple[s
     FileFormatError
         Wrong header, field count, non-finite or non-numeric values (with the line number), no rows.
     """
-    from pcmm_geo.io._text import excerpt, read_csv_rows
+    from pcmm_geo.io.text import excerpt, read_csv_rows
 
     file = Path(path)
     expected = tuple(header)
