@@ -1,0 +1,210 @@
+"""Zone, MCC and MIC fits on duplicated points: duplicates are merged first, the answer does not move.
+
+Issue 31: ``fit_circle(np.vstack([pts] * 3), criterion="mcc")`` gave twice the radius with a global
+certificate.  Every minimax element is fitted here on its points stacked 2, 3 and 5 times and on a few
+distinct points each repeated several times; the value must be the independent truth of the distinct
+points (``zone_truths.py``: hull antipodal pairs, every spanned ball, all circumcentres; no pcmm_geo
+code) where one exists, and the fit of the distinct points otherwise, to 1e-9 mm (the global gap), and
+the contacts must be indices of the caller's array: the first occurrence of each merged group.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from zone_truths import enclosing_truth, round_zone_truth, slab_truth, strip_truth
+
+from pcmm_geo.errors import TooFewPointsError
+from pcmm_geo.fit import SearchBudget, fit_circle, fit_cone, fit_cylinder, fit_line, fit_plane, fit_sphere
+
+GAP = 1e-9  # mm: the global certificate's gap
+#: deterministic and small: the tiny axial sets below close their proof well within it
+BUDGET = SearchBudget(max_cells=200_000, max_seconds=None)
+
+
+def _rotation(seed: int) -> np.ndarray:
+    q, r = np.linalg.qr(np.random.default_rng(seed).normal(size=(3, 3)))
+    return q * np.sign(np.diag(r))
+
+
+def circle_2d() -> np.ndarray:
+    rng = np.random.default_rng(1)
+    t = rng.uniform(0, 2 * np.pi, 12)
+    r = 10 + rng.normal(0, 0.005, 12)
+    return np.c_[r * np.cos(t), r * np.sin(t)] + [500.0, -200.0]
+
+
+def circle_3d() -> np.ndarray:
+    flat = circle_2d() - [500.0, -200.0]
+    rng = np.random.default_rng(2)
+    return np.c_[flat, rng.normal(0, 0.002, len(flat))] @ _rotation(2).T + [10.0, 20.0, 30.0]
+
+
+def sphere() -> np.ndarray:
+    rng = np.random.default_rng(3)
+    unit = rng.normal(size=(16, 3))
+    unit /= np.linalg.norm(unit, axis=1)[:, None]
+    return (8 + rng.normal(0, 0.004, 16))[:, None] * unit + [1.0, 2.0, 3.0]
+
+
+def plane() -> np.ndarray:
+    rng = np.random.default_rng(4)
+    xy = rng.uniform(-20, 20, (14, 2))
+    return np.c_[xy, rng.normal(0, 0.01, 14)] @ _rotation(4).T + [100.0, 0.0, 50.0]
+
+
+def line_2d() -> np.ndarray:
+    rng = np.random.default_rng(5)
+    x = rng.uniform(0, 40, 11)
+    return np.c_[x, 0.3 * x + rng.normal(0, 0.01, 11)] + [5.0, 7.0]
+
+
+def line_3d() -> np.ndarray:
+    rng = np.random.default_rng(6)
+    return np.c_[rng.uniform(0, 50, 8), rng.normal(0, 0.01, (8, 2))] @ _rotation(6).T
+
+
+def cylinder() -> np.ndarray:
+    rng = np.random.default_rng(3)
+    a, z, r = rng.uniform(0, 2 * np.pi, 10), rng.uniform(0, 20, 10), 5 + rng.normal(0, 0.01, 10)
+    return np.c_[r * np.cos(a), r * np.sin(a), z] + [100.0, 50.0, 0.0]
+
+
+def cone() -> np.ndarray:
+    rng = np.random.default_rng(8)
+    h, a = rng.uniform(5, 20, 14), rng.uniform(0, 2 * np.pi, 14)
+    rho = h * np.tan(np.radians(20)) + rng.normal(0, 0.003, 14)
+    return np.c_[rho * np.cos(a), rho * np.sin(a), h] @ _rotation(8).T
+
+
+def _fit(kind: str, points: np.ndarray, criterion: str):
+    if kind in ("circle2", "circle3"):
+        return fit_circle(points, criterion=criterion)
+    if kind == "sphere":
+        return fit_sphere(points, criterion=criterion)
+    if kind == "plane":
+        return fit_plane(points, criterion=criterion)
+    if kind == "line2":
+        return fit_line(points, criterion=criterion)
+    if kind == "line3":
+        return fit_line(points, criterion=criterion, search_budget=BUDGET)
+    if kind == "cone":
+        return fit_cone(points, criterion=criterion)
+    return fit_cylinder(points, criterion=criterion, search_budget=BUDGET)
+
+
+def value_of(fit, criterion: str) -> float:
+    """The minimised quantity: zone width, or enclosing / inscribed radius."""
+    return fit.form if criterion == "chebyshev" else fit.radius
+
+
+DATA = {"circle2": circle_2d, "circle3": circle_3d, "sphere": sphere, "plane": plane, "line2": line_2d,
+        "line3": line_3d, "cylinder": cylinder, "cone": cone}
+#: every (element, criterion) the library fits by a minimax criterion
+CASES = [(k, c) for k in ("circle2", "circle3", "sphere", "cylinder") for c in ("chebyshev", "mcc", "mic")] + [
+    ("plane", "chebyshev"), ("line2", "chebyshev"), ("line3", "chebyshev"), ("cone", "chebyshev")]
+
+
+def _truth(kind: str, criterion: str, points: np.ndarray) -> float | None:
+    """Independent truth of the distinct points, where zone_truths has one."""
+    if kind == "circle2" and criterion == "mcc":
+        return enclosing_truth(points)
+    if kind == "sphere" and criterion == "mcc":
+        return enclosing_truth(points)
+    if kind == "circle2" and criterion == "chebyshev":
+        return round_zone_truth(points)
+    if kind == "plane":
+        return slab_truth(points)
+    if kind == "line2":
+        return strip_truth(points)
+    return None
+
+
+def _assert_same(fit, reference, criterion: str, points: np.ndarray, n_distinct: int) -> None:
+    assert fit.n == len(points)
+    assert fit.residuals.shape == (len(points),)
+    assert abs(value_of(fit, criterion) - value_of(reference, criterion)) <= GAP
+    assert fit.certificate.certified == reference.certificate.certified
+    assert fit.certificate.scope == reference.certificate.scope
+    # contacts are the caller's indices, one per merged group (its first occurrence), never two of a group
+    assert np.all(fit.contacts < n_distinct)
+    assert len(np.unique(fit.contacts)) == len(fit.contacts)
+
+
+@pytest.mark.parametrize(("kind", "criterion"), CASES)
+@pytest.mark.parametrize("copies", [2, 3, 5])
+def test_stacked_copies_give_the_distinct_answer(kind: str, criterion: str, copies: int) -> None:
+    points = DATA[kind]()
+    reference = _fit(kind, points, criterion)
+    truth = _truth(kind, criterion, points)
+    if truth is not None:
+        assert abs(value_of(reference, criterion) - truth) <= GAP
+    fit = _fit(kind, np.vstack([points] * copies), criterion)
+    _assert_same(fit, reference, criterion, np.vstack([points] * copies), len(points))
+    if truth is not None:
+        assert abs(value_of(fit, criterion) - truth) <= GAP
+
+
+def test_issue_case_mcc_circle_of_stacked_points_is_the_enclosing_circle() -> None:
+    """The issue's case: the radius was 19.67 mm (twice the truth) with a global certificate."""
+    points = circle_2d()
+    truth = enclosing_truth(points)
+    assert 10.0 < truth < 10.01
+    fit = fit_circle(np.vstack([points] * 3), criterion="mcc")
+    assert abs(fit.radius - truth) <= GAP
+    assert fit.certificate.scope == "global" and fit.certificate.certified
+    assert np.all(fit.certificate.multipliers > 0)
+
+
+@pytest.mark.parametrize(("kind", "criterion"), CASES)
+def test_few_distinct_points_each_repeated(kind: str, criterion: str) -> None:
+    """A few distinct points, each repeated 5 times and interleaved (0, 1, .., k, 0, 1, ..)."""
+    full = DATA[kind]()
+    take = {"circle2": 4, "circle3": 5, "sphere": 6, "plane": 5, "line2": 4, "line3": 5, "cylinder": 8,
+            "cone": 9}[kind]
+    points = full[:take]
+    try:
+        reference = _fit(kind, points, criterion)
+    except Exception as error:  # the distinct points have no such element: the repeated ones must say the same
+        with pytest.raises(type(error)):
+            _fit(kind, np.vstack([points] * 5), criterion)
+        return
+    repeated = np.vstack([points] * 5)
+    fit = _fit(kind, repeated, criterion)
+    _assert_same(fit, reference, criterion, repeated, take)
+    truth = _truth(kind, criterion, points)
+    if truth is not None:
+        assert abs(value_of(fit, criterion) - truth) <= GAP
+
+
+def test_mic_cylinder_of_stacked_points_is_the_distinct_one() -> None:
+    """Issue 31: the MIC cylinder moved by 1.6e-9 mm on duplicated points (here 4.4e-10 mm before the merge)."""
+    points = cylinder()
+    once = fit_cylinder(points, criterion="mic", search_budget=BUDGET)
+    thrice = fit_cylinder(np.vstack([points] * 3), criterion="mic", search_budget=BUDGET)
+    assert abs(thrice.radius - once.radius) <= 1e-12
+    assert np.array_equal(np.sort(thrice.contacts), np.sort(once.contacts))
+
+
+def test_points_within_the_merge_tolerance_are_one_point() -> None:
+    """A copy moved by 1e-15 x the extent is the same point; one moved by 1e-6 x the extent is not."""
+    points = circle_2d()
+    extent = float(np.linalg.norm(points - points.mean(axis=0), axis=1).max())
+    rng = np.random.default_rng(11)
+    direction = rng.normal(size=points.shape)
+    direction /= np.linalg.norm(direction, axis=1)[:, None]
+    near = points + 1e-15 * extent * direction
+    fit = fit_circle(np.vstack([points, near]), criterion="mcc")
+    reference = fit_circle(points, criterion="mcc")
+    assert abs(fit.radius - reference.radius) <= GAP and fit.certificate.scope == "global"
+    assert np.all(fit.contacts < len(points))
+    apart = np.vstack([points, points + 1e-6 * extent * direction])
+    fit_apart = fit_circle(apart, criterion="mcc")
+    assert abs(fit_apart.radius - enclosing_truth(apart)) <= GAP
+
+
+def test_too_few_distinct_points_are_refused() -> None:
+    """Three copies of two points are two points: no circle, a typed error naming the element."""
+    two = np.array([[0.0, 0.0], [1.0, 1.0]])
+    with pytest.raises(TooFewPointsError, match="circle"):
+        fit_circle(np.vstack([two] * 3), criterion="mcc")
