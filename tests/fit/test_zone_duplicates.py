@@ -10,12 +10,18 @@ the contacts must be indices of the caller's array: the first occurrence of each
 
 from __future__ import annotations
 
+import dataclasses
+
 import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 from zone_truths import enclosing_truth, round_zone_truth, slab_truth, strip_truth
 
-from pcmm_geo.errors import TooFewPointsError
+from pcmm_geo.errors import DegenerateGeometryError
 from pcmm_geo.fit import SearchBudget, fit_circle, fit_cone, fit_cylinder, fit_line, fit_plane, fit_sphere
+from pcmm_geo.fit.zone import check_answer
+from pcmm_geo.fit.zone._check import apply_check
 
 GAP = 1e-9  # mm: the global certificate's gap
 #: deterministic and small: the tiny axial sets below close their proof well within it
@@ -204,7 +210,185 @@ def test_points_within_the_merge_tolerance_are_one_point() -> None:
 
 
 def test_too_few_distinct_points_are_refused() -> None:
-    """Three copies of two points are two points: no circle, a typed error naming the element."""
+    """Three copies of two points are two points: no circle, a typed error naming the element and the count."""
     two = np.array([[0.0, 0.0], [1.0, 1.0]])
-    with pytest.raises(TooFewPointsError, match="circle"):
+    with pytest.raises(DegenerateGeometryError, match=r"circle.*only 2 distinct points among the 6"):
         fit_circle(np.vstack([two] * 3), criterion="mcc")
+    with pytest.raises(DegenerateGeometryError, match=r"plane.*only 2 distinct"):
+        fit_plane(np.vstack([np.eye(3)[:2]] * 4), criterion="chebyshev")
+
+
+@pytest.mark.parametrize(("kind", "criterion"), CASES)
+def test_every_answer_passes_the_independent_check(kind: str, criterion: str) -> None:
+    """The check (own distance formulas, every input point) passes the library's answers, stacked or not."""
+    for copies in (1, 2):
+        points = np.vstack([DATA[kind]()] * copies)
+        fit = _fit(kind, points, criterion)
+        found = check_answer(fit, points)
+        assert found.passed, found.reason
+        assert fit.certificate.check.startswith("independent check passed")
+        assert found.feasibility_mm <= found.tolerance_mm
+
+
+# --- the check on hand-made wrong answers -------------------------------------------------------------
+
+
+def _with(fit, **changes):
+    """``fit`` with other geometry / contacts / multipliers (a hand-made answer)."""
+    multipliers = changes.pop("multipliers", None)
+    certificate = fit.certificate if multipliers is None else dataclasses.replace(
+        fit.certificate, multipliers=np.asarray(multipliers, dtype=float))
+    return dataclasses.replace(fit, certificate=certificate, **changes)
+
+
+def _too_big_circle() -> tuple[np.ndarray, object]:
+    """The issue's wrong answer: a circle of twice the radius through two points, multipliers [0, 1]."""
+    points = circle_2d()
+    good = fit_circle(points, criterion="mcc")
+    centroid = points.mean(axis=0)
+    a = int(np.argmax(np.linalg.norm(points - centroid, axis=1)))
+    # the point b whose bisector with a puts a circle of radius 2 R through both that holds every point
+    radius = 2.0 * good.radius
+    for b in range(len(points)):
+        if b == a:
+            continue
+        mid, chord = 0.5 * (points[a] + points[b]), points[b] - points[a]
+        half = 0.5 * np.linalg.norm(chord)
+        normal = np.array([-chord[1], chord[0]]) / (2 * half)
+        normal *= np.sign(normal @ (centroid - mid))
+        centre = mid + np.sqrt(radius**2 - half**2) * normal
+        if np.linalg.norm(points - centre, axis=1).max() <= radius + 1e-12:
+            wrong = _with(good, center=centre, radius=radius, contacts=np.array([a, b]), multipliers=[0.0, 1.0])
+            return points, wrong
+    raise AssertionError("no such circle")  # pragma: no cover
+
+
+def test_check_refuses_a_too_big_circle_through_two_points() -> None:
+    points, wrong = _too_big_circle()
+    # the wrong answer holds every point and both contacts lie on it: only stationarity can refuse it
+    assert np.linalg.norm(points - wrong.center, axis=1).max() <= wrong.radius + 1e-12
+    found = check_answer(wrong, points)
+    assert not found.passed
+    assert "not stationary" in found.reason and found.stationarity > 0.5
+    assert found.feasibility_mm <= found.tolerance_mm and found.level_mm <= found.tolerance_mm
+
+
+def test_a_failed_check_withdraws_a_global_certificate() -> None:
+    """The wrong answer dressed as global and certified comes back uncertified and local."""
+    points, wrong = _too_big_circle()
+    assert wrong.certificate.scope == "global" and wrong.certificate.certified
+    checked = apply_check(wrong, points, tolerance=0.0)
+    assert not checked.certificate.certified and not checked.converged
+    assert checked.certificate.scope == "local"
+    assert "independent check failed" in checked.message and "FAILED" in checked.certificate.check
+
+
+@pytest.mark.parametrize("kind", ["circle2", "plane", "cylinder"])
+def test_check_refuses_a_zone_that_leaves_a_point_outside(kind: str) -> None:
+    """A zone 1 um narrower than the answer, about the same centre line: a point lies outside."""
+    points = DATA[kind]()
+    good = _fit(kind, points, "chebyshev")
+    if kind == "plane":
+        wrong = dataclasses.replace(good, form=good.form - 1e-3)
+    else:
+        wrong = dataclasses.replace(good, r_out=good.r_out - 1e-3, form=good.form - 1e-3)
+    found = check_answer(wrong, points)
+    assert not found.passed and "outside" in found.reason
+    assert found.feasibility_mm == pytest.approx(5e-4 if kind == "plane" else 1e-3, rel=1e-6)
+
+
+def test_check_refuses_multipliers_on_duplicated_support_points() -> None:
+    """The stationary multipliers of an MCC, one contact split over two copies of the same point."""
+    points = np.vstack([circle_2d()] * 2)
+    good = fit_circle(points, criterion="mcc")
+    last = int(good.contacts[-1])
+    lam = good.certificate.multipliers
+    split = np.append(lam[:-1], [0.5 * lam[-1], 0.5 * lam[-1]])
+    wrong = _with(good, contacts=np.append(good.contacts, last + 12), multipliers=split)
+    assert np.array_equal(points[last], points[last + 12])
+    found = check_answer(wrong, points)
+    assert not found.passed and "same point" in found.reason
+
+
+def test_check_refuses_a_value_the_contacts_do_not_give() -> None:
+    """An MCC radius 1 um too large holds every point, but its contacts are not on it."""
+    points = sphere()
+    good = fit_sphere(points, criterion="mcc")
+    found = check_answer(dataclasses.replace(good, radius=good.radius + 1e-3), points)
+    assert not found.passed and "off its level" in found.reason
+    assert found.level_mm == pytest.approx(1e-3, rel=1e-6)
+
+
+def test_check_refuses_wrong_multipliers() -> None:
+    points = circle_2d()
+    good = fit_circle(points, criterion="mic")
+    lam = good.certificate.multipliers
+    negative = lam.copy()
+    negative[0], negative[1] = lam[0] + lam[1] + 0.5, -0.5
+    assert not check_answer(_with(good, multipliers=negative), points).passed
+    doubled = check_answer(_with(good, multipliers=2 * lam), points)
+    assert not doubled.passed and "sum to" in doubled.reason
+    missing = check_answer(_with(good, contacts=good.contacts[:1], multipliers=[1.0]), points)
+    assert not missing.passed and "not stationary" in missing.reason
+
+
+def test_check_refuses_a_tilted_cylinder_axis() -> None:
+    """The MCC cylinder with its axis turned by 1 mrad about the centroid: a point ends up outside."""
+    points = cylinder()
+    good = fit_cylinder(points, criterion="mcc", search_budget=BUDGET)
+    turn = np.array([[1.0, 0.0, 0.0], [0.0, np.cos(1e-3), -np.sin(1e-3)], [0.0, np.sin(1e-3), np.cos(1e-3)]])
+    found = check_answer(dataclasses.replace(good, axis=turn @ good.axis), points)
+    assert not found.passed
+
+
+# --- invariance under duplication and permutation (property) ----------------------------------------------
+
+#: value tolerance of the property: the global gap (a permutation changes the rounding, not the optimum)
+INVARIANCE_MM = 1e-9
+_SLOW = {"cylinder", "line3", "cone"}
+
+
+@pytest.mark.parametrize(("kind", "criterion"), CASES)
+def test_duplication_and_permutation_do_not_change_the_value(kind: str, criterion: str) -> None:
+    base = DATA[kind]()
+    reference = _fit(kind, base, criterion)
+
+    @settings(max_examples=2 if kind in _SLOW else 6, deadline=None, derandomize=True)
+    @given(data=st.data())
+    def run(data: st.DataObject) -> None:
+        copies = data.draw(st.lists(st.integers(1, 3), min_size=len(base), max_size=len(base)), label="copies")
+        stacked = np.repeat(base, copies, axis=0)
+        order = np.array(data.draw(st.permutations(range(len(stacked))), label="order"))
+        points = stacked[order]
+        fit = _fit(kind, points, criterion)
+        assert abs(value_of(fit, criterion) - value_of(reference, criterion)) <= INVARIANCE_MM
+        assert fit.certificate.certified == reference.certificate.certified
+        assert fit.certificate.scope == reference.certificate.scope
+        assert fit.n == len(points)
+        for contact in fit.contacts:  # each contact is the first occurrence of its point
+            same = np.flatnonzero(np.all(points == points[contact], axis=1))
+            assert contact == same[0]
+
+    run()
+
+
+def test_a_symmetric_lobed_zone_reports_all_its_contacts() -> None:
+    """A 3-lobed 3-D profile: the zone touches 3 outer and 3 inner points; the exact method found two of
+    them, whose multipliers cannot be stationary -- every point on an extreme level is now a contact."""
+    t = np.linspace(0.0, 2 * np.pi, 24, endpoint=False)
+    ring = np.c_[np.cos(t), np.sin(t), np.zeros_like(t)]
+    points = np.array([40.0, -12.0, 5.0]) + (9.25 + 0.002 * np.cos(3 * t))[:, None] * ring
+    fit = fit_circle(points, criterion="chebyshev")
+    assert abs(fit.form - 0.004) <= GAP  # closed form: twice the lobe amplitude
+    assert fit.certificate.certified and fit.certificate.scope == "global", fit.message
+    assert set(fit.contacts.tolist()) == {0, 4, 8, 12, 16, 20}
+    assert check_answer(fit, points).passed
+
+
+def test_collinear_points_have_a_line_zone_of_radius_zero_without_multipliers() -> None:
+    """0 bounds every enclosing radius: collinear points pass the check whatever the multipliers."""
+    direction = np.array([1.0, 2.0, -0.5]) / np.linalg.norm([1.0, 2.0, -0.5])
+    points = np.array([100.0, -20.0, 5.0]) + np.outer([0.0, 3.0, 7.5, 11.0, 40.0], direction)
+    fit = fit_line(np.vstack([points, points[::-1]]), criterion="chebyshev", search_budget=BUDGET)
+    assert fit.form <= 1e-12 and fit.converged, fit.message
+    assert "width 0" in fit.certificate.check

@@ -2,8 +2,10 @@
 
 from __future__ import annotations
 
+import numpy as np
+
 from pcmm_geo.fit.zone._exact._optimum import ExactOptimum, FloatArray
-from pcmm_geo.fit.zone._solver import Mode, Model, ZoneSolution, assess, solve_minimax
+from pcmm_geo.fit.zone._solver import FEASIBILITY_TOLERANCE, Mode, Model, ZoneSolution, assess, solve_minimax
 
 #: a polished optimum may exceed the exact one by at most this times the data size (rounding)
 _ROUNDING = 1e-13
@@ -32,5 +34,22 @@ def polish(
     exact_value = exact.upper - exact.lower if mode == "zone" else (exact.upper if mode == "mcc" else -exact.lower)
     if refined.certified and objective(refined, mode) <= exact_value + _ROUNDING * size:
         return refined
-    return assess(points, x0, exact.contacts, model, mode, size=size, iterations=exact.iterations,
-                  message=exact.method)
+    found = assess(points, x0, exact.contacts, model, mode, size=size, iterations=exact.iterations,
+                   message=exact.method)
+    if found.certified:
+        return found
+    # the exact method's support may miss contacts of a symmetric optimum (e.g. a 3-lobed profile, whose
+    # zone touches three outer and three inner points): every point on an extreme level is a contact
+    wide = assess(points, x0, _extreme_contacts(model(points, x0)[0], mode, FEASIBILITY_TOLERANCE * size), model,
+                  mode, size=size, iterations=exact.iterations, message=exact.method)
+    return wide if wide.certified else found
+
+
+def _extreme_contacts(distances: FloatArray, mode: Mode, tolerance: float) -> dict[int, float]:
+    """The points within ``tolerance`` of the levels the criterion uses, +1 outer, -1 inner."""
+    contacts: dict[int, float] = {}
+    if mode in ("zone", "mcc"):
+        contacts.update({int(i): 1.0 for i in np.flatnonzero(distances >= distances.max() - tolerance)})
+    if mode in ("zone", "mic"):
+        contacts.update({int(i): -1.0 for i in np.flatnonzero(distances <= distances.min() + tolerance)})
+    return contacts
