@@ -11,6 +11,7 @@ the contacts must be indices of the caller's array: the first occurrence of each
 from __future__ import annotations
 
 import dataclasses
+import functools
 
 import numpy as np
 import pytest
@@ -20,7 +21,7 @@ from zone_truths import enclosing_truth, round_zone_truth, slab_truth, strip_tru
 
 from pcmm_geo.errors import DegenerateGeometryError
 from pcmm_geo.fit import SearchBudget, fit_circle, fit_cone, fit_cylinder, fit_line, fit_plane, fit_sphere
-from pcmm_geo.fit.zone import check_answer
+from pcmm_geo.fit.zone import check_answer, merge_duplicates
 from pcmm_geo.fit.zone._check import apply_check
 
 GAP = 1e-9  # mm: the global certificate's gap
@@ -76,6 +77,14 @@ def cylinder() -> np.ndarray:
     return np.c_[r * np.cos(a), r * np.sin(a), z] + [100.0, 50.0, 0.0]
 
 
+def cylinder_rings() -> np.ndarray:
+    """Three rings of four points, turned against each other: every optimum lies inside the axis region."""
+    rng = np.random.default_rng(4)
+    a = np.tile(np.arange(4) * np.pi / 2, 3) + np.repeat([0.0, np.pi / 6, np.pi / 3.2], 4) + rng.normal(0, 0.05, 12)
+    r = 5 + rng.normal(0, 0.01, 12)
+    return np.c_[r * np.cos(a), r * np.sin(a), np.repeat([0.0, 10.0, 20.0], 4)] + [100.0, 50.0, 0.0]
+
+
 def cone() -> np.ndarray:
     rng = np.random.default_rng(8)
     h, a = rng.uniform(5, 20, 14), rng.uniform(0, 2 * np.pi, 14)
@@ -105,7 +114,13 @@ def value_of(fit, criterion: str) -> float:
 
 
 DATA = {"circle2": circle_2d, "circle3": circle_3d, "sphere": sphere, "plane": plane, "line2": line_2d,
-        "line3": line_3d, "cylinder": cylinder, "cone": cone}
+        "line3": line_3d, "cylinder": cylinder_rings, "cone": cone}
+
+
+@functools.cache
+def reference_fit(kind: str, criterion: str):
+    """The fit of the distinct points (computed once: the axial searches take a second or two)."""
+    return _fit(kind, DATA[kind](), criterion)
 #: every (element, criterion) the library fits by a minimax criterion
 CASES = [(k, c) for k in ("circle2", "circle3", "sphere", "cylinder") for c in ("chebyshev", "mcc", "mic")] + [
     ("plane", "chebyshev"), ("line2", "chebyshev"), ("line3", "chebyshev"), ("cone", "chebyshev")]
@@ -141,12 +156,14 @@ def _assert_same(fit, reference, criterion: str, points: np.ndarray, n_distinct:
 @pytest.mark.parametrize("copies", [2, 3, 5])
 def test_stacked_copies_give_the_distinct_answer(kind: str, criterion: str, copies: int) -> None:
     points = DATA[kind]()
-    reference = _fit(kind, points, criterion)
+    reference = reference_fit(kind, criterion)
     truth = _truth(kind, criterion, points)
     if truth is not None:
         assert abs(value_of(reference, criterion) - truth) <= GAP
-    fit = _fit(kind, np.vstack([points] * copies), criterion)
-    _assert_same(fit, reference, criterion, np.vstack([points] * copies), len(points))
+    stacked = np.vstack([points] * copies)
+    fit = _fit(kind, stacked, criterion)
+    _assert_same(fit, reference, criterion, stacked, len(points))
+    assert check_answer(fit, stacked).passed and fit.certificate.check.startswith("independent check passed")
     if truth is not None:
         assert abs(value_of(fit, criterion) - truth) <= GAP
 
@@ -220,14 +237,13 @@ def test_too_few_distinct_points_are_refused() -> None:
 
 @pytest.mark.parametrize(("kind", "criterion"), CASES)
 def test_every_answer_passes_the_independent_check(kind: str, criterion: str) -> None:
-    """The check (own distance formulas, every input point) passes the library's answers, stacked or not."""
-    for copies in (1, 2):
-        points = np.vstack([DATA[kind]()] * copies)
-        fit = _fit(kind, points, criterion)
-        found = check_answer(fit, points)
-        assert found.passed, found.reason
-        assert fit.certificate.check.startswith("independent check passed")
-        assert found.feasibility_mm <= found.tolerance_mm
+    """The check (own distance formulas, every input point) passes the library's answers (stacked: above)."""
+    points = DATA[kind]()
+    fit = reference_fit(kind, criterion)
+    found = check_answer(fit, points)
+    assert found.passed, found.reason
+    assert fit.certificate.check.startswith("independent check passed")
+    assert found.feasibility_mm <= found.tolerance_mm
 
 
 # --- the check on hand-made wrong answers -------------------------------------------------------------
@@ -287,7 +303,7 @@ def test_a_failed_check_withdraws_a_global_certificate() -> None:
 def test_check_refuses_a_zone_that_leaves_a_point_outside(kind: str) -> None:
     """A zone 1 um narrower than the answer, about the same centre line: a point lies outside."""
     points = DATA[kind]()
-    good = _fit(kind, points, "chebyshev")
+    good = reference_fit(kind, "chebyshev")
     if kind == "plane":
         wrong = dataclasses.replace(good, form=good.form - 1e-3)
     else:
@@ -333,9 +349,9 @@ def test_check_refuses_wrong_multipliers() -> None:
 
 
 def test_check_refuses_a_tilted_cylinder_axis() -> None:
-    """The MCC cylinder with its axis turned by 1 mrad about the centroid: a point ends up outside."""
-    points = cylinder()
-    good = fit_cylinder(points, criterion="mcc", search_budget=BUDGET)
+    """The MCC cylinder with its axis turned by 1 mrad: a point ends up outside."""
+    points = cylinder_rings()
+    good = reference_fit("cylinder", "mcc")
     turn = np.array([[1.0, 0.0, 0.0], [0.0, np.cos(1e-3), -np.sin(1e-3)], [0.0, np.sin(1e-3), np.cos(1e-3)]])
     found = check_answer(dataclasses.replace(good, axis=turn @ good.axis), points)
     assert not found.passed
@@ -351,9 +367,10 @@ _SLOW = {"cylinder", "line3", "cone"}
 @pytest.mark.parametrize(("kind", "criterion"), CASES)
 def test_duplication_and_permutation_do_not_change_the_value(kind: str, criterion: str) -> None:
     base = DATA[kind]()
-    reference = _fit(kind, base, criterion)
+    reference = reference_fit(kind, criterion)
 
-    @settings(max_examples=2 if kind in _SLOW else 6, deadline=None, derandomize=True)
+    @settings(max_examples=1 if (kind, criterion) == ("cylinder", "mic") else 2 if kind in _SLOW else 6,
+              deadline=None, derandomize=True)
     @given(data=st.data())
     def run(data: st.DataObject) -> None:
         copies = data.draw(st.lists(st.integers(1, 3), min_size=len(base), max_size=len(base)), label="copies")
@@ -392,3 +409,21 @@ def test_collinear_points_have_a_line_zone_of_radius_zero_without_multipliers() 
     fit = fit_line(np.vstack([points, points[::-1]]), criterion="chebyshev", search_budget=BUDGET)
     assert fit.form <= 1e-12 and fit.converged, fit.message
     assert "width 0" in fit.certificate.check
+
+
+def test_merge_groups_first_occurrences_and_splits_chains() -> None:
+    """Exact copies and near copies are grouped under their first index; a chain wider than the tolerance is split."""
+    base = np.array([[0.0, 0.0], [10.0, 0.0], [0.0, 10.0], [10.0, 10.0]])
+    tolerance = merge_duplicates(base).tolerance
+    assert 0.0 < tolerance < 1e-11
+    points = np.vstack([base[[2, 0]], base, base[[0]] + [0.5 * tolerance, 0.0], [[5.0, 5.0]] * 100])
+    distinct = merge_duplicates(points)
+    # groups: point 2 (rows 0, 4), point 0 (rows 1, 2, 6), point 1 (row 3), point 3 (row 5), centre (rows 7..106)
+    assert distinct.first.tolist() == [0, 1, 3, 5, 7]
+    assert distinct.group.tolist() == [0, 1, 1, 2, 0, 3, 1] + [4] * 100
+    assert np.array_equal(distinct.points, points[distinct.first])
+    # a chain of points 0.6 tolerance apart: every point within the tolerance of its group's first one
+    chain = np.vstack([base, np.c_[0.6 * tolerance * np.arange(6), np.zeros(6)] + [5.0, 5.0]])
+    merged = merge_duplicates(chain)
+    assert np.all(np.linalg.norm(chain - chain[merged.first[merged.group]], axis=1) <= merged.tolerance)
+    assert len(merged.first) == 4 + 3  # the six chain points in three groups of two

@@ -108,14 +108,21 @@ def merge_duplicates(points: FloatArray) -> Distinct:
     """Merge the coincident points of ``(N, D)`` finite points (exact duplicates and those within the tolerance)."""
     n = len(points)
     tolerance = merge_tolerance(points)
-    label = np.arange(n, dtype=np.intp)
-    todo = np.arange(n, dtype=np.intp)
+    # exact copies first, by a stable sort of the rows (a point repeated k times would give k^2 / 2 pairs
+    # to the tree), then the tolerance on the distinct rows
+    order = np.lexsort(points.T[::-1])
+    ordered = points[order]
+    fresh = np.r_[True, np.any(ordered[1:] != ordered[:-1], axis=1)]  # first row of each run of equal rows
+    label = np.empty(n, dtype=np.intp)
+    label[order] = order[fresh][np.cumsum(fresh) - 1]  # the stable sort puts the smallest index first in a run
+    todo = np.sort(order[fresh])
     while todo.size:
         local = _components(points[todo], tolerance)
         label[todo] = todo[local]
         # a chain of close points may span more than the tolerance: split off the members too far from the first
         far = np.linalg.norm(points[todo] - points[label[todo]], axis=1) > tolerance
         todo = todo[far]
+    label = label[label]  # exact copies follow their row into its tolerance group
     first = np.flatnonzero(label == np.arange(n))
     position = np.zeros(n, dtype=np.intp)
     position[first] = np.arange(len(first))
