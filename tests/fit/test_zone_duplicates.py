@@ -17,7 +17,7 @@ import numpy as np
 import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
-from zone_truths import enclosing_truth, round_zone_truth, slab_truth, strip_truth
+from zone_truths import empty_circle_truth, enclosing_truth, round_zone_truth, slab_truth, strip_truth
 
 from pcmm_geo.errors import DegenerateGeometryError
 from pcmm_geo.fit import SearchBudget, fit_circle, fit_cone, fit_cylinder, fit_line, fit_plane, fit_sphere
@@ -296,6 +296,7 @@ def test_a_failed_check_withdraws_a_global_certificate() -> None:
     checked = apply_check(wrong, points, tolerance=0.0)
     assert not checked.certificate.certified and not checked.converged
     assert checked.certificate.scope == "local"
+    assert np.isnan(checked.certificate.bound_mm) and np.isnan(checked.certificate.gap_mm)
     assert "independent check failed" in checked.message and "FAILED" in checked.certificate.check
 
 
@@ -427,3 +428,22 @@ def test_merge_groups_first_occurrences_and_splits_chains() -> None:
     merged = merge_duplicates(chain)
     assert np.all(np.linalg.norm(chain - chain[merged.first[merged.group]], axis=1) <= merged.tolerance)
     assert len(merged.first) == 4 + 3  # the six chain points in three groups of two
+
+
+@pytest.mark.parametrize("criterion", ["mcc", "mic", "chebyshev"])
+def test_near_copies_beyond_the_merge_tolerance_give_the_truth(criterion: str) -> None:
+    """Each point with a twin 1e-9 mm away (not merged): the exact truth, and the contacts on their levels.
+
+    The exact MIC reported twins 1.7e-9 mm off the level as contacts (its tie tolerance is wider), which
+    the solver's own KKT test accepted and the independent check refused; contacts are now on their level."""
+    points = circle_2d()
+    extent = float(np.linalg.norm(points - points.mean(axis=0), axis=1).max())
+    rng = np.random.default_rng(0)
+    direction = rng.normal(size=points.shape)
+    direction /= np.linalg.norm(direction, axis=1)[:, None]
+    twins = np.vstack([points, points + 1e-10 * extent * direction])
+    fit = fit_circle(twins, criterion=criterion)
+    truth = {"mcc": enclosing_truth, "mic": lambda p: empty_circle_truth(p)[0], "chebyshev": round_zone_truth}
+    assert abs(value_of(fit, criterion) - truth[criterion](twins)) <= GAP
+    assert fit.certificate.certified and fit.certificate.scope == "global", fit.message
+    assert len(np.unique(fit.contacts)) == len(fit.contacts)

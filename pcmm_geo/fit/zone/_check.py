@@ -18,7 +18,8 @@ with its own distance formulas in the machine frame (no solver code):
    optimum on the edge of its axis region (the region's edge constraints carry multipliers of their own).
 
 A fit that fails the check keeps its numbers but is reported ``certified=False``, ``scope="local"``,
-``converged=False``, with the reason in its message and in ``certificate.check``.
+``converged=False``, with no proven bound (``bound_mm`` and ``gap_mm`` NaN) and the reason in its message
+and in ``certificate.check``.
 """
 
 from __future__ import annotations
@@ -237,7 +238,8 @@ def apply_check(result: ResultT, points: FloatArray, *, tolerance: float) -> Res
     changes: dict[str, Any] = {"feasibility": float(found.feasibility_mm), "check": found.summary()}
     if found.passed:
         return dataclasses.replace(result, certificate=dataclasses.replace(certificate, **changes))
-    changes.update(certified=False, scope="local")
+    # the answer's proof is not trusted either: no bound (a form verdict can then not FAIL on it)
+    changes.update(certified=False, scope="local", bound_mm=float("nan"), gap_mm=float("nan"))
     message = f"not certified: the independent check failed ({found.reason}); the solver said: {result.message}"
     return dataclasses.replace(result, certificate=dataclasses.replace(certificate, **changes), converged=False,
                                message=message)
