@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 
 from pcmm_geo.fit.zone._exact._optimum import ExactOptimum, FloatArray
-from pcmm_geo.fit.zone._solver import FEASIBILITY_TOLERANCE, Mode, Model, ZoneSolution, assess, solve_minimax
+from pcmm_geo.fit.zone._solver import Mode, Model, ZoneSolution, assess, solve_minimax
 
 #: a polished optimum may exceed the exact one by at most this times the data size (rounding)
 _ROUNDING = 1e-13
@@ -28,8 +28,7 @@ def polish(
     to a few digits); its answer is kept when it is certified and not worse (to rounding), else the
     exact optimum itself is returned with its multipliers (exact data, whose contact system is
     degenerate, end here), its contacts being the exact support's points that lie on their level (to
-    ``FEASIBILITY_TOLERANCE`` times the size), or every point on an extreme level when those are not
-    stationary.
+    rounding: 1e-13 times the size), or every point on an extreme level when those are not stationary.
     """
     refined = solve_minimax(points, x0, model, mode, size=size, start=(x0, dict(exact.contacts), exact.iterations,
                                                                          exact.method))
@@ -39,8 +38,7 @@ def polish(
     # a contact is a point on its level: the exact method's support may hold near-ties off it (clusters of
     # points closer than the exact method's tie tolerance) and may miss contacts of a symmetric optimum (a
     # 3-lobed profile's zone touches three outer and three inner points)
-    tolerance = FEASIBILITY_TOLERANCE * size
-    extremes = _extreme_contacts(model(points, x0)[0], mode, tolerance)
+    extremes = _extreme_contacts(model(points, x0)[0], mode, _ROUNDING * size)
     on_level = {k: s for k, s in exact.contacts.items() if extremes.get(k) == s} or extremes
     found = assess(points, x0, on_level, model, mode, size=size, iterations=exact.iterations, message=exact.method)
     if found.certified or on_level == extremes:
