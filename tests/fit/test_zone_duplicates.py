@@ -447,3 +447,15 @@ def test_near_copies_beyond_the_merge_tolerance_give_the_truth(criterion: str) -
     assert abs(value_of(fit, criterion) - truth[criterion](twins)) <= GAP
     assert fit.certificate.certified and fit.certificate.scope == "global", fit.message
     assert len(np.unique(fit.contacts)) == len(fit.contacts)
+
+
+def test_enclosing_ball_of_repeated_sites_proves_no_false_bound() -> None:
+    """Issue 31's root: the seed subset of stacked data was three copies of one point, whose 'smallest
+    enclosing ball' was infinite and became the proven bound (gap 0).  Below the merge, no bound above
+    the truth may be claimed."""
+    from pcmm_geo.fit.zone._exact.annulus import enclosing_sphere
+
+    points = circle_2d()
+    stacked = np.vstack([points] * 3) - points.mean(axis=0)
+    exact = enclosing_sphere(stacked, np.zeros(2))
+    assert exact.bound <= enclosing_truth(points) + GAP
