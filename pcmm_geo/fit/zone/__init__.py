@@ -51,6 +51,15 @@ Methods (``docs/minimum-zone.md`` has the details and the proofs):
 The exact answer is then refined by Newton's method on the KKT system of its contacts (sequential
 linear programs, scipy's HiGHS, plus that Newton finish are the local method of the cone).
 
+Duplicated points and the independent check
+-------------------------------------------
+Coincident points (exact duplicates, or within ``1e-13 x extent + 8 eps x max|coordinate|``) are merged
+before every fit (:func:`merge_duplicates`), so no answer depends on how often a point was given; the
+contacts are the caller's indices, the first of each merged group.  Every answer is then checked on all
+input points by :func:`check_answer` (feasibility, contacts on their levels, distinct support,
+non-negative multipliers summing to 1 per level, stationarity); one that fails is not certified
+(``certificate.check`` says why).
+
 Also here: :func:`evaluate_form` (ISO straightness, flatness, roundness, sphericity,
 cylindricity with a PASS / FAIL / NOT PROVEN verdict, :func:`~pcmm_geo.fit.zone.form.decide_form`),
 :mod:`pcmm_geo.fit.zone.reference` (data sets with a known minimax solution) and
@@ -82,6 +91,9 @@ _LAZY = {
     "RoundnessBatch": "batch",
     "reference": "reference",
     "CRITERIA": "_common",
+    "check_answer": "_check",
+    "CheckOutcome": "_check",
+    "merge_duplicates": "_distinct",
 }
 
 __getattr__, __dir__, __all__ = attach(__name__, _LAZY)
