@@ -91,6 +91,8 @@ IntArray = NDArray[np.int64]
 _ON_BOUNDARY = 1e-9
 #: points handled at once (bounds the memory of the candidate pairs)
 _POINTS_PER_BLOCK = 65_536
+#: a point farther than this many largest triangle radii from every centroid takes open3d's candidate
+_NEARBY_REACH = 3.0
 #: point-triangle pairs evaluated at once
 _PAIRS_PER_BLOCK = 1_000_000
 #: held while a part of an index is built on first use
@@ -325,14 +327,15 @@ class SurfaceIndex:
     @property
     def scene(self) -> Any:
         """The open3d ``RaycastingScene`` of the mesh (float32, centred on ``scene_origin``), built once."""
-        scene = self._cache.get("scene")
-        if scene is None:
-            o3d = require("open3d")
+        with _BUILDING:  # threads of one query may ask at once
+            scene = self._cache.get("scene")
+            if scene is None:
+                o3d = require("open3d")
 
-            scene = o3d.t.geometry.RaycastingScene()
-            scene.add_triangles(o3d.core.Tensor((self.vertices - self.scene_origin).astype(np.float32)),
-                                o3d.core.Tensor(self.faces.astype(np.uint32)))
-            self._cache["scene"] = scene
+                scene = o3d.t.geometry.RaycastingScene()
+                scene.add_triangles(o3d.core.Tensor((self.vertices - self.scene_origin).astype(np.float32)),
+                                    o3d.core.Tensor(self.faces.astype(np.uint32)))
+                self._cache["scene"] = scene
         return scene
 
     def distances(self, points: ArrayLike, *, workers: int | None = None) -> SurfaceDistances:
@@ -352,14 +355,13 @@ class SurfaceIndex:
         if is_dask_array(points):
             return self._lazy_distances(points)
         query = as_points(points, element="mesh distance", min_points=1)
-        candidates = self.candidates(query) if workers is None else self.candidates(query, threads=threads)
         pieces = max(threads, -(-len(query) // _POINTS_PER_BLOCK))
         pieces = min(-(-pieces // threads) * threads, len(query))  # equal shares for the threads
         bounds = np.linspace(0, len(query), pieces + 1).astype(np.int64)
         blocks = [slice(int(start), int(stop)) for start, stop in itertools.pairwise(bounds)]
 
-        def block_distances(rows: slice) -> SurfaceDistances:
-            return self._distances(query[rows], candidates[rows])
+        def block_distances(rows: slice) -> SurfaceDistances:  # one thread a block, unless there is one block
+            return self._distances(query[rows], threads if len(blocks) == 1 else 1)
 
         if threads == 1 or len(blocks) == 1:
             parts = [block_distances(rows) for rows in blocks]
@@ -382,7 +384,18 @@ class SurfaceIndex:
         return SurfaceDistances(closest=packed[:, 0:3], signed_distance=packed[:, 3],
                                 face_index=packed[:, 4].astype(np.int64), direction=packed[:, 5:8])
 
-    def _distances(self, query: FloatArray, candidates: IntArray) -> SurfaceDistances:
+    def _distances(self, query: FloatArray, threads: int = 1) -> SurfaceDistances:
+        """Exact distances of one block of points (searches on ``threads`` threads).
+
+        The first candidate of a point is the triangle with the nearest centroid (:meth:`nearby`),
+        whose neighbour list proves most points near the surface; a point with no centroid
+        nearby takes open3d's candidate, whose exact distance is tight (the k-d trees search
+        within it).
+        """
+        candidates = self.nearby(query, threads=threads)
+        far = np.flatnonzero(candidates < 0)
+        if len(far):
+            candidates[far] = self.candidates(query[far], threads=threads)
         closest, squared, face_index, barycentric = self._nearest(query, candidates)
         offset = query - closest
         distance = np.sqrt(squared)
@@ -409,6 +422,21 @@ class SurfaceIndex:
         answer = self.scene.compute_closest_points(o3d.core.Tensor((query - self.scene_origin).astype(np.float32)),
                                                    nthreads=threads)
         return answer["primitive_ids"].numpy().astype(np.int64)
+
+    def nearby(self, query: FloatArray, *, threads: int = 1) -> IntArray:
+        """The triangle with the centroid nearest to each point (k-d tree; a candidate), -1 when none is near.
+
+        Any triangle is a valid candidate (its exact distance bounds the answer); the nearest
+        centroid makes the candidate's neighbour list prove most points near the surface.  "Near"
+        is within three times the largest centroid-to-corner radius; farther points are better
+        served by open3d's candidate (:meth:`candidates`).
+        """
+        lists = self.neighbours
+        _, nearest = lists.tree.query(query, k=1, distance_upper_bound=_NEARBY_REACH * float(lists.radius.max()),
+                                      workers=threads)
+        nearest = np.asarray(nearest, dtype=np.int64)
+        nearest[nearest >= len(self.triangles)] = -1  # nothing within reach
+        return nearest
 
     def _nearest(self, query: FloatArray, candidates: IntArray) -> tuple[FloatArray, FloatArray, IntArray, FloatArray]:
         """Nearest surface point, squared distance, triangle and barycentric weights of every point (exact)."""
