@@ -373,8 +373,8 @@ def pairs_within(group: SizeClass, query: FloatArray, reach: FloatArray) -> tupl
     return np.concatenate(points), np.concatenate(triangles)
 
 
-def neighbour_lists(triangles: FloatArray) -> NeighbourLists:
-    """The centroid neighbour lists of every triangle (see :func:`listed_pairs`)."""
+def neighbour_lists(triangles: FloatArray, workers: int = -1) -> NeighbourLists:
+    """The centroid neighbour lists of every triangle (see :func:`listed_pairs`); ``workers``: threads (-1: all)."""
     from scipy.spatial import cKDTree
 
     corners = _by_axis(triangles)
@@ -388,7 +388,7 @@ def neighbour_lists(triangles: FloatArray) -> NeighbourLists:
     asked = min(_LISTED_NEIGHBOURS, count)
     bound = _LISTED_REACH * float(radius.max())
     tree = cKDTree(centroids, balanced_tree=False)  # sliding midpoint: quicker to build, as quick to ask
-    distance, listed = tree.query(centroids, k=asked, distance_upper_bound=bound, workers=-1)
+    distance, listed = tree.query(centroids, k=asked, distance_upper_bound=bound, workers=workers)
     distance, listed = distance.reshape(count, asked), listed.reshape(count, asked)
     # a full list is complete only below its last distance; rounding of the distances is allowed for
     within = np.where(np.isfinite(distance[:, -1]), distance[:, -1], bound)
