@@ -232,3 +232,42 @@ def test_plain_parser_reads_scanner_rows_and_names_the_bad_line(tmp_path: Path) 
     path.write_text("\n".join(lines) + "\n")
     with pytest.raises(FileFormatError, match=r"scan\.csv:317: .*\.\.\d"):
         read_rows(path, 0, 1, Layout(str(path), ",", ".", 3), block_bytes=4096)
+
+
+@settings(max_examples=200, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(layout=st.lists(st.tuples(st.integers(0, 6), st.integers(0, 7), st.sampled_from(["", "-", "+", "+-"])),
+                       min_size=3, max_size=4),
+       seed=st.integers(0, 2**16), lines=st.integers(1, 6), separator=st.sampled_from([",", ";", " "]),
+       spoil=st.sampled_from([None, "-", "+", ".", ",", "e", "0", " ", ""]), where=st.integers(0, 10_000))
+def test_fixed_layout_blocks_read_as_float_reads_them(layout: list[tuple[int, int, str]], seed: int, lines: int,
+                                                      separator: str, spoil: str | None, where: int) -> None:
+    """Lines of one layout (same field widths, marks in the same columns: the column-slice path), sometimes with one
+    byte replaced or removed: the plain parser gives ``float()`` of every field, or declines when the careful path
+    refuses."""
+    rng = np.random.default_rng(seed)
+    rows = []
+    for _ in range(lines):
+        fields = []
+        for whole, decimals, signs in layout:
+            sign = str(rng.choice(list(signs))) if signs else ""
+            digits = "".join(str(d) for d in rng.integers(0, 10, whole + decimals))
+            fields.append(sign + digits[:whole] + ("." + digits[whole:] if decimals or not whole else ""))
+        rows.append(separator.join(fields))
+    text = "".join(row + "\n" for row in rows)
+    if spoil is not None:
+        position = where % len(text)
+        if text[position] != "\n":
+            text = text[:position] + spoil + text[position + 1:]
+    data = text.encode()
+    width = len(layout)
+    plain = _plain_fields(data, ord(separator), ord("."), width)
+    try:
+        careful = _careful("f.txt", LineBlock(0, 1, data, True), Layout("f.txt", separator, ".", width, (0, 1, 2)))
+    except FileFormatError:
+        assert plain is None, data
+        return
+    if plain is not None:
+        np.testing.assert_array_equal(plain, [[float(f) for f in row.split(separator)] for row in text.splitlines()])
+        np.testing.assert_array_equal(plain[:, :3], careful)
+    else:
+        assert spoil is not None, data  # at most 15 bytes a field: an unspoilt block is never declined
