@@ -8,9 +8,10 @@ a row and the three columns kept.  :func:`read_rows` streams a file's blocks
 
 - the *fast path* proves a block clean with a few vectorised byte scans (only ASCII digits,
   signs, exponents, separators and the file's decimal mark; every line holding the file's
-  number of fields; no line over the length bound) and parses it with numpy's C reader
-  (:func:`numpy.loadtxt`, correctly rounded), which refuses any field that is not a whole
-  decimal number;
+  number of fields; no line over the length bound) and parses it: a block of plain decimals
+  (no exponent, no padding; :func:`_plain_fields`) with a few numpy passes over its bytes,
+  else with numpy's C reader (:func:`numpy.loadtxt`); both correctly rounded, and both refuse
+  any field that is not a whole decimal number;
 - anything else (a comment, a blank line with spaces, a NaN, a bad byte, a wrong field) sends
   the block to the *careful path*, which checks it line by line with the rules the refusals are
   written in (:meth:`Layout.parse`) and raises a :class:`~pcmm_geo.errors.FileFormatError`
