@@ -6,13 +6,14 @@ decimals, 33 bytes a row (330 MB for 10 million points), as ``scan.csv`` (commas
 
 * ``pcmm fit sphere scan.csv --json`` with ``RLIMIT_AS`` = 3 GB (as ``ulimit -v``): wall time
   of the whole command (interpreter start, reading, fit, output) and its peak resident memory;
-* the peer: open3d reading ``scan.xyz`` plus the in-memory ``fit_sphere`` of those points,
-  timed inside the process (interpreter start and imports not counted), and its peak memory;
+* the peer: open3d reading ``scan.xyz`` plus the in-memory ``fit_sphere`` of those points, timed
+  the same way (wall time of the whole process, interpreter start and imports included; the
+  read and fit timed inside it are reported beside), and its peak memory;
 * ``pcmm process-log scan.csv``: the refusal of the point file's first line as a log header
   (it must not read the file).
 
-Targets (issue 23): pcmm peak RSS <= 1.5 GB, pcmm time <= 3 x the peer's read + fit, the two
-fits equal to 1e-9 mm.  Peak memory does not depend on the machine's load; times do, so the
+Targets (issue 35): pcmm peak RSS <= 1 GB, pcmm time <= 1 x the peer's, the two fits equal to
+1e-9 mm.  The two commands alternate, run by run.  Peak memory does not depend on the machine's load; times do, so the
 ratio of two runs made one after the other is what counts on a shared machine.  Run alone::
 
     .venv/bin/python benchmarks/cases_readers.py [--points 10000000] [--repeat 3]
@@ -125,26 +126,28 @@ def stream_sphere_case(n_points: int, repeat: int) -> CaseResult:
     center_diff = float(np.max(np.abs(np.asarray(fitted["center"]) - best_peer["center"])))
     radius_diff = abs(float(fitted["radius"]) - best_peer["radius"])
     peak = max(run[1] for run in pcmm_runs)
-    ratio = ours[0] / best_peer["total_s"]
+    peer_wall = min(run[0] for run in peer_runs)
+    ratio = ours[0] / peer_wall
     threads = os.environ.get("OPENBLAS_NUM_THREADS", "default")
     contenders = [
         Contender("pcmm fit sphere (3 GB address-space cap)", ours[0],
                   {"centre vs peer fit": center_diff, "radius vs peer fit": radius_diff},
                   f"peak RSS {peak:.0f} MB (array {n_points * 24 / 1e6:.0f} MB); whole command, interpreter "
                   f"start included; runs {', '.join(f'{r[0]:.3g}' for r in pcmm_runs)} s"),
-        Contender("open3d read .xyz + fit_sphere (in memory)", best_peer["total_s"], {},
-                  f"read {best_peer['read_s']:.3g} s; peak RSS {max(r[1] for r in peer_runs):.0f} MB; imports "
-                  "not counted"),
+        Contender("open3d read .xyz + fit_sphere (in memory)", peer_wall, {},
+                  f"whole process, interpreter start included; runs {', '.join(f'{r[0]:.3g}' for r in peer_runs)} s; "
+                  f"inside it read {best_peer['read_s']:.3g} s, read + fit {best_peer['total_s']:.3g} s; peak RSS "
+                  f"{max(r[1] for r in peer_runs):.0f} MB"),
         Contender("pcmm process-log (refuses line 1)", refusal[0], {},
                   f"exit {refusal[3]}; peak RSS {refusal[1]:.0f} MB"),
     ]
-    met = peak <= 1500.0 and ratio <= 3.0 and max(center_diff, radius_diff) <= 1e-9 and refusal[3] == 2
+    met = peak <= 1000.0 and ratio <= 1.0 and max(center_diff, radius_diff) <= 1e-9 and refusal[3] == 2
     return CaseResult(
         "stream sphere",
         f"{n_points:,} points, six decimals, {33 * n_points / 1e6:.0f} MB CSV; load average "
         f"{load_before[0]:.2f} -> {load_after[0]:.2f} on {os.cpu_count()} cores; OPENBLAS_NUM_THREADS={threads}",
         contenders,
-        "peak RSS <= 1.5 GB under a 3 GB cap, <= 3 x (open3d read + fit), = in-memory fit to 1e-9 mm",
+        "peak RSS <= 1 GB under a 3 GB cap, <= 1 x (open3d read + fit; whole processes), = in-memory fit to 1e-9 mm",
         ratio,
         met,
         {"peak_rss_mb": peak},

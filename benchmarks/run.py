@@ -10,12 +10,14 @@ In one run, on the same reference data (known least-squares solution):
 * exact signed distances, 200,000 points vs an 81,920-face icosphere, against open3d's float32
   ``compute_closest_points``: with a prebuilt index (``SurfaceIndex.distances``, target <= 2 x
   open3d's query) and in one call (``surface_distances``, what ``pcmm compare`` does; target
-  <= 3 x open3d's scene build plus query); exact on a 2,000-point subset;
+  <= 1.3 x open3d's scene build plus query); the contenders interleaved round by round; exact
+  on a 2,000-point subset;
 * ``fit_sphere`` of a lazily generated 1e8-point dask array in a child process (target: peak
   memory < 1.5 GB; equal to the in-memory fit, checked on 1e7 points; throughput reported);
 * ``pcmm fit sphere`` of a 10-million-point six-decimal CSV under a 3 GB address-space cap vs
-  open3d reading the same points from .xyz plus an in-memory ``fit_sphere`` (``cases_readers.py``;
-  target: peak RSS <= 1.5 GB, <= 3 x the peer's time, equal fits to 1e-9 mm);
+  open3d reading the same points from .xyz plus an in-memory ``fit_sphere``, both timed as whole
+  processes, alternating (``cases_readers.py``; target: peak RSS <= 1 GB, <= 1 x the peer's
+  time, equal fits to 1e-9 mm);
 
 plus each contender's deviation from the truth.  Times are the best of N wall-clock runs.
 
@@ -31,6 +33,10 @@ the machine was quiet (others below 5 %; the load average counts the benchmark i
 The table is printed; ``--output PATH`` also writes it as Markdown (refusing an existing file
 unless ``--overwrite``) and ``--update-doc docs/benchmarks.md`` replaces the generated section
 of that page (between the ``benchmarks/run.py`` markers).  Never part of the test suite.
+
+The rows of issue 35 (CAD one call, CAD prebuilt, stream sphere; each with its peer and the
+ratio; one BLAS thread and the default) come from
+``.venv/bin/python benchmarks/run.py --only surface,stream --threads both --repeat 3``.
 
 Usage::
 

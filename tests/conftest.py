@@ -33,6 +33,7 @@ EXTRAS_NEEDED = {
     "acquisition/test_acq_cli.py": "acquire",
     "acquisition/test_acq_programme.py": "acquire",
     "acquisition/test_acq_repeatable.py::test_pty_transport_still_runs_over_real_pseudo_terminals": "acquire",
+    "acquisition/test_acq_plan.py::test_hardware_sessions_command_the_start_too": "acquire",
     "cli/test_bad_input.py::test_bad_file_gives_one_line_naming_it_and_exit_2[compare": "cad",
     "cli/test_bad_input.py::test_bad_file_gives_one_line_naming_it_and_exit_2[fit e57": "e57",
     "acquisition/test_acq_lasers.py": "acquire",
@@ -104,6 +105,7 @@ EXTRAS_NEEDED = {
 FIRST_MODULES = (
     "test_docs.py",
     "acquisition/test_acq_process.py",
+    "acquisition/test_acq_plan.py",
     "uncertainty/test_demo_coverage.py",
     "fit/test_zone_axial.py",
     "fit/test_robustness.py",

@@ -62,6 +62,8 @@ def acquire(folder: Path, seed: int, start: str, moves: int) -> Path:
     args = ["acquire", "--simulate", "--seed", str(seed), "--moves", str(moves), "--settle", "0", "--out", str(path)]
     if start == "off":
         args += ["--start-offsets-mm", *map(str, OFF_LEVEL_START_OFFSETS)]
+    elif start == "level":
+        args += ["--start", "level"]  # the thesis' start, by name (pcmm acquire's default is a conditioned start)
     with contextlib.redirect_stdout(io.StringIO()):
         if main(args) != 0:
             raise RuntimeError(f"acquire failed: {args}")

@@ -2,8 +2,10 @@
 
 The seed's procedure (Appendix A, chapters 3 and 6) is:
 
-1. home the three stages, move them to the start position (247 500 microsteps);
-2. run the pre-sequence: each motor to its maximum and minimum height and back to the start,
+1. home the three stages, move them to the start position (247 500 microsteps; here each motor
+   may have its own offset from it, ``SessionConfig.start_offsets``: ``pcmm acquire`` commands a
+   well-conditioned start by default, :mod:`pcmm_geo.machine.analysis.conditioning`);
+2. run the pre-sequence: each motor to its maximum and minimum height and back to its start,
    so that the tetrahedron starts from a more repeatable settled state (thesis 6, Table 6.7);
 3. for every move: record the lasers and probe *before* the move (``start_stop = 1``), move,
    wait the settling time (seed: 2 x 1.3 s, thesis 3.5), record again (``start_stop = 0``);
@@ -48,6 +50,10 @@ class SessionConfig:
         Wait after each move before the stop row, s (seed: 2 x 1.3 s = 2.6 s; tests ~0).
     start_position : int
         Start (and park) position of every motor, microsteps (seed: 247 500).
+    start_offsets : tuple of int
+        Offset of each motor's start from ``start_position``, microsteps (motors 1, 2, 3; default 0: the
+        thesis' level start, one encoder count for all motors).  :meth:`AcquisitionSession.go_to_start`
+        moves each motor there after homing: ``pcmm acquire`` commands a well-conditioned start.
     presequence_span : int
         The pre-sequence moves each motor to ``start ± span`` microsteps (default 40 320 ~ 20 mm).
     max_retries : int
@@ -67,10 +73,13 @@ class SessionConfig:
     --------
     >>> SessionConfig(settle_time=0.0).start_position * 6.35 / 12800  # mm above home
     122.783203125
+    >>> SessionConfig(start_offsets=(0, 120945, -120945)).start_positions
+    (247500, 368445, 126555)
     """
 
     settle_time: float = 2.6
     start_position: int = 247_500
+    start_offsets: tuple[int, int, int] = (0, 0, 0)
     presequence_span: int = 40_320
     max_retries: int = 8
     laser_samples: int = 5
@@ -89,6 +98,19 @@ class SessionConfig:
         for name in ("laser_samples", "position_checks"):
             if not (isinstance(getattr(self, name), int) and getattr(self, name) >= 1):
                 raise InvalidInputError(name, "an integer >= 1", repr(getattr(self, name)))
+        offsets = self.start_offsets
+        if not (isinstance(offsets, tuple) and len(offsets) == 3
+                and all(isinstance(v, int) and not isinstance(v, bool) for v in offsets)):
+            raise InvalidInputError("start_offsets", "a tuple of three integers (microsteps)", repr(offsets))
+        if min(self.start_positions) < 0:
+            raise InvalidInputError("start_offsets", "offsets that keep every start at or above home (microsteps)",
+                                    repr(offsets))
+
+    @property
+    def start_positions(self) -> tuple[int, int, int]:
+        """Start position of motors 1, 2, 3 (microsteps): ``start_position + start_offsets``."""
+        a, b, c = (self.start_position + offset for offset in self.start_offsets)
+        return a, b, c
 
 
 @dataclass(frozen=True)
@@ -285,14 +307,14 @@ class AcquisitionSession:
         return {motor: self.confirmed_position(motor) for motor in MOTORS}
 
     def go_to_start(self) -> None:
-        """Move every motor to the start position."""
-        for motor in MOTORS:
-            self._move_to(motor, self.config.start_position, stop_on_contact=False)
+        """Move every motor to its start position (``config.start_positions``): a commanded, unlogged move."""
+        for motor, start in zip(MOTORS, self.config.start_positions, strict=True):
+            self._move_to(motor, start, stop_on_contact=False)
 
     def presequence(self) -> None:
         """The seed's settling pre-sequence: each motor to start + span, start - span, start (thesis 6)."""
-        start, span = self.config.start_position, self.config.presequence_span
-        for motor in MOTORS:
+        span = self.config.presequence_span
+        for motor, start in zip(MOTORS, self.config.start_positions, strict=True):
             for target in (start + span, max(start - span, 0), start):
                 self._move_to(motor, target, stop_on_contact=False)
 

@@ -23,7 +23,7 @@ def read_rows(path: str | Path, required: Sequence[str]) -> list[tuple[int, dict
     OSError
         The file cannot be read.
     """
-    from pcmm_geo.io._text import read_csv_rows
+    from pcmm_geo.io.text import read_csv_rows
 
     text_path = str(path)
 
@@ -60,7 +60,7 @@ def cell_float(path: str | Path, line: int, row: dict[str, str], column: str, *,
     text = row.get(column, "")
     if text == "" and allow_empty:
         return math.nan
-    from pcmm_geo.io._text import excerpt, parse_decimal
+    from pcmm_geo.io.text import excerpt, parse_decimal
 
     try:
         value = parse_decimal(text)
@@ -75,7 +75,7 @@ def cell_float(path: str | Path, line: int, row: dict[str, str], column: str, *,
 
 def cell_int(path: str | Path, line: int, row: dict[str, str], column: str) -> int:
     """The cell as an integer."""
-    from pcmm_geo.io._text import excerpt
+    from pcmm_geo.io.text import excerpt
 
     text = row.get(column, "")
     if not re.fullmatch(r"[+-]?[0-9]{1,18}", text):

@@ -74,31 +74,36 @@ def closest_on_triangles(points: FloatArray, corners: FloatArray) -> tuple[Float
     >>> closest.tolist(), squared.tolist(), weights.tolist()
     ([[0.5, 0.5, 0.0]], [5.5], [[0.0, 0.5, 0.5]])
     """
-    a, b, c = corners[:, 0], corners[:, 1], corners[:, 2]
+    a, b, c = _by_axis(corners)  # each (3, M): one contiguous row per coordinate
+    query = np.ascontiguousarray(np.asarray(points, dtype=np.float64).T)
     ab, ac = b - a, c - a
-    ap, bp, cp = points - a, points - b, points - c
-    d1, d2 = _dot(ab, ap), _dot(ac, ap)
-    d3, d4 = _dot(ab, bp), _dot(ac, bp)
-    d5, d6 = _dot(ab, cp), _dot(ac, cp)
+    ap, bp, cp = query - a, query - b, query - c
+    d1, d2 = _dot_rows(ab, ap), _dot_rows(ac, ap)
+    d3, d4 = _dot_rows(ab, bp), _dot_rows(ac, bp)
+    d5, d6 = _dot_rows(ab, cp), _dot_rows(ac, cp)
     va, vb, vc = d3 * d6 - d5 * d4, d5 * d2 - d1 * d6, d1 * d4 - d3 * d2
     # the projection falls inside the triangle for most pairs: only the others need Ericson's region tests
     inside = (va > 0.0) & (vb > 0.0) & (vc > 0.0)
     total = va + vb + vc
     with np.errstate(divide="ignore", invalid="ignore"):
         v, w = vb / total, vc / total
-    closest = a + v[:, None] * ab + w[:, None] * ac
     outside = np.flatnonzero(~inside)
+    corner = np.zeros(0, dtype=np.int64)
     if len(outside):
         pick = (d1[outside], d2[outside], d3[outside], d4[outside], d5[outside], d6[outside], va[outside],
                 vb[outside], vc[outside])
         v[outside], w[outside], corner = _boundary_weights(*pick)
-        closest[outside] = a[outside] + v[outside, None] * ab[outside] + w[outside, None] * ac[outside]
+    closest = ab * v
+    closest += ac * w
+    closest += a
+    if len(outside):
         # a corner region is exactly that corner (no rounding of a + 1 * ab)
-        closest[outside[corner == 1]] = b[outside[corner == 1]]
-        closest[outside[corner == 2]] = c[outside[corner == 2]]
+        at_b, at_c = outside[corner == 1], outside[corner == 2]
+        closest[:, at_b] = b[:, at_b]
+        closest[:, at_c] = c[:, at_c]
     barycentric = np.stack([1.0 - v - w, v, w], axis=1)
-    offset = points - closest
-    return closest, _dot(offset, offset), barycentric
+    offset = query - closest  # (query may share memory with points)
+    return np.ascontiguousarray(closest.T), _dot_rows(offset, offset), barycentric
 
 
 def _boundary_weights(d1: FloatArray, d2: FloatArray, d3: FloatArray, d4: FloatArray, d5: FloatArray,
@@ -130,10 +135,6 @@ def _boundary_weights(d1: FloatArray, d2: FloatArray, d3: FloatArray, d4: FloatA
     corner[at_c & ~at_a & ~at_b & ~on_ab] = 2
     corner[at_b & ~at_a] = 1
     return v, w, corner
-
-
-def _dot(left: FloatArray, right: FloatArray) -> FloatArray:
-    return np.einsum("ij,ij->i", left, right)
 
 
 def bounding_planes(triangles: FloatArray) -> tuple[FloatArray, FloatArray]:
@@ -373,8 +374,8 @@ def pairs_within(group: SizeClass, query: FloatArray, reach: FloatArray) -> tupl
     return np.concatenate(points), np.concatenate(triangles)
 
 
-def neighbour_lists(triangles: FloatArray) -> NeighbourLists:
-    """The centroid neighbour lists of every triangle (see :func:`listed_pairs`)."""
+def neighbour_lists(triangles: FloatArray, workers: int = -1) -> NeighbourLists:
+    """The centroid neighbour lists of every triangle (see :func:`listed_pairs`); ``workers``: threads (-1: all)."""
     from scipy.spatial import cKDTree
 
     corners = _by_axis(triangles)
@@ -388,7 +389,7 @@ def neighbour_lists(triangles: FloatArray) -> NeighbourLists:
     asked = min(_LISTED_NEIGHBOURS, count)
     bound = _LISTED_REACH * float(radius.max())
     tree = cKDTree(centroids, balanced_tree=False)  # sliding midpoint: quicker to build, as quick to ask
-    distance, listed = tree.query(centroids, k=asked, distance_upper_bound=bound, workers=-1)
+    distance, listed = tree.query(centroids, k=asked, distance_upper_bound=bound, workers=workers)
     distance, listed = distance.reshape(count, asked), listed.reshape(count, asked)
     # a full list is complete only below its last distance; rounding of the distances is allowed for
     within = np.where(np.isfinite(distance[:, -1]), distance[:, -1], bound)

@@ -3,12 +3,12 @@
 The nearest surface point of every query point is found in three steps
 (:class:`SurfaceIndex`, built once per mesh and reused):
 
-1. **candidate** -- open3d's ray-casting scene (Embree, ``compute_closest_points``) names,
-   in single precision, a triangle near the point (the scene holds the vertices centred on
-   the mesh's box, which keeps the float32 coordinates small);
-2. **upper bound** -- the distance ``d0`` from the point to that triangle is evaluated in
-   double precision.  It is the distance to an actual triangle, so the true nearest
-   triangle is never farther than ``d0``, whatever the single-precision search did;
+1. **candidate** -- the triangle whose centroid is nearest to the point (a scipy k-d tree over
+   the centroids, :meth:`SurfaceIndex.nearby`); for a point farther than three triangle radii
+   from every centroid, the triangle open3d's float32 ray-casting scene (Embree,
+   ``compute_closest_points``) finds nearest, which keeps the search of step 3 tight;
+2. **upper bound** -- the distance ``d0`` from the point to that triangle, in double precision.
+   It is the distance to an actual triangle, so the true nearest triangle is never farther;
 3. **proof or correction** -- every triangle that could come within ``d0`` (with a relative
    slack of 1e-9 for rounding) is evaluated in double precision and the nearest is kept.
    Such a triangle has its centroid within ``d0`` plus its own centroid-to-corner radius of
@@ -17,15 +17,11 @@ The nearest surface point of every query point is found in three steps
    point's distance from the candidate's centroid stays below the radius up to which that
    list is complete, the list holds every such triangle (triangle inequality), so no search
    is needed.  The other points search scipy k-d trees over the centroids (one per size
-   class, to ``d0`` plus the class's largest radius, built on first need).  A lower bound
-   from the triangle's plane and its three edge planes (exact except in corner regions)
-   discards nearly all pairs before the exact evaluation.
+   class).  A lower bound from the triangle's plane and its three edge planes (exact except
+   in corner regions) discards nearly all pairs before the exact evaluation.
 
-No float32 error bound is needed for correctness: step 3 only relies on ``d0``, a double
-precision distance to a real triangle.  The float32 error (of order 1e-7 of the coordinates)
-only decides how often the candidate is not the nearest triangle (when another one lies
-within a few float32 roundings of the same distance); then step 3 corrects it.  The result
-is that of a brute-force double-precision search over all triangles.
+Correctness relies on no float32 bound: step 3 only uses ``d0``, the double precision distance
+to a real triangle.  The result is that of a brute-force double-precision search.
 
 The sign follows the angle-weighted pseudo-normal of the nearest feature (face, edge or
 vertex; Baerentzen and Aanaes, IEEE TVCG 11 (2005) 243): positive on the side the face
@@ -91,6 +87,8 @@ IntArray = NDArray[np.int64]
 _ON_BOUNDARY = 1e-9
 #: points handled at once (bounds the memory of the candidate pairs)
 _POINTS_PER_BLOCK = 65_536
+#: a point farther than this many largest triangle radii from every centroid takes open3d's candidate
+_NEARBY_REACH = 3.0
 #: point-triangle pairs evaluated at once
 _PAIRS_PER_BLOCK = 1_000_000
 #: held while a part of an index is built on first use
@@ -224,7 +222,7 @@ def surface_distances(points: ArrayLike, mesh: trimesh.Trimesh, *, require_close
     >>> round(float(near.signed_distance[0]), 12), (np.round(near.closest[0], 12) + 0.0).tolist()
     (0.002, [50.0, 0.0, 0.0])
     """
-    index = SurfaceIndex.build(mesh, require_closed=require_closed)
+    index = SurfaceIndex.build(mesh, require_closed=require_closed, workers=workers)
     return index.distances(points, workers=workers)
 
 
@@ -266,13 +264,14 @@ class SurfaceIndex:
     _cache: dict[str, Any] = field(default_factory=dict, repr=False)
 
     @classmethod
-    def build(cls, mesh: trimesh.Trimesh, *, require_closed: bool = True) -> SurfaceIndex:
-        """Index ``mesh`` (see :func:`surface_distances` for ``require_closed``).
+    def build(cls, mesh: trimesh.Trimesh, *, require_closed: bool = True, workers: int | None = None) -> SurfaceIndex:
+        """Index ``mesh`` (see :func:`surface_distances` for ``require_closed`` and ``workers``).
 
         Raises
         ------
         InvalidInputError
-            A mesh without triangles, with non-finite vertices or (``require_closed``) not closed.
+            A mesh without triangles, with non-finite vertices or (``require_closed``) not closed;
+            ``workers`` not a positive integer.
 
         Examples
         --------
@@ -281,6 +280,7 @@ class SurfaceIndex:
         >>> len(index.triangles), [len(group.members) for group in index.size_classes]  # long faces, end faces
         (12, [8, 4])
         """
+        threads = _thread_count(workers)
         faces = np.asarray(mesh.faces, dtype=np.int64)
         if faces.ndim != 2 or len(faces) == 0:
             raise InvalidInputError("mesh", "a mesh with at least one triangle", "no triangles")
@@ -295,7 +295,7 @@ class SurfaceIndex:
         face_normals = np.ascontiguousarray(planes[0:3].T)
         return cls(triangles=triangles, face_normals=face_normals,
                    edge_normals=edge_normals(mesh, faces, face_normals, twins), planes=planes,
-                   neighbours=neighbour_lists(triangles),
+                   neighbours=neighbour_lists(triangles, threads),
                    scene_origin=(vertices.min(axis=0) + vertices.max(axis=0)) / 2, vertices=vertices, faces=faces)
 
     @property
@@ -325,14 +325,15 @@ class SurfaceIndex:
     @property
     def scene(self) -> Any:
         """The open3d ``RaycastingScene`` of the mesh (float32, centred on ``scene_origin``), built once."""
-        scene = self._cache.get("scene")
-        if scene is None:
-            o3d = require("open3d")
+        with _BUILDING:  # threads of one query may ask at once
+            scene = self._cache.get("scene")
+            if scene is None:
+                o3d = require("open3d")
 
-            scene = o3d.t.geometry.RaycastingScene()
-            scene.add_triangles(o3d.core.Tensor((self.vertices - self.scene_origin).astype(np.float32)),
-                                o3d.core.Tensor(self.faces.astype(np.uint32)))
-            self._cache["scene"] = scene
+                scene = o3d.t.geometry.RaycastingScene()
+                scene.add_triangles(o3d.core.Tensor((self.vertices - self.scene_origin).astype(np.float32)),
+                                    o3d.core.Tensor(self.faces.astype(np.uint32)))
+                self._cache["scene"] = scene
         return scene
 
     def distances(self, points: ArrayLike, *, workers: int | None = None) -> SurfaceDistances:
@@ -352,14 +353,13 @@ class SurfaceIndex:
         if is_dask_array(points):
             return self._lazy_distances(points)
         query = as_points(points, element="mesh distance", min_points=1)
-        candidates = self.candidates(query) if workers is None else self.candidates(query, threads=threads)
         pieces = max(threads, -(-len(query) // _POINTS_PER_BLOCK))
         pieces = min(-(-pieces // threads) * threads, len(query))  # equal shares for the threads
         bounds = np.linspace(0, len(query), pieces + 1).astype(np.int64)
         blocks = [slice(int(start), int(stop)) for start, stop in itertools.pairwise(bounds)]
 
-        def block_distances(rows: slice) -> SurfaceDistances:
-            return self._distances(query[rows], candidates[rows])
+        def block_distances(rows: slice) -> SurfaceDistances:  # one thread a block, unless there is one block
+            return self._distances(query[rows], threads if len(blocks) == 1 else 1)
 
         if threads == 1 or len(blocks) == 1:
             parts = [block_distances(rows) for rows in blocks]
@@ -382,7 +382,12 @@ class SurfaceIndex:
         return SurfaceDistances(closest=packed[:, 0:3], signed_distance=packed[:, 3],
                                 face_index=packed[:, 4].astype(np.int64), direction=packed[:, 5:8])
 
-    def _distances(self, query: FloatArray, candidates: IntArray) -> SurfaceDistances:
+    def _distances(self, query: FloatArray, threads: int = 1) -> SurfaceDistances:
+        """Exact distances of one block of points, searched on ``threads`` threads (see the module: step 1)."""
+        candidates = self.nearby(query, threads=threads)
+        far = np.flatnonzero(candidates < 0)
+        if len(far):
+            candidates[far] = self.candidates(query[far], threads=threads)
         closest, squared, face_index, barycentric = self._nearest(query, candidates)
         offset = query - closest
         distance = np.sqrt(squared)
@@ -409,6 +414,16 @@ class SurfaceIndex:
         answer = self.scene.compute_closest_points(o3d.core.Tensor((query - self.scene_origin).astype(np.float32)),
                                                    nthreads=threads)
         return answer["primitive_ids"].numpy().astype(np.int64)
+
+    def nearby(self, query: FloatArray, *, threads: int = 1) -> IntArray:
+        """The triangle with the centroid nearest to each point (k-d tree; a candidate), -1 when none is near
+        (within three times the largest centroid-to-corner radius: see :meth:`candidates`)."""
+        lists = self.neighbours
+        _, nearest = lists.tree.query(query, k=1, distance_upper_bound=_NEARBY_REACH * float(lists.radius.max()),
+                                      workers=threads)
+        nearest = np.asarray(nearest, dtype=np.int64)
+        nearest[nearest >= len(self.triangles)] = -1  # nothing within reach
+        return nearest
 
     def _nearest(self, query: FloatArray, candidates: IntArray) -> tuple[FloatArray, FloatArray, IntArray, FloatArray]:
         """Nearest surface point, squared distance, triangle and barycentric weights of every point (exact)."""

@@ -329,7 +329,7 @@ def read_reference_diameter(path: str | Path) -> float | None:
     25.0004
     """
     from pcmm_geo.errors import FileFormatError
-    from pcmm_geo.io._lines import decode_block, iter_blocks
+    from pcmm_geo.io.text import decode_block, iter_blocks
 
     found: float | None = None
     # a comment may stand anywhere in a point file: every block is read, but only a block holding a '#'

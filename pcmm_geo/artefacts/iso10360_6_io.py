@@ -116,8 +116,7 @@ def read_element_parameters(path: str | Path) -> dict[str, ElementParameters]:
     file = Path(path)
     out: dict[str, ElementParameters] = {}
     if file.suffix.lower() == ".json":
-        from pcmm_geo.io._json import JsonNode
-        from pcmm_geo.io._text import read_json_file
+        from pcmm_geo.io.text import JsonNode, read_json_file
 
         data = read_json_file(file)
         root = JsonNode(data, str(file))

@@ -18,25 +18,32 @@ from typing import Any
 
 from pcmm_geo.cli._output import declare_output, refuse_renamed_options
 
-#: reader parameter -> the option that sets it (:func:`cli_setting`)
+#: library parameter -> the option that sets it (:func:`cli_setting`), where the two are not spelled alike
 READER_OPTIONS = {"units": "--units", "angle_unit": "--angle-unit", "size_values": "--size-values",
-                  "max_bytes": "--max-mb"}
+                  "max_bytes": "--max-mb", "probe_radius": "--probe-radius-mm"}
 MIB = 1 << 20
 
 
-def cli_setting(parameter: str, value: str | None = None) -> str:
-    """How the command line sets a reader parameter: ``--units mm`` (``--units`` without a value).
+def cli_setting(parameter: str, value: object = None) -> str:
+    """How the command line sets a library parameter: ``--units mm`` (``--units`` without a value).
 
-    Passed to the readers as ``spell_setting`` (:mod:`pcmm_geo.io.cmm.settings`), so that a file
-    without units asks for ``--units``, not for the Python keyword.
+    The one place where the library's parameter names become the command's options: passed as
+    ``spell_setting`` to the readers (:mod:`pcmm_geo.io.cmm.settings`) and to the refit, point and
+    compensation functions of :mod:`pcmm_geo.cmm`, so that a file without units asks for
+    ``--units``, not for the Python keyword, and an unknown compensation for ``--compensated``.
+    A True / False value is the options' ``yes`` / ``no``.
 
     Examples
     --------
-    >>> cli_setting("units", "inch"), cli_setting("max_bytes")
-    ('--units inch', '--max-mb')
+    >>> cli_setting("units", "inch"), cli_setting("max_bytes"), cli_setting("compensated", False)
+    ('--units inch', '--max-mb', '--compensated no')
     """
     option = READER_OPTIONS.get(parameter, "--" + parameter.replace("_", "-"))
-    return option if value is None else f"{option} {value}"
+    if value is None:
+        return option
+    if isinstance(value, bool):
+        value = "yes" if value else "no"
+    return f"{option} {value}"
 
 
 def add_max_mb_option(parser: argparse.ArgumentParser, what: str = "QIF file read") -> None:
@@ -128,7 +135,9 @@ def read_fit_input(args: argparse.Namespace, element: str) -> FitInput:
         raise InvalidInputError("--max-mb", "a QIF file (the limit applies to QIF files)", str(args.file))
     data = load_feature_points(args.file, element=element, feature=args.feature, decimal=args.decimal,
                                max_bytes=limit, spell_setting=cli_setting)
-    radius, source = probe_radius_to_apply(data, compensated=args.compensated, probe_radius=args.probe_radius)
+    compensated = None if args.compensated is None else args.compensated == "yes"  # the library's bool
+    radius, source = probe_radius_to_apply(data, compensated=compensated, probe_radius=args.probe_radius,
+                                           spell_setting=cli_setting)
     if args.material_side is not None and radius == 0:
         raise InvalidInputError("--material-side", "a probe radius to apply (--probe-radius-mm or probe centres in the "
                                 "file)", "surface points")
@@ -139,21 +148,6 @@ def read_fit_input(args: argparse.Namespace, element: str) -> FitInput:
                                    normals=None if data.normals is None else data.normals[:, :2],
                                    reported_normal=None if data.reported_normal is None else data.reported_normal[:2])
     return FitInput(data, data.points, radius, source)
-
-
-def compensation_summary(compensation: Any, side_source: str, radius_source: str) -> tuple[dict[str, Any], str]:
-    """JSON object and one text line describing an applied probe compensation."""
-    side = compensation.side
-    data = {"probe_radius_mm": compensation.probe_radius, "side": side, "side_source": side_source,
-            "inferred": compensation.inferred, "method": compensation.method, "radius_source": radius_source}
-    if compensation.outward is not None:
-        data["outward_normal"] = compensation.outward.tolist()
-        where = f"outward normal from {side_source}"
-    else:
-        where = f"material side {side}" + (" (inferred)" if compensation.inferred else "") + f" from {side_source}"
-    line = (f"probe compensation: radius {compensation.probe_radius:.6g} mm ({radius_source}), {where}; "
-            "the element fitted to the probe centres is offset onto the surface")
-    return data, line
 
 
 def write_qif_result(args: argparse.Namespace, fit: Any, element: str, source: Any, *, radius: float,

@@ -23,13 +23,14 @@ name                              what it does
 :func:`load_feature_points`       the points of one feature of a CMM file, with what the file
                                   says about their compensation (``pcmm fit FILE.qif``)
 :func:`read_cmm_document`         a QIF document, DMIS output or CALYPSO table, format detected
+:func:`plan_compensation`         probe compensation decided once (file flags and the caller's
+                                  statement -> radius, side, sources; :class:`Compensation`)
 ================================  =================================================================
 """
 
 from __future__ import annotations
 
-import importlib
-from typing import Any
+from pcmm_geo._lazy import attach
 
 _LAZY = {
     "DEFAULT_TOLERANCE_MM": "verify",
@@ -37,8 +38,10 @@ _LAZY = {
     "Verification": "verify",
     "verify_document": "verify",
     "verify_qif": "verify",
-    "Compensation": "refit",
-        "Refit": "refit",
+    "Compensation": "compensation",
+    "CompensationPlan": "compensation",
+    "plan_compensation": "compensation",
+    "Refit": "refit",
     "refit_feature": "refit",
     "feature_report": "export",
     "FileFeature": "export",
@@ -52,17 +55,4 @@ _LAZY = {
     "load_feature_points": "points",
 }
 
-__all__ = sorted(_LAZY)
-
-
-def __getattr__(name: str) -> Any:
-    module_name = _LAZY.get(name)
-    if module_name is None:
-        raise AttributeError(f"module 'pcmm_geo.cmm' has no attribute {name!r}")
-    value = getattr(importlib.import_module(f"pcmm_geo.cmm.{module_name}"), name)
-    globals()[name] = value
-    return value
-
-
-def __dir__() -> list[str]:
-    return sorted(set(globals()) | set(_LAZY))
+__getattr__, __dir__, __all__ = attach(__name__, _LAZY)

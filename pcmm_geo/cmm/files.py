@@ -59,8 +59,8 @@ def read_cmm_document(path: str | Path, *, units: str | None = None, angle_unit:
         Units given for a QIF file; unknown units.
     """
     from pcmm_geo.errors import FileFormatError, InvalidInputError
-    from pcmm_geo.io import cmm
-    from pcmm_geo.io._lines import refuse_irregular
+    from pcmm_geo.io.cmm import DEFAULT_MAX_BYTES, read_calypso_table, read_dmis, read_qif
+    from pcmm_geo.io.text import refuse_irregular
 
     refuse_irregular(path)  # a FIFO would block the reader forever
     kind = detect_format(path, format)
@@ -69,21 +69,21 @@ def read_cmm_document(path: str | Path, *, units: str | None = None, angle_unit:
     if kind == "qif":
         if size_values is not None:
             raise InvalidInputError(spell_setting("size_values"), "nothing for a QIF file (DMIS only)", size_values)
-        document = cmm.read_qif(path, max_bytes=cmm.DEFAULT_MAX_BYTES if max_bytes is None else max_bytes,
-                                units=units, angle_unit=angle_unit, spell_setting=spell_setting)
+        document = read_qif(path, max_bytes=DEFAULT_MAX_BYTES if max_bytes is None else max_bytes,
+                            units=units, angle_unit=angle_unit, spell_setting=spell_setting)
     elif kind == "dmis":
-        document = cmm.read_dmis(path, units=units, angle_unit=angle_unit, size_values=size_values,
-                                 encoding=encoding, spell_setting=spell_setting, **limit)
+        document = read_dmis(path, units=units, angle_unit=angle_unit, size_values=size_values,
+                             encoding=encoding, spell_setting=spell_setting, **limit)
     elif kind == "calypso":
-        document = cmm.read_calypso_table(path, units=units, angle_unit=angle_unit, encoding=encoding,
-                                          spell_setting=spell_setting, **limit)
+        document = read_calypso_table(path, units=units, angle_unit=angle_unit, encoding=encoding,
+                                      spell_setting=spell_setting, **limit)
     if document is not None:
         if not document.measured_features and not document.characteristics and \
                 not any(results.inspection_status for results in document.results):
             raise FileFormatError(str(path), "expected measured features, characteristics or an inspection status, "
                                   "got none")
         return document
-    what = "a PC-DMIS XYZIJK point file (fit it: pcmm fit ELEMENT FILE --compensated yes|no)" if kind == "pcdmis" \
-        else "not a CMM results file"
+    what = f"a PC-DMIS XYZIJK point file (points to fit, saying with {spell_setting('compensated')} whether they " \
+        "are probe centres)" if kind == "pcdmis" else "not a CMM results file"
     raise FileFormatError(str(path), f"expected a QIF 3.0 document, a DMIS output (.dmo) or a CALYPSO table "
                           f"(*_chr.txt), got {what}")

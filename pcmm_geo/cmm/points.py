@@ -9,12 +9,13 @@
   compensation flag;
 * plain point files (CSV, XYZ, PLY, ...): points only.
 
-:func:`probe_radius_to_apply` decides from the file and the user's ``--compensated`` /
-``--probe-radius-mm`` whether a radius is still to be applied; a format that does not say whether its
-points are probe centres (PC-DMIS, DMIS) is refused unless the user says so.
+:func:`probe_radius_to_apply` decides from the file and the caller's ``compensated`` /
+``probe_radius`` whether a radius is still to be applied; a format that does not say whether its
+points are probe centres (PC-DMIS, DMIS) is refused unless the caller says so.
 :func:`compensate_fit` then offsets the fitted element (:func:`pcmm_geo.fit.probe.compensate_probe`)
-with the material side from ``--material-side``, the file's ``InternalExternal``, the point normals
-or the nominal size (reported as inferred).
+with the material side from ``material_side``, the file's ``InternalExternal``, the point normals
+or the nominal size (reported as inferred).  Both decisions are those of
+:mod:`pcmm_geo.cmm.compensation`, as for the refit of ``pcmm qif verify``.
 """
 
 from __future__ import annotations
@@ -26,6 +27,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 from numpy.typing import NDArray
 
+from pcmm_geo.cmm.compensation import Compensation, plan_compensation, side_arguments
 from pcmm_geo.errors import FileFormatError, InvalidInputError
 from pcmm_geo.io.cmm import SpellSetting, python_setting
 
@@ -35,7 +37,8 @@ if TYPE_CHECKING:
     from pcmm_geo.fit.probe import ProbeCompensation
     from pcmm_geo.io.cmm import CmmDocument, MeasuredFeature
 
-__all__ = ["FeaturePoints", "compensate_fit", "load_feature_points", "probe_radius_to_apply", "side_before_fit"]
+__all__ = ["Compensation", "FeaturePoints", "compensate_fit", "load_feature_points", "probe_radius_to_apply",
+           "side_before_fit"]
 
 FloatArray = NDArray[np.float64]
 #: formats whose points carry no compensation flag: the user must say
@@ -125,7 +128,7 @@ def load_feature_points(path: str | Path, *, element: str | None = None, feature
         ``feature`` given for a file that is not QIF.
     """
     from pcmm_geo.cmm.files import detect_format
-    from pcmm_geo.io._lines import refuse_irregular
+    from pcmm_geo.io.text import refuse_irregular
 
     file = Path(path)
     refuse_irregular(file)  # a FIFO would block the reader forever
@@ -135,12 +138,12 @@ def load_feature_points(path: str | Path, *, element: str | None = None, feature
 
         document = read_qif(file, max_bytes=DEFAULT_MAX_BYTES if max_bytes is None else max_bytes,
                             spell_setting=spell_setting)
-        return _from_document(document, element=element, feature=feature)
+        return _from_document(document, element=element, feature=feature, spell_setting=spell_setting)
     if kind in ("dmis", "calypso"):
         raise FileFormatError(str(file), f"expected measured points, got a {kind.upper()} results file (feature "
                               "actuals and characteristics, no points): see pcmm qif show")
     if feature is not None:
-        raise InvalidInputError("--feature", "a QIF file to choose a feature from", str(file))
+        raise InvalidInputError(spell_setting("feature"), "a QIF file to choose a feature from", str(file))
     if kind == "pcdmis":
         from pcmm_geo.io.cmm import read_pcdmis_xyzijk
 
@@ -153,7 +156,8 @@ def load_feature_points(path: str | Path, *, element: str | None = None, feature
     return FeaturePoints(read_points(file, decimal=decimal), "points", str(file))
 
 
-def _choose(document: CmmDocument, element: str | None, key: str | None) -> MeasuredFeature:
+def _choose(document: CmmDocument, element: str | None, key: str | None,
+            spell_setting: SpellSetting) -> MeasuredFeature:
     features = document.measured_features
     if key is not None:
         return document.feature(int(key) if key.strip().isdigit() else key)
@@ -166,16 +170,16 @@ def _choose(document: CmmDocument, element: str | None, key: str | None) -> Meas
     listed = ", ".join(f"{f.id} {f.name or '(unnamed)'} ({f.type}, {len(f.point_set_refs)} point list(s))"
                        for f in candidates[:20])
     more = f" and {len(candidates) - 20} more" if len(candidates) > 20 else ""
-    raise InvalidInputError("--feature", f"the QIF id or name of one of the features with points: {listed}{more}",
-                            "none")
+    raise InvalidInputError(spell_setting("feature"), "the QIF id or name of one of the features with points: "
+                            f"{listed}{more}", "none")
 
 
-def _from_document(document: CmmDocument, *, element: str | None, feature: str | None) -> FeaturePoints:
+def _from_document(document: CmmDocument, *, element: str | None, feature: str | None,
+                   spell_setting: SpellSetting) -> FeaturePoints:
     from pcmm_geo.cmm.export import file_feature
-    from pcmm_geo.cmm.refit import _context, _prepare_points
-    from pcmm_geo.errors import NotRefittedError
+    from pcmm_geo.cmm.refit import _context
 
-    chosen = _choose(document, element, feature)
+    chosen = _choose(document, element, feature, spell_setting)
     point_set = document.points_of(chosen, frame="common")
     if point_set is None or len(point_set) == 0:
         raise FileFormatError(document.source, f"feature {chosen.id} ({chosen.name}) has no measured points")
@@ -184,8 +188,9 @@ def _from_document(document: CmmDocument, *, element: str | None, feature: str |
     normals = None if point_set.normals is None else np.asarray(point_set.normals, dtype=float)
     if point_set.compensated_per_point is not None or (compensated is False and point_set.probe_radii is not None):
         try:  # flags or radii that differ from point to point: compensated here, one by one
-            points, _, _, normals = _prepare_points(point_set, None, None)
-        except NotRefittedError as exc:
+            plan = plan_compensation(point_set, where=f"feature {chosen.id}", spell_setting=spell_setting)
+            points, normals = plan.points, plan.normals
+        except InvalidInputError as exc:
             raise FileFormatError(document.source, f"feature {chosen.id}: {exc}") from None
         compensated, radius = True, None
     context = _context(document, chosen)
@@ -198,17 +203,24 @@ def _from_document(document: CmmDocument, *, element: str | None, feature: str |
                          file_feature=file_feature(document, chosen))
 
 
-def probe_radius_to_apply(data: FeaturePoints, *, compensated: str | None = None,
-                          probe_radius: float | None = None) -> tuple[float, str]:
+def probe_radius_to_apply(data: FeaturePoints, *, compensated: bool | str | None = None,
+                          probe_radius: float | None = None,
+                          spell_setting: SpellSetting = python_setting) -> tuple[float, str]:
     """The probe radius still to apply (0: the points are surface points) and why.
+
+    :func:`~pcmm_geo.cmm.compensation.plan_compensation` on the file's flags: plain point files
+    are surface points unless a radius is given; formats without a flag need ``compensated``.
 
     Parameters
     ----------
     data : FeaturePoints
-    compensated : {"yes", "no"}, optional
-        The user's statement (``--compensated``); required for formats without a flag.
+    compensated : bool, optional
+        The caller's statement: surface points (True) or probe centres (False); required for
+        formats without a flag.  ``"yes"`` / ``"no"`` are read as True / False.
     probe_radius : float, optional
-        The user's probe radius (``--probe-radius-mm``, mm).
+        The caller's probe radius (mm).
+    spell_setting : callable
+        How messages name ``compensated`` and ``probe_radius`` (:mod:`pcmm_geo.io.cmm.settings`).
 
     Raises
     ------
@@ -216,62 +228,33 @@ def probe_radius_to_apply(data: FeaturePoints, *, compensated: str | None = None
         A format without a compensation flag and no ``compensated``; a statement or radius
         that contradicts the file; probe centres without a radius.
     """
-    if compensated not in (None, "yes", "no"):
-        raise InvalidInputError("--compensated", "yes or no", repr(compensated))
-    if probe_radius is not None and not (np.isfinite(probe_radius) and probe_radius > 0):
-        raise InvalidInputError("--probe-radius-mm", "a positive probe radius (mm)", repr(probe_radius))
-    where = data.describe()
-    if data.compensated is True:
-        if compensated == "no" or probe_radius is not None:
-            given = "--compensated no" if compensated == "no" else "--probe-radius-mm"
-            raise InvalidInputError(given, f"nothing: {where} says its points are already compensated "
-                                    "(Compensated=true); the radius would be added twice", given)
-        return 0.0, "surface points (the file says Compensated=true)"
-    if data.compensated is False:
-        if compensated == "yes":
-            raise InvalidInputError("--compensated", f"no: {where} says its points are probe centres "
-                                    "(Compensated=false)", "yes")
-        radius = probe_radius if probe_radius is not None else data.probe_radius
-        if radius is None:
-            raise InvalidInputError("--probe-radius-mm", f"the probe radius: {where} holds probe centres without a "
-                                    "ProbeRadius", "none")
-        return float(radius), ("probe centres (Compensated=false), radius " +
-                               ("--probe-radius-mm" if probe_radius is not None else "from the file"))
-    if data.format in UNFLAGGED_FORMATS and compensated is None:
-        raise InvalidInputError("--compensated", f"yes or no: {where} ({data.format} format) does not say whether "
-                                "its points are probe centres or surface points", "nothing")
-    if compensated == "yes":
-        if probe_radius is not None:
-            raise InvalidInputError("--probe-radius-mm", "no radius with --compensated yes", repr(probe_radius))
-        return 0.0, "surface points (--compensated yes)"
-    if probe_radius is None:
-        if compensated == "no":
-            raise InvalidInputError("--probe-radius-mm", "the probe radius of the probe centres (--compensated no)",
-                                    "none")
-        return 0.0, "surface points (no probe radius given)"
-    return float(probe_radius), "probe centres, radius --probe-radius-mm"
+    from pcmm_geo.io.cmm import MeasuredPointSet
+
+    if isinstance(compensated, str):
+        if compensated not in ("yes", "no"):
+            raise InvalidInputError(spell_setting("compensated"), "yes or no", repr(compensated))
+        compensated = compensated == "yes"
+    point_set = MeasuredPointSet(id=None, points=data.points, compensated=data.compensated,
+                                 probe_radius=data.probe_radius)
+    unflagged = data.format in UNFLAGGED_FORMATS
+    where = f"{data.describe()} ({data.format} format)" if unflagged else data.describe()
+    plan = plan_compensation(point_set, compensated=compensated, probe_radius=probe_radius, where=where,
+                             unstated="refuse" if unflagged else "surface", strict=True, spell_setting=spell_setting)
+    return plan.radius, plan.radius_source
 
 
-def _side_kwargs(data: FeaturePoints, material_side: str | None) -> tuple[dict[str, Any], str]:
-    if material_side is not None:
-        if data.material_side is not None and data.material_side != material_side:
-            internal_external = None if data.feature is None else data.feature.internal_external
-            raise InvalidInputError("--material-side", f"{data.material_side} (or no --material-side): "
-                                    f"{data.describe()} says InternalExternal={internal_external}", material_side)
-        if data.normals is not None:  # compensate_probe checks the stated side against them
-            return {"side": material_side, "points": data.points, "outward": data.normals}, "--material-side"
-        return {"side": material_side}, "--material-side"
-    if data.material_side is not None:
-        return {"side": data.material_side}, "the file's InternalExternal"
-    if data.normals is not None:
-        return {"points": data.points, "outward": data.normals}, "the point normals"
-    if data.nominal_diameter is not None:
-        return {"nominal_diameter": data.nominal_diameter}, f"the nominal diameter {data.nominal_diameter:.6g} mm"
-    return {}, ""
+def _side_kwargs(data: FeaturePoints, material_side: str | None, spell_setting: SpellSetting,
+                 element: str | None = None) -> tuple[dict[str, Any], str]:
+    """The material side (:func:`~pcmm_geo.cmm.compensation.side_arguments`); required with ``element``."""
+    return side_arguments(material_side, file_side=data.material_side,
+                          internal_external=None if data.feature is None else data.feature.internal_external,
+                          normals=data.normals, points=data.points, nominal_diameter=data.nominal_diameter,
+                          where=data.describe(),
+                          required=element is not None, spell_setting=spell_setting)
 
 
 def side_before_fit(data: FeaturePoints, element: str, radius: float, material_side: str | None,
-                    fit: Any) -> str:
+                    fit: Any, *, spell_setting: SpellSetting = python_setting) -> str:
     """Material side of a feature of size, known before a fixed-radius fit (``fit(points)`` is a free fit).
 
     Raises
@@ -279,22 +262,35 @@ def side_before_fit(data: FeaturePoints, element: str, radius: float, material_s
     InvalidInputError
         Nothing tells the side.
     """
-    kwargs, _ = _side_kwargs(data, material_side)
+    kwargs, _ = _side_kwargs(data, material_side, spell_setting, element)
     if "side" in kwargs and "outward" not in kwargs:
         return str(kwargs["side"])
-    if not kwargs:
-        raise _no_side(data, element)
-    return _compensate(fit(data.points), radius, kwargs, data).side
-
-
-def _no_side(data: FeaturePoints, element: str) -> InvalidInputError:
-    return InvalidInputError("--material-side", f"internal or external: nothing in {data.describe()} tells on which "
-                             f"side of the {element} the material is", "nothing")
+    return _compensate(fit(data.points), radius, kwargs, data, spell_setting).side
 
 
 def compensate_fit(fit: FitResult, element: str, data: FeaturePoints, radius: float, *,
-                   material_side: str | None = None) -> tuple[ProbeCompensation, str]:
-    """Offset a fit of probe centres onto the surface; returns the compensation and where its side came from.
+                   material_side: str | None = None, radius_source: str = "",
+                   spell_setting: SpellSetting = python_setting) -> tuple[ProbeCompensation, Compensation]:
+    """Offset a fit of probe centres onto the surface; returns the compensation and its record.
+
+    Parameters
+    ----------
+    fit : FitResult
+        The element fitted to the probe centres.
+    element : str
+    data : FeaturePoints
+    radius : float
+        Probe radius (mm), from :func:`probe_radius_to_apply`.
+    material_side : {"internal", "external"}, optional
+    radius_source : str
+        Where ``radius`` came from (the second value of :func:`probe_radius_to_apply`).
+    spell_setting : callable
+        How messages name ``material_side`` and ``probe_radius``.
+
+    Returns
+    -------
+    ProbeCompensation, Compensation
+        The offset element, and the record (:meth:`Compensation.to_dict` is the JSON object).
 
     Raises
     ------
@@ -306,25 +302,26 @@ def compensate_fit(fit: FitResult, element: str, data: FeaturePoints, radius: fl
 
     if element in ("plane", "line"):
         if material_side is not None:
-            raise InvalidInputError("--material-side", f"nothing for a {element}: its side is the surface normal "
-                                    "(point normals or the file's reported normal)", material_side)
+            raise InvalidInputError(spell_setting("material_side"), f"nothing for a {element}: its side is the "
+                                    "surface normal (point normals or the file's reported normal)", material_side)
         outward = data.normals if data.normals is not None else data.reported_normal
         if outward is None:
             raise InvalidInputError("outward normal", f"point normals (XYZIJK, QIF Normals) or a reported normal to "
                                     f"compensate the {element} of {data.describe()}", "none")
         source = "the point normals" if data.normals is not None else "the file's reported normal"
-        return compensate_probe(fit, radius, outward=outward), source
+        result = compensate_probe(fit, radius, outward=outward)
+        return result, Compensation.from_probe(result, radius_source, source)
     if element not in ("circle", "sphere", "cylinder", "cone"):
-        raise InvalidInputError("--probe-radius-mm", "an element with an offset surface (line, plane, circle, sphere, "
-                                "cylinder, cone)", element)
-    kwargs, source = _side_kwargs(data, material_side)
-    if not kwargs:
-        raise _no_side(data, element)
-    return _compensate(fit, radius, kwargs, data), source
+        raise InvalidInputError(spell_setting("probe_radius"), "an element with an offset surface (line, plane, "
+                                "circle, sphere, cylinder, cone)", element)
+    kwargs, source = _side_kwargs(data, material_side, spell_setting, element)
+    result = _compensate(fit, radius, kwargs, data, spell_setting)
+    return result, Compensation.from_probe(result, radius_source, source)
 
 
-def _compensate(fit: FitResult, radius: float, kwargs: dict[str, Any], data: FeaturePoints) -> ProbeCompensation:
-    """:func:`~pcmm_geo.fit.probe.compensate_probe`; a stated side the point normals contradict names the option."""
+def _compensate(fit: FitResult, radius: float, kwargs: dict[str, Any], data: FeaturePoints,
+                spell_setting: SpellSetting) -> ProbeCompensation:
+    """:func:`~pcmm_geo.fit.probe.compensate_probe`; a stated side the point normals contradict names the parameter."""
     from pcmm_geo.fit.probe import compensate_probe
 
     try:
@@ -334,5 +331,6 @@ def _compensate(fit: FitResult, radius: float, kwargs: dict[str, Any], data: Fea
             raise
         stated = kwargs["side"]
         shown = "internal" if stated == "external" else "external"  # the only other side
-        raise InvalidInputError("--material-side", f"{shown} (or no --material-side): the point normals of "
-                                f"{data.describe()} show an {shown} feature", stated) from None
+        name = spell_setting("material_side")
+        raise InvalidInputError(name, f"{shown} (or no {name}): the point normals of {data.describe()} show an "
+                                f"{shown} feature", stated) from None

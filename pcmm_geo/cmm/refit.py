@@ -27,11 +27,13 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 from numpy.typing import NDArray
 
+from pcmm_geo.cmm.compensation import FILE_COMPENSATED, Compensation, plan_compensation, side_arguments
 from pcmm_geo.errors import InvalidInputError, NotRefittedError
+from pcmm_geo.io.cmm import SpellSetting, python_setting
 
 if TYPE_CHECKING:
     from pcmm_geo.fit import FitResult
-    from pcmm_geo.io.cmm import CmmDocument, FeatureGeometry, MeasuredFeature, MeasuredPointSet
+    from pcmm_geo.io.cmm import CmmDocument, FeatureGeometry, MeasuredFeature
 
 __all__ = ["CRITERIA_BY_ALGORITHM", "Compensation", "Refit", "refit_feature"]
 
@@ -50,46 +52,7 @@ REFITTED_TYPES = ("circle", "cylinder", "sphere", "plane", "line", "point", "con
 CIRCLE_PLANES = ("least-squares", "reported")
 
 
-@dataclass(frozen=True, eq=False)
-class Compensation:
-    """How the probe radius was handled for one feature.
-
-    Attributes
-    ----------
-    probe_radius_mm : float
-        Radius applied (0 when none was).
-    side : {"internal", "external", "none", "unknown"}
-        Material side of a feature of size; planes, lines and points are touched from outside
-        the material (``"external"``, direction in ``outward``); ``"none"``: nothing applied;
-        ``"unknown"``: nothing states the side of this circle, cylinder or sphere: its centre
-        and axis (independent of the side) are refitted, its diameter is not (None).
-    inferred : bool
-        The side was inferred from the nominal size (the file did not state it).
-    source : str
-        Where radius and side came from, in words.
-    method : str
-        ``"element offset"``, ``"points along normals"`` or ``"none"``.
-    outward : ndarray (3,) or None
-        Unit normal out of the material used for a plane, line or point.
-    """
-
-    probe_radius_mm: float
-    side: str
-    inferred: bool
-    source: str
-    method: str
-    outward: FloatArray | None = None
-
-    def to_dict(self) -> dict[str, Any]:
-        """The JSON ``compensation`` object."""
-        out: dict[str, Any] = {"probe_radius_mm": self.probe_radius_mm, "side": self.side, "inferred": self.inferred,
-                               "method": self.method, "source": self.source}
-        if self.outward is not None:
-            out["outward_normal"] = self.outward.tolist()
-        return out
-
-
-NO_COMPENSATION_NEEDED = "the points are surface points (Compensated=true)"
+NO_COMPENSATION_NEEDED = FILE_COMPENSATED
 
 
 @dataclass(frozen=True, eq=False)
@@ -133,7 +96,7 @@ class Refit:
     fit: FitResult | None = None
 
 
-def _criterion(feature: MeasuredFeature, requested: str | None) -> tuple[str, str]:
+def _criterion(feature: MeasuredFeature, requested: str | None, spell: SpellSetting) -> tuple[str, str]:
     if requested is not None:
         return requested, "requested"
     algorithm = (feature.substitute_algorithm or "").strip().upper()
@@ -142,7 +105,7 @@ def _criterion(feature: MeasuredFeature, requested: str | None) -> tuple[str, st
     if algorithm in _DEFAULT_ALGORITHMS:
         return "gaussian", "default"
     raise NotRefittedError(f"the file's fitting algorithm {feature.substitute_algorithm!r} is not one pcmm_geo offers "
-                           "(least squares, minimum zone, MCC, MIC): give --criterion to refit anyway")
+                           f"(least squares, minimum zone, MCC, MIC): give {spell('criterion')} to refit anyway")
 
 
 def _unit(vector: Any) -> FloatArray | None:
@@ -186,61 +149,6 @@ def _first(*vectors: Any) -> FloatArray | None:
     return None
 
 
-def _prepare_points(point_set: MeasuredPointSet, compensated: bool | None,
-                    probe_radius: float | None) -> tuple[FloatArray, float, str, FloatArray | None]:
-    """Points, the one radius still to apply by element offset (0: none) and where it came from.
-
-    Points whose own flags or radii differ are compensated here along their normals.
-    """
-    points = np.asarray(point_set.points, dtype=float)
-    normals = None if point_set.normals is None else np.asarray(point_set.normals, dtype=float)
-    if point_set.compensated is True:
-        if compensated is False:
-            raise NotRefittedError("--compensated no contradicts the file, which says Compensated=true")
-        return points, 0.0, NO_COMPENSATION_NEEDED, normals
-    if point_set.compensated_per_point is not None:
-        flags = np.asarray(point_set.compensated_per_point, dtype=bool)
-        return _per_point(points, normals, point_set, ~flags, "per-point Compensations differ"), 0.0, \
-            "per-point compensation flags: probe centres compensated along their normals", normals
-    if point_set.compensated is None:
-        if compensated is None:
-            raise NotRefittedError("the file does not say whether the points are probe centres or surface points: "
-                                   "give --compensated yes|no")
-        if compensated:
-            return points, 0.0, "the points are surface points (--compensated yes)", normals
-        radius = probe_radius if probe_radius is not None else point_set.probe_radius
-        if radius is None:
-            raise NotRefittedError("probe centres (--compensated no) need a probe radius: give --probe-radius-mm")
-        return points, float(radius), "probe radius " + ("--probe-radius-mm" if probe_radius is not None else
-                                                         "from the file"), normals
-    if compensated is True:
-        raise NotRefittedError("--compensated yes contradicts the file, which says Compensated=false")
-    if probe_radius is not None:
-        return points, float(probe_radius), "probe centres (Compensated=false), radius --probe-radius-mm", normals
-    if point_set.probe_radii is not None:
-        surface = _per_point(points, normals, point_set, np.ones(len(points), dtype=bool),
-                             "per-point ProbeRadii differ")
-        return surface, 0.0, "per-point ProbeRadii: probe centres compensated along their normals", normals
-    if point_set.probe_radius is None:
-        raise NotRefittedError("the points are probe centres (Compensated=false) but the file gives no ProbeRadius: "
-                               "give --probe-radius-mm")
-    return points, float(point_set.probe_radius), "probe centres (Compensated=false), ProbeRadius from the file", \
-        normals
-
-
-def _per_point(points: FloatArray, normals: FloatArray | None, point_set: MeasuredPointSet, which: NDArray[np.bool_],
-               why: str) -> FloatArray:
-    from pcmm_geo.fit.probe import compensate_points
-
-    if normals is None:
-        raise NotRefittedError(f"{why} and the points carry no normals to compensate them one by one")
-    radii = point_set.probe_radii if point_set.probe_radii is not None else point_set.probe_radius
-    if radii is None:
-        raise NotRefittedError(f"{why} but the file gives no probe radius")
-    radii = np.broadcast_to(np.asarray(radii, dtype=float), (len(points),))
-    return compensate_points(points, normals, np.where(which, radii, 0.0))
-
-
 def refit_feature(
     document: CmmDocument,
     feature: MeasuredFeature,
@@ -250,6 +158,7 @@ def refit_feature(
     compensated: bool | None = None,
     probe_radius: float | None = None,
     material_side: str | None = None,
+    spell_setting: SpellSetting = python_setting,
 ) -> Refit:
     """Refit one measured feature from its points, compensated, in the document's common frame.
 
@@ -270,10 +179,20 @@ def refit_feature(
     material_side : {"internal", "external"}, optional
         The side of a feature of size where the file does not state it; a side that contradicts
         the file's ``InternalExternal`` or the point normals is refused (NotRefittedError).
+    spell_setting : callable
+        How reasons name these parameters (:mod:`pcmm_geo.io.cmm.settings`; the command line
+        passes its option names).
 
     Returns
     -------
     Refit
+
+    Notes
+    -----
+    The probe radius and the material side are decided by :mod:`pcmm_geo.cmm.compensation`
+    (:func:`~pcmm_geo.cmm.compensation.plan_compensation`,
+    :func:`~pcmm_geo.cmm.compensation.side_arguments`), as for ``pcmm fit FILE`` and the
+    calibration balls of a QIF file.
 
     Raises
     ------
@@ -294,51 +213,31 @@ def refit_feature(
     if point_set is None or len(point_set) == 0:
         why = "; ".join(feature.problems)
         raise NotRefittedError("the file holds no measured points for this feature" + (f" ({why})" if why else ""))
-    method, method_source = _criterion(feature, criterion)
-    points, radius, radius_source, normals = _prepare_points(point_set, compensated, probe_radius)
+    method, method_source = _criterion(feature, criterion, spell_setting)
     context = _context(document, feature)
     try:
-        return _REFITTERS[feature.type](points, normals, radius, radius_source, context, method, method_source,
-                                        circle_plane=circle_plane, material_side=material_side)
+        plan = plan_compensation(point_set, compensated=compensated, probe_radius=probe_radius,
+                                 spell_setting=spell_setting)
+        return _REFITTERS[feature.type](plan.points, plan.normals, plan.radius, plan.radius_source, context, method,
+                                        method_source, circle_plane=circle_plane, material_side=material_side,
+                                        spell_setting=spell_setting)
     except PcmmGeoError as exc:
         raise NotRefittedError(" ".join(str(exc).split())) from None
 
 
-def _side_arguments(context: _Context, material_side: str | None, normals: FloatArray | None,
-                    points: FloatArray) -> tuple[dict[str, Any], str]:
-    """Keyword arguments of compensate_probe that fix the side of a feature of size, and their source."""
-    if material_side is not None:
-        if context.side is not None and context.side != material_side:
-            raise InvalidInputError("material_side", f"{context.side!r} (or none): the file says InternalExternal="
-                                    f"{context.internal_external}", repr(material_side))
-        if normals is not None:  # compensate_probe checks the stated side against them
-            return {"side": material_side, "points": points, "outward": normals}, "stated (--material-side)"
-        return {"side": material_side}, "stated (--material-side)"
-    if context.side is not None:
-        return {"side": context.side}, f"file (InternalExternal {context.internal_external})"
-    if normals is not None:
-        return {"points": points, "outward": normals}, "point normals"
-    if context.nominal_diameter is not None:
-        return {"nominal_diameter": context.nominal_diameter}, \
-            f"inferred from the nominal diameter {context.nominal_diameter:.6g} mm"
-    stated = context.internal_external or "nothing"
-    raise NotRefittedError(f"material side unknown: the file states {stated} for InternalExternal, the points carry no "
-                           "normals and no nominal size decides it")
-
-
 def _round_compensation(fit: FitResult, radius: float, radius_source: str, context: _Context,
                         material_side: str | None, normals: FloatArray | None, points: FloatArray,
-                        nominal_diameter: float | None = None, *,
+                        nominal_diameter: float | None = None, *, spell_setting: SpellSetting = python_setting,
                         side_free: bool = False) -> tuple[FitResult, Compensation]:
     from pcmm_geo.fit.probe import compensate_probe
 
     if radius == 0:
-        return fit, Compensation(0.0, "none", False, radius_source, "none")
-    try:
-        kwargs, side_source = _side_arguments(context, material_side, normals, points)
-    except NotRefittedError:
-        if not side_free:  # an element offset moves the surface along its normals: centre and axis stay put
-            raise
+        return fit, Compensation(0.0, "none", False, radius_source, "none", radius_source=radius_source)
+    kwargs, side_source = side_arguments(material_side, file_side=context.side,
+                                         internal_external=context.internal_external, normals=normals, points=points,
+                                         nominal_diameter=context.nominal_diameter, required=not side_free,
+                                         spell_setting=spell_setting)
+    if not kwargs:  # an element offset moves the surface along its normals: centre and axis stay put
         return fit, Compensation(radius, "unknown", False, f"{radius_source}; side unknown: centre and axis do not "
                                  "depend on it, the size does and is not refitted", "none")
     if "nominal_diameter" in kwargs and nominal_diameter is not None:
@@ -347,8 +246,7 @@ def _round_compensation(fit: FitResult, radius: float, radius_source: str, conte
         result = compensate_probe(fit, radius, **kwargs)
     except InvalidInputError as exc:
         raise NotRefittedError(" ".join(str(exc).split())) from None
-    return result.surface, Compensation(radius, result.side, result.inferred, f"{radius_source}; side {side_source}",
-                                        "element offset")
+    return result.surface, Compensation.from_probe(result, radius_source, side_source)
 
 
 def _sphere(points: FloatArray, normals: FloatArray | None, radius: float, radius_source: str, context: _Context,
@@ -356,7 +254,8 @@ def _sphere(points: FloatArray, normals: FloatArray | None, radius: float, radiu
     from pcmm_geo.fit import fit_sphere
 
     fit, comp = _round_compensation(fit_sphere(points, criterion=method), radius, radius_source, context,
-                                    options["material_side"], normals, points, side_free=True)
+                                    options["material_side"], normals, points, spell_setting=options["spell_setting"],
+                                    side_free=True)
     return Refit("sphere", len(points), method, method_source, comp, points, location=fit.center,
                  diameter=None if comp.side == "unknown" else 2.0 * fit.radius, fit=fit)
 
@@ -368,7 +267,8 @@ def _cylinder(points: FloatArray, normals: FloatArray | None, radius: float, rad
     hint = _first(context.actual.direction, None if context.nominal is None else context.nominal.direction)
     hinted = {"axis_hint": hint} if method == "gaussian" else {}  # the minimax fits search their own axes
     fit, comp = _round_compensation(fit_cylinder(points, criterion=method, **hinted), radius, radius_source,
-                                    context, options["material_side"], normals, points, side_free=True)
+                                    context, options["material_side"], normals, points,
+                                    spell_setting=options["spell_setting"], side_free=True)
     return Refit("cylinder", len(points), method, method_source, comp, points, location=fit.point,
                  direction=fit.axis, diameter=None if comp.side == "unknown" else 2.0 * fit.radius, fit=fit)
 
@@ -389,7 +289,7 @@ def _cone(points: FloatArray, normals: FloatArray | None, radius: float, radius_
     elif context.nominal_diameter is not None:
         context = _Context(context.actual, nominal, None, None, context.side, context.internal_external)
     fit, comp = _round_compensation(fit, radius, radius_source, context, options["material_side"], normals, points,
-                                    nominal_diameter)
+                                    nominal_diameter, spell_setting=options["spell_setting"])
     return Refit("cone", len(points), method, method_source, comp, points, location=fit.point, direction=fit.axis,
                  diameter=2.0 * fit.radius_at_point, half_angle=fit.half_angle, fit=fit)
 
@@ -404,19 +304,21 @@ def _circle(points: FloatArray, normals: FloatArray | None, radius: float, radiu
         origin = context.actual.location if context.actual.location is not None else \
             (None if context.nominal is None else context.nominal.location)
         if normal is None or origin is None:
-            raise NotRefittedError("--circle-plane reported needs the circle's reported (or nominal) normal and centre")
+            spell = options["spell_setting"]
+            raise NotRefittedError(f"{spell('circle_plane', 'reported')} needs the circle's reported (or nominal) "
+                                   "normal and centre")
         frame = _plane_frame(normal)
         in_plane = (points - origin) @ frame[:2].T
         normals_2d = None if normals is None else normals @ frame[:2].T
         fit = fit_circle(in_plane, criterion=method)
         fit, comp = _round_compensation(fit, radius, radius_source, context, options["material_side"], normals_2d,
-                                        in_plane)
+                                        in_plane, spell_setting=options["spell_setting"])
         centre = origin + fit.center @ frame[:2]
         return Refit("circle", len(points), method, method_source, comp, points, location=centre, direction=normal,
                      diameter=2.0 * fit.radius, circle_plane="reported", fit=fit)
     fit = fit_circle(points, method="projected") if method == "gaussian" else fit_circle(points, criterion=method)
     fit, comp = _round_compensation(fit, radius, radius_source, context, options["material_side"], normals, points,
-                                    side_free=True)
+                                    spell_setting=options["spell_setting"], side_free=True)
     return Refit("circle", len(points), method, method_source, comp, points, location=fit.center,
                  direction=fit.normal, diameter=None if comp.side == "unknown" else 2.0 * fit.radius,
                  circle_plane="least-squares", fit=fit)
@@ -447,7 +349,7 @@ def _flat_compensation(fit: FitResult, kind: str, radius: float, radius_source: 
     from pcmm_geo.fit.probe import compensate_probe
 
     if radius == 0:
-        return fit, Compensation(0.0, "none", False, radius_source, "none")
+        return fit, Compensation(0.0, "none", False, radius_source, "none", radius_source=radius_source)
     outward, source = _outward(context, normals, kind)
     if outward is None:
         raise NotRefittedError(f"the {kind}'s points are probe centres but neither the points nor the {kind} carry a "
@@ -458,7 +360,7 @@ def _flat_compensation(fit: FitResult, kind: str, radius: float, radius_source: 
         raise NotRefittedError(f"{' '.join(str(exc).split())} (from {source})") from None
     method = "element offset" if kind == "plane" else "points along normals"
     return result.surface, Compensation(radius, "external", False, f"{radius_source}; outward normal from {source}",
-                                        method, result.outward)
+                                        method, result.outward, radius_source, source)
 
 
 def _plane(points: FloatArray, normals: FloatArray | None, radius: float, radius_source: str, context: _Context,
@@ -487,7 +389,7 @@ def _point(points: FloatArray, normals: FloatArray | None, radius: float, radius
 
     if method != "gaussian":
         raise NotRefittedError(f"a point feature is the mean of its points; criterion {method} does not apply")
-    comp = Compensation(0.0, "none", False, radius_source, "none")
+    comp = Compensation(0.0, "none", False, radius_source, "none", radius_source=radius_source)
     surface = points
     if radius > 0:
         outward, source = _outward(context, normals, "point")
@@ -498,7 +400,7 @@ def _point(points: FloatArray, normals: FloatArray | None, radius: float, radius
         mean_normal = np.mean(np.atleast_2d(outward) / np.linalg.norm(np.atleast_2d(outward), axis=1, keepdims=True),
                               axis=0)
         comp = Compensation(radius, "external", False, f"{radius_source}; outward normal from {source}",
-                            "points along normals", mean_normal / np.linalg.norm(mean_normal))
+                            "points along normals", mean_normal / np.linalg.norm(mean_normal), radius_source, source)
     return Refit("point", len(points), method, method_source, comp, surface, location=surface.mean(axis=0))
 
 

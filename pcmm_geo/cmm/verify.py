@@ -41,8 +41,10 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 from numpy.typing import NDArray
 
-from pcmm_geo.cmm.refit import Compensation, Refit, refit_feature
+from pcmm_geo.cmm.compensation import Compensation
+from pcmm_geo.cmm.refit import Refit, refit_feature
 from pcmm_geo.errors import InvalidInputError, NotRefittedError
+from pcmm_geo.io.cmm import SpellSetting, python_setting
 
 if TYPE_CHECKING:
     from pcmm_geo.io.cmm import CmmDocument, FeatureGeometry, MeasuredFeature
@@ -181,6 +183,7 @@ def verify_document(
     compensated: bool | None = None,
     probe_radius: float | None = None,
     material_side: str | None = None,
+    spell_setting: SpellSetting = python_setting,
 ) -> Verification:
     """Refit every measured feature that has points and compare it with the CMM's actuals.
 
@@ -202,6 +205,9 @@ def verify_document(
         Material side of the features of size whose file states none (others keep the file's; see
         :func:`~pcmm_geo.cmm.refit.refit_feature`); without it, a circle, cylinder or sphere of
         unknown side has its centre and axis compared and its diameter not.
+    spell_setting : callable
+        How errors and reasons name these parameters (:mod:`pcmm_geo.io.cmm.settings`; the
+        command line passes its option names).
 
     Returns
     -------
@@ -214,19 +220,21 @@ def verify_document(
     """
     tolerance = float(tolerance_mm)
     if not (np.isfinite(tolerance) and tolerance > 0):
-        raise InvalidInputError("tolerance_mm", "a positive finite length (mm)", repr(tolerance_mm))
+        raise InvalidInputError(spell_setting("tolerance_mm"), "a positive finite length (mm)", repr(tolerance_mm))
     if probe_radius is not None and not (np.isfinite(probe_radius) and probe_radius > 0):
-        raise InvalidInputError("probe_radius", "a positive finite probe radius (mm)", repr(probe_radius))
+        raise InvalidInputError(spell_setting("probe_radius"), "a positive finite probe radius (mm)",
+                                repr(probe_radius))
     if material_side not in (None, "internal", "external"):
-        raise InvalidInputError("material_side", "'internal' or 'external'", repr(material_side))
+        raise InvalidInputError(spell_setting("material_side"), "'internal' or 'external'", repr(material_side))
     if criterion is not None and criterion not in ("gaussian", "chebyshev", "mcc", "mic"):
-        raise InvalidInputError("criterion", "'gaussian', 'chebyshev', 'mcc' or 'mic'", repr(criterion))
+        raise InvalidInputError(spell_setting("criterion"), "'gaussian', 'chebyshev', 'mcc' or 'mic'", repr(criterion))
     checks = []
     for feature in document.measured_features:
         try:
             refit = refit_feature(document, feature, criterion=criterion, circle_plane=circle_plane,
                                   compensated=compensated, probe_radius=probe_radius,
-                                  material_side=material_side if feature.material_side is None else None)
+                                  material_side=material_side if feature.material_side is None else None,
+                                  spell_setting=spell_setting)
         except NotRefittedError as exc:
             points = _count_points(document, feature)
             checks.append(FeatureCheck(feature.id, feature.type, feature.name, points, None, str(exc),

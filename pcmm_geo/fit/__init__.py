@@ -22,9 +22,7 @@ Examples
 
 from __future__ import annotations
 
-import importlib
-from typing import Any
-
+from pcmm_geo._lazy import attach
 from pcmm_geo.fit._kernels._core import TOL, FitResult, Tolerances
 
 # public name -> submodule that defines it; loaded on first access (PEP 562) so that
@@ -73,18 +71,6 @@ _LAZY = {
 #: the element names the fits (``fit_<name>``), the reference generator and ``pcmm fit`` share
 ELEMENTS = ("line", "plane", "circle", "sphere", "cylinder", "cone", "torus")
 
-__all__ = ["ELEMENTS", "FitResult", "Tolerances", "TOL", *sorted(_LAZY)]
+__getattr__, __dir__, _LAZY_ALL = attach(__name__, _LAZY)
 
-
-def __getattr__(name: str) -> Any:
-    module_name = _LAZY.get(name)
-    if module_name is None:
-        raise AttributeError(f"module 'pcmm_geo.fit' has no attribute {name!r}")
-    module = importlib.import_module(f"pcmm_geo.fit.{module_name}")
-    value = module if name == module_name else getattr(module, name)
-    globals()[name] = value
-    return value
-
-
-def __dir__() -> list[str]:
-    return sorted(set(globals()) | set(_LAZY))
+__all__ = ["ELEMENTS", "FitResult", "Tolerances", "TOL", *_LAZY_ALL]

@@ -166,9 +166,11 @@ def fit_circle(
     check_criterion(criterion, _ELEMENT, weights=weights, radius=radius)
     pts = as_points(points, element=_ELEMENT, dims=(2, 3), min_points=3)
     if criterion != "gaussian":
+        from pcmm_geo.fit.zone._distinct import on_distinct
         from pcmm_geo.fit.zone._round import circle_minimax
 
-        return circle_minimax(pts, criterion, result_type=CircleFit, fit_plane=fit_plane)
+        return on_distinct(pts, element=_ELEMENT, min_points=3,
+                           solve=lambda q: circle_minimax(q, criterion, result_type=CircleFit, fit_plane=fit_plane))
     w = as_weights(weights, len(pts), element=_ELEMENT)
     if pts.shape[1] == 2:
         return _circle_2d(pts, w, radius)

@@ -220,8 +220,10 @@ def fit_cone(
     data = as_points(points, element=_ELEMENT, min_points=6)
     if criterion != "gaussian":
         from pcmm_geo.fit.zone._axial import cone_minimax
+        from pcmm_geo.fit.zone._distinct import on_distinct
 
-        return cone_minimax(data, criterion, gauss=fit_cone(data), result_type=ConeFit)
+        return on_distinct(data, element=_ELEMENT, min_points=6,
+                           solve=lambda q: cone_minimax(q, criterion, gauss=fit_cone(q), result_type=ConeFit))
     weight = as_weights(weights, data.shape[0], element=_ELEMENT)
     sqrt_weights = None if weight is None else np.sqrt(weight)
     centroid = weighted_centroid(data)

@@ -263,9 +263,13 @@ def fit_cylinder(
         check_points(data, element=_ELEMENT, min_points=min_points)
     if criterion != "gaussian":
         from pcmm_geo.fit.zone._axial import cylinder_minimax
+        from pcmm_geo.fit.zone._distinct import on_distinct
 
-        return cylinder_minimax(data, criterion, gauss=fit_cylinder(data), result_type=CylinderFit,
-                                axis_region=axis_region, search_budget=search_budget)
+        def solve(q: np.ndarray) -> CylinderFit:
+            return cylinder_minimax(q, criterion, gauss=fit_cylinder(q), result_type=CylinderFit,
+                                    axis_region=axis_region, search_budget=search_budget)
+
+        return on_distinct(data, element=_ELEMENT, min_points=min_points, solve=solve)
     weight = as_weights(weights, data.shape[0], element=_ELEMENT)
     if chunked:
         from pcmm_geo.fit.scale.chunked import IllConditionedSteps

@@ -125,19 +125,25 @@ def fit_line(
     if not chunked:  # the chunked fit checks the values in its first pass
         check_points(pts, element=_ELEMENT, min_points=min_points)
     if criterion != "gaussian":
+        from pcmm_geo.fit.zone._distinct import on_distinct
+
         if pts.shape[1] == 3:
             from pcmm_geo.fit.zone._axial import line3d_minimax
 
-            try:
-                start: LineFit | None = fit_line(pts)
-            except DegenerateGeometryError:  # no preferred direction: the zone still exists
-                start = None
-            return line3d_minimax(pts, criterion, gauss=start, result_type=LineFit, search_budget=search_budget)
+            def solve_3d(q: FloatArray) -> LineFit:
+                try:
+                    start: LineFit | None = fit_line(q)
+                except DegenerateGeometryError:  # no preferred direction: the zone still exists
+                    start = None
+                return line3d_minimax(q, criterion, gauss=start, result_type=LineFit, search_budget=search_budget)
+
+            return on_distinct(pts, element=_ELEMENT, min_points=min_points, solve=solve_3d)
         if search_budget is not None:
             raise InvalidInputError("search_budget", "None for a 2-D line (its zone is exact)", repr(search_budget))
         from pcmm_geo.fit.zone._linear import line_minimax
 
-        return line_minimax(pts, criterion, gauss=fit_line(pts), result_type=LineFit)
+        return on_distinct(pts, element=_ELEMENT, min_points=min_points,
+                           solve=lambda q: line_minimax(q, criterion, gauss=fit_line(q), result_type=LineFit))
     w = as_weights(weights, len(pts), element=_ELEMENT)
     if chunked:
         from pcmm_geo.fit.scale.chunked import IllConditionedSteps

@@ -104,9 +104,11 @@ def fit_plane(points: ArrayLike, *, weights: ArrayLike | None = None, criterion:
     if not chunked:  # the chunked fit checks the values in its first pass
         check_points(pts, element=_ELEMENT, min_points=min_points)
     if criterion != "gaussian":
+        from pcmm_geo.fit.zone._distinct import on_distinct
         from pcmm_geo.fit.zone._linear import plane_minimax
 
-        return plane_minimax(pts, criterion, gauss=fit_plane(pts), result_type=PlaneFit)
+        return on_distinct(pts, element=_ELEMENT, min_points=min_points,
+                           solve=lambda q: plane_minimax(q, criterion, gauss=fit_plane(q), result_type=PlaneFit))
     w = as_weights(weights, len(pts), element=_ELEMENT)
     if chunked:
         from pcmm_geo.fit.scale.chunked import IllConditionedSteps

@@ -149,9 +149,11 @@ def fit_sphere(
     else:
         check_points(pts, element=_ELEMENT, min_points=min_points)
     if criterion != "gaussian":
+        from pcmm_geo.fit.zone._distinct import on_distinct
         from pcmm_geo.fit.zone._round import sphere_minimax
 
-        return sphere_minimax(pts, criterion, result_type=SphereFit)
+        return on_distinct(pts, element=_ELEMENT, min_points=min_points,
+                           solve=lambda q: sphere_minimax(q, criterion, result_type=SphereFit))
     w = as_weights(weights, len(pts), element=_ELEMENT)
     centre, fitted_radius, outcome, residuals, cond, cov = fit_nsphere(pts, w, element=_ELEMENT, fixed_radius=radius)
     rms, form = residual_stats(residuals)

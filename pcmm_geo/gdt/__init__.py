@@ -27,8 +27,7 @@ Public API (names load on first use):
 
 from __future__ import annotations
 
-import importlib
-from typing import Any
+from pcmm_geo._lazy import attach
 
 _LAZY = {
     "DEGREES_OF_FREEDOM": "frame",
@@ -79,14 +78,4 @@ _LAZY = {
     "inspection_to_qif": "qif.results",
 }
 
-__all__ = sorted(_LAZY)
-
-
-def __getattr__(name: str) -> Any:
-    if name in _LAZY:
-        return getattr(importlib.import_module(f"pcmm_geo.gdt.{_LAZY[name]}"), name)
-    raise AttributeError(f"module 'pcmm_geo.gdt' has no attribute {name!r}")
-
-
-def __dir__() -> list[str]:
-    return sorted(set(globals()) | set(_LAZY))
+__getattr__, __dir__, __all__ = attach(__name__, _LAZY)

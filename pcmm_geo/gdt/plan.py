@@ -184,7 +184,7 @@ def read_plan_text(path: str | Path) -> tuple[dict[str, Any], dict[tuple[Any, ..
     """
     import tomllib
 
-    from pcmm_geo.io._text import read_text_file
+    from pcmm_geo.io.text import read_text_file
 
     text = read_text_file(path)
     try:

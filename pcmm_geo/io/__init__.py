@@ -11,8 +11,7 @@ imported only when a point cloud is read or written, trimesh only for meshes).
 
 from __future__ import annotations
 
-import importlib
-from typing import Any
+from pcmm_geo._lazy import attach
 
 _LAZY = {
     "read_points": "points",
@@ -31,17 +30,4 @@ _LAZY = {
     "nominal_mesh": "meshes",
 }
 
-__all__ = sorted(_LAZY)
-
-
-def __getattr__(name: str) -> Any:
-    module_name = _LAZY.get(name)
-    if module_name is None:
-        raise AttributeError(f"module 'pcmm_geo.io' has no attribute {name!r}")
-    value = getattr(importlib.import_module(f"pcmm_geo.io.{module_name}"), name)
-    globals()[name] = value
-    return value
-
-
-def __dir__() -> list[str]:
-    return sorted(set(globals()) | set(_LAZY))
+__getattr__, __dir__, __all__ = attach(__name__, _LAZY)

@@ -8,9 +8,10 @@ a row and the three columns kept.  :func:`read_rows` streams a file's blocks
 
 - the *fast path* proves a block clean with a few vectorised byte scans (only ASCII digits,
   signs, exponents, separators and the file's decimal mark; every line holding the file's
-  number of fields; no line over the length bound) and parses it with numpy's C reader
-  (:func:`numpy.loadtxt`, correctly rounded), which refuses any field that is not a whole
-  decimal number;
+  number of fields; no line over the length bound) and parses it: a block of plain decimals
+  (no exponent, no padding; :func:`_plain_fields`) with a few numpy passes over its bytes,
+  else with numpy's C reader (:func:`numpy.loadtxt`); both correctly rounded, and both refuse
+  any field that is not a whole decimal number;
 - anything else (a comment, a blank line with spaces, a NaN, a bad byte, a wrong field) sends
   the block to the *careful path*, which checks it line by line with the rules the refusals are
   written in (:meth:`Layout.parse`) and raises a :class:`~pcmm_geo.errors.FileFormatError`
@@ -42,6 +43,15 @@ COMMA_NUMBER = re.compile(r"[+-]?(\d+,?\d*|,\d+)([eE][+-]?\d+)?|[+-]?(nan|inf|in
 SEPARATOR_NAMES = {";": "';'", "\t": "tab", ",": "','", " ": "spaces"}
 # bytes a clean block may hold (anything else goes to the careful path)
 _CLEAN_BYTES = b"0123456789+-.eE,; \t\r\n"
+#: longest field the plain parser reads (sign, digits and decimal mark; longer ones go to numpy's reader):
+#: its digits as one integer stay below 10**15 < 2**53, exact in float64
+_PLAIN_PLACES = 15
+#: bytes of a field as the plain parser reads them, right-aligned (zeros in front)
+_WINDOW = 16
+#: per first column (0-16), the mask of the bytes from that column on, as two little-endian words
+_KEEP = (np.arange(_WINDOW)[None, :] >= np.arange(_WINDOW + 1)[:, None]).astype(np.uint8).__mul__(255).view("<u8")
+_POWERS = 10.0 ** np.arange(_PLAIN_PLACES + 1)  # exact in float64
+_INTEGER_POWERS = 10 ** np.arange(_PLAIN_PLACES + 1, dtype=np.int64)
 
 
 def _split(text: str, separator: str) -> list[str]:
@@ -170,6 +180,10 @@ def _fast(data: bytes, layout: Layout) -> FloatArray | None:
         if (dot and comma) or (decimal == "." and comma) or (decimal == "," and dot):
             return None
         decimal = decimal or ("," if comma else "." if dot else None)
+    plain = _plain_fields(data, ord(separator), ord(decimal or "."), layout.width)
+    if plain is not None:
+        layout.decimal = decimal
+        return np.ascontiguousarray(plain[:, list(layout.columns)])
     text = data.decode("ascii")
     if not text.strip():  # nothing but line ends and spaces (loadtxt would warn)
         return None if text.strip("\n") else np.empty((0, 3))
@@ -188,6 +202,136 @@ def _fast(data: bytes, layout: Layout) -> FloatArray | None:
         return None
     layout.decimal = decimal
     return points
+
+
+def _plain_fields(data: bytes, separator: int, decimal: int, width: int) -> FloatArray | None:
+    """All fields ``(lines, width)`` of a block of plain decimals, or None when numpy's reader must decide.
+
+    Plain: every line ends with ``\\n`` and holds ``width`` fields, each separated by exactly one
+    ``separator`` byte (spaces: one space) and made of an optional sign in front, digits and at
+    most one ``decimal`` mark, at least one digit, at most 15 bytes (no exponent, no
+    blank line, no padding).  Each field is read as the integer ``m`` of its digits and the
+    number ``k`` of digits after the mark, both exact in float64; ``m / 10**k`` is then one
+    correctly rounded division: the correctly rounded value of the decimal, as ``float()`` and
+    :func:`numpy.loadtxt` give it.  Vectorised over the whole block: the fields are gathered,
+    right-aligned, into a ``(fields, 16)`` byte matrix (one sliding-window gather), whose rows
+    are turned into integers eight digits at a time (:func:`_digits_value`).
+    """
+    raw = np.frombuffer(data, dtype=np.uint8)
+    if len(raw) == 0 or raw[-1] != 10:
+        return None
+    newline = raw == 10
+    ends = np.flatnonzero(newline | (raw == separator))
+    lines = int(np.count_nonzero(newline))
+    if len(ends) != lines * width or not newline[ends[width - 1::width]].all():
+        return None  # a line with another number of fields (the newlines are then elsewhere)
+    line_ends = ends[width - 1::width]
+    if int(np.diff(line_ends, prepend=-1).max()) > MAX_LINE_CHARS:
+        return None
+    starts = np.empty_like(ends)
+    starts[0] = 0
+    starts[1:] = ends[:-1] + 1
+    lengths = ends - starts
+    if int(lengths.min()) < 1 or int(lengths.max()) > _PLAIN_PLACES:
+        return None
+    by_line = lengths.reshape(lines, width)
+    if np.array_equal(by_line, np.broadcast_to(by_line[0], by_line.shape)):  # every line laid out alike
+        fixed = _fixed_fields(raw.reshape(lines, -1), by_line[0], decimal)
+        if fixed is not None:
+            return fixed
+    padded = np.empty(_WINDOW + len(raw), dtype=np.uint8)
+    padded[:_WINDOW] = 0
+    padded[_WINDOW:] = raw
+    # the 8-byte words starting at every byte (unaligned): the field ending at ``e`` is padded[e:e + 16],
+    # right-aligned with the bytes of its line before it, which the mask of its first column clears
+    words_at = np.ndarray((len(padded) - 7,), dtype="<u8", buffer=padded, strides=(1,))
+    first = _WINDOW - lengths  # the column of each field's first byte (1 or more)
+    words = np.empty((len(ends), 2), dtype="<u8")
+    words[:, 0] = words_at[ends]
+    words[:, 1] = words_at[ends + 8]
+    words &= _KEEP[first]
+    field = words.view(np.uint8)  # (fields, 16)
+    rows = np.arange(len(field))
+    lead = field[rows, first]
+    signed = (lead == ord("-")) | (lead == ord("+"))
+    field -= np.uint8(ord("0"))  # digits 0-9; marks, signs and the cleared bytes wrap round to 208 and more
+    is_digit = field < 10
+    is_mark = field == np.uint8((decimal - ord("0")) % 256)
+    mark_at = np.argmax(is_mark, axis=1)
+    has_mark = is_mark[rows, mark_at]
+    marks, signs = np.count_nonzero(is_mark), np.count_nonzero(signed)
+    minus, plus = np.uint8(ord("-") - ord("0") + 256), np.uint8(ord("+") - ord("0") + 256)
+    # the bytes are digits, marks and signs (disjoint) besides the cleared ones; one mark at most a field,
+    # signs only in front, one digit at least
+    if (np.count_nonzero(is_digit) + marks + signs + int(first.sum()) != field.size
+            or marks != np.count_nonzero(has_mark)
+            or np.count_nonzero(field == minus) + np.count_nonzero(field == plus) != signs
+            or not (lengths - has_mark - signed).min() >= 1):
+        return None
+    field *= is_digit
+    whole = _digits_value(field)  # the digits as one integer with a zero in the mark's place (below 10**15)
+    after = np.where(has_mark, _WINDOW - 1 - mark_at, 0)
+    scale = _INTEGER_POWERS[after]
+    mantissa = np.where(has_mark, whole // (10 * scale) * scale + whole % scale, whole)
+    values = mantissa.astype(np.float64) / _POWERS[after]
+    np.negative(values, out=values, where=lead == ord("-"))
+    return values.reshape(lines, width)
+
+
+def _fixed_fields(table: NDArray[np.uint8], lengths: NDArray[np.int64], decimal: int) -> FloatArray | None:
+    """:func:`_plain_fields` of lines of one layout, ``table`` (lines, bytes a line): field ``j`` is ``lengths[j]``
+    bytes at the same place in every line, its mark (if any) in the same column in every line.
+
+    Each field's columns are checked and copied, right-aligned without the mark, as whole
+    column slices of the table (no gather), then read eight digits at a time.
+    """
+    lines = len(table)
+    values = np.empty((lines, len(lengths)))
+    start = 0
+    for column, length in enumerate(lengths.tolist()):
+        cells = table[:, start:start + length]
+        start += length + 1
+        marks = np.flatnonzero(cells[0] == decimal)
+        mark = int(marks[0]) if len(marks) else length  # the mark's column (length: none)
+        lead = cells[:, 0]
+        signed = (lead == ord("-")) | (lead == ord("+"))
+        digits = np.full((lines, _WINDOW), ord("0"), dtype=np.uint8)
+        after = length - mark - 1 if mark < length else 0
+        digits[:, _WINDOW - after:] = cells[:, mark + 1:] if after else ord("0")
+        digits[:, _WINDOW - after - mark:_WINDOW - after] = cells[:, :mark]
+        digits -= np.uint8(ord("0"))
+        first = digits[:, _WINDOW - after - mark] if mark else None
+        if first is not None and signed.any():
+            if mark + after == 1:  # a sign alone, or before the mark only
+                return None
+            first[signed] = 0
+        if (mark < length and not np.all(cells[:, mark] == decimal)) or not np.all(digits < 10):
+            return None
+        if mark == 0 and (signed.any() or after == 0):  # a field of one mark, or a sign in its place
+            return None
+        values[:, column] = _digits_value(digits) / _POWERS[after]
+        np.negative(values[:, column], out=values[:, column], where=lead == ord("-"))
+    return values
+
+
+def _digits_value(digits: NDArray[np.uint8]) -> NDArray[np.int64]:
+    """The integers whose decimal digits are the rows of ``digits`` (M, 16), most significant first.
+
+    Eight bytes are read as one little-endian 64-bit word and combined pairwise in three
+    multiply-shift-mask steps (10, 100, 10**4: two digits, four, eight); no lane carries.
+    """
+    words = np.ascontiguousarray(digits).view("<u8")  # (M, 2): the high eight digits, the low eight
+    combined = np.empty_like(words)
+    for factor, shift, mask in ((10, 8, 0x00FF00FF00FF00FF), (100, 16, 0x0000FFFF0000FFFF),
+                                (10_000, 32, 0x00000000FFFFFFFF)):
+        np.multiply(words, np.uint64(factor), out=combined)
+        np.right_shift(words, np.uint64(shift), out=words)
+        words += combined
+        words &= np.uint64(mask)
+    value = words[:, 0].astype(np.int64)
+    value *= 100_000_000
+    value += words[:, 1].astype(np.int64)
+    return value
 
 
 def _careful(path: str, block: LineBlock, layout: Layout) -> FloatArray:

@@ -38,9 +38,7 @@ Examples
 
 from __future__ import annotations
 
-import importlib
-from typing import Any
-
+from pcmm_geo._lazy import attach
 from pcmm_geo.machine import _moved
 
 _moved.install()
@@ -116,18 +114,4 @@ _LAZY = {
     "save_calibration": "calibration.calfile",
 }
 
-__all__ = sorted(_LAZY)
-
-
-def __getattr__(name: str) -> Any:
-    module_name = _LAZY.get(name)
-    if module_name is None:
-        raise AttributeError(f"module 'pcmm_geo.machine' has no attribute {name!r}")
-    module = importlib.import_module(f"pcmm_geo.machine.{module_name}")
-    value = getattr(module, name)
-    globals()[name] = value
-    return value
-
-
-def __dir__() -> list[str]:
-    return sorted(set(globals()) | set(_LAZY))
+__getattr__, __dir__, __all__ = attach(__name__, _LAZY)

@@ -9,6 +9,7 @@ without ``pyplot``, so no global matplotlib backend is switched.
 - :func:`plot_calibration` -- tetrahedron calibration in 3-D (thesis fig 7.2) and miss distances.
 - :func:`plot_gauge_block` -- per-face plane residuals and the lengths of every method.
 - :func:`plot_sensitivity` -- workspace sensitivity map, one panel per z level, singular points counted.
+- :func:`plot_conditioning_maps` -- predicted tip uncertainty over the workspace and over session start poses.
 - :func:`plot_fit_residuals` -- residuals of a fit where the points lie (angle, height, in-plane maps).
 - :func:`plot_processed_log` -- tip path, pivot heights and closure residuals of a log.
 - :func:`plot_tip_errors`, :func:`plot_demo_overview` -- the end-to-end demo.
@@ -34,45 +35,32 @@ Examples
 
 from __future__ import annotations
 
-import importlib
-from typing import Any
+from pcmm_geo._lazy import attach
 
 # public name -> module defining it, imported on first access (PEP 562)
 _LAZY = {
-    "plot_calibration": "pcmm_geo.plots.machine.calibration",
-    "plot_gauge_block": "pcmm_geo.plots.gauge_block",
-    "plot_sensitivity": "pcmm_geo.plots.machine.sensitivity",
-    "plot_fit_residuals": "pcmm_geo.plots.fit_residuals",
-    "plot_processed_log": "pcmm_geo.plots.machine.process_log",
-    "plot_tip_errors": "pcmm_geo.plots.demo",
-    "plot_monte_carlo": "pcmm_geo.plots.uncertainty",
-    "plot_demo_overview": "pcmm_geo.plots.demo",
-    "check_plot_path": "pcmm_geo.plots._figure",
-    "length_unit": "pcmm_geo.plots._figure",
-    "plot_length_test": "pcmm_geo.plots.verification",
-    "plot_probing_test": "pcmm_geo.plots.verification",
-    "plot_software_test": "pcmm_geo.plots.verification",
-    "plot_stage_test": "pcmm_geo.plots.verification",
-    "plot_numerical_calibration": "pcmm_geo.plots.machine.machine_state",
-    "plot_pose": "pcmm_geo.plots.machine.machine_state",
-    "plot_trilateration": "pcmm_geo.plots.machine.machine_state",
-    "plot_sensor_curve": "pcmm_geo.plots.thermal",
-    "plot_length_correction": "pcmm_geo.plots.thermal",
-    "plot_frame_triangle": "pcmm_geo.plots.thermal",
-    "plot_thermal_table": "pcmm_geo.plots.thermal",
+    "plot_calibration": "machine.calibration",
+    "plot_gauge_block": "gauge_block",
+    "plot_sensitivity": "machine.sensitivity",
+    "plot_conditioning_maps": "machine.conditioning",
+    "plot_fit_residuals": "fit_residuals",
+    "plot_processed_log": "machine.process_log",
+    "plot_tip_errors": "demo",
+    "plot_monte_carlo": "uncertainty",
+    "plot_demo_overview": "demo",
+    "check_plot_path": "_figure",
+    "length_unit": "_figure",
+    "plot_length_test": "verification",
+    "plot_probing_test": "verification",
+    "plot_software_test": "verification",
+    "plot_stage_test": "verification",
+    "plot_numerical_calibration": "machine.machine_state",
+    "plot_pose": "machine.machine_state",
+    "plot_trilateration": "machine.machine_state",
+    "plot_sensor_curve": "thermal",
+    "plot_length_correction": "thermal",
+    "plot_frame_triangle": "thermal",
+    "plot_thermal_table": "thermal",
 }
 
-__all__ = sorted(_LAZY)
-
-
-def __getattr__(name: str) -> Any:
-    module_name = _LAZY.get(name)
-    if module_name is None:
-        raise AttributeError(f"module 'pcmm_geo.plots' has no attribute {name!r}")
-    value = getattr(importlib.import_module(module_name), name)
-    globals()[name] = value
-    return value
-
-
-def __dir__() -> list[str]:
-    return sorted(set(globals()) | set(_LAZY))
+__getattr__, __dir__, __all__ = attach(__name__, _LAZY)

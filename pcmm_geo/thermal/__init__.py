@@ -21,8 +21,7 @@ Examples
 
 from __future__ import annotations
 
-import importlib
-from typing import Any
+from pcmm_geo._lazy import attach
 
 _LAZY = {
     "REFERENCE_TEMPERATURE": "expansion",
@@ -61,17 +60,4 @@ _LAZY = {
     "thermal_sensitivity_table": "physical",
 }
 
-__all__ = sorted(_LAZY)
-
-
-def __getattr__(name: str) -> Any:
-    module_name = _LAZY.get(name)
-    if module_name is None:
-        raise AttributeError(f"module 'pcmm_geo.thermal' has no attribute {name!r}")
-    value = getattr(importlib.import_module(f"pcmm_geo.thermal.{module_name}"), name)
-    globals()[name] = value
-    return value
-
-
-def __dir__() -> list[str]:
-    return sorted(set(globals()) | set(_LAZY))
+__getattr__, __dir__, __all__ = attach(__name__, _LAZY)

@@ -262,10 +262,10 @@ def _rebuild(features: Any, x: FloatArray) -> tuple[Any, FloatArray]:
 
 
 def _prepare(probings: Any, lasers: Any) -> tuple[Any, FloatArray]:
-    from pcmm_geo.machine.calibration.tetrahedron import _as_features, _as_lasers
+    from pcmm_geo.machine.calibration.tetrahedron import as_laser_table, as_probed_features
 
-    features = _as_features(probings)
-    table = _as_lasers(lasers, features.positions)
+    features = as_probed_features(probings)
+    table = as_laser_table(lasers, features.positions)
     return features, table.at(features.positions)
 
 

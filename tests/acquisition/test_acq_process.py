@@ -46,6 +46,8 @@ def acquire(folder: Path, seed: int, offsets: tuple[float, ...] | None = None, m
     args = ["acquire", "--simulate", "--seed", str(seed), "--moves", str(moves), "--settle", "0", "--out", str(path)]
     if offsets is not None:
         args += ["--start-offsets-mm", *map(str, offsets)]
+    else:
+        args += ["--start", "level"]  # the thesis' level start, by name (the default is a conditioned start)
     with contextlib.redirect_stdout(io.StringIO()):
         assert main(args) == 0
     return path

@@ -39,7 +39,7 @@ def tip_errors(path: Path):
 
 def test_off_level_start_gives_points_within_their_uncertainty(tmp_path: Path) -> None:
     level, off_level = tmp_path / "level.csv", tmp_path / "off.csv"
-    assert acquire(level).returncode == 0
+    assert acquire(level, "--start", "level").returncode == 0  # the thesis' start, by name
     proc = acquire(off_level, "--start-offsets-mm", *map(str, OFF_LEVEL_START_OFFSETS))
     assert proc.returncode == 0, proc.stderr
     errors, out, caught = tip_errors(level)

@@ -12,6 +12,8 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 from scipy.spatial.transform import Rotation
 
 from pcmm_geo.artefacts import (
@@ -153,16 +155,27 @@ def test_distances_equal_a_search_over_every_triangle(mesh_number: int) -> None:
     np.testing.assert_allclose(on_face, found.closest, rtol=0, atol=1e-12)
 
 
+def _rows_of(points: np.ndarray, values: np.ndarray) -> object:
+    """A stand-in candidate method: ``values`` of the rows of ``points`` in a block of the query (a slice)."""
+    def pick(self: SurfaceIndex, query: np.ndarray, **_: object) -> np.ndarray:
+        start = int(np.flatnonzero(np.all(points == query[0], axis=1))[0])
+        return values[start:start + len(query)].copy()
+
+    return pick
+
+
 @pytest.mark.parametrize("mesh_number", [0, 1])
 def test_a_wrong_candidate_is_corrected(monkeypatch: pytest.MonkeyPatch, mesh_number: int) -> None:
-    """open3d's float32 candidate replaced by a far triangle and the pairs split into tiny blocks: still exact."""
+    """The first candidates (nearest centroid's, open3d's float32 one) replaced by a far triangle and the pairs
+    split into tiny blocks: still exact."""
     from pcmm_geo.artefacts import _triangle
 
     mesh = _fine_meshes()[mesh_number]
     points = np.random.default_rng(4).uniform(mesh.bounds[0] - 3.0, mesh.bounds[1] + 3.0, (200, 3))
     index = SurfaceIndex.build(mesh)
     far = np.argmax(points @ -index.triangles.mean(axis=1).T, axis=1)  # roughly opposite, far away
-    monkeypatch.setattr(SurfaceIndex, "candidates", lambda self, query: far[: len(query)])
+    for first in ("nearby", "candidates"):  # the nearest centroid's triangle, and open3d's for far points
+        monkeypatch.setattr(SurfaceIndex, first, _rows_of(points, far))
     monkeypatch.setattr(cad_distance, "_PAIRS_PER_BLOCK", 64)
     monkeypatch.setattr(_triangle, "_FIRST_NEIGHBOURS", 2)
     found = index.distances(points)
@@ -188,7 +201,8 @@ def test_neighbour_lists_correct_a_nearby_wrong_candidate(monkeypatch: pytest.Mo
     listed = index.neighbours.listed[true_face]  # nearest centroids first, padded with len(triangles)
     wrong = listed[np.arange(len(listed)), np.argmax(listed < len(index.triangles), axis=1)]  # a neighbour
     assert np.all(wrong < len(index.triangles)) and np.all(wrong != true_face)
-    monkeypatch.setattr(SurfaceIndex, "candidates", lambda self, query: wrong[: len(query)].copy())
+    for first in ("nearby", "candidates"):
+        monkeypatch.setattr(SurfaceIndex, first, _rows_of(points, wrong))
     answered = []
     spy = _triangle.listed_pairs
 
@@ -543,3 +557,31 @@ def test_compare_to_a_mesh_file_path(tmp_path: Path) -> None:
     assert np.median(from_file.deviations.signed_distance) == pytest.approx(0.01, abs=2e-3)
     with pytest.raises(InvalidInputError, match=r"mesh: expected a trimesh\.Trimesh or the path of a mesh file"):
         compare_to_mesh(measured, 42)
+
+
+@settings(max_examples=10, deadline=None)
+@given(offsets=st.lists(st.sampled_from([0.0, 1e-9, 1e-6, 1e-3, 0.05, 0.4, 3.0, 40.0]), min_size=1, max_size=40),
+       seed=st.integers(0, 10_000), far_from_origin=st.booleans())
+def test_nearest_centroid_candidates_agree_with_open3d_candidates(offsets: list[float], seed: int,
+                                                                 far_from_origin: bool) -> None:
+    """The first candidate (nearest centroid; open3d's only beyond three triangle radii) gives the distances of the
+    open3d-candidate path and of a brute-force search, on vertices, edges, faces and off them, near and far."""
+    import trimesh
+
+    sphere = trimesh.creation.icosphere(subdivisions=2, radius=10.0)
+    if far_from_origin:
+        sphere.apply_translation([500.0, -300.0, 200.0])
+    rng = np.random.default_rng(seed)
+    triangles = sphere.triangles[rng.integers(0, len(sphere.faces), len(offsets))]
+    weights = rng.choice([[1.0, 0.0, 0.0], [0.5, 0.5, 0.0], [1 / 3, 1 / 3, 1 / 3], [0.2, 0.3, 0.5]], len(offsets))
+    on_surface = np.einsum("ij,ijk->ik", weights, triangles)
+    direction = rng.standard_normal((len(offsets), 3))
+    points = on_surface + direction / np.linalg.norm(direction, axis=1)[:, None] * np.array(offsets)[:, None]
+    index = SurfaceIndex.build(sphere)
+    nearby = index.nearby(points)
+    assert np.all((nearby >= 0) | (np.array(offsets) > 3.0))  # only points a few triangles away lack a centroid
+    found = index.distances(points, workers=1)
+    _, squared, _, _ = index._nearest(points, index.candidates(points))  # the open3d-candidate path
+    truth = _brute_force_distances(points, sphere)
+    np.testing.assert_allclose(np.abs(found.signed_distance), np.sqrt(squared), rtol=0, atol=1e-12)
+    np.testing.assert_allclose(np.abs(found.signed_distance), truth, rtol=0, atol=1e-12)

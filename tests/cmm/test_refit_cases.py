@@ -93,7 +93,7 @@ def test_side_from_point_normals_and_from_nominal_size() -> None:
 def test_unknown_compensation_needs_the_user() -> None:
     document = _hole(compensated=None)
     check = _only(document)
-    assert check.agrees is None and "--compensated yes|no" in check.reason
+    assert check.agrees is None and "compensated: expected True or False" in check.reason
     (told,) = verify_document(document, tolerance_mm=1e-9, compensated=False).features
     assert told.agrees is True and told.compensation.probe_radius_mm == R
     (surface,) = verify_document(document, tolerance_mm=1e-9, compensated=True).features

@@ -16,7 +16,7 @@ from hypothesis import strategies as st
 
 from pcmm_geo.errors import FileFormatError
 from pcmm_geo.io import read_points
-from pcmm_geo.io._delimited import Layout, _careful, _fast, count_lines, read_rows
+from pcmm_geo.io._delimited import Layout, _careful, _fast, _plain_fields, count_lines, read_rows
 from pcmm_geo.io._lines import LineBlock, iter_blocks
 from pcmm_geo.io.points import scan_head
 
@@ -175,3 +175,99 @@ def test_fast_path_agrees_with_the_careful_path(rows: list[list[str]], separator
         return
     if fast is not None:
         np.testing.assert_array_equal(fast, careful)
+
+
+# --- the plain block parser (vectorised, no numpy reader) reads what numpy's reader and the careful path read ---
+
+_PLAIN_TOKENS = st.sampled_from(["0", "-0", "+0", "1", "-2.5", "+.5", "7.", ".", "-", "+", "-.", "1.2.3", "--1",
+                                 "1-2", "007.250", "123456789012345", "1234567890123456", "12345678.901234",
+                                 "-.12345678901234", "99999999.999999", "1e5", "", " 1", "1 ", "0.000001", "x"])
+
+
+@settings(max_examples=300, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(rows=st.lists(st.lists(_PLAIN_TOKENS, min_size=2, max_size=4), min_size=1, max_size=5),
+       separator=st.sampled_from([",", ";", "\t", " "]), decimal=st.sampled_from([".", ","]),
+       width=st.sampled_from([2, 3, 4]), blank=st.booleans())
+def test_plain_parser_agrees_with_numpy_and_the_careful_path(rows: list[list[str]], separator: str, decimal: str,
+                                                             width: int, blank: bool) -> None:
+    """On hostile fields the plain parser either declines (None) or gives exactly the careful path's numbers.
+
+    Equality is exact by construction, not by luck of rounding: both sides return the correctly
+    rounded double of each decimal (``float()``; the plain parser's one division of exact operands).
+    """
+    if separator == ",":
+        decimal = "."
+    text = "".join(separator.join(token.replace(".", decimal) for token in row) + "\n" for row in rows)
+    data = (text + "\n" if blank else text).encode()
+    plain = _plain_fields(data, ord(separator), ord(decimal), width)
+    layout = Layout("f.txt", separator, decimal, width, (width - 1, 0, 1))
+    try:
+        careful = _careful("f.txt", LineBlock(0, 1, data, True), layout)
+    except FileFormatError:
+        assert plain is None, data
+        return
+    if plain is None:
+        return
+    columns = list(layout.columns)
+    np.testing.assert_array_equal(plain[:, columns], careful)
+    lines = text.replace(",", ".").split("\n")[:-1] if decimal == "," else text.split("\n")[:-1]
+    numpy_values = np.loadtxt(lines, delimiter=None if separator == " " else separator, comments=None, ndmin=2)
+    np.testing.assert_array_equal(plain, numpy_values)
+
+
+def test_plain_parser_reads_scanner_rows_and_names_the_bad_line(tmp_path: Path) -> None:
+    """Six-decimal rows of either sign (varying width) go through the plain parser with the values of ``float()``;
+    a bad field later in the file still refuses with its line number."""
+    rng = np.random.default_rng(31)
+    values = rng.uniform(-2000.0, 2000.0, (500, 3))
+    text = "".join(f"{x:.6f},{y:.6f},{z:.6f}\n" for x, y, z in values)
+    plain = _plain_fields(text.encode(), ord(","), ord("."), 3)
+    assert plain is not None
+    expected = np.array([[float(f) for f in line.split(",")] for line in text.splitlines()])
+    np.testing.assert_array_equal(plain, expected)
+    np.testing.assert_allclose(plain, values, rtol=0, atol=5.1e-7)  # six decimals: within half a unit of 1e-6
+    path = tmp_path / "scan.csv"
+    lines = text.splitlines()
+    lines[316] = lines[316].replace(".", "..", 1)
+    path.write_text("\n".join(lines) + "\n")
+    with pytest.raises(FileFormatError, match=r"scan\.csv:317: .*\.\.\d"):
+        read_rows(path, 0, 1, Layout(str(path), ",", ".", 3), block_bytes=4096)
+
+
+@settings(max_examples=200, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(layout=st.lists(st.tuples(st.integers(0, 6), st.integers(0, 7), st.sampled_from(["", "-", "+", "+-"])),
+                       min_size=3, max_size=4),
+       seed=st.integers(0, 2**16), lines=st.integers(1, 6), separator=st.sampled_from([",", ";", " "]),
+       spoil=st.sampled_from([None, "-", "+", ".", ",", "e", "0", " ", ""]), where=st.integers(0, 10_000))
+def test_fixed_layout_blocks_read_as_float_reads_them(layout: list[tuple[int, int, str]], seed: int, lines: int,
+                                                      separator: str, spoil: str | None, where: int) -> None:
+    """Lines of one layout (same field widths, marks in the same columns: the column-slice path), sometimes with one
+    byte replaced or removed: the plain parser gives ``float()`` of every field, or declines when the careful path
+    refuses."""
+    rng = np.random.default_rng(seed)
+    rows = []
+    for _ in range(lines):
+        fields = []
+        for whole, decimals, signs in layout:
+            sign = str(rng.choice(list(signs))) if signs else ""
+            digits = "".join(str(d) for d in rng.integers(0, 10, whole + decimals))
+            fields.append(sign + digits[:whole] + ("." + digits[whole:] if decimals or not whole else ""))
+        rows.append(separator.join(fields))
+    text = "".join(row + "\n" for row in rows)
+    if spoil is not None:
+        position = where % len(text)
+        if text[position] != "\n":
+            text = text[:position] + spoil + text[position + 1:]
+    data = text.encode()
+    width = len(layout)
+    plain = _plain_fields(data, ord(separator), ord("."), width)
+    try:
+        careful = _careful("f.txt", LineBlock(0, 1, data, True), Layout("f.txt", separator, ".", width, (0, 1, 2)))
+    except FileFormatError:
+        assert plain is None, data
+        return
+    if plain is not None:
+        np.testing.assert_array_equal(plain, [[float(f) for f in row.split(separator)] for row in text.splitlines()])
+        np.testing.assert_array_equal(plain[:, :3], careful)
+    else:
+        assert spoil is not None, data  # at most 15 bytes a field: an unspoilt block is never declined

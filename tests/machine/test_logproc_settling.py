@@ -34,7 +34,7 @@ def test_faulty_reading_read_as_a_large_further_move_gets_no_bound(tmp_path: Pat
     path = tmp_path / "level_2.csv"
     with contextlib.redirect_stdout(io.StringIO()):
         assert main(["acquire", "--simulate", "--seed", "2", "--moves", "60", "--settle", "0",
-                     "--out", str(path)]) == 0
+                     "--start", "level", "--out", str(path)]) == 0
     machine = RigidBodyMachine.from_dpkm()
     start = [float(v) for v in read_acquisition_log(path).metadata["start_heights_mm"].split()]
     _, truth = simulated_truth(path)
@@ -58,7 +58,7 @@ def test_faulty_stop_row_followed_by_a_start_row_that_seems_to_move_back_is_refu
     path = tmp_path / "level_2.csv"
     with contextlib.redirect_stdout(io.StringIO()):
         assert main(["acquire", "--simulate", "--seed", "2", "--moves", "60", "--settle", "0",
-                     "--out", str(path)]) == 0
+                     "--start", "level", "--out", str(path)]) == 0
     start = [float(v) for v in read_acquisition_log(path).metadata["start_heights_mm"].split()]
     _, truth = simulated_truth(path)
     faulty = with_reading_fault(read_log(path), 3, 0, 5.0)

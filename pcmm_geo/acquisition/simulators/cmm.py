@@ -387,8 +387,9 @@ class SimulatedRig:
 def simulated_truth(path: str | Path) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
     """``(heights (N, 3), tips (N, 3))`` of every data row of a simulated acquisition log: the simulator's truth.
 
-    The heights follow from the logged motor positions and the log's ``start_position_usteps``
-    and ``start_heights_mm`` (written by ``pcmm acquire --simulate``); the tips from the seed
+    The heights follow from the logged motor positions and the log's ``start_heights_mm`` at its
+    start positions (``start_positions_usteps``, one per motor, else ``start_position_usteps`` for
+    all; written by ``pcmm acquire --simulate``); the tips from the seed
     machine's forward kinematics, as the simulator computed them (no dead spot: a session with
     ``--defects`` has other truth).  This is the independent truth that processed logs are tested
     against.
@@ -408,7 +409,11 @@ def simulated_truth(path: str | Path) -> tuple[NDArray[np.float64], NDArray[np.f
                               "start_position_usteps), got none")
     simulator = SimulatedMicroCMM(start_position=int(metadata["start_position_usteps"]),
                                   start_heights=[float(v) for v in metadata["start_heights_mm"].split()])
-    heights = simulator.heights_for(np.array([row.pos_usteps for row in contents.rows], dtype=float))
+    positions = np.array([row.pos_usteps for row in contents.rows], dtype=float)
+    if "start_positions_usteps" in metadata:  # each motor's own start (a commanded start, pcmm acquire)
+        starts = np.array([float(v) for v in metadata["start_positions_usteps"].split()])
+        positions = positions - starts + simulator.start_position
+    heights = simulator.heights_for(positions)
     machine = simulator.machine
     hint = np.broadcast_to(machine.reference_lasers, heights.shape)
     return heights, np.asarray(machine.forward(heights=heights, lasers_hint=hint).tip)

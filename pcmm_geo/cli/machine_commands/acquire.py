@@ -13,6 +13,13 @@ from pcmm_geo.cli._output import (
     declare_output,
     refuse_renamed_options,
 )
+from pcmm_geo.cli.machine_commands._acquire_plan import (
+    add_start_arguments,
+    check_start_arguments,
+    enforce_limit,
+    plan_report,
+    plan_start,
+)
 
 _ARMS = ("a", "b", "c")
 
@@ -24,9 +31,12 @@ def register(subparsers: Any) -> None:
         description=(
             "Drive the three Zaber stages, read lasers a, b, c and the probe after each move and append thesis "
             "Table 3.2 rows (plus raw values) to an fsync'ed CSV log. --simulate runs the simulated micro-CMM on "
-            "pseudo-terminals, optionally with injected faults. Every output (--out, --table-3-2) is checked "
-            "before any device is touched; if the command fails, the files it wrote are removed and the ones it "
-            "replaced restored, except a log holding measured rows, which is kept (continue it with --resume)."
+            "pseudo-terminals, optionally with injected faults. After homing the stages go to a well-conditioned "
+            "start (--start conditioned, the default; --start level: the thesis'), and before any device moves the "
+            "tip uncertainty process-log will state along the planned path is predicted: a warning above 1 mm, a "
+            "refusal above --max-tip-u-mm, the whole plan with --plan-only. Every output (--out, --table-3-2) is "
+            "checked before any device is touched; if the command fails, the files it wrote are removed and the ones "
+            "it replaced restored, except a log holding measured rows, which is kept (continue it with --resume)."
         ),
     )
     parser.add_argument("--simulate", action="store_true", help="use the simulated machine (pseudo-terminals)")
@@ -38,9 +48,9 @@ def register(subparsers: Any) -> None:
     parser.add_argument("--transport", choices=("virtual", "pty"), default="virtual",
                         help="with --simulate: in-process devices on a simulated clock (virtual, repeatable, "
                              "default) or real pseudo-terminals served in real time (pty)")
-    parser.add_argument("--out", required=True, metavar="LOG.csv",
-                        help="durable CSV log to create (an existing one is refused unless --overwrite-out, "
-                             "--overwrite or --resume)")
+    parser.add_argument("--out", metavar="LOG.csv",
+                        help="durable CSV log to create (required unless --plan-only; an existing one is refused "
+                             "unless --overwrite-out, --overwrite or --resume)")
     parser.add_argument("--table-3-2", dest="table_3_2", metavar="FILE",
                         help="also write the plain 7-column Table 3.2 view (for pcmm process-log) to FILE "
                              "(an existing one is refused unless --overwrite-table-3-2 or --overwrite)")
@@ -52,19 +62,18 @@ def register(subparsers: Any) -> None:
     parser.add_argument("--repair", action="store_true",
                         help="with --resume: cut a partial last row and report it (a log torn in its header is "
                              "refused, except a column line torn after the whole comment header, which is completed)")
-    declare_output(parser, "out", append_when="resume")
-    declare_output(parser, "table_3_2", "--table-3-2")
+    declare_output(parser, "out", append_when="resume", unused_when="plan_only")
+    declare_output(parser, "table_3_2", "--table-3-2", unused_when="plan_only")
     add_overwrite_flag(parser)
     parser.add_argument("--step-mm", type=float, default=4.0, help="largest motor step of the programme, mm")
     parser.add_argument("--no-presequence", action="store_true", help="skip the settling pre-sequence")
     parser.add_argument("--start-offsets-mm", dest="start_offsets", type=float, nargs=3, metavar=("A", "B", "C"),
                         default=None,
-                        help="with --simulate: pivot heights at the start position relative to the level (reference) "
-                             "pose, mm. Default 0 0 0: the thesis starts level (one encoder count for all motors), "
-                             "where the lasers hardly see the heights and processed points carry millimetre "
-                             "uncertainties; e.g. 0 60 -60 keeps the pivots >= 20 mm apart in height over the "
-                             "programme's +-20 mm span (well conditioned). Recorded as start_heights_mm, which "
-                             "process-log takes as its datum")
+                        help="with --simulate: a simulated machine whose pivots stand this far from the level "
+                             "(reference) pose at the start count, mm (no commanded move: the start is then 'level' "
+                             "unless --start says otherwise); e.g. 0 60 -60 keeps the pivots >= 20 mm apart in height "
+                             "over the programme's +-20 mm span. Recorded as start_heights_mm, which process-log "
+                             "takes as its datum")
     parser.add_argument("--defects", action="store_true", help="simulate the thesis' dead spot and settling scatter")
     parser.add_argument("--probe-mode", choices=("pin", "text"), default="pin", help="Arduino firmware mode")
     parser.add_argument(
@@ -77,6 +86,7 @@ def register(subparsers: Any) -> None:
     for arm in _ARMS:
         parser.add_argument(f"--port-laser-{arm}", help=f"port of laser {arm}")
     parser.add_argument("--port-probe", help="port of the probe Arduino")
+    add_start_arguments(parser)
     add_json_flag(parser)
     refuse_renamed_options(parser, {"--start-offsets": "--start-offsets-mm"})
     parser.set_defaults(handler=_handle)
@@ -115,7 +125,8 @@ def _check_args(args: argparse.Namespace) -> None:
         raise InvalidInputError("--fault-rate", "0 unless --simulate", str(args.fault_rate))
     if not args.step_mm > 0:
         raise InvalidInputError("--step-mm", "a positive length", str(args.step_mm))
-    if not args.simulate:
+    check_start_arguments(args)
+    if not args.simulate and not args.plan_only:
         for name in ("port_zaber", "port_laser_a", "port_laser_b", "port_laser_c", "port_probe"):
             if not getattr(args, name):
                 raise InvalidInputError("--" + name.replace("_", "-"), "a port name (or use --simulate)", "nothing")
@@ -125,16 +136,25 @@ def _handle(args: argparse.Namespace) -> Report:
     import contextlib
     from pathlib import Path
 
+    from pcmm_geo.acquisition.session import SessionConfig
+
     _check_args(args)
     from pcmm_geo.acquisition._loglock import check_unlocked
 
-    check_unlocked(args.out)  # a log another session holds is refused at once, before any device is touched
+    if not args.plan_only:
+        check_unlocked(args.out)  # a log another session holds is refused at once, before any device is touched
     earlier = None
-    if args.resume and Path(args.out).exists():  # a log resume would refuse is refused before homing
+    if args.resume and args.out and Path(args.out).exists():  # a log resume would refuse is refused before homing
         from pcmm_geo.acquisition.acqlog import AcquisitionLog, read_log
 
         if AcquisitionLog.check_resumable(args.out, repair=args.repair).header_completed_bytes == 0:
             earlier = read_log(args.out, allow_partial=True)  # whole rows only (a torn one is cut on resume)
+    # the start and the tip u predicted along the planned path, before any device is touched
+    defaults = SessionConfig()
+    start = plan_start(args, defaults.start_position, defaults.presequence_span)
+    if args.plan_only:
+        return plan_report(start)
+    enforce_limit(start)
     with contextlib.ExitStack() as stack:
         rig = None
         if args.simulate:
@@ -144,7 +164,7 @@ def _handle(args: argparse.Namespace) -> Report:
             reference = RigidBodyMachine.from_dpkm().reference_heights
             offsets = [0.0, 0.0, 0.0] if args.start_offsets is None else args.start_offsets
             cmm = SimulatedMicroCMM(
-                start_heights=_start_heights(args, reference + offsets, earlier),
+                start_heights=_start_heights(args, reference + offsets, earlier, start.offsets_usteps),
                 laser_noise=0.002 if args.defects else 0.0, dead_spot=4.0 if args.defects else 0.0,
                 settle_scatter=0.45 if args.defects else 0.0, seed=args.seed,
             )
@@ -156,14 +176,14 @@ def _handle(args: argparse.Namespace) -> Report:
         else:
             ports = {"zaber": args.port_zaber, "probe": args.port_probe}
             ports.update({f"laser_{arm}": getattr(args, f"port_laser_{arm}") for arm in _ARMS})
-        session = _open_session(args, ports, stack, None if rig is None else rig.clock)
+        session = _open_session(args, ports, stack, None if rig is None else rig.clock, start.offsets_usteps)
         metadata = {
             "mode": "simulated" if args.simulate else "hardware",
             "ports": " ".join(f"{k}={v}" for k, v in ports.items()), "transport": args.transport,
             "settle_s": args.settle, "moves_requested": args.moves, "seed": args.seed,
             "fault_rate": args.fault_rate, "probe_mode": args.probe_mode, "presequence": not args.no_presequence,
             "start_position_usteps": session.config.start_position,
-            **({} if rig is None else {"start_heights_mm": " ".join(f"{h:.6f}" for h in rig.cmm.start_heights)}),
+            **start.metadata(),
             "microstep_mm": session.motors.microstep_mm, "laser_models": "a=ILD1302 b=ILD1302 c=ILD1420",
             **session.identify(),
         }
@@ -177,7 +197,7 @@ def _handle(args: argparse.Namespace) -> Report:
             rig.place_gauge_block(block=block)
         _run_programme(session, args)
         summary = session.summary()
-    data: dict[str, Any] = {"out": str(args.out), **summary.as_dict()}
+    data: dict[str, Any] = {"out": str(args.out), **summary.as_dict(), "plan": start.summary()}
     if args.table_3_2:
         from pcmm_geo.acquisition.acqlog import export_table_3_2
 
@@ -189,22 +209,31 @@ def _handle(args: argparse.Namespace) -> Report:
     counters = [[key, value] for key, value in summary.as_dict().items()]
     if rig is not None:
         counters += [[f"injected {kind}", count] for kind, count in rig.injected_faults.items()]
-    lines = [f"wrote {summary.rows} rows to {args.out}"]
+    prediction = start.prediction
+    lines = [f"wrote {summary.rows} rows to {args.out}",
+             f"start {start.name}: pivot heights " + " ".join(f"{h:.3f}" for h in start.start_heights) + " mm; "
+             f"predicted tip u along the planned path: median {prediction.median_tip_uncertainty:.3g} mm, largest "
+             f"{prediction.max_tip_uncertainty:.3g} mm"]
     if log.recovery.truncated:
         lines.append(f"cut a partial last row of {log.recovery.dropped_bytes} bytes before resuming")
     return Report(data=data, tables=[Table("Acquisition session", ["counter", "value"], counters)], lines=lines)
 
 
-def _start_heights(args: argparse.Namespace, heights: Any, earlier: Any) -> Any:
-    """The simulated pivot heights at the start position: those the resumed log states, else from the options."""
+def _start_heights(args: argparse.Namespace, heights: Any, earlier: Any, offsets: tuple[int, int, int]) -> Any:
+    """The simulated pivot heights at the start count: from those the resumed log states, else from the options.
+
+    The log states the heights at its own start positions (``start_positions_usteps``, the commanded start):
+    its start count's heights are those less the commanded ``offsets`` (microsteps).
+    """
     import numpy as np
 
+    from pcmm_geo.acquisition.drivers.zaber import T_LSR450B_MICROSTEP_MM
     from pcmm_geo.errors import InvalidInputError
 
     stated = None if earlier is None else earlier.metadata.get("start_heights_mm")
     if stated is None:
         return heights
-    logged = np.array([float(value) for value in stated.split()])
+    logged = np.array([float(value) for value in stated.split()]) - np.asarray(offsets) * T_LSR450B_MICROSTEP_MM
     if args.start_offsets is not None and not np.allclose(logged, heights, rtol=0.0, atol=1e-6):
         raise InvalidInputError("--start-offsets-mm", f"the offsets the resumed log {args.out} started with (start "
                                 f"heights {stated} mm), or none", " ".join(map(str, args.start_offsets)))
@@ -226,10 +255,11 @@ def _continue_from(session: Any, log: Any, rows: Any) -> None:
     log.note({"continued_from_seq": last.seq, "continued_from_usteps": " ".join(map(str, last.pos_usteps))})
 
 
-def _open_session(args: argparse.Namespace, ports: dict[str, Any], stack: Any, clock: Any = None) -> Any:
+def _open_session(args: argparse.Namespace, ports: dict[str, Any], stack: Any, clock: Any = None,
+                  start_offsets: tuple[int, int, int] = (0, 0, 0)) -> Any:
     from pcmm_geo.acquisition.programme import open_session
     return open_session(ports, stack, timeout=args.timeout, move_timeout=args.move_timeout,
-                        probe_mode=args.probe_mode, settle_time=args.settle, clock=clock)
+                        probe_mode=args.probe_mode, settle_time=args.settle, clock=clock, start_offsets=start_offsets)
 
 
 def _run_programme(session: Any, args: argparse.Namespace) -> None:

@@ -61,13 +61,12 @@ def register(subparsers: Any) -> None:
 
 def _handle(args: argparse.Namespace) -> Report:
     from pcmm_geo.machine.calibration import PAIRS, calibrate_tetrahedron, save_calibration
-    from pcmm_geo.machine.calibration.probings import read_lasers
+    from pcmm_geo.machine.calibration.probings import LaserTable
 
-    sweep = None if args.sweep is None else read_lasers(args.sweep).readings
-    probings, qif_lines, qif_data = _probings(args)
-    cal = calibrate_tetrahedron(
-        probings, args.lasers, laser_start_of_range=args.start_of_range, laser_sweep=sweep
-    )
+    sweep = None if args.sweep is None else LaserTable.from_csv(args.sweep).readings
+    probings, qif_lines, qif_data = _probings(args)  # each file read once, then typed
+    lasers = LaserTable.from_csv(args.lasers)
+    cal = calibrate_tetrahedron(probings, lasers, laser_start_of_range=args.start_of_range, laser_sweep=sweep)
     data: dict[str, Any] = cal.summary()
     lines: list[str] = list(qif_lines)
     if qif_data:
@@ -80,7 +79,7 @@ def _handle(args: argparse.Namespace) -> Report:
     if args.probing_u is not None:
         from pcmm_geo.uncertainty.calibration import calibration_covariance
 
-        covariance = calibration_covariance(probings, args.lasers, probing_sigma=args.probing_u,
+        covariance = calibration_covariance(probings, lasers, probing_sigma=args.probing_u,
                                             laser_sigma=args.laser_u, laser_start_of_range=args.start_of_range)
         data["uncertainty"] = covariance.to_dict()
         data["uncertainty"]["standard_uncertainties"] = covariance.standard_uncertainties
@@ -126,10 +125,11 @@ def _handle(args: argparse.Namespace) -> Report:
 
 
 def _probings(args: argparse.Namespace) -> tuple[Any, list[str], dict[str, Any]]:
-    """The probings argument for the calibration: the CSV path, or the balls read from a QIF file."""
+    """The probed balls (ProbedFeatures) of the CSV or QIF file, read once; with the QIF route's lines and data."""
     from pathlib import Path
 
     from pcmm_geo.errors import InvalidInputError
+    from pcmm_geo.machine.calibration.probings import ProbedFeatures
 
     path = Path(args.probings)
     limit = max_bytes(args)
@@ -137,7 +137,7 @@ def _probings(args: argparse.Namespace) -> tuple[Any, list[str], dict[str, Any]]
         for option, value in (("--feature-map", args.feature_map), ("--max-mb", limit)):
             if value is not None:
                 raise InvalidInputError(option, "a QIF probings file (.qif)", str(path))
-        return args.probings, [], {}
+        return ProbedFeatures.from_csv(path), [], {}
     from pcmm_geo.machine.calibration.qif_probings import read_qif_probings
 
     read = read_qif_probings(path, feature_map=args.feature_map, max_bytes=limit, spell_setting=cli_setting)

@@ -39,8 +39,7 @@ def load_machine_file(path: str | None) -> Any:
 
     if path is None:
         return RigidBodyMachine.from_dpkm()
-    from pcmm_geo.io._json import JsonNode
-    from pcmm_geo.io._text import read_json_file
+    from pcmm_geo.io.text import JsonNode, read_json_file
     from pcmm_geo.machine.calibration.calfile import machine_from_json
 
     document = read_json_file(path)

@@ -35,8 +35,8 @@ def register(subparsers: Any) -> None:
     add_machine_argument(parser)
     parser.add_argument("--initial-heights-mm", dest="initial_heights", type=float, nargs=3, metavar=("A", "B", "C"),
                         help="pivot heights of the first row: the start position, held as the datum (default: the "
-                             "log's start_heights_mm, written by pcmm acquire --simulate, else the machine's "
-                             "reference heights, the level pose)")
+                             "log's start_heights_mm, written by pcmm acquire at the start it commanded, else the "
+                             "machine's reference heights, the level pose)")
     parser.add_argument("--all-rows", action="store_true", help="list every row, not only the probe points")
     parser.add_argument("--allow-unterminated", action="store_true",
                         help="accept a last row without a line end (refused by default: it may be torn mid-number)")
@@ -294,7 +294,7 @@ def _calibration_covariance(path: str | None, machine: Any) -> Any:
     import numpy as np
 
     from pcmm_geo.errors import FileFormatError
-    from pcmm_geo.io._text import read_json_file
+    from pcmm_geo.io.text import read_json_file
     from pcmm_geo.machine.analysis.logproc import GEOMETRY_PARAMETERS
     from pcmm_geo.machine.calibration.calfile import load_covariance
 

@@ -181,7 +181,7 @@ def read_transform(path: Path) -> Any:
     from pcmm_geo.errors import FileFormatError, InvalidInputError
 
     numbers: list[float] = []
-    from pcmm_geo.io._text import excerpt, parse_decimal, read_text_lines
+    from pcmm_geo.io.text import excerpt, parse_decimal, read_text_lines
 
     for line_number, line in read_text_lines(path):
         text = line.split("#", 1)[0].replace(",", " ").split()

@@ -8,7 +8,7 @@ from typing import Any
 
 from pcmm_geo.cli._cmm_input import (
     add_cmm_input_flags,
-    compensation_summary,
+    cli_setting,
     naming_the_file,
     read_fit_input,
     write_qif_result,
@@ -260,17 +260,18 @@ def _fit(args: argparse.Namespace, source: Any, fit_element: Any,
         if args.radius is not None:  # the surface radius: the centres lie probe_radius inside or outside it
             free = {key: value for key, value in kwargs.items() if key != "radius"}
             side = side_before_fit(source.data, args.element, source.probe_radius, args.material_side,
-                                   lambda p: fit_element(p, **free))
+                                   lambda p: fit_element(p, **free), spell_setting=cli_setting)
             kwargs["radius"] = args.radius + (-source.probe_radius if side == "internal" else source.probe_radius)
             if kwargs["radius"] <= 0:
                 raise InvalidInputError("--radius-mm", f"a surface radius larger than the probe radius "
                                         f"{source.probe_radius:g} mm for an internal feature", repr(args.radius))
         centre_fit = fit_element(points, **kwargs)
-        compensation, side_source = compensate_fit(centre_fit, args.element, source.data, source.probe_radius,
-                                                   material_side=args.material_side)
+        compensation, record = compensate_fit(centre_fit, args.element, source.data, source.probe_radius,
+                                              material_side=args.material_side, radius_source=source.radius_source,
+                                              spell_setting=cli_setting)
         result = compensation.surface
-        summary, line = compensation_summary(compensation, side_source, source.radius_source)
-        lines.append(line)
+        summary = record.to_dict()
+        lines.append(record.describe())
     else:
         result = fit_element(points, **kwargs)
     return result, compensation, lines, summary

@@ -7,7 +7,7 @@ from pathlib import Path
 
 from pcmm_geo.cli._cmm_input import (
     add_cmm_input_flags,
-    compensation_summary,
+    cli_setting,
     naming_the_file,
     read_fit_input,
     write_qif_result,
@@ -69,16 +69,16 @@ def handle(args: argparse.Namespace) -> Report:
         if source.probe_radius:  # the zone width stays; the zone's element moves onto the surface
             from pcmm_geo.cmm.points import compensate_fit
 
-            compensation, side_source = compensate_fit(evaluation.fit, args.element, source.data,
-                                                       source.probe_radius, material_side=args.material_side)
+            compensation, record = compensate_fit(evaluation.fit, args.element, source.data, source.probe_radius,
+                                                  material_side=args.material_side,
+                                                  radius_source=source.radius_source, spell_setting=cli_setting)
             evaluation = dataclasses.replace(evaluation, fit=compensation.surface,
                                              points=compensation.surface_points(source.points))
     fit = evaluation.fit
     data = evaluation.to_dict()
     data["file"] = str(args.file)
     if compensation is not None:
-        data["probe_compensation"], compensation_line = compensation_summary(compensation, side_source,
-                                                                             source.radius_source)
+        data["probe_compensation"], compensation_line = record.to_dict(), record.describe()
     rows = [
         [evaluation.characteristic, 1000.0 * evaluation.deviation, "µm"],
         ["tolerance", "-" if evaluation.tolerance is None else 1000.0 * evaluation.tolerance, "µm"],

@@ -290,7 +290,7 @@ def _handle_verify(args: argparse.Namespace) -> Report:
     compensated = None if args.compensated is None else args.compensated == "yes"
     result = verify_document(document, tolerance_mm=tolerance, criterion=args.criterion,
                              circle_plane=args.circle_plane, compensated=compensated, probe_radius=args.probe_radius,
-                             material_side=args.material_side)
+                             material_side=args.material_side, spell_setting=cli_setting)
     characteristics = _verify_characteristics(args, document, compensated)
     rows = []
     for check in result.features:
@@ -355,7 +355,7 @@ def _verify_characteristics(args: argparse.Namespace, document: Any, compensated
         raise InvalidInputError("--characteristic-fraction", "a fraction of the tolerance in (0, 1]", repr(fraction))
     definitions = None
     if document.format == "qif":
-        from pcmm_geo.io.cmm.qif._xml import DEFAULT_MAX_BYTES
+        from pcmm_geo.io.cmm import DEFAULT_MAX_BYTES
         from pcmm_geo.io.cmm.qif.characteristic_definitions import read_qif_definitions
 
         definitions = read_qif_definitions(args.file, max_bytes=max_bytes(args) or DEFAULT_MAX_BYTES,
@@ -375,8 +375,7 @@ def _handle_validate(args: argparse.Namespace) -> Report:
     import re
 
     from pcmm_geo.errors import InvalidInputError
-    from pcmm_geo.io.cmm import validate_qif
-    from pcmm_geo.io.cmm.qif._xml import DEFAULT_MAX_BYTES
+    from pcmm_geo.io.cmm import DEFAULT_MAX_BYTES, validate_qif
     from pcmm_geo.io.cmm.qif.reader import QIF3_NAMESPACE
 
     if args.errors < 1:

@@ -318,19 +318,16 @@ def covariance_from_jacobian(
 class Certificate:
     """Optimality certificate of a minimum-zone, minimum-circumscribed or maximum-inscribed fit.
 
-    The fits minimise a max-type objective over the element parameters ``x``; at the
-    optimum the contact (support) points satisfy the Karush-Kuhn-Tucker conditions
-    ``sum_k s_k lambda_k grad d_k(x) = 0`` with ``lambda_k >= 0`` (``s_k = +1`` on the
-    outer level, ``-1`` on the inner one) and the multipliers of each level summing to 1.
+    The fits minimise a max-type objective over the element parameters ``x``; at the optimum the
+    contact (support) points satisfy the Karush-Kuhn-Tucker conditions ``sum_k s_k lambda_k grad d_k(x) = 0``
+    with ``lambda_k >= 0`` (``s_k = +1`` outer, ``-1`` inner level), each level's multipliers summing to 1.
 
     Attributes
     ----------
     multipliers : ndarray, shape (M,)
         KKT multipliers of the contacts (same order as the result's ``contacts``).
-    kkt_residual : float
-        Norm of the stationarity residual relative to the gradient scale (dimensionless).
-    feasibility : float
-        Largest distance by which any point lies outside the reported zone (mm; 0 when inside).
+    kkt_residual, feasibility : float
+        Stationarity residual relative to the gradient scale; largest distance of a point outside the zone (mm).
     certified : bool
         The optimum is proven: globally (``scope == "global"``), or locally with multipliers
         non-negative, ``kkt_residual`` and ``feasibility`` within tolerance.
@@ -354,6 +351,8 @@ class Certificate:
     domain : str
         Plain-language statement of the domain the scope refers to (e.g. ``"all planes"``,
         ``"axes within 45 deg of the least-squares axis and within 2R of it"``).
+    check : str
+        The independent check of the answer on every input point (:mod:`pcmm_geo.fit.zone._check`).
     """
 
     multipliers: FloatArray
@@ -366,6 +365,7 @@ class Certificate:
     gap_mm: float = float("nan")
     on_region_boundary: bool = False
     domain: str = ""
+    check: str = ""
 
 
 @dataclass(frozen=True, kw_only=True, eq=False)

@@ -51,6 +51,15 @@ Methods (``docs/minimum-zone.md`` has the details and the proofs):
 The exact answer is then refined by Newton's method on the KKT system of its contacts (sequential
 linear programs, scipy's HiGHS, plus that Newton finish are the local method of the cone).
 
+Duplicated points and the independent check
+-------------------------------------------
+Coincident points (exact duplicates, or within ``1e-13 x extent + 8 eps x max|coordinate|``) are merged
+before every fit (:func:`merge_duplicates`), so no answer depends on how often a point was given; the
+contacts are the caller's indices, the first of each merged group.  Every answer is then checked on all
+input points by :func:`check_answer` (feasibility, contacts on their levels, distinct support,
+non-negative multipliers summing to 1 per level, stationarity); one that fails is not certified
+(``certificate.check`` says why).
+
 Also here: :func:`evaluate_form` (ISO straightness, flatness, roundness, sphericity,
 cylindricity with a PASS / FAIL / NOT PROVEN verdict, :func:`~pcmm_geo.fit.zone.form.decide_form`),
 :mod:`pcmm_geo.fit.zone.reference` (data sets with a known minimax solution) and
@@ -72,8 +81,7 @@ Examples
 
 from __future__ import annotations
 
-import importlib
-from typing import Any
+from pcmm_geo._lazy import attach
 
 _LAZY = {
     "evaluate_form": "form",
@@ -83,20 +91,9 @@ _LAZY = {
     "RoundnessBatch": "batch",
     "reference": "reference",
     "CRITERIA": "_common",
+    "check_answer": "_check",
+    "CheckOutcome": "_check",
+    "merge_duplicates": "_distinct",
 }
 
-__all__ = sorted(_LAZY)
-
-
-def __getattr__(name: str) -> Any:
-    module_name = _LAZY.get(name)
-    if module_name is None:
-        raise AttributeError(f"module 'pcmm_geo.fit.zone' has no attribute {name!r}")
-    module = importlib.import_module(f"pcmm_geo.fit.zone.{module_name}")
-    value = module if name == module_name else getattr(module, name)
-    globals()[name] = value
-    return value
-
-
-def __dir__() -> list[str]:
-    return sorted(set(globals()) | set(_LAZY))
+__getattr__, __dir__, __all__ = attach(__name__, _LAZY)

@@ -35,8 +35,7 @@ defusedxml (reading) and lxml (validation) come with the ``qif`` extra
 
 from __future__ import annotations
 
-import importlib
-from typing import Any
+from pcmm_geo._lazy import attach
 
 _LAZY = {
     "FEATURE_TYPES": "model",
@@ -78,17 +77,4 @@ _LAZY = {
     "DrfDatum": "qif.datums",
 }
 
-__all__ = sorted(_LAZY)
-
-
-def __getattr__(name: str) -> Any:
-    module_name = _LAZY.get(name)
-    if module_name is None:
-        raise AttributeError(f"module 'pcmm_geo.io.cmm' has no attribute {name!r}")
-    value = getattr(importlib.import_module(f"pcmm_geo.io.cmm.{module_name}"), name)
-    globals()[name] = value
-    return value
-
-
-def __dir__() -> list[str]:
-    return sorted(set(globals()) | set(_LAZY))
+__getattr__, __dir__, __all__ = attach(__name__, _LAZY)

@@ -293,16 +293,21 @@ def _first_row_of_acquisition_log(path: Path) -> tuple[FloatArray, bool | None]:
     row = contents.rows[0]
     if row.start_stop != 1:
         raise FileFormatError(str(path), "first row is not a start reading (start_stop 1): not a test start")
-    start = contents.metadata.get("start_position_usteps")
+    key = "start_positions_usteps" if "start_positions_usteps" in contents.metadata else "start_position_usteps"
+    start = contents.metadata.get(key)  # each motor's start (pcmm acquire's commanded start), or one for all
     if start is not None:
         try:
-            start_usteps = int(start)
+            starts = [int(v) for v in start.split()]
         except ValueError:
-            raise FileFormatError(str(path), f"start_position_usteps: expected an integer, got {start!r}") from None
-        if any(position != start_usteps for position in row.pos_usteps):
+            starts = []
+        wanted = "three integers" if key == "start_positions_usteps" else "an integer"
+        if len(starts) != (3 if key == "start_positions_usteps" else 1):
+            raise FileFormatError(str(path), f"{key}: expected {wanted}, got {start!r}")
+        if any(position != wanted for position, wanted in zip(row.pos_usteps, starts * (3 // len(starts)),
+                                                                 strict=True)):
             raise FileFormatError(
                 str(path), f"first row is at motor positions {list(row.pos_usteps)}, not at the start position "
-                f"{start_usteps} microsteps")
+                f"{start} microsteps")
     flag = contents.metadata.get("presequence")
     presequence = None if flag is None else flag.strip().lower() in ("true", "1", "yes")
     return np.array([row.laser_a, row.laser_b, row.laser_c]), presequence
@@ -383,7 +388,7 @@ def read_arm_table_csv(path: str | Path, header: Sequence[str]) -> tuple[tuple[s
     FileFormatError
         Wrong header, field count, non-finite or non-numeric values (with the line number), no rows.
     """
-    from pcmm_geo.io._text import excerpt, read_csv_rows
+    from pcmm_geo.io.text import excerpt, read_csv_rows
 
     file = Path(path)
     expected = tuple(header)

@@ -46,7 +46,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from pcmm_geo.errors import FileFormatError, InvalidInputError, OutputExistsError, PcmmGeoError
-from pcmm_geo.io._json import JsonNode
+from pcmm_geo.io.text import JsonNode
 from pcmm_geo.machine.calibration.geometry import FittedSphere
 from pcmm_geo.machine.calibration.probings import ARMS, ProbedFeatures
 
@@ -208,7 +208,7 @@ def _tetrahedron_dict(tetrahedron: Any) -> dict[str, Any]:
 
 def _read_document(path: str | Path) -> tuple[Path, dict[str, Any]]:
     file = Path(path)
-    from pcmm_geo.io._text import read_json_file
+    from pcmm_geo.io.text import read_json_file
 
     document = read_json_file(file)
     if not isinstance(document, dict):

@@ -35,6 +35,7 @@ import re
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
@@ -42,8 +43,9 @@ from numpy.typing import NDArray
 from pcmm_geo._atomic import write_atomic
 from pcmm_geo._deprecation import renamed_fields, renamed_parameters
 from pcmm_geo.errors import FileFormatError, PcmmGeoError
-from pcmm_geo.io._text import excerpt, parse_decimal
+from pcmm_geo.io.text import excerpt, parse_decimal
 from pcmm_geo.machine.calibration.geometry import FittedSphere, fit_probed_sphere
+from pcmm_geo.machine.calibration.inputs import check_readings, points_by_role
 
 __all__ = [
     "ARMS",
@@ -98,6 +100,17 @@ class ProbedFeatures:
         """Joint centers, shape (K, 3, 3): position, arm (a, b, c), xyz (mm)."""
         return np.array([[self.joints[arm][pos].center for arm in ARMS] for pos in self.positions])
 
+    @classmethod
+    def from_csv(cls, path: str | Path) -> ProbedFeatures:
+        """Read a probings CSV: raw ``feature,position,x,y,z`` or the ``x,y,z,d,r`` export (:func:`read_probings`)."""
+        return read_probings(path)
+
+    @classmethod
+    def from_points(cls, points: Mapping[Any, Any]) -> ProbedFeatures:
+        """Fit the balls to arrays (mm): ``{"joint_a": [(N, 3) per position] or {position: (N, 3)}, ...,
+        "tip": (N, 3)}``, or ``{(feature, position): (N, 3)}`` (:func:`probed_features_from_points`)."""
+        return probed_features_from_points(points_by_role(points))
+
 
 @dataclass(frozen=True)
 class LaserTable:
@@ -106,6 +119,21 @@ class LaserTable:
     positions: tuple[int, ...]
     readings: FloatArray
     source: str = "<arrays>"
+
+    @classmethod
+    def from_csv(cls, path: str | Path) -> LaserTable:
+        """Read ``position,laser_a,laser_b,laser_c`` (:func:`read_lasers`)."""
+        return read_lasers(path)
+
+    @classmethod
+    def from_readings(cls, readings: Any, positions: tuple[int, ...] | None = None) -> LaserTable:
+        """Readings (K, 3) in the order of ``positions`` (default 1 ... K), or ``{position: (3,)}``."""
+        if isinstance(readings, Mapping):
+            keys = tuple(int(k) for k in readings)
+            values = np.array([np.asarray(readings[k], dtype=float) for k in readings])
+            return cls(keys, check_readings(values, len(keys), "lasers"))
+        values = check_readings(readings, None if positions is None else len(positions), "lasers")
+        return cls(tuple(range(1, len(values) + 1)) if positions is None else tuple(positions), values)
 
     def at(self, positions: tuple[int, ...]) -> FloatArray:
         """Readings (K, 3) in the order of ``positions``.
@@ -130,7 +158,7 @@ class LaserTable:
 
 def _data_lines(path: Path, check_header: Callable[[int, list[str]], None]) -> list[tuple[int, list[str]]]:
     """Rows (fields stripped) without blank and ``#`` lines; ``check_header`` sees the first row before the rest."""
-    from pcmm_geo.io._text import read_csv_rows
+    from pcmm_geo.io.text import read_csv_rows
 
     table = read_csv_rows(path, check_header=lambda line, cells: check_header(line, [c.strip() for c in cells]))
     if not table.rows:

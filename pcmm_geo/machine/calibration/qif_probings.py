@@ -14,7 +14,8 @@ at a slider position, or the probe tip.  Roles come from
 A sphere with measured points is refitted from them (Gaussian, in the document's common frame:
 the same fit as the CSV route's raw probings) -- the probe radius moves no centre, so the centre
 is the same whether or not the points are compensated; its radius is compensated onto the ball
-(a ball is an external sphere) where the file gives the probe radius.  A sphere without points
+(a ball is an external sphere) where the file gives the probe radius, as :mod:`pcmm_geo.cmm.compensation`
+decides for every fit of a CMM's points.  A sphere without points
 contributes the centre the CMM reported (and its diameter and form where given), and is listed as
 such.
 
@@ -200,11 +201,12 @@ def read_qif_probings(path: str | Path, *, feature_map: Mapping[str, Role] | str
         except PcmmGeoError as exc:
             raise FileFormatError(source, f"feature {name!r}: {exc}") from None
         if points is not None and len(points) > 0:
+            surface, probe_radius, note = _ball_points(points, name)
             try:
-                sphere = fit_probed_sphere(points.points, what=f"{name} ({_text(role)})")
+                sphere = fit_probed_sphere(surface, what=f"{name} ({_text(role)})")
             except (PcmmGeoError, ValueError) as exc:
                 raise FileFormatError(source, f"feature {name!r}: cannot fit a sphere: {exc}") from None
-            radius, note = _ball_radius(sphere.radius, points)
+            radius = sphere.radius - probe_radius  # a ball is an external sphere: surface inside the centres
             if note:
                 notes.append(f"{name}: {note}")
             fitted[role] = FittedSphere(sphere.center, radius, sphere.form, sphere.n_points)
@@ -272,12 +274,27 @@ def write_qif_probings(features: ProbedFeatures, path: str | Path, *, overwrite:
     return write_qif(document, path, overwrite=overwrite, linear_unit=linear_unit)
 
 
-def _ball_radius(center_radius: float, points: Any) -> tuple[float, str]:
-    """The ball's radius from the probe-centre sphere (a ball is external: radius - probe radius)."""
-    if points.compensated is True:
-        return center_radius, ""
-    if points.compensated is False and points.probe_radius is not None:
-        return center_radius - float(points.probe_radius), \
-            f"ball radius compensated by the probe radius {float(points.probe_radius):g} mm (external sphere)"
-    return center_radius, "radius of the probe centres (the file gives no compensation or probe radius); " \
-        "the centre is the same either way"
+def _ball_points(points: Any, name: str) -> tuple[Any, float, str]:
+    """The points to fit a ball to, the probe radius left to subtract from its radius (mm) and a note.
+
+    Decided by :func:`~pcmm_geo.cmm.compensation.plan_compensation` like every other fit of a CMM's
+    points (per-point flags or radii: compensated one by one along the point normals).  Where the
+    file does not tell the probe radius, the ball is fitted to the points as they are: the centre
+    is the same either way, only the radius is that of the probe centres.
+    """
+    from pcmm_geo.cmm.compensation import plan_compensation
+    from pcmm_geo.errors import InvalidInputError
+
+    try:
+        plan = plan_compensation(points, where=f"feature {name!r}", unstated="surface")
+    except InvalidInputError as exc:
+        return points.points, 0.0, (f"radius of the probe centres ({exc}); the centre is the same either way")
+    if plan.radius > 0:
+        return plan.points, plan.radius, f"ball radius compensated by the probe radius {plan.radius:g} mm " \
+            "(external sphere)"
+    if plan.assumed:
+        return plan.points, 0.0, "radius of the probe centres (the file gives no compensation or probe radius); " \
+            "the centre is the same either way"
+    if plan.point_radii is not None:
+        return plan.points, 0.0, f"{plan.radius_source} before the ball was fitted"
+    return plan.points, 0.0, ""

@@ -48,13 +48,11 @@ from numpy.typing import ArrayLike, NDArray
 from pcmm_geo.errors import CalibrationError, InvalidInputError
 from pcmm_geo.fit.skew import mean_pairwise_midpoint, nearest_point_to_lines, pairwise_closest_points
 from pcmm_geo.machine.calibration.geometry import angle_between, fit_center_line, seed_printed_angle_deg
+from pcmm_geo.machine.calibration.inputs import check_readings
 from pcmm_geo.machine.calibration.probings import (
     ARMS,
     LaserTable,
     ProbedFeatures,
-    probed_features_from_points,
-    read_lasers,
-    read_probings,
 )
 from pcmm_geo.machine.calibration.result import PAIRS, SliderLineCalibration, TetrahedronCalibration
 
@@ -68,6 +66,8 @@ __all__ = [
     "PAIRS",
     "SliderLineCalibration",
     "TetrahedronCalibration",
+    "as_laser_table",
+    "as_probed_features",
     "b_in_from_lasers",
     "calibrate_tetrahedron",
     "seed_printed_angle_deg",
@@ -78,56 +78,36 @@ START_OF_RANGE = 60.0
 
 
 # ---------------------------------------------------------------------------------------------- inputs
-def _as_features(probings: Any) -> ProbedFeatures:
+def as_probed_features(probings: ProbedFeatures | str | Path | Mapping[Any, Any]) -> ProbedFeatures:
+    """The probings as :class:`ProbedFeatures`: one already, a CSV path (:meth:`ProbedFeatures.from_csv`) or arrays
+    (:meth:`ProbedFeatures.from_points`).
+
+    Raises
+    ------
+    InvalidInputError
+        None of these.
+    """
     if isinstance(probings, ProbedFeatures):
         return probings
     if isinstance(probings, (str, Path)):
-        return read_probings(probings)
+        return ProbedFeatures.from_csv(probings)
     if isinstance(probings, Mapping):
-        points: dict[tuple[str, int | None], Any] = {}
-        for key, value in probings.items():
-            if isinstance(key, tuple):
-                points[key] = value
-            elif key == "tip":
-                points[("tip", None)] = value
-            elif key in ("joint_a", "joint_b", "joint_c"):
-                items = value.items() if isinstance(value, Mapping) else enumerate(value, start=1)
-                for position, pts in items:
-                    points[(key, int(position))] = pts
-            else:
-                raise InvalidInputError(
-                    "probings", "keys 'joint_a', 'joint_b', 'joint_c', 'tip' or (feature, position)", repr(key)
-                )
-        return probed_features_from_points(points)
+        return ProbedFeatures.from_points(probings)
     raise InvalidInputError(
-        "probings", "a CSV path, ProbedFeatures or a mapping of probed points", type(probings).__name__
+        "probings", "ProbedFeatures (from_csv, from_points, read_qif_probings), a CSV path or a mapping of probed "
+        "points", type(probings).__name__
     )
 
 
-def _as_lasers(lasers: Any, positions: tuple[int, ...]) -> LaserTable:
+def as_laser_table(lasers: LaserTable | str | Path | ArrayLike | Mapping[int, ArrayLike],
+                   positions: tuple[int, ...]) -> LaserTable:
+    """The laser readings as :class:`LaserTable`: one already, a CSV path (:meth:`LaserTable.from_csv`), or readings
+    (:meth:`LaserTable.from_readings`; an array is in the order of ``positions``)."""
     if isinstance(lasers, LaserTable):
         return lasers
     if isinstance(lasers, (str, Path)):
-        return read_lasers(lasers)
-    if isinstance(lasers, Mapping):
-        keys = tuple(int(k) for k in lasers)
-        values = np.array([np.asarray(lasers[k], dtype=float) for k in lasers])
-        return LaserTable(keys, _check_readings(values, len(keys), "lasers"))
-    values = _check_readings(lasers, len(positions), "lasers")
-    return LaserTable(positions, values)
-
-
-def _check_readings(value: Any, count: int | None, name: str) -> FloatArray:
-    try:
-        arr = np.asarray(value, dtype=float)
-    except (TypeError, ValueError):
-        raise InvalidInputError(name, "laser readings of shape (K, 3)", type(value).__name__) from None
-    if arr.ndim != 2 or arr.shape[1] != 3 or (count is not None and arr.shape[0] != count):
-        want = f"({count}, 3)" if count is not None else "(M, 3)"
-        raise InvalidInputError(name, f"laser readings of shape {want} (arms a, b, c)", f"shape {arr.shape}")
-    if not np.all(np.isfinite(arr)):
-        raise InvalidInputError(name, "finite laser readings", "NaN or inf")
-    return arr
+        return LaserTable.from_csv(lasers)
+    return LaserTable.from_readings(lasers, None if isinstance(lasers, Mapping) else positions)
 
 
 # ------------------------------------------------------------------------------------------ calculation
@@ -164,7 +144,7 @@ def b_in_from_lasers(
     >>> round(b["ab"], 9), i["ab"]
     (100.0, 0)
     """
-    readings = _check_readings(lasers, None, "laser_sweep")
+    readings = check_readings(lasers, None, "laser_sweep")
     lengths = readings + laser_start_of_range + np.array([dead_distance[arm] for arm in ARMS])
     b_values: dict[str, float] = {}
     index: dict[str, int] = {}
@@ -233,8 +213,8 @@ def _seed_values(
 
 
 def calibrate_tetrahedron(
-    probings: Any,
-    lasers: Any,
+    probings: ProbedFeatures | str | Path | Mapping[Any, Any],
+    lasers: LaserTable | str | Path | ArrayLike | Mapping[int, ArrayLike],
     *,
     laser_start_of_range: float = START_OF_RANGE,
     laser_sweep: ArrayLike | None = None,
@@ -246,14 +226,18 @@ def calibrate_tetrahedron(
 
     Parameters
     ----------
-    probings : str, Path, ProbedFeatures or mapping
-        A CSV file (raw ``feature,position,x,y,z`` or the seed's ``x,y,z,d,r`` export, see
-        :mod:`pcmm_geo.machine.calibration.probings`), or arrays: ``{"joint_a": [(N, 3) per
-        position] or {position: (N, 3)}, ..., "tip": (N, 3)}`` (mm, CMM₁ frame).
-    lasers : str, Path, LaserTable, array_like (K, 3) or mapping
-        Laser readings per slider position (mm, arms a, b, c); a CSV
-        ``position,laser_a,laser_b,laser_c``, an array in sorted position order, or
-        ``{position: (3,)}``.
+    probings : ProbedFeatures
+        The probed balls (mm, CMM₁ frame), made by :meth:`ProbedFeatures.from_csv` (raw
+        ``feature,position,x,y,z`` or the seed's ``x,y,z,d,r`` export, see
+        :mod:`pcmm_geo.machine.calibration.probings`), :meth:`ProbedFeatures.from_points`
+        (``{"joint_a": [(N, 3) per position] or {position: (N, 3)}, ..., "tip": (N, 3)}``) or
+        :func:`~pcmm_geo.machine.calibration.qif_probings.read_qif_probings` (its ``.features``).
+        A CSV path or such a mapping is still read with them (:func:`as_probed_features`).
+    lasers : LaserTable
+        Laser readings per slider position (mm, arms a, b, c), made by
+        :meth:`LaserTable.from_csv` (``position,laser_a,laser_b,laser_c``) or
+        :meth:`LaserTable.from_readings`; a CSV path, an array (K, 3) in sorted position order
+        or ``{position: (3,)}`` is still read with them (:func:`as_laser_table`).
     laser_start_of_range : float
         Start of the laser measuring range excluded from the dead distance (60 mm, Table 7.1).
     laser_sweep : array_like, shape (M, 3), optional
@@ -287,9 +271,9 @@ def calibrate_tetrahedron(
     --------
     See the module docstring (Appendix C/D reproduction of Table 7.1).
     """
-    features = _as_features(probings)
+    features = as_probed_features(probings)
     positions = features.positions
-    table = _as_lasers(lasers, positions)
+    table = as_laser_table(lasers, positions)
     readings = table.at(positions)
     if not np.isfinite(laser_start_of_range):
         raise InvalidInputError("laser_start_of_range", "a finite length in mm", str(laser_start_of_range))
@@ -304,7 +288,7 @@ def calibrate_tetrahedron(
         reference = np.mean([features.joints["a"][pos].center for pos in positions], axis=0)
         datum = datum_frame(datum_plane, datum_hole, x_towards=reference)
         features = datum.transform_features(features)
-    sweep = readings if laser_sweep is None else _check_readings(laser_sweep, None, "laser_sweep")
+    sweep = readings if laser_sweep is None else check_readings(laser_sweep, None, "laser_sweep")
     return _calibrate(features, readings, sweep, laser_start_of_range, laser_scale, datum)
 
 

@@ -202,7 +202,8 @@ def enclosing_sphere(points: FloatArray, seed: FloatArray) -> ExactOptimum:
     rounds = 0
     for rounds in range(1, _MAX_ROUNDS + 1):  # noqa: B007 (reported after the loop)
         centre, radius, on_sphere = enclosing_ball(points[chosen])
-        bound = max(bound, radius)
+        if np.isfinite(radius):  # repeated sites leave no finite ball: no bound (issue 31 proved inf "exact")
+            bound = max(bound, radius)
         distances = _distance(points, centre)
         reach = float(distances.max())
         if reach < best_radius:

@@ -60,7 +60,7 @@ from numpy.typing import NDArray
 from pcmm_geo.machine.analysis.logproc.geometry import RowKinematics, row_kinematics
 from pcmm_geo.machine.analysis.logproc.rows import MeasurementLog
 from pcmm_geo.machine.analysis.logproc.segments import LogSegments
-from pcmm_geo.machine.kinematics import _pose_solver as solver
+from pcmm_geo.machine.kinematics import pose_solver as solver
 
 __all__ = ["PRIOR_SIGMA", "Adjustment", "adjust"]
 

@@ -44,7 +44,7 @@ from pcmm_geo.machine.analysis.logproc.segments import (
     segment_misfit,
     taylor_shift,
 )
-from pcmm_geo.machine.kinematics import _pose_solver as solver
+from pcmm_geo.machine.kinematics import pose_solver as solver
 
 __all__ = ["MAX_COMPETITORS", "competing_fits", "find_ambiguities"]
 

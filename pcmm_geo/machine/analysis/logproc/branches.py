@@ -45,7 +45,7 @@ from pcmm_geo.machine.analysis.logproc.segments import (
     reading_weights,
     segment_misfit,
 )
-from pcmm_geo.machine.kinematics import _pose_solver as solver
+from pcmm_geo.machine.kinematics import pose_solver as solver
 
 __all__ = ["BEAM", "Hypothesis", "branch_hypotheses"]
 

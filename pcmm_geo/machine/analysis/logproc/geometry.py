@@ -43,7 +43,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
-from pcmm_geo.machine.kinematics import _pose_solver as solver
+from pcmm_geo.machine.kinematics import pose_solver as solver
 
 __all__ = [
     "GEOMETRY_PARAMETERS",

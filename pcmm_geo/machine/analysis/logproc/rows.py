@@ -123,7 +123,7 @@ def read_log(path: str | Path, *, allow_unterminated: bool = False) -> Measureme
     ...     print(exc.line, exc.reason[:44])
     2 last row has no line end: its last value may
     """
-    from pcmm_geo.io._text import excerpt, read_csv_rows
+    from pcmm_geo.io.text import excerpt, read_csv_rows
 
     name = str(path)
 
@@ -188,7 +188,7 @@ _FLAG_VALUES = ((0, 1), (0, 1), (1, 2, 3), (-1, 0, 1))
 
 
 def _all_numbers(cells: tuple[str, ...]) -> bool:
-    from pcmm_geo.io._text import parse_decimal
+    from pcmm_geo.io.text import parse_decimal
 
     try:
         return all(np.isfinite(parse_decimal(cell)) for cell in cells)
@@ -207,7 +207,7 @@ def _row_numbers(name: str, line: int, cells: tuple[str, ...], n_columns: int, n
             return [float(cell) for cell in row]
         except ValueError:
             pass
-    from pcmm_geo.io._text import excerpt, parse_decimal
+    from pcmm_geo.io.text import excerpt, parse_decimal
 
     values = []
     for column, cell in zip(LOG_COLUMNS, row, strict=True):

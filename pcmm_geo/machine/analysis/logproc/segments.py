@@ -44,7 +44,7 @@ from numpy.typing import NDArray
 
 from pcmm_geo.machine.analysis.logproc.geometry import PAIRS
 from pcmm_geo.machine.analysis.logproc.rows import MeasurementLog
-from pcmm_geo.machine.kinematics import _pose_solver as solver
+from pcmm_geo.machine.kinematics import pose_solver as solver
 
 __all__ = ["LogSegments", "misfit_minima", "moved_further", "reading_weights", "segment_log", "segment_misfit",
            "taylor_shift"]

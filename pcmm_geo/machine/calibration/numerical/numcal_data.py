@@ -24,7 +24,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from pcmm_geo.errors import FileFormatError, InvalidInputError
-from pcmm_geo.io._text import excerpt, parse_decimal
+from pcmm_geo.io.text import excerpt, parse_decimal
 
 __all__ = [
     "APPENDIX_B_BOUNDS_AS_PRINTED",
@@ -187,7 +187,7 @@ def read_numcal_csv(path: str | Path) -> NumcalData:
     [0.0, 5.5]
     """
     file = Path(path)
-    from pcmm_geo.io._text import read_csv_rows
+    from pcmm_geo.io.text import read_csv_rows
 
     def check_header(line: int | None, cells: tuple[str, ...] | None) -> None:  # before the rest is read
         if cells is None or tuple(f.strip().lower() for f in cells) not in (_HEADER, _HEADER_ALL):

@@ -1,0 +1,36 @@
+"""Type stub of :mod:`pcmm_geo.thermal`: lazy public names, real types (pcmm_geo._lazy)."""
+
+from .correction import BudgetEntry as BudgetEntry
+from .correction import LengthCorrection as LengthCorrection
+from .correction import correct_length as correct_length
+from .expansion import ALPHA_ALUMINIUM as ALPHA_ALUMINIUM
+from .expansion import ALPHA_GAUGE_BLOCK_STEEL as ALPHA_GAUGE_BLOCK_STEEL
+from .expansion import ALPHA_STEEL as ALPHA_STEEL
+from .expansion import REFERENCE_TEMPERATURE as REFERENCE_TEMPERATURE
+from .expansion import delta_l as delta_l
+from .expansion import expanded_length as expanded_length
+from .expansion import seed_delta_l as seed_delta_l
+from .machine_expansion import expand_rigid_body_machine as expand_rigid_body_machine
+from .machine_expansion import rigid_body_tip_displacement as rigid_body_tip_displacement
+from .physical import MEMBERS as MEMBERS
+from .physical import ThermalMachineGeometry as ThermalMachineGeometry
+from .physical import ThermalSensitivityTable as ThermalSensitivityTable
+from .physical import physical_tip as physical_tip
+from .physical import physical_tip_displacement as physical_tip_displacement
+from .physical import thermal_sensitivity_table as thermal_sensitivity_table
+from .probe_error import SeedProbeError as SeedProbeError
+from .probe_error import seed_probe_error as seed_probe_error
+from .probe_error import trilaterate as trilaterate
+from .sensors import IEC60751 as IEC60751
+from .sensors import KELVIN_OFFSET as KELVIN_OFFSET
+from .sensors import CallendarVanDusen as CallendarVanDusen
+from .sensors import SteinhartHart as SteinhartHart
+from .sensors import fit_steinhart_hart as fit_steinhart_hart
+from .sensors import rtd_resistance as rtd_resistance
+from .sensors import rtd_temperature as rtd_temperature
+from .triangle import NOMINAL_SIDE as NOMINAL_SIDE
+from .triangle import FrameTriangle as FrameTriangle
+from .triangle import deform_triangle as deform_triangle
+from .triangle import expand_frame as expand_frame
+from .triangle import frame_corners as frame_corners
+from .triangle import seed_frame_corners as seed_frame_corners
