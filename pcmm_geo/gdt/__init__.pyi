@@ -44,3 +44,5 @@ from .qif.frames import DatumFrame as DatumFrame
 from .qif.frames import FrameMap as FrameMap
 from .qif.frames import datum_frame as datum_frame
 from .qif.frames import frame_map as frame_map
+from .qif.results import QifExport as QifExport
+from .qif.results import inspection_to_qif as inspection_to_qif
