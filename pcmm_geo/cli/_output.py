@@ -43,6 +43,13 @@ class Report:
     :func:`pcmm_geo.cli._identity.method_for`) and ``environment`` (the temperatures the
     command used) fill the report's method and environmental conditions; ``provenance`` and
     ``identity`` are filled by :func:`pcmm_geo.cli._run.run_handler`.
+
+    A ``--report`` also renders what the terminal leaves out: ``report_tables`` (every result
+    a standard asks for, e.g. all 105 E0 values, after ``tables``), ``statements`` (titled
+    paragraphs: method, traceability, thermal correction) and ``annex`` (a technical annex of
+    supplementary tables, after the figures); ``title`` replaces the command as the report's
+    heading (e.g. a calibration certificate).  ``console`` lines are printed on the terminal
+    only (``plot written to ...``), never in a report.
     """
 
     data: dict[str, Any]
@@ -57,6 +64,11 @@ class Report:
     environment: list[Condition] = field(default_factory=list)
     provenance: Provenance | None = None
     identity: ReportIdentity | None = None
+    report_tables: list[Table] = field(default_factory=list)
+    statements: list[tuple[str, str]] = field(default_factory=list)
+    annex: list[Table] = field(default_factory=list)
+    title: str = ""
+    console: list[str] = field(default_factory=list)
 
 
 def add_json_flag(parser: argparse.ArgumentParser) -> None:
@@ -319,12 +331,12 @@ def print_report(report: Report, as_json: bool) -> None:
         json.dump(to_jsonable(report.data), sys.stdout, indent=2, allow_nan=False)
         sys.stdout.write("\n")
         return
-    blocks = [render_table(t) for t in report.tables]
+    blocks = [render_table(t) for t in (*report.tables, *report.annex)]
     blocks += [render_table(t) for t in uncertainty_tables(report, correlations=False)]
     if report.verdict is not None:  # the verdict once, from its slot: handlers do not repeat it in lines
         blocks.append("\n".join(report.verdict.lines()))
-    if report.lines:
-        blocks.append("\n".join(report.lines))
+    if report.lines or report.console:
+        blocks.append("\n".join([*report.lines, *report.console]))
     if blocks:  # a command that printed its own output (pcmm batch) returns an empty report
         print("\n\n".join(blocks))
 
