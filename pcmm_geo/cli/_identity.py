@@ -396,7 +396,7 @@ def method_for(args: argparse.Namespace) -> Method:
                       "length corrected to the reference temperature 20 °C with its uncertainty budget")
     if command == "calibrate":
         return Method("", "", "tetrahedron calibration from external-CMM probings (the thesis, chapter 7)")
-    if command == "qif" and action == "verify":
+    if command in ("qif", "results") and action == "verify":
         return Method("", "", "second opinion on a CMM's QIF results: every feature refitted from its measured "
                       "points (probe compensated) and compared with the reported values")
     if command == "compare":

@@ -91,8 +91,8 @@ class _RenamedOption(argparse.Action):
 
     def __call__(self, parser: argparse.ArgumentParser, namespace: argparse.Namespace, values: Any,
                  option_string: str | None = None) -> None:
-        parser.error(f"{option_string} is now {self.new} (the unit is in the name); the old name is refused, "
-                     "so no number is read in a unit it was not written in")
+        parser.exit(2, f"{parser.prog}: error: {option_string} is now {self.new} (the unit is in the name); the old "
+                       "name is refused, so no number is read in a unit it was not written in\n")  # one line, no usage
 
 
 def refuse_renamed_options(parser: argparse.ArgumentParser, renamed: dict[str, str]) -> None:
@@ -100,7 +100,7 @@ def refuse_renamed_options(parser: argparse.ArgumentParser, renamed: dict[str, s
 
     Every length option carries its unit in its name (``--tolerance-mm``, ``--mpe-a-um``); an old
     name is registered hidden and exact, so argparse neither abbreviates it to the new name nor
-    accepts it silently: it prints the usage and ``OLD is now NEW ...`` on stderr and exits 2.
+    accepts it silently: it prints the one line ``OLD is now NEW ...`` on stderr (no usage) and exits 2.
 
     Examples
     --------
