@@ -35,6 +35,7 @@ from pcmm_geo.cli._record import software_identity
 
 _MARKDOWN_SPECIAL = "\\`*_[]<|"
 _WRITTEN = re.compile(r"^[\w .-]* written to \S")  # a console note of a file written, never a result
+_LONG_WORD = 24  # characters: a longer token may break anywhere in print (paths, XPaths), shorter ones never
 _HEX_DIGEST = re.compile(r"[0-9a-f]{64}")  # SHA-256 cells: monospace, one line
 _EMBEDDED_TYPES = {".png": "image/png", ".svg": "image/svg+xml"}
 _STYLE = (
@@ -43,10 +44,10 @@ _STYLE = (
     "thead{display:table-header-group}"  # a long table repeats its header on every printed page
     "th,td{border:1px solid #bbb;padding:0.25em 0.6em}th{background:#eee}"
     "td.num{text-align:right;font-family:monospace;white-space:nowrap;overflow-wrap:normal}code{background:#f4f4f4}img{max-width:100%}"
-    "td{overflow-wrap:anywhere}td:first-child{overflow-wrap:normal}td.hash{font-family:monospace;font-size:0.8em;overflow-wrap:anywhere}"
+    "td{overflow-wrap:break-word}td.long{overflow-wrap:anywhere}td.hash{font-family:monospace;font-size:0.8em;overflow-wrap:anywhere}"
     ".verdict{font-size:1.4em;font-weight:bold;padding:0.3em 0.6em;display:inline-block}"
     ".pass{background:#d8f0d8;color:#145214}.fail{background:#f6d5d5;color:#7a1010}.none{background:#eee}"
-    "p.statement{margin-top:2em;font-style:italic}p.amends{font-weight:bold;color:#7a1010}"
+    "li,p{overflow-wrap:anywhere}p.statement{margin-top:2em;font-style:italic}p.amends{font-weight:bold;color:#7a1010}"
     "table.approval{width:100%}table.approval td{height:2.2em;vertical-align:bottom}"
     "@media print{body{margin:0;max-width:none;font-size:9pt}table{width:100%;font-size:8.5pt}"
     "th,td{padding:0.15em 0.35em}td.num{white-space:normal}tr,figure,table.approval{break-inside:avoid}"
@@ -127,7 +128,9 @@ def _decision_table(report: Report) -> list[Table]:
             return []
         return [Table("Decision", ["item", "value"],
                       [["decision", "no conformity statement: this evaluation has no specification to decide on"]])]
-    rows = [["result", verdict.statement], ["conformity (ISO 14253-1)", verdict.conformity],
+    agreement = verdict.conformity.startswith("not a conformity decision")  # a check between two evaluations
+    rows = [["result", verdict.statement], ["kind of decision" if agreement else "conformity (ISO 14253-1)",
+                                            verdict.conformity],
             ["decision rule", verdict.decision_rule]]
     if verdict.uncertainty:
         rows.append(["expanded uncertainty U", verdict.uncertainty])
@@ -266,7 +269,9 @@ def _html_table(table: Table) -> str:
     numeric = [bool(cells) and all(_looks_numeric(r[i]) for r in cells) for i in range(len(table.columns))]
     head = "".join(f"<th>{html.escape(c)}</th>" for c in table.columns)
     def cell(text: str, is_number: bool) -> str:
-        kind = "num" if is_number else ("hash" if _HEX_DIGEST.fullmatch(text) else "")
+        # words keep whole (a narrow column widens); only long tokens (paths, XPaths) may break anywhere
+        long = any(len(word) > _LONG_WORD for word in text.split())
+        kind = "num" if is_number else ("hash" if _HEX_DIGEST.fullmatch(text) else ("long" if long else ""))
         return f'<td class="{kind}">{html.escape(text)}</td>' if kind else f"<td>{html.escape(text)}</td>"
 
     body = "".join(

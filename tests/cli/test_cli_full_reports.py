@@ -220,3 +220,42 @@ def test_gauge_block_grade_needs_a_nominal_within_the_table(tmp_path: Path) -> N
                           (["--block-temperature-c", "nan"], "--block-temperature-c")):
         done = run_pcmm("gauge-block", str(GAUGE), *extra)
         assert done.returncode == 2 and len(done.stderr.splitlines()) == 1 and needle in done.stderr, done.stderr
+
+
+QIF_SAMPLE = Path(__file__).parents[1] / "data" / "qif" / "samples" / "QIF_PTS_SAMPLE.QIF"
+CALYPSO = Path(__file__).parents[1] / "data" / "cmm" / "flange_chr.txt"
+
+
+def test_qif_verify_report_shows_reported_and_refitted_values_as_an_agreement_check(tmp_path: Path) -> None:
+    page = tmp_path / "v.html"
+    done = run_pcmm("qif", "verify", str(QIF_SAMPLE), "--report", str(page), "--json", *WHO)
+    assert done.returncode == 1, done.stderr
+    features = {f["id"]: f for f in json.loads(done.stdout)["features"]}
+    tables = html_tables(page)
+    rows = {(int(row[0]), row[2]): row for row in tables["Reported and refitted values"][1:]}
+    # the cylinder's diameter: both values as the file and the refit give them, and their difference
+    cylinder = rows[(796, "diameter / mm")]
+    assert cylinder[3] == f"{features[796]['reported']['diameter_mm']:.6f}"
+    assert cylinder[4] == f"{features[796]['refit']['diameter_mm']:.6f}" and cylinder[7] == "yes"
+    # the plane's location: three coordinates each, 1.79 µm apart (> 0.1 µm): does not agree
+    plane = rows[(11, "location x, y, z / mm")]
+    assert plane[3] == ", ".join(f"{v:.6f}" for v in features[11]["reported"]["location_mm"])
+    assert plane[4] == ", ".join(f"{v:.6f}" for v in features[11]["refit"]["location_mm"])
+    assert plane[5] == "1.791 µm" and plane[7] == "NO"
+    decision = {row[0]: row[1] for row in tables["Decision"][1:] if len(row) > 1}
+    assert "conformity (ISO 14253-1)" not in decision and decision["kind of decision"].startswith(
+        "not a conformity decision")
+    conditions = {row[0]: row[1] for row in tables["Environmental conditions"][1:]}
+    assert list(conditions) == ["temperature"] and "same measured points" in conditions["temperature"]
+    assert "20 °C" not in page.read_text(encoding="utf-8")
+
+
+def test_qif_verify_of_a_table_without_points_says_nothing_was_verified(tmp_path: Path) -> None:
+    page = tmp_path / "c.md"
+    done = run_pcmm("qif", "verify", str(CALYPSO), "--units", "mm", "--report", str(page), *WHO)
+    assert done.returncode == 1
+    assert "id  name  type" not in done.stdout  # no empty table
+    assert "CALYPSO characteristics table was read" in done.stdout and "nothing was verified" in done.stdout
+    text = page.read_text(encoding="utf-8")
+    checked = markdown_tables(page)["What was checked"]
+    assert checked == [] and "Not checked: any reported size" in text

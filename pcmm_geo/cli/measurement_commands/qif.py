@@ -251,8 +251,16 @@ def _handle_verify(args: argparse.Namespace) -> Report:
                       f"differs from the CMM's by at most {tolerance:g} mm (angles: {tolerance:g} mm / feature size)",
                       basis="the differences between pcmm_geo's refit of each feature's points and the values the "
                             "CMM reported; the measurement uncertainty of the points is not taken into account")
-    return Report(data=result.to_dict(), tables=[table], lines=lines,
-                  exit_code=0 if result.agrees is True else EXIT_FAILURE, verdict=verdict)
+    from pcmm_geo.cli.documents import qif_verify as second_opinion  # reported vs refitted, what was checked
+
+    verdict = Verdict(verdict.passed, verdict.statement, verdict.decision_rule, basis=verdict.basis,
+                      conformity_text=second_opinion.AGREEMENT)
+    scope = second_opinion.scope_statement(document, result)
+    return Report(data=result.to_dict(), tables=[table] if table.rows else [],
+                  lines=[*lines, scope] if not table.rows else lines,
+                  exit_code=0 if result.agrees is True else EXIT_FAILURE, verdict=verdict,
+                  report_tables=[second_opinion.values_table(result)], statements=[("What was checked", scope)],
+                  environment=[second_opinion.NO_TEMPERATURE])
 
 
 def _handle_validate(args: argparse.Namespace) -> Report:
