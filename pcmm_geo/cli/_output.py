@@ -331,7 +331,9 @@ def print_report(report: Report, as_json: bool) -> None:
         json.dump(to_jsonable(report.data), sys.stdout, indent=2, allow_nan=False)
         sys.stdout.write("\n")
         return
-    blocks = [render_table(t) for t in (*report.tables, *report.annex)]
+    annex = [Table(t.title, t.columns[:-1], [row[:-1] for row in t.rows]) if t.columns[-1] == "meaning" else t
+             for t in report.annex]  # the terminal leaves out the annex's explanations (the report has them)
+    blocks = [render_table(t) for t in (*report.tables, *annex)]
     blocks += [render_table(t) for t in uncertainty_tables(report, correlations=False)]
     if report.verdict is not None:  # the verdict once, from its slot: handlers do not repeat it in lines
         blocks.append("\n".join(report.verdict.lines()))

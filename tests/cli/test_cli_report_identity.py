@@ -175,6 +175,26 @@ def test_a_bad_pcmm_toml_is_refused_before_any_work(tmp_path: Path, monkeypatch:
     assert sorted(p.name for p in tmp_path.iterdir()) == ["pcmm.toml"]
 
 
+def test_pcmm_toml_keys_are_spelled_as_the_options(tmp_path: Path, monkeypatch: pytest.MonkeyPatch,
+                                                  capsys: pytest.CaptureFixture[str]) -> None:
+    (tmp_path / "pcmm.toml").write_text('approved-by = "B. Approver"\ncustomer = "C"\n[[reference]]\nname = "s"\n'
+                                        'certificate = "S-1"\nU-um = 0.1\n', encoding="utf-8")
+    monkeypatch.chdir(tmp_path)
+    code, _, err = _run(["iso10360-5", SPHERE, "--report", "r.md"], capsys)
+    assert code == 0 and err == ""
+    tables = _markdown_tables((tmp_path / "r.md").read_text(encoding="utf-8"))
+    assert _rows(tables, "Report")["approved by"] == "B. Approver"
+    assert tables["Reference standards"][0][:3] == ["s", "S-1", "U = 0.1 µm (k = 2)"]
+    # both spellings of one key, a wrong value: one line each, the file's path once
+    for content, needle in (('approved-by = "A"\napproved_by = "B"\n', "given twice"),
+                            ("customer = 3\n", "customer: expected text"),
+                            ('[environment]\nair = [1]\n', "[environment] 'air'")):
+        (tmp_path / "pcmm.toml").write_text(content, encoding="utf-8")
+        code, _, err = _run(["iso10360-5", SPHERE, "--report", "s.md"], capsys)
+        assert code == 2 and len(err.splitlines()) == 1 and needle in err, err
+        assert err.count("pcmm.toml") == 1
+
+
 def test_generated_ids_are_unique_and_options_need_a_report(tmp_path: Path,
                                                             capsys: pytest.CaptureFixture[str]) -> None:
     ids = set()
