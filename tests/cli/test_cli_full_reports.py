@@ -259,3 +259,28 @@ def test_qif_verify_of_a_table_without_points_says_nothing_was_verified(tmp_path
     text = page.read_text(encoding="utf-8")
     checked = markdown_tables(page)["What was checked"]
     assert checked == [] and "Not checked: any reported size" in text
+
+
+def test_qif_show_writes_a_report_and_verify_draws_each_difference_against_its_tolerance(tmp_path: Path) -> None:
+    page = tmp_path / "show.md"
+    done = run_pcmm("results", "show", str(QIF_SAMPLE), "--report", str(page), "--json", *WHO)
+    assert done.returncode == 0, done.stderr
+    data = json.loads(done.stdout)
+    tables = markdown_tables(page)
+    characteristics = next(rows for title, rows in tables.items() if title.startswith("Characteristics"))
+    assert [int(row[0]) for row in characteristics[1:]] == [c["id"] for c in data["characteristics"]]
+    plot = tmp_path / "v.png"
+    done = run_pcmm("qif", "verify", str(QIF_SAMPLE), "--plot", str(plot), "--json")
+    assert done.returncode == 1 and plot.stat().st_size > 10_000
+    from pcmm_geo.cmm.verify import verify_document
+    from pcmm_geo.io.cmm import read_qif
+    from pcmm_geo.plots.cmm_verify import verification_ratios
+
+    ratios = verification_ratios(verify_document(read_qif(QIF_SAMPLE)))
+    features = {f["id"]: f for f in json.loads(done.stdout)["features"]}
+    # the plane's location: 1.7909 µm against 0.1 µm; the single points: the probe radius 2.49978 mm
+    assert ("11 DATUMA", "location", pytest.approx(features[11]["difference"]["location_distance_mm"] / 1e-4)) in [
+        (label, name, ratio) for label, name, ratio in ratios]
+    assert sum(ratio > 1 for _, _, ratio in ratios) == 6  # DATUMA location, direction and 4 points
+    refused = run_pcmm("qif", "verify", str(QIF_SAMPLE), "--plot", str(plot))
+    assert refused.returncode == 2 and "already exists" in refused.stderr

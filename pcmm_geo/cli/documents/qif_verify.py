@@ -93,3 +93,10 @@ def scope_statement(document: Any, result: Any) -> str:
             f"reported values. Not checked: {left} feature{'s' if left != 1 else ''} without usable points "
             "(reasons listed), the characteristics' tolerance evaluations, and the "
             "measurement uncertainty of the points.")
+
+
+def plot(result: Any, path: str, overwrite: bool) -> str:
+    """Draw :func:`pcmm_geo.plots.cmm_verify.plot_verification` (``--plot``); returns the written path."""
+    from pcmm_geo.plots.cmm_verify import plot_verification
+
+    return str(plot_verification(result, path, overwrite=overwrite))

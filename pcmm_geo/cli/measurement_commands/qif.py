@@ -12,6 +12,7 @@ from pcmm_geo.cli._output import (
     Table,
     add_json_flag,
     add_overwrite_flag,
+    add_plot_flag,
     add_report_flag,
     refuse_renamed_options,
 )
@@ -29,6 +30,8 @@ def register(subparsers: Any) -> None:
                               "(or a DMIS output, a CALYPSO table)")
     show.add_argument("file", help="QIF results file (or DMIS output .dmo, CALYPSO *_chr.txt)")
     _add_limits(show)
+    add_report_flag(show)
+    add_overwrite_flag(show)
     add_json_flag(show)
     show.set_defaults(handler=_handle_show)
 
@@ -57,6 +60,7 @@ def register(subparsers: Any) -> None:
                         help="probe radius in mm, overriding the file's")
     refuse_renamed_options(verify, {"--probe-radius": "--probe-radius-mm"})
     _add_limits(verify)
+    add_plot_flag(verify, "each compared difference against its agreement tolerance, per feature")
     add_report_flag(verify)
     add_overwrite_flag(verify)
     add_json_flag(verify)
@@ -256,7 +260,9 @@ def _handle_verify(args: argparse.Namespace) -> Report:
     verdict = Verdict(verdict.passed, verdict.statement, verdict.decision_rule, basis=verdict.basis,
                       conformity_text=second_opinion.AGREEMENT)
     scope = second_opinion.scope_statement(document, result)
-    return Report(data=result.to_dict(), tables=[table] if table.rows else [],
+    plots = [second_opinion.plot(result, args.plot, args.overwrite)] if args.plot else []
+    return Report(plots=plots, console=[f"plot written to {p}" for p in plots],
+                  data=result.to_dict(), tables=[table] if table.rows else [],
                   lines=[*lines, scope] if not table.rows else lines,
                   exit_code=0 if result.agrees is True else EXIT_FAILURE, verdict=verdict,
                   report_tables=[second_opinion.values_table(result)], statements=[("What was checked", scope)],
