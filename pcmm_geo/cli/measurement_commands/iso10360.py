@@ -362,5 +362,8 @@ def _handle_6(args: argparse.Namespace) -> Report:
           "pass" if c.passed else f"FAIL {c.note}".strip()]
          for c in report.cases],
     )
-    return Report(data=data, tables=[table], plots=plots, verdict=verdict,
+    limits = Table("Maximum permissible errors of the test", ["quantity", "MPE", "unit"],
+                   [["position", mpe.position, "mm"], ["orientation", mpe.orientation, "rad"],
+                    ["size", mpe.size, "mm"], ["angle", mpe.angle, "rad"]])
+    return Report(data=data, tables=[table], plots=plots, verdict=verdict, report_tables=[limits],
                   exit_code=EXIT_OK if report.passed else EXIT_FAILURE)

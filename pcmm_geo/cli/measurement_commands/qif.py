@@ -85,7 +85,9 @@ def register(subparsers: Any) -> None:
 def _add_limits(parser: argparse.ArgumentParser) -> None:
     add_max_mb_option(parser)
     text = parser.add_argument_group("DMIS output and CALYPSO tables (which may not state their units)")
-    text.add_argument("--units", choices=("mm", "cm", "m", "inch", "feet"), help="length unit of the file")
+    text.add_argument("--units", choices=("mm", "cm", "m", "inch", "feet"),
+                      help="length unit of the file: a DMIS output without UNITS takes any of these, a CALYPSO "
+                           "table mm or inch")
     text.add_argument("--angle-unit", choices=("degree", "radian"), help="angle unit of the file")
     text.add_argument("--size-values", choices=("actual", "deviation"),
                       help="DMIS: the number of a size tolerance result is the actual size or its deviation")
