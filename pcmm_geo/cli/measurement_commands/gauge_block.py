@@ -146,6 +146,10 @@ def _handle(args: argparse.Namespace) -> Report:
               "t_e_um": data.get("t_e_um"), "t_v_um": data.get("t_v_um")}
     if correction is None:
         lines.append("no block temperature entered (--block-temperature-c): the lengths are not corrected to 20 °C")
+    else:  # the report states it in its environmental conditions
+        console.append(f"corrected to 20 °C: block at {args.block_temperature:g} °C, alpha {args.alpha:.3g} /K, "
+                       f"correction {1000 * correction.correction:+.3f} µm (u = "
+                       f"{1000 * correction.standard_uncertainty:.3f} µm)")
     statements = [("Method", certificate.method_statement(result.n_points)),
                   ("Measurement uncertainty", certificate.uncertainty_statement(args.uncertainty)),
                   ("Traceability", certificate.traceability_statement(len(_references(args))))]
