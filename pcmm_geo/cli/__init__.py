@@ -42,7 +42,7 @@ COMMAND_MODULES = (
 
 def build_parser() -> argparse.ArgumentParser:
     from pcmm_geo import __version__
-    from pcmm_geo.cli._help import PcmmParser, install_grouped_help
+    from pcmm_geo.cli._help import PcmmParser, add_completion_option, install_grouped_help
 
     parser = PcmmParser(
         prog="pcmm",
@@ -50,6 +50,7 @@ def build_parser() -> argparse.ArgumentParser:
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
     parser.add_argument("--version", action="version", version=f"pcmm_geo {__version__}")
+    add_completion_option(parser)
     subparsers = parser.add_subparsers(dest="command", metavar="COMMAND")
     for name in COMMAND_MODULES:
         try:

@@ -106,13 +106,43 @@ class PcmmParser(argparse.ArgumentParser):
         super().error(message)
 
 
+class _PrintCompletion(argparse.Action):
+    """``--print-completion SHELL``: the shell completion script of ``pcmm`` (shtab, extra ``[completion]``)."""
+
+    def __call__(self, parser: argparse.ArgumentParser, namespace: argparse.Namespace, values: object,
+                 option_string: str | None = None) -> None:
+        from pcmm_geo._optional import require
+        from pcmm_geo.errors import MissingDependencyError
+
+        try:
+            shtab = require("shtab", purpose="shell completion")
+        except MissingDependencyError as exc:  # parsing has not reached the command's error handling yet
+            parser.exit(2, f"{parser.prog}: error: {' '.join(str(exc).split())}\n")
+        commands = [a for a in parser._actions if isinstance(a, argparse._SubParsersAction)]
+        for action in commands:  # hidden from --help (the grouped list replaces it), not from completion
+            action.help = "command"
+        print(shtab.complete(parser, shell=str(values)))
+        parser.exit(0)
+
+
+def add_completion_option(parser: argparse.ArgumentParser) -> None:
+    """Add ``--print-completion {bash,zsh,tcsh}`` (imports shtab only when used).
+
+    ``pcmm --print-completion bash > ~/.local/share/bash-completion/completions/pcmm`` completes
+    the commands, actions, options and their choices.
+    """
+    parser.add_argument("--print-completion", choices=("bash", "zsh", "tcsh"), action=_PrintCompletion,
+                        help="print a shell completion script for pcmm (needs the completion extra: shtab)")
+
+
 def install_grouped_help(parser: argparse.ArgumentParser, subparsers: argparse._SubParsersAction) -> None:
     """Add the aliases and make ``parser``'s help list the commands by group (:data:`COMMAND_GROUPS`)."""
     for alias, target in ALIASES.items():
         if target in subparsers.choices and alias not in subparsers.choices:
             subparsers.choices[alias] = subparsers.choices[target]
     parser.epilog = grouped_help_text(subparsers)
-    parser.usage = f"{parser.prog} [-h] [--version] COMMAND ..."  # after the sub-parsers took their prog from it
+    # set after the sub-parsers took their prog from the default usage
+    parser.usage = f"{parser.prog} [-h] [--version] [--print-completion SHELL] COMMAND ..."
     subparsers.help = argparse.SUPPRESS
 
 

@@ -80,3 +80,26 @@ def test_a_renamed_option_is_one_line_without_the_usage() -> None:
     assert done.stderr.splitlines() == ["pcmm iso10360-2: error: --mpe-a is now --mpe-a-um (the unit is in the "
                                         "name); the old name is refused, so no number is read in a unit it was not "
                                         "written in"]
+
+
+def test_shell_completion_scripts_complete_commands_actions_and_options(tmp_path: Path) -> None:
+    import shutil
+    import subprocess
+
+    done = run_pcmm("--print-completion", "bash")
+    assert done.returncode == 0 and "_shtab_pcmm" in done.stdout
+    if shutil.which("bash") is None:
+        return
+    script = tmp_path / "pcmm.bash"
+    script.write_text(done.stdout, encoding="utf-8")
+
+    def complete(*words: str) -> list[str]:
+        line = " ".join(("pcmm", *words))
+        program = (f"source {script}; COMP_WORDS=(pcmm {' '.join(words)}); COMP_CWORD={len(words)}; "
+                   f"COMP_LINE='{line}'; COMP_POINT={len(line)}; _shtab_pcmm; printf '%s\\n' \"${{COMPREPLY[@]}}\"")
+        return subprocess.run(["bash", "-c", program], capture_output=True, text=True, timeout=60).stdout.split()
+
+    assert complete("res") == ["results"]
+    assert complete("thermal", "c") == ["correct-length"]
+    assert complete("iso10360-2", "--mpe-") == ["--mpe-a-um", "--mpe-k", "--mpe-b-um"]
+    assert complete("iso10360-2", "--mpe-a") == ["--mpe-a-um"]  # the refused old name --mpe-a is not offered
