@@ -189,6 +189,9 @@ def test_gauge_block_report_is_a_calibration_certificate(tmp_path: Path) -> None
     assert certified["variation in length v"] == f"{1000 * data['variation_in_length_mm']:.3f}"
     # v = 1.37 µm (0.3 µm probing noise) exceeds t_v = 0.35 µm: FAIL, though e is within t_e with U
     assert abs(deviation) + 0.1 <= 1.20 and done.returncode == 1 and data["verdict"] == "FAIL"
+    decision = {row[0]: row[1] for row in tables["Decision"][1:] if len(row) > 1}
+    assert "exceeds t_v = 0.35 µm" in decision["conformity (ISO 14253-1)"]  # v fails, not proven: no U on v
+    assert decision["conformity (ISO 14253-1)"].endswith("deviation e: PASS")
     conditions = {row[0]: row[1] for row in tables["Environmental conditions"][1:]}
     assert conditions["air temperature"] == "20.10" and conditions["gauge block temperature"].startswith("20.400")
     assert conditions["correction to 20 °C applied to every length"].startswith(f"{data['thermal_correction_um']:+.3f}")

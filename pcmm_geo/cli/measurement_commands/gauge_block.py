@@ -217,11 +217,16 @@ def _decide(args: argparse.Namespace, length: float, variation_um: float | None,
     decision = decide_conformity(deviation_um, u_um, upper_limit=tolerance, lower_limit=-tolerance)
     state = decision.verdict
     limits = f"deviation e within ±{tolerance:g} µm of the nominal {args.nominal:g} mm"
+    conformity = ""
     if t_v is not None:
         limits = f"grade {args.grade} (ISO 3650): {limits} (t_e)"
         if variation_um is not None:
             limits += f" and variation in length v <= t_v = {t_v:g} µm (simple acceptance, U not applied to v)"
             if variation_um > t_v:
+                # the deviation's ISO 14253-1 state stands; v fails by simple acceptance, which proves nothing
+                conformity = (f"variation in length v = {variation_um:.3f} µm exceeds t_v = {t_v:g} µm (simple "
+                              "acceptance: U is not applied to v, so its nonconformity is not proven in ISO 14253-1 "
+                              f"terms); deviation e: {decision.verdict}")
                 state = "FAIL"
     data["verdict"], data["passed"] = state, {"PASS": True, "FAIL": False}.get(state)
     if args.uncertainty is not None:
@@ -234,5 +239,6 @@ def _decide(args: argparse.Namespace, length: float, variation_um: float | None,
         f", variation {variation_um:.3f} µm)" if t_v is not None and variation_um is not None else ")")
     verdict = Verdict(data["passed"], statement, rule,
                       uncertainty=f"U = {u_um:g} µm (k = 2), as stated" if args.uncertainty is not None else "",
-                      basis="the measured central length alone (no U stated: --uncertainty-um)")
+                      basis="the measured central length alone (no U stated: --uncertainty-um)",
+                      conformity_text=conformity)
     return verdict, uncertainties, EXIT_OK if state == "PASS" else EXIT_FAILURE
