@@ -287,3 +287,18 @@ def test_qif_show_writes_a_report_and_verify_draws_each_difference_against_its_t
     assert sum(ratio > 1 for _, _, ratio in ratios) == 6  # DATUMA location, direction and 4 points
     refused = run_pcmm("qif", "verify", str(QIF_SAMPLE), "--plot", str(plot))
     assert refused.returncode == 2 and "already exists" in refused.stderr
+
+
+def test_iso10360_6_report_lists_every_case_and_the_mpes(tmp_path: Path) -> None:
+    page = tmp_path / "s.md"
+    done = run_pcmm("iso10360-6", str(EXAMPLES / "iso10360_6_reference.csv"), str(EXAMPLES / "iso10360_6_results.json"),
+                    "--mpe-size-mm", "2e-7", "--report", str(page), "--json", *WHO)
+    data = json.loads(done.stdout)
+    tables = markdown_tables(page)
+    cases = {row[0]: row for row in tables["ISO 10360-6 software test"][1:]}
+    assert sorted(cases) == sorted(c["name"] for c in data["cases"]) and len(cases) == data["n_cases"]
+    for case in data["cases"]:
+        assert cases[case["name"]][6].startswith("pass" if case["passed"] else "FAIL")
+    mpes = {row[0]: float(row[1]) for row in tables["Maximum permissible errors of the test"][1:]}
+    assert mpes == {"position": 1e-9, "orientation": 1e-9, "size": 2e-7, "angle": 1e-9}
+    assert done.returncode == (0 if data["passed"] else 1)
