@@ -97,6 +97,7 @@ def require(module: str, *, purpose: str | None = None, extra: str | None = None
     try:
         return importlib.import_module(module)
     except ImportError as exc:
+        _reraise_interrupt(exc)
         top = module.split(".")[0]
         if top not in OPTIONAL_MODULES:
             raise
@@ -120,6 +121,21 @@ def available(module: str) -> bool:
     """
     try:
         importlib.import_module(module)
-    except ImportError:
+    except ImportError as exc:
+        _reraise_interrupt(exc)
         return False
     return True
+
+
+def _reraise_interrupt(error: ImportError) -> None:
+    """An import that failed because Ctrl-C (or SIGTERM, SIGHUP) arrived while it loaded stays an interrupt.
+
+    Extension modules (open3d's pybind11 core) turn an exception raised during their
+    initialisation into ``ImportError("initialization failed")``: without this, Ctrl-C while
+    open3d loads read as "open3d is not installed".
+    """
+    from pcmm_geo._signals import interruption
+
+    interrupt = interruption(error)
+    if interrupt is not None:
+        raise interrupt from None

@@ -30,10 +30,11 @@ from __future__ import annotations
 
 import contextlib
 import signal
+import sys
 import threading
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 
-__all__ = ["HANDLED_SIGNALS", "Interrupted", "deferred", "interrupt_on_signals"]
+__all__ = ["HANDLED_SIGNALS", "Interrupted", "deferred", "guarded_command", "interrupt_on_signals", "interruption"]
 
 #: the signals that end a command like Ctrl-C (SIGHUP only where the platform has it)
 HANDLED_SIGNALS: tuple[int, ...] = tuple(
@@ -58,6 +59,7 @@ class Interrupted(KeyboardInterrupt):
 class _State:
     installed = False  # interrupt_on_signals is active
     raised = False  # one Interrupted was raised: hold the others
+    signum: int | None = None  # the signal of that Interrupted
     depth = 0  # nesting of deferred sections
     pending: int | None = None
 
@@ -67,7 +69,7 @@ def _handler(signum: int, frame: object) -> None:
         if _State.pending is None:
             _State.pending = signum
         return
-    _State.raised = True
+    _State.raised, _State.signum = True, signum
     raise Interrupted(signum)
 
 
@@ -81,7 +83,7 @@ def deferred() -> Iterator[None]:
         _State.depth -= 1
         if _State.depth == 0 and _State.installed and not _State.raised and _State.pending is not None:
             signum, _State.pending = _State.pending, None
-            _State.raised = True
+            _State.raised, _State.signum = True, signum
             raise Interrupted(signum)
 
 
@@ -94,7 +96,7 @@ def interrupt_on_signals() -> Iterator[None]:
     previous = {signum: signal.getsignal(signum) for signum in HANDLED_SIGNALS}
     # a signal the caller ignores stays ignored (``nohup`` ignores SIGHUP, a shell's ``&`` SIGINT)
     previous = {signum: handler for signum, handler in previous.items() if handler is not signal.SIG_IGN}
-    _State.installed, _State.raised, _State.pending = True, False, None
+    _State.installed, _State.raised, _State.pending, _State.signum = True, False, None, None
     for signum in previous:
         signal.signal(signum, _handler)
     try:
@@ -102,4 +104,58 @@ def interrupt_on_signals() -> Iterator[None]:
     finally:
         for signum, handler in previous.items():
             signal.signal(signum, handler)
-        _State.installed, _State.raised, _State.pending = False, False, None
+        _State.installed, _State.raised, _State.pending, _State.signum = False, False, None, None
+
+
+def interruption(error: BaseException) -> KeyboardInterrupt | None:
+    """The interrupt that ``error`` stands for, or None.
+
+    An interrupt raised inside a library can come out as another exception: an extension
+    module's initialisation turns it into ``ImportError("initialization failed")``, a writer's
+    clean-up that runs while it unwinds fails in its turn (``zlib.error`` from a half-written PDF
+    stream).  Such an error is the interrupt when a :class:`KeyboardInterrupt` is in its chain
+    (``__cause__`` / ``__context__``), or when :func:`interrupt_on_signals` raised an
+    :class:`Interrupted` in this command (the chain may have been cut).
+
+    Examples
+    --------
+    >>> try:
+    ...     try:
+    ...         raise KeyboardInterrupt
+    ...     except KeyboardInterrupt as exc:
+    ...         raise ImportError("initialization failed") from exc
+    ... except ImportError as exc:
+    ...     type(interruption(exc)).__name__
+    'KeyboardInterrupt'
+    >>> interruption(ValueError("plain")) is None
+    True
+    """
+    pending, seen = [error], set()
+    while pending:
+        current = pending.pop()
+        if current is None or id(current) in seen:
+            continue
+        if isinstance(current, KeyboardInterrupt):
+            return current
+        seen.add(id(current))
+        pending += [current.__cause__, current.__context__]
+    if _State.installed and _State.raised and _State.signum is not None:
+        return Interrupted(_State.signum)
+    return None
+
+
+def guarded_command(body: Callable[[], int], name: str = "pcmm") -> int:
+    """Run a whole command (``body``, argument parsing and imports included) inside :func:`interrupt_on_signals`.
+
+    From the moment the entry point runs, an interrupt is one line on stderr (``pcmm: interrupted``)
+    and exit 128 + signal (130 for Ctrl-C), also while the sub-commands load, before the command's
+    own handling (which reports what its rollback kept) starts.  This module imports nothing heavy,
+    so the handlers are in place within microseconds of the entry point.
+    """
+    with interrupt_on_signals():
+        try:
+            return body()
+        except KeyboardInterrupt as exc:
+            by = f" by {exc.name}" if isinstance(exc, Interrupted) and exc.name != "SIGINT" else ""
+            print(f"{name}: interrupted{by}", file=sys.stderr)
+            return exc.exit_code if isinstance(exc, Interrupted) else 130

@@ -16,9 +16,11 @@ move, 0 = after it; ``probe`` 1 = contact; ``motor`` 1|2|3; ``direction`` +1/-1;
 the rest keep the raw values (Zaber microsteps, laser counts), a sequence number and the UTC
 time, so a run can be re-processed later.  Values are written as read, before any correction.
 
-Durability: every row is one ``write``, ``flush``, ``os.fsync``, with Ctrl-C, SIGTERM and SIGHUP held
-until it is on disk (:func:`pcmm_geo._signals.deferred`): an interrupted run keeps each row whole.  A
-new file is created exclusively (never overwriting unless asked), its directory fsync'ed.  Reopening
+One session at a time: an open log holds an exclusive ``flock``
+(:mod:`pcmm_geo.acquisition._loglock`); a second session on it is refused at once. Durability: every
+row is one ``write``, ``flush``, ``os.fsync``, with Ctrl-C, SIGTERM and SIGHUP held until it is on
+disk (:func:`pcmm_geo._signals.deferred`): an interrupted run keeps each row whole. A new file is
+created exclusively (never overwriting unless asked), its directory fsync'ed. Reopening
 checks the whole file: a partial last line (a crash mid-row) raises
 :class:`~pcmm_geo.errors.LogIntegrityError` unless ``repair=True``, in which case it is cut off
 and the cut is reported in :class:`LogRecovery` and as a ``# truncated_bytes`` comment.
@@ -45,6 +47,7 @@ from typing import IO, Any
 
 from pcmm_geo._atomic import current_transaction, fsync_folder
 from pcmm_geo._signals import deferred
+from pcmm_geo.acquisition._loglock import check_unlocked, lock_handle
 from pcmm_geo.errors import InvalidInputError, LogIntegrityError, OutputExistsError
 
 __all__ = [
@@ -239,6 +242,16 @@ def _scan(path: Path) -> tuple[dict[str, str], tuple[str, ...], list[LogRow], by
     return metadata, columns, rows, tail, whole_end
 
 
+def _comment_entries(entries: Mapping[str, Any], name: str) -> dict[str, str]:
+    """``entries`` as text, checked for ``# key: value`` lines (InvalidInputError naming ``name[key]``)."""
+    checked = {}
+    for key, value in entries.items():
+        if any(c in str(key) for c in "\n\r:") or any(c in str(value) for c in "\n\r"):
+            raise InvalidInputError(f"{name}[{key!r}]", "a one-line key without ':' and a one-line value", str(value))
+        checked[str(key)] = str(value)
+    return checked
+
+
 def _torn_column_line(data: bytes) -> int:
     """Bytes missing from a column line torn at its end, when the rest of the header is provably whole.
 
@@ -333,13 +346,10 @@ class AcquisitionLog:
         path = Path(path)
         entries = {"schema": LOG_SCHEMA, "created_utc": utc_now(), "software": f"pcmm_geo {__version__}"}
         entries.update({f"unit.{k}": v for k, v in COLUMN_UNITS.items()})
-        for key, value in (metadata or {}).items():
-            text = str(value)
-            if "\n" in str(key) or "\r" in str(key) or ":" in str(key) or "\n" in text or "\r" in text:
-                raise InvalidInputError(f"metadata[{key!r}]", "a one-line key without ':' and a one-line value", text)
-            entries[str(key)] = text
+        entries.update(_comment_entries(metadata or {}, "metadata"))
         header = "# pcmm_geo acquisition log\n" + "".join(f"# {k}: {v}\n" for k, v in entries.items())
         header += ",".join(LOG_COLUMNS) + "\n"
+        check_unlocked(path)  # a log another session appends to is not replaced under it
         transaction = current_transaction()
         if transaction is not None:  # a command's outputs: an allowed old file is moved aside, restorable
             transaction.claim(path, overwrite=overwrite)
@@ -349,6 +359,7 @@ class AcquisitionLog:
             handle = open(path, "w" if overwrite else "x", encoding="utf-8", newline="")
         except FileExistsError as exc:
             raise OutputExistsError(str(path)) from exc
+        lock_handle(handle, path)  # held until close: one session per log (pcmm_geo.acquisition._loglock)
         log = cls(path, handle, LogRecovery(str(path), 0, False, 0, ""))
         log._write(header)
         if transaction is not None:  # measured rows are a record: a failing (or killed) command keeps them
@@ -397,21 +408,29 @@ class AcquisitionLog:
         Raises
         ------
         LogIntegrityError
-            Damaged header/rows, an incomplete header, or a partial last line without ``repair``.
+            Damaged header/rows, an incomplete header, a partial last line without ``repair``, or another
+            session holds the log.
         FileNotFoundError
             No such file.
         """
         path = Path(path)
-        recovery = cls.check_resumable(path, repair=repair)
-        if recovery.truncated or recovery.header_completed_bytes:  # cut a torn row / finish the column line
-            with open(path, "r+b") as raw:
-                raw.truncate(path.stat().st_size - recovery.dropped_bytes)
-                raw.seek(0, os.SEEK_END)
-                raw.write(_COLUMN_LINE[len(_COLUMN_LINE) - recovery.header_completed_bytes:])
-                raw.flush()
-                os.fsync(raw.fileno())
-        _scan(path)  # the repaired file reads whole
+        if not path.exists():  # appending would create it
+            raise FileNotFoundError(2, "No such file or directory", str(path))
         handle = open(path, "a", encoding="utf-8", newline="")
+        try:  # locked before it is read: another session cannot append between the check and the first row
+            lock_handle(handle, path)
+            recovery = cls.check_resumable(path, repair=repair)
+            if recovery.truncated or recovery.header_completed_bytes:  # cut a torn row / finish the column line
+                with open(path, "r+b") as raw:
+                    raw.truncate(path.stat().st_size - recovery.dropped_bytes)
+                    raw.seek(0, os.SEEK_END)
+                    raw.write(_COLUMN_LINE[len(_COLUMN_LINE) - recovery.header_completed_bytes:])
+                    raw.flush()
+                    os.fsync(raw.fileno())
+            _scan(path)  # the repaired file reads whole
+        except BaseException:
+            handle.close()
+            raise
         log = cls(path, handle, recovery)
         note = f"# resumed_utc: {utc_now()}\n"
         if recovery.truncated:
@@ -420,6 +439,10 @@ class AcquisitionLog:
             note += f"# header_completed_bytes: {recovery.header_completed_bytes}\n"
         log._write(note)
         return log
+
+    def note(self, entries: Mapping[str, Any]) -> None:
+        """Record ``# key: value`` lines between rows (durably; one-line keys without ``:`` and values)."""
+        self._write("".join(f"# {key}: {value}\n" for key, value in _comment_entries(entries, "entries").items()))
 
     def append(self, row: LogRow) -> LogRow:
         """Write one row durably (single write, flush, fsync); fills ``seq`` and ``t_utc`` if unset.

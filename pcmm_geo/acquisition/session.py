@@ -303,6 +303,17 @@ class AcquisitionSession:
         if presequence:
             self.presequence()
 
+    def restore(self, positions: Sequence[int]) -> None:
+        """Move motors 1, 2, 3 to ``positions`` (microsteps), e.g. where a resumed log left them.
+
+        Called after :meth:`prepare`: a continued log's next row then observes the pose its last
+        row did, as ``pcmm process-log`` (which chains heights from row to row) requires.
+        """
+        if len(positions) != 3:
+            raise InvalidInputError("positions", "three positions in microsteps (motors 1, 2, 3)", repr(positions))
+        for motor, target in zip(MOTORS, positions, strict=True):
+            self._move_to(motor, int(target), stop_on_contact=False)
+
     # ------------------------------------------------------------------ measuring
     def record(self, start_stop: int, motor: int, direction: int) -> LogRow:
         """Read lasers a, b, c and the probe, write one row (raw values as read) and return it."""

@@ -30,7 +30,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from pcmm_geo._optional import require
 from pcmm_geo.artefacts.cad_distance import surface_distances
-from pcmm_geo.artefacts.cad_register import DEFAULT_SAMPLE_COUNT, Registration, register_to_mesh
+from pcmm_geo.artefacts.cad_register import DEFAULT_SAMPLE_COUNT, Registration, as_mesh, register_to_mesh
 from pcmm_geo.errors import InvalidInputError
 from pcmm_geo.fit._kernels._core import as_points
 
@@ -150,7 +150,7 @@ def mesh_deviations(points: ArrayLike, mesh: trimesh.Trimesh, *, tolerance: floa
     ----------
     points : array_like, shape (N, 3)
         Points in the mesh frame (mm).
-    mesh : trimesh.Trimesh
+    mesh : trimesh.Trimesh or path
         Nominal surface, closed with outward face normals.
     tolerance : float, optional
         Symmetric tolerance (mm) for ``summary.count_beyond``.
@@ -176,7 +176,7 @@ def mesh_deviations(points: ArrayLike, mesh: trimesh.Trimesh, *, tolerance: floa
     """
     data = as_points(points, element="deviations", min_points=1)
     _check_tolerance(tolerance)
-    near = surface_distances(data, mesh)
+    near = surface_distances(data, as_mesh(mesh))
     return MeshDeviations(
         points=data,
         closest=near.closest,
@@ -220,6 +220,7 @@ def compare_to_mesh(
     See the module docstring.
     """
     _check_tolerance(tolerance)
+    mesh = as_mesh(mesh)  # a file path is read once, for both steps
     registration = register_to_mesh(points, mesh, initial_transform=initial_transform, max_distance=max_distance,
                                      sample_count=sample_count, seed=seed)
     deviations = mesh_deviations(registration.apply(as_points(points, element="registration")), mesh,

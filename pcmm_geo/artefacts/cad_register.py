@@ -25,9 +25,10 @@ See :func:`register_to_mesh` for a registration.
 
 from __future__ import annotations
 
+import os
 import warnings
 from dataclasses import dataclass
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -189,6 +190,25 @@ def centroid_alignment(points: ArrayLike, mesh: trimesh.Trimesh) -> FloatArray:
     return transform
 
 
+def as_mesh(mesh: Any) -> trimesh.Trimesh:
+    """A mesh object, or the mesh read from a file path (:func:`pcmm_geo.io.read_mesh`).
+
+    Raises
+    ------
+    InvalidInputError
+        ``mesh`` is neither a path nor a mesh with vertices and faces.
+    FileFormatError
+        The file cannot be read as a mesh.
+    """
+    if isinstance(mesh, str | os.PathLike):
+        from pcmm_geo.io.meshes import read_mesh
+
+        return read_mesh(mesh)
+    if not (hasattr(mesh, "vertices") and hasattr(mesh, "faces")):
+        raise InvalidInputError("mesh", "a trimesh.Trimesh or the path of a mesh file", type(mesh).__name__)
+    return mesh
+
+
 def register_to_mesh(
     points: ArrayLike,
     mesh: trimesh.Trimesh,
@@ -204,8 +224,9 @@ def register_to_mesh(
     ----------
     points : array_like, shape (N, 3)
         Measured points (mm), N >= 6.
-    mesh : trimesh.Trimesh
-        Nominal surface (mm), closed with outward face normals.
+    mesh : trimesh.Trimesh or path
+        Nominal surface (mm), closed with outward face normals, or its file (STL, PLY, OBJ, OFF:
+        :func:`pcmm_geo.io.read_mesh`).
     initial_transform : array_like, shape (4, 4), optional
         Starting transform measured -> nominal (default identity); see :func:`centroid_alignment`.
     max_distance : float, optional
@@ -252,6 +273,7 @@ def register_to_mesh(
     o3d = require("open3d")
     trimesh = require("trimesh")
 
+    mesh = as_mesh(mesh)
     data = as_points(points, element="registration", min_points=MIN_REGISTRATION_POINTS)
     start = np.eye(4) if initial_transform is None else as_rigid_transform(initial_transform)
     diagonal = float(np.linalg.norm(np.ptp(np.asarray(mesh.vertices, dtype=float), axis=0)))

@@ -65,6 +65,12 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 def main(argv: Sequence[str] | None = None) -> int:
+    from pcmm_geo._signals import guarded_command  # light: the handlers are in place before anything else loads
+
+    return guarded_command(lambda: _main(argv))  # Ctrl-C from here on: one line, exit 130
+
+
+def _main(argv: Sequence[str] | None) -> int:
     from pcmm_geo.cli._run import run_handler
 
     parser = build_parser()

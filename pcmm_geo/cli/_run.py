@@ -101,6 +101,29 @@ def _interrupted(args: argparse.Namespace, plan: OutputPlan | None, exc: Keyboar
     return exc.exit_code if isinstance(exc, Interrupted) else 130
 
 
+def _failed(args: argparse.Namespace, plan: OutputPlan, exc: Exception) -> int:
+    """The one line of a failed command; an error that an interrupt caused ends as the interrupt.
+
+    Library errors, files and bad values are one line, exit 2; anything else is a bug (traceback).
+    """
+    from pcmm_geo._signals import interruption
+
+    interrupt = interruption(exc)  # e.g. zlib.error from a PDF writer's clean-up after Ctrl-C
+    if interrupt is not None:
+        return _interrupted(args, plan, interrupt)
+    if isinstance(exc, OutputExistsError):
+        return _fail(args, plan, _refusal(args, plan, exc))
+    if isinstance(exc, PcmmGeoError):
+        return _fail(args, plan, " ".join(str(exc).split()))
+    if isinstance(exc, (OSError, ValueError)):
+        if isinstance(exc, OSError) and exc.filename is not None and exc.strerror:
+            message = f"{exc.filename}: {exc.strerror}"  # e.g. "run.csv: No such file or directory"
+        else:
+            message = " ".join(str(exc).split())  # one line, whatever the library put in it
+        return _fail(args, plan, message)
+    raise exc
+
+
 def _run(args: argparse.Namespace) -> int:
     wants_report = bool(getattr(args, "shared_report_flag", False) and getattr(args, "report", None))
     plan = output_plan(args)
@@ -132,16 +155,8 @@ def _run(args: argparse.Namespace) -> int:
                 report.data["report"] = str(written)
                 report.console.append(f"report written to {written}")
                 _warn_anonymous(args, identity)
-    except OutputExistsError as exc:
-        return _fail(args, plan, _refusal(args, plan, exc))
-    except PcmmGeoError as exc:
-        return _fail(args, plan, " ".join(str(exc).split()))
-    except (OSError, ValueError) as exc:
-        if isinstance(exc, OSError) and exc.filename is not None and exc.strerror:
-            message = f"{exc.filename}: {exc.strerror}"  # e.g. "run.csv: No such file or directory"
-        else:
-            message = " ".join(str(exc).split())  # one line, whatever the library put in it
-        return _fail(args, plan, message)
+    except Exception as exc:
+        return _failed(args, plan, exc)
     except KeyboardInterrupt as exc:
         return _interrupted(args, plan, exc)
     try:

@@ -120,8 +120,10 @@ def load_feature_points(path: str | Path, *, element: str | None = None, feature
         ``feature`` given for a file that is not QIF.
     """
     from pcmm_geo.cmm.files import detect_format
+    from pcmm_geo.io._lines import refuse_irregular
 
     file = Path(path)
+    refuse_irregular(file)  # a FIFO would block the reader forever
     kind = detect_format(file)
     if kind == "qif":
         from pcmm_geo.io.cmm import DEFAULT_MAX_BYTES, read_qif

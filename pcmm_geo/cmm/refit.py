@@ -58,9 +58,11 @@ class Compensation:
     ----------
     probe_radius_mm : float
         Radius applied (0 when none was).
-    side : {"internal", "external", "none"}
+    side : {"internal", "external", "none", "unknown"}
         Material side of a feature of size; planes, lines and points are touched from outside
-        the material (``"external"``, direction in ``outward``); ``"none"``: nothing applied.
+        the material (``"external"``, direction in ``outward``); ``"none"``: nothing applied;
+        ``"unknown"``: nothing states the side of this circle, cylinder or sphere: its centre
+        and axis (independent of the side) are refitted, its diameter is not (None).
     inferred : bool
         The side was inferred from the nominal size (the file did not state it).
     source : str
@@ -326,12 +328,19 @@ def _side_arguments(context: _Context, material_side: str | None, normals: Float
 
 def _round_compensation(fit: FitResult, radius: float, radius_source: str, context: _Context,
                         material_side: str | None, normals: FloatArray | None, points: FloatArray,
-                        nominal_diameter: float | None = None) -> tuple[FitResult, Compensation]:
+                        nominal_diameter: float | None = None, *,
+                        side_free: bool = False) -> tuple[FitResult, Compensation]:
     from pcmm_geo.fit.probe import compensate_probe
 
     if radius == 0:
         return fit, Compensation(0.0, "none", False, radius_source, "none")
-    kwargs, side_source = _side_arguments(context, material_side, normals, points)
+    try:
+        kwargs, side_source = _side_arguments(context, material_side, normals, points)
+    except NotRefittedError:
+        if not side_free:  # an element offset moves the surface along its normals: centre and axis stay put
+            raise
+        return fit, Compensation(radius, "unknown", False, f"{radius_source}; side unknown: centre and axis do not "
+                                 "depend on it, the size does and is not refitted", "none")
     if "nominal_diameter" in kwargs and nominal_diameter is not None:
         kwargs["nominal_diameter"] = nominal_diameter
     try:
@@ -347,9 +356,9 @@ def _sphere(points: FloatArray, normals: FloatArray | None, radius: float, radiu
     from pcmm_geo.fit import fit_sphere
 
     fit, comp = _round_compensation(fit_sphere(points, criterion=method), radius, radius_source, context,
-                                    options["material_side"], normals, points)
+                                    options["material_side"], normals, points, side_free=True)
     return Refit("sphere", len(points), method, method_source, comp, points, location=fit.center,
-                 diameter=2.0 * fit.radius, fit=fit)
+                 diameter=None if comp.side == "unknown" else 2.0 * fit.radius, fit=fit)
 
 
 def _cylinder(points: FloatArray, normals: FloatArray | None, radius: float, radius_source: str, context: _Context,
@@ -359,9 +368,9 @@ def _cylinder(points: FloatArray, normals: FloatArray | None, radius: float, rad
     hint = _first(context.actual.direction, None if context.nominal is None else context.nominal.direction)
     hinted = {"axis_hint": hint} if method == "gaussian" else {}  # the minimax fits search their own axes
     fit, comp = _round_compensation(fit_cylinder(points, criterion=method, **hinted), radius, radius_source,
-                                    context, options["material_side"], normals, points)
+                                    context, options["material_side"], normals, points, side_free=True)
     return Refit("cylinder", len(points), method, method_source, comp, points, location=fit.point,
-                 direction=fit.axis, diameter=2.0 * fit.radius, fit=fit)
+                 direction=fit.axis, diameter=None if comp.side == "unknown" else 2.0 * fit.radius, fit=fit)
 
 
 def _cone(points: FloatArray, normals: FloatArray | None, radius: float, radius_source: str, context: _Context,
@@ -406,9 +415,11 @@ def _circle(points: FloatArray, normals: FloatArray | None, radius: float, radiu
         return Refit("circle", len(points), method, method_source, comp, points, location=centre, direction=normal,
                      diameter=2.0 * fit.radius, circle_plane="reported", fit=fit)
     fit = fit_circle(points, method="projected") if method == "gaussian" else fit_circle(points, criterion=method)
-    fit, comp = _round_compensation(fit, radius, radius_source, context, options["material_side"], normals, points)
+    fit, comp = _round_compensation(fit, radius, radius_source, context, options["material_side"], normals, points,
+                                    side_free=True)
     return Refit("circle", len(points), method, method_source, comp, points, location=fit.center,
-                 direction=fit.normal, diameter=2.0 * fit.radius, circle_plane="least-squares", fit=fit)
+                 direction=fit.normal, diameter=None if comp.side == "unknown" else 2.0 * fit.radius,
+                 circle_plane="least-squares", fit=fit)
 
 
 def _plane_frame(normal: FloatArray) -> FloatArray:

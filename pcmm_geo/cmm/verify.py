@@ -176,6 +176,7 @@ def verify_document(
     circle_plane: str = "least-squares",
     compensated: bool | None = None,
     probe_radius: float | None = None,
+    material_side: str | None = None,
 ) -> Verification:
     """Refit every measured feature that has points and compare it with the CMM's actuals.
 
@@ -192,7 +193,11 @@ def verify_document(
     compensated : bool, optional
         Whether the points are surface points, for formats that do not say.
     probe_radius : float, optional
-        Probe radius (mm) overriding the file's.
+        Probe radius (mm) overriding the file's; a positive finite length.
+    material_side : {"internal", "external"}, optional
+        Material side of the features of size whose file states none (others keep the file's; see
+        :func:`~pcmm_geo.cmm.refit.refit_feature`); without it, a circle, cylinder or sphere of
+        unknown side has its centre and axis compared and its diameter not.
 
     Returns
     -------
@@ -206,13 +211,18 @@ def verify_document(
     tolerance = float(tolerance_mm)
     if not (np.isfinite(tolerance) and tolerance > 0):
         raise InvalidInputError("tolerance_mm", "a positive finite length (mm)", repr(tolerance_mm))
+    if probe_radius is not None and not (np.isfinite(probe_radius) and probe_radius > 0):
+        raise InvalidInputError("probe_radius", "a positive finite probe radius (mm)", repr(probe_radius))
+    if material_side not in (None, "internal", "external"):
+        raise InvalidInputError("material_side", "'internal' or 'external'", repr(material_side))
     if criterion is not None and criterion not in ("gaussian", "chebyshev", "mcc", "mic"):
         raise InvalidInputError("criterion", "'gaussian', 'chebyshev', 'mcc' or 'mic'", repr(criterion))
     checks = []
     for feature in document.measured_features:
         try:
             refit = refit_feature(document, feature, criterion=criterion, circle_plane=circle_plane,
-                                  compensated=compensated, probe_radius=probe_radius)
+                                  compensated=compensated, probe_radius=probe_radius,
+                                  material_side=material_side if feature.material_side is None else None)
         except NotRefittedError as exc:
             points = _count_points(document, feature)
             checks.append(FeatureCheck(feature.id, feature.type, feature.name, points, None, str(exc),

@@ -15,7 +15,9 @@ readers (:mod:`pcmm_geo.io._delimited`) parse the blocks directly.
 from __future__ import annotations
 
 import codecs
+import os
 import re
+import stat
 from collections.abc import Iterator
 from dataclasses import dataclass
 from pathlib import Path
@@ -24,6 +26,8 @@ from typing import BinaryIO
 from pcmm_geo.errors import FileFormatError
 
 __all__ = [
+    "open_regular",
+    "refuse_irregular",
     "BLOCK_BYTES",
     "EXCERPT_CHARS",
     "FIRST_BLOCK_BYTES",
@@ -142,6 +146,71 @@ def _control_error(path: str, data: bytes, position: int, first_line: int) -> Fi
     return FileFormatError(path, f"control character 0x{code:02x} at column {column}, expected text", line=number)
 
 
+def open_regular(path: str | Path, what: str = "a file") -> BinaryIO:
+    """``path`` opened for reading bytes, when it is a regular file; anything else is refused at once.
+
+    A FIFO would block the reader until some other process writes to it (forever, for a
+    command), a device or socket may never end, a directory is no file: each is a
+    :class:`FileFormatError` before anything is read.  The file is opened without blocking and
+    checked again on the open descriptor, so it cannot be swapped for a FIFO in between.
+
+    Raises
+    ------
+    FileFormatError
+        Not a regular file (naming what it is), or it cannot be opened.
+    FileNotFoundError
+        The file does not exist.
+
+    Examples
+    --------
+    >>> import os, tempfile
+    >>> folder = tempfile.mkdtemp()
+    >>> fifo = os.path.join(folder, "pipe.qif")
+    >>> os.mkfifo(fifo)
+    >>> try:
+    ...     open_regular(fifo)
+    ... except FileFormatError as exc:
+    ...     print(exc.reason)
+    is a FIFO (named pipe), expected a file: it could block forever
+    """
+    name = str(path)
+    info = os.stat(path)  # FileNotFoundError passes through; stat never blocks on a FIFO
+    _refuse_irregular(name, info.st_mode, what)
+    try:
+        handle = os.open(path, os.O_RDONLY | getattr(os, "O_NONBLOCK", 0) | getattr(os, "O_BINARY", 0))
+    except OSError as exc:
+        raise FileFormatError(name, f"cannot be read: {exc.strerror or exc}") from None
+    try:
+        _refuse_irregular(name, os.fstat(handle).st_mode, what)
+        return os.fdopen(handle, "rb")
+    except BaseException:
+        os.close(handle)
+        raise
+
+
+def refuse_irregular(path: str | Path, what: str = "a file") -> None:
+    """Refuse at once a path that exists and is not a regular file (a FIFO, a device, a directory).
+
+    For callers that decide something before a reader opens the file; a missing file is left
+    to the reader (which names it).
+    """
+    try:
+        mode = os.stat(path).st_mode
+    except OSError:
+        return
+    _refuse_irregular(str(path), mode, what)
+
+
+def _refuse_irregular(name: str, mode: int, what: str) -> None:
+    if stat.S_ISREG(mode):
+        return
+    if stat.S_ISDIR(mode):
+        raise FileFormatError(name, f"is a directory, expected {what}")
+    kind = "a FIFO (named pipe)" if stat.S_ISFIFO(mode) else "a socket" if stat.S_ISSOCK(mode) else \
+        "a device" if stat.S_ISCHR(mode) or stat.S_ISBLK(mode) else "not a regular file"
+    raise FileFormatError(name, f"is {kind}, expected {what}: it could block forever")
+
+
 def iter_blocks(path: str | Path, *, start: int = 0, first_line: int = 1, block_bytes: int = BLOCK_BYTES,
                 first_block_bytes: int = FIRST_BLOCK_BYTES, max_line: int | None = MAX_LINE_CHARS,
                 stop: int | None = None) -> Iterator[LineBlock]:
@@ -157,14 +226,13 @@ def iter_blocks(path: str | Path, *, start: int = 0, first_line: int = 1, block_
     Raises
     ------
     FileFormatError
-        ``path`` is a directory, or holds an over-long line (named, with its length).
+        ``path`` is a directory, a FIFO or another file that is not a regular one, or holds an
+        over-long line (named, with its length).
     FileNotFoundError
         The file does not exist.
     """
     file = Path(path)
-    if file.is_dir():
-        raise FileFormatError(str(file), "is a directory, expected a text file")
-    with open(file, "rb") as handle:
+    with open_regular(file, "a text file") as handle:
         handle.seek(start)
         offset, line, carry, size = start, first_line, b"", first_block_bytes
         if start == 0:

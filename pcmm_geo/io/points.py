@@ -44,7 +44,9 @@ POINT_CLOUD_SUFFIXES = (".ply", ".pcd")
 def read_points(path: str | Path, *, decimal: str | None = None) -> FloatArray:
     """Read points ``(N, 3)`` (mm) from a text or point-cloud file.
 
-    Text files use one field separator throughout: ``;``, tab, ``,`` (spaces around it
+    A text file whose first line starts with ``XYZIJK`` is a PC-DMIS export
+    (:func:`~pcmm_geo.io.cmm.read_pcdmis_xyzijk`: inch unless it says ``METRIC``; its normals
+    are dropped here).  Other text files use one field separator throughout: ``;``, tab, ``,`` (spaces around it
     allowed: ``1.5, 2.5, 3.5``) or spaces.  The decimal mark is ``.`` or, in files separated
     by ``;``, tabs or spaces, ``,`` (the usual layout of European CMM and spreadsheet
     exports: ``12,5;3,25;7,75``): with such a separator a comma can only be a decimal mark,
@@ -109,6 +111,10 @@ def read_points(path: str | Path, *, decimal: str | None = None) -> FloatArray:
     if suffix not in TEXT_SUFFIXES:
         raise FileFormatError(str(file), f"expected one of {', '.join(TEXT_SUFFIXES[:-1] + POINT_CLOUD_SUFFIXES)}"
                               ", .e57")
+    from pcmm_geo.io.cmm.pcdmis import is_pcdmis_xyzijk, read_pcdmis_xyzijk
+
+    if is_pcdmis_xyzijk(file):  # a PC-DMIS export: its own header, inch unless METRIC
+        return read_pcdmis_xyzijk(file).points
     return _read_text(file, decimal)
 
 

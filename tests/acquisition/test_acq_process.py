@@ -18,6 +18,7 @@ The broad scans (many seeds, every arm and row, Monte Carlo power) are
 from __future__ import annotations
 
 import contextlib
+import dataclasses
 import functools
 import io
 import warnings
@@ -123,8 +124,50 @@ def test_sessions_with_noise_cover_the_truth(sessions) -> None:
             assert out.inconsistent.mean() < 0.05  # false alarms of a Gaussian log at alpha0 = 0.1 % per reading
             got, count = covered(path, out)
             inside, total = inside + got, total + count
-    assert total > 0.8 * 120 * len(sessions)  # most rows have a stated bound
+    # Enough stated rows for the coverage test to have power: n = 610 rows reject a coverage of 90 % (instead of
+    # 95 %) with probability >= 0.95 (binomial, the rejection level of assert_at_least_95_percent); see
+    # test_the_coverage_count_has_power.  Level sessions legitimately flag most rows ambiguous (a mirror pose fits
+    # as well), off-level ones none: about 765 stated rows of 1200 on this seed set.  (A count threshold of 768
+    # failed with 767 on another machine: the branch search merged hypotheses on a key rounded to 1e-9 mm, so
+    # whether a genuine 2.9 mm competitor survived depended on the last bits of a height, and ~95 rows of a level
+    # session flipped; the merge is now by a 1e-6 mm tolerance, see test_branch_search_is_stable_to_rounding.)
+    assert total >= MIN_STATED_ROWS, total
     assert_at_least_95_percent(inside, total)
+
+
+#: stated rows the noise coverage test needs (test_the_coverage_count_has_power)
+MIN_STATED_ROWS = 610
+
+
+def test_the_coverage_count_has_power() -> None:
+    """MIN_STATED_ROWS: the fewest rows with which a true coverage of 90 % fails the 95 % test with probability 0.95."""
+    def power(n: int) -> float:
+        rejected = int(binom.ppf(1e-3, n, 0.95))  # largest count assert_at_least_95_percent rejects
+        while binom.cdf(rejected, n, 0.95) > 1e-3:
+            rejected -= 1
+        return float(binom.cdf(rejected, n, 0.90))
+
+    assert power(MIN_STATED_ROWS) >= 0.95 > power(MIN_STATED_ROWS - 20)
+
+
+def test_branch_search_is_stable_to_rounding(sessions) -> None:
+    """Readings changed in their last bits (1e-13 relative) must not change which poses are ambiguous.
+
+    Level session 2 with 2 um noise has a genuine competing set of branches (tips 2.5 mm apart, fitting as well):
+    4 rows.  Before the merge of equal states was a tolerance, the branch search found 2 of them unperturbed and
+    none in three of four perturbations (with the test's other noise draw, ~95 rows of a session flipped).
+    """
+    path = sessions["level", 2]
+    noisy = with_laser_noise(read_log(path), np.random.default_rng(22), SMALL_NOISE, SEED_LASER_STEPS)
+    flagged = []
+    for k in range(4):
+        scale = 0.0 if k == 0 else 1e-13
+        lasers = noisy.lasers * (1.0 + scale * np.random.default_rng(k).uniform(-1.0, 1.0, noisy.lasers.shape))
+        out = process(path, dataclasses.replace(noisy, lasers=lasers), on_inconsistent="flag")
+        flagged.append(out.ambiguity > 0.1)  # a material ambiguity (mm), not one at the 1 um flag edge
+    assert flagged[0].sum() > 0
+    for other in flagged[1:]:
+        assert np.array_equal(other, flagged[0])
 
 
 SIZES = (0.05, 0.1, 0.2, 0.5, 1.0, 2.0, 5.0)

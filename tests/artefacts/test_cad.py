@@ -8,6 +8,8 @@ distance for a non-convex mesh) and from the generating geometry of synthetic sc
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
@@ -523,3 +525,21 @@ def test_segmentation_input_checks() -> None:
         segment_scan(points, max_normal_angle=2.0)
     with pytest.raises(TooFewPointsError):
         segment_scan(points[:10], min_points=20)
+
+
+def test_compare_to_a_mesh_file_path(tmp_path: Path) -> None:
+    """The nominal may be given as a file: read once, the same deviations as the mesh object (issue 31)."""
+    from pcmm_geo.io import write_mesh
+
+    rng = np.random.default_rng(13)
+    scan, normals = block_surface_points(rng, per_face=12)
+    pose = rigid((-0.6, 0.3, 1.2), (0.8, 0.5, -0.4))
+    path = write_mesh(tmp_path / "block.stl", box_mesh(*SIZE))
+    measured = moved(scan + 0.01 * normals, pose)
+    from_file = compare_to_mesh(measured, str(path), tolerance=0.012)
+    from_object = compare_to_mesh(measured, box_mesh(*SIZE), tolerance=0.012)
+    np.testing.assert_allclose(from_file.deviations.signed_distance, from_object.deviations.signed_distance,
+                               rtol=0, atol=1e-9)
+    assert np.median(from_file.deviations.signed_distance) == pytest.approx(0.01, abs=2e-3)
+    with pytest.raises(InvalidInputError, match=r"mesh: expected a trimesh\.Trimesh or the path of a mesh file"):
+        compare_to_mesh(measured, 42)

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import os
 import subprocess
 import sys
 from importlib.resources import files
@@ -64,3 +65,16 @@ def test_batch_argument_errors() -> None:
     done = subprocess.run([PCMM, "batch", "compare", str(EXAMPLES / "gauge_block_scan.csv")],
                           capture_output=True, text=True, timeout=60)
     assert done.returncode == 2 and "exactly one nominal surface" in done.stderr and done.stdout == ""
+
+
+def test_batch_leaves_nothing_in_the_temporary_folder(tmp_path: Path) -> None:
+    """dask's workers kept ``dask-scratch-space/`` in $TMPDIR after the command (issue 31)."""
+    scratch = tmp_path / "tmp"
+    scratch.mkdir()
+    ball = _ball(tmp_path / "ball.csv", (1.0, 2.0, 3.0), 4.0, 1)
+    env = dict(os.environ, TMPDIR=str(scratch), TEMP=str(scratch), TMP=str(scratch))
+    done = subprocess.run([PCMM, "batch", "fit-sphere", str(ball), "--workers", "1"], capture_output=True, text=True,
+                          timeout=240, env=env)
+    assert done.returncode == 0, done.stderr
+    assert json.loads(done.stdout)["ok"] is True
+    assert sorted(p.name for p in scratch.iterdir()) == []

@@ -18,6 +18,7 @@ from pcmm_runner import run_pcmm
 DATA = Path(__file__).parents[1] / "data"
 SAMPLE = DATA / "qif" / "samples" / "QIF_PTS_SAMPLE.QIF"  # 102259 bytes
 CMM = DATA / "cmm"
+SAMPLES = DATA / "qif" / "samples"
 RING = CMM / "ring_xyzijk_metric.xyz"  # normals pointing away from the axis: an external feature
 PROBINGS = Path(__file__).parents[2] / "pcmm_geo" / "data" / "appendix_cd"
 
@@ -62,7 +63,7 @@ def test_reader_messages_name_the_options(tmp_path: Path) -> None:
                          "exceeds the limit of 52428 bytes (raise --max-mb for larger files)")
         assert "max_bytes" not in error
     _refused(_run("qif", "show", SAMPLE, "--units", "mm"), "qif show",
-             "--units: expected nothing for a QIF file")
+             "the file states its units (FileUnits/PrimaryUnits); --units is for a file without them")
 
 
 def test_a_stated_material_side_that_contradicts_the_file_is_refused(tmp_path: Path) -> None:
@@ -87,12 +88,15 @@ def test_a_stated_material_side_that_contradicts_the_file_is_refused(tmp_path: P
 
 def test_verify_fails_a_file_in_which_nothing_was_verified(tmp_path: Path) -> None:
     told = _run("qif", "verify", SAMPLE, "--compensated", "yes")  # contradicts Compensated=false: none checked
-    assert told.returncode == 1, told.stderr
-    assert "verdict: nothing verified: 0 features agree, 0 disagree, 14 not checked" in told.stdout
+    assert told.returncode == 1, told.stderr  # ... but its characteristics are recomputed, one disagrees
+    assert "verdict: 0 features agree, 0 disagree, 14 not checked; 14 characteristics agree, 1 disagree" in told.stdout
     data = json.loads(_run("qif", "verify", SAMPLE, "--compensated", "yes", "--json").stdout)
-    assert (data["verified"], data["agrees"]) == (0, None)
+    assert (data["verified"], data["agrees"], data["overall_agrees"]) == (0, None, False)
+    nothing = _run("qif", "verify", SAMPLES / "Exploded_Results1.QIF")  # no feature, no characteristic computable
+    assert nothing.returncode == 1 and "verdict: nothing verified: 0 features agree" in nothing.stdout
     dmis = _run("qif", "verify", CMM / "standard.dmo", "--json")  # DMIS output: results without points
-    assert dmis.returncode == 1 and json.loads(dmis.stdout)["agrees"] is None
+    data = json.loads(dmis.stdout)  # no feature refitted, but the position recomputed from the actuals agrees
+    assert dmis.returncode == 0 and data["agrees"] is None and data["characteristics_summary"]["agrees"] == 1
     sample = _run("qif", "verify", SAMPLE, "--json")
     data = json.loads(sample.stdout)
     assert sample.returncode == 1 and (data["verified"], data["agrees"]) == (9, False)
@@ -101,7 +105,7 @@ def test_verify_fails_a_file_in_which_nothing_was_verified(tmp_path: Path) -> No
     own = _run("qif", "verify", written, "--json")
     data = json.loads(own.stdout)
     assert own.returncode == 0 and (data["verified"], data["agrees"]) == (1, True)
-    assert "Exit status 0 when at least one feature was compared" in " ".join(
+    assert "Exit status 0 when at least one feature or characteristic was compared" in " ".join(
         _run("qif", "verify", "--help").stdout.split())
 
 

@@ -82,8 +82,10 @@ def test_side_from_point_normals_and_from_nominal_size() -> None:
     assert check.agrees is True and "point normals" in check.compensation.source
     check = _only(_hole(side="NOT_APPLICABLE", nominal_diameter=20.01))
     assert check.agrees is True and check.compensation.inferred is True
-    check = _only(_hole(side=None))
-    assert check.agrees is None and "material side unknown" in check.reason
+    check = _only(_hole(side=None))  # no side anywhere: the centre does not depend on it, the diameter does
+    assert check.agrees is True and check.compensation.side == "unknown"
+    assert "location_distance_mm" in check.compared and "diameter_mm" not in check.difference
+    assert check.difference["location_distance_mm"] < 1e-9
     ambiguous = _only(_hole(side="NOT_APPLICABLE", nominal_diameter=2 * (HOLE - R)))  # half-way: refused
     assert ambiguous.agrees is None and "does not decide" in ambiguous.reason
 
@@ -166,3 +168,40 @@ def test_bad_options() -> None:
         verify_document(_hole(), tolerance_mm=-1.0)
     with pytest.raises(InvalidInputError, match="criterion"):
         verify_document(_hole(), criterion="best")
+
+
+def _ball(**options: object) -> CmmDocument:
+    """Probe centres on a sphere of radius BALL + R about CENTRE: a ball touched from outside."""
+    golden = np.pi * (3.0 - np.sqrt(5.0))
+    k = np.arange(40)
+    z = 1.0 - 2.0 * (k + 0.5) / 40
+    directions = np.c_[np.sqrt(1 - z**2) * np.cos(golden * k), np.sqrt(1 - z**2) * np.sin(golden * k), z]
+    actual = FeatureGeometry(location=CENTRE, diameter=2 * BALL)
+    return _document("sphere", CENTRE + (BALL + R) * directions, actual, **options)  # type: ignore[arg-type]
+
+
+BALL = 12.5
+
+
+def test_a_sphere_without_side_is_compared_by_its_centre_and_refit_with_a_stated_side() -> None:
+    """A sphere's centre does not depend on the material side: compared without it; its diameter needs it."""
+    check = _only(_ball(side=None))
+    assert check.agrees is True and check.compared == ("location_distance_mm",)
+    assert check.compensation.side == "unknown" and "diameter_mm" not in check.difference
+    # a wrong reported centre still disagrees: the comparison is real
+    moved = _ball(side=None)
+    feature = moved.measured_features[0]
+    wrong = verify_document(_document("sphere", moved.points_of(feature).points,
+                                      FeatureGeometry(location=CENTRE + np.array([0.0, 0.0, 0.01]), diameter=2 * BALL),
+                                      side=None), tolerance_mm=1e-3).features[0]
+    assert wrong.agrees is False and wrong.difference["location_distance_mm"] == pytest.approx(0.01, abs=1e-9)
+    (stated,) = verify_document(_ball(side=None), tolerance_mm=1e-9, material_side="external").features
+    assert stated.agrees is True and stated.difference["diameter_mm"] == pytest.approx(0.0, abs=1e-9)
+    (inside,) = verify_document(_ball(side=None), tolerance_mm=1e-9, material_side="internal").features
+    assert inside.agrees is False and inside.difference["diameter_mm"] == pytest.approx(4 * R, abs=1e-9)
+
+
+@pytest.mark.parametrize("radius", [-1.0, 0.0, float("nan"), float("inf")])
+def test_verify_refuses_a_probe_radius_that_is_not_a_positive_length(radius: float) -> None:
+    with pytest.raises(InvalidInputError, match="probe_radius"):
+        verify_document(_ball(side=None), probe_radius=radius)

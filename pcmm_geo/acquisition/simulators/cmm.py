@@ -353,10 +353,19 @@ class SimulatedRig:
                 totals[kind] = totals.get(kind, 0) + count
         return totals
 
-    def place_gauge_block(self, gap: float = 3.0) -> GaugeBlock:
-        """Place a 100 mm gauge block ``gap`` mm beside the current tip (thread-safe)."""
+    def gauge_block_beside_tip(self, gap: float = 3.0) -> GaugeBlock:
+        """The 100 mm gauge block ``gap`` mm beside the current tip, not placed (thread-safe)."""
         with self.zaber.lock:
-            block = self.cmm.block_next_to_tip(gap)
+            return self.cmm.block_next_to_tip(gap)
+
+    def place_gauge_block(self, gap: float = 3.0, *, block: GaugeBlock | None = None) -> GaugeBlock:
+        """Place ``block``, by default a 100 mm gauge block ``gap`` mm beside the current tip (thread-safe).
+
+        A session resumed at another pose places the block it computed at the start pose
+        (:meth:`gauge_block_beside_tip`), where the first session put it.
+        """
+        with self.zaber.lock:
+            block = self.cmm.block_next_to_tip(gap) if block is None else block
             self.cmm.place_gauge_block(block)
         return block
 

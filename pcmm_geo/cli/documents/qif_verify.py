@@ -72,27 +72,43 @@ def values_table(result: Any) -> Table:
                                                   "refitted by pcmm_geo", "difference", "tolerance", "agrees"], rows)
 
 
-def scope_statement(document: Any, result: Any) -> str:
-    """What the second opinion checked and what it did not (a file without points: nothing refitted)."""
+def scope_statement(document: Any, result: Any, characteristics: dict[str, int] | None = None) -> str:
+    """What the second opinion checked and what it did not (a file without points: no feature refitted).
+
+    ``characteristics`` is the characteristics' summary (``agrees``, ``disagrees``,
+    ``not_computable``) when they were recomputed.
+    """
     summary = result.summary()
     refitted = summary["agree"] + summary["disagree"]
+    counts = characteristics or {}
+    recomputed = counts.get("agrees", 0) + counts.get("disagrees", 0)
     kind = {"qif": "QIF results file", "dmis": "DMIS output", "calypso": "CALYPSO characteristics table"}.get(
         str(document.format), f"{document.format} file")
     features = len(result.features)
-    characteristics = len(getattr(document, "characteristics", ()) or ())
+    n_characteristics = len(getattr(document, "characteristics", ()) or ())
     read = (f"The {kind} was read: {features} measured feature{'s' if features != 1 else ''} and "
-            f"{characteristics} characteristic{'s' if characteristics != 1 else ''}.")
-    if refitted == 0:
-        what = ("It holds no measured points" if not document.point_sets else "None of its features could be refitted")
-        return (f"{read} {what}, so no reported value could be recomputed: nothing was verified. Checked: that "
+            f"{n_characteristics} characteristic{'s' if n_characteristics != 1 else ''}.")
+    checked = []
+    if refitted:
+        checked.append(f"{refitted} feature{'s' if refitted != 1 else ''} refitted from "
+                       f"{'its' if refitted == 1 else 'their'} measured points and compared quantity by quantity "
+                       "with the reported values")
+    if recomputed:
+        checked.append(f"{recomputed} characteristic{'s' if recomputed != 1 else ''} recomputed and compared with "
+                       "the reported values")
+    if not checked:
+        what = "It holds no measured points" if not document.point_sets else "None of its features could be refitted"
+        return (f"{read} {what}, and no characteristic could be recomputed: nothing was verified. Checked: that "
                 "the file is readable and what it reports (pcmm qif show lists it). Not checked: any reported "
                 "size, location, direction or characteristic value.")
     left = summary["not_checked"]
-    return (f"{read} Checked: {refitted} feature{'s' if refitted != 1 else ''} refitted from "
-            f"{'its' if refitted == 1 else 'their'} measured points and compared quantity by quantity with the "
-            f"reported values. Not checked: {left} feature{'s' if left != 1 else ''} without usable points "
-            "(reasons listed), the characteristics' tolerance evaluations, and the "
-            "measurement uncertainty of the points.")
+    not_computable = counts.get("not_computable", 0)
+    not_checked = [f"{left} feature{'s' if left != 1 else ''} without usable points (reasons listed)"] if left else []
+    if not_computable:
+        not_checked.append(f"{not_computable} characteristic{'s' if not_computable != 1 else ''} that could not be "
+                           "recomputed")
+    not_checked.append("the measurement uncertainty of the points")
+    return f"{read} Checked: {'; '.join(checked)}. Not checked: {', '.join(not_checked)}."
 
 
 def plot(result: Any, path: str, overwrite: bool) -> str:

@@ -44,7 +44,11 @@ def register(subparsers: Any) -> None:
     parser.add_argument("--table-3-2", dest="table_3_2", metavar="FILE",
                         help="also write the plain 7-column Table 3.2 view (for pcmm process-log) to FILE "
                              "(an existing one is refused unless --overwrite-table-3-2 or --overwrite)")
-    parser.add_argument("--resume", action="store_true", help="append to an existing log instead of creating one")
+    parser.add_argument("--resume", action="store_true",
+                        help="append to an existing log instead of creating one: after homing (and the pre-sequence) "
+                             "the stages move back to the log's last position, so the log continues its pose; a "
+                             "simulated machine keeps the log's start heights. A log another session holds (one "
+                             "session per log) is refused at once")
     parser.add_argument("--repair", action="store_true",
                         help="with --resume: cut a partial last row and report it (a log torn in its header is "
                              "refused, except a column line torn after the whole comment header, which is completed)")
@@ -122,10 +126,15 @@ def _handle(args: argparse.Namespace) -> Report:
     from pathlib import Path
 
     _check_args(args)
-    if args.resume and Path(args.out).exists():  # a log resume would refuse is refused before homing
-        from pcmm_geo.acquisition.acqlog import AcquisitionLog
+    from pcmm_geo.acquisition._loglock import check_unlocked
 
-        AcquisitionLog.check_resumable(args.out, repair=args.repair)
+    check_unlocked(args.out)  # a log another session holds is refused at once, before any device is touched
+    earlier = None
+    if args.resume and Path(args.out).exists():  # a log resume would refuse is refused before homing
+        from pcmm_geo.acquisition.acqlog import AcquisitionLog, read_log
+
+        if AcquisitionLog.check_resumable(args.out, repair=args.repair).header_completed_bytes == 0:
+            earlier = read_log(args.out, allow_partial=True)  # whole rows only (a torn one is cut on resume)
     with contextlib.ExitStack() as stack:
         rig = None
         if args.simulate:
@@ -135,7 +144,7 @@ def _handle(args: argparse.Namespace) -> Report:
             reference = RigidBodyMachine.from_dpkm().reference_heights
             offsets = [0.0, 0.0, 0.0] if args.start_offsets is None else args.start_offsets
             cmm = SimulatedMicroCMM(
-                start_heights=reference + offsets,
+                start_heights=_start_heights(args, reference + offsets, earlier),
                 laser_noise=0.002 if args.defects else 0.0, dead_spot=4.0 if args.defects else 0.0,
                 settle_scatter=0.45 if args.defects else 0.0, seed=args.seed,
             )
@@ -161,8 +170,11 @@ def _handle(args: argparse.Namespace) -> Report:
         log = stack.enter_context(_open_log(args, metadata))
         session.log = log
         session.prepare(presequence=not args.no_presequence)
+        block = None if rig is None else rig.gauge_block_beside_tip(0.5)  # at the start pose, as the log began
+        if earlier is not None and earlier.rows:  # the machine continues where the log left it
+            _continue_from(session, log, earlier.rows)
         if rig is not None:
-            rig.place_gauge_block(0.5)
+            rig.place_gauge_block(block=block)
         _run_programme(session, args)
         summary = session.summary()
     data: dict[str, Any] = {"out": str(args.out), **summary.as_dict()}
@@ -181,6 +193,37 @@ def _handle(args: argparse.Namespace) -> Report:
     if log.recovery.truncated:
         lines.append(f"cut a partial last row of {log.recovery.dropped_bytes} bytes before resuming")
     return Report(data=data, tables=[Table("Acquisition session", ["counter", "value"], counters)], lines=lines)
+
+
+def _start_heights(args: argparse.Namespace, heights: Any, earlier: Any) -> Any:
+    """The simulated pivot heights at the start position: those the resumed log states, else from the options."""
+    import numpy as np
+
+    from pcmm_geo.errors import InvalidInputError
+
+    stated = None if earlier is None else earlier.metadata.get("start_heights_mm")
+    if stated is None:
+        return heights
+    logged = np.array([float(value) for value in stated.split()])
+    if args.start_offsets is not None and not np.allclose(logged, heights, rtol=0.0, atol=1e-6):
+        raise InvalidInputError("--start-offsets-mm", f"the offsets the resumed log {args.out} started with (start "
+                                f"heights {stated} mm), or none", " ".join(map(str, args.start_offsets)))
+    return logged
+
+
+def _continue_from(session: Any, log: Any, rows: Any) -> None:
+    """Move the stages back to the last logged position and take over its contact state, noted in the log.
+
+    Homing and the pre-sequence leave the pivots at the start position; the log's next rows must
+    continue its last pose (``pcmm process-log`` chains the heights from row to row).  After a stop
+    row in contact only the retreat of its motor is allowed (thesis 3.6).
+    """
+    last = rows[-1]
+    session.restore(last.pos_usteps)
+    stop = next((row for row in reversed(rows) if row.start_stop == 0), None)
+    if stop is not None and stop.probe and stop.pos_usteps == last.pos_usteps:
+        session.contact_move = (stop.motor, stop.direction)
+    log.note({"continued_from_seq": last.seq, "continued_from_usteps": " ".join(map(str, last.pos_usteps))})
 
 
 def _open_session(args: argparse.Namespace, ports: dict[str, Any], stack: Any, clock: Any = None) -> Any:

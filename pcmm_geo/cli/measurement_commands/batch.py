@@ -19,9 +19,11 @@ bar is drawn on stderr when it is a terminal.
 from __future__ import annotations
 
 import argparse
+import contextlib
 import json
 import logging
 import sys
+import tempfile
 import time
 from pathlib import Path
 from typing import Any
@@ -124,13 +126,20 @@ def handle(args: argparse.Namespace) -> Report:
     options = {"radius": args.radius, "mesh": None if args.mesh is None else str(args.mesh),
                "nominal": args.nominal, "tolerance": args.tolerance}
     files = [str(path) for path in args.files]
-    cluster = None
-    if args.scheduler is None:
-        cluster = LocalCluster(n_workers=args.workers, threads_per_worker=1, processes=True,
-                               dashboard_address=None, silence_logs=logging.ERROR)
-    client = Client(args.scheduler if cluster is None else cluster)
     failed = 0
-    try:
+    with contextlib.ExitStack() as stack:  # closed in reverse: client, cluster, then its scratch folder
+        cluster = None
+        if args.scheduler is None:
+            # the workers' scratch space (dask-scratch-space/, lock files) in a folder of our own, removed at the
+            # end: by default dask leaves it in $TMPDIR
+            scratch = stack.enter_context(tempfile.TemporaryDirectory(prefix="pcmm-batch-",
+                                                                      ignore_cleanup_errors=True))
+            stack.enter_context(require("dask.config").set({"temporary-directory": scratch}))
+            cluster = LocalCluster(n_workers=args.workers, threads_per_worker=1, processes=True,
+                                   local_directory=scratch, dashboard_address=None, silence_logs=logging.ERROR)
+            stack.callback(cluster.close)
+        client = Client(args.scheduler if cluster is None else cluster)
+        stack.callback(client.close)
         futures = client.map(evaluate_file, [args.task] * len(files), files, [options] * len(files), pure=False)
         owner = {future.key: name for future, name in zip(futures, files, strict=True)}
         with progress_bar(f"batch {args.task}", enabled=progress_wanted(args), total=len(files)) as update:
@@ -144,9 +153,5 @@ def handle(args: argparse.Namespace) -> Report:
                 failed += not record["ok"]
                 print(json.dumps(record, allow_nan=False, default=str), flush=True)
                 update(done, len(files))
-    finally:
-        client.close()
-        if cluster is not None:
-            cluster.close()
     print(f"pcmm batch: {len(files) - failed} of {len(files)} files evaluated, {failed} failed", file=sys.stderr)
     return Report(data={}, exit_code=EXIT_FAILURE if failed else EXIT_OK)

@@ -41,9 +41,14 @@ def register(subparsers: Any) -> None:
         description="Refit every feature measurement that has points (the file's fitting algorithm, else "
                     "least squares; a 3-D circle in the least-squares plane of its points), compensate the probe "
                     "radius, bring points and actuals into the file's common frame and compare diameter, location "
-                    "and direction with what the CMM reported. Exit status 0 when at least one feature was compared "
-                    "and none disagrees; 1 when a feature disagrees or when nothing could be compared (no feature "
-                    "with points, compensation unknown: the file is not verified); 2 on bad input.",
+                    "and direction with what the CMM reported. Then recompute every characteristic the file holds "
+                    "the inputs for (sizes, position in the datum reference frame of the datum features' actuals, "
+                    "point profiles, linear coordinates, distances, angles, form from points) and compare it with "
+                    "the reported value (agrees within --characteristic-fraction of its tolerance, at least 1 µm). "
+                    "Exit status 0 when at least one feature or characteristic was compared and none disagrees; 1 "
+                    "when a feature or a characteristic disagrees or when nothing could be compared (no feature "
+                    "with points, compensation unknown, no characteristic computable: the file is not verified); 2 "
+                    "on bad input.",
     )
     verify.add_argument("file", help="QIF results file")
     verify.add_argument("--tolerance-mm", type=float, metavar="MM", default=None,
@@ -58,6 +63,13 @@ def register(subparsers: Any) -> None:
                         help="for point sets without a Compensated flag: are the points surface points?")
     verify.add_argument("--probe-radius-mm", dest="probe_radius", type=float, metavar="MM",
                         help="probe radius in mm, overriding the file's")
+    verify.add_argument("--material-side", choices=("internal", "external"),
+                        help="material side of the circles, cylinders, spheres and cones whose file states none (a "
+                             "side the file contradicts is refused); without it their centres and axes are still "
+                             "compared, their diameters not")
+    verify.add_argument("--characteristic-fraction", type=float, metavar="F", default=None,
+                        help="a characteristic agrees when it differs by at most F x its tolerance width "
+                             "(default 0.01), at least 1 µm (1 µrad)")
     refuse_renamed_options(verify, {"--probe-radius": "--probe-radius-mm"})
     _add_limits(verify)
     add_plot_flag(verify, "each compared difference against its agreement tolerance, per feature")
@@ -83,11 +95,13 @@ def register(subparsers: Any) -> None:
 
 
 def _add_limits(parser: argparse.ArgumentParser) -> None:
-    add_max_mb_option(parser)
-    text = parser.add_argument_group("DMIS output and CALYPSO tables (which may not state their units)")
+    add_max_mb_option(parser, "file read (QIF; DMIS output and CALYPSO tables: default 32 MiB)")
+    parser.add_argument("--format", choices=("qif", "dmis", "calypso"),
+                        help="the file's format (default: told by its content, e.g. a GEOPAK report saved as .txt)")
+    text = parser.add_argument_group("files that may not state their units (DMIS output, CALYPSO tables, QIF "
+                                     "without FileUnits)")
     text.add_argument("--units", choices=("mm", "cm", "m", "inch", "feet"),
-                      help="length unit of the file: a DMIS output without UNITS takes any of these, a CALYPSO "
-                           "table mm or inch")
+                      help="length unit of the file (a CALYPSO table: mm or inch)")
     text.add_argument("--angle-unit", choices=("degree", "radian"), help="angle unit of the file")
     text.add_argument("--size-values", choices=("actual", "deviation"),
                       help="DMIS: the number of a size tolerance result is the actual size or its deviation")
@@ -98,7 +112,8 @@ def _read(args: argparse.Namespace) -> Any:
     from pcmm_geo.cmm.files import read_cmm_document
 
     return read_cmm_document(args.file, units=args.units, angle_unit=args.angle_unit, size_values=args.size_values,
-                             encoding=args.encoding, max_bytes=max_bytes(args), spell_setting=cli_setting)
+                             encoding=args.encoding, max_bytes=max_bytes(args), spell_setting=cli_setting,
+                             format=args.format)
 
 
 def _vector(value: Any) -> list[float]:
@@ -110,6 +125,7 @@ def _handle_show(args: argparse.Namespace) -> Report:
 
     document = _read(args)
     point_sets = document.point_sets
+    sample_of = _samples(document)
     feature_rows = []
     features = []
     for feature in document.measured_features:
@@ -119,13 +135,15 @@ def _handle_show(args: argparse.Namespace) -> Report:
             points = None
         actual = feature.actual
         location = _vector(actual.location)
-        feature_rows.append([feature.id, feature.name or "-", feature.type, 0 if points is None else len(points),
+        feature_rows.append([feature.id, _named(feature.name, sample_of.get(feature.results_id)), feature.type,
+                             0 if points is None else len(points),
                              "-" if points is None or points.compensated is None else points.compensated,
                              "-" if points is None or points.probe_radius is None else points.probe_radius,
                              (feature.internal_external or "-").lower(),
                              "-" if actual.diameter is None else actual.diameter,
                              *(location or ["-", "-", "-"])])
         features.append({"id": feature.id, "type": feature.type, "name": feature.name,
+                         "sample": sample_of.get(feature.results_id),
                          "n_points": 0 if points is None else len(points),
                          "internal_external": feature.internal_external,
                          "substitute_algorithm": feature.substitute_algorithm,
@@ -157,10 +175,12 @@ def _handle_show(args: argparse.Namespace) -> Report:
         # the feature measurements by QIF id; a table without measurements (CALYPSO) by the features it names
         features_cell = " ".join(str(i) for i in characteristic.feature_measurement_ids) or \
             ", ".join(name for name in names if name) or "-"
-        char_rows.append([characteristic.id, characteristic.name or "-", characteristic.type,
+        char_rows.append([characteristic.id, _named(characteristic.name, sample_of.get(characteristic.results_id)),
+                          characteristic.type,
                           _cell(characteristic.value), _cell(characteristic.nominal), _cell(lower), _cell(upper),
                           characteristic.quantity, characteristic.status or "-", features_cell])
         characteristics.append({"id": characteristic.id, "type": characteristic.type, "name": characteristic.name,
+                                "sample": sample_of.get(characteristic.results_id),
                                 "value": characteristic.value, "nominal": characteristic.nominal,
                                 "lower_limit": lower, "upper_limit": upper, "quantity": characteristic.quantity,
                                 "status": characteristic.status,
@@ -170,10 +190,17 @@ def _handle_show(args: argparse.Namespace) -> Report:
     data = {"file": document.source, "format": document.format, "version": document.version,
             "application": document.application,
             "units": {"linear_unit": units.linear_unit, "mm_per_linear_unit": units.mm_per_linear_unit,
-                      "angular_unit": units.angular_unit},
+                      "angular_unit": units.angular_unit, "stated": units.stated},
+            "results": [{"id": results.id, "sample": sample_of.get(results.id),
+                         "serial_numbers": list(results.serial_numbers),
+                         "inspection_status": results.inspection_status} for results in document.results],
             "features": features, "point_sets": sets, "characteristics": characteristics,
             "problems": list(document.problems)}
+    result_rows = [[results.id, sample_of.get(results.id) or "-", ", ".join(results.serial_numbers) or "-",
+                    results.inspection_status or "-"] for results in document.results
+                   if len(document.results) > 1 or results.inspection_status or results.serial_numbers]
     tables = [
+        Table("Measurement results (samples)", ["id", "sample", "serial numbers", "inspection status"], result_rows),
         Table(f"Measured features of {document.source}",
               ["id", "name", "type", "points", "compensated", "probe radius / mm", "side", "diameter / mm",
                "x / mm", "y / mm", "z / mm"], feature_rows),
@@ -185,10 +212,24 @@ def _handle_show(args: argparse.Namespace) -> Report:
     ]
     origin = f"QIF {document.version or '(version not stated)'}" if document.format == "qif" else \
         document.format.upper()
-    lines = [f"{origin} written by {document.application or 'unknown'}; file units {units.linear_unit}"
+    unit_text = f"file units {units.linear_unit}" if units.stated else \
+        f"units not stated in the file, read as {units.linear_unit}"
+    lines = [f"{origin} written by {document.application or 'unknown'}; {unit_text}"
              + ("" if units.mm_per_linear_unit == 1.0 else " (converted to mm)")]
     lines += [f"left out: {problem}" for problem in document.problems]
     return Report(data=data, tables=[t for t in tables if t.rows], lines=lines)
+
+
+def _samples(document: Any) -> dict[Any, str]:
+    """Results id -> how a multi-sample file's rows name their sample: its serial numbers, else its number."""
+    if len(document.results) < 2:
+        return {}
+    return {results.id: ", ".join(results.serial_numbers) or f"sample {number}"
+            for number, results in enumerate(document.results, start=1)}
+
+
+def _named(name: str | None, sample: str | None) -> str:
+    return (name or "-") if sample is None else f"{name or '-'} [{sample}]"
 
 
 def _feature_names(document: Any, characteristic: Any) -> list[str | None]:
@@ -218,14 +259,21 @@ def _shown(check: Any, name: str, factor: float) -> Any:
 
 
 def _handle_verify(args: argparse.Namespace) -> Report:
+    import math
+
     from pcmm_geo.cli._record import Verdict
     from pcmm_geo.cmm.verify import DEFAULT_TOLERANCE_MM, verify_document
+    from pcmm_geo.errors import InvalidInputError
 
     tolerance = DEFAULT_TOLERANCE_MM if args.tolerance_mm is None else args.tolerance_mm
+    if args.probe_radius is not None and not (math.isfinite(args.probe_radius) and args.probe_radius > 0):
+        raise InvalidInputError("--probe-radius-mm", "a positive probe radius (mm)", repr(args.probe_radius))
     document = _read(args)
     compensated = None if args.compensated is None else args.compensated == "yes"
     result = verify_document(document, tolerance_mm=tolerance, criterion=args.criterion,
-                             circle_plane=args.circle_plane, compensated=compensated, probe_radius=args.probe_radius)
+                             circle_plane=args.circle_plane, compensated=compensated, probe_radius=args.probe_radius,
+                             material_side=args.material_side)
+    characteristics = _verify_characteristics(args, document, compensated)
     rows = []
     for check in result.features:
         compensation = check.compensation
@@ -249,26 +297,67 @@ def _handle_verify(args: argparse.Namespace) -> Report:
     summary = result.summary()
     statement = (f"{summary['agree']} features agree, {summary['disagree']} disagree, "
                  f"{summary['not_checked']} not checked")
-    if result.agrees is None:
-        statement = f"nothing verified: {statement} (no feature could be compared with its refit)"
     lines += [f"left out by the reader: {problem}" for problem in result.problems]
-    verdict = Verdict(result.agrees, statement,
+    counts = characteristics.summary()
+    statement += (f"; {counts['agrees']} characteristics agree, {counts['disagrees']} disagree, "
+                  f"{counts['not_computable']} not computable")
+    agrees = False if result.agrees is False or characteristics.agrees is False else (
+        True if result.agrees or characteristics.agrees else None)
+    if agrees is None:
+        statement = (f"nothing verified: {statement} (no feature could be compared with its refit, no characteristic "
+                     "recomputed)")
+    lines += [f"characteristic {check.id} {check.name or ''}: {check.status}: {check.reason}"
+              for check in characteristics.checks if check.status != "agrees"]
+    verdict = Verdict(agrees, statement,
                       f"a feature agrees when every compared quantity of its refit (diameter, location, direction) "
-                      f"differs from the CMM's by at most {tolerance:g} mm (angles: {tolerance:g} mm / feature size)",
+                      f"differs from the CMM's by at most {tolerance:g} mm (angles: {tolerance:g} mm / feature size); "
+                      f"{characteristics.rule}",
                       basis="the differences between pcmm_geo's refit of each feature's points and the values the "
-                            "CMM reported; the measurement uncertainty of the points is not taken into account")
+                            "CMM reported, and between each characteristic recomputed from the feature actuals (or "
+                            "points) and its reported value; the measurement uncertainty of the points is not taken "
+                            "into account")
+    data = result.to_dict()
+    data.update(characteristics=[check.to_dict() for check in characteristics.checks],
+                characteristics_summary=counts, characteristics_rule=characteristics.rule,
+                characteristics_agree=characteristics.agrees, overall_agrees=agrees)
     from pcmm_geo.cli.documents import qif_verify as second_opinion  # reported vs refitted, what was checked
 
     verdict = Verdict(verdict.passed, verdict.statement, verdict.decision_rule, basis=verdict.basis,
                       conformity_text=second_opinion.AGREEMENT)
-    scope = second_opinion.scope_statement(document, result)
+    scope = second_opinion.scope_statement(document, result, counts)
     plots = [second_opinion.plot(result, args.plot, args.overwrite)] if args.plot else []
-    return Report(plots=plots, console=[f"plot written to {p}" for p in plots],
-                  data=result.to_dict(), tables=[table] if table.rows else [],
-                  lines=[*lines, scope] if not table.rows else lines,
-                  exit_code=0 if result.agrees is True else EXIT_FAILURE, verdict=verdict,
+    tables = [t for t in (table, _characteristic_table(characteristics)) if t.rows]
+    return Report(data=data, tables=tables, lines=[*lines, scope] if not tables else lines,
+                  exit_code=0 if agrees is True else EXIT_FAILURE, verdict=verdict, plots=plots,
+                  console=[f"plot written to {p}" for p in plots],
                   report_tables=[second_opinion.values_table(result)], statements=[("What was checked", scope)],
                   environment=[second_opinion.NO_TEMPERATURE])
+
+
+def _verify_characteristics(args: argparse.Namespace, document: Any, compensated: bool | None) -> Any:
+    """Second opinion on the characteristics (:func:`pcmm_geo.gdt.qif_characteristics.verify_characteristics`)."""
+    from pcmm_geo.errors import InvalidInputError
+    from pcmm_geo.gdt.qif_characteristics import DEFAULT_FRACTION, verify_characteristics
+
+    fraction = DEFAULT_FRACTION if args.characteristic_fraction is None else args.characteristic_fraction
+    if not 0.0 < fraction <= 1.0:  # also refuses nan
+        raise InvalidInputError("--characteristic-fraction", "a fraction of the tolerance in (0, 1]", repr(fraction))
+    definitions = None
+    if document.format == "qif":
+        from pcmm_geo.io.cmm.qif._xml import DEFAULT_MAX_BYTES
+        from pcmm_geo.io.cmm.qif.characteristic_definitions import read_qif_definitions
+
+        definitions = read_qif_definitions(args.file, max_bytes=max_bytes(args) or DEFAULT_MAX_BYTES,
+                                           spell_setting=cli_setting)
+    return verify_characteristics(document, definitions, fraction=fraction, compensated=compensated,
+                                  probe_radius=args.probe_radius)
+
+
+def _characteristic_table(verification: Any) -> Table:
+    rows = [[check.id, check.name or "-", check.type, check.unit, _cell(check.reported), _cell(check.recomputed),
+             check.status] for check in verification.checks]
+    return Table("Characteristics: reported and recomputed (mm or rad)",
+                 ["id", "name", "type", "unit", "reported", "recomputed", "status"], rows)
 
 
 def _handle_validate(args: argparse.Namespace) -> Report:

@@ -17,9 +17,14 @@ function                        reads / writes
 :func:`read_dmis`               DMIS output (``FA(..)=FEAT/...``, ``TA(..)=TOL/...``)
 :func:`read_calypso_table`      ZEISS CALYPSO ``*_chr.txt`` characteristic tables
 :func:`read_pcdmis_xyzijk`      PC-DMIS XYZIJK text -> :class:`MeasuredPointSet` with normals
+:func:`detect_format`           which of these formats a file is, by its content
+:func:`read_qif_definitions`    characteristic definitions, nominals, items, datum
+                                definitions and datum reference frames of a QIF file ->
+                                :class:`QifDefinitions`
 ==============================  ===========================================================
 
-The readers never guess what a file does not say (units, a size beyond ``max_bytes``); their
+The readers never guess what a file does not say (units, a size beyond ``max_bytes``; the one
+assumption, mm for a QIF file without ``FileUnits``, is recorded in the document); their
 messages name the setting that would say it, spelled by ``spell_setting`` (default
 :func:`python_setting`: ``units='mm'``; the command line passes its option names).
 
@@ -61,6 +66,16 @@ _LAZY = {
     "read_dmis": "dmis",
     "read_calypso_table": "calypso",
     "read_pcdmis_xyzijk": "pcdmis",
+    "CMM_FORMATS": "detect",
+    "detect_format": "detect",
+    "read_qif_definitions": "qif.characteristic_definitions",
+    "QifDefinitions": "qif.characteristic_definitions",
+    "CharacteristicDefinition": "qif.characteristic_definitions",
+    "CharacteristicNominal": "qif.characteristic_definitions",
+    "CharacteristicItem": "qif.characteristic_definitions",
+    "DatumDefinition": "qif.datums",
+    "DatumReferenceFrame": "qif.datums",
+    "DrfDatum": "qif.datums",
 }
 
 __all__ = sorted(_LAZY)

@@ -27,7 +27,9 @@ Never guessed: the table does not state its length unit, so ``units=`` (``"mm"``
 is required; an angle characteristic (``idsymbol`` starting with ``angle``) needs
 ``angle_unit=``; an ``idsymbol`` pcmm_geo does not know is kept unconverted (``quantity="other"``).
 A row whose ``deviation`` disagrees with ``actual - nominal`` or whose ``exceed`` disagrees with
-the tolerances, a missing ``END`` (a table cut short), a field that is not a number: each is a
+the tolerances, a row whose columns a missing or extra tab has shifted (a number as its type, a
+lower tolerance above the upper one, more fields than the header), a value that overflows when
+converted to mm, a missing ``END`` (a table cut short), a field that is not a number: each is a
 :class:`~pcmm_geo.errors.FileFormatError` naming the file and line.
 
 Examples
@@ -56,7 +58,7 @@ from pcmm_geo.errors import FileFormatError, InvalidInputError
 from pcmm_geo.io._text import excerpt, iter_text_lines, parse_decimal
 from pcmm_geo.io.cmm.document import CmmDocument
 from pcmm_geo.io.cmm.model import Characteristic, FeatureItem, MeasurementResults, Tolerance, Units
-from pcmm_geo.io.cmm.settings import SpellSetting, python_setting
+from pcmm_geo.io.cmm.settings import DEFAULT_MAX_TEXT_BYTES, SpellSetting, check_size, python_setting
 
 __all__ = ["CALYPSO_TYPES", "read_calypso_table"]
 
@@ -78,6 +80,14 @@ _ROUNDING = 2.5e-7
 _CAMEL = re.compile(r"(?<=[a-z0-9])(?=[A-Z])")
 
 
+def _is_number(text: str) -> bool:
+    try:
+        parse_decimal(text)
+    except ValueError:
+        return False
+    return True
+
+
 def _kind(symbol: str) -> tuple[str, str]:
     """(type, quantity) of a CALYPSO idsymbol."""
     lowered = symbol.lower()
@@ -90,7 +100,8 @@ def _kind(symbol: str) -> tuple[str, str]:
 
 
 def read_calypso_table(path: str | Path, *, units: str | None = None, angle_unit: str | None = None,
-                       encoding: str = "utf-8", spell_setting: SpellSetting = python_setting) -> CmmDocument:
+                       encoding: str = "utf-8", spell_setting: SpellSetting = python_setting,
+                       max_bytes: int = DEFAULT_MAX_TEXT_BYTES) -> CmmDocument:
     """Read a CALYPSO characteristic table (see the module docstring).
 
     Parameters
@@ -103,6 +114,8 @@ def read_calypso_table(path: str | Path, *, units: str | None = None, angle_unit
         Unit of angle characteristics; required when the table has any.
     encoding : str
         Text encoding (CALYPSO on Windows: often ``"cp1252"``).
+    max_bytes : int
+        Largest file read (default :data:`~pcmm_geo.io.cmm.settings.DEFAULT_MAX_TEXT_BYTES`, 32 MiB).
     spell_setting : callable
         How the messages name ``units`` and ``angle_unit`` (:mod:`pcmm_geo.io.cmm.settings`;
         the command line passes its option names).
@@ -128,6 +141,7 @@ def read_calypso_table(path: str | Path, *, units: str | None = None, angle_unit
     if angle_unit is not None and angle_unit not in _ANGLES:
         raise InvalidInputError(spell_setting("angle_unit"), "'degree' or 'radian'", repr(angle_unit))
     name = str(path)
+    check_size(path, max_bytes, spell_setting)
     lines = iter_text_lines(path, encoding=encoding)
     header_line, header = next(((n, t) for n, t in lines if t.strip()), (0, ""))
     columns = [c.strip().lower() for c in header.rstrip("\t").split("\t")]
@@ -178,6 +192,11 @@ def read_calypso_table(path: str | Path, *, units: str | None = None, angle_unit
         label = get("id")
         if not label:
             raise FileFormatError(name, "column id: a characteristic without a name", number)
+        for column in ("idsymbol", "type"):
+            if _is_number(get(column)):
+                raise FileFormatError(name, f"{label!r}: column {column}: expected a characteristic type, got the "
+                                      f"number {excerpt(get(column))} (a tab missing or added shifts a row's "
+                                      "columns)", number)
         kind, quantity = _kind(get("idsymbol") or get("type"))
         if quantity == "angular" and angle_unit is None:
             raise FileFormatError(name, f"angle characteristic {label!r}: pass {spell_setting('angle_unit', 'degree')} "
@@ -185,6 +204,9 @@ def read_calypso_table(path: str | Path, *, units: str | None = None, angle_unit
         factor = {"linear": _UNITS[units], "angular": _ANGLES.get(angle_unit or "", 1.0), "other": 1.0}[quantity]
         actual, nominal = number_of("actual"), number_of("nominal")
         upper, lower = number_of("uppertol"), number_of("lowertol")
+        if lower > upper:  # type: ignore[operator]
+            raise FileFormatError(name, f"{label!r}: lowertol {lower:g} above uppertol {upper:g} (a tab missing or "
+                                  "added shifts a row's columns)", number)
         deviation = number_of("deviation", required=False)
         exceed = number_of("exceed", required=False)
         if deviation is not None and abs(deviation - (actual - nominal)) > _ROUNDING * max(1.0, abs(actual)):  # type: ignore[operator]
@@ -194,6 +216,8 @@ def read_calypso_table(path: str | Path, *, units: str | None = None, angle_unit
         if "exceed" in where and (exceed is not None and exceed != 0.0) != outside:
             raise FileFormatError(name, f"{label!r}: exceed {get('exceed') or 'empty'} disagrees with actual - nominal "
                                   f"= {actual - nominal:g} and the tolerances [{lower:g}, {upper:g}]", number)  # type: ignore[operator]
+        if not all(math.isfinite(v * factor) for v in (actual, nominal, upper, lower)):  # type: ignore[operator]
+            raise FileFormatError(name, f"{label!r}: a value overflows the float range when converted to mm", number)
         plan = plan or get("planid") or None
         feature_ids = []
         for feature in (f.strip() for f in get("featureid").split(",")):

@@ -36,6 +36,15 @@ some writers and its deviation for others, so it is read only with ``size_values
 ``"PASS"``, ``OUTOL`` ``"FAIL"``.  Anything else that cannot be read is a
 :class:`~pcmm_geo.errors.FileFormatError` naming the file and line.
 
+Checked, each refused naming the line: a verdict its numbers contradict (a result beyond its
+``T`` zone or size limits marked ``INTOL``, or within them marked ``OUTOL``, allowing half a
+unit in the last decimal written; zones with MMC/LMC are not checked, their bonus depends on the
+actual size); a negative diameter or length; a value that overflows when converted to mm or rad;
+a last line without a line end (the file was cut inside a statement); a statement longer than
+:data:`~pcmm_geo.io.cmm._dmis_syntax.MAX_STATEMENT_CHARS`.  A missing ``ENDFIL`` is recorded in
+``problems``, not refused (real outputs may lack it): a file cut exactly at a line end is
+otherwise indistinguishable from a complete one.
+
 Examples
 --------
 >>> import pathlib, tempfile
@@ -63,7 +72,16 @@ from pathlib import Path
 import numpy as np
 
 from pcmm_geo.errors import FileFormatError
-from pcmm_geo.io._text import excerpt, iter_text_lines, parse_decimal
+from pcmm_geo.io._text import excerpt, parse_decimal
+from pcmm_geo.io.cmm._dmis_checks import StatedTolerance, check_verdict
+from pcmm_geo.io.cmm._dmis_syntax import (
+    MAX_STATEMENT_CHARS,
+    half_unit,
+    is_statement,
+    output_labels,
+    split_statement,
+    statements,
+)
 from pcmm_geo.io.cmm.document import CmmDocument
 from pcmm_geo.io.cmm.model import (
     Characteristic,
@@ -76,9 +94,9 @@ from pcmm_geo.io.cmm.model import (
     Tolerance,
     Units,
 )
-from pcmm_geo.io.cmm.settings import SpellSetting, python_setting
+from pcmm_geo.io.cmm.settings import DEFAULT_MAX_TEXT_BYTES, SpellSetting, check_size, python_setting
 
-__all__ = ["DMIS_LENGTH_UNITS", "read_dmis"]
+__all__ = ["DMIS_LENGTH_UNITS", "MAX_STATEMENT_CHARS", "read_dmis"]
 
 #: mm per DMIS length unit
 DMIS_LENGTH_UNITS = {"MM": 1.0, "CM": 10.0, "METER": 1000.0, "M": 1000.0, "INCH": 25.4, "FEET": 304.8}
@@ -97,9 +115,6 @@ _GEOMETRIC = {"FLAT": "flatness", "CIRLTY": "circularity", "CYLCTY": "cylindrici
 _SIZE = {"DIAM": ("diameter", "linear"), "RAD": ("radius", "linear"), "WIDTH": ("width", "linear"),
          "DISTB": ("distance_between", "linear"), "CORTOL": ("linear_coordinate", "linear"),
          "ANGLB": ("angle_between", "angular"), "ANGLWRT": ("angle_from", "angular")}
-_STATEMENT = re.compile(r"\s*(FA|F|TA|T)\s*\(\s*([^)]*?)\s*\)\s*=\s*([A-Z]+)\s*/\s*(.*)", re.IGNORECASE | re.DOTALL)
-_ANY_STATEMENT = re.compile(r"\s*[A-Z][A-Z0-9_]*\s*(\([^)]*\))?\s*(=|/|$)", re.IGNORECASE)
-_LABEL = re.compile(r"\b(FA|TA)\s*\(\s*([^)]*?)\s*\)", re.IGNORECASE)
 _UNIT_TOLERANCE = 1e-4
 
 
@@ -113,6 +128,7 @@ class _State:
     given_units: str | None = None
     workplane: str = "XYPLAN"
     stated_units: bool = False
+    ended: bool = False
     problems: list[str] = field(default_factory=list)
 
     def error(self, line: int, reason: str) -> FileFormatError:
@@ -129,35 +145,6 @@ class _State:
             raise self.error(line, "an angle, but the file states no angle unit (UNITS/..,ANGDEC|ANGRAD); pass "
                              f"{self.spell('angle_unit', 'degree')} or {self.spell('angle_unit', 'radian')}")
         return _ANGLE_UNITS[self.angle_unit][1]
-
-
-def _statements(path: str | Path, encoding: str) -> list[tuple[int, str]]:
-    """Statements with their first line: comments dropped, ``$``-continued lines joined."""
-    statements, pending, first = [], "", 0
-    for number, text in iter_text_lines(path, encoding=encoding):
-        code = _without_comment(text).rstrip()
-        if not code and not pending:
-            continue
-        if not pending:
-            first = number
-        if code.endswith("$"):
-            pending += code[:-1]
-            continue
-        statements.append((first, pending + code))
-        pending = ""
-    if pending:
-        raise FileFormatError(str(path), "the last statement ends with $ but nothing continues it", first)
-    return statements
-
-
-def _without_comment(text: str) -> str:
-    quoted = False
-    for index, character in enumerate(text):
-        if character == "'":
-            quoted = not quoted
-        elif not quoted and text.startswith("$$", index):
-            return text[:index]
-    return text
 
 
 def _numbers(state: _State, line: int, fields: list[str], what: str) -> list[float]:
@@ -189,7 +176,8 @@ def _direction(state: _State, line: int, triple: list[float], what: str) -> np.n
 def _position(state: _State, line: int, mode: str, values: list[float]) -> np.ndarray:
     length = state.length_factor(line)
     if mode == "CART":
-        return np.array(values) * length
+        with np.errstate(over="ignore"):
+            return np.array(values) * length
     radius, angle, height = values[0] * length, values[1] * state.angle_factor(line), values[2] * length
     first, second = radius * math.cos(angle), radius * math.sin(angle)
     if state.workplane == "XYPLAN":
@@ -202,8 +190,32 @@ def _position(state: _State, line: int, mode: str, values: list[float]) -> np.nd
 _COUNTS = {"point": (6,), "plane": (6,), "circle": (7,), "cylinder": (7, 8), "sphere": (4,), "cone": (7,)}
 
 
+def _checked_feature(state: _State, line: int, label: str,
+                     fields: list[str]) -> tuple[str, str | None, FeatureGeometry]:
+    """:func:`_feature`, refusing a value that overflows in mm and a negative size."""
+    kind, side, geometry = _feature(state, line, label, fields)
+    what = f"FEAT/{fields[0].upper()}({label})"
+    for name in ("location", "diameter", "length", "half_angle"):
+        value = getattr(geometry, name)
+        if value is not None and not np.isfinite(value).all():
+            raise state.error(line, f"{what}: the {name} overflows the float range when converted to mm or rad")
+    for name in ("diameter", "length"):
+        value = getattr(geometry, name)
+        if value is not None and value < 0:
+            raise state.error(line, f"{what}: expected a {name} >= 0, got {value / state.length_factor(line):g}")
+    return kind, side, geometry
+
+
+def _finite(state: _State, line: int, what: str, *values: float | None) -> None:
+    """Refuse a value that became inf when converted to mm or rad (``1e307`` feet)."""
+    if any(value is not None and not math.isfinite(value) for value in values):
+        raise state.error(line, f"{what}: a value overflows the float range when converted to mm or rad")
+
+
 def _feature(state: _State, line: int, label: str, fields: list[str]) -> tuple[str, str | None, FeatureGeometry]:
     keyword = fields[0].upper()
+    if not keyword:
+        raise state.error(line, f"F/FA({label})=FEAT/: expected a feature type (POINT, PLANE, CIRCLE, ...)")
     kind = _FEATURE_TYPES.get(keyword)
     if kind is None:
         state.problems.append(f"line {line}: F/FA({label})=FEAT/{keyword}: feature type not read")
@@ -265,8 +277,23 @@ def _is_numberish(text: str) -> bool:
     return bool(text) and (text[0].isdigit() or text[0] in "+-.") and text.upper() not in _QUALIFIERS
 
 
-def _tolerance(state: _State, line: int, label: str, fields: list[str]) -> tuple[str, str, Tolerance | None,
-                                                                                   float | None]:
+def _tolerance(state: _State, line: int, label: str, fields: list[str]) -> StatedTolerance:
+    """The tolerance of ``T(label)``, finite in mm or rad, its modifiers noted (:class:`StatedTolerance`)."""
+    kind, quantity, tolerance, nominal = _tolerance_values(state, line, label, fields)
+    what = f"T({label})=TOL/{fields[0].upper()}"
+    if tolerance is not None:
+        _finite(state, line, what, tolerance.value, tolerance.min_value, tolerance.max_value, nominal)
+        if tolerance.value is not None and tolerance.value < 0:
+            raise state.error(line, f"{what}: expected a tolerance zone >= 0")
+        if tolerance.min_value is not None and tolerance.max_value is not None and \
+                tolerance.min_value > tolerance.max_value:
+            raise state.error(line, f"{what}: the lower tolerance is above the upper one")
+    modified = any(f.strip().upper() in ("MMC", "LMC") for f in fields[1:])
+    return StatedTolerance(kind, quantity, tolerance, nominal, modified)
+
+
+def _tolerance_values(state: _State, line: int, label: str,
+                      fields: list[str]) -> tuple[str, str, Tolerance | None, float | None]:
     keyword = fields[0].upper()
     numbers = _numbers(state, line, [f for f in fields[1:] if _is_numberish(f)], f"T({label})=TOL/{keyword}")
     if keyword in _GEOMETRIC:
@@ -287,7 +314,8 @@ def _tolerance(state: _State, line: int, label: str, fields: list[str]) -> tuple
 
 def read_dmis(path: str | Path, *, units: str | None = None, angle_unit: str | None = None,
               size_values: str | None = None, encoding: str = "utf-8",
-              spell_setting: SpellSetting = python_setting) -> CmmDocument:
+              spell_setting: SpellSetting = python_setting,
+              max_bytes: int = DEFAULT_MAX_TEXT_BYTES) -> CmmDocument:
     """Read a DMIS output file (see the module docstring).
 
     Parameters
@@ -301,6 +329,8 @@ def read_dmis(path: str | Path, *, units: str | None = None, angle_unit: str | N
         What the number of a size tolerance result (DIAM, RAD, WIDTH, DISTB, CORTOL, ANGLB) is.
     encoding : str
         Text encoding of the file (GEOPAK and other Windows software: often ``"cp1252"``).
+    max_bytes : int
+        Largest file read (default :data:`~pcmm_geo.io.cmm.settings.DEFAULT_MAX_TEXT_BYTES`, 32 MiB).
     spell_setting : callable
         How the messages name ``units``, ``angle_unit`` and ``size_values``
         (:mod:`pcmm_geo.io.cmm.settings`; the command line passes its option names).
@@ -325,19 +355,20 @@ def read_dmis(path: str | Path, *, units: str | None = None, angle_unit: str | N
                                  (size_values, {"actual": 0, "deviation": 0}, "size_values")):
         if value is not None and value not in allowed:
             raise InvalidInputError(spell_setting(what), f"one of {', '.join(allowed)}", repr(value))
+    check_size(path, max_bytes, spell_setting)
     state = _State(str(path), _USER_UNITS.get(units or ""), _USER_ANGLES.get(angle_unit or ""), size_values,
                    spell_setting, units)
     features: dict[str, tuple[int, str, str | None, FeatureGeometry]] = {}
     nominals: dict[str, tuple[int, str, str | None, FeatureGeometry]] = {}
-    tolerances: dict[str, tuple[str, str, Tolerance | None, float | None]] = {}
+    tolerances: dict[str, StatedTolerance] = {}
     results: list[tuple[int, str, list[str]]] = []
     reported_with: dict[str, list[str]] = {}
-    for line, text in _statements(path, encoding):
-        match = _STATEMENT.fullmatch(text)
-        if match is None:
+    for line, text in statements(path, encoding):
+        parsed = split_statement(text)
+        if parsed is None:
             _other_statement(state, line, text, reported_with)
             continue
-        kind, label, major, rest = match.group(1).upper(), match.group(2), match.group(3).upper(), match.group(4)
+        kind, label, major, rest = parsed
         fields = [f.strip() for f in rest.split(",")]
         expected = "FEAT" if kind in ("F", "FA") else "TOL"
         if major != expected:
@@ -346,19 +377,24 @@ def read_dmis(path: str | Path, *, units: str | None = None, angle_unit: str | N
             target = features if kind == "FA" else nominals
             if label in target:
                 raise state.error(line, f"{kind}({label}) is defined twice (first on line {target[label][0]})")
-            target[label] = (line, *_feature(state, line, label, fields))
+            target[label] = (line, *_checked_feature(state, line, label, fields))
         elif kind == "T":
             tolerances[label] = _tolerance(state, line, label, fields)
         else:
             results.append((line, label, fields))
+    if not state.ended:
+        state.problems.append("no ENDFIL statement: the file may have been cut short after a whole line (a cut at a "
+                              "line end cannot be told from the end of the output)")
     return _document(state, features, nominals, tolerances, results, reported_with)
 
 
 def _other_statement(state: _State, line: int, text: str, reported_with: dict[str, list[str]]) -> None:
-    if _ANY_STATEMENT.match(text) is None:
+    if not is_statement(text):
         raise state.error(line, f"not a DMIS statement: {excerpt(text)}")
     major, _, rest = text.partition("/")
     major = major.strip().upper()
+    if major == "ENDFIL":
+        state.ended = True
     fields = [f.strip().upper() for f in rest.split(",")]
     if major == "UNITS":
         if not fields or fields[0] not in DMIS_LENGTH_UNITS:
@@ -375,7 +411,7 @@ def _other_statement(state: _State, line: int, text: str, reported_with: dict[st
             raise state.error(line, f"WKPLAN: expected XYPLAN, YZPLAN or ZXPLAN, got {excerpt(rest)}")
         state.workplane = fields[0]
     elif major == "OUTPUT":
-        labels = [(kind.upper(), label) for kind, label in _LABEL.findall(rest)]
+        labels = output_labels(state.path, line, rest)
         reported = [label for kind, label in labels if kind == "FA"]
         for kind, label in labels:
             if kind == "TA":
@@ -422,9 +458,11 @@ def _characteristic(state: _State, key: int, line: int, label: str, fields: list
     if not verdicts:
         raise state.error(line, f"TA({label})=TOL/{keyword}: expected INTOL or OUTOL")
     status = "PASS" if verdicts[0] == "INTOL" else "FAIL"
-    numbers = _numbers(state, line, [f for f in fields[1:words.index(verdicts[0]) + 1] if _is_numberish(f)],
-                       f"TA({label})=TOL/{keyword}")
-    kind, quantity, tolerance, nominal = tolerances.get(label, (None, None, None, None))
+    texts = [f for f in fields[1:words.index(verdicts[0]) + 1] if _is_numberish(f)]
+    numbers = _numbers(state, line, texts, f"TA({label})=TOL/{keyword}")
+    stated = tolerances.get(label)
+    kind, quantity, tolerance, nominal = (None, None, None, None) if stated is None else \
+        (stated.kind, stated.quantity, stated.tolerance, stated.nominal)
     features = reported_with.get(label, [])
     sizes = {nominal_sizes.get(name) for name in features} - {None}
     if nominal is None and keyword in ("DIAM", "RAD") and len(sizes) == 1:  # the nominal size of the feature reported
@@ -450,6 +488,12 @@ def _characteristic(state: _State, key: int, line: int, label: str, fields: list
     else:
         kind, quantity = kind or keyword.lower(), quantity or "other"
         state.problems.append(f"line {line}: TA({label})=TOL/{keyword}: tolerance type not read; verdict kept")
+    _finite(state, line, f"TA({label})=TOL/{keyword}", value, deviation, nominal)
+    if stated is not None and numbers and quantity in ("linear", "angular"):
+        factor = state.length_factor(line) if quantity == "linear" else state.angle_factor(line)
+        check_verdict(state.path, line, f"TA({label})=TOL/{keyword}", status, stated, value, deviation,
+                       factor * half_unit(texts[0]),
+                       modified=stated.modified or any(w in ("MMC", "LMC") for w in words))
     linked = tuple(feature_ids[name] for name in features if name in feature_ids)
     return Characteristic(id=key, type=kind, name=label, value=value, nominal=nominal, deviation=deviation,
                           tolerance=tolerance, status=status, quantity=quantity, feature_measurement_ids=linked,

@@ -474,7 +474,12 @@ class CoordinateSystem(_Record):
 
 @dataclass(frozen=True, eq=False, repr=False)
 class MeasurementResults(_Record):
-    """One QIF ``MeasurementResults`` (one measured part / run)."""
+    """One QIF ``MeasurementResults`` (one measured part / run).
+
+    ``serial_numbers`` are those of the ``ActualComponent`` s it names (``ActualComponentIds``):
+    what tells the samples of a multi-sample file apart; ``inspection_status`` its verdict
+    (``PASS``, ``FAIL``, ...), possibly all a status-only file states.
+    """
 
     id: int | None
     features: tuple[MeasuredFeature, ...] = ()
@@ -482,3 +487,4 @@ class MeasurementResults(_Record):
     characteristics: tuple[Characteristic, ...] = ()
     actual_transforms: Mapping[int, Transform] = field(default_factory=dict)
     inspection_status: str | None = None
+    serial_numbers: tuple[str, ...] = ()

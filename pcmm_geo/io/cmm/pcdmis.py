@@ -17,6 +17,9 @@ numbers  meaning
 :func:`read_pcdmis_xyzijk` returns a :class:`~pcmm_geo.io.cmm.MeasuredPointSet` in mm with
 the unit normals, ``compensated=None`` (the format does not say whether the points are probe
 centers or surface points: the user must).  Either every point has a vector or none has one.
+A last line without a line end is refused (a file cut inside a number: ``11.113`` would read as
+``11.1``); a file cut exactly at a line end cannot be told from a complete one (the format has
+no end marker).
 :func:`is_pcdmis_xyzijk` tells such a file by its first line (for
 :func:`pcmm_geo.io.read_points`, which returns the points alone).  The file is streamed.
 
@@ -33,12 +36,14 @@ Examples
 from __future__ import annotations
 
 import math
+from collections.abc import Iterator
 from pathlib import Path
 
 import numpy as np
 
 from pcmm_geo.errors import FileFormatError
-from pcmm_geo.io._text import excerpt, iter_text_lines, parse_decimal
+from pcmm_geo.io._lines import decode_block, iter_blocks, open_regular, text_codec
+from pcmm_geo.io._text import excerpt, parse_decimal
 from pcmm_geo.io.cmm.model import MeasuredPointSet
 
 __all__ = ["is_pcdmis_xyzijk", "read_pcdmis_xyzijk"]
@@ -51,11 +56,23 @@ _BLOCK = 65536
 def is_pcdmis_xyzijk(path: str | Path) -> bool:
     """True when the file's first line starts with ``XYZIJK`` (a PC-DMIS XYZ file)."""
     try:
-        with open(path, "rb") as stream:
+        with open_regular(path) as stream:
             head = stream.read(9)
-    except OSError:
+    except (OSError, ValueError):  # missing, a folder, a FIFO: the reader that follows names it
         return False
     return head.removeprefix(b"\xef\xbb\xbf").startswith(b"XYZIJK")
+
+
+def _lines(path: str | Path, encoding: str) -> Iterator[tuple[int, str]]:
+    """The file's lines; a last line without a line end is refused (the file was cut inside a point)."""
+    codec = text_codec(path, encoding)
+    for block in iter_blocks(path):
+        lines = decode_block(path, block, encoding=codec)
+        if block.last and not block.terminated and lines and lines[-1][1].strip():
+            number, text = lines[-1]
+            raise FileFormatError(str(path), "the file ends in the middle of a line (no line end after it): its last "
+                                  f"point may be cut short: {excerpt(text)}", number)
+        yield from lines
 
 
 def read_pcdmis_xyzijk(path: str | Path, *, encoding: str = "utf-8") -> MeasuredPointSet:
@@ -82,7 +99,7 @@ def read_pcdmis_xyzijk(path: str | Path, *, encoding: str = "utf-8") -> Measured
         The file does not exist.
     """
     name = str(path)
-    lines = iter_text_lines(path, encoding=encoding)
+    lines = _lines(path, encoding)
     first = next(lines, None)
     if first is None or not first[1].startswith("XYZIJK"):
         raise FileFormatError(name, "expected 'XYZIJK' in columns 1-6 of the first line (a PC-DMIS XYZ file), got "
@@ -125,7 +142,7 @@ def read_pcdmis_xyzijk(path: str | Path, *, encoding: str = "utf-8") -> Measured
                                   f"{'with' if with_vectors else 'without'} one (line {first_kind_line}); the "
                                   "normals would be incomplete", number)
         if has_vector:
-            length = math.sqrt(values[3] ** 2 + values[4] ** 2 + values[5] ** 2)
+            length = math.hypot(values[3], values[4], values[5])  # no overflow: 1e308 gives 1e308
             if abs(length - 1.0) > _UNIT_TOLERANCE:
                 raise FileFormatError(name, f"vector {values[3]:g}, {values[4]:g}, {values[5]:g} has length "
                                       f"{length:.6g}, expected a unit vector", number)
@@ -140,6 +157,10 @@ def read_pcdmis_xyzijk(path: str | Path, *, encoding: str = "utf-8") -> Measured
     data = np.concatenate(blocks) if len(blocks) > 1 else blocks[0]
     if len(data) == 0:
         raise FileFormatError(name, "holds no points")
-    points = data[:, :3] * factor if factor != 1.0 else data[:, :3].copy()
+    with np.errstate(over="ignore"):
+        points = data[:, :3] * factor if factor != 1.0 else data[:, :3].copy()
+    if not np.isfinite(points).all():
+        row = int(np.flatnonzero(~np.isfinite(points).all(axis=1))[0])
+        raise FileFormatError(name, f"point {row + 1}: a coordinate overflows the float range when converted to mm")
     return MeasuredPointSet(id=None, points=points, normals=data[:, 3:].copy() if with_vectors else None,
                             compensated=None)

@@ -132,7 +132,7 @@ def test_widget_cylinders_and_external_references() -> None:
     assert [c.value for c in exploded.characteristics] == [25.008279671621, 0.251457258827]
     assert all(c.item_id is None for c in exploded.characteristics)
     assert any("external document 1" in p for p in exploded.problems)
-    assert any("no FileUnits" in p for p in exploded.problems) and not exploded.units.stated
+    assert any("units not stated in the file" in p for p in exploded.problems) and not exploded.units.stated
 
 
 # ---------------------------------------------------------------------------------------------

@@ -9,10 +9,12 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from pcmm_geo.errors import QifError
+from pcmm_geo.io._lines import excerpt
 from pcmm_geo.io.cmm.model import FeatureGeometry, Units
-from pcmm_geo.io.cmm.qif._xml import Node
+from pcmm_geo.io.cmm.qif._xml import XS_DOUBLE, Node
+from pcmm_geo.io.cmm.settings import SpellSetting, python_setting
 
-__all__ = ["QifContext", "snake_type"]
+__all__ = ["QIF_ANGLE_UNITS", "QIF_LENGTH_UNITS", "QifContext", "short_id", "snake_type", "xs_double", "xs_integer"]
 
 #: millimetres per unit, by the unit names QIF files use (lower case)
 _MM_PER = {
@@ -30,11 +32,61 @@ _RAD_PER = {
     "arcminute": math.pi / 10800.0, "arcsecond": math.pi / 648000.0,
     "gradian": math.pi / 200.0, "grad": math.pi / 200.0,
 }
+#: ``units`` a QIF file without FileUnits may be read in
+QIF_LENGTH_UNITS = ("mm", "cm", "m", "inch", "feet")
+#: ``angle_unit`` a QIF file without FileUnits may be read in
+QIF_ANGLE_UNITS = ("degree", "radian")
 #: a stated conversion factor may differ from the exact one by this much (files truncate pi / 180)
 _FACTOR_TOLERANCE = 1e-9
 #: a unit vector's length may differ from 1 by this much
 UNIT_VECTOR_TOLERANCE = 1e-3
+#: longest id quoted whole in a message
+_ID_CHARS = 40
 _CAMEL = re.compile(r"(?<=[a-z0-9])(?=[A-Z])")
+#: the lexical space of ``xs:integer`` (and its restrictions such as ``xs:unsignedInt``)
+XS_INTEGER = re.compile(r"[+-]?[0-9]+")
+
+
+def xs_double(text: str) -> float:
+    """A number in the lexical space of ``xs:double`` (surrounding XML whitespace allowed); else ValueError.
+
+    Stricter than :class:`float`, which also reads ``3_3.2``, Arabic-Indic or full-width digits
+    (all as 33.2): numbers nobody wrote in a QIF file.
+
+    Examples
+    --------
+    >>> xs_double(" 1.5E3 "), xs_double("-.5")
+    (1500.0, -0.5)
+    >>> for bad in ("3_3.2", "\u0663\u0663.\u0662", "\uff13\uff13.2", "1,5", "inf"):
+    ...     try:
+    ...         xs_double(bad)
+    ...     except ValueError:
+    ...         print("refused", ascii(bad))
+    refused '3_3.2'
+    refused '\u0663\u0663.\u0662'
+    refused '\uff13\uff13.2'
+    refused '1,5'
+    refused 'inf'
+    """
+    stripped = text.strip(" \t\r\n")
+    if not XS_DOUBLE.fullmatch(stripped):
+        raise ValueError(f"not an xs:double: {stripped[:40]!r}")
+    return float(stripped)
+
+
+def xs_integer(text: str) -> int:
+    """An integer in the lexical space of ``xs:integer`` (ASCII digits); else ValueError."""
+    stripped = text.strip(" \t\r\n")
+    if not XS_INTEGER.fullmatch(stripped) or len(stripped) > 30:
+        raise ValueError(f"not an xs:integer: {stripped[:40]!r}")
+    return int(stripped)
+
+
+#: geometry elements of a feature nominal / measurement -> the quantities each sets (each at most once)
+_GEOMETRY_TAGS = {"Location": ("location",), "Normal": ("normal",), "Direction": ("direction",),
+                  "Axis": ("location", "direction"), "Diameter": ("diameter",), "DiameterMin": ("diameter_min",),
+                  "DiameterMax": ("diameter_max",), "Length": ("length",), "Width": ("width",), "Form": ("form",),
+                  "HalfAngle": ("half_angle",), "FullAngle": ("half_angle",)}
 
 
 def snake_type(tag: str, suffix: str) -> str:
@@ -42,12 +94,17 @@ def snake_type(tag: str, suffix: str) -> str:
     return _CAMEL.sub("_", tag[: -len(suffix)] if tag.endswith(suffix) else tag).lower()
 
 
+def short_id(text: str | None) -> str | None:
+    """An id attribute as messages quote it: whole when short, else an excerpt (a 10 MB id is not echoed)."""
+    return text if text is None or len(text) <= _ID_CHARS else excerpt(text, _ID_CHARS)
+
+
 def owner_id(node: Node) -> str | None:
     """QIF id of the nearest element at or above ``node`` that has one."""
     current: Node | None = node
     while current is not None:
         if "id" in current.attrib:
-            return current.attrib["id"]
+            return short_id(current.attrib["id"])
         current = current.parent
     return None
 
@@ -70,6 +127,8 @@ class QifContext:
     named_linear: dict[str, float] = field(default_factory=dict)
     named_angular: dict[str, float] = field(default_factory=dict)
     units_stated: bool = True
+    units_given: bool = False
+    spell: SpellSetting = python_setting
     _assumption_noted: bool = False
     ids: dict[int, Node] = field(default_factory=dict)
     problems: list[str] = field(default_factory=list)
@@ -87,12 +146,25 @@ class QifContext:
         return text
 
     # -- units ------------------------------------------------------------------------------
-    def read_units(self, root: Node) -> None:
-        """Primary (and PMI, other) units of ``FileUnits``; mm and degree assumed, and said so, without them."""
+    def read_units(self, root: Node, *, units: str | None = None, angle_unit: str | None = None) -> None:
+        """Primary (and PMI, other) units of ``FileUnits``; without them ``units`` / ``angle_unit``, else mm and degree.
+
+        The QIF 3.0 schema makes ``FileUnits`` optional and states no default unit; a file
+        without it is read in the units given, else in mm and degrees, and the document's
+        problems say which (never "the file states").  Units given for a file that states its
+        own are refused.
+        """
         file_units = root.child("FileUnits")
         primary = None if file_units is None else file_units.child("PrimaryUnits")
         if primary is None:
             self.units_stated = False
+            if units is not None:
+                self.linear, self.units_given = _Unit(units, _MM_PER[units]), True
+            if angle_unit is not None:
+                self.angular, self.units_given = _Unit(angle_unit, _RAD_PER[angle_unit]), True
+        elif units is not None or angle_unit is not None:
+            raise self.error(primary, f"the file states its units (FileUnits/PrimaryUnits); "
+                             f"{self.spell('units' if units is not None else 'angle_unit')} is for a file without them")
         else:
             for tag, attribute in (("LinearUnit", "linear"), ("AngularUnit", "angular"),
                                    ("PMILinearUnit", "pmi_linear"), ("PMIAngularUnit", "pmi_angular")):
@@ -133,8 +205,9 @@ class QifContext:
                 raise self.error(factor_node, f"unit {name!r} with the conversion factor {stated / si!r}, "
                                  f"expected {known / si!r}")
             return _Unit(name, known)
-        if stated <= 0.0:
-            raise self.error(factor_node, f"expected a positive conversion factor, got {stated / si!r}")
+        if not (0.0 < stated < math.inf):
+            raise self.error(factor_node, f"expected a positive finite conversion factor, got "
+                             f"{factor_node.text.strip()[:40]}")
         return _Unit(name or "(unnamed)", stated)
 
     def units(self) -> Units:
@@ -148,7 +221,11 @@ class QifContext:
             return 1.0
         if not self.units_stated and not self._assumption_noted:
             self._assumption_noted = True
-            self.problems.append("QIFDocument has no FileUnits/PrimaryUnits: lengths read as mm, angles as degrees")
+            how = "as given" if self.units_given else \
+                f"assumed; {self.spell('units')} and {self.spell('angle_unit')} say otherwise"
+            self.problems.append(f"units not stated in the file (no FileUnits/PrimaryUnits; the QIF 3.0 schema states "
+                                 f"no default): lengths read as {self.linear.name}, angles as {self.angular.name} "
+                                 f"({how})")
         angular = quantity == "angular"
         attribute = node.attrib.get("angularUnit" if angular else "linearUnit")
         if attribute is not None:
@@ -165,7 +242,7 @@ class QifContext:
     def number(self, node: Node) -> float:
         text = node.text.strip()
         try:
-            value = float(text)
+            value = xs_double(text)
         except ValueError:
             raise self.error(node, f"expected a number, got {text[:40]!r}") from None
         if not math.isfinite(value):
@@ -179,7 +256,7 @@ class QifContext:
         values = []
         for token in tokens:
             try:
-                value = float(token)
+                value = xs_double(token)
             except ValueError:
                 raise self.error(node, f"expected a number, got {token[:40]!r}") from None
             if not math.isfinite(value):
@@ -188,11 +265,22 @@ class QifContext:
         return np.array(values)
 
     def value(self, node: Node, quantity: str = "linear", *, pmi: bool = False) -> float:
-        """A length (mm) or angle (rad) from the element's text and unit."""
-        return self.number(node) * self.factor(node, quantity, pmi=pmi)
+        """A length (mm) or angle (rad) from the element's text and unit (finite after the conversion too)."""
+        return self.converted(node, self.number(node) * self.factor(node, quantity, pmi=pmi), node.text)
+
+    def converted(self, node: Node, value: float, text: str) -> float:
+        """``value`` (already in mm or rad) when finite: ``1e307`` inch would overflow to inf."""
+        if not math.isfinite(value):
+            raise self.error(node, f"{text.strip()[:40]} overflows the float range when converted to mm or rad")
+        return value
 
     def point(self, node: Node) -> np.ndarray:
-        return self.numbers(node, 3) * self.factor(node, "linear")
+        with np.errstate(over="ignore"):
+            point = self.numbers(node, 3) * self.factor(node, "linear")
+        if not np.isfinite(point).all():
+            raise self.error(node, f"{' '.join(node.text.split())[:60]} overflows the float range when converted "
+                             "to mm")
+        return point
 
     def unit_vector(self, node: Node) -> np.ndarray:
         vector = self.numbers(node, 3)
@@ -203,7 +291,7 @@ class QifContext:
 
     def integer(self, node: Node, text: str, what: str, *, minimum: int = 1) -> int:
         try:
-            value = int(text.strip())
+            value = xs_integer(text)
         except ValueError:
             raise self.error(node, f"{what}: expected an integer, got {text.strip()[:40]!r}") from None
         if value < minimum:
@@ -224,12 +312,12 @@ class QifContext:
         if text is None:
             return None
         try:
-            value = float(text)
+            value = xs_double(text)
         except ValueError:
             raise self.error(node, f"combinedUncertainty: expected a number, got {text[:40]!r}") from None
         if not math.isfinite(value) or value < 0:
             raise self.error(node, f"combinedUncertainty: expected a finite number >= 0, got {text[:40]!r}")
-        return value * self.factor(node, quantity, pmi=pmi)
+        return self.converted(node, value * self.factor(node, quantity, pmi=pmi), text)
 
     # -- references -------------------------------------------------------------------------
     def reference(self, node: Node | None, kinds: tuple[str, ...]) -> int | None:
@@ -269,8 +357,16 @@ class QifContext:
             if u is not None:
                 uncertainty[name] = u
 
+        seen: dict[str, Node] = {}
         for child in node.children:
             tag = child.tag
+            if tag in _GEOMETRY_TAGS:
+                for name in _GEOMETRY_TAGS[tag]:
+                    if name in seen:
+                        first = seen[name]
+                        raise self.error(child, f"a second {tag} element ({name} is also given by the {first.tag} "
+                                         f"on line {first.line}): which one is meant?")
+                    seen[name] = child
             if tag == "Location":
                 values["location"] = self.point(child)
                 note("location", child, "linear")

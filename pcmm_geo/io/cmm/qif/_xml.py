@@ -8,6 +8,7 @@ expansion and nothing fetched from a file or the network) and refuses, with an
 
 - a document type declaration, an entity declaration or an external reference;
 - nesting deeper than ``max_depth`` elements;
+- more than ``max_elements`` elements (the tree's memory, some 250 bytes an element);
 - a file larger than ``max_bytes`` (checked before parsing and while reading: a scanner's
   point cloud is a legitimate large file, so the limit is a parameter);
 - more than :data:`MAX_TEXT_CHARS` characters of text in one ordinary element.
@@ -28,23 +29,30 @@ import re
 from collections.abc import Callable, Iterable, Iterator
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import BinaryIO
 
 import numpy as np
 
 from pcmm_geo._optional import require
 from pcmm_geo.errors import FileFormatError, UnsafeXmlError
+from pcmm_geo.io._lines import open_regular
 from pcmm_geo.io.cmm.settings import SpellSetting, python_setting
 
-__all__ = ["DEFAULT_MAX_BYTES", "DEFAULT_MAX_DEPTH", "MAX_TEXT_CHARS", "Node", "NumberList", "parse_xml",
-           "parse_xml_chunks"]
+__all__ = ["DEFAULT_MAX_BYTES", "DEFAULT_MAX_DEPTH", "DEFAULT_MAX_ELEMENTS", "MAX_TEXT_CHARS", "XS_DOUBLE",
+           "DuplicateElementError", "Node", "NumberList", "open_xml", "parse_xml", "parse_xml_chunks"]
 
 #: default largest file read (bytes); pass ``max_bytes=`` for larger scanner files
 DEFAULT_MAX_BYTES = 1 << 30
+#: default most elements in one document: each costs some 250 bytes of tree (a QIF file keeps
+#: its bulk, the points, in streamed number lists; its elements number thousands, rarely 10^5)
+DEFAULT_MAX_ELEMENTS = 1_000_000
 #: default deepest element nesting (QIF documents nest about 12 deep)
 DEFAULT_MAX_DEPTH = 64
 #: most characters of text in an element that is not a streamed number list
 MAX_TEXT_CHARS = 1 << 20
 _READ_CHUNK = 1 << 20
+#: the lexical space of ``xs:double`` (XML Schema part 2, 3.2.5), ASCII digits only
+XS_DOUBLE = re.compile(r"[+-]?(?:[0-9]+(?:\.[0-9]*)?|\.[0-9]+)(?:[eE][+-]?[0-9]+)?|[+-]?INF|NaN")
 _BOOLEAN_WORDS = {"true": 1.0, "false": 0.0, "1": 1.0, "0": 0.0}
 
 
@@ -130,10 +138,16 @@ class NumberList:
                                       self._line_of_token(segment, bad))
             return np.array([_BOOLEAN_WORDS[t] for t in tokens])
         try:
+            if not segment.isascii() or "_" in segment:  # float() reads 3_3.2 and non-ASCII digits: xs:double not
+                raise ValueError(segment)
             numbers = np.array(tokens, dtype=np.float64)
         except ValueError:
-            bad = next(k for k, t in enumerate(tokens) if not _is_float(t))
-            raise NumberListError(f"expected a number, got {tokens[bad][:40]!r}",
+            bad = next((k for k, t in enumerate(tokens) if not _is_float(t)), None)
+            if bad is None:  # a separator that is not XML whitespace (a no-break space)
+                odd = next(c for c in segment if not c.isascii())
+                raise NumberListError(f"expected numbers separated by XML white space, got {odd!r}",
+                                      self.first_line + self._newlines) from None
+            raise NumberListError(f"expected a number (xs:double), got {tokens[bad][:40]!r}",
                                   self._line_of_token(segment, bad)) from None
         if not np.isfinite(numbers).all():
             bad = int(np.flatnonzero(~np.isfinite(numbers))[0])
@@ -143,11 +157,8 @@ class NumberList:
 
 
 def _is_float(token: str) -> bool:
-    try:
-        float(token)
-    except ValueError:
-        return False
-    return True
+    """``token`` is in the lexical space of ``xs:double`` (ASCII digits, no ``_``)."""
+    return XS_DOUBLE.fullmatch(token) is not None
 
 
 class Node:
@@ -178,8 +189,19 @@ class Node:
         return "/".join(reversed(parts))
 
     def child(self, tag: str) -> Node | None:
-        """The first child named ``tag`` (None if absent)."""
-        return next((c for c in self.children if c.tag == tag), None)
+        """The one child named ``tag`` (None if absent).
+
+        Raises :class:`DuplicateElementError` when there are two: an element the reader takes
+        once (a ``Diameter``, ``Points``, ``ProbeRadius``) is never picked first- or last-wins.
+        Repeated elements are read with :meth:`all`.
+        """
+        found = None
+        for candidate in self.children:
+            if candidate.tag == tag:
+                if found is not None:
+                    raise DuplicateElementError(found, candidate)
+                found = candidate
+        return found
 
     def all(self, tag: str) -> list[Node]:
         """Every child named ``tag``."""
@@ -189,6 +211,15 @@ class Node:
         return f"<Node {self.tag} line {self.line} ({len(self.children)} children)>"
 
 
+class DuplicateElementError(ValueError):
+    """Two children of one name where one is read (:meth:`Node.child`); the reader names the second."""
+
+    def __init__(self, first: Node, second: Node) -> None:
+        super().__init__(f"a second {second.tag} element (the first on line {first.line}) where one is read: "
+                         "which one is meant?")
+        self.first, self.second = first, second
+
+
 #: decides whether an element's text is a streamed number list: (node) -> NumberList or None
 StreamRule = Callable[[Node], "NumberList | None"]
 
@@ -196,9 +227,12 @@ StreamRule = Callable[[Node], "NumberList | None"]
 class _Target:
     """Parser target building :class:`Node` objects, streaming marked number lists."""
 
-    def __init__(self, path: str, max_depth: int, stream_rule: StreamRule) -> None:
+    def __init__(self, path: str, max_depth: int, stream_rule: StreamRule,
+                 max_elements: int = DEFAULT_MAX_ELEMENTS) -> None:
         self.path = path
         self.max_depth = max_depth
+        self.max_elements = max_elements
+        self.elements = 0
         self.stream_rule = stream_rule
         self.expat = None
         self.root: Node | None = None
@@ -210,6 +244,11 @@ class _Target:
         return None if self.expat is None else self.expat.CurrentLineNumber
 
     def start(self, tag: str, attrib: dict[str, str]) -> None:
+        self.elements += 1
+        if self.elements > self.max_elements:
+            raise UnsafeXmlError(self.path, f"more than {self.max_elements} elements (the tree would need some "
+                                 f"{self.max_elements * 250 >> 20} MiB); refused (the limit is the readers' "
+                                 "max_elements)", self.line(), limit=self.max_elements)
         self.depth += 1
         if self.depth > self.max_depth:
             raise UnsafeXmlError(self.path, f"elements nested deeper than {self.max_depth}", self.line(),
@@ -279,8 +318,8 @@ class NumberListFailure(FileFormatError):
 
 
 def parse_xml(path: str | Path, *, max_bytes: int = DEFAULT_MAX_BYTES, max_depth: int = DEFAULT_MAX_DEPTH,
-              stream_rule: StreamRule = lambda node: None,
-              spell_setting: SpellSetting = python_setting) -> tuple[Node, str | None]:
+              stream_rule: StreamRule = lambda node: None, spell_setting: SpellSetting = python_setting,
+              max_elements: int = DEFAULT_MAX_ELEMENTS) -> tuple[Node, str | None]:
     """Parse an untrusted XML file into a :class:`Node` tree (see the module docstring).
 
     Parameters
@@ -290,6 +329,9 @@ def parse_xml(path: str | Path, *, max_bytes: int = DEFAULT_MAX_BYTES, max_depth
         Largest file accepted (bytes).
     max_depth : int
         Deepest element nesting accepted.
+    max_elements : int
+        Most elements accepted (:data:`DEFAULT_MAX_ELEMENTS`): the tree's memory is bounded by it,
+        whatever the file's size (a file of empty elements would need 60 times its size).
     stream_rule : callable
         ``rule(node) -> NumberList | None``, called at each element's start: a :class:`NumberList`
         makes that element's text a streamed number list.
@@ -313,27 +355,43 @@ def parse_xml(path: str | Path, *, max_bytes: int = DEFAULT_MAX_BYTES, max_depth
         defusedxml is not installed (extra ``qif``).
     """
     name = str(path)
-    try:
-        size = os.stat(path).st_size
-    except OSError as exc:
-        raise FileFormatError(name, f"cannot be read: {exc.strerror or exc}") from None
-    if Path(path).is_dir():
-        raise FileFormatError(name, "is a directory, expected an XML file")
-    if size > max_bytes:
-        raise UnsafeXmlError(name, f"file of {size} bytes exceeds the limit of {max_bytes} bytes "
-                             f"(raise {spell_setting('max_bytes')} for larger files)", limit=max_bytes)
+    stream = open_xml(path, max_bytes, spell_setting)
 
     def chunks() -> Iterator[bytes]:
-        with open(path, "rb") as stream:
+        with stream:
             while chunk := stream.read(_READ_CHUNK):
                 yield chunk
 
-    return parse_xml_chunks(name, chunks(), max_bytes=max_bytes, max_depth=max_depth, stream_rule=stream_rule)
+    return parse_xml_chunks(name, chunks(), max_bytes=max_bytes, max_depth=max_depth, stream_rule=stream_rule,
+                            max_elements=max_elements)
+
+
+def open_xml(path: str | Path, max_bytes: int, spell_setting: SpellSetting = python_setting) -> BinaryIO:
+    """``path`` opened for reading bytes: a regular file (never a FIFO, a directory or a URL) of at most ``max_bytes``.
+
+    Raises
+    ------
+    FileFormatError
+        Missing, unreadable or not a regular file (a FIFO would block forever).
+    UnsafeXmlError
+        Larger than ``max_bytes``.
+    """
+    name = str(path)
+    try:
+        stream = open_regular(path, "an XML file")
+    except FileNotFoundError as exc:
+        raise FileFormatError(name, f"cannot be read: {exc.strerror or exc}") from None
+    size = os.fstat(stream.fileno()).st_size
+    if size > max_bytes:
+        stream.close()
+        raise UnsafeXmlError(name, f"file of {size} bytes exceeds the limit of {max_bytes} bytes "
+                             f"(raise {spell_setting('max_bytes')} for larger files)", limit=max_bytes)
+    return stream
 
 
 def parse_xml_chunks(name: str, chunks: Iterable[bytes], *, max_bytes: int = DEFAULT_MAX_BYTES,
-                     max_depth: int = DEFAULT_MAX_DEPTH,
-                     stream_rule: StreamRule = lambda node: None) -> tuple[Node, str | None]:
+                     max_depth: int = DEFAULT_MAX_DEPTH, stream_rule: StreamRule = lambda node: None,
+                     max_elements: int = DEFAULT_MAX_ELEMENTS) -> tuple[Node, str | None]:
     """Parse untrusted XML arriving as byte chunks (e.g. the XML section of an E57 file) as :func:`parse_xml` does.
 
     ``name`` is the file named in errors; ``chunks`` are read one by one, never joined, and
@@ -354,7 +412,7 @@ def parse_xml_chunks(name: str, chunks: Iterable[bytes], *, max_bytes: int = DEF
     """
     defused = require("defusedxml.ElementTree", purpose="reading XML files from CMMs and scanners")
     defused_common = require("defusedxml.common", purpose="reading XML files from CMMs and scanners")
-    target = _Target(name, max_depth, stream_rule)
+    target = _Target(name, max_depth, stream_rule, max_elements)
     parser = defused.DefusedXMLParser(target=target, forbid_dtd=True, forbid_entities=True, forbid_external=True)
     target.expat = parser.parser
     parser.parser.buffer_size = _READ_CHUNK
@@ -386,6 +444,9 @@ def parse_xml_chunks(name: str, chunks: Iterable[bytes], *, max_bytes: int = DEF
         raise FileFormatError(name, f"not well-formed XML: {message}", line) from None
     except OSError as exc:
         raise FileFormatError(name, f"cannot be read: {exc.strerror or exc}") from None
+    except LookupError as exc:  # expat asks Python for the codec the XML declaration names
+        raise FileFormatError(name, f"the XML declaration names an encoding Python does not know ({exc})",
+                              target.line()) from None
     except RecursionError:  # pragma: no cover - the depth limit stops nesting long before
         raise UnsafeXmlError(name, "nesting too deep", target.line()) from None
     if root is None:

@@ -47,7 +47,7 @@ from pathlib import Path
 
 import numpy as np
 
-from pcmm_geo.errors import QifError
+from pcmm_geo.errors import InvalidInputError, QifError
 from pcmm_geo.io.cmm.document import CmmDocument
 from pcmm_geo.io.cmm.model import (
     CoordinateSystem,
@@ -61,10 +61,19 @@ from pcmm_geo.io.cmm.model import (
     Transform,
 )
 from pcmm_geo.io.cmm.qif._characteristics import read_characteristics
-from pcmm_geo.io.cmm.qif._values import QifContext, snake_type
+from pcmm_geo.io.cmm.qif._values import (
+    QIF_ANGLE_UNITS,
+    QIF_LENGTH_UNITS,
+    QifContext,
+    short_id,
+    snake_type,
+    xs_integer,
+)
 from pcmm_geo.io.cmm.qif._xml import (
     DEFAULT_MAX_BYTES,
     DEFAULT_MAX_DEPTH,
+    DEFAULT_MAX_ELEMENTS,
+    DuplicateElementError,
     Node,
     NumberList,
     NumberListFailure,
@@ -85,7 +94,8 @@ _ORTHONORMAL_TOLERANCE = 1e-6
 
 def read_qif(
     path: str | Path, *, max_bytes: int = DEFAULT_MAX_BYTES, max_depth: int = DEFAULT_MAX_DEPTH,
-    spell_setting: SpellSetting = python_setting,
+    units: str | None = None, angle_unit: str | None = None, spell_setting: SpellSetting = python_setting,
+    max_elements: int = DEFAULT_MAX_ELEMENTS,
 ) -> CmmDocument:
     """Read a QIF 3.0 document (see the module docstring).
 
@@ -97,6 +107,14 @@ def read_qif(
         Largest file accepted (default 1 GiB; raise it for scanner-size point clouds).
     max_depth : int
         Deepest element nesting accepted (default 64).
+    max_elements : int
+        Most elements accepted (default 10^6, some 250 MB of tree): a file of millions of empty
+        elements is refused before its tree fills the memory.
+    units : {"mm", "cm", "m", "inch", "feet"} or None
+        Length unit of a file without ``FileUnits`` (the QIF 3.0 schema states no default; mm is
+        assumed, and said so in ``problems``, when None).  Refused for a file that states its units.
+    angle_unit : {"degree", "radian"} or None
+        Angle unit of a file without ``FileUnits`` (degree assumed when None).
     spell_setting : callable
         How a size refusal names ``max_bytes`` (:mod:`pcmm_geo.io.cmm.settings`; the command
         line passes its option name).
@@ -119,6 +137,9 @@ def read_qif(
         defusedxml is not installed (``pip install 'pcmm_geo[qif]'``).
     """
     name = str(path)
+    for value, allowed, what in ((units, QIF_LENGTH_UNITS, "units"), (angle_unit, QIF_ANGLE_UNITS, "angle_unit")):
+        if value is not None and value not in allowed:
+            raise InvalidInputError(spell_setting(what), f"one of {', '.join(allowed)}", repr(value))
     try:
         size = os.stat(path).st_size
     except OSError:
@@ -126,15 +147,24 @@ def read_qif(
     try:
         root, namespace = parse_xml(path, max_bytes=max_bytes, max_depth=max_depth,
                                     stream_rule=lambda node: _stream_rule(name, size, node),
-                                    spell_setting=spell_setting)
+                                    spell_setting=spell_setting, max_elements=max_elements)
     except NumberListFailure as failure:
         node = failure.node
-        set_id = node.parent.attrib.get("id") if node.parent is not None else None
+        set_id = short_id(node.parent.attrib.get("id")) if node.parent is not None else None
         raise QifError(name, failure.list_reason, qif_id=set_id, element=node.path(), line=failure.line) from None
-    context = QifContext(name)
+    context = QifContext(name, spell=spell_setting)
+    try:
+        return _read_document(context, root, namespace, units, angle_unit)
+    except DuplicateElementError as exc:
+        raise context.error(exc.second, str(exc)) from None
+
+
+def _read_document(context: QifContext, root: Node, namespace: str | None, units: str | None,
+                   angle_unit: str | None) -> CmmDocument:
+    name = context.path
     _check_document(context, root, namespace)
     _index_ids(context, root)
-    context.read_units(root)
+    context.read_units(root, units=units, angle_unit=angle_unit)
     definitions, nominals, items = _read_features(context, root.child("Features"))
     transforms = {}
     transforms_node = root.child("Transforms")
@@ -162,7 +192,7 @@ def _stream_rule(path: str, size: int, node: Node) -> NumberList | None:
     parent = node.parent
     if parent is None or parent.tag != "MeasuredPointSet":
         return None
-    where = {"qif_id": parent.attrib.get("id"), "element": node.path(), "line": node.line or None}
+    where = {"qif_id": short_id(parent.attrib.get("id")), "element": node.path(), "line": node.line or None}
     if node.tag in _BINARY:
         raise QifError(path, f"{node.tag}: QIF 3.0 does not state the byte order of binary arrays; pcmm_geo does "
                        "not guess it (write the points as text: Points, Normals)", **where)
@@ -173,7 +203,7 @@ def _stream_rule(path: str, size: int, node: Node) -> NumberList | None:
     if count_text is None:
         return NumberList(None, boolean=node.tag == "Compensations")
     try:
-        count = int(count_text)
+        count = xs_integer(count_text)
     except ValueError:
         raise QifError(path, f"count: expected an integer, got {count_text[:40]!r}", qif_id=where["qif_id"],
                        element=parent.path(), line=parent.line or None) from None
@@ -299,11 +329,19 @@ def _read_results(context: QifContext, node: Node, definitions: dict, nominals: 
             systems[system_id] = CoordinateSystem(id=old.id, name=old.name, nominal_transform=old.nominal_transform,
                                                   actual_transform_id=transform_id)
     status = node.child("InspectionStatus")
+    serials = []
+    group = node.child("ActualComponentIds")
+    for id_node in [] if group is None else group.all("Id"):
+        component = context.reference(id_node, ("ActualComponent",))
+        serial = None if component is None else context.text(context.ids[component].child("SerialNumber"))
+        if serial is not None:
+            serials.append(serial)
     return MeasurementResults(
         id=results_id, features=tuple(features), point_sets=point_sets,
         characteristics=read_characteristics(context, node.child("MeasuredCharacteristics"), results_id),
         actual_transforms=actuals,
-        inspection_status=None if status is None else context.text(status.child("InspectionStatusEnum")))
+        inspection_status=None if status is None else context.text(status.child("InspectionStatusEnum")),
+        serial_numbers=tuple(serials))
 
 
 def _point_set(context: QifContext, node: Node, results_id: int | None) -> MeasuredPointSet:
@@ -328,7 +366,10 @@ def _point_set(context: QifContext, node: Node, results_id: int | None) -> Measu
         linear = context.factor(points_node, "linear")
     points = raw.reshape(count, 3)
     if linear != 1.0:
-        points *= linear  # in place: the streamed array is the only copy
+        with np.errstate(over="ignore"):
+            points *= linear  # in place: the streamed array is the only copy
+        if not np.isfinite(points).all():
+            raise context.error(points_node, "a coordinate overflows the float range when converted to mm")
     normals = _per_point_list(context, node, "Normals", count, 3)
     if normals is not None:
         lengths = np.linalg.norm(normals, axis=1)
@@ -342,9 +383,14 @@ def _point_set(context: QifContext, node: Node, results_id: int | None) -> Measu
     if flags is not None and np.all(flags == flags[0]) and count:
         compensated, flags = bool(flags[0]), None
     radius_node = node.child("ProbeRadius")
-    radius = None if radius_node is None else context.number(radius_node) * linear
+    radius = None if radius_node is None else context.converted(radius_node, context.number(radius_node) * linear,
+                                                                 radius_node.text)
     if radii is not None:
-        radii = radii * linear
+        with np.errstate(over="ignore"):
+            radii = radii * linear
+        if not np.isfinite(radii).all():
+            raise context.error(node.child("ProbeRadii"), "a probe radius overflows the float range when converted "  # type: ignore[arg-type]
+                                "to mm")
         if count and np.all(radii == radii[0]):
             radius, radii = float(radii[0]), None
     if radius_node is not None and radius is not None and radius < 0:

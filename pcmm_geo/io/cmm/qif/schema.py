@@ -15,21 +15,21 @@ network access (``resolve_entities=False``, ``no_network=True``, ``load_dtd=Fals
 
 from __future__ import annotations
 
-import os
 from functools import lru_cache
 from importlib.resources import files
 from pathlib import Path
-from typing import Any
+from typing import Any, BinaryIO
 
 from pcmm_geo._optional import require
 from pcmm_geo.errors import FileFormatError, InvalidInputError, UnsafeXmlError
-from pcmm_geo.io.cmm.qif._xml import DEFAULT_MAX_BYTES
+from pcmm_geo.io.cmm.qif._xml import DEFAULT_MAX_BYTES, open_xml
 from pcmm_geo.io.cmm.settings import SpellSetting, python_setting
 
 __all__ = ["bundled_schema_dir", "validate_qif"]
 
 #: libxml2's deepest element nesting (with ``huge_tree``); deeper documents are refused as hostile
 _LIBXML2_MAX_DEPTH = 2048
+_CHUNK = 1 << 20
 
 
 def bundled_schema_dir() -> Path:
@@ -107,30 +107,27 @@ def validate_qif(path: str | Path, schema_dir: str | Path | None = None, *,
     schema = _schema(str(entry.resolve()))
     etree = require("lxml.etree", purpose="validating QIF files against the QIF 3.0 schema")
     name = str(path)
-    try:
-        size = os.stat(path).st_size
-    except OSError as exc:
-        raise FileFormatError(name, f"cannot be read: {exc.strerror or exc}") from None
-    if size > max_bytes:
-        raise UnsafeXmlError(name, f"file of {size} bytes exceeds the limit of {max_bytes} bytes "
-                             f"(raise {spell_setting('max_bytes')} for larger files)", limit=max_bytes)
-    _screen(name)
-    parser = etree.XMLParser(resolve_entities=False, no_network=True, load_dtd=False, huge_tree=True)
-    try:
-        document = etree.parse(name, parser)
-    except etree.XMLSyntaxError as exc:
-        if "Excessive depth" in str(exc.msg):
-            raise UnsafeXmlError(name, f"elements nested deeper than {_LIBXML2_MAX_DEPTH}; refused",
-                                 line=exc.lineno, limit=_LIBXML2_MAX_DEPTH) from None
-        raise FileFormatError(name, f"not well-formed XML: {exc.msg}", exc.lineno) from None
-    except OSError as exc:
-        raise FileFormatError(name, f"cannot be read: {exc}") from None
+    # the bytes are read here from a regular file and handed over as a stream: neither the screen
+    # (xml.sax) nor libxml2 ever sees a path, which they could take for a URL and fetch
+    with open_xml(path, max_bytes, spell_setting) as stream:
+        _screen(name, stream)
+        stream.seek(0)
+        parser = etree.XMLParser(resolve_entities=False, no_network=True, load_dtd=False, huge_tree=True)
+        try:
+            document = etree.parse(stream, parser)
+        except etree.XMLSyntaxError as exc:
+            if "Excessive depth" in str(exc.msg):
+                raise UnsafeXmlError(name, f"elements nested deeper than {_LIBXML2_MAX_DEPTH}; refused",
+                                     line=exc.lineno, limit=_LIBXML2_MAX_DEPTH) from None
+            raise FileFormatError(name, f"not well-formed XML: {exc.msg}", exc.lineno) from None
+        except OSError as exc:
+            raise FileFormatError(name, f"cannot be read: {exc}") from None
     if schema.validate(document):
         return ()
     return tuple(f"line {error.line}: {error.message}" for error in schema.error_log)
 
 
-def _screen(name: str) -> None:
+def _screen(name: str, stream: BinaryIO) -> None:
     """Read the file once with defusedxml's expat parser before libxml2 sees it.
 
     A document type declaration (so any entity or external reference), nesting deeper than
@@ -159,7 +156,9 @@ def _screen(name: str) -> None:
     parser.setFeature("http://xml.org/sax/features/namespaces", True)
     parser.setContentHandler(Depth())
     try:
-        parser.parse(name)
+        while chunk := stream.read(_CHUNK):
+            parser.feed(chunk)
+        parser.close()
     except defused.DTDForbidden:
         raise UnsafeXmlError(name, "has a document type declaration (DTD); refused",
                              line=parser.getLineNumber()) from None
@@ -167,3 +166,6 @@ def _screen(name: str) -> None:
         raise FileFormatError(name, f"not well-formed XML: {exc.getMessage()}", exc.getLineNumber()) from None
     except OSError as exc:
         raise FileFormatError(name, f"cannot be read: {exc.strerror or exc}") from None
+    except LookupError as exc:  # expat asks Python for the codec the XML declaration names
+        raise FileFormatError(name, f"the XML declaration names an encoding Python does not know ({exc})",
+                              parser.getLineNumber()) from None

@@ -59,6 +59,10 @@ MAX_RIVALS = 16
 DIRECTION_PENALTY = 50.0
 #: score of a stop row whose pivot did not move (contact may hold a stage; rarely)
 STILL_PENALTY = 1.0
+#: two hypotheses whose present heights agree within this (mm) are in the same state and are merged: far
+#: below any height a log resolves (laser steps of um), far above the rounding of the closed-form minima
+#: (1e-10 mm), so that no merge depends on the last bits of a height (a key rounded to 1e-9 mm did)
+SAME_STATE = 1e-6
 #: a row misfit this many times the squared critical value is a gross error (starting values only)
 GROSS = 1e4
 
@@ -134,6 +138,24 @@ def _without_one_reading(
     return best
 
 
+def _completed(rival: Hypothesis, kept: Hypothesis, segment: int,
+               finals: list[Hypothesis]) -> Hypothesis | None:
+    """A past merged into ``kept`` at ``segment``, completed with the future of ``kept``'s best surviving descendant.
+
+    Both reached the same state, so they share that future; its score and violations are added
+    to the rival's.  None when no descendant of ``kept`` survived the beam.
+    """
+    past = slice(0, segment + 1)
+    for final in finals:  # best first; a descendant carries kept's values up to the merge unchanged
+        if np.array_equal(final.values[past], kept.values[past]) and final.forks[:len(kept.forks)] == kept.forks:
+            values = np.concatenate([rival.values[past], final.values[segment + 1:]])
+            agrees = np.concatenate([rival.agrees[past], final.agrees[segment + 1:]])
+            return Hypothesis(values, rival.score + final.score - kept.score,
+                              rival.violations + final.violations - kept.violations, agrees,
+                              rival.forks + final.forks[len(kept.forks):])
+    return None
+
+
 def branch_hypotheses(
     geometry: solver.Geometry,
     log: MeasurementLog,
@@ -166,7 +188,7 @@ def branch_hypotheses(
     rows = segments.birth[3:]
     distances, gradients = joint_distances(geometry, _stand_ins(log.lasers, sigmas)[rows])
     weights = reading_weights(distances, gradients, sigmas[rows])
-    rivals: list[Hypothesis] = []
+    rivals: list[tuple[Hypothesis, Hypothesis, int]] = []
     for offset, segment in enumerate(range(3, segments.count)):
         row, arm = int(segments.birth[segment]), int(segments.arm[segment])
         if progress is not None:
@@ -206,20 +228,23 @@ def branch_hypotheses(
                                         agreement, hypothesis.forks + ((segment,) if forked else ())))
         grown.sort(key=lambda h: h.score)
         hypotheses = []
-        seen: dict[bytes, Hypothesis] = {}
+        states: list[FloatArray] = []
         for hypothesis in grown:  # one hypothesis per present state: it has the same future as any other
-            key = np.round(hypothesis.values[segments.active[row]], 9).tobytes()
-            kept = seen.get(key)
-            if kept is None:
-                seen[key] = hypothesis
+            state = hypothesis.values[segments.active[row]]
+            same = [i for i, other in enumerate(states) if np.max(np.abs(state - other)) <= SAME_STATE]
+            if not same:
+                states.append(state)
                 hypotheses.append(hypothesis)
-            elif (hypothesis.violations == kept.violations and hypothesis.score - kept.score <= critical**2
-                  and len(rivals) < MAX_RIVALS):
-                rivals.append(hypothesis)  # another past that explains the log as well
+                continue
+            kept = hypotheses[same[0]]
+            if (hypothesis.violations == kept.violations and hypothesis.score - kept.score <= critical**2
+                    and len(rivals) < MAX_RIVALS):
+                rivals.append((hypothesis, kept, segment))  # another past that explains the log as well
         hypotheses = hypotheses[:beam]
     if not hypotheses:
         return []
     final = hypotheses[0]
-    alternatives = [h for h in hypotheses[1:] + rivals if h.violations <= final.violations
+    completed = [whole for whole in (_completed(*rival, hypotheses) for rival in rivals) if whole is not None]
+    alternatives = [h for h in hypotheses[1:] + completed if h.violations <= final.violations
                     and h.score - final.score <= critical**2]
     return [final, *alternatives]
