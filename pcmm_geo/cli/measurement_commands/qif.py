@@ -327,7 +327,7 @@ def _handle_verify(args: argparse.Namespace) -> Report:
     scope = second_opinion.scope_statement(document, result, counts)
     plots = [second_opinion.plot(result, args.plot, args.overwrite)] if args.plot else []
     tables = [t for t in (table, _characteristic_table(characteristics)) if t.rows]
-    return Report(data=data, tables=tables, lines=[*lines, scope] if not tables else lines,
+    return Report(data=data, tables=tables, lines=[*lines, scope] if agrees is None else lines,
                   exit_code=0 if agrees is True else EXIT_FAILURE, verdict=verdict, plots=plots,
                   console=[f"plot written to {p}" for p in plots],
                   report_tables=[second_opinion.values_table(result)], statements=[("What was checked", scope)],
