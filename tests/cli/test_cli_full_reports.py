@@ -302,3 +302,12 @@ def test_iso10360_6_report_lists_every_case_and_the_mpes(tmp_path: Path) -> None
     mpes = {row[0]: float(row[1]) for row in tables["Maximum permissible errors of the test"][1:]}
     assert mpes == {"position": 1e-9, "orientation": 1e-9, "size": 2e-7, "angle": 1e-9}
     assert done.returncode == (0 if data["passed"] else 1)
+
+
+def test_an_overwritten_output_is_not_listed_as_an_input(tmp_path: Path) -> None:
+    page, plot = tmp_path / "r.md", tmp_path / "p.png"
+    for _ in range(2):  # the second run replaces both files, which then exist when the inputs are hashed
+        done = run_pcmm("iso10360-5", str(SPHERE), "--report", str(page), "--plot", str(plot), "--overwrite", *WHO)
+        assert done.returncode == 0, done.stderr
+    inputs = [row[0] for row in markdown_tables(page)["Inputs"][1:]]
+    assert inputs == [str(SPHERE)]
