@@ -147,20 +147,19 @@ def _token_match(got: str, shown: str) -> bool:
 
 
 def _glob(got: list[str], shown: list[str], same: object) -> bool:
-    """``shown`` matches ``got`` item by item, an item ``...`` standing for any number of items."""
-    memo: dict[tuple[int, int], bool] = {}
+    """``shown`` matches ``got`` item by item, an item ``...`` standing for any number of items.
 
-    def match(i: int, j: int) -> bool:
-        if (i, j) not in memo:
-            if j == len(shown):
-                memo[i, j] = i == len(got)
-            elif shown[j] == "...":
-                memo[i, j] = match(i, j + 1) or (i < len(got) and match(i + 1, j))
-            else:
-                memo[i, j] = i < len(got) and same(got[i], shown[j]) and match(i + 1, j + 1)  # type: ignore[operator]
-        return memo[i, j]
-
-    return match(0, 0)
+    Dynamic programming over (shown items, got items), no recursion: a JSON output has a thousand lines.
+    """
+    # reach[i]: shown[:j] can match got[:i]
+    reach = [True] + [False] * len(got)
+    for item in shown:
+        if item == "...":
+            for i in range(1, len(got) + 1):
+                reach[i] = reach[i] or reach[i - 1]
+        else:
+            reach = [False] + [reach[i - 1] and bool(same(got[i - 1], item)) for i in range(1, len(got) + 1)]  # type: ignore[operator]
+    return reach[len(got)]
 
 
 def line_matches(got: str, shown: str) -> bool:
