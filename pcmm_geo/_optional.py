@@ -52,6 +52,7 @@ OPTIONAL_MODULES: dict[str, tuple[str, str]] = {
     "google_crc32c": ("google-crc32c", "e57"),
     "defusedxml": ("defusedxml", "qif"),
     "lxml": ("lxml", "qif"),
+    "shtab": ("shtab", "completion"),
 }
 
 

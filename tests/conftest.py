@@ -96,6 +96,14 @@ EXTRAS_NEEDED = {
     "cmm/test_qif_pts_sample.py": "qif",
     "cmm/test_reference_qif.py": "qif",
     "machine/test_calibration_qif.py": "qif",
+    # reports, help and the documentation's console blocks (they run QIF, plot and CAD commands)
+    "cli/test_cli_full_reports.py::test_qif_verify_report_shows_reported_and_refitted_values_as_an_agreement_check":
+        "qif",
+    "cli/test_cli_full_reports.py::test_qif_show_writes_a_report_and_verify_draws_each_difference_against_its_tolerance":
+        "qif",
+    "cli/test_cli_help.py::test_results_is_the_qif_command_under_its_own_name": "qif",
+    "cli/test_cli_help.py::test_shell_completion_scripts_complete_commands_actions_and_options": "completion",
+    "test_docs_console.py::test_every_console_block_prints_what_the_page_shows": "plots",
 }
 
 

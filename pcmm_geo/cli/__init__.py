@@ -15,7 +15,7 @@ import importlib
 import sys
 from collections.abc import Sequence
 
-# sub-command modules relative to pcmm_geo.cli, in the order ``pcmm --help`` lists them
+# sub-command modules relative to pcmm_geo.cli (``pcmm --help`` groups them: pcmm_geo.cli._help.COMMAND_GROUPS)
 COMMAND_MODULES = (
     "demo",
     "measurement_commands.fit",
@@ -44,12 +44,15 @@ COMMAND_MODULES = (
 
 def build_parser() -> argparse.ArgumentParser:
     from pcmm_geo import __version__
+    from pcmm_geo.cli._help import PcmmParser, add_completion_option, install_grouped_help
 
-    parser = argparse.ArgumentParser(
+    parser = PcmmParser(
         prog="pcmm",
         description="Geometric metrology for coordinate measuring machines (pcmm_geo).",
+        formatter_class=argparse.RawDescriptionHelpFormatter,
     )
     parser.add_argument("--version", action="version", version=f"pcmm_geo {__version__}")
+    add_completion_option(parser)
     subparsers = parser.add_subparsers(dest="command", metavar="COMMAND")
     for name in COMMAND_MODULES:
         try:
@@ -59,6 +62,7 @@ def build_parser() -> argparse.ArgumentParser:
                 continue  # sub-command not built yet
             raise
         module.register(subparsers)
+    install_grouped_help(parser, subparsers)  # commands by task, ``pcmm results`` for ``pcmm qif``
     return parser
 
 

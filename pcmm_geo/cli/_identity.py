@@ -5,18 +5,19 @@ Every command with ``--report`` takes the options of :func:`add_identity_flags`:
 ``--laboratory``, ``--operator``, ``--approved-by``, ``--customer``, ``--item``,
 ``--instrument``, ``--reference`` (a reference standard with its certificate and calibration
 uncertainty, repeatable), ``--measurement-date``, ``--supersedes`` (an amended report names the
-one it replaces) and ``--config``.  The same keys (``laboratory``, ``operator``, ``approved_by``,
-``customer``, ``item``, ``instrument``, ``[[reference]]`` tables and an ``[environment]``
-table) can be kept in a ``pcmm.toml`` in the working folder or in the file ``--config`` names;
+one it replaces) and ``--config``.  The same keys, spelled as the options (``laboratory``,
+``operator``, ``approved-by`` -- ``approved_by`` works too --, ``customer``, ``item``,
+``instrument``, ``[[reference]]`` tables and an ``[environment]`` table of the conditions
+the laboratory recorded) can be kept in a ``pcmm.toml`` in the working folder or in the file ``--config`` names;
 an option given on the command line wins over the file.  ``pcmm.toml`` is untrusted input:
 bounded in size, every key checked, an unknown key or a wrong type refused naming the file
-and the key.
+once and then the key (docs/guide/pcmm_toml.rst).
 
 Example ``pcmm.toml``::
 
     laboratory = "Dimensional Metrology Laboratory, 1 Example Road, Stellenbosch"
     operator = "A. Operator"
-    approved_by = "B. Approver"
+    approved-by = "B. Approver"
     instrument = "micro-CMM serial 001"
 
     [[reference]]
@@ -248,34 +249,57 @@ def load_config(path: str | Path) -> dict[str, Any]:
         data = tomllib.loads(raw.decode("utf-8"))
     except (UnicodeDecodeError, tomllib.TOMLDecodeError) as exc:
         raise FileFormatError(str(source), f"expected UTF-8 TOML, got {exc}") from None
-    allowed = {key for _, key, _ in TEXT_FIELDS} | {"reference", "environment"}
-    unknown = sorted(set(data) - allowed)
+    data = _flag_spelling(source, data, "")
+    allowed = [option.removeprefix("--") for option, _, _ in TEXT_FIELDS] + ["reference", "environment"]
+    unknown = sorted(set(data) - {key.replace("-", "_") for key in allowed})
     if unknown:
-        raise FileFormatError(str(source), f"expected keys among {sorted(allowed)}, got {unknown[0]!r}")
+        raise FileFormatError(str(source), f"unknown key {unknown[0].replace('_', '-')!r}: expected keys among "
+                              f"{', '.join(allowed)} (spelled as the options; underscores work too)")
     out: dict[str, Any] = {}
     try:
         for _, key, _ in TEXT_FIELDS:
             if key in data:
-                out[key] = _text(f"{source}: {key}", data[key])
+                out[key] = _text(key.replace("_", "-"), data[key])
         references = data.get("reference", [])
         if isinstance(references, dict):
             references = [references]
         if not isinstance(references, list) or not all(isinstance(r, dict) for r in references):
-            raise _invalid(f"{source}: reference", "a [[reference]] table per standard", references)
-        out["reference"] = [_reference(f"{source}: reference {i + 1}", r) for i, r in enumerate(references)]
+            raise _invalid("reference", "a [[reference]] table per standard", references)
+        out["reference"] = [_reference(f"[[reference]] {i + 1}", _reference_keys(source, r, i + 1))
+                            for i, r in enumerate(references)]
         environment = data.get("environment", {})
         if not isinstance(environment, dict):
-            raise _invalid(f"{source}: environment", "an [environment] table of 'quantity = value'", environment)
+            raise _invalid("environment", "an [environment] table of 'quantity = value'", environment)
         conditions = []
         for quantity, value in environment.items():
             if isinstance(value, bool) or not isinstance(value, (str, int, float)):
-                raise _invalid(f"{source}: environment.{quantity}", "text or a number", value)
-            conditions.append(Condition(_text(f"{source}: environment key", quantity),
-                                        value if isinstance(value, (int, float)) else _text(quantity, value), ""))
+                raise _invalid(f"[environment] {quantity!r}", "text or a number", value)
+            conditions.append(Condition(_text("[environment] key", quantity),
+                                        value if isinstance(value, (int, float)) else
+                                        _text(f"[environment] {quantity!r}", value), ""))
         out["environment"] = conditions
-    except PcmmGeoError as exc:
+    except PcmmGeoError as exc:  # the file's path once, then what is wrong with which key
         raise FileFormatError(str(source), " ".join(str(exc).split())) from None
     return out
+
+
+def _flag_spelling(source: Path, table: dict[str, Any], where: str) -> dict[str, Any]:
+    """``table`` with its keys spelled with underscores (``approved-by`` -> ``approved_by``); both spellings refused."""
+    from pcmm_geo.errors import FileFormatError
+
+    out: dict[str, Any] = {}
+    for key, value in table.items():
+        name = key.replace("-", "_")
+        if name in out:
+            raise FileFormatError(str(source), f"{where}{key!r} is given twice (as {name.replace('_', '-')!r} and "
+                                  f"{name!r}); keep one")
+        out[name] = value
+    return out
+
+
+def _reference_keys(source: Path, table: dict[str, Any], number: int) -> dict[str, Any]:
+    """A ``[[reference]]`` table with hyphenated keys accepted (``U-um`` for ``U_um``)."""
+    return _flag_spelling(source, table, f"[[reference]] {number}: ")
 
 
 def config_path(args: argparse.Namespace) -> Path | None:
@@ -396,7 +420,7 @@ def method_for(args: argparse.Namespace) -> Method:
                       "length corrected to the reference temperature 20 °C with its uncertainty budget")
     if command == "calibrate":
         return Method("", "", "tetrahedron calibration from external-CMM probings (the thesis, chapter 7)")
-    if command == "qif" and action == "verify":
+    if command in ("qif", "results") and action == "verify":
         return Method("", "", "second opinion on a CMM's QIF results: every feature refitted from its measured "
                       "points (probe compensated) and compared with the reported values")
     if command == "compare":

@@ -43,6 +43,13 @@ class Report:
     :func:`pcmm_geo.cli._identity.method_for`) and ``environment`` (the temperatures the
     command used) fill the report's method and environmental conditions; ``provenance`` and
     ``identity`` are filled by :func:`pcmm_geo.cli._run.run_handler`.
+
+    A ``--report`` also renders what the terminal leaves out: ``report_tables`` (every result
+    a standard asks for, e.g. all 105 E0 values, after ``tables``), ``statements`` (titled
+    paragraphs: method, traceability, thermal correction) and ``annex`` (a technical annex of
+    supplementary tables, after the figures); ``title`` replaces the command as the report's
+    heading (e.g. a calibration certificate).  ``console`` lines are printed on the terminal
+    only (``plot written to ...``), never in a report.
     """
 
     data: dict[str, Any]
@@ -57,6 +64,11 @@ class Report:
     environment: list[Condition] = field(default_factory=list)
     provenance: Provenance | None = None
     identity: ReportIdentity | None = None
+    report_tables: list[Table] = field(default_factory=list)
+    statements: list[tuple[str, str]] = field(default_factory=list)
+    annex: list[Table] = field(default_factory=list)
+    title: str = ""
+    console: list[str] = field(default_factory=list)
 
 
 def add_json_flag(parser: argparse.ArgumentParser) -> None:
@@ -79,8 +91,8 @@ class _RenamedOption(argparse.Action):
 
     def __call__(self, parser: argparse.ArgumentParser, namespace: argparse.Namespace, values: Any,
                  option_string: str | None = None) -> None:
-        parser.error(f"{option_string} is now {self.new} (the unit is in the name); the old name is refused, "
-                     "so no number is read in a unit it was not written in")
+        parser.exit(2, f"{parser.prog}: error: {option_string} is now {self.new} (the unit is in the name); the old "
+                       "name is refused, so no number is read in a unit it was not written in\n")  # one line, no usage
 
 
 def refuse_renamed_options(parser: argparse.ArgumentParser, renamed: dict[str, str]) -> None:
@@ -88,7 +100,7 @@ def refuse_renamed_options(parser: argparse.ArgumentParser, renamed: dict[str, s
 
     Every length option carries its unit in its name (``--tolerance-mm``, ``--mpe-a-um``); an old
     name is registered hidden and exact, so argparse neither abbreviates it to the new name nor
-    accepts it silently: it prints the usage and ``OLD is now NEW ...`` on stderr and exits 2.
+    accepts it silently: it prints the one line ``OLD is now NEW ...`` on stderr (no usage) and exits 2.
 
     Examples
     --------
@@ -319,12 +331,14 @@ def print_report(report: Report, as_json: bool) -> None:
         json.dump(to_jsonable(report.data), sys.stdout, indent=2, allow_nan=False)
         sys.stdout.write("\n")
         return
-    blocks = [render_table(t) for t in report.tables]
+    annex = [Table(t.title, t.columns[:-1], [row[:-1] for row in t.rows]) if t.columns[-1] == "meaning" else t
+             for t in report.annex]  # the terminal leaves out the annex's explanations (the report has them)
+    blocks = [render_table(t) for t in (*report.tables, *annex)]
     blocks += [render_table(t) for t in uncertainty_tables(report, correlations=False)]
     if report.verdict is not None:  # the verdict once, from its slot: handlers do not repeat it in lines
         blocks.append("\n".join(report.verdict.lines()))
-    if report.lines:
-        blocks.append("\n".join(report.lines))
+    if report.lines or report.console:
+        blocks.append("\n".join([*report.lines, *report.console]))
     if blocks:  # a command that printed its own output (pcmm batch) returns an empty report
         print("\n\n".join(blocks))
 

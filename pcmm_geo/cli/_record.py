@@ -276,7 +276,8 @@ def input_paths(args: argparse.Namespace) -> list[str]:
     found: list[str] = []
     declared = {output.dest for output in getattr(args, "output_options", None) or ()}  # declare_output's
     for dest, value in sorted(vars(args).items()):
-        if dest in OUTPUT_DESTINATIONS or dest in declared or callable(value):
+        # command_line repeats every argument, the outputs too: an output that exists (--overwrite) is no input
+        if dest in OUTPUT_DESTINATIONS or dest in declared or dest == "command_line" or callable(value):
             continue
         values: Iterable[Any] = value if isinstance(value, (list, tuple)) else (value,)
         for item in values:

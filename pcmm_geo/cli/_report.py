@@ -34,19 +34,24 @@ from pcmm_geo.cli._output import Report, Table, _looks_numeric, check_report_pat
 from pcmm_geo.cli._record import software_identity
 
 _MARKDOWN_SPECIAL = "\\`*_[]<|"
+_WRITTEN = re.compile(r"^[\w .-]* written to \S")  # a console note of a file written, never a result
+_LONG_WORD = 24  # characters: a longer token may break anywhere in print (paths, XPaths), shorter ones never
 _HEX_DIGEST = re.compile(r"[0-9a-f]{64}")  # SHA-256 cells: monospace, one line
 _EMBEDDED_TYPES = {".png": "image/png", ".svg": "image/svg+xml"}
 _STYLE = (
     "body{font-family:sans-serif;margin:2em;max-width:70em}"
-    "table{border-collapse:collapse;margin:0.5em 0 1.5em}"
+    "table{border-collapse:collapse;margin:0.5em 0 1.5em;max-width:100%}"
+    "thead{display:table-header-group}"  # a long table repeats its header on every printed page
     "th,td{border:1px solid #bbb;padding:0.25em 0.6em}th{background:#eee}"
     "td.num{text-align:right;font-family:monospace;white-space:nowrap;overflow-wrap:normal}code{background:#f4f4f4}img{max-width:100%}"
-    "td{overflow-wrap:anywhere}td:first-child{overflow-wrap:normal}td.hash{font-family:monospace;font-size:0.8em;overflow-wrap:normal;white-space:nowrap}"
+    "td{overflow-wrap:break-word}td.long{overflow-wrap:anywhere}td.hash{font-family:monospace;font-size:0.8em;overflow-wrap:anywhere}"
     ".verdict{font-size:1.4em;font-weight:bold;padding:0.3em 0.6em;display:inline-block}"
     ".pass{background:#d8f0d8;color:#145214}.fail{background:#f6d5d5;color:#7a1010}.none{background:#eee}"
-    "p.statement{margin-top:2em;font-style:italic}p.amends{font-weight:bold;color:#7a1010}"
-    "@media print{body{margin:0;max-width:none}tr,figure{break-inside:avoid}h2{break-after:avoid}"
-    "td.hash{font-size:0.6em}}"
+    "li,p{overflow-wrap:anywhere}p.statement{margin-top:2em;font-style:italic}p.amends{font-weight:bold;color:#7a1010}"
+    "table.approval{width:100%}table.approval td{height:2.2em;vertical-align:bottom}"
+    "@media print{body{margin:0;max-width:none;font-size:9pt}table{width:100%;font-size:8.5pt}"
+    "th,td{padding:0.15em 0.35em}td.num{white-space:normal}tr,figure,table.approval{break-inside:avoid}"
+    "h1,h2,h3{break-after:avoid}td.hash{font-size:0.7em}img{max-height:120mm}}"
 )
 _PAGE_STYLE = (  # the id is checked to [A-Za-z0-9._/-] (or generated), so it needs no CSS escaping
     "@page{size:A4;margin:18mm 14mm 20mm;"
@@ -103,12 +108,14 @@ def _identity_tables(report: Report) -> list[Table]:
     else:
         tables.append(Table("Reference standards", ["standard", "certificate", "calibration uncertainty"],
                             [[f"{NOT_STATED} (--reference or [[reference]] in pcmm.toml)", "-", "-"]]))
-    if report.environment:
-        rows = [[c.quantity, c.value, c.unit] for c in report.environment]
-    else:
-        rows = [["temperature", "none entered this evaluation: the data are taken as measured at the reference "
-                 "temperature 20 °C (ISO 1), uncorrected", "°C"]]
-    rows += [[c.quantity, c.value, c.unit] for c in identity.environment]  # as the laboratory recorded them
+    rows = [[c.quantity, c.value, c.unit] for c in report.environment]  # what this evaluation used
+    recorded = [[c.quantity, c.value, c.unit or "as recorded"] for c in identity.environment]  # pcmm.toml
+    rows += recorded
+    if not report.environment:  # one statement, never "none entered" beside a recorded temperature
+        rows.append(["correction to 20 °C", "none applied: the data are evaluated as measured"
+                     + (" (the conditions above are recorded, not used)" if recorded else
+                        ", taken as at the reference temperature 20 °C (ISO 1); no temperature was entered"),
+                     "-"])
     tables.append(Table("Environmental conditions", ["condition", "value", "unit"], rows))
     return tables
 
@@ -121,7 +128,9 @@ def _decision_table(report: Report) -> list[Table]:
             return []
         return [Table("Decision", ["item", "value"],
                       [["decision", "no conformity statement: this evaluation has no specification to decide on"]])]
-    rows = [["result", verdict.statement], ["conformity (ISO 14253-1)", verdict.conformity],
+    agreement = verdict.conformity.startswith("not a conformity decision")  # a check between two evaluations
+    rows = [["result", verdict.statement], ["kind of decision" if agreement else "conformity (ISO 14253-1)",
+                                            verdict.conformity],
             ["decision rule", verdict.decision_rule]]
     if verdict.uncertainty:
         rows.append(["expanded uncertainty U", verdict.uncertainty])
@@ -135,8 +144,9 @@ def record_sections(report: Report, command: Sequence[str] | None = None) -> dic
     """The report's content as titled tables, grouped in the order they are rendered.
 
     Groups: ``"identity"`` (report, reference standards, environmental conditions; a run's
-    report only), ``"decision"``, ``"results"``, ``"uncertainty"``, ``"record"`` (date and
-    time, command line, inputs) and ``"software"``.  Free lines and figures are rendered
+    report only), ``"decision"``, ``"results"`` (the terminal's tables, then the report's full
+    tables), ``"uncertainty"``, ``"annex"`` (technical annex), ``"record"`` (date and time,
+    command line, inputs) and ``"software"``.  Free lines and figures are rendered
     separately.
 
     Examples
@@ -166,8 +176,9 @@ def record_sections(report: Report, command: Sequence[str] | None = None) -> dic
             software.append(Table("Software", ["package", "version"], rows))
     elif command:
         record.append(Table("Record", ["item", "value"], [["command line", " ".join(command)]]))
-    return {"identity": _identity_tables(report), "decision": _decision_table(report), "results": list(report.tables),
-            "uncertainty": uncertainty_tables(report), "record": record, "software": software}
+    return {"identity": _identity_tables(report), "decision": _decision_table(report),
+            "results": [*report.tables, *report.report_tables], "uncertainty": uncertainty_tables(report),
+            "annex": list(report.annex), "record": record, "software": software}
 
 
 def _markdown_table(table: Table) -> list[str]:
@@ -192,6 +203,19 @@ def _closing_lines(report: Report) -> list[str]:
     return [STATEMENT, f"Approved by: {approved}. Report {report.identity.report_id}."]
 
 
+def _approval_rows(report: Report) -> list[list[str]]:
+    """The approval block of a run's report: who approves it, with room to sign and date."""
+    if report.identity is None:
+        return []
+    return [["approved by (name, function)", report.identity.approved_by or NOT_STATED],
+            ["signature", ""], ["date", ""]]
+
+
+def _report_lines(report: Report) -> list[str]:
+    """The free lines a report prints: without the terminal's notes of files written (``plot written to``)."""
+    return [line for line in report.lines if not _WRITTEN.match(line)]
+
+
 def render_markdown(
     report: Report, title: str, *, command: Sequence[str] | None = None, base_dir: str | Path = "."
 ) -> str:
@@ -205,14 +229,17 @@ def render_markdown(
     True
     """
     sections = record_sections(report, command)
-    out = [f"# {markdown_text(title)}", ""]
+    out = [f"# {markdown_text(report.title or title)}", ""]
     if report.identity is not None and report.identity.supersedes:
         out += [f"**Amended report: replaces report {markdown_text(report.identity.supersedes)}.**", ""]
     for group in ("identity", "decision", "results"):
         for table in sections[group]:
             out += _markdown_table(table)
-    if report.lines:
-        out += [f"- {markdown_text(line)}" for line in report.lines] + [""]
+    lines = _report_lines(report)
+    if lines:
+        out += [f"- {markdown_text(line)}" for line in lines] + [""]
+    for heading, text in report.statements:
+        out += [f"## {markdown_text(heading)}", "", markdown_text(text), ""]
     for table in sections["uncertainty"]:
         out += _markdown_table(table)
     plots = _unique_plots(report.plots)
@@ -222,12 +249,18 @@ def render_markdown(
         link = Path(os.path.relpath(Path(plot).resolve(), Path(base_dir).resolve())).as_posix()
         link = link.replace(" ", "%20").replace("(", "%28").replace(")", "%29")
         out += [f"![{markdown_text(Path(plot).name)}]({link})", ""]
+    if sections["annex"]:
+        out += ["# Technical annex", ""]
+    for table in sections["annex"]:
+        out += _markdown_table(table)
     for group in ("record", "software"):
         for table in sections[group]:
             out += _markdown_table(table)
     closing = _closing_lines(report)
     if closing:
-        out += [f"*{markdown_text(closing[0])}*", "", markdown_text(closing[1]), ""]
+        out += [f"*{markdown_text(closing[0])}*", ""]
+        out += _markdown_table(Table("Approval", ["item", "value"],
+                                     [[item, value or "_" * 30] for item, value in _approval_rows(report)]))
     return "\n".join(out)
 
 
@@ -236,7 +269,9 @@ def _html_table(table: Table) -> str:
     numeric = [bool(cells) and all(_looks_numeric(r[i]) for r in cells) for i in range(len(table.columns))]
     head = "".join(f"<th>{html.escape(c)}</th>" for c in table.columns)
     def cell(text: str, is_number: bool) -> str:
-        kind = "num" if is_number else ("hash" if _HEX_DIGEST.fullmatch(text) else "")
+        # words keep whole (a narrow column widens); only long tokens (paths, XPaths) may break anywhere
+        long = any(len(word) > _LONG_WORD for word in text.split())
+        kind = "num" if is_number else ("hash" if _HEX_DIGEST.fullmatch(text) else ("long" if long else ""))
         return f'<td class="{kind}">{html.escape(text)}</td>' if kind else f"<td>{html.escape(text)}</td>"
 
     body = "".join(
@@ -287,6 +322,7 @@ def render_html(
     True
     """
     sections = record_sections(report, command)
+    title = report.title or title
     label = f"{title} - report {report.identity.report_id}" if report.identity is not None else title
     page_style = _PAGE_STYLE.replace("{label}", re.sub(r'["\\\n]', " ", label))
     parts = [
@@ -300,17 +336,26 @@ def render_html(
     parts.extend(_html_table(table) for table in sections["identity"])
     parts.extend(_html_decision(report, table) for table in sections["decision"])
     parts.extend(_html_table(table) for table in sections["results"])
-    if report.lines:
-        parts.append("<ul>\n" + "".join(f"<li>{html.escape(line)}</li>\n" for line in report.lines) + "</ul>\n")
+    lines = _report_lines(report)
+    if lines:
+        parts.append("<ul>\n" + "".join(f"<li>{html.escape(line)}</li>\n" for line in lines) + "</ul>\n")
+    parts.extend(f"<h2>{html.escape(heading)}</h2>\n<p>{html.escape(text)}</p>\n"
+                 for heading, text in report.statements)
     parts.extend(_html_table(table) for table in sections["uncertainty"])
     plots = _unique_plots(report.plots)
     if plots:
         parts.append("<h2>Figures</h2>\n")
     parts.extend(_html_image(plot, Path(base_dir)) for plot in plots)
+    if sections["annex"]:
+        parts.append('<h1 class="annex">Technical annex</h1>\n')
+    parts.extend(_html_table(table) for table in sections["annex"])
     parts.extend(_html_table(table) for table in (*sections["record"], *sections["software"]))
     closing = _closing_lines(report)
     if closing:
-        parts.append(f'<p class="statement">{html.escape(closing[0])}</p>\n<p>{html.escape(closing[1])}</p>\n')
+        rows = "".join(f"<tr><th>{html.escape(item)}</th><td>{html.escape(value)}</td></tr>\n"
+                       for item, value in _approval_rows(report))
+        parts.append(f'<p class="statement">{html.escape(closing[0])}</p>\n<h2>Approval</h2>\n'
+                     f'<table class="approval">\n{rows}</table>\n')
     parts.append("</body>\n</html>\n")
     return "".join(parts)
 

@@ -49,6 +49,18 @@ def _print_warnings(args: argparse.Namespace, caught: list[warnings.WarningMessa
             warnings.showwarning(record.message, record.category, record.filename, record.lineno)
 
 
+def _warn_anonymous(args: argparse.Namespace, identity: object) -> None:
+    """One console warning when a report names no party at all (every identity item "not stated")."""
+    from pcmm_geo.cli._identity import TEXT_FIELDS
+
+    if any(getattr(identity, key) for _, key, _ in TEXT_FIELDS) or getattr(identity, "references", ()):
+        return
+    options = ", ".join(option for option, _, _ in TEXT_FIELDS)
+    print(f"{report_title(args)}: warning: the report states no laboratory, customer, item, instrument, operator, "
+          f"approver or reference standard (every item 'not stated'); give them as {options}, --reference, "
+          "or in pcmm.toml", file=sys.stderr)
+
+
 def _refusal(args: argparse.Namespace, plan: OutputPlan | None, exc: OutputExistsError) -> str:
     """The one-line refusal of an existing output, naming the flags that would allow replacing it."""
     planned = None if plan is None else plan.find(exc.path)
@@ -141,7 +153,8 @@ def _run(args: argparse.Namespace) -> int:
                                        command=getattr(args, "command_line", None),
                                        overwrite=bool(getattr(args, "overwrite", False)))
                 report.data["report"] = str(written)
-                report.lines.append(f"report written to {written}")
+                report.console.append(f"report written to {written}")
+                _warn_anonymous(args, identity)
     except Exception as exc:
         return _failed(args, plan, exc)
     except KeyboardInterrupt as exc:

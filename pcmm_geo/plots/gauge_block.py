@@ -3,8 +3,8 @@
 Top row: one panel per probed face (``face_1``, ``face_2``, ``top``, ``side``), the points in
 the coordinates of their own least-squares plane, coloured by their signed deviation from it
 (µm, one colour scale for all faces).  Bottom: every length the evaluation gives -- the two
-one-way ISO 3650 central lengths, the exact projection, the thesis' eqs 5.1-5.3 and the naive
-two-point distance -- as differences from the ISO 3650 central length (µm), with the lengths
+one-way ISO 3650 central lengths, the exact projection, the two-angle length (the thesis'
+eqs 5.1-5.3) and the naive two-point distance -- as differences from the ISO 3650 central length (µm), with the lengths
 themselves written next to the bars.
 """
 
@@ -79,7 +79,7 @@ def length_comparison(measurement: GaugeBlockMeasurement) -> list[tuple[str, flo
     if not math.isnan(measurement.projected_length):
         rows.append(("exact projection (top x side)", float(measurement.projected_length)))
     if measurement.seed is not None:
-        rows.append(("thesis eqs 5.1-5.3", float(measurement.seed.length)))
+        rows.append(("two-angle length (3-point planes)", float(measurement.seed.length)))
         rows.append(("two-point distance", float(measurement.seed.vector_length)))
     return rows
 
@@ -112,7 +112,7 @@ def _draw_lengths(axes: Any, measurement: GaugeBlockMeasurement) -> None:
     axes.set_xlim(-1.1 * span, 2.3 * span)
     axes.set_yticks(positions, [name for name, _ in rows], fontsize=8)
     axes.set_xlabel("length minus ISO 3650 central length / µm")
-    axes.set_title(f"Central length {reference:.6f} mm (ISO 3650) against the thesis' method", fontsize=10)
+    axes.set_title(f"Central length {reference:.6f} mm (ISO 3650) against the other lengths", fontsize=10)
 
 
 def plot_gauge_block(

@@ -38,7 +38,7 @@ def test_gauge_block(tmp_path: Path) -> None:
     assert data["seed"]["phi_deg"] == pytest.approx(90.0, abs=0.5)
     assert data["n_points"] == {"face_1": 9, "face_2": 9, "top": 5, "side": 5}
     text = run("gauge-block", example("gauge_block.csv"))
-    assert text.returncode == 0 and "ISO 3650 central length" in text.stdout
+    assert text.returncode == 0 and "central length l_c (not corrected to 20 °C)" in text.stdout
     bad = tmp_path / "bad.csv"
     bad.write_text("face,x,y\nface_1,0,0\n")
     assert_usage_error(run("gauge-block", str(bad)), "missing z")

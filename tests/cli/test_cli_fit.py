@@ -8,6 +8,7 @@ import sys
 from pathlib import Path
 
 import numpy as np
+import pytest
 from pcmm_runner import run_pcmm
 
 NIST = Path(__file__).parents[1] / "data" / "nist"
@@ -107,3 +108,32 @@ def test_minimum_zone_fit_prints_its_scope(tmp_path: Path) -> None:
     assert scope_line.startswith("scope global;"), scope_line
     # the zone of a 5-lobed profile is 2 x 0.004 mm wide (the lobes' peaks and valleys alternate)
     assert "0.008" in done.stdout
+
+
+def test_fit_prints_the_diameter_with_its_type_a_standard_uncertainty(tmp_path: Path) -> None:
+    """12 points on a circle of radius 10 mm, radial residuals alternating ±1 µm, all in one plane.
+
+    The least-squares circle keeps centre and radius (the alternation is orthogonal to the centre's
+    cos/sin directions); s² = n δ² / (2n − 6) over 2 residual components per point and 6 parameters,
+    and the radius' column of the Jacobian is all ones radially, so u(r) = s / √n = δ / √(2n − 6) and
+    u(d) = 2 u(r) = 2 δ / √18.
+    """
+    n, radius, delta = 12, 10.0, 0.001
+    angles = 2 * np.pi * np.arange(n) / n
+    r = radius + delta * np.where(np.arange(n) % 2, 1.0, -1.0)
+    path = tmp_path / "ring.csv"
+    np.savetxt(path, np.c_[5 + r * np.cos(angles), -3 + r * np.sin(angles), np.full(n, 2.0)], delimiter=",",
+               header="x,y,z", comments="", fmt="%.12f")
+    done = run_pcmm("fit", "circle", str(path), "--json")
+    data = json.loads(done.stdout)
+    expected = 2 * delta / np.sqrt(2 * n - 6)
+    assert data["diameter_mm"] == pytest.approx(2 * radius, abs=1e-9)
+    assert data["u_diameter_mm"] == pytest.approx(expected, rel=1e-3)
+    text = run_pcmm("fit", "circle", str(path)).stdout
+    assert f"diameter d = 20.000000 mm, standard uncertainty u(d) = {1000 * expected:.3f} µm" in text
+    assert "type A" in text and "k = 1" in text
+    row = next(line for line in text.splitlines() if line.startswith("diameter "))
+    assert row.split()[1:] == ["20.000000", f"{expected:.6f}", "mm"]
+    # a minimum-zone fit has no type A uncertainty: said so, no number invented
+    zone = run_pcmm("fit", "circle", str(path), "--criterion", "chebyshev").stdout
+    assert "diameter d = 20.000000 mm (no standard uncertainty from this fit)" in zone

@@ -112,7 +112,8 @@ def parse_html(path: Path) -> TableCells:
 def test_calibrate_plot_and_markdown_report(tmp_path: Path) -> None:
     probings, lasers = (str(p) for p in appendix_cd_files())
     plot, report = tmp_path / "cal.png", tmp_path / "cal.md"
-    done = run("calibrate", probings, lasers, "--plot", str(plot), "--report", str(report), "--json")
+    done = run("calibrate", probings, lasers, "--plot", str(plot), "--report", str(report), "--json",
+               "--laboratory", "Test Lab")  # a report naming no party at all is warned about on stderr
     assert done.returncode == 0, done.stderr
     assert done.stderr == ""
     data = json.loads(done.stdout)
@@ -143,10 +144,15 @@ def test_gauge_block_plot_and_html_report(tmp_path: Path) -> None:
     assert data["central_length_mm"] == pytest.approx(100.0, abs=0.002)  # the example is a 100 mm block
     assert_picture(plot, 13.5, 7.0)
     parsed = parse_html(page)
-    rows = {row[0].strip(): row[1] for row in parsed.rows[1:]}
-    assert rows["ISO 3650 central length (mean)"] == f"{data['central_length_mm']:.6f}"
-    assert rows["thesis eqs 5.1-5.3 length"] == f"{data['seed']['length_mm']:.6f}"
-    assert rows["two-point distance"] == f"{data['seed']['two_point_distance_mm']:.6f}"
+    rows = {row[0].strip(): row[1] for row in parsed.rows[1:] if len(row) >= 2}
+    assert rows["central length l_c (not corrected to 20 °C)"] == f"{data['central_length_mm']:.6f}"
+    # the other lengths: supplementary information in the technical annex, never certified
+    assert rows["two-angle length of one point pair (three-point top and side planes)"] == \
+        f"{data['seed']['length_mm']:.6f}"
+    assert rows["two-point distance of that point pair"] == f"{data['seed']['two_point_distance_mm']:.6f}"
+    text = page.read_text(encoding="utf-8")
+    assert "thesis" not in text.lower() and "written to" not in text  # no thesis material, no console lines
+    assert text.index("Certified values") < text.index("Technical annex") < text.index("Supplementary information")
     assert len(parsed.images) == 1 and parsed.images[0].startswith("data:image/png;base64,")
 
     before = plot.read_bytes()
@@ -170,7 +176,8 @@ def test_fit_sensitivity_and_demo_keep_json_clean(tmp_path: Path) -> None:
 
     report = tmp_path / "sens.md"
     done = run(
-        "sensitivity", "--points-per-axis", "3", "--plot", str(tmp_path / "sens.png"), "--report", str(report), "--json"
+        "sensitivity", "--points-per-axis", "3", "--plot", str(tmp_path / "sens.png"), "--report", str(report),
+        "--json", "--operator", "A. Operator"
     )
     assert done.returncode == 0 and done.stderr == ""
     data = json.loads(done.stdout)
@@ -180,7 +187,8 @@ def test_fit_sensitivity_and_demo_keep_json_clean(tmp_path: Path) -> None:
     )
 
     overview, page = tmp_path / "demo.png", tmp_path / "demo.html"
-    done = run("demo", "--out", str(tmp_path / "runs"), "--plot", str(overview), "--report", str(page), "--json")
+    done = run("demo", "--out", str(tmp_path / "runs"), "--plot", str(overview), "--report", str(page), "--json",
+               "--operator", "A. Operator")
     assert done.returncode == 0 and done.stderr == ""
     data = json.loads(done.stdout)
     assert data["plot"] == str(overview) and len(data["plots"]) == 2
@@ -219,7 +227,7 @@ def test_process_log_plot_report_and_progress(long_log: tuple[Path, list[str], n
     plot, report = tmp_path / "log.png", tmp_path / "log.md"
     done = run(
         "process-log", str(path), "--initial-heights-mm", *heights, "--plot", str(plot),
-                           "--report", str(report), "--json"
+                           "--report", str(report), "--json", "--operator", "A. Operator"
     )
     assert done.returncode == 0 and done.stderr == ""
     data = json.loads(done.stdout)

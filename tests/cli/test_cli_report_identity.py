@@ -107,12 +107,16 @@ def test_every_identity_item_is_in_the_report(tmp_path: Path, capsys: pytest.Cap
     # the reference standard with its certificate and calibration uncertainty
     assert tables["Reference standards"] == [["gauge block 100 mm grade K", "CAL-2025-0417", "U = 0.05 µm (k = 2)",
                                               "2025-04-17"]]
-    # no temperature entered this evaluation: said so, with the consequence
+    # no temperature entered this evaluation: said so once, with the consequence
     conditions = _rows(tables, "Environmental conditions")
-    assert conditions["temperature"].startswith("none entered this evaluation") and "20 °C" in conditions["temperature"]
+    assert list(conditions) == ["correction to 20 °C"]
+    assert conditions["correction to 20 °C"].startswith("none applied") and "no temperature was entered" in \
+        conditions["correction to 20 °C"] and "20 °C (ISO 1)" in conditions["correction to 20 °C"]
     # the closing statement and the approval
     assert "*The results relate only to the item measured, as received, under the conditions stated.*" in text
-    assert "Approved by: B. Approver. Report DML-2026-0042." in text
+    approval = _rows(tables, "Approval")
+    assert approval["approved by (name, function)"] == "B. Approver"
+    assert set(approval["signature"]) == set(approval["date"]) == {"_"}  # room to sign and date
     # the software: version, the git revision of this checkout (dirty when it is), the package digest
     software = _rows(tables, "Software")
     assert software["pcmm_geo version"] == pcmm_geo.__version__
@@ -140,8 +144,10 @@ def test_pcmm_toml_gives_the_defaults_and_an_option_wins(tmp_path: Path, monkeyp
     assert identity["operator"] == "Command-line Operator" and identity["customer"] == "not stated"
     assert tables["Reference standards"][0][:3] == ["sphere 25 mm", "S-9", "U = 0.0002 mm (k = 2)"]
     conditions = _rows(tables, "Environmental conditions")
-    assert conditions.pop("temperature").startswith("none entered this evaluation")  # the command used none
+    correction = conditions.pop("correction to 20 °C")  # the command used none: said once, not "none entered"
+    assert correction.startswith("none applied") and "recorded, not used" in correction
     assert conditions == {"air temperature": "20.1 °C ± 0.2 K", "relative humidity / %": "45"}
+    assert "temperature" not in conditions and "none entered" not in (tmp_path / "r.md").read_text(encoding="utf-8")
     inputs = [row[0] for row in tables["Inputs"]]
     assert str((tmp_path / "pcmm.toml").resolve()) in inputs  # the settings file is an input of the record
     # --config names another file; its reference replaces none given on the command line
@@ -167,6 +173,26 @@ def test_a_bad_pcmm_toml_is_refused_before_any_work(tmp_path: Path, monkeypatch:
     assert code == 2 and out == ""
     assert len(err.splitlines()) == 1 and "pcmm.toml" in err and needle in err
     assert sorted(p.name for p in tmp_path.iterdir()) == ["pcmm.toml"]
+
+
+def test_pcmm_toml_keys_are_spelled_as_the_options(tmp_path: Path, monkeypatch: pytest.MonkeyPatch,
+                                                  capsys: pytest.CaptureFixture[str]) -> None:
+    (tmp_path / "pcmm.toml").write_text('approved-by = "B. Approver"\ncustomer = "C"\n[[reference]]\nname = "s"\n'
+                                        'certificate = "S-1"\nU-um = 0.1\n', encoding="utf-8")
+    monkeypatch.chdir(tmp_path)
+    code, _, err = _run(["iso10360-5", SPHERE, "--report", "r.md"], capsys)
+    assert code == 0 and err == ""
+    tables = _markdown_tables((tmp_path / "r.md").read_text(encoding="utf-8"))
+    assert _rows(tables, "Report")["approved by"] == "B. Approver"
+    assert tables["Reference standards"][0][:3] == ["s", "S-1", "U = 0.1 µm (k = 2)"]
+    # both spellings of one key, a wrong value: one line each, the file's path once
+    for content, needle in (('approved-by = "A"\napproved_by = "B"\n', "given twice"),
+                            ("customer = 3\n", "customer: expected text"),
+                            ('[environment]\nair = [1]\n', "[environment] 'air'")):
+        (tmp_path / "pcmm.toml").write_text(content, encoding="utf-8")
+        code, _, err = _run(["iso10360-5", SPHERE, "--report", "s.md"], capsys)
+        assert code == 2 and len(err.splitlines()) == 1 and needle in err, err
+        assert err.count("pcmm.toml") == 1
 
 
 def test_generated_ids_are_unique_and_options_need_a_report(tmp_path: Path,

@@ -23,9 +23,8 @@ UNIT_SUFFIXES = ("-mm", "-um", "-rad", "-deg")
 #: help text that says an option's number is a length
 LENGTH_WORDS = re.compile(r"\bmm\b|micrometre|µm|\bum\b")
 #: options whose help speaks of lengths but whose number is not one
-#: K of MPE_E0 = A + L/K is a ratio, mm of L per µm of MPE; the characteristic fraction is a fraction of a
-#: tolerance width (its help names the 1 µm floor)
-NOT_LENGTHS = {"--mpe-k", "--characteristic-fraction"}
+NOT_LENGTHS = {"--mpe-k",  # K of MPE_E0 = A + L/K is a ratio, mm of L per µm of MPE
+               "--characteristic-fraction"}  # qif verify: a fraction of the tolerance (at least 1 µm)
 
 
 def _parsers(parser: argparse.ArgumentParser, prefix: str = "pcmm") -> Iterator[tuple[str, argparse.ArgumentParser]]:

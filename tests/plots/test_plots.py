@@ -80,9 +80,10 @@ def test_length_comparison_matches_the_closed_form_of_each_method() -> None:
     assert rows["exact projection (top x side)"] == pytest.approx(100.0, abs=1e-9)
     assert rows["two-point distance"] == pytest.approx(math.sqrt(v2), abs=1e-9)
     # |v| cos(theta_top) cos(theta_side) removes dz and dy one at a time (module docstring)
-    assert rows["thesis eqs 5.1-5.3"] == pytest.approx(math.sqrt((v2 - 6.0**2) * (v2 - 20.0**2) / v2), abs=1e-9)
+    assert rows["two-angle length (3-point planes)"] == pytest.approx(
+        math.sqrt((v2 - 6.0**2) * (v2 - 20.0**2) / v2), abs=1e-9)
     assert list(rows) == ["ISO 3650 central length", "face 1 centre to plane 2", "face 2 centre to plane 1",
-                          "exact projection (top x side)", "thesis eqs 5.1-5.3", "two-point distance"]
+                          "exact projection (top x side)", "two-angle length (3-point planes)", "two-point distance"]
 
 
 def test_gauge_block_plot_is_a_picture_and_is_never_overwritten(tmp_path: Path) -> None:

@@ -127,6 +127,7 @@ def handle(args: argparse.Namespace) -> Report:
                 continue
             unit = _UNITS[name]
             rows.append([name, value, uncertainty.get(name, float("nan")), unit])
+    diameter_line = _diameter(args.element, result, uncertainty, rows, data)
     if hasattr(result, "half_angle"):
         rows.append(["apex_angle_deg", float(np.degrees(2 * result.half_angle)), float("nan"), "deg"])
     tables = [
@@ -142,6 +143,8 @@ def handle(args: argparse.Namespace) -> Report:
         ),
     ]
     lines.insert(0, result.message)
+    if diameter_line:
+        lines.insert(0, diameter_line)
     if result.certificate is not None:
         certificate = result.certificate
         scope = f"scope {certificate.scope}"
@@ -231,6 +234,29 @@ def axis_search_options(args: argparse.Namespace, element: str, criterion: str, 
             budget["max_cells"] = args.search_cells
         out["search_budget"] = SearchBudget(**budget)
     return out
+
+
+def _diameter(element: str, result: Any, uncertainty: dict[str, float], rows: list[list[Any]],
+              data: dict[str, Any]) -> str:
+    """The diameter ``d = 2 r`` of a circle, sphere or cylinder with ``u(d) = 2 u(r)`` (type A, k = 1).
+
+    Adds the row to ``rows`` and ``diameter_mm`` / ``u_diameter_mm`` to ``data``; returns the line
+    the terminal prints ("" for other elements).
+    """
+    import math
+
+    if element not in ("circle", "sphere", "cylinder") or not hasattr(result, "radius"):
+        return ""
+    diameter = 2.0 * float(result.radius)
+    u_radius = uncertainty.get("radius", float("nan"))
+    u_diameter = 2.0 * u_radius  # d = 2 r exactly, so u(d) = 2 u(r)
+    rows.append(["diameter", diameter, u_diameter, "mm"])
+    data["diameter_mm"] = diameter
+    data["u_diameter_mm"] = None if math.isnan(u_diameter) else u_diameter
+    if math.isnan(u_diameter) or u_diameter <= 0:
+        return f"diameter d = {diameter:.6f} mm (no standard uncertainty from this fit)"
+    return (f"diameter d = {diameter:.6f} mm, standard uncertainty u(d) = {1000 * u_diameter:.3f} µm "
+            "(type A, from the fit residuals; k = 1, not an expanded uncertainty)")
 
 
 def _geometry_rows(result: Any) -> list[tuple[str, float]]:

@@ -187,8 +187,10 @@ def _handle_2(args: argparse.Namespace) -> Report:
                       uncertainty=f"U = {u_um:g} µm (k = 2), test uncertainty as stated" if u_um > 0 else "",
                       basis="the E0 values alone (no test uncertainty stated: --uncertainty-um)",
                       conformity_text=_guarded_conformity(rule_name, _passed(result.verdict), u_um > 0))
+    from pcmm_geo.cli.documents.iso10360 import length_test_tables
+
     return Report(data=data, tables=tables, lines=lines, exit_code=EXIT_FAILURE if result.passed is False else EXIT_OK,
-                  plots=plots, verdict=verdict)
+                  plots=plots, verdict=verdict, report_tables=length_test_tables(result, rule_name))
 
 
 def _rule_text(rule: str, limits: str, value: str) -> str:
@@ -288,8 +290,11 @@ def _handle_5(args: argparse.Namespace) -> Report:
     )
     plots = _plot(args, "plot_probing_test", result, points)
     exit_code = EXIT_FAILURE if result.passed is False else EXIT_OK
+    from pcmm_geo.cli.documents.iso10360 import probing_test_tables
+
+    full = probing_test_tables(result, points)
     if args.mpe_form is None and args.mpe_size is None:
-        return Report(data=data, tables=[table], plots=plots, exit_code=exit_code,
+        return Report(data=data, tables=[table], plots=plots, exit_code=exit_code, report_tables=full,
                       lines=["no verdict: no MPE stated (--mpe-form-um, --mpe-size-um)"])
     verdict = result.verdict
     if result.test_uncertainty is not None and (result.form_verdict or result.size_verdict):
@@ -298,7 +303,7 @@ def _handle_5(args: argparse.Namespace) -> Report:
         f"P_FTU against MPE_PFTU = {args.mpe_form:g} µm" if args.mpe_form is not None else "",
         f"|P_STU| against MPE_PSTU = {args.mpe_size:g} µm" if args.mpe_size is not None else "") if text)
     u_form, u_size = args.uncertainty if args.uncertainty is not None else (0.0, 0.0)
-    return Report(data=data, tables=[table], plots=plots, exit_code=exit_code,
+    return Report(data=data, tables=[table], plots=plots, exit_code=exit_code, report_tables=full,
                   verdict=Verdict(
                       _passed(verdict.split(" ")[0]), f"ISO 10360-5: {verdict}",
                       _rule_text("iso14253" if args.uncertainty is not None else "simple", limits, "P"),
@@ -357,5 +362,8 @@ def _handle_6(args: argparse.Namespace) -> Report:
           "pass" if c.passed else f"FAIL {c.note}".strip()]
          for c in report.cases],
     )
-    return Report(data=data, tables=[table], plots=plots, verdict=verdict,
+    limits = Table("Maximum permissible errors of the test", ["quantity", "MPE", "unit"],
+                   [["position", mpe.position, "mm"], ["orientation", mpe.orientation, "rad"],
+                    ["size", mpe.size, "mm"], ["angle", mpe.angle, "rad"]])
+    return Report(data=data, tables=[table], plots=plots, verdict=verdict, report_tables=[limits],
                   exit_code=EXIT_OK if report.passed else EXIT_FAILURE)

@@ -12,6 +12,7 @@ from pcmm_geo.cli._output import (
     Table,
     add_json_flag,
     add_overwrite_flag,
+    add_plot_flag,
     add_report_flag,
     refuse_renamed_options,
 )
@@ -29,6 +30,8 @@ def register(subparsers: Any) -> None:
                               "(or a DMIS output, a CALYPSO table)")
     show.add_argument("file", help="QIF results file (or DMIS output .dmo, CALYPSO *_chr.txt)")
     _add_limits(show)
+    add_report_flag(show)
+    add_overwrite_flag(show)
     add_json_flag(show)
     show.set_defaults(handler=_handle_show)
 
@@ -70,6 +73,7 @@ def register(subparsers: Any) -> None:
     refuse_renamed_options(verify, {"--probe-radius": "--probe-radius-mm"})
     _add_limits(verify)
     _add_qif_output(verify)
+    add_plot_flag(verify, "each compared difference against its agreement tolerance, per feature")
     add_report_flag(verify)
     add_overwrite_flag(verify)
     add_json_flag(verify)
@@ -97,7 +101,8 @@ def _add_limits(parser: argparse.ArgumentParser) -> None:
                         help="the file's format (default: told by its content, e.g. a GEOPAK report saved as .txt)")
     text = parser.add_argument_group("files that may not state their units (DMIS output, CALYPSO tables, QIF "
                                      "without FileUnits)")
-    text.add_argument("--units", choices=("mm", "cm", "m", "inch", "feet"), help="length unit of the file")
+    text.add_argument("--units", choices=("mm", "cm", "m", "inch", "feet"),
+                      help="length unit of the file (a CALYPSO table: mm or inch)")
     text.add_argument("--angle-unit", choices=("degree", "radian"), help="angle unit of the file")
     text.add_argument("--size-values", choices=("actual", "deviation"),
                       help="DMIS: the number of a size tolerance result is the actual size or its deviation")
@@ -341,8 +346,18 @@ def _handle_verify(args: argparse.Namespace) -> Report:
     if args.qif:
         data["qif"], line = _write_refits(args, document, result)
         lines.append(line)
-    return Report(data=data, tables=[table, _characteristic_table(characteristics)], lines=lines,
-                  exit_code=0 if agrees is True else EXIT_FAILURE, verdict=verdict)
+    from pcmm_geo.cli.documents import qif_verify as second_opinion  # reported vs refitted, what was checked
+
+    verdict = Verdict(verdict.passed, verdict.statement, verdict.decision_rule, basis=verdict.basis,
+                      conformity_text=second_opinion.AGREEMENT)
+    scope = second_opinion.scope_statement(document, result, counts)
+    plots = [second_opinion.plot(result, args.plot, args.overwrite)] if args.plot else []
+    tables = [t for t in (table, _characteristic_table(characteristics)) if t.rows]
+    return Report(data=data, tables=tables, lines=[*lines, scope] if agrees is None else lines,
+                  exit_code=0 if agrees is True else EXIT_FAILURE, verdict=verdict, plots=plots,
+                  console=[f"plot written to {p}" for p in plots],
+                  report_tables=[second_opinion.values_table(result)], statements=[("What was checked", scope)],
+                  environment=[second_opinion.NO_TEMPERATURE])
 
 
 def _verify_characteristics(args: argparse.Namespace, document: Any, compensated: bool | None) -> Any:

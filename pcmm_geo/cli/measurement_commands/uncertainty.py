@@ -109,6 +109,27 @@ def _machine(args: argparse.Namespace) -> tuple[Any, float, Any, Any, str]:
     return machine, float(cal.tip.radius), covariance, np.asarray(center), source
 
 
+def human_progress(update: Any) -> Any:
+    """``update`` with the input groups' internal names in a step text replaced by their words.
+
+    Examples
+    --------
+    >>> seen = []
+    >>> human_progress(lambda done, total=None, text=None: seen.append(text))(1, 6, "budget 2/6: laser_noise")
+    >>> seen
+    ['budget 2/6: laser readings']
+    """
+    from pcmm_geo.uncertainty.virtual_cmm import GROUP_LABELS
+
+    def translated(done: int, total: int | None = None, text: str | None = None) -> None:
+        if text:
+            head, sep, name = text.rpartition(": ")
+            text = f"{head}{sep}{GROUP_LABELS.get(name, name)}" if sep else GROUP_LABELS.get(text, text)
+        update(done, total, text)
+
+    return translated
+
+
 def _handle(args: argparse.Namespace) -> Report:
     import numpy as np
 
@@ -135,7 +156,7 @@ def _handle(args: argparse.Namespace) -> Report:
                       probing_sigma=args.probing_u, thermal=thermal)
     with progress_bar("virtual CMM", enabled=progress_wanted(args)) as update:
         outcome = vcmm.evaluate(task, seed=args.seed, trials=args.trials, significant_digits=args.digits,
-                                keep_values=bool(args.plot), progress=update)
+                                keep_values=bool(args.plot), progress=human_progress(update))
     result, gum = outcome.result, outcome.gum
     data: dict[str, Any] = {"calibration": source, **outcome.to_dict()}
     plots: list[str] = []
