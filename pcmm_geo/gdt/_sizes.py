@@ -76,10 +76,17 @@ def _surrounds(points: FloatArray, gauss: Any) -> bool:
     return bool(hull.equations[:, 2].max() < 0.0)
 
 
-def _envelope(points: FloatArray, criterion: str, gauss: Any, distances: FloatArray, heights: FloatArray) -> Any:
-    """The exact MIC / MCC cylinder over a tight region around the least-squares axis, widened while hit."""
+def _envelope(points: FloatArray, criterion: str, gauss: Any, distances: FloatArray, heights: FloatArray,
+              surrounded: bool) -> Any:
+    """The exact MIC / MCC cylinder over a tight region around the least-squares axis, widened while hit.
+
+    A MIC of points that do not surround the least-squares axis (a partial arc) is searched over the
+    default region at once: the tight region may hold no axis they surround.
+    """
     from pcmm_geo.fit import AxisRegion, fit_cylinder
 
+    if criterion == "mic" and not surrounded:
+        return fit_cylinder(points, criterion=criterion)
     radius = float(gauss.radius)
     spread = float(np.ptp(distances))
     extent = max(float(np.ptp(heights)), 1e-300)
@@ -151,7 +158,8 @@ def size_evaluation(feature: Any, modifier: str, *, points: FloatArray | None = 
             fits[envelope[0]] = envelope[1]
         # the side of the size check the modifier does not need: a free bound first
         cheap = {"mcc": (0.0, 2.0 * float(distances.max()))}
-        if _surrounds(pts, gauss):
+        surrounded = _surrounds(pts, gauss)
+        if surrounded:
             cheap["mic"] = (2.0 * float(distances.min()), np.inf)
         for criterion in ("mic", "mcc"):
             if criterion in fits:
@@ -161,7 +169,7 @@ def size_evaluation(feature: Any, modifier: str, *, points: FloatArray | None = 
             if decided:
                 ranges[criterion] = cheap[criterion]
             else:
-                fits[criterion] = _envelope(pts, criterion, gauss, distances, heights)
+                fits[criterion] = _envelope(pts, criterion, gauss, distances, heights, surrounded)
     else:
         from pcmm_geo.fit import fit_sphere
 

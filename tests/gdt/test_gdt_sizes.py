@@ -81,3 +81,12 @@ def test_the_tight_region_gives_the_default_regions_mic():
     reference = fit_cylinder(points, criterion="mic")
     assert abs(sizes["mating_size_mm"] - 2 * reference.radius) < 1e-9
     assert "45 deg" in reference.certificate.domain and "45 deg" not in sizes["mating_region"]
+
+
+def test_the_surround_check_of_the_least_squares_axis():
+    full = _rings(lambda t: np.full_like(t, 5.0))
+    assert _sizes._surrounds(full, fit_cylinder(full))
+    # an arc of 2.5 rad (< pi): its centre lies outside the hull of its projection
+    t = np.linspace(0.0, 2.5, 30)
+    arc = np.vstack([np.c_[5 * np.cos(t), 5 * np.sin(t), np.full(30, z)] for z in (0.0, 4.0, 8.0)])
+    assert not _sizes._surrounds(arc, fit_cylinder(arc))
