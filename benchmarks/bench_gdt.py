@@ -4,8 +4,9 @@ The part is the constructed block of ``pcmm_geo/data/examples/gdt/make_gdt_examp
 extra faces (parallelism to A) and 37 holes (position to A|B|C), 10^4 points per feature, written
 as CSV files with a TOML plan to a temporary directory.  Each run times :func:`pcmm_geo.gdt.inspect_plan`
 on the plan (reading the 50 files included) once with the holes at RFS (least-squares axes) and
-once at MMC (each hole's MIC and MCC for the bonus and the size check), and checks every hole's
-RFS position against the construction's exact value.
+once at MMC (each hole's exact MIC for the bonus; the size check's upper limit by a bound, its MCC
+only where the bound does not decide), and checks every hole's RFS position against the
+construction's exact value.
 
 Usage::
 

@@ -35,6 +35,7 @@ from numpy.typing import NDArray
 
 from pcmm_geo.errors import InvalidInputError
 from pcmm_geo.gdt._floating import float_position, minimise_angle
+from pcmm_geo.gdt._sizes import size_evaluation
 from pcmm_geo.gdt.frame import DatumReferenceFrame
 
 __all__ = [
@@ -178,58 +179,22 @@ def toleranced_axis(points: FloatArray, feature: FeatureData, standard: str) -> 
     return ends, axis, fit
 
 
-def size_evaluation(feature: FeatureData, modifier: str) -> dict[str, Any]:
-    """Sizes of a cylinder / sphere and the bonus of ``modifier`` ("MMC" / "LMC").
-
-    Returns a dict with ``mating_size_mm`` (hole: MIC, shaft: MCC diameter), ``minimum_material_size_mm``
-    (hole: MCC, shaft: MIC), the limits, ``size_ok`` and ``bonus_low_mm`` / ``bonus_high_mm`` (proven
-    range of the bonus: the mating envelope's certificate bounds it).
-    """
-    from pcmm_geo.fit import fit_cylinder, fit_sphere
-
-    fitter = fit_cylinder if feature.element == "cylinder" else fit_sphere
-    mic = fitter(feature.points, criterion="mic")
-    mcc = fitter(feature.points, criterion="mcc")
-
-    def dia_range(fit: Any, inscribed: bool) -> tuple[float, float]:
-        value = 2.0 * float(fit.radius)
-        bound = 2.0 * float(fit.certificate.bound_mm)
-        if fit.certificate.scope == "global" or not np.isfinite(bound):
-            return (value, value) if fit.certificate.scope == "global" else \
-                ((value, np.inf) if inscribed else (0.0, value))
-        return (value, bound) if inscribed else (bound, value)
-
-    mic_range, mcc_range = dia_range(mic, True), dia_range(mcc, False)
-    lo, hi = feature.diameter + feature.size_tolerance[0], feature.diameter + feature.size_tolerance[1]
-    hole = feature.side == "internal"
-    mating, minmat = (mic_range, mcc_range) if hole else (mcc_range, mic_range)
-    mmc_size, lmc_size = (lo, hi) if hole else (hi, lo)
-    # size limits: the mating envelope may not pass MMC, the minimum-material one not LMC
-    if hole:
-        size_ok = mating[0] >= mmc_size and minmat[1] <= lmc_size
-    else:
-        size_ok = mating[1] <= mmc_size and minmat[0] >= lmc_size
-    if modifier == "MMC":
-        bonus = sorted(abs(m - mmc_size) for m in mating)
-    elif modifier == "LMC":
-        bonus = sorted(abs(m - lmc_size) for m in minmat)
-    else:
-        bonus = [0.0, 0.0]
-    return {"mating_size_mm": 2.0 * float((mic if hole else mcc).radius),
-            "minimum_material_size_mm": 2.0 * float((mcc if hole else mic).radius),
-            "size_limits_mm": [lo, hi], "size_ok": bool(size_ok),
-            "bonus_low_mm": float(bonus[0]), "bonus_high_mm": float(bonus[1])}
-
-
 def _position_targets(feature: FeatureData, drf: DatumReferenceFrame, name: str,
-                      zone: str) -> tuple[FloatArray, FloatArray]:
+                      zone: str, fitted: dict[str, Any] | None = None) -> tuple[FloatArray, FloatArray]:
     """What a position zone holds, DRF coordinates: an axis's end points, a centre, a point, a plane's points;
-    and the projection (3, 3) onto the zone's cross-section."""
+    and the projection (3, 3) onto the zone's cross-section.  ``fitted`` (a dict) receives a cylinder's
+    DRF points and its toleranced axis's fit, for the size evaluation to reuse."""
     pts = drf.to_frame(feature.points)
     if feature.element == "cylinder":
         if zone != "dia":
             raise InvalidInputError(f"{name or feature.name}: zone", "dia for the position of an axis", zone)
-        ends, _, _ = toleranced_axis(pts, feature, drf.standard)
+        ends, _, fit = toleranced_axis(pts, feature, drf.standard)
+        if fitted is not None:
+            fitted["points"] = pts
+            if drf.standard == "ASME":  # the unrelated actual mating envelope over the default region
+                fitted["envelope"] = ("mic" if feature.side == "internal" else "mcc", fit)
+            else:
+                fitted["gauss"] = fit
         d = feature.direction / np.linalg.norm(feature.direction)
         return ends, np.eye(3) - np.outer(d, d)
     if feature.element == "sphere":
@@ -273,7 +238,8 @@ def evaluate_position(
         raise InvalidInputError("modifier", "RFS, MMC or LMC", repr(modifier))
     trans, rots = _free_axes(drf)
     details: dict[str, Any] = {}
-    targets, proj = _position_targets(feature, drf, name, zone)
+    fitted: dict[str, Any] = {}
+    targets, proj = _position_targets(feature, drf, name, zone, fitted)
     if feature.element == "plane":
         n = feature.direction / np.linalg.norm(feature.direction)
         dev = (targets - feature.point) @ n
@@ -290,7 +256,7 @@ def evaluate_position(
         if feature.element not in ("cylinder", "sphere") or not np.isfinite(feature.diameter):
             raise InvalidInputError(f"{name or feature.name}: {modifier}", "a feature of size with a diameter",
                                     feature.element)
-        sizes = size_evaluation(feature, modifier)
+        sizes = size_evaluation(feature, modifier, **fitted)
         size_ok = sizes.pop("size_ok")
         details.update(sizes)
         bonus = sizes["bonus_low_mm"]

@@ -41,6 +41,7 @@ _GRID = 64  # support-table cells per cube-face side
 _PROBES = 32  # directions normal to the axis tried for the upper bound
 _GENERATORS = 24  # hulls of at most this many vertices: exact support values and centre depths
 _CHUNK = 2_000_000  # cells x candidates x vertices per vectorised block
+_TABLE_BLOCK = 16  # hull vertices per block of the support table (small blocks stay in cache)
 
 
 def _cube_directions(grid: int) -> FloatArray:
@@ -96,8 +97,11 @@ class Surround:
 
     def support_upper(self, u: FloatArray) -> FloatArray:
         """Upper bound of the support function ``max_i u . P_i`` for unit ``u`` (..., 3)."""
-        if self._support is None:
-            self._support = (self.points[self.hull] @ _cube_directions(_GRID).T).max(axis=0)
+        if self._support is None:  # by blocks of hull vertices: one (H, 6 grid^2) product is GBs for dense data
+            grid, vertices = _cube_directions(_GRID).T, self.vertices
+            self._support = np.full(grid.shape[1], -np.inf)
+            for start in range(0, len(vertices), _TABLE_BLOCK):
+                np.maximum(self._support, (vertices[start:start + _TABLE_BLOCK] @ grid).max(axis=0), out=self._support)
         return self._support[_cube_index(u, _GRID)] + self.extent * self.table_chord
 
     def cell_depth(self, center: FloatArray, half: FloatArray) -> tuple[FloatArray, FloatArray]:
