@@ -4,23 +4,27 @@ Other packages (the calibration files, the artefact tables, log processing, the 
 read their text through these names instead of reaching into :mod:`pcmm_geo.io`'s private
 modules, where they are implemented:
 
-=====================================  ===========================================================
-name                                   what it does
-=====================================  ===========================================================
-:func:`read_text_lines`,               decode a text file line by line; a binary file, bytes that
-:func:`iter_text_lines`,               are not UTF-8, a directory or an over-long line is one
-:func:`read_text_file`                 :class:`~pcmm_geo.errors.FileFormatError` naming file and line
-:func:`read_csv_rows`, :class:`CsvRows`  CSV rows with the same checks (fields at most
-                                       :data:`MAX_FIELD_CHARS`)
-:func:`parse_decimal`                  an ASCII decimal number (stricter than ``float``)
-:func:`read_json_file`,                strict JSON (no NaN, no duplicate keys, depth at most
-:class:`JsonNode`, :func:`describe_json`  :data:`MAX_JSON_DEPTH`) and checks of its fields
-:func:`excerpt`                        a short quote of offending text for messages
-:func:`open_regular`,                  open / refuse what is not a regular file (a FIFO would
-:func:`refuse_irregular`               block a reader forever)
-:func:`iter_blocks`, :func:`decode_block`,  the bounded blocks the line readers are built on
-:class:`LineBlock`, :func:`text_codec`
-=====================================  ===========================================================
+:func:`read_text_lines`, :func:`iter_text_lines`, :func:`read_text_file`
+        Decode a text file line by line; a binary file, bytes that are not UTF-8, a directory or an over-
+    long line is one :class:`~pcmm_geo.errors.FileFormatError` naming file and line.
+
+:func:`read_csv_rows`, :class:`CsvRows`
+    CSV rows with the same checks (fields at most :data:`MAX_FIELD_CHARS`).
+
+:func:`parse_decimal`
+    An ASCII decimal number (stricter than ``float``).
+
+:func:`read_json_file`, :class:`JsonNode`, :func:`describe_json`
+    Strict JSON (no NaN, no duplicate keys, depth at most :data:`MAX_JSON_DEPTH`) and checks of its fields.
+
+:func:`excerpt`
+    A short quote of offending text for messages.
+
+:func:`open_regular`, :func:`refuse_irregular`
+    Open / refuse what is not a regular file (a FIFO would block a reader forever).
+
+:func:`iter_blocks`, :func:`decode_block`, :class:`LineBlock`, :func:`text_codec`
+    The bounded blocks the line readers are built on.
 
 Examples
 --------
