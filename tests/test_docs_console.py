@@ -45,8 +45,8 @@ WORKING_FILES = {
                                                                                      "truncated"))],
     "calibrate_from_cmm_files.rst": ["pcmm_geo/data/appendix_cd/cmm_export.qif", "pcmm_geo/data/appendix_cd/lasers.csv",
                                      _CMM + "probings.qif", _CMM + "map.json"],
-    "gdt_with_datums.rst": [f"pcmm_geo/data/examples/gdt/{name}"
-                            for name in ("plan.toml", "A.csv", "B.csv", "C.csv", "H1.csv", "H2.csv", "H3.csv", "TOP.csv")],
+    "gdt_with_datums.rst": [f"pcmm_geo/data/examples/gdt/{name}" for name in
+                            ("plan.toml", "A.csv", "B.csv", "C.csv", "H1.csv", "H2.csv", "H3.csv", "TOP.csv")],
 }
 NUMBER = re.compile(r"[-+]?(?:\d+\.\d*|\.\d+|\d+)(?:[eE][-+]?\d+)?")
 MASKS = (
