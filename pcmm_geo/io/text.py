@@ -5,8 +5,8 @@ read their text through these names instead of reaching into :mod:`pcmm_geo.io`'
 modules, where they are implemented:
 
 :func:`read_text_lines`, :func:`iter_text_lines`, :func:`read_text_file`
-        Decode a text file line by line; a binary file, bytes that are not UTF-8, a directory or an over-
-    long line is one :class:`~pcmm_geo.errors.FileFormatError` naming file and line.
+    Decode a text file line by line; a binary file, bytes that are not UTF-8, a directory or an
+    over-long line is one :class:`~pcmm_geo.errors.FileFormatError` naming file and line.
 
 :func:`read_csv_rows`, :class:`CsvRows`
     CSV rows with the same checks (fields at most :data:`MAX_FIELD_CHARS`).
