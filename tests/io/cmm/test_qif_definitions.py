@@ -17,7 +17,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from pcmm_geo.errors import QifError
+from pcmm_geo.errors import QifError, UnsafeXmlError
 from pcmm_geo.io.cmm.qif.characteristic_definitions import read_qif_definitions
 
 SAMPLES = Path(__file__).resolve().parents[2] / "data" / "qif" / "samples"
@@ -166,3 +166,19 @@ def test_the_command_names_a_bad_frame_in_one_line(tmp_path: Path, capsys: pytes
     assert main(["qif", "verify", str(path)]) == 2
     err = capsys.readouterr().err.strip()
     assert len(err.splitlines()) == 1 and "two datums of the same precedence" in err and "id=52" in err
+
+
+def test_a_duplicated_element_or_too_many_elements_are_typed_refusals(tmp_path: Path) -> None:
+    """The definitions reader shares read_qif's parse: a second MaxValue is a QifError naming its line (not a
+    bare ValueError), and the element-count bound applies to it too."""
+    text = (SAMPLES / "QIF_Results_Sample.QIF").read_text(encoding="utf-8")
+    first = text.index("<MaxValue>0.4</MaxValue>")
+    path = tmp_path / "two_max.qif"
+    path.write_text(text.replace("<MaxValue>0.4</MaxValue>", "<MaxValue>0.4</MaxValue><MaxValue>0.5</MaxValue>", 1),
+                    encoding="utf-8")
+    with pytest.raises(QifError, match="a second MaxValue element") as refused:
+        read_qif_definitions(path)
+    assert refused.value.line == text[:first].count("\n") + 1
+    assert len(read_qif_definitions(SAMPLES / "QIF_Results_Sample.QIF").characteristic_definitions) > 0
+    with pytest.raises(UnsafeXmlError, match="more than 50 elements"):
+        read_qif_definitions(SAMPLES / "QIF_Results_Sample.QIF", max_elements=50)

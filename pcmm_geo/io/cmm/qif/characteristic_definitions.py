@@ -21,17 +21,21 @@ naming the QIF id, the element path and the line.
 
 from __future__ import annotations
 
-import os
 from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
 
-from pcmm_geo.errors import QifError
 from pcmm_geo.io.cmm.model import Tolerance
 from pcmm_geo.io.cmm.qif._characteristics import _tolerance, quantity_of
 from pcmm_geo.io.cmm.qif._values import QifContext, snake_type
-from pcmm_geo.io.cmm.qif._xml import DEFAULT_MAX_BYTES, DEFAULT_MAX_DEPTH, Node, NumberListFailure, parse_xml
+from pcmm_geo.io.cmm.qif._xml import (
+    DEFAULT_MAX_BYTES,
+    DEFAULT_MAX_DEPTH,
+    DEFAULT_MAX_ELEMENTS,
+    DuplicateElementError,
+    Node,
+)
 from pcmm_geo.io.cmm.qif.datums import (
     DatumDefinition,
     DatumReferenceFrame,
@@ -202,7 +206,7 @@ def _items(context: QifContext, group: Node | None) -> dict[int, CharacteristicI
 
 def read_qif_definitions(
     path: str | Path, *, max_bytes: int = DEFAULT_MAX_BYTES, max_depth: int = DEFAULT_MAX_DEPTH,
-    spell_setting: SpellSetting = python_setting,
+    max_elements: int = DEFAULT_MAX_ELEMENTS, spell_setting: SpellSetting = python_setting,
 ) -> QifDefinitions:
     """Read the characteristic definitions, nominals, items and datums of a QIF 3.0 file (see the module docstring).
 
@@ -210,8 +214,8 @@ def read_qif_definitions(
     ----------
     path : str or Path
         The ``.qif`` file (a results file or a product definition such as the NIST CTC / FTC models).
-    max_bytes, max_depth : int
-        Largest file and deepest nesting accepted (as :func:`~pcmm_geo.io.cmm.read_qif`).
+    max_bytes, max_depth, max_elements : int
+        Largest file, deepest nesting and most elements accepted (as :func:`~pcmm_geo.io.cmm.read_qif`).
     spell_setting : callable
         How a size refusal names ``max_bytes``.
 
@@ -228,24 +232,17 @@ def read_qif_definitions(
     UnsafeXmlError, FileFormatError, MissingDependencyError
         As :func:`~pcmm_geo.io.cmm.read_qif`.
     """
-    from pcmm_geo.io.cmm.qif.reader import _check_document, _index_ids, _stream_rule
+    from pcmm_geo.io.cmm.qif.reader import parse_qif_tree
 
-    name = str(path)
+    context, root, _ = parse_qif_tree(path, max_bytes=max_bytes, max_depth=max_depth, max_elements=max_elements,
+                                      spell_setting=spell_setting)
     try:
-        size = os.stat(path).st_size
-    except OSError:
-        size = 0  # parse_xml names the problem
-    try:
-        root, namespace = parse_xml(path, max_bytes=max_bytes, max_depth=max_depth,
-                                    stream_rule=lambda node: _stream_rule(name, size, node),
-                                    spell_setting=spell_setting)
-    except NumberListFailure as failure:
-        node = failure.node
-        set_id = node.parent.attrib.get("id") if node.parent is not None else None
-        raise QifError(name, failure.list_reason, qif_id=set_id, element=node.path(), line=failure.line) from None
-    context = QifContext(name)
-    _check_document(context, root, namespace)
-    _index_ids(context, root)
+        return _read_definitions(context, root)
+    except DuplicateElementError as exc:
+        raise context.error(exc.second, str(exc)) from None
+
+
+def _read_definitions(context: QifContext, root: Node) -> QifDefinitions:
     context.read_units(root)
     characteristics = root.child("Characteristics")
 
@@ -253,7 +250,7 @@ def read_qif_definitions(
         return None if characteristics is None else characteristics.child(tag)
 
     return QifDefinitions(
-        source=name, characteristic_definitions=_definitions(context, group("CharacteristicDefinitions")),
+        source=context.path, characteristic_definitions=_definitions(context, group("CharacteristicDefinitions")),
         characteristic_nominals=_nominals(context, group("CharacteristicNominals")),
         characteristic_items=_items(context, group("CharacteristicItems")),
         datum_definitions=read_datum_definitions(context, root),

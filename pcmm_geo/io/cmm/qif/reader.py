@@ -136,10 +136,25 @@ def read_qif(
     MissingDependencyError
         defusedxml is not installed (``pip install 'pcmm_geo[qif]'``).
     """
-    name = str(path)
     for value, allowed, what in ((units, QIF_LENGTH_UNITS, "units"), (angle_unit, QIF_ANGLE_UNITS, "angle_unit")):
         if value is not None and value not in allowed:
             raise InvalidInputError(spell_setting(what), f"one of {', '.join(allowed)}", repr(value))
+    context, root, namespace = parse_qif_tree(path, max_bytes=max_bytes, max_depth=max_depth,
+                                              max_elements=max_elements, spell_setting=spell_setting)
+    try:
+        return _read_document(context, root, namespace, units, angle_unit)
+    except DuplicateElementError as exc:
+        raise context.error(exc.second, str(exc)) from None
+
+
+def parse_qif_tree(path: str | Path, *, max_bytes: int, max_depth: int, max_elements: int,
+                   spell_setting: SpellSetting) -> tuple[QifContext, Node, str | None]:
+    """The bounded, screened tree of a QIF file and the context its readers share (every QIF reader's first step).
+
+    Point lists are streamed and checked as they arrive (a bad one is a :class:`~pcmm_geo.errors.QifError`
+    naming its set); the tree is then checked to be a QIF 3 document and its ids indexed.
+    """
+    name = str(path)
     try:
         size = os.stat(path).st_size
     except OSError:
@@ -154,16 +169,16 @@ def read_qif(
         raise QifError(name, failure.list_reason, qif_id=set_id, element=node.path(), line=failure.line) from None
     context = QifContext(name, spell=spell_setting)
     try:
-        return _read_document(context, root, namespace, units, angle_unit)
+        _check_document(context, root, namespace)
+        _index_ids(context, root)
     except DuplicateElementError as exc:
         raise context.error(exc.second, str(exc)) from None
+    return context, root, namespace
 
 
 def _read_document(context: QifContext, root: Node, namespace: str | None, units: str | None,
                    angle_unit: str | None) -> CmmDocument:
     name = context.path
-    _check_document(context, root, namespace)
-    _index_ids(context, root)
     context.read_units(root, units=units, angle_unit=angle_unit)
     definitions, nominals, items = _read_features(context, root.child("Features"))
     transforms = {}

@@ -136,6 +136,7 @@ def _screen(name: str, stream: BinaryIO) -> None:
     """
     expatreader = require("defusedxml.expatreader", purpose="reading untrusted QIF files safely")
     defused = require("defusedxml", purpose="reading untrusted QIF files safely")
+    # only the exception and the handler base class come from xml.sax; the parser is defusedxml's
     from xml.sax import SAXParseException
     from xml.sax.handler import ContentHandler
 
