@@ -6,10 +6,11 @@ for profile) in the layer table of ``tests/test_architecture.py``.
 
 Public API (names load on first use):
 
-- :class:`DatumReferenceFrame` (:mod:`~pcmm_geo.gdt.frame`): rotation rows = DRF x, y, z axes in
+- :class:`DatumReferenceFrame` (:mod:`~pcmm_geo.gdt.reference.frame`): rotation rows = DRF x, y, z axes in
   measurement coordinates, origin, free degrees of freedom;
 - :func:`associate_datum`, :class:`DatumAssociation`, :class:`DatumCertificate`, :data:`DATUM_CRITERIA`
-  (:mod:`~pcmm_geo.gdt.datums`); :func:`build_drf`, :class:`DatumNominal` (:mod:`~pcmm_geo.gdt.drf`);
+  (:mod:`~pcmm_geo.gdt.reference.datums`); :func:`build_drf`, :class:`DatumNominal`
+  (:mod:`~pcmm_geo.gdt.reference.drf`);
 - :class:`FeatureData`, :class:`CharacteristicResult`, :func:`evaluate_position`,
   :func:`evaluate_position_pattern`, :func:`evaluate_orientation`, :func:`evaluate_flatness`, :func:`evaluate_runout`,
   :func:`toleranced_axis`, :func:`size_evaluation`, :func:`apply_uncertainty` (:mod:`~pcmm_geo.gdt.characteristics`);
@@ -30,15 +31,15 @@ from __future__ import annotations
 from pcmm_geo._lazy import attach
 
 _LAZY = {
-    "DEGREES_OF_FREEDOM": "frame",
-    "DatumReferenceFrame": "frame",
-    "DATUM_CRITERIA": "datums",
-    "DatumAssociation": "datums",
-    "DatumCertificate": "datums",
-    "associate_datum": "datums",
-    "default_criterion": "datums",
-    "DatumNominal": "drf",
-    "build_drf": "drf",
+    "DEGREES_OF_FREEDOM": "reference.frame",
+    "DatumReferenceFrame": "reference.frame",
+    "DATUM_CRITERIA": "reference.datums",
+    "DatumAssociation": "reference.datums",
+    "DatumCertificate": "reference.datums",
+    "associate_datum": "reference.datums",
+    "default_criterion": "reference.datums",
+    "DatumNominal": "reference.drf",
+    "build_drf": "reference.drf",
     "CharacteristicResult": "characteristics",
     "apply_uncertainty": "characteristics",
     "FeatureData": "characteristics",

@@ -34,9 +34,9 @@ import numpy as np
 from numpy.typing import NDArray
 
 from pcmm_geo.errors import InvalidInputError
-from pcmm_geo.gdt._floating import float_position, minimise_angle
 from pcmm_geo.gdt._sizes import size_evaluation
-from pcmm_geo.gdt.frame import DatumReferenceFrame
+from pcmm_geo.gdt.reference._floating import float_position, minimise_angle
+from pcmm_geo.gdt.reference.frame import DatumReferenceFrame
 
 __all__ = [
     "CharacteristicResult",

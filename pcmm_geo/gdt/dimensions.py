@@ -18,7 +18,7 @@ from numpy.typing import NDArray
 
 from pcmm_geo.errors import InvalidInputError
 from pcmm_geo.gdt.characteristics import CharacteristicResult, FeatureData
-from pcmm_geo.gdt.frame import DatumReferenceFrame
+from pcmm_geo.gdt.reference.frame import DatumReferenceFrame
 
 __all__ = ["evaluate_angle", "evaluate_coordinate", "evaluate_distance", "feature_location"]
 

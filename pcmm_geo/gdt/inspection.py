@@ -23,10 +23,10 @@ from pcmm_geo.gdt.characteristics import (
     evaluate_position,
     evaluate_runout,
 )
-from pcmm_geo.gdt.datums import DATUM_CRITERIA, DatumAssociation, associate_datum, default_criterion
-from pcmm_geo.gdt.drf import build_drf, nominal_of
-from pcmm_geo.gdt.frame import DatumReferenceFrame
 from pcmm_geo.gdt.plan import FrameSpec, dimension_entry, parse_frame, read_plan_text
+from pcmm_geo.gdt.reference.datums import DATUM_CRITERIA, DatumAssociation, associate_datum, default_criterion
+from pcmm_geo.gdt.reference.drf import build_drf, nominal_of
+from pcmm_geo.gdt.reference.frame import DatumReferenceFrame
 
 __all__ = ["InspectionPlan", "InspectionResult", "PlannedCharacteristic", "inspect_plan", "load_plan"]
 

@@ -11,7 +11,6 @@ from typing import Any
 import numpy as np
 
 from pcmm_geo.errors import InvalidInputError
-from pcmm_geo.gdt._floating import float_position
 from pcmm_geo.gdt.characteristics import (
     CharacteristicResult,
     FeatureData,
@@ -19,7 +18,8 @@ from pcmm_geo.gdt.characteristics import (
     _position_targets,
     size_evaluation,
 )
-from pcmm_geo.gdt.frame import DatumReferenceFrame
+from pcmm_geo.gdt.reference._floating import float_position
+from pcmm_geo.gdt.reference.frame import DatumReferenceFrame
 
 __all__ = ["evaluate_position_pattern"]
 

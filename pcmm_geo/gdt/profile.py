@@ -25,7 +25,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from pcmm_geo.errors import InvalidInputError
 from pcmm_geo.gdt.characteristics import CharacteristicResult, decide
-from pcmm_geo.gdt.frame import DatumReferenceFrame
+from pcmm_geo.gdt.reference.frame import DatumReferenceFrame
 
 __all__ = ["evaluate_profile"]
 

@@ -20,7 +20,7 @@ from pcmm_geo.gdt import (
     evaluate_position,
     evaluate_runout,
 )
-from pcmm_geo.gdt.drf import nominal_of
+from pcmm_geo.gdt.reference.drf import nominal_of
 
 
 def _frames(part):

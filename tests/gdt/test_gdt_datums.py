@@ -16,7 +16,7 @@ import pytest
 
 from pcmm_geo.errors import InvalidInputError
 from pcmm_geo.gdt import associate_datum, build_drf
-from pcmm_geo.gdt.drf import nominal_of
+from pcmm_geo.gdt.reference.drf import nominal_of
 
 
 def check_plane_certificate(points, point, normal, contacts, levels, multipliers, fixed=(), tol=1e-9):

@@ -12,7 +12,7 @@ from pcmm_geo.gdt import (
     evaluate_position,
     evaluate_position_pattern,
 )
-from pcmm_geo.gdt.drf import nominal_of
+from pcmm_geo.gdt.reference.drf import nominal_of
 
 
 def _setup(maker, seed, offsets):

@@ -176,7 +176,7 @@ def test_profile_of_a_surface_in_a_plan(maker, tmp_path):
 def test_a_coordinate_the_drf_cannot_place_is_refused_by_name(maker):
     from pcmm_geo.errors import InvalidInputError
     from pcmm_geo.gdt import FeatureData, associate_datum, build_drf, evaluate_coordinate
-    from pcmm_geo.gdt.drf import nominal_of
+    from pcmm_geo.gdt.reference.drf import nominal_of
 
     part = maker.make_part(1, n_points=100, n_holes=1)
     a = associate_datum(part.measured("A"), "plane", label="A", nominal_direction=[0, 0, 1])
@@ -203,7 +203,7 @@ def test_report_states_the_method_and_the_decision(tmp_path):
 
 def test_sphere_and_point_datums_leave_rotations_free_and_position_of_a_centre(maker):
     from pcmm_geo.gdt import FeatureData, associate_datum, build_drf, evaluate_position
-    from pcmm_geo.gdt.drf import nominal_of
+    from pcmm_geo.gdt.reference.drf import nominal_of
 
     rng = np.random.default_rng(12)
     d = rng.standard_normal((200, 3))

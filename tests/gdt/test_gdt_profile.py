@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from pcmm_geo.gdt import DatumReferenceFrame, associate_datum, build_drf, evaluate_profile
-from pcmm_geo.gdt.drf import nominal_of
+from pcmm_geo.gdt.reference.drf import nominal_of
 
 
 def _patch(rng, n_nominal=4000, n_measured=600):

@@ -8,7 +8,7 @@ import pytest
 from scipy.optimize import nnls
 
 from pcmm_geo.gdt import FeatureData, associate_datum, build_drf, evaluate_orientation
-from pcmm_geo.gdt.drf import nominal_of
+from pcmm_geo.gdt.reference.drf import nominal_of
 
 
 def check_constrained_lsq(points, point, normal, tol=1e-9):

@@ -43,8 +43,8 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from pcmm_geo.gdt.characteristics import CharacteristicResult, FeatureData, toleranced_axis
-from pcmm_geo.gdt.frame import DatumReferenceFrame
 from pcmm_geo.gdt.inspection import InspectionResult
+from pcmm_geo.gdt.reference.frame import DatumReferenceFrame
 
 if TYPE_CHECKING:
     from pcmm_geo.io.cmm import Characteristic, CmmDocument

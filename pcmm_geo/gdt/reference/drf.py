@@ -22,8 +22,8 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from pcmm_geo.errors import InvalidInputError
-from pcmm_geo.gdt.datums import DatumAssociation
-from pcmm_geo.gdt.frame import DatumReferenceFrame
+from pcmm_geo.gdt.reference.datums import DatumAssociation
+from pcmm_geo.gdt.reference.frame import DatumReferenceFrame
 
 __all__ = ["DatumNominal", "build_drf"]
 
