@@ -170,7 +170,8 @@ def _dual_ascent(b: FloatArray, jac: FloatArray, s: FloatArray, lam: FloatArray,
         return -_dual_value(b, jac, full)[0] / scale
 
     res = minimize(negative, start, method="SLSQP", bounds=[(0.0, 1.0)] * len(near),
-                   constraints=[{"type": "eq", "fun": lambda x: x.sum() - 1.0}], options={"ftol": 1e-16, "maxiter": 200})
+                   constraints=[{"type": "eq", "fun": lambda x: x.sum() - 1.0}],
+                   options={"ftol": 1e-16, "maxiter": 200})
     x = np.clip(res.x, 0.0, None)
     full = np.zeros(len(b))
     full[near] = x / x.sum()

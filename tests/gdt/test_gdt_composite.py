@@ -46,7 +46,7 @@ def test_minimax_translation_is_the_circumcircle_and_its_dual_certificate_is_tig
     assert abs(value - 2.0) < 1e-12 and bound > 2.0 - 1e-10 and lam[2] == 0.0
     # the independent checker accepts the certificate and rejects a hand-made wrong placement
     assert _check(obtuse, jac, value, s, lam)
-    assert not _check(obtuse, jac, value, s + [0.0, 0.01], lam)
+    assert not _check(obtuse, jac, value, s + np.array([0.0, 0.01]), lam)
     assert not _check(pts, jac, 2.0, np.array([2.0, 0.5]), np.array([1.0, 0.0, 0.0]))
 
 
@@ -115,7 +115,7 @@ def test_frtzf_to_the_primary_plane_turns_the_pattern_exactly(maker, seed):
 def test_stacked_lower_segment_constrains_translation_and_mmc_bonus_applies_per_hole(maker, seed):
     # two holes shifted by the same 30 um in x: the FRTZF to A|B floats it away; a stacked A|B segment
     # (translation along x constrained by B) keeps it
-    part, abc, ab, _ = _frames(maker, seed)
+    part, _, ab, _ = _frames(maker, seed)
     holes = _holes(maker, part, seed, [(30.0, 25.0), (90.0, 25.0)], [(0.03, 0.0), (0.03, 0.0)],
                    diameters=[10.03, 10.02])
     composite = evaluate_position_segments(holes, [PositionSegment(ab, 0.02, orientation_only=True)])
