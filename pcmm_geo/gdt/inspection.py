@@ -23,7 +23,7 @@ from pcmm_geo.gdt.characteristics import (
     evaluate_position,
     evaluate_runout,
 )
-from pcmm_geo.gdt.plan import FrameSpec, dimension_entry, parse_frame, read_plan_text
+from pcmm_geo.gdt.plan import FrameSpec, dimension_entry, frame_extras, parse_frame, read_plan_text, segment_entries
 from pcmm_geo.gdt.reference.datums import DATUM_CRITERIA, DatumAssociation, associate_datum, default_criterion
 from pcmm_geo.gdt.reference.drf import build_drf, nominal_of
 from pcmm_geo.gdt.reference.frame import DatumReferenceFrame
@@ -32,7 +32,7 @@ __all__ = ["InspectionPlan", "InspectionResult", "PlannedCharacteristic", "inspe
 
 _ELEMENTS = ("plane", "cylinder", "sphere", "point", "surface")
 _SUPPORTED = {"position", "perpendicularity", "parallelism", "angularity", "flatness", "circular runout",
-              "total runout", "profile of a surface", "concentricity"}
+              "total runout", "profile of a surface", "concentricity", "symmetry", "profile of a line"}
 
 
 @dataclass(frozen=True)
@@ -46,6 +46,7 @@ class PlannedCharacteristic:
     dimension: dict[str, Any] | None = None
     pattern: str | None = None
     uncertainty_mm: float | None = None
+    extra: dict[str, Any] | None = None  # segments of a multi-segment frame, symmetry's faces, a line's section
 
 
 @dataclass(frozen=True)
@@ -229,17 +230,23 @@ def load_plan(path: str | Path) -> InspectionPlan:
             planned.append(PlannedCharacteristic(name, names[0], None, line, dimension, None,
                                                  None if u is None else float(u)))
             continue
+        if isinstance(entry, dict) and isinstance(entry.get("frame"), list):  # composite / stacked segments
+            planned += [PlannedCharacteristic(n, f, sp, ln, None, f"segments {index}", None if u is None else float(u),
+                                              ex) for n, f, sp, ln, ex in segment_entries(
+                entry, index, keys, lines, features, datums, standard, where, error)]
+            continue
         if not isinstance(entry, dict) or not isinstance(entry.get("frame"), str):
             raise error((*keys, "frame"), f"characteristics[{index}]: frame = \"...\" is required")
         line = lines.get((*keys, "frame"), lines.get(keys))
         spec = parse_frame(entry["frame"], path=where, line=line)
         name = str(entry.get("name", f"characteristic {index + 1}"))
-        if entry.get("feature") not in features:
+        toleranced, extra = frame_extras(entry, spec, keys, features, error)
+        if toleranced not in features:
             raise error((*keys, "feature"), f"{name}: unknown feature {entry.get('feature')!r}")
         for label in spec.datums:
             if label not in datums:
                 raise FileFormatError(where, f"{name}: unknown datum {label!r} in frame {spec.text!r}", line)
-        if spec.characteristic not in _SUPPORTED:
+        if spec.characteristic not in _SUPPORTED or (spec.characteristic == "symmetry" and standard == "ASME"):
             if spec.characteristic in ("concentricity", "symmetry") and standard == "ASME":
                 reason = f"{spec.characteristic} was removed in ASME Y14.5-2018 (use position or runout)"
             else:
@@ -251,8 +258,8 @@ def load_plan(path: str | Path) -> InspectionPlan:
         if pattern is None and standard == "ASME" and spec.characteristic == "position" and spec.datums \
                 and not entry.get("separate", False):
             pattern = "simultaneous " + "|".join(spec.datums)  # ASME Y14.5-2018 7.19: the default
-        planned.append(PlannedCharacteristic(name, entry["feature"], spec, line, None, pattern,
-                                             None if u is None else float(u)))
+        planned.append(PlannedCharacteristic(name, toleranced, spec, line, None, pattern,
+                                             None if u is None else float(u), extra))
     return InspectionPlan(where, standard, part_frame, features, datums, tuple(planned), lines)
 
 
@@ -350,6 +357,20 @@ def _evaluate(planned: PlannedCharacteristic, frames: _Frames) -> Characteristic
         raise FileFormatError(plan.path, f"{planned.name}: {spec.modifier} on {kind} is not supported", planned.line)
     if kind == "concentricity":
         return _concentricity(planned, plan, feature, drf)
+    if kind in ("symmetry", "profile of a line"):
+        from pcmm_geo.gdt.derived import evaluate_line_profile, evaluate_symmetry
+
+        if kind == "symmetry" and plan.standard != "ISO":
+            raise FileFormatError(plan.path, f"{planned.name}: symmetry was removed in ASME Y14.5-2018", planned.line)
+        if kind == "symmetry":
+            faces = [plan.features[f] for f in planned.extra["faces"]]  # type: ignore[index]
+            return evaluate_symmetry(faces[0], faces[1], drf, spec.tolerance_mm, name=planned.name)
+        if feature.element != "surface":
+            raise FileFormatError(plan.path, f"{planned.name}: profile of a line needs a feature of element "
+                                  "\"surface\" (nominal_points, nominal_normals)", planned.line)
+        return evaluate_line_profile(feature.points, drf, spec.tolerance_mm, feature.nominal_points,
+                                     feature.nominal_normals, section_normal=planned.extra["section_normal"],  # type: ignore[index]
+                                     name=planned.name)
     if kind == "profile of a surface":
         if feature.element != "surface":
             raise FileFormatError(plan.path, f"{planned.name}: profile needs a feature of element \"surface\" "
@@ -409,6 +430,18 @@ def _evaluate_pattern(pattern: str, members: list[PlannedCharacteristic],
 
     plan = frames.plan
     first = members[0]
+    if first.extra is not None and "segments" in first.extra:  # a composite or stacked frame
+        from pcmm_geo.gdt.composite import PositionSegment, evaluate_position_segments
+
+        segs = [PositionSegment(frames.drf(g["datums"]) if g["datums"] else DatumReferenceFrame.measurement(),
+                                g["tolerance_mm"], g["modifier"], g["simultaneous"], g["orientation_only"], g["label"])
+                for g in first.extra["segments"]]
+        names = first.extra["features"]
+        try:
+            return evaluate_position_segments([plan.features[n] for n in names], segs, pattern=first.extra["name"],
+                                              names=[f"{first.extra['name']} {n}" for n in names])
+        except PcmmGeoError as exc:
+            raise FileFormatError(plan.path, f"{first.name}: {exc}", first.line) from None
     for member in members:
         assert member.frame is not None
         if member.frame.datums != first.frame.datums:  # type: ignore[union-attr]

@@ -236,3 +236,114 @@ def dimension_entry(entry: dict[str, Any], index: int, keys: tuple[Any, ...], li
     dimension = {"type": kind, "features": names, "nominal": float(nominal), "limits": (float(limits[0]),
                  float(limits[1])), "datums": labels, "axis": entry.get("axis")}
     return name, names, line, dimension
+
+
+_ISO_PATTERN = {"CZ": "CZ", "SZ": "SZ", "><": "><"}
+
+
+def _segment_spec(text: str, composite_lower: bool, path: str, line: int | None) -> tuple[FrameSpec, set[str]]:
+    """One segment of a multi-segment position frame: its FrameSpec and the ISO pattern modifiers it carries."""
+    tokens = text.replace("><", " >< ").split("|", 1)
+    words = tokens[0].split()
+    found = {w.upper() for w in words if w.upper() in _ISO_PATTERN}
+    head = " ".join(w for w in words if w.upper() not in _ISO_PATTERN)
+    rebuilt = ("position " if composite_lower else "") + head + ("|" + tokens[1] if len(tokens) > 1 else "")
+    spec = parse_frame(rebuilt, path=path, line=line)
+    return FrameSpec(spec.characteristic, spec.zone, spec.tolerance_mm, spec.modifier, spec.datums, text), found
+
+
+def segment_entries(entry: dict[str, Any], index: int, keys: tuple[Any, ...], lines: dict[tuple[Any, ...], int],
+                    features: Any, datums: Any, standard: str, path: str,
+                    error: Any) -> list[tuple[str, str, FrameSpec, int | None, dict[str, Any]]]:
+    """A position frame of two or more segments, written as on the drawing, expanded per segment and feature.
+
+    ``frame = ["position dia 0.5 MMC | A | B | C", "dia 0.1 MMC | A"]``: a lower segment without the
+    characteristic symbol shares the upper one's -- a composite frame (ASME Y14.5-2018 10.5.1: the lower
+    segment's datums constrain orientation only); a lower segment with its own symbol is a stacked
+    single-segment frame (10.5.2).  Under ISO (ISO 5458:2018, ISO 1101:2017) the segments are stacked
+    frames whose ``CZ`` makes the zones one pattern (default: each zone on its own, ``SZ``) and whose
+    ``><`` constrains orientation only; an ASME composite frame is refused under ISO, and CZ / SZ / ><
+    under ASME.  ``features = ["H1", "H2", ...]`` (or ``feature``) names the pattern.
+
+    Returns
+    -------
+    list of (name, feature, FrameSpec, line, extra)
+        Segment by segment, feature by feature; ``extra["segments"]`` holds every segment (``datums``,
+        ``tolerance_mm``, ``modifier``, ``simultaneous``, ``orientation_only``, ``label``) and
+        ``extra["features"]`` the pattern.
+    """
+    name = str(entry.get("name", f"characteristic {index + 1}"))
+    line = lines.get((*keys, "frame"), lines.get(keys))
+    frames = entry["frame"]
+    if len(frames) < 2 or not all(isinstance(f, str) for f in frames):
+        raise error((*keys, "frame"), f"{name}: frame = [\"upper segment\", \"lower segment\", ...]: two or more "
+                    "strings")
+    names = entry.get("features", [entry.get("feature")])
+    if not isinstance(names, list) or not names or any(n not in features for n in names):
+        raise error((*keys, "features"), f"{name}: features = [\"H1\", ...] must name features of the plan "
+                    f"(got {names!r})")
+    def has_symbol(text: str) -> bool:
+        first = (text.split() or [""])[0]
+        return first in SYMBOLS or first.lower() in SYMBOLS or first[:1] in SYMBOLS
+
+    composite = [k > 0 and not has_symbol(text) for k, text in enumerate(frames)]
+    segments, specs = [], []
+    for k, text in enumerate(frames):
+        lower_composite = composite[k]
+        spec, iso = _segment_spec(text, lower_composite, path, line)
+        if spec.characteristic != "position":
+            raise FileFormatError(path, f"{name}: frame {text!r}: segments of a {spec.characteristic} frame are not "
+                                  "supported (only position)", line)
+        if lower_composite and standard != "ASME":
+            raise FileFormatError(path, f"{name}: frame {text!r}: a composite frame is ASME Y14.5-2018 10.5.1; "
+                                  "under ISO write stacked frames (ISO 5458: 'position dia 0.1 CZ >< | A', '><' for "
+                                  "orientation only)", line)
+        if iso and standard == "ASME":
+            raise FileFormatError(path, f"{name}: frame {text!r}: {'/'.join(sorted(iso))} are ISO 5458 / ISO 1101 "
+                                  "modifiers, not ASME Y14.5", line)
+        for label in spec.datums:
+            if label not in datums:
+                raise FileFormatError(path, f"{name}: unknown datum {label!r} in frame {text!r}", line)
+        if lower_composite:
+            upper = specs[0]
+            if spec.datums != upper.datums[:len(spec.datums)]:
+                raise FileFormatError(path, f"{name}: frame {text!r}: a composite lower segment repeats the upper "
+                                      f"segment's datums in order (ASME 10.5.1), got {'|'.join(spec.datums)} under "
+                                      f"{'|'.join(upper.datums)}", line)
+            if spec.tolerance_mm >= upper.tolerance_mm:
+                raise FileFormatError(path, f"{name}: frame {text!r}: the FRTZF tolerance must be smaller than the "
+                                      "PLTZF's", line)
+        if spec.zone != "dia":
+            raise FileFormatError(path, f"{name}: frame {text!r}: a pattern's position zones are cylindrical (dia)",
+                                  line)
+        label = ("FRTZF" if lower_composite else f"segment {k + 1}") if k else \
+            ("PLTZF" if any(composite) else "segment 1")
+        specs.append(spec)
+        segments.append({"datums": spec.datums, "tolerance_mm": spec.tolerance_mm, "modifier": spec.modifier,
+                         "simultaneous": standard == "ASME" or "CZ" in iso,
+                         "orientation_only": lower_composite or "><" in iso, "label": label, "text": text})
+    extra = {"segments": segments, "features": names, "name": name}
+    return [(f"{name} {feature} ({seg['label']})", feature, spec, line, extra)
+            for spec, seg in zip(specs, segments, strict=True) for feature in names]
+
+
+def frame_extras(entry: dict[str, Any], spec: FrameSpec, keys: tuple[Any, ...], features: Any,
+                 error: Any) -> tuple[str | None, dict[str, Any] | None]:
+    """The toleranced feature and the frame's extra plan keys: symmetry's ``features = ["FACE1", "FACE2"]``
+    (the slot's or tab's two opposite faces), profile of a line's ``section = [x, y, z]`` (the normal of the
+    intersection planes in the DRF).  Other frames: ``(entry["feature"], None)``."""
+    name = str(entry.get("name", ""))
+    if spec.characteristic == "symmetry":
+        faces = entry.get("features")
+        if not isinstance(faces, list) or len(faces) != 2 or any(f not in features for f in faces):
+            raise error((*keys, "features"), f"{name}: symmetry needs features = [\"FACE1\", \"FACE2\"], the two "
+                        "opposite faces of the slot or tab")
+        return faces[0], {"faces": faces}
+    if spec.characteristic == "profile of a line":
+        section = entry.get("section")
+        if not isinstance(section, list) or len(section) != 3 or not all(
+                isinstance(v, (int, float)) and not isinstance(v, bool) for v in section) or not any(section):
+            raise error((*keys, "section"), f"{name}: profile of a line needs section = [x, y, z], the normal of the "
+                        "intersection planes in the DRF")
+        return entry.get("feature"), {"section_normal": [float(v) for v in section]}
+    return entry.get("feature"), None
