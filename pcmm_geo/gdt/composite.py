@@ -401,6 +401,7 @@ def _segment(features: list[FeatureData], names: list[str], segment: PositionSeg
                                         [n for n in drf.free if n.startswith("t")]),
                                        "pattern_ratio": cert.value, "pattern_ratio_bound": lower,
                                        "scope": cert.scope, "simultaneous": segment.simultaneous,
+                                       "orientation_only": segment.orientation_only,
                                        "deviations_mm": cert.deviations[sel].tolist()}
             if np.isfinite(cert.theta) and cert.theta:
                 details["pattern_turned_deg"] = float(np.degrees(cert.theta))

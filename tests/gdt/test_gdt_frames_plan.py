@@ -122,7 +122,7 @@ def test_iso_stacked_frames_with_cz_and_orientation_only(maker, tmp_path):
 def _slot_plan(maker, tmp_path, standard, e1, e2):
     part = _part(maker, tmp_path)
     rng = np.random.default_rng(5)
-    for name, x, sign in (("S1", 70.0 + e1, 1.0), ("S2", 50.0 + e2, -1.0)):
+    for name, x in (("S1", 70.0 + e1), ("S2", 50.0 + e2)):
         y, z = rng.uniform(30, 50, 60), rng.uniform(5, 25, 60)
         _save(tmp_path / f"{name}.csv", np.c_[np.full(60, x), y, z] @ part.rotation.T + part.translation)
     text = HEAD.format(standard=standard)
@@ -171,3 +171,23 @@ def test_profile_of_a_line_in_a_plan(maker, tmp_path):
     plan.write_text(text.replace("section = [0, 0, 1]\n", ""), encoding="utf-8")
     with pytest.raises(FileFormatError, match="section = \\[x, y, z\\]"):
         inspect_plan(plan)
+
+
+def test_qif_of_composite_symmetry_and_line_profile_is_schema_valid_and_says_what_it_left_out(maker, tmp_path):
+    from pcmm_geo.gdt.qif.results import inspection_to_qif
+    from pcmm_geo.io.cmm.qif.schema import validate_qif
+
+    plan = _holes_plan(maker, tmp_path, ["position dia 0.2 MMC | A | B | C", "dia 0.02 MMC | A | B"])
+    export = inspection_to_qif(inspect_plan(plan), tmp_path / "composite.qif")
+    assert validate_qif(export.path) == ()
+    assert export.written == tuple(f"3X H{k} (PLTZF)" for k in (1, 2, 3))
+    assert [n for n, _ in export.not_written] == [f"3X H{k} (FRTZF)" for k in (1, 2, 3)]
+    assert all("orientation only" in r for _, r in export.not_written)
+    slot = _slot_plan(maker, tmp_path, "ISO", 0.02, 0.01)
+    export = inspection_to_qif(inspect_plan(slot), tmp_path / "symmetry.qif")
+    assert validate_qif(export.path) == () and export.written == ("sym",)
+    text = export.path.read_text(encoding="utf-8")
+    assert "<SymmetryCharacteristicDefinition" in text and "<SymmetryCharacteristicMeasurement" in text
+    done = run_pcmm("inspect", slot, "--json", "--qif", tmp_path / "cli.qif")
+    assert done.returncode == 0, done.stderr
+    assert json.loads(done.stdout)["qif"]["written"] == ["sym"]

@@ -56,7 +56,7 @@ STATUS_OF_VERDICT = {"PASS": "PASS", "FAIL": "FAIL", "NOT PROVEN": "INDETERMINAT
 _TYPES = {"position": "position", "perpendicularity": "perpendicularity", "parallelism": "parallelism",
           "angularity": "angularity", "flatness": "flatness", "circular runout": "circular_runout",
           "total runout": "total_runout", "coaxiality": "coaxiality", "concentricity": "concentricity",
-          "profile of a surface": "surface_profile"}
+          "profile of a surface": "surface_profile", "profile of a line": "line_profile", "symmetry": "symmetry"}
 _DIMENSIONS = {"coordinate": "linear_coordinate", "distance": "distance_between", "angle": "angle_between"}
 _FEATURE_TYPES = {"plane": "plane", "cylinder": "cylinder", "sphere": "sphere", "point": "point"}
 _CONDITIONS = {"MMC": "MAXIMUM", "LMC": "LEAST", "RFS": "NONE"}
@@ -101,6 +101,10 @@ def _reason(result: CharacteristicResult, features: list[FeatureData | None],
     kind = _kind(result)
     if kind is None:
         return f"{result.characteristic}: no QIF characteristic type is written for it"
+    if result.details.get("orientation_only"):
+        return ("a segment whose datums constrain orientation only (a composite frame's FRTZF, ISO '><'): QIF's "
+                "SecondCompositeSegmentPositionDefinition is not written by pcmm_geo's writer, and a plain "
+                "position to those datums would claim they locate it")
     if kind in ("linear_coordinate", "distance_between") and result.datums != part_frame:
         # a coordinate, and a distance taken at the nominal heights, depend on the frame they are in
         return (f"a {result.characteristic.split()[0]} in the frame {'|'.join(result.datums) or 'of the measurement'}: "

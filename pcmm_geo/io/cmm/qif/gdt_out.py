@@ -17,7 +17,7 @@ Definition bodies, in schema order (ISO 23952:2020 / QIF 3.0):
   ``MaterialCondition``, ``ZoneShape`` (``DiametricalZone`` or ``PlanarZone``);
 - coaxiality / concentricity: ``ToleranceValue``, ``DatumReferenceFrameId``, ``ZoneShape``;
 - circular_runout, total_runout: ``ToleranceValue``, ``DatumReferenceFrameId``;
-- surface_profile, line_profile: ``ToleranceValue``, ``DatumReferenceFrameId`` (none: no datums).
+- surface_profile, line_profile, symmetry: ``ToleranceValue``, ``DatumReferenceFrameId`` (none: no datums).
 
 A position or orientation measurement carries its ``Bonus`` (MMC / LMC) after ``Value``.
 
@@ -44,7 +44,7 @@ __all__ = ["DIMENSION_CHARACTERISTICS", "GDT_CHARACTERISTICS", "GdtRecords", "ch
 
 #: geometric characteristic types this module writes (flatness and the other form types are the writer's)
 GDT_CHARACTERISTICS = ("position", "perpendicularity", "parallelism", "angularity", "coaxiality", "concentricity",
-                       "circular_runout", "total_runout", "surface_profile", "line_profile")
+                       "circular_runout", "total_runout", "surface_profile", "line_profile", "symmetry")
 #: dimensional characteristic types whose nominal this module writes (Direction / AnalysisMode from the records)
 DIMENSION_CHARACTERISTICS = ("linear_coordinate", "distance_between", "angle_between")
 _AXES = ("XAXIS", "YAXIS", "ZAXIS")
