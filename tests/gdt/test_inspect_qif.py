@@ -189,12 +189,12 @@ def test_a_characteristic_with_no_qif_record_is_reported_not_written_by_name(wri
 
     result = written[0]
     changed = tuple(dataclasses.replace(c, datums=("A",)) if c.name == "x H1" else
-                    dataclasses.replace(c, characteristic="symmetry") if c.name == "parallelism TOP" else c
+                    dataclasses.replace(c, characteristic="circularity") if c.name == "parallelism TOP" else c
                     for c in result.characteristics)
     export = inspection_to_qif(dataclasses.replace(result, characteristics=changed), tmp_path / "some.qif")
     reasons = dict(export.not_written)
     assert set(reasons) == {"x H1", "parallelism TOP"}
-    assert "frame A" in reasons["x H1"] and "symmetry" in reasons["parallelism TOP"]
+    assert "frame A" in reasons["x H1"] and "circularity" in reasons["parallelism TOP"]
     names = {c.name for c in read_qif(export.path).characteristics}
     assert names == set(WRITTEN + SIZES) - set(reasons)
 
