@@ -355,9 +355,10 @@ def _free(drf: DatumReferenceFrame, orientation_only: bool) -> tuple[list[FloatA
     return trans, rots
 
 
-def _segment(features: list[FeatureData], names: list[str], segment: PositionSegment,
-             pattern: str) -> list[CharacteristicResult]:
-    """One segment's results (one per feature)."""
+def _segment(features: list[FeatureData], names: list[str], segment: PositionSegment, pattern: str,
+             cache: dict[tuple[int, str], Any]) -> list[CharacteristicResult]:
+    """One segment's results (one per feature); ``cache`` keeps each feature's toleranced targets (measurement
+    coordinates: an envelope fit does not depend on the frame) and sizes across the segments."""
     drf = segment.drf
     trans, rots = _free(drf, segment.orientation_only)
     targets, owner, nominals, projs, sizes = [], [], [], [], []
@@ -365,7 +366,11 @@ def _segment(features: list[FeatureData], names: list[str], segment: PositionSeg
         if feature.element not in ("cylinder", "sphere", "point"):
             raise InvalidInputError(f"{names[k]}: element", "an axis, a centre or a point in a position pattern",
                                     feature.element)
-        pts, proj = _position_targets(feature, drf, names[k], "dia")
+        if (k, "targets") not in cache:
+            pts, proj = _position_targets(feature, drf, names[k], "dia")
+            cache[k, "targets"] = (drf.to_measurement(pts), proj)
+        measured, proj = cache[k, "targets"]
+        pts = drf.to_frame(measured)
         targets.append(pts)
         owner += [k] * len(pts)
         nominals.append(np.repeat(np.asarray(feature.point, dtype=float)[None, :], len(pts), axis=0))
@@ -376,7 +381,9 @@ def _segment(features: list[FeatureData], names: list[str], segment: PositionSeg
             if not np.isfinite(feature.diameter):
                 raise InvalidInputError(f"{names[k]}: {segment.modifier}", "a feature of size with a diameter",
                                         feature.element)
-            sizes.append(size_evaluation(feature, segment.modifier))
+            if (k, segment.modifier) not in cache:
+                cache[k, segment.modifier] = size_evaluation(feature, segment.modifier)
+            sizes.append(dict(cache[k, segment.modifier]))
     own = np.array(owner)
     groups = [list(range(len(features)))] if segment.simultaneous else [[k] for k in range(len(features))]
     results: list[CharacteristicResult | None] = [None] * len(features)
@@ -386,11 +393,12 @@ def _segment(features: list[FeatureData], names: list[str], segment: PositionSeg
         high = np.array([segment.tolerance_mm + sizes[k]["bonus_high_mm"] for k in own[rows]])
         args = (np.vstack(targets)[rows], np.vstack(nominals)[rows], np.vstack(projs)[rows])
         cert = float_group(*args, 2.0 / low, trans, rots, drf.pivot)
+        units = "bonus_low_mm"  # the allowances of the ratio whose bound is reported
         if cert.value <= 1.0:
             verdict, lower = "PASS", cert.bound
         else:
             high_cert = cert if np.array_equal(low, high) else float_group(*args, 2.0 / high, trans, rots, drf.pivot)
-            lower = high_cert.bound
+            lower, units = high_cert.bound, "bonus_high_mm"
             verdict = "FAIL" if cert.scope == "global" and high_cert.bound > 1.0 else "NOT PROVEN"
         for k in group:
             sel = own[rows] == k
@@ -411,7 +419,7 @@ def _segment(features: list[FeatureData], names: list[str], segment: PositionSeg
             if bonus is not None:
                 details.update(size)
             one = len(group) == 1 and np.isfinite(lower)
-            bound = lower * (segment.tolerance_mm + sizes[k]["bonus_high_mm"]) if one else float("nan")
+            bound = lower * (segment.tolerance_mm + sizes[k][units]) if one else float("nan")
             v = verdict
             if not ok:
                 v, bonus = "FAIL", 0.0
@@ -460,7 +468,8 @@ def evaluate_position_segments(
     if not segments:
         raise InvalidInputError("segments", "at least one segment", "none")
     out: list[CharacteristicResult] = []
+    cache: dict[tuple[int, str], Any] = {}
     for segment in segments:
         labels = [f"{n} ({segment.label})" for n in (names or [f.name for f in features])]
-        out += _segment(features, labels, segment, pattern)
+        out += _segment(features, labels, segment, pattern, cache)
     return tuple(out)
