@@ -14,7 +14,9 @@ Public API (names load on first use):
 - :class:`FeatureData`, :class:`CharacteristicResult`, :func:`evaluate_position`,
   :func:`evaluate_position_pattern`, :func:`evaluate_orientation`, :func:`evaluate_flatness`, :func:`evaluate_runout`,
   :func:`toleranced_axis`, :func:`size_evaluation`, :func:`apply_uncertainty` (:mod:`~pcmm_geo.gdt.characteristics`);
-  :func:`evaluate_profile` (:mod:`~pcmm_geo.gdt.profile`); :func:`evaluate_coordinate`,
+  :func:`evaluate_profile` (:mod:`~pcmm_geo.gdt.profile`); :func:`evaluate_position_segments`,
+  :class:`PositionSegment` (composite and stacked frames, :mod:`~pcmm_geo.gdt.composite`);
+  :func:`evaluate_symmetry`, :func:`evaluate_line_profile` (:mod:`~pcmm_geo.gdt.derived`); :func:`evaluate_coordinate`,
   :func:`evaluate_distance`, :func:`evaluate_angle`, :func:`feature_location` (:mod:`~pcmm_geo.gdt.dimensions`);
 - :func:`parse_frame`, :class:`FrameSpec` (:mod:`~pcmm_geo.gdt.plan`); :func:`load_plan`,
   :func:`inspect_plan`, :class:`InspectionPlan`, :class:`InspectionResult` (:mod:`~pcmm_geo.gdt.inspection`);
@@ -47,6 +49,10 @@ _LAZY = {
     "evaluate_orientation": "characteristics",
     "evaluate_position": "characteristics",
     "evaluate_position_pattern": "pattern",
+    "PositionSegment": "composite",
+    "evaluate_position_segments": "composite",
+    "evaluate_symmetry": "derived",
+    "evaluate_line_profile": "derived",
     "evaluate_runout": "characteristics",
     "size_evaluation": "characteristics",
     "toleranced_axis": "characteristics",

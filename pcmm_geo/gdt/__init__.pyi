@@ -9,6 +9,10 @@ from .characteristics import evaluate_position as evaluate_position
 from .characteristics import evaluate_runout as evaluate_runout
 from .characteristics import size_evaluation as size_evaluation
 from .characteristics import toleranced_axis as toleranced_axis
+from .composite import PositionSegment as PositionSegment
+from .composite import evaluate_position_segments as evaluate_position_segments
+from .derived import evaluate_line_profile as evaluate_line_profile
+from .derived import evaluate_symmetry as evaluate_symmetry
 from .dimensions import evaluate_angle as evaluate_angle
 from .dimensions import evaluate_coordinate as evaluate_coordinate
 from .dimensions import evaluate_distance as evaluate_distance
