@@ -177,11 +177,24 @@ def test_qif_of_composite_symmetry_and_line_profile_is_schema_valid_and_says_wha
     from pcmm_geo.io.cmm.qif.schema import validate_qif
 
     plan = _holes_plan(maker, tmp_path, ["position dia 0.2 | A | B | C", "dia 0.05 | A | B"])
-    export = inspection_to_qif(inspect_plan(plan), tmp_path / "composite.qif")
+    result = inspect_plan(plan)
+    export = inspection_to_qif(result, tmp_path / "composite.qif")
     assert validate_qif(export.path) == ()
-    assert export.written == tuple(f"3X H{k} (PLTZF)" for k in (1, 2, 3))
-    assert [n for n, _ in export.not_written] == [f"3X H{k} (FRTZF)" for k in (1, 2, 3)]
-    assert all("orientation only" in r for _, r in export.not_written)
+    assert export.written == tuple(f"3X H{k} ({s})" for s in ("PLTZF", "FRTZF") for k in (1, 2, 3))
+    assert export.not_written == ()
+    # each hole's position carries its FRTZF as the second composite segment (value, status, frame A|B)
+    from lxml import etree
+
+    ns = {"q": "http://qifstandards.org/xsd/qif3"}
+    tree = etree.parse(str(export.path))
+    segments = tree.findall(".//q:SecondCompositeSegmentPositionMeasurement", ns)
+    assert len(segments) == 3 and len(tree.findall(".//q:SecondCompositeSegmentPositionDefinition", ns)) == 3
+    values = sorted(float(m.find("q:Value", ns).text) for m in segments)
+    expected = sorted(c.value_mm for c in result.characteristics[3:])
+    assert max(abs(a - b) for a, b in zip(values, expected, strict=True)) < 1e-9
+    frames = {f.get("id"): len(f.findall(".//q:Datum", ns)) for f in tree.findall(".//q:DatumReferenceFrame", ns)}
+    lower = tree.find(".//q:SecondCompositeSegmentPositionDefinition/q:DatumReferenceFrameId", ns).text
+    assert frames[lower] == 2
     slot = _slot_plan(maker, tmp_path, "ISO", 0.02, 0.01)
     export = inspection_to_qif(inspect_plan(slot), tmp_path / "symmetry.qif")
     assert validate_qif(export.path) == () and export.written == ("sym",)

@@ -101,10 +101,9 @@ def _reason(result: CharacteristicResult, features: list[FeatureData | None],
     kind = _kind(result)
     if kind is None:
         return f"{result.characteristic}: no QIF characteristic type is written for it"
-    if result.details.get("orientation_only"):
-        return ("a segment whose datums constrain orientation only (a composite frame's FRTZF, ISO '><'): QIF's "
-                "SecondCompositeSegmentPositionDefinition is not written by pcmm_geo's writer, and a plain "
-                "position to those datums would claim they locate it")
+    if result.details.get("orientation_only") and result.details.get("segment") != "FRTZF":
+        return ("a stacked segment whose datums constrain orientation only (ISO '><'): QIF has no such flag, and "
+                "a plain position to those datums would claim they locate it")
     if kind in ("linear_coordinate", "distance_between") and result.datums != part_frame:
         # a coordinate, and a distance taken at the nominal heights, depend on the frame they are in
         return (f"a {result.characteristic.split()[0]} in the frame {'|'.join(result.datums) or 'of the measurement'}: "
@@ -232,7 +231,7 @@ def inspection_to_qif(result: InspectionResult, path: str | Path, *, overwrite: 
     from pcmm_geo.io.cmm.qif.characteristic_definitions import CharacteristicDefinition, CharacteristicNominal
     from pcmm_geo.io.cmm.qif.datums import DatumDefinition, DrfDatum
     from pcmm_geo.io.cmm.qif.datums import DatumReferenceFrame as QifFrame
-    from pcmm_geo.io.cmm.qif.gdt_out import GdtRecords
+    from pcmm_geo.io.cmm.qif.gdt_out import CompositeSegment, GdtRecords
 
     plan = result.plan
     # the file's coordinates: the part frame; without one, the frame of the most datums the plan uses
@@ -251,7 +250,21 @@ def inspection_to_qif(result: InspectionResult, path: str | Path, *, overwrite: 
     written: list[str] = []
     not_written: list[tuple[str, str]] = []
     wanted: dict[str, list[int]] = {}
+    upper: dict[tuple[str, str], int] = {}  # (pattern, feature) -> index of a composite frame's PLTZF
+    second: dict[int, int] = {}  # PLTZF index -> its FRTZF index (QIF SecondCompositeSegmentPosition)
     for index, (planned, outcome) in enumerate(zip(plan.characteristics, result.characteristics, strict=True)):
+        segment = outcome.details.get("segment")
+        if segment in ("PLTZF", "FRTZF"):
+            key = (str(outcome.details.get("pattern")), planned.feature)
+            if segment == "PLTZF":
+                upper[key] = index
+            elif key in upper and upper[key] in {i for ids in wanted.values() for i in ids}:
+                second[upper[key]] = index
+                written.append(outcome.name)
+                continue
+            else:
+                not_written.append((outcome.name, "its composite frame's upper segment is not written"))
+                continue
         names = planned.dimension["features"] if planned.dimension is not None else [planned.feature]
         reason = _reason(outcome, [plan.features.get(n) for n in names], file_frame)
         if reason is None:
@@ -259,8 +272,8 @@ def inspection_to_qif(result: InspectionResult, path: str | Path, *, overwrite: 
             written.append(outcome.name)
         else:
             not_written.append((outcome.name, reason))
-    sequences = sorted({result.characteristics[i].datums for ids in wanted.values() for i in ids
-                        if result.characteristics[i].datums}, key=lambda s: (len(s), s))
+    sequences = sorted({result.characteristics[i].datums for ids in [*wanted.values(), list(second.values())]
+                        for i in ids if result.characteristics[i].datums}, key=lambda s: (len(s), s))
     reports = []
     meta: list[tuple[int, str | None] | None] = []  # per characteristic, in document order: plan index, zone
     for name, feature in plan.features.items():
@@ -329,7 +342,7 @@ def inspection_to_qif(result: InspectionResult, path: str | Path, *, overwrite: 
         DrfDatum(precedence=precedences[k], kind="simple", datum_definition_ids=(datum_ids[label],),
                  material_modifiers=("NONE",), referenced_component="ACTUAL") for k, label in enumerate(sequence)))
         for sequence, key in frame_ids.items()}
-    definitions, bonuses, nominals = {}, {}, {}
+    definitions, bonuses, nominals, segments = {}, {}, {}, {}
     for characteristic, entry in zip(document.characteristics, meta, strict=True):
         if entry is None:
             continue
@@ -352,7 +365,14 @@ def inspection_to_qif(result: InspectionResult, path: str | Path, *, overwrite: 
             zone_shape=zone, datum_reference_frame_ids=(frame_ids[outcome.datums],) if outcome.datums else ())
         if outcome.bonus_mm is not None:
             bonuses[characteristic.id] = float(outcome.bonus_mm)
-    gdt = GdtRecords(datum_definitions=datum_definitions, datum_reference_frames=frames,
+        if index in second:
+            lower = result.characteristics[second[index]]
+            lower_frame = plan.characteristics[second[index]].frame
+            segments[characteristic.definition_id] = CompositeSegment(
+                frame_ids[lower.datums] if lower.datums else None, lower.tolerance_mm,
+                _CONDITIONS[lower_frame.modifier if lower_frame is not None else "RFS"], lower.value_mm,
+                STATUS_OF_VERDICT[lower.verdict])
+    gdt = GdtRecords(composite_segments=segments, datum_definitions=datum_definitions, datum_reference_frames=frames,
                      characteristic_definitions=definitions, bonuses=bonuses, characteristic_nominals=nominals)
     written_path = write_qif(document, path, overwrite=overwrite, gdt=gdt)
     return QifExport(path=written_path, written=tuple(written), not_written=tuple(not_written),

@@ -21,6 +21,11 @@ Definition bodies, in schema order (ISO 23952:2020 / QIF 3.0):
 
 A position or orientation measurement carries its ``Bonus`` (MMC / LMC) after ``Value``.
 
+A composite position frame's lower segment (:class:`CompositeSegment`, ASME Y14.5-2018 10.5.1):
+``SecondCompositeSegmentPositionDefinition`` (``DatumReferenceFrameId``, ``ToleranceValue``,
+``MaterialCondition``, ``ZoneShape``) closes the position definition, and
+``SecondCompositeSegmentPositionMeasurement`` (``Value``, ``Status``) follows the ``Bonus``.
+
 Dimensions: a ``LinearCoordinate`` nominal holds ``TargetValue`` and ``Direction`` (``XAXIS``,
 ``YAXIS``, ``ZAXIS``; its measurement ``TypeOfCoordinates`` ``CARTESIAN_3D``, written by the
 writer), a ``DistanceBetween`` / ``AngleBetween`` nominal ``TargetValue``, the optional
@@ -39,8 +44,9 @@ from pcmm_geo.io.cmm.qif._xml_out import QifText, camel
 from pcmm_geo.io.cmm.qif.characteristic_definitions import CharacteristicDefinition, CharacteristicNominal
 from pcmm_geo.io.cmm.qif.datums import DatumDefinition, DatumReferenceFrame
 
-__all__ = ["DIMENSION_CHARACTERISTICS", "GDT_CHARACTERISTICS", "GdtRecords", "check_gdt_definition", "write_bonus",
-           "write_datums", "write_dimension_nominal", "write_frames", "write_gdt_definition"]
+__all__ = ["DIMENSION_CHARACTERISTICS", "GDT_CHARACTERISTICS", "CompositeSegment", "GdtRecords", "check_gdt_definition",
+           "write_bonus", "write_datums", "write_dimension_nominal", "write_frames", "write_gdt_definition",
+           "write_segment_measurement"]
 
 #: geometric characteristic types this module writes (flatness and the other form types are the writer's)
 GDT_CHARACTERISTICS = ("position", "perpendicularity", "parallelism", "angularity", "coaxiality", "concentricity",
@@ -56,6 +62,33 @@ _ZONES = {"position": ("diametrical", "spherical", "non_diametrical"), "perpendi
           "coaxiality": ("diametrical",), "concentricity": ("spherical", "diametrical")}
 _CONDITIONS = ("MAXIMUM", "LEAST", "REGARDLESS", "NONE")
 _PRECEDENCES = ("PRIMARY", "SECONDARY", "TERTIARY")
+
+
+@dataclass(frozen=True)
+class CompositeSegment:
+    """The second segment of a composite position frame: its definition and its measured value.
+
+    Attributes
+    ----------
+    datum_reference_frame_id : int or None
+        QIF id of the segment's frame (its datums constrain orientation only), None without datums.
+    tolerance_value : float
+        Zone diameter, mm.
+    material_condition : {"MAXIMUM", "LEAST", "NONE"}
+    value : float
+        Measured zone diameter, mm.
+    status : str
+        A ``CharacteristicStatusEnum`` value.
+    zone_shape : str
+        ``"diametrical"`` (a pattern's cylindrical zones).
+    """
+
+    datum_reference_frame_id: int | None
+    tolerance_value: float
+    material_condition: str
+    value: float
+    status: str
+    zone_shape: str = "diametrical"
 
 
 @dataclass(frozen=True)
@@ -84,6 +117,7 @@ class GdtRecords:
     characteristic_definitions: Mapping[int, CharacteristicDefinition] = field(default_factory=dict)
     bonuses: Mapping[int, float] = field(default_factory=dict)
     characteristic_nominals: Mapping[int, CharacteristicNominal] = field(default_factory=dict)
+    composite_segments: Mapping[int, CompositeSegment] = field(default_factory=dict)
 
     def ids(self) -> list[int]:
         """Every QIF id these records use."""
@@ -177,7 +211,7 @@ def check_gdt_definition(characteristic: Characteristic, definition: Characteris
 
 
 def write_gdt_definition(out: QifText, tag: str, characteristic: Characteristic,
-                         definition: CharacteristicDefinition) -> None:
+                         definition: CharacteristicDefinition, segment: CompositeSegment | None = None) -> None:
     """The ``<Type>CharacteristicDefinition`` of a geometric characteristic (see :func:`check_gdt_definition`)."""
     kind = characteristic.type
     out.open(tag, id=characteristic.definition_id)
@@ -188,6 +222,17 @@ def write_gdt_definition(out: QifText, tag: str, characteristic: Characteristic,
         out.leaf("MaterialCondition", definition.material_condition or "NONE")
     if kind in _ZONES:
         out.chain("ZoneShape", f"{camel(definition.zone_shape)}Zone")  # type: ignore[arg-type]
+    if segment is not None:
+        if kind != "position" or segment.material_condition not in _CONDITIONS or segment.tolerance_value < 0:
+            raise InvalidInputError(f"characteristic {characteristic.id}.composite_segment", "a position's segment "
+                                    "with a tolerance >= 0 and a material condition", kind)
+        out.open("SecondCompositeSegmentPositionDefinition")
+        if segment.datum_reference_frame_id is not None:
+            out.leaf("DatumReferenceFrameId", str(segment.datum_reference_frame_id))
+        out.leaf("ToleranceValue", out.length(segment.tolerance_value))
+        out.leaf("MaterialCondition", segment.material_condition)
+        out.chain("ZoneShape", f"{camel(segment.zone_shape)}Zone")
+        out.close("SecondCompositeSegmentPositionDefinition")
     out.close(tag)
 
 
@@ -199,6 +244,17 @@ def write_bonus(out: QifText, characteristic: Characteristic, records: GdtRecord
         raise InvalidInputError(f"characteristic {characteristic.id}.bonus", "a position or orientation "
                                 "characteristic (QIF has a Bonus only there)", characteristic.type)
     out.measured("Bonus", records.bonuses[characteristic.id], None)
+
+
+def write_segment_measurement(out: QifText, characteristic: Characteristic, records: GdtRecords | None) -> None:
+    """``SecondCompositeSegmentPositionMeasurement`` of a composite position (after ``Bonus``), where recorded."""
+    if records is None or characteristic.definition_id not in records.composite_segments:
+        return
+    segment = records.composite_segments[characteristic.definition_id]  # type: ignore[index]
+    out.open("SecondCompositeSegmentPositionMeasurement")
+    out.measured("Value", segment.value, None)
+    out.chain("Status", "CharacteristicStatusEnum", text=segment.status)
+    out.close("SecondCompositeSegmentPositionMeasurement")
 
 
 def write_dimension_nominal(out: QifText, tag: str, characteristic: Characteristic, records: GdtRecords) -> None:

@@ -69,6 +69,7 @@ from pcmm_geo.io.cmm.qif.gdt_out import (
     write_dimension_nominal,
     write_frames,
     write_gdt_definition,
+    write_segment_measurement,
 )
 
 __all__ = ["FORM_CHARACTERISTICS", "SIZE_CHARACTERISTICS", "write_qif"]
@@ -220,7 +221,8 @@ def write_characteristics(out: QifText, characteristics: list[Characteristic], s
     def definition(out: QifText, tag: str, characteristic: Characteristic) -> None:
         if gdt is not None and characteristic.type in GDT_CHARACTERISTICS:
             write_gdt_definition(out, tag, characteristic,
-                                 gdt.characteristic_definitions[characteristic.definition_id])  # type: ignore[index]
+                                 gdt.characteristic_definitions[characteristic.definition_id],  # type: ignore[index]
+                                 gdt.composite_segments.get(characteristic.definition_id))  # type: ignore[arg-type]
         else:
             _char_definition(out, tag, characteristic)
 
@@ -300,6 +302,7 @@ def write_characteristic_measurements(out: QifText, characteristics: tuple[Chara
             out.measured("Value", characteristic.value, characteristic.uncertainty,
                          "angular" if characteristic.type == "angle_between" else "linear")
         write_bonus(out, characteristic, gdt)
+        write_segment_measurement(out, characteristic, gdt)
         out.close(f"{camel(characteristic.type)}CharacteristicMeasurement")
     out.close("CharacteristicMeasurements")
     out.close("MeasuredCharacteristics")
