@@ -30,6 +30,12 @@ Frames are written as on the drawing, compartments separated by ``|``: the chara
 its ISO symbol), ``dia`` / ``⌀`` / ``Ø`` for a cylindrical zone, the tolerance in mm, an optional
 ``MMC`` / ``Ⓜ``, ``LMC`` / ``Ⓛ`` or ``RFS``; then up to three datum letters.  Errors name the plan's
 file and line (:class:`~pcmm_geo.errors.FileFormatError`).
+
+A position frame of several segments is a list, top segment first, with ``features = [...]`` naming the
+pattern (:func:`segment_entries`): ``frame = ["position dia 0.5 | A | B | C", "dia 0.1 | A"]`` -- a lower
+segment without the symbol is a composite frame's FRTZF (ASME), one with it a stacked frame; ISO's ``CZ``,
+``SZ`` and ``><`` are read there.  Symmetry names its two faces (``features = ["S1", "S2"]``) and profile of
+a line its intersection planes' normal (``section = [0, 0, 1]``) (:func:`frame_extras`).
 """
 
 from __future__ import annotations
@@ -41,7 +47,8 @@ from typing import Any
 
 from pcmm_geo.errors import FileFormatError
 
-__all__ = ["SYMBOLS", "FrameSpec", "dimension_entry", "locate_lines", "parse_frame", "read_plan_text"]
+__all__ = ["SYMBOLS", "FrameSpec", "dimension_entry", "frame_extras", "locate_lines", "parse_frame", "read_plan_text",
+           "segment_entries"]
 
 #: characteristic words and ISO 1101 symbols -> characteristic name
 SYMBOLS = {
