@@ -25,7 +25,8 @@ plain records of :mod:`pcmm_geo.io.cmm` (``io`` does not know ``gdt``) and write
   parallelism, angularity (``DiametricalZone`` / ``PlanarZone``), flatness, circular and total
   runout, coaxiality, concentricity and symmetry (on its first face), each naming its DRF; a composite
   position frame's FRTZF as the PLTZF position's ``SecondCompositeSegmentPosition`` definition and
-  measurement (a stacked ISO segment with ``><``, orientation only, is not written, by name); coordinates (``LinearCoordinate``,
+  measurement (a stacked ISO segment with ``><``, orientation only, is not written, by name);
+  coordinates (``LinearCoordinate``,
   ``Direction`` XAXIS / YAXIS / ZAXIS), distances (``DistanceBetween``, ``AnalysisMode
   THREEDIMENSIONAL``) -- both only in the file's frame -- and angles (``AngleBetween``) with
   their nominal and limits.  Profile of a surface (its feature has no QIF feature type the writer
