@@ -30,7 +30,8 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         help="GD&T with datums: evaluate the feature control frames of a TOML inspection plan",
         description=(
             "Read PLAN.toml (features with points files relative to it, datums, feature control frames such as "
-            "'position dia 0.1 MMC | A | B | C' or '⊥ ⌀0.02 | A'), associate the datums (ISO 5459 or ASME "
+            "'position dia 0.1 MMC | A | B | C' or '⊥ ⌀0.02 | A'; composite and stacked position frames as a list of "
+            "segments), associate the datums (ISO 5459 or ASME "
             "Y14.5 by the plan's standard), build each datum reference frame and evaluate every characteristic. "
             "Exit status 0 when all PASS, 1 on FAIL or NOT PROVEN, 2 on a plan error (one line naming the plan's "
             "line). See the guide page 'GD&T with datums'."
