@@ -136,3 +136,24 @@ def test_line_profile_refuses_a_section_without_nominal_points():
     pts = np.c_[curve[:5], np.full(5, 6.0)]
     with pytest.raises(InvalidInputError, match=r"section at 6\.000"):
         evaluate_line_profile(pts, DatumReferenceFrame.measurement(), 0.1, q, n, section_normal=[0, 0, 1])
+
+
+@pytest.mark.parametrize("seed", range(2))
+def test_line_profile_floats_in_the_in_plane_translation_its_datums_leave_free(maker, seed):
+    # A|B leaves y free: a y shift of the sections floats out (deviations alternating +-delta: exactly 2 delta);
+    # A|B|C fixes it: 2 max |delta_i + e n_iy|
+    part, ab = _frame(maker, seed, n=2)
+    _, abc = _frame(maker, seed, n=3)
+    rng = np.random.default_rng(seed + 20)
+    curve, normals = _ellipse(360)
+    q, n = _sections(curve, normals, [10.0, 20.0])
+    delta, shift = 0.003, rng.uniform(0.01, 0.03)
+    pick = np.arange(0, 360, 2)
+    d = delta * (-1.0) ** np.arange(len(pick))
+    xy = curve[pick] + d[:, None] * normals[pick] + [0.0, shift]
+    pts = np.vstack([np.c_[xy, np.full(len(pick), h)] for h in (10.0, 20.0)]) @ part.rotation.T + part.translation
+    floating = evaluate_line_profile(pts, ab, 0.01, q, n, section_normal=[0, 0, 1])
+    assert abs(floating.value_mm - 2 * delta) < 1e-9 and floating.details["scope"] == "global"
+    assert floating.details["floating"] == ["ty"]
+    fixed = evaluate_line_profile(pts, abc, 0.01, q, n, section_normal=[0, 0, 1])
+    assert abs(fixed.value_mm - 2 * float(np.abs(d + shift * normals[pick, 1]).max())) < 1e-9
