@@ -40,8 +40,8 @@ from pcmm_geo.gdt.characteristics import CharacteristicResult, FeatureData, _pos
 from pcmm_geo.gdt.reference._floating import float_position, float_solve
 from pcmm_geo.gdt.reference.frame import DatumReferenceFrame
 
-__all__ = ["FloatCertificate", "PositionSegment", "evaluate_position_segments", "float_group",
-           "minimax_translation"]
+__all__ = ["FloatCertificate", "PositionSegment", "evaluate_planned_segments", "evaluate_position_segments",
+           "float_group", "minimax_translation"]
 
 FloatArray = NDArray[np.float64]
 _UNIT = {"x": np.array([1.0, 0, 0]), "y": np.array([0, 1.0, 0]), "z": np.array([0, 0, 1.0])}
@@ -473,3 +473,15 @@ def evaluate_position_segments(
         labels = [f"{n} ({segment.label})" for n in (names or [f.name for f in features])]
         out += _segment(features, labels, segment, pattern, cache)
     return tuple(out)
+
+
+def evaluate_planned_segments(extra: dict[str, Any], features: dict[str, FeatureData],
+                              drf_of: Any) -> tuple[CharacteristicResult, ...]:
+    """A plan's multi-segment frame (``extra`` from :func:`pcmm_geo.gdt.plan.segment_entries`); ``drf_of(datums)``
+    gives the DRF of a datum sequence."""
+    segments = [PositionSegment(drf_of(g["datums"]) if g["datums"] else DatumReferenceFrame.measurement(),
+                                g["tolerance_mm"], g["modifier"], g["simultaneous"], g["orientation_only"], g["label"])
+                for g in extra["segments"]]
+    names = extra["features"]
+    return evaluate_position_segments([features[n] for n in names], segments, pattern=extra["name"],
+                                      names=[f"{extra['name']} {n}" for n in names])

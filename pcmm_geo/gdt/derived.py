@@ -37,7 +37,7 @@ from pcmm_geo.errors import InvalidInputError
 from pcmm_geo.gdt.characteristics import CharacteristicResult, FeatureData, decide
 from pcmm_geo.gdt.reference.frame import DatumReferenceFrame
 
-__all__ = ["evaluate_line_profile", "evaluate_symmetry", "median_points"]
+__all__ = ["evaluate_line_profile", "evaluate_planned", "evaluate_symmetry", "median_points"]
 
 FloatArray = NDArray[np.float64]
 _UNIT = {"x": np.array([1.0, 0, 0]), "y": np.array([0, 1.0, 0]), "z": np.array([0, 0, 1.0])}
@@ -271,3 +271,29 @@ def evaluate_line_profile(
                                "section_normal": s.tolist()}
     return CharacteristicResult(name, "profile of a line", value, bound, tolerance_mm, None,
                                 decide(value, bound, tolerance_mm, tolerance_mm), drf.datums, drf.standard, details)
+
+
+def evaluate_planned(planned: Any, plan: Any, drf: DatumReferenceFrame) -> CharacteristicResult:
+    """A plan's symmetry or profile of a line (``planned.extra`` from :func:`pcmm_geo.gdt.plan.frame_extras`).
+
+    Raises
+    ------
+    FileFormatError
+        Symmetry under ASME (removed in Y14.5-2018), a line profile of a feature that is not a ``surface``;
+        names the plan's line.
+    """
+    from pcmm_geo.errors import FileFormatError
+
+    spec = planned.frame
+    if spec.characteristic == "symmetry":
+        if plan.standard != "ISO":
+            raise FileFormatError(plan.path, f"{planned.name}: symmetry was removed in ASME Y14.5-2018", planned.line)
+        faces = [plan.features[f] for f in planned.extra["faces"]]
+        return evaluate_symmetry(faces[0], faces[1], drf, spec.tolerance_mm, name=planned.name)
+    feature = plan.features[planned.feature]
+    if feature.element != "surface":
+        raise FileFormatError(plan.path, f"{planned.name}: profile of a line needs a feature of element \"surface\" "
+                              "(nominal_points, nominal_normals)", planned.line)
+    return evaluate_line_profile(feature.points, drf, spec.tolerance_mm, feature.nominal_points,
+                                 feature.nominal_normals, section_normal=planned.extra["section_normal"],
+                                 name=planned.name)

@@ -358,19 +358,9 @@ def _evaluate(planned: PlannedCharacteristic, frames: _Frames) -> Characteristic
     if kind == "concentricity":
         return _concentricity(planned, plan, feature, drf)
     if kind in ("symmetry", "profile of a line"):
-        from pcmm_geo.gdt.derived import evaluate_line_profile, evaluate_symmetry
+        from pcmm_geo.gdt.derived import evaluate_planned
 
-        if kind == "symmetry" and plan.standard != "ISO":
-            raise FileFormatError(plan.path, f"{planned.name}: symmetry was removed in ASME Y14.5-2018", planned.line)
-        if kind == "symmetry":
-            faces = [plan.features[f] for f in planned.extra["faces"]]  # type: ignore[index]
-            return evaluate_symmetry(faces[0], faces[1], drf, spec.tolerance_mm, name=planned.name)
-        if feature.element != "surface":
-            raise FileFormatError(plan.path, f"{planned.name}: profile of a line needs a feature of element "
-                                  "\"surface\" (nominal_points, nominal_normals)", planned.line)
-        return evaluate_line_profile(feature.points, drf, spec.tolerance_mm, feature.nominal_points,
-                                     feature.nominal_normals, section_normal=planned.extra["section_normal"],  # type: ignore[index]
-                                     name=planned.name)
+        return evaluate_planned(planned, plan, drf)
     if kind == "profile of a surface":
         if feature.element != "surface":
             raise FileFormatError(plan.path, f"{planned.name}: profile needs a feature of element \"surface\" "
@@ -431,15 +421,10 @@ def _evaluate_pattern(pattern: str, members: list[PlannedCharacteristic],
     plan = frames.plan
     first = members[0]
     if first.extra is not None and "segments" in first.extra:  # a composite or stacked frame
-        from pcmm_geo.gdt.composite import PositionSegment, evaluate_position_segments
+        from pcmm_geo.gdt.composite import evaluate_planned_segments
 
-        segs = [PositionSegment(frames.drf(g["datums"]) if g["datums"] else DatumReferenceFrame.measurement(),
-                                g["tolerance_mm"], g["modifier"], g["simultaneous"], g["orientation_only"], g["label"])
-                for g in first.extra["segments"]]
-        names = first.extra["features"]
         try:
-            return evaluate_position_segments([plan.features[n] for n in names], segs, pattern=first.extra["name"],
-                                              names=[f"{first.extra['name']} {n}" for n in names])
+            return evaluate_planned_segments(first.extra, plan.features, frames.drf)
         except PcmmGeoError as exc:
             raise FileFormatError(plan.path, f"{first.name}: {exc}", first.line) from None
     for member in members:
