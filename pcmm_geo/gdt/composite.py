@@ -114,7 +114,7 @@ def _dual_value(b: FloatArray, jac: FloatArray, lam: FloatArray) -> tuple[float,
     a = (jac * root[:, :, None]).reshape(-1, p)
     s, *_ = np.linalg.lstsq(a, rhs, rcond=None)
     r = rhs - a @ s
-    return float(r @ r), s
+    return float(r @ r), np.asarray(s, dtype=np.float64)
 
 
 def _kkt_polish(b: FloatArray, jac: FloatArray, s: FloatArray) -> tuple[FloatArray, FloatArray] | None:

@@ -294,7 +294,8 @@ def segment_entries(entry: dict[str, Any], index: int, keys: tuple[Any, ...], li
         return first in SYMBOLS or first.lower() in SYMBOLS or first[:1] in SYMBOLS
 
     composite = [k > 0 and not has_symbol(text) for k, text in enumerate(frames)]
-    segments, specs = [], []
+    segments: list[dict[str, Any]] = []
+    specs: list[FrameSpec] = []
     for k, text in enumerate(frames):
         lower_composite = composite[k]
         spec, iso = _segment_spec(text, lower_composite, path, line)
