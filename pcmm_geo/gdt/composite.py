@@ -151,32 +151,37 @@ def _kkt_polish(b: FloatArray, jac: FloatArray, s: FloatArray) -> tuple[FloatArr
     return sol.x[:p], lam / lam.sum()
 
 
-def _dual_ascent(b: FloatArray, jac: FloatArray, s: FloatArray, lam: FloatArray,
-                 g: float) -> tuple[float, FloatArray]:
-    """Better multipliers: maximise the concave dual ``min_s sum lam_k |b_k - J_k s|^2`` over the simplex of the
-    targets within 1e-3 of the largest residual at ``s`` (SLSQP on a handful of variables)."""
+def _dual_ascent(b: FloatArray, jac: FloatArray, s: FloatArray, lam: FloatArray, g: float, *,
+                 fraction: float = 1e-3) -> tuple[float, FloatArray]:
+    """Better multipliers: maximise the concave dual ``g(lam) = min_s sum lam_k |b_k - J_k s|^2`` over the simplex
+    of the targets within ``fraction`` of the largest residual at ``s`` (SLSQP; the gradient is
+    ``|b_k - J_k s(lam)|^2`` by the envelope theorem)."""
     from scipy.optimize import minimize
 
     r = b - np.einsum("kij,j->ki", jac, s)
     norms = np.sqrt(np.einsum("ki,ki->k", r, r))
-    near = np.flatnonzero(norms >= norms.max() * (1 - 1e-3))
+    near = np.flatnonzero(norms >= norms.max() * (1 - fraction))
     start = lam[near] if lam[near].sum() > 0 else np.full(len(near), 1.0 / len(near))
     start = start / start.sum()
     scale = max(float(norms.max()) ** 2, 1e-300)
 
-    def negative(x: FloatArray) -> float:
-        full = np.zeros(len(b))
-        full[near] = np.clip(x, 0.0, None)
-        return -_dual_value(b, jac, full)[0] / scale
+    def full(x: FloatArray) -> FloatArray:
+        out = np.zeros(len(b))
+        out[near] = np.clip(x, 0.0, None)
+        return out
 
-    res = minimize(negative, start, method="SLSQP", bounds=[(0.0, 1.0)] * len(near),
-                   constraints=[{"type": "eq", "fun": lambda x: x.sum() - 1.0}],
-                   options={"ftol": 1e-16, "maxiter": 200})
+    def negative(x: FloatArray) -> tuple[float, FloatArray]:
+        value, ss = _dual_value(b, jac, full(x))
+        rr = b[near] - np.einsum("kij,j->ki", jac[near], ss)
+        return -value / scale, -np.einsum("ki,ki->k", rr, rr) / scale
+
+    res = minimize(negative, start, jac=True, method="SLSQP", bounds=[(0.0, 1.0)] * len(near),
+                   constraints=[{"type": "eq", "fun": lambda x: x.sum() - 1.0, "jac": lambda x: np.ones_like(x)}],
+                   options={"ftol": 1e-16, "maxiter": 500})
     x = np.clip(res.x, 0.0, None)
-    full = np.zeros(len(b))
-    full[near] = x / x.sum()
-    g2 = _dual_value(b, jac, full)[0]
-    return (g2, full) if g2 > g else (g, lam)
+    candidate = full(x / x.sum())
+    g2 = _dual_value(b, jac, candidate)[0]
+    return (g2, candidate) if g2 > g else (g, lam)
 
 
 def minimax_translation(b: ArrayLike, jac: ArrayLike) -> tuple[float, float, FloatArray, FloatArray]:
@@ -225,6 +230,17 @@ def minimax_translation(b: ArrayLike, jac: ArrayLike) -> tuple[float, float, Flo
     if np.sqrt(g) < worst(s) * (1 - 1e-12):  # improve the multipliers: maximise the dual on the near-active set
         g, lam = _dual_ascent(b, jac, s, lam, g)
         g, s_dual = _dual_value(b, jac, lam)
+    if np.sqrt(g) < worst(s) * (1 - 1e-9):  # the primal solver stalled: the dual over every target
+        g, lam = _dual_ascent(b, jac, s, lam, g, fraction=1.0)
+        g, s_dual = _dual_value(b, jac, lam)
+        if worst(s_dual) < worst(s):
+            s = s_dual
+        polished = _kkt_polish(b, jac, s)
+        if polished is not None and worst(polished[0]) < worst(s):
+            s = polished[0]
+            g2, _ = _dual_value(b, jac, polished[1])
+            if g2 > g:
+                g, lam = g2, polished[1]
     if worst(s_dual) < worst(s):
         s = s_dual
     value = worst(s)

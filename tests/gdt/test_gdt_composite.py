@@ -162,3 +162,56 @@ def test_float_group_bound_is_a_lower_bound_of_a_brute_force_search():
         v, *_ = minimax_translation(20 * (turned - nominal) * [1, 1, 0], 20 * proj[:, :, :2])
         best = min(best, v)
     assert cert.bound <= best + 1e-12 and cert.value <= best + 1e-12 and cert.value - cert.bound < 1e-7
+
+
+def _enclosing_circle_brute_force(p):
+    """Smallest enclosing circle radius by enumerating every pair (diameter) and triple (circumcircle)."""
+    from itertools import combinations
+
+    best = np.inf
+    candidates = [((p[i] + p[j]) / 2) for i, j in combinations(range(len(p)), 2)]
+    for i, j, k in combinations(range(len(p)), 3):
+        a, b, c = p[i], p[j], p[k]
+        d = 2 * (a[0] * (b[1] - c[1]) + b[0] * (c[1] - a[1]) + c[0] * (a[1] - b[1]))
+        if abs(d) < 1e-12:
+            continue
+        ux = ((a @ a) * (b[1] - c[1]) + (b @ b) * (c[1] - a[1]) + (c @ c) * (a[1] - b[1])) / d
+        uy = ((a @ a) * (c[0] - b[0]) + (b @ b) * (a[0] - c[0]) + (c @ c) * (b[0] - a[0])) / d
+        candidates.append(np.array([ux, uy]))
+    for centre in candidates:
+        best = min(best, float(np.linalg.norm(p - centre, axis=1).max()))
+    return best
+
+
+@pytest.mark.parametrize("seed", range(4))
+def test_minimax_translation_of_many_targets_is_the_brute_force_enclosing_circle(seed):
+    # 24 targets (a 12-hole pattern's axis ends): where the primal solver stalls, the dual over every target
+    # still reaches the optimum and certifies it
+    rng = np.random.default_rng(seed)
+    pts = np.repeat(rng.normal(0, 1.0, (12, 2)), 2, axis=0) + rng.normal(0, 0.02, (24, 2))  # both ends of 12 axes
+    b = np.c_[pts, np.zeros(24)] * 20.0
+    jac = 20.0 * np.repeat(np.eye(3)[None, :, :2], 24, axis=0)
+    value, bound, s, lam = minimax_translation(b, jac)
+    truth = 20.0 * _enclosing_circle_brute_force(pts)
+    assert abs(value - truth) < 1e-8 * truth and truth - 1e-8 * truth < bound <= value
+    assert _check(b, jac, value, s, lam, tol=1e-8 * truth)
+
+
+@pytest.mark.parametrize("theta", [3e-4, 9e-4])
+def test_where_the_primal_solver_stalls_the_dual_over_every_target_finds_and_certifies_the_optimum(theta):
+    # a 16-hole pattern turned by theta (a case where SLSQP on the epigraph stops at its least-squares start)
+    from pcmm_geo.gdt.composite import _rot
+
+    rng = np.random.default_rng(3)
+    for holes in (4, 8, 16):
+        nominal = np.repeat(np.c_[rng.uniform(0, 120, (holes, 2)), np.zeros(holes)], 2, axis=0)
+        nominal[1::2, 2] = 20
+        measured = nominal @ _rot(np.array([0, 0, 1.0]), 3e-4).T + rng.normal(0, 0.01, nominal.shape) + [0.2, -0.1, 0]
+    centre = measured.mean(axis=0)
+    cloud = centre + (measured - centre) @ _rot(np.array([0, 0, 1.0]), theta).T
+    b = 20 * (cloud - nominal) * [1, 1, 0]
+    jac = 20.0 * np.repeat(np.eye(3)[None, :, :2], len(b), axis=0)
+    value, bound, s, lam = minimax_translation(b, jac)
+    truth = _enclosing_circle_brute_force(b[:, :2])
+    assert abs(value - truth) < 1e-8 * truth and truth * (1 - 1e-8) < bound <= value
+    assert _check(b, jac, value, s, lam, tol=1e-8 * truth)
