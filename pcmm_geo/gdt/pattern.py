@@ -79,13 +79,20 @@ def evaluate_position_pattern(
     stacked = np.vstack(targets)
     owner_arr = np.array(owner)
     weights = 2.0 / np.array(allowed_low)[owner_arr]
-    ratio, vectors = float_position(stacked, np.vstack(nominals), np.vstack(projs), trans, rots, drf.pivot, weights)
+    from pcmm_geo.gdt.composite import float_group
+
+    if rots:
+        ratio, vectors = float_position(stacked, np.vstack(nominals), np.vstack(projs), trans, rots, drf.pivot,
+                                        weights)
+    else:  # translations only: the certified minimax (Lagrange dual) of gdt.composite
+        cert = float_group(stacked, np.vstack(nominals), np.vstack(projs), weights, trans, [], drf.pivot)
+        ratio, vectors = cert.value, cert.deviations
     if ratio <= 1.0:
         group = "PASS"
-    elif not rots:
-        high_ratio, _ = float_position(stacked, np.vstack(nominals), np.vstack(projs), trans, rots, drf.pivot,
-                                       2.0 / np.array(allowed_high)[owner_arr])
-        group = "FAIL" if high_ratio > 1.0 else "NOT PROVEN"
+    elif not rots:  # FAIL needs a proven lower bound
+        high = float_group(stacked, np.vstack(nominals), np.vstack(projs), 2.0 / np.array(allowed_high)[owner_arr],
+                           trans, [], drf.pivot)
+        group = "FAIL" if high.bound > 1.0 else "NOT PROVEN"
     else:
         group = "NOT PROVEN"
     results = []

@@ -215,3 +215,27 @@ def test_where_the_primal_solver_stalls_the_dual_over_every_target_finds_and_cer
     truth = _enclosing_circle_brute_force(b[:, :2])
     assert abs(value - truth) < 1e-8 * truth and truth * (1 - 1e-8) < bound <= value
     assert _check(b, jac, value, s, lam, tol=1e-8 * truth)
+
+
+def test_a_simultaneous_pattern_is_decided_on_the_certified_minimax():
+    # evaluate_position_pattern (ASME 7.19 / ISO SIM) with translations floating: the stalled case above as 32
+    # points; allowances 5 % above and below the true ratio -> PASS and proven FAIL
+    from pcmm_geo.gdt import DatumReferenceFrame, evaluate_position_pattern
+    from pcmm_geo.gdt.composite import _rot
+
+    rng = np.random.default_rng(3)
+    for holes in (4, 8, 16):
+        nominal = np.repeat(np.c_[rng.uniform(0, 120, (holes, 2)), np.zeros(holes)], 2, axis=0)
+        nominal[1::2, 2] = 20
+        measured = nominal @ _rot(np.array([0, 0, 1.0]), 3e-4).T + rng.normal(0, 0.01, nominal.shape) + [0.2, -0.1, 0]
+    centre = measured.mean(axis=0)
+    cloud = centre + (measured - centre) @ _rot(np.array([0, 0, 1.0]), 9e-4).T
+    cloud[:, 2] = nominal[:, 2]
+    truth = 2 * _enclosing_circle_brute_force(cloud[:, :2] - nominal[:, :2])  # smallest common zone diameter
+    features = [FeatureData(f"P{k}", "point", cloud[k][None, :], nominal[k], np.full(3, np.nan))
+                for k in range(len(cloud))]
+    drf = DatumReferenceFrame(np.eye(3), np.zeros(3), free=("tx", "ty"))
+    ok = evaluate_position_pattern(features, drf, [truth * 1.05] * len(features))
+    assert {r.verdict for r in ok} == {"PASS"} and abs(ok[0].details["pattern_ratio"] - 1 / 1.05) < 1e-8
+    bad = evaluate_position_pattern(features, drf, [truth * 0.95] * len(features))
+    assert {r.verdict for r in bad} == {"FAIL"}
