@@ -109,6 +109,10 @@ def test_frtzf_to_the_primary_plane_turns_the_pattern_exactly(maker, seed):
         assert r.details["pattern_ratio_bound"] > 2 * delta / 0.01 - 1e-6
     failing = evaluate_position_segments(holes, [PositionSegment(a, 0.007, orientation_only=True)])
     assert [r.verdict for r in failing] == ["FAIL"] * 3  # 0.008 > 0.007 over every turn: proven
+    if seed == 0:  # at MMC each hole's 30 um bonus (MIC 10.03) applies in the FRTZF: 0.008 <= 0.007 + 0.03
+        at_mmc = evaluate_position_segments(holes, [PositionSegment(a, 0.007, "MMC", orientation_only=True)])
+        assert all(r.verdict == "PASS" and abs(r.bonus_mm - 0.03) < 1e-9 for r in at_mmc)
+        assert abs(at_mmc[0].details["pattern_ratio"] - 2 * delta / 0.037) < 1e-7
 
 
 @pytest.mark.parametrize("seed", range(2))
