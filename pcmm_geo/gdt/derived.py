@@ -17,7 +17,10 @@ cut into sections by the intersection plane the plan names (its normal ``s`` in 
 intersection plane indicator): points whose heights ``p . s`` agree to 1 µm form one section line; the
 nominal points (with outward normals) at the same height are its nominal curve.  Each point's deviation is
 its distance along the in-plane nominal normal from the tangent line of the nearest nominal point of its
-section.  The zone is equally disposed about the nominal curve (``2 max |d|`` per section; the value is
+section.  A section with no nominal points at its height is measured against the nominal surface
+intersected: the trace, in the section plane, of the tangent plane of the nearest nominal point (3-D),
+``(p - q) . n / |n - (n . s) s|`` -- exact for a surface whose tangent planes contain the section
+normal (an extrusion along ``s``), first order otherwise.  The zone is equally disposed about the nominal curve (``2 max |d|`` per section; the value is
 the largest section's).  With datums the zone is fixed, except in the motions within the section plane
 the DRF leaves free (in-plane translations: one linear program, exact for the correspondences; a free
 rotation about ``s``: local); without datums each section floats in its own plane in the three in-plane
@@ -212,7 +215,8 @@ def evaluate_line_profile(
         in its plane).
     tolerance_mm : float
     nominal_points, nominal_normals : array_like, shape (M, 3)
-        The nominal curves of the sections (points and outward normals, DRF), at the sections' heights.
+        The nominal curves of the sections (points and outward normals, DRF), at the sections' heights; a
+        section without nominal points at its height uses the nominal surface's tangent planes (intersected).
     section_normal : array_like, shape (3,)
         Normal of the intersection planes, DRF.
 
@@ -225,7 +229,7 @@ def evaluate_line_profile(
     Raises
     ------
     InvalidInputError
-        Shapes, zero normals, a section with fewer than 3 points or with no nominal points at its height.
+        Shapes, zero normals, normals along the section normal, a section with fewer than 3 points.
     """
     pts = _check_points("points", points, 3)
     q = _check_points("nominal_points", nominal_points, 2)
@@ -236,12 +240,16 @@ def evaluate_line_profile(
     if s.shape != (3,) or not np.all(np.isfinite(s)) or np.linalg.norm(s) == 0:
         raise InvalidInputError("section_normal", "a non-zero 3-vector", repr(section_normal))
     s = s / np.linalg.norm(s)
+    if np.any(np.linalg.norm(nrm, axis=1) == 0):
+        raise InvalidInputError("nominal_normals", "non-zero normals", "a zero row")
+    nrm = nrm / np.linalg.norm(nrm, axis=1)[:, None]
     inplane = nrm - np.outer(nrm @ s, s)
     lengths = np.linalg.norm(inplane, axis=1)
     if np.any(lengths < 1e-12):
         raise InvalidInputError("nominal_normals", "normals with a component in the section plane",
                                 f"row {int(np.argmin(lengths))}")
-    inplane /= lengths[:, None]
+    surface_normals = nrm / lengths[:, None]  # (p - q) . n / |n_in-plane|: distance in the plane from the tangent
+    inplane /= lengths[:, None]               # plane's trace (the nominal surface intersected, to first order)
     local = drf.to_frame(pts)
     keys, nominal_keys = np.round(local @ s, 3), np.round(q @ s, 3)
     trans = [t for t in (_UNIT[f[1]] for f in drf.free if f.startswith("t")) if abs(t @ s) < 1e-9]
@@ -257,13 +265,16 @@ def evaluate_line_profile(
     for key in np.unique(keys):
         mine = local[keys == key]
         ref = nominal_keys == key
-        if len(mine) < 3 or not np.any(ref):
-            raise InvalidInputError(f"{name}: section at {float(key):.3f} mm", "3 points or more and nominal points "
-                                    "at the same height", f"{len(mine)} points, {int(ref.sum())} nominal points")
+        if len(mine) < 3:
+            raise InvalidInputError(f"{name}: section at {float(key):.3f} mm", "3 points or more", str(len(mine)))
         centre = mine.mean(axis=0) if len(trans) == 2 else np.asarray(drf.pivot, dtype=float)
-        d = _section(mine, q[ref], inplane[ref], trans, rot, centre)
+        if np.any(ref):  # the nominal curve of this section
+            d = _section(mine, q[ref], inplane[ref], trans, rot, centre)
+        else:  # no nominal points at its height: the nominal surface's tangent planes cut by the section plane
+            d = _section(mine, q, surface_normals, trans, rot, centre)
         width = 2.0 * float(np.abs(d).max())
-        sections.append({"height_mm": float(key), "points": len(mine), "value_mm": width})
+        sections.append({"height_mm": float(key), "points": len(mine), "value_mm": width,
+                         "nominal": "curve" if np.any(ref) else "surface intersected"})
         value = max(value, width)
     scope = "local" if rot is not None else "global"
     bound = value if scope == "global" else float("nan")

@@ -130,14 +130,31 @@ def test_line_profile_without_datums_floats_each_section_in_its_plane(seed):
                                  section_normal=[0, 0, 1]).verdict == "NOT PROVEN"
 
 
-def test_line_profile_refuses_a_section_without_nominal_points():
+def test_line_profile_refuses_a_section_of_too_few_points_and_normals_along_the_section_normal():
     curve, normals = _ellipse(36)
     q, n = _sections(curve, normals, [5.0])
-    pts = np.c_[curve[:5], np.full(5, 6.0)]
+    pts = np.r_[np.c_[curve[:5], np.full(5, 5.0)], np.c_[curve[5:7], np.full(2, 6.0)]]
     with pytest.raises(InvalidInputError, match=r"section at 6\.000"):
         evaluate_line_profile(pts, DatumReferenceFrame.measurement(), 0.1, q, n, section_normal=[0, 0, 1])
+    with pytest.raises(InvalidInputError, match="component in the section plane"):  # a normal along the section's
+        evaluate_line_profile(pts, DatumReferenceFrame.measurement(), 0.1, q, n, section_normal=n[0])
 
 
+@pytest.mark.parametrize("seed", range(2))
+def test_line_profile_between_nominal_sections_intersects_the_nominal_surface(maker, seed):
+    # an extruded nominal given at heights 0 and 30 only; sections at 10 and 20: the tangent planes' traces are
+    # the nominal curve exactly
+    part, abc = _frame(maker, seed)
+    rng = np.random.default_rng(seed)
+    curve, normals = _ellipse(360)
+    q, n = _sections(curve, normals, [0.0, 30.0])
+    pick = np.arange(0, 360, 3)
+    delta = rng.uniform(-0.01, 0.01, (2, len(pick)))
+    pts = np.vstack([np.c_[curve[pick] + delta[k][:, None] * normals[pick], np.full(len(pick), h)]
+                     for k, h in enumerate((10.0, 20.0))])
+    r = evaluate_line_profile(pts @ part.rotation.T + part.translation, abc, 0.05, q, n, section_normal=[0, 0, 1])
+    assert abs(r.value_mm - 2 * np.abs(delta).max()) < 1e-9
+    assert [sec["nominal"] for sec in r.details["sections"]] == ["surface intersected"] * 2
 @pytest.mark.parametrize("seed", range(2))
 def test_line_profile_floats_in_the_in_plane_translation_its_datums_leave_free(maker, seed):
     # A|B leaves y free: a y shift of the sections floats out (deviations alternating +-delta: exactly 2 delta);
@@ -157,3 +174,17 @@ def test_line_profile_floats_in_the_in_plane_translation_its_datums_leave_free(m
     assert floating.details["floating"] == ["ty"]
     fixed = evaluate_line_profile(pts, abc, 0.01, q, n, section_normal=[0, 0, 1])
     assert abs(fixed.value_mm - 2 * float(np.abs(d + shift * normals[pick, 1]).max())) < 1e-9
+
+
+def test_line_profile_of_a_cone_between_its_nominal_sections_is_exact():
+    # a cone r(z) = 30 + 0.2 z given at z = 0 and 30: its tangent planes contain the generators, so their traces
+    # at z = 10 are the section circle's tangents and d = (p - q) . n / |n_xy| is the radial deviation exactly
+    t = 2 * np.pi * np.arange(360) / 360
+    u = np.c_[np.cos(t), np.sin(t)]
+    q = np.vstack([np.c_[(30 + 0.2 * h) * u, np.full(360, h)] for h in (0.0, 30.0)])
+    n = np.vstack([np.c_[u, np.full(360, -0.2)]] * 2)
+    delta = np.random.default_rng(1).uniform(-0.01, 0.01, 120)
+    pts = np.c_[(32.0 + delta)[:, None] * u[::3], np.full(120, 10.0)]
+    r = evaluate_line_profile(pts, DatumReferenceFrame(np.eye(3), np.zeros(3), free=()), 0.05, q, n,
+                              section_normal=[0, 0, 1])
+    assert abs(r.value_mm - 2 * np.abs(delta).max()) < 1e-9
