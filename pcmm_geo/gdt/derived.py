@@ -19,9 +19,10 @@ nominal points (with outward normals) at the same height are its nominal curve. 
 its distance along the in-plane nominal normal from the tangent line of the nearest nominal point of its
 section.  A section with no nominal points at its height is measured against the nominal surface
 intersected: the trace, in the section plane, of the tangent plane of the nearest nominal point (3-D),
-``(p - q) . n / |n - (n . s) s|`` -- exact for a surface whose tangent planes contain the section
-normal (an extrusion along ``s``), first order otherwise.  The zone is equally disposed about the nominal curve (``2 max |d|`` per section; the value is
-the largest section's).  With datums the zone is fixed, except in the motions within the section plane
+``(p - q) . n / |n - (n . s) s|`` -- exact where that tangent plane is tangent along a line through
+the section (a developable surface's generator through ``q``: extrusions, cones), first order
+otherwise.  The zone is equally disposed about the nominal curve (``2 max |d|`` per section; the value
+is the largest section's).  With datums the zone is fixed, except in the motions within the section plane
 the DRF leaves free (in-plane translations: one linear program, exact for the correspondences; a free
 rotation about ``s``: local); without datums each section floats in its own plane in the three in-plane
 degrees of freedom -- a local L-infinity fit (linear programs on the linearised rotation, the points
