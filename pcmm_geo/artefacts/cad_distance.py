@@ -4,7 +4,7 @@ The nearest surface point of every query point is found in three steps
 (:class:`SurfaceIndex`, built once per mesh and reused):
 
 1. **candidate** -- the triangle whose centroid is nearest to the point (a k-d tree over the
-   centroids, :class:`~pcmm_geo.artefacts._triangle.CentroidTree`: pykdtree where installed, else
+   centroids, ``_triangle.CentroidTree``: pykdtree where installed, else
    scipy's; :meth:`SurfaceIndex.nearby`); for a point farther than three triangle radii
    from every centroid, the triangle open3d's float32 ray-casting scene (Embree,
    ``compute_closest_points``) finds nearest, which keeps the search of step 3 tight;
