@@ -173,20 +173,11 @@ def load_plan(path: str | Path) -> InspectionPlan:
             direction = _unit(_vector(table, "normal", fail), "normal", fail)
         elif element == "cylinder":
             direction = _unit(_vector(table, "axis", fail), "axis", fail)
-        surface: dict[str, np.ndarray] = {}
+        surface: dict[str, Any] = {}
         if element == "surface":
-            for key in ("nominal_points", "nominal_normals"):
-                if not isinstance(table.get(key), str):
-                    raise fail(key, f"{key} = \"FILE\" is required for a surface")
-                nominal_file = (path.parent / table[key]).resolve()
-                if not nominal_file.is_file():
-                    raise fail(key, f"{key} file {table[key]!r} not found (looked for {nominal_file})")
-                try:
-                    surface[key] = read_points(nominal_file)
-                except PcmmGeoError as exc:
-                    raise fail(key, f"{key} file {table[key]!r}: {exc}") from None
-            if surface["nominal_points"].shape != surface["nominal_normals"].shape:
-                raise fail("nominal_normals", "nominal_points and nominal_normals differ in length")
+            from pcmm_geo.gdt.profile import surface_nominal
+
+            surface = surface_nominal(table, path.parent, fail)
         diameter = table.get("diameter", float("nan"))
         if not isinstance(diameter, (int, float)) or (diameter == diameter and diameter <= 0):
             raise fail("diameter", f"diameter = {diameter!r}: expected a positive number of mm")
@@ -195,8 +186,7 @@ def load_plan(path: str | Path) -> InspectionPlan:
                 or tol[0] > tol[1]):
             raise fail("size_tolerance", f"size_tolerance = {tol!r}: expected [lower, upper] deviations in mm")
         features[name] = FeatureData(name, element, pts, point, direction, side, float(diameter),
-                                     (float(tol[0]), float(tol[1])), surface.get("nominal_points"),
-                                     surface.get("nominal_normals"))
+                                     (float(tol[0]), float(tol[1])), **surface)
     datums: dict[str, tuple[str, str]] = {}
     for label, spec in doc.get("datums", {}).items():
         def dfail(reason: str, label: str = label) -> FileFormatError:
@@ -353,11 +343,11 @@ def _evaluate(planned: PlannedCharacteristic, frames: _Frames) -> Characteristic
     if kind == "profile of a surface":
         if feature.element != "surface":
             raise FileFormatError(plan.path, f"{planned.name}: profile needs a feature of element \"surface\" "
-                                  "(nominal_points, nominal_normals)", planned.line)
+                                  "(nominal_points and nominal_normals, or nominal_mesh)", planned.line)
         from pcmm_geo.gdt.profile import evaluate_profile
 
         return evaluate_profile(feature.points, drf, spec.tolerance_mm, feature.nominal_points,
-                                feature.nominal_normals, name=planned.name)
+                                feature.nominal_normals, nominal_mesh=feature.nominal_mesh, name=planned.name)
     if kind in ("perpendicularity", "parallelism", "angularity"):
         if not spec.datums:
             raise FileFormatError(plan.path, f"{planned.name}: {kind} needs a datum", planned.line)
