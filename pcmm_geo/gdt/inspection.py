@@ -63,6 +63,9 @@ class InspectionPlan:
     characteristics : tuple of PlannedCharacteristic
     lines : dict
         The plan's line index (:func:`pcmm_geo.gdt.plan.locate_lines`).
+    point_u_trials, point_u_seed : int
+        Monte Carlo trials and seed of the U propagated from the features' ``point_u_mm``
+        (:mod:`pcmm_geo.gdt.propagation`).
     """
 
     path: str
@@ -72,6 +75,8 @@ class InspectionPlan:
     datums: dict[str, tuple[str, str]]
     characteristics: tuple[PlannedCharacteristic, ...]
     lines: dict[tuple[Any, ...], int]
+    point_u_trials: int = 100
+    point_u_seed: int = 0
 
 
 @dataclass(frozen=True)
@@ -185,8 +190,15 @@ def load_plan(path: str | Path) -> InspectionPlan:
         if (not isinstance(tol, list) or len(tol) != 2 or not all(isinstance(t, (int, float)) for t in tol)
                 or tol[0] > tol[1]):
             raise fail("size_tolerance", f"size_tolerance = {tol!r}: expected [lower, upper] deviations in mm")
+        u_key = "point_u_mm" if "point_u_mm" in table else None
+        u = table.get("point_u_mm", doc.get("point_u_mm"))
+        if u is not None and (not isinstance(u, (int, float)) or isinstance(u, bool) or not 0 <= u < float("inf")):
+            raise (fail("point_u_mm", f"point_u_mm = {u!r}: expected the points' standard uncertainty >= 0 in mm")
+                   if u_key else error(("point_u_mm",), f"point_u_mm = {u!r}: expected the points' standard "
+                                       "uncertainty >= 0 in mm"))
         features[name] = FeatureData(name, element, pts, point, direction, side, float(diameter),
-                                     (float(tol[0]), float(tol[1])), **surface)
+                                     (float(tol[0]), float(tol[1])), **surface,
+                                     point_u_mm=None if u is None else float(u))
     datums: dict[str, tuple[str, str]] = {}
     for label, spec in doc.get("datums", {}).items():
         def dfail(reason: str, label: str = label) -> FileFormatError:
@@ -243,7 +255,13 @@ def load_plan(path: str | Path) -> InspectionPlan:
             pattern = "simultaneous " + "|".join(spec.datums)  # ASME Y14.5-2018 7.19: the default
         planned.append(PlannedCharacteristic(name, entry["feature"], spec, line, None, pattern,
                                              None if u is None else float(u)))
-    return InspectionPlan(where, standard, part_frame, features, datums, tuple(planned), lines)
+    monte_carlo = []
+    for key, default, least in (("point_u_trials", 100, 10), ("point_u_seed", 0, 0)):
+        value = doc.get(key, default)
+        if not isinstance(value, int) or isinstance(value, bool) or value < least:
+            raise error((key,), f"{key} = {value!r}: expected an integer >= {least}")
+        monte_carlo.append(value)
+    return InspectionPlan(where, standard, part_frame, features, datums, tuple(planned), lines, *monte_carlo)
 
 
 def _evaluate_dimension(planned: PlannedCharacteristic, frames: _Frames) -> CharacteristicResult:
@@ -437,6 +455,29 @@ def inspect_plan(plan: str | Path | InspectionPlan) -> InspectionResult:
     """
     if not isinstance(plan, InspectionPlan):
         plan = load_plan(plan)
+    results, frames = _evaluate_all(plan)
+    datums: dict[str, DatumAssociation] = {}
+    named: dict[str, DatumReferenceFrame] = {}
+    try:
+        if plan.part_frame:
+            named["|".join(plan.part_frame)] = frames.drf(plan.part_frame)
+            for k in range(1, len(plan.part_frame) + 1):
+                datums[plan.part_frame[k - 1]] = frames.association(plan.part_frame[:k])
+    except PcmmGeoError as exc:
+        raise FileFormatError(plan.path, f"part.frame: {exc}", plan.lines.get(("part", "frame"))) from None
+    for key, drf in frames.frames.items():
+        named.setdefault("|".join(key), drf)
+    ordered = tuple(results[i] for i in range(len(plan.characteristics)))
+    if any(f.point_u_mm is not None for f in plan.features.values()):  # U from the points (opt-in)
+        from pcmm_geo.gdt.propagation import propagate_plan
+
+        ordered = propagate_plan(plan, ordered, lambda trial: _evaluate_all(trial)[0])
+    ordered = tuple(apply_uncertainty(r, p.uncertainty_mm) for r, p in zip(ordered, plan.characteristics, strict=True))
+    return InspectionResult(plan, ordered, datums, named)
+
+
+def _evaluate_all(plan: InspectionPlan) -> tuple[dict[int, CharacteristicResult], _Frames]:
+    """Every characteristic of ``plan`` (by index; no uncertainty applied) and the frames built for them."""
     frames = _Frames(plan)
     results: dict[int, CharacteristicResult] = {}
     groups: dict[str, list[int]] = {}
@@ -453,17 +494,4 @@ def inspect_plan(plan: str | Path | InspectionPlan) -> InspectionResult:
     for pattern, members in groups.items():
         results.update(zip(members, _evaluate_pattern(pattern, [plan.characteristics[i] for i in members], frames),
                            strict=True))
-    datums: dict[str, DatumAssociation] = {}
-    named: dict[str, DatumReferenceFrame] = {}
-    try:
-        if plan.part_frame:
-            named["|".join(plan.part_frame)] = frames.drf(plan.part_frame)
-            for k in range(1, len(plan.part_frame) + 1):
-                datums[plan.part_frame[k - 1]] = frames.association(plan.part_frame[:k])
-    except PcmmGeoError as exc:
-        raise FileFormatError(plan.path, f"part.frame: {exc}", plan.lines.get(("part", "frame"))) from None
-    for key, drf in frames.frames.items():
-        named.setdefault("|".join(key), drf)
-    ordered = tuple(apply_uncertainty(results[i], plan.characteristics[i].uncertainty_mm)
-                    for i in range(len(plan.characteristics)))
-    return InspectionResult(plan, ordered, datums, named)
+    return results, frames

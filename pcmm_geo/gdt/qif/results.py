@@ -174,7 +174,13 @@ def _dimension(outcome: CharacteristicResult, dimension: dict[str, Any], kind: s
     return Characteristic(id=0, type=kind, name=outcome.name, value=outcome.value_mm,
                           nominal=scale * float(dimension["nominal"]),
                           tolerance=Tolerance(max_value=high, min_value=low), status=STATUS_OF_VERDICT[ok],
-                          quantity="angular" if kind == "angle_between" else "linear")
+                          quantity="angular" if kind == "angle_between" else "linear", uncertainty=_standard_u(outcome))
+
+
+def _standard_u(outcome: CharacteristicResult) -> float | None:
+    """QIF ``combinedUncertainty`` (a combined standard uncertainty): U / 2 of the stated or propagated U (k = 2)."""
+    expanded = outcome.details.get("expanded_uncertainty_mm", outcome.details.get("expanded_uncertainty_rad"))
+    return None if expanded is None else float(expanded) / 2.0
 
 
 def _link_second_features(document: CmmDocument, result: InspectionResult,
@@ -297,7 +303,7 @@ def inspection_to_qif(result: InspectionResult, path: str | Path, *, overwrite: 
             characteristics.append(Characteristic(
                 id=0, type=kind, name=outcome.name, value=outcome.value_mm,
                 tolerance=Tolerance(value=outcome.tolerance_mm),
-                status=STATUS_OF_VERDICT[outcome.verdict], zone_shape=zone))
+                status=STATUS_OF_VERDICT[outcome.verdict], zone_shape=zone, uncertainty=_standard_u(outcome)))
         reports.append(FeatureReport(
             type=_FEATURE_TYPES[feature.element], name=name, actual=actual["actual"], nominal=nominal,
             internal_external=("INTERNAL" if feature.side == "internal" else "EXTERNAL") if sized else None,
