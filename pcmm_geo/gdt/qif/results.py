@@ -29,6 +29,9 @@ plain records of :mod:`pcmm_geo.io.cmm` (``io`` does not know ``gdt``) and write
   their nominal and limits.  Profile of a surface (its feature has no QIF feature type the writer
   writes) and a coordinate or distance in another frame are reported as not written, by name.
 
+A characteristic with an expanded uncertainty U (stated ``uncertainty_mm``, or propagated from the points'
+``point_u_mm``) has its measured value's ``combinedUncertainty`` written as U / 2 (a standard uncertainty).
+
 Status: ``PASS`` and ``FAIL`` as the verdict; ``NOT PROVEN`` is written as QIF
 ``INDETERMINATE`` (the ``CharacteristicStatusEnum`` value for "the measurement does not decide";
 ``NOT_ANALYZED`` would claim it was not evaluated).
