@@ -190,15 +190,12 @@ def load_plan(path: str | Path) -> InspectionPlan:
         if (not isinstance(tol, list) or len(tol) != 2 or not all(isinstance(t, (int, float)) for t in tol)
                 or tol[0] > tol[1]):
             raise fail("size_tolerance", f"size_tolerance = {tol!r}: expected [lower, upper] deviations in mm")
-        u_key = "point_u_mm" if "point_u_mm" in table else None
-        u = table.get("point_u_mm", doc.get("point_u_mm"))
-        if u is not None and (not isinstance(u, (int, float)) or isinstance(u, bool) or not 0 <= u < float("inf")):
-            raise (fail("point_u_mm", f"point_u_mm = {u!r}: expected the points' standard uncertainty >= 0 in mm")
-                   if u_key else error(("point_u_mm",), f"point_u_mm = {u!r}: expected the points' standard "
-                                       "uncertainty >= 0 in mm"))
+        from pcmm_geo.gdt.propagation import plan_point_u
+
+        u = plan_point_u(table, doc, path.parent, len(pts), fail if "point_u_mm" in table else
+                         lambda key, reason: error((key,), reason))
         features[name] = FeatureData(name, element, pts, point, direction, side, float(diameter),
-                                     (float(tol[0]), float(tol[1])), **surface,
-                                     point_u_mm=None if u is None else float(u))
+                                     (float(tol[0]), float(tol[1])), **surface, point_u_mm=u)
     datums: dict[str, tuple[str, str]] = {}
     for label, spec in doc.get("datums", {}).items():
         def dfail(reason: str, label: str = label) -> FileFormatError:

@@ -34,16 +34,17 @@ from __future__ import annotations
 import dataclasses
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
+from pathlib import Path
 from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
 
-from pcmm_geo.errors import InvalidInputError
+from pcmm_geo.errors import FileFormatError, InvalidInputError
 from pcmm_geo.gdt.characteristics import CharacteristicResult, FeatureData
 
-__all__ = ["DEFAULT_TRIALS", "PropagatedUncertainty", "perturbed", "propagate_plan", "propagate_point_uncertainty",
-           "with_uncertainty"]
+__all__ = ["DEFAULT_TRIALS", "PropagatedUncertainty", "perturbed", "plan_point_u", "propagate_plan",
+           "propagate_point_uncertainty", "read_point_u", "with_uncertainty"]
 
 FloatArray = NDArray[np.float64]
 #: Monte Carlo trials by default
@@ -85,6 +86,57 @@ class PropagatedUncertainty:
                 f"trial_spread_{unit}": self.spread, f"trial_bias_{unit}": self.bias,
                 "uncertainty_source": f"propagated from the points' uncertainty (Monte Carlo, {self.trials} trials, "
                                       f"seed {self.seed}, k = 2)"}
+
+
+def read_point_u(path: str | Path, count: int) -> FloatArray:
+    """Per-point standard uncertainties (mm) from a text file: one number >= 0 per line, in the points' order.
+
+    Blank lines and ``#`` comments are skipped.
+
+    Raises
+    ------
+    FileFormatError
+        Naming the file and line: not a finite number >= 0, or not ``count`` values.
+    FileNotFoundError
+    """
+    from pcmm_geo.io.text import read_text_lines
+
+    values = []
+    for number, text in read_text_lines(path):
+        field = text.strip()
+        if not field or field.startswith("#"):
+            continue
+        try:
+            value = float(field)
+        except ValueError:
+            value = float("nan")
+        if not 0 <= value < float("inf"):
+            raise FileFormatError(str(path), f"expected a standard uncertainty >= 0 in mm, got {field[:40]!r}", number)
+        values.append(value)
+    if len(values) != count:
+        raise FileFormatError(str(path), f"{len(values)} uncertainties for {count} points (one per point, in order)")
+    return np.asarray(values, dtype=float)
+
+
+def plan_point_u(table: Mapping[str, Any], document: Mapping[str, Any], base: Path, count: int,
+                 fail: Callable[[str, str], Exception]) -> float | FloatArray | None:
+    """A plan feature's ``point_u_mm``: its own (a number, or a file of one value per point relative to ``base``),
+    else the plan's (a number), else None.  ``fail(key, reason)`` makes the error naming the plan's line."""
+    value = table.get("point_u_mm", document.get("point_u_mm"))
+    if value is None:
+        return None
+    if isinstance(value, str) and "point_u_mm" in table:
+        file = (base / value).resolve()
+        if not file.is_file():
+            raise fail("point_u_mm", f"point_u_mm file {value!r} not found (looked for {file})")
+        try:
+            return read_point_u(file, count)
+        except FileFormatError as exc:
+            raise fail("point_u_mm", f"point_u_mm file {value!r}: {exc}") from None
+    if not isinstance(value, (int, float)) or isinstance(value, bool) or not 0 <= value < float("inf"):
+        raise fail("point_u_mm", f"point_u_mm = {value!r}: expected the points' standard uncertainty >= 0 in mm"
+                   + (' (or, in a feature, "FILE" with one per point)' if "point_u_mm" in table else ""))
+    return float(value)
 
 
 def point_u(feature: FeatureData) -> FloatArray | None:

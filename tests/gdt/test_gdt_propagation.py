@@ -158,9 +158,30 @@ def test_point_u_in_a_plan_json_table_qif_and_verdicts(tmp_path):
     assert written["stated"] == pytest.approx(0.01, rel=1e-9)
 
 
+def test_per_point_uncertainties_from_a_file(tmp_path):
+    plan = _plan(tmp_path)
+    count = len(load_plan(plan).features["TOP"].points)
+    (tmp_path / "TOP_u.csv").write_text("# u per point, mm\n" + "0.003\n" * count, encoding="utf-8")
+    text = _PLAN.replace("point_u_mm = 0.003\n", 'point_u_mm = "TOP_u.csv"\n')
+    per_point = load_plan(_plan(tmp_path, text))
+    assert per_point.features["TOP"].point_u_mm.shape == (count,)
+    scalar = inspect_plan(load_plan(plan)).characteristics
+    for a, b in zip(inspect_plan(per_point).characteristics, scalar, strict=True):  # the same draws, the same u
+        key = "expanded_uncertainty_rad" if "expanded_uncertainty_rad" in b.details else "expanded_uncertainty_mm"
+        assert a.details[key] == pytest.approx(b.details[key], rel=1e-12)
+    line = text.splitlines().index('point_u_mm = "TOP_u.csv"') + 1
+    (tmp_path / "TOP_u.csv").write_text("0.003\n" * (count - 1) + "-1\n", encoding="utf-8")
+    with pytest.raises(FileFormatError, match=rf"plan\.toml:{line}: .*TOP_u\.csv:{count}: expected a standard"):
+        load_plan(_plan(tmp_path, text))
+    (tmp_path / "TOP_u.csv").write_text("0.003\n" * (count - 1), encoding="utf-8")
+    with pytest.raises(FileFormatError, match=rf"plan\.toml:{line}: .*{count - 1} uncertainties for {count} points"):
+        load_plan(_plan(tmp_path, text))
+
+
 @pytest.mark.parametrize(("old", "new", "key"), [
     ("point_u_mm = 0.001\n", "point_u_mm = -0.001\n", "point_u_mm"),
-    ("point_u_mm = 0.003\n", "point_u_mm = \"big\"\n", "point_u_mm"),
+    ("point_u_mm = 0.003\n", "point_u_mm = \"absent.csv\"\n", "point_u_mm file 'absent.csv' not found"),
+    ("point_u_mm = 0.003\n", "point_u_mm = true\n", "point_u_mm"),
     ("point_u_trials = 12\n", "point_u_trials = 5\n", "point_u_trials"),
     ("point_u_seed = 4\n", "point_u_seed = 1.5\n", "point_u_seed"),
 ])
