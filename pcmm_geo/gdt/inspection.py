@@ -124,6 +124,10 @@ def _unit(v: np.ndarray, key: str, fail: Any) -> np.ndarray:
 def load_plan(path: str | Path) -> InspectionPlan:
     """Read and check a TOML inspection plan and load its points files (relative to the plan).
 
+    Beyond :mod:`pcmm_geo.gdt.plan`'s keys: a ``surface`` feature's ``nominal_mesh = "FILE"``
+    (:func:`pcmm_geo.gdt.profile.surface_nominal`); ``point_u_mm`` (top level, or a feature's, there also a
+    file of one value per point), ``point_u_trials`` and ``point_u_seed`` (:mod:`pcmm_geo.gdt.propagation`).
+
     Raises
     ------
     FileFormatError
