@@ -181,3 +181,21 @@ def test_profile_against_a_mesh_in_a_plan_and_its_errors(maker, tmp_path):
     plan.write_text(plan.read_text(encoding="utf-8").replace("part.stl", "missing.obj"), encoding="utf-8")
     with pytest.raises(FileFormatError, match=rf"plan\.toml:{line}: .*missing\.obj.*not found"):
         inspect_plan(plan)
+
+
+def test_the_nominal_is_points_and_normals_or_a_mesh_not_both_nor_neither(block_index):
+    from pcmm_geo.errors import InvalidInputError
+
+    surface, _, normals = _measured_surface(np.random.default_rng(2), n=20)
+    free = DatumReferenceFrame.measurement()
+    with pytest.raises(InvalidInputError, match=r"nominal_mesh: expected either .* got neither"):
+        evaluate_profile(surface, free, 0.1)
+    with pytest.raises(InvalidInputError, match="got both"):
+        evaluate_profile(surface, free, 0.1, surface, normals, nominal_mesh=block_index)
+    # a trimesh is indexed on the way in, and refused unless closed
+    assert abs(evaluate_profile(surface, free, 0.1, nominal_mesh=_block_mesh()).value_mm -
+               evaluate_profile(surface, free, 0.1, nominal_mesh=block_index).value_mm) < 1e-12
+    open_box = _block_mesh()
+    open_box.update_faces(np.arange(11))
+    with pytest.raises(InvalidInputError, match="open edges"):
+        evaluate_profile(surface, free, 0.1, nominal_mesh=open_box)
