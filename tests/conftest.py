@@ -50,6 +50,7 @@ EXTRAS_NEEDED = {
     "fit/test_zone.py::test_mcc_matches_trimesh_minimum_nsphere": "cad",
     "plots/test_fit_residual_maps.py": "plots",
     "io/test_meshes.py": "cad",
+    "gdt/test_gdt_profile_mesh.py": "cad",
     "ippdme/test_ippdme_workpieces.py::test_mesh_workpiece_matches_the_box": "cad",
     "io/test_lazy_points.py": "dask",
     "cli/test_signals.py::test_an_interrupted_acquisition_keeps_its_rows_and_resumes": "acquire",
