@@ -97,6 +97,9 @@ def register(subparsers: Any) -> None:
 
 def _add_limits(parser: argparse.ArgumentParser) -> None:
     add_max_mb_option(parser, "file read (QIF; DMIS output and CALYPSO tables: default 32 MiB)")
+    parser.add_argument("--max-elements", metavar="N", default=None,
+                        help="QIF: most XML elements read (default 1000000, some 250 MB of tree; a file with more "
+                             "is refused before it fills the memory)")
     parser.add_argument("--format", choices=("qif", "dmis", "calypso"),
                         help="the file's format (default: told by its content, e.g. a GEOPAK report saved as .txt)")
     text = parser.add_argument_group("files that may not state their units (DMIS output, CALYPSO tables, QIF "
@@ -109,12 +112,31 @@ def _add_limits(parser: argparse.ArgumentParser) -> None:
     text.add_argument("--encoding", default="utf-8", help="text encoding (Windows software: often cp1252)")
 
 
-def _read(args: argparse.Namespace) -> Any:
-    from pcmm_geo.cmm.files import read_cmm_document
+def _max_elements(args: argparse.Namespace) -> int | None:
+    """``--max-elements`` checked (None: the reader's default)."""
+    from pcmm_geo.errors import InvalidInputError
 
-    return read_cmm_document(args.file, units=args.units, angle_unit=args.angle_unit, size_values=args.size_values,
-                             encoding=args.encoding, max_bytes=max_bytes(args), spell_setting=cli_setting,
-                             format=args.format)
+    text = getattr(args, "max_elements", None)
+    if text is None:
+        return None
+    try:
+        value = int(str(text).strip())
+    except ValueError:
+        value = 0
+    if not 0 < value <= 10**9:
+        raise InvalidInputError("--max-elements", "a positive whole number of XML elements (at most 10^9)", repr(text))
+    return value
+
+
+def _read(args: argparse.Namespace, definitions: bool = False) -> Any:
+    """The file's document and, with ``definitions`` and a QIF file, its characteristic definitions: one parse."""
+    from pcmm_geo.cmm.files import read_cmm_document_and_definitions
+
+    document, read = read_cmm_document_and_definitions(
+        args.file, units=args.units, angle_unit=args.angle_unit, size_values=args.size_values,
+        encoding=args.encoding, max_bytes=max_bytes(args), spell_setting=cli_setting, format=args.format,
+        max_elements=_max_elements(args), definitions=definitions)
+    return (document, read) if definitions else document
 
 
 def _vector(value: Any) -> list[float]:
@@ -291,12 +313,12 @@ def _handle_verify(args: argparse.Namespace) -> Report:
     tolerance = DEFAULT_TOLERANCE_MM if args.tolerance_mm is None else args.tolerance_mm
     if args.probe_radius is not None and not (math.isfinite(args.probe_radius) and args.probe_radius > 0):
         raise InvalidInputError("--probe-radius-mm", "a positive probe radius (mm)", repr(args.probe_radius))
-    document = _read(args)
+    document, definitions = _read(args, definitions=True)
     compensated = None if args.compensated is None else args.compensated == "yes"
     result = verify_document(document, tolerance_mm=tolerance, criterion=args.criterion,
                              circle_plane=args.circle_plane, compensated=compensated, probe_radius=args.probe_radius,
                              material_side=args.material_side, spell_setting=cli_setting)
-    characteristics = _verify_characteristics(args, document, compensated)
+    characteristics = _verify_characteristics(args, document, definitions, compensated)
     rows = []
     for check in result.features:
         compensation = check.compensation
@@ -360,21 +382,18 @@ def _handle_verify(args: argparse.Namespace) -> Report:
                   environment=[second_opinion.NO_TEMPERATURE])
 
 
-def _verify_characteristics(args: argparse.Namespace, document: Any, compensated: bool | None) -> Any:
-    """Second opinion on the characteristics (:func:`pcmm_geo.gdt.qif.characteristics.verify_characteristics`)."""
+def _verify_characteristics(args: argparse.Namespace, document: Any, definitions: Any,
+                            compensated: bool | None) -> Any:
+    """Second opinion on the characteristics (:func:`pcmm_geo.gdt.qif.characteristics.verify_characteristics`).
+
+    ``definitions`` come from the same parse as ``document`` (None: not a QIF file).
+    """
     from pcmm_geo.errors import InvalidInputError
     from pcmm_geo.gdt.qif.characteristics import DEFAULT_FRACTION, verify_characteristics
 
     fraction = DEFAULT_FRACTION if args.characteristic_fraction is None else args.characteristic_fraction
     if not 0.0 < fraction <= 1.0:  # also refuses nan
         raise InvalidInputError("--characteristic-fraction", "a fraction of the tolerance in (0, 1]", repr(fraction))
-    definitions = None
-    if document.format == "qif":
-        from pcmm_geo.io.cmm import DEFAULT_MAX_BYTES
-        from pcmm_geo.io.cmm.qif.characteristic_definitions import read_qif_definitions
-
-        definitions = read_qif_definitions(args.file, max_bytes=max_bytes(args) or DEFAULT_MAX_BYTES,
-                                           spell_setting=cli_setting)
     return verify_characteristics(document, definitions, fraction=fraction, compensated=compensated,
                                   probe_radius=args.probe_radius)
 
