@@ -266,6 +266,15 @@ def _judge(characteristic: Characteristic, result: Recomputation, bound: float,
     difference = abs(reported - result.value)
     if difference <= bound:
         return CharacteristicCheck(**base, recomputed=result.value, status=AGREES, reason=result.reason)
+    if result.accepted_range is not None and \
+            result.accepted_range[0] - bound <= reported <= result.accepted_range[1] + bound:
+        low, high = result.accepted_range
+        return CharacteristicCheck(**base, recomputed=result.value, status=AGREES,
+                                   reason=f"{result.reason}; the reported value lies in [{low:.6g}, {high:.6g}], "
+                                          "the values the datum shift allows")
+    if result.below is not None and reported < result.value:
+        return CharacteristicCheck(**base, recomputed=result.value, status=NOT_COMPUTABLE,
+                                   reason=f"{result.reason}; the reported value is below it, which {result.below}")
     alternatives = [(name, accepted) for name, value, accepted in result.alternatives
                     if abs(reported - value) <= bound]
     if alternatives:
