@@ -42,7 +42,7 @@ if TYPE_CHECKING:
     from pcmm_geo.io.cmm import Characteristic, CmmDocument, MeasuredFeature
     from pcmm_geo.io.cmm.qif.characteristic_definitions import QifDefinitions
 
-__all__ = ["coaxiality", "profile", "runout", "sections"]
+__all__ = ["coaxiality", "profile", "runout", "sections", "surface_points"]
 
 #: consecutive axial positions further apart than this start a new cross-section (mm)
 _SECTION_GAP_MM = 0.5
@@ -82,6 +82,30 @@ def _refit(document: CmmDocument, feature: MeasuredFeature, options: Mapping[str
         return refit_feature(document, feature, **options)
     except NotRefittedError as exc:
         raise NotComputable(f"the points could not be refitted: {exc}") from None
+
+
+def surface_points(refit: Any) -> np.ndarray:
+    """The refit's points on the touched surface (mm, ``(N, 3)``): probe-ball centres moved by the probe radius.
+
+    :class:`~pcmm_geo.cmm.refit.Refit` keeps the points as read when the radius was applied to
+    the fitted element (``"element offset"``): a plane's or line's are moved against its outward
+    normal, a circle's, cylinder's or sphere's along their distance from the refitted axis or
+    centre (outward for a hole, inward for a boss).
+    """
+    compensation = refit.compensation
+    points = np.asarray(refit.points, dtype=float)
+    radius = float(compensation.probe_radius_mm)
+    if compensation.method != "element offset" or radius == 0.0:
+        return points
+    if compensation.outward is not None:
+        return points - radius * np.asarray(compensation.outward, dtype=float)
+    if compensation.side not in ("internal", "external") or refit.location is None:
+        raise NotComputable("the side the probe touched is not known, so its points are not surface points")
+    delta = points - refit.location
+    if refit.direction is not None and refit.type != "sphere":
+        delta = delta - np.outer(delta @ refit.direction, refit.direction)
+    unit = delta / np.linalg.norm(delta, axis=1)[:, None]
+    return points + (radius if compensation.side == "internal" else -radius) * unit
 
 
 def coaxiality(document: CmmDocument, definitions: QifDefinitions | None, characteristic: Characteristic,
@@ -140,7 +164,7 @@ def runout(document: CmmDocument, definitions: QifDefinitions | None, characteri
                          f"{2.0 * float(_distance(feature.actual.location, origin, direction)[0]):.6g} mm")
         raise NotComputable("a runout includes the surface's form and needs its points: the file holds none for it"
                             + eccentric)
-    points = _refit(document, feature, options).points
+    points = surface_points(_refit(document, feature, options))
     if not radial:
         if not total:
             raise NotComputable("circular axial runout needs the face's points grouped by radius: not evaluated")
@@ -178,22 +202,25 @@ def profile(document: CmmDocument, definitions: QifDefinitions | None, character
         raise NotComputable("a profile needs the surface's points: the file holds none for it (the actual's "
                             "location and direction do not give the largest deviation)")
     frame = frame_map(substitutes, actual)
-    points = np.array([frame.apply(p) for p in _refit(document, feature, options).points])
+    points = np.array([frame.apply(p) for p in surface_points(_refit(document, feature, options))])
     if nominal.location is None:
         raise NotComputable("the nominal has no location")
     direction = nominal.direction if nominal.direction is not None else nominal.normal
+    definition = document.definition_of(feature)
+    diameter = nominal.diameter if nominal.diameter is not None else (
+        None if definition is None else getattr(definition, "diameter", None))
     kind = feature.type
     if kind in PLANE_TYPES and nominal.normal is not None:
         normal = np.asarray(nominal.normal, dtype=float)
         deviations = (points - nominal.location) @ (normal / float(np.linalg.norm(normal)))
-    elif kind in ("cylinder", "circle") and direction is not None and nominal.diameter is not None:
+    elif kind in ("cylinder", "circle") and direction is not None and diameter is not None:
         axis = np.asarray(direction, dtype=float) / float(np.linalg.norm(direction))
-        deviations = _distance(points, nominal.location, axis) - nominal.diameter / 2.0
-    elif kind == "sphere" and nominal.diameter is not None:
-        deviations = _distance(points, nominal.location, None) - nominal.diameter / 2.0
+        deviations = _distance(points, nominal.location, axis) - diameter / 2.0
+    elif kind == "sphere" and diameter is not None:
+        deviations = _distance(points, nominal.location, None) - diameter / 2.0
     else:
-        raise NotComputable(f"a profile of a {kind} nominal is not evaluated (planes, cylinders, circles and spheres "
-                            "are; no CAD surface is read)")
+        raise NotComputable(f"a profile of a {kind} nominal is not evaluated (planes, and cylinders, circles and "
+                            "spheres of stated diameter, are; no CAD surface is read)")
     return Recomputation(2.0 * float(np.abs(deviations).max()),
                          f"2 x the largest distance of the {len(points)} compensated points from the nominal "
                          f"{kind} in the frame {' | '.join(labels)} of the datum features' actuals", "points")
