@@ -73,7 +73,8 @@ def register(subparsers: Any) -> None:
     refuse_renamed_options(verify, {"--probe-radius": "--probe-radius-mm"})
     _add_limits(verify)
     _add_qif_output(verify)
-    add_plot_flag(verify, "each compared difference against its agreement tolerance, per feature")
+    add_plot_flag(verify, "each compared difference against its agreement tolerance, per feature, and each "
+                          "recomputed characteristic against its agreement bound")
     add_report_flag(verify)
     add_overwrite_flag(verify)
     add_json_flag(verify)
@@ -373,7 +374,7 @@ def _handle_verify(args: argparse.Namespace) -> Report:
     verdict = Verdict(verdict.passed, verdict.statement, verdict.decision_rule, basis=verdict.basis,
                       conformity_text=second_opinion.AGREEMENT)
     scope = second_opinion.scope_statement(document, result, counts)
-    plots = [second_opinion.plot(result, args.plot, args.overwrite)] if args.plot else []
+    plots = [second_opinion.plot(result, args.plot, args.overwrite, characteristics)] if args.plot else []
     tables = [t for t in (table, _characteristic_table(characteristics)) if t.rows]
     return Report(data=data, tables=tables, lines=[*lines, scope] if agrees is None else lines,
                   exit_code=0 if agrees is True else EXIT_FAILURE, verdict=verdict, plots=plots,
