@@ -159,6 +159,9 @@ def install_grouped_help(parser: argparse.ArgumentParser, subparsers: argparse._
     for alias, target in ALIASES.items():
         if target in subparsers.choices and alias not in subparsers.choices:
             subparsers.choices[alias] = _renamed(subparsers.choices[target], target, alias)
+            # a command of its own for completion (shtab lists the choices that have an entry here)
+            subparsers._choices_actions.append(
+                subparsers._ChoicesPseudoAction(alias, (), ALIAS_HELP.get(alias, "")))  # type: ignore[attr-defined]
     parser.epilog = grouped_help_text(subparsers)
     # set after the sub-parsers took their prog from the default usage
     parser.usage = f"{parser.prog} [-h] [--version] [--print-completion SHELL] COMMAND ..."

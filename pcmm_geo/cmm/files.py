@@ -47,7 +47,7 @@ def read_cmm_document(path: str | Path, *, units: str | None = None, angle_unit:
     format : {"qif", "dmis", "calypso"}, optional
         The file's format, stated (else told by its content).
     max_elements : int, optional
-        QIF: most XML elements accepted (default :data:`~pcmm_geo.io.cmm.qif._xml.DEFAULT_MAX_ELEMENTS`).
+        QIF: most XML elements accepted (default: the reader's, 10^6).
     spell_setting : callable
         How messages name these settings (:mod:`pcmm_geo.io.cmm.settings`; the command line
         passes its option names).
@@ -79,7 +79,6 @@ def read_cmm_document_and_definitions(
     """
     from pcmm_geo.errors import FileFormatError, InvalidInputError
     from pcmm_geo.io.cmm import DEFAULT_MAX_BYTES, read_calypso_table, read_dmis, read_qif
-    from pcmm_geo.io.cmm.qif._xml import DEFAULT_MAX_ELEMENTS
     from pcmm_geo.io.cmm.qif.characteristic_definitions import read_qif_with_definitions
     from pcmm_geo.io.text import refuse_irregular
 
@@ -90,8 +89,9 @@ def read_cmm_document_and_definitions(
     if kind == "qif":
         if size_values is not None:
             raise InvalidInputError(spell_setting("size_values"), "nothing for a QIF file (DMIS only)", size_values)
-        bounds = {"max_bytes": DEFAULT_MAX_BYTES if max_bytes is None else max_bytes,
-                  "max_elements": DEFAULT_MAX_ELEMENTS if max_elements is None else max_elements}
+        bounds = {"max_bytes": DEFAULT_MAX_BYTES if max_bytes is None else max_bytes}
+        if max_elements is not None:  # else the readers' default
+            bounds["max_elements"] = max_elements
         if definitions:
             document, read = read_qif_with_definitions(path, units=units, angle_unit=angle_unit,
                                                        spell_setting=spell_setting, **bounds)

@@ -54,8 +54,8 @@ from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any
 
 from pcmm_geo.errors import InvalidInputError, PcmmGeoError
-from pcmm_geo.gdt.qif.measures import Recomputation, recompute
 from pcmm_geo.gdt.qif.axial import coaxiality, profile, runout
+from pcmm_geo.gdt.qif.measures import Recomputation, recompute
 from pcmm_geo.gdt.qif.orientation import orientation
 
 if TYPE_CHECKING:

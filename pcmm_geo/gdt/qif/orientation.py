@@ -31,7 +31,7 @@ by the primary's direction ``u`` only:
   ``alpha`` about ``u`` gives ``L sin|theta - alpha|`` with ``theta`` the angle between the
   refitted axis and ``u`` (the nearest generator of the cone is in their common plane); a plane
   gives the smallest ``range(p . m)`` over normals ``m`` on that cone (a one-dimensional search:
-  a grid of 0.25 degree, then a bounded refinement to 1e-10 rad).
+  a grid of 0.25 degree, then a bounded refinement about the best step to 1e-12 rad).
 
 Without points, an axis whose actual states its length uses that length and the reported
 direction; a plane, or an axis without length, is not computable.
@@ -94,7 +94,7 @@ def thinnest_width_on_cone(points: np.ndarray, axis: np.ndarray, half_angle: flo
     The width of the thinnest pair of parallel planes holding the points whose normal makes the
     angle ``half_angle`` with ``axis``: the zone of an angularity of a plane to one datum, free to
     turn about the datum's direction.  A grid over the cone's angle ``phi`` (1440 steps), then a
-    bounded scalar minimisation about the best step (to 1e-10 rad).  ``points`` ``(N, 3)``.
+    bounded scalar minimisation about the best step (to 1e-12 rad).  ``points`` ``(N, 3)``.
     """
     from scipy.optimize import minimize_scalar
 
@@ -108,11 +108,12 @@ def thinnest_width_on_cone(points: np.ndarray, axis: np.ndarray, half_angle: flo
         values = cos_a * along + sin_a * (np.cos(phi) * c1 + np.sin(phi) * c2)
         return float(values.max() - values.min())
 
-    grid = np.linspace(0.0, np.pi, 1441)[:-1]  # m and -m give the same width: half a turn suffices
+    grid = np.linspace(0.0, 2.0 * np.pi, 1441)[:-1]
     step = grid[1] - grid[0]
-    best = grid[int(np.argmin([width(phi) for phi in grid]))]
-    refined = minimize_scalar(width, bounds=(best - step, best + step), method="bounded",
-                              options={"xatol": 1e-10})
+    best = float(grid[int(np.argmin([width(phi) for phi in grid]))])
+    # searched as an offset from the best step, so that the tolerance is absolute (not relative to phi)
+    refined = minimize_scalar(lambda t: width(best + t), bounds=(-step, step), method="bounded",
+                              options={"xatol": 1e-12})
     return min(float(refined.fun), width(best))
 
 
