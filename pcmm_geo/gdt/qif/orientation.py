@@ -138,7 +138,8 @@ def _feature_data(document: CmmDocument, characteristic: Characteristic, feature
         length = float(along.max() - along.min())
         return None, refit.direction, length, f"the refitted axis over its points' extent {length:.6g} mm", "points"
     if kind not in AXIS_TYPES or feature.actual.length is None:
-        raise NotComputable(f"the {characteristic.type} needs the feature's extent: the file holds no points "
+        article = "an" if characteristic.type[0] in "aeiou" else "a"
+        raise NotComputable(f"{article} {characteristic.type} needs the feature's extent: the file holds no points "
                             "for it" + ("" if kind in PLANE_TYPES else " and no actual length"))
     axis = feature.actual.direction if feature.actual.direction is not None else feature.actual.normal
     if axis is None:
