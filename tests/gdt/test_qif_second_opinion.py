@@ -11,6 +11,7 @@ with a few lines of numpy, or from an identity the construction guarantees.
 from __future__ import annotations
 
 import json
+import os
 from pathlib import Path
 
 import numpy as np
@@ -271,3 +272,41 @@ def test_verify_plot_draws_the_characteristics(tmp_path: Path, capsys: pytest.Ca
               CharacteristicCheck(2, "F", "flatness", "mm", 0.05, None, "not computable", "no points", bound=0.001))
     rows = characteristic_ratios(CharacteristicVerification("f.qif", checks, ""))
     assert len(rows) == 1 and rows[0][1] == "disagrees" and abs(rows[0][2] - 5.0) < 1e-12
+
+
+COMMUNITY = os.environ.get("PCMM_QIF_COMMUNITY")
+
+
+@pytest.mark.skipif(COMMUNITY is None, reason="set PCMM_QIF_COMMUNITY to a checkout of qif-community")
+@pytest.mark.parametrize(("name", "counts"), [
+    ("bindings/CPP-Kramer/data/testCpp30.qif", (4, 1, 2)),  # an actual edited, its reported position kept
+    ("samples/QIFwidget/WIDGET_QIF_RESULTS_W_QPIDS.QIF", (15, 10, 17)),
+    ("samples/Results/Sheet_Metal/SheetMetal_QIF_Results_sample_3_w_UUIDs.QIF", (17, 0, 21)),
+    ("samples/ExternalReferencesAndQPIds/All-in-one.QIF", (0, 0, 4)),
+])
+def test_counts_on_the_community_files(name: str, counts: tuple[int, int, int]) -> None:
+    summary = verify_characteristics(read_qif(Path(COMMUNITY) / name)).summary()  # type: ignore[arg-type]
+    assert (summary["agrees"], summary["disagrees"], summary["not_computable"]) == counts
+    if name.endswith("testCpp30.qif"):
+        check = _check(Path(COMMUNITY) / name, 37)  # type: ignore[arg-type]
+        assert check.status == "disagrees" and abs(check.reported - 0.102) < 1e-12 and abs(check.recomputed) < 1e-9
+
+
+def test_one_parse_gives_document_and_definitions_in_the_same_units(tmp_path: Path) -> None:
+    import re
+
+    from pcmm_geo.io.cmm.qif.characteristic_definitions import read_qif_definitions, read_qif_with_definitions
+
+    text = (SAMPLES / "QIF_Results_Sample.QIF").read_text()
+    path = tmp_path / "no_units.qif"
+    path.write_text(re.sub(r"<FileUnits>.*?</FileUnits>", "", text, count=1, flags=re.DOTALL))
+    document, definitions = read_qif_with_definitions(path, units="inch")
+    alone = read_qif_definitions(path)  # no units given: mm
+    assert document.units.linear_unit == "inch"
+    zones = [(key, d.tolerance.value) for key, d in alone.characteristic_definitions.items()
+             if d.tolerance is not None and d.tolerance.value is not None]
+    assert len(zones) >= 2
+    for key, value in zones:
+        assert abs(definitions.characteristic_definitions[key].tolerance.value - 25.4 * value) < 1e-9
+    assert definitions.counts() == alone.counts()
+    assert not any("units not stated" in problem for problem in definitions.problems)  # the document's, not repeated
