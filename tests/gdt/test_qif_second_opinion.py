@@ -225,7 +225,7 @@ def test_results_without_an_action_names_the_alias(capsys: pytest.CaptureFixture
 
 @pytest.mark.parametrize("bad", ["0", "-3", "abc", "1e3", "2000000000"])
 def test_max_elements_is_checked(bad: str, capsys: pytest.CaptureFixture[str]) -> None:
-    for action in ("show", "verify"):
+    for action in ("show", "verify", "validate"):
         assert main(["qif", action, str(SAMPLES / "QIF_Results_Sample.QIF"), "--max-elements", bad]) == 2
         err = capsys.readouterr().err
         assert "--max-elements" in err and len(err.strip().splitlines()) == 1
@@ -238,6 +238,11 @@ def test_max_elements_bounds_the_parse(capsys: pytest.CaptureFixture[str]) -> No
     assert "more than 50 elements" in err and "--max-elements" in err and len(err.strip().splitlines()) == 1
     assert main(["qif", "show", sample, "--max-elements", "100000", "--json"]) == 0
     assert json.loads(capsys.readouterr().out)["format"] == "qif"
+    # validate counts the elements in its screening pass, before libxml2 builds a tree
+    assert main(["results", "validate", sample, "--max-elements", "50"]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith("pcmm results validate: error:") and "more than 50 elements" in err
+    assert main(["qif", "validate", sample, "--max-elements", "100000"]) == 0
 
 
 def test_verify_parses_the_file_once(monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]) -> None:

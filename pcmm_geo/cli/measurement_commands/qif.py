@@ -87,10 +87,12 @@ def register(subparsers: Any) -> None:
         description="Validate a QIF file against the QIF 3.0 XML schema (ISO 23952; the schema ships with pcmm_geo) "
                     "with lxml. Exit status 0 when the file is valid, 1 when it is not (the first errors are listed "
                     "with their line numbers), 2 when it cannot be read, is not well-formed XML or is refused as "
-                    "hostile (a DTD, entities, nesting deeper than 2048, larger than --max-mb).",
+                    "hostile (a DTD, entities, nesting deeper than 2048, larger than --max-mb, more elements than "
+                    "--max-elements).",
     )
     validate.add_argument("file", help="QIF file")
     add_max_mb_option(validate, "QIF file checked")
+    _add_max_elements(validate)
     validate.add_argument("--errors", type=int, metavar="N", default=10,
                           help="how many schema errors to list (default 10; --json lists all)")
     add_json_flag(validate)
@@ -99,9 +101,7 @@ def register(subparsers: Any) -> None:
 
 def _add_limits(parser: argparse.ArgumentParser) -> None:
     add_max_mb_option(parser, "file read (QIF; DMIS output and CALYPSO tables: default 32 MiB)")
-    parser.add_argument("--max-elements", metavar="N", default=None,
-                        help="QIF: most XML elements read (default 1000000, some 250 MB of tree; a file with more "
-                             "is refused before it fills the memory)")
+    _add_max_elements(parser)
     parser.add_argument("--format", choices=("qif", "dmis", "calypso"),
                         help="the file's format (default: told by its content, e.g. a GEOPAK report saved as .txt)")
     text = parser.add_argument_group("files that may not state their units (DMIS output, CALYPSO tables, QIF "
@@ -112,6 +112,12 @@ def _add_limits(parser: argparse.ArgumentParser) -> None:
     text.add_argument("--size-values", choices=("actual", "deviation"),
                       help="DMIS: the number of a size tolerance result is the actual size or its deviation")
     text.add_argument("--encoding", default="utf-8", help="text encoding (Windows software: often cp1252)")
+
+
+def _add_max_elements(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("--max-elements", metavar="N", default=None,
+                        help="QIF: most XML elements read (default 1000000, some 250 MB of tree; a file with more "
+                             "is refused before it fills the memory)")
 
 
 def _max_elements(args: argparse.Namespace) -> int | None:
@@ -418,9 +424,11 @@ def _handle_validate(args: argparse.Namespace) -> Report:
         raise InvalidInputError("--errors", "a positive number of errors to list", repr(args.errors))
     limit = max_bytes(args)
     namespace = "{" + QIF3_NAMESPACE + "}"  # element names are all in it: shown without it
+    elements = _max_elements(args)
+    bounds = {} if elements is None else {"max_elements": elements}
     errors = tuple(error.replace(namespace, "") for error in
                    validate_qif(args.file, max_bytes=DEFAULT_MAX_BYTES if limit is None else limit,
-                                spell_setting=cli_setting))
+                                spell_setting=cli_setting, **bounds))
     listed = []
     for error in errors:
         match = re.match(r"line (\d+): (.*)", error, re.DOTALL)
