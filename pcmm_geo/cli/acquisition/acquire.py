@@ -13,7 +13,7 @@ from pcmm_geo.cli._output import (
     declare_output,
     refuse_renamed_options,
 )
-from pcmm_geo.cli.machine_commands._acquire_plan import (
+from pcmm_geo.cli.acquisition._acquire_plan import (
     add_start_arguments,
     check_start_arguments,
     enforce_limit,
