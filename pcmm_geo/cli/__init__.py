@@ -1,7 +1,8 @@
 """The ``pcmm`` command: wiring only; the work happens in the library.
 
-Each sub-command lives in its own module (``demo`` here, the others in
-:mod:`~pcmm_geo.cli.machine_commands` and :mod:`~pcmm_geo.cli.measurement_commands`) and exposes
+Each sub-command lives in its own module (``demo`` here, the others in one folder per task group of
+``pcmm --help``: :mod:`~pcmm_geo.cli.measure`, :mod:`~pcmm_geo.cli.cmm_files`,
+:mod:`~pcmm_geo.cli.standards`, :mod:`~pcmm_geo.cli.machine`, :mod:`~pcmm_geo.cli.acquisition`) and exposes
 ``register(subparsers)``; modules must import numpy and heavier libraries inside
 their handlers so that ``pcmm --help`` stays fast.  A handler returns a
 :class:`pcmm_geo.cli._output.Report`; ``main`` prints it as aligned text or, with
