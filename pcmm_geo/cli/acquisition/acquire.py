@@ -139,7 +139,7 @@ def _handle(args: argparse.Namespace) -> Report:
     from pcmm_geo.acquisition.session import SessionConfig
 
     _check_args(args)
-    from pcmm_geo.acquisition._loglock import check_unlocked
+    from pcmm_geo.acquisition.loglock import check_unlocked
 
     if not args.plan_only:
         check_unlocked(args.out)  # a log another session holds is refused at once, before any device is touched
