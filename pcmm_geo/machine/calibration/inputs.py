@@ -160,8 +160,14 @@ class QifBalls:
         The file.
     roles : dict
         QIF feature name -> ``(feature, position)`` used.
-    refitted, reported, ignored, notes : tuple of str
-        As :class:`~pcmm_geo.machine.calibration.qif_probings.QifProbings`.
+    refitted : tuple of str
+        Names whose centre was refitted from measured points.
+    reported : tuple of str
+        Names whose centre is the one the CMM reported (no points in the file).
+    ignored : tuple of str
+        Sphere features of the file that play no role.
+    notes : tuple of str
+        Compensation and frame remarks.
     """
 
     spheres: Mapping[Role, FittedSphere]

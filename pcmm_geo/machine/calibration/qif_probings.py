@@ -34,61 +34,48 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable, Mapping
-from dataclasses import dataclass
+from dataclasses import dataclass, fields
 from pathlib import Path
 
 import numpy as np
 
 from pcmm_geo.machine.calibration.geometry import FittedSphere
-from pcmm_geo.machine.calibration.inputs import Role, read_feature_map, read_qif_balls, role_of
+from pcmm_geo.machine.calibration.inputs import QifBalls, Role, read_feature_map, read_qif_balls, role_of
 from pcmm_geo.machine.calibration.probings import ProbedFeatures, _assemble
 
 __all__ = ["QifProbings", "read_feature_map", "read_qif_probings", "role_of", "write_qif_probings"]
 
 
-@dataclass(frozen=True)
-class QifProbings:
-    """Probed calibration balls read from a QIF file.
+@dataclass(frozen=True, eq=False, kw_only=True)
+class QifProbings(QifBalls):
+    """Probed calibration balls read from a QIF file: what was read of each ball, and the balls assembled.
+
+    The attributes of :class:`~pcmm_geo.machine.calibration.inputs.QifBalls` (``roles``,
+    ``refitted``, ``reported``, ``ignored``, ``notes``, the balls by role) and:
 
     Attributes
     ----------
     features : ProbedFeatures
         For :func:`~pcmm_geo.machine.calibration.calibrate_tetrahedron`.
-    roles : dict
-        QIF feature name -> ``(feature, position)`` used.
-    refitted : tuple of str
-        Names whose centre was refitted from measured points.
-    reported : tuple of str
-        Names whose centre is the one the CMM reported (no points in the file).
-    ignored : tuple of str
-        Sphere features of the file that play no role.
-    notes : tuple of str
-        Compensation and frame remarks.
     """
 
     features: ProbedFeatures
-    roles: Mapping[str, Role]
-    refitted: tuple[str, ...]
-    reported: tuple[str, ...]
-    ignored: tuple[str, ...]
-    notes: tuple[str, ...] = ()
 
 
 def read_qif_probings(path: str | Path, *, feature_map: Mapping[str, Role] | str | Path | None = None,
                       max_bytes: int | None = None, spell_setting: Callable[..., str] | None = None) -> QifProbings:
     """Read the calibration probings (joint balls per slider position, tip ball) from a QIF results file.
 
+    The balls are read by :func:`~pcmm_geo.machine.calibration.inputs.read_qif_balls` (the route
+    of :meth:`ProbedFeatures.from_qif <pcmm_geo.machine.calibration.probings.ProbedFeatures.from_qif>`
+    too) and assembled into probed features.
+
     Parameters
     ----------
-    path : str or Path
-        QIF 3.0 results file with one sphere feature measurement per ball and position.
-    feature_map : mapping or path, optional
-        QIF feature name -> role (see the module docstring), or a JSON file of it; default:
-        the default naming.
-    max_bytes : int, optional
-        Largest QIF file read (default :data:`~pcmm_geo.io.cmm.DEFAULT_MAX_BYTES`).
-    spell_setting : callable, optional
-        How a size refusal names ``max_bytes`` (:func:`~pcmm_geo.io.cmm.read_qif`).
+    path, feature_map, max_bytes, spell_setting
+        As :func:`~pcmm_geo.machine.calibration.inputs.read_qif_balls`: the QIF 3.0 results file,
+        QIF feature name -> role (or a JSON file of it), the largest file read, how a size
+        refusal names ``max_bytes``.
 
     Returns
     -------
@@ -103,7 +90,8 @@ def read_qif_probings(path: str | Path, *, feature_map: Mapping[str, Role] | str
     """
     balls = read_qif_balls(path, feature_map=feature_map, max_bytes=max_bytes, spell_setting=spell_setting)
     features = _assemble(balls.spheres, balls.points, balls.source)
-    return QifProbings(features, balls.roles, balls.refitted, balls.reported, balls.ignored, balls.notes)
+    return QifProbings(**{field.name: getattr(balls, field.name) for field in fields(balls)},
+                       features=features)
 
 
 def write_qif_probings(features: ProbedFeatures, path: str | Path, *, overwrite: bool = False,
