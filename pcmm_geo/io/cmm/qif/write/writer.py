@@ -52,14 +52,20 @@ from pcmm_geo._atomic import write_atomic
 from pcmm_geo.errors import InvalidInputError
 from pcmm_geo.io.cmm.document import CmmDocument
 from pcmm_geo.io.cmm.model import Characteristic, MeasurementResults
-from pcmm_geo.io.cmm.qif._features_out import (
+from pcmm_geo.io.cmm.qif.write._features_out import (
     check_feature_links,
     write_features,
     write_measured_features,
     write_point_sets,
 )
-from pcmm_geo.io.cmm.qif._xml_out import CHARACTERISTIC_STATUSES, INSPECTION_STATUSES, QifText, camel, decimal_text
-from pcmm_geo.io.cmm.qif.gdt_out import (
+from pcmm_geo.io.cmm.qif.write._xml_out import (
+    CHARACTERISTIC_STATUSES,
+    INSPECTION_STATUSES,
+    QifText,
+    camel,
+    decimal_text,
+)
+from pcmm_geo.io.cmm.qif.write.gdt_out import (
     DIMENSION_CHARACTERISTICS,
     GDT_CHARACTERISTICS,
     GdtRecords,
