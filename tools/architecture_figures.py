@@ -84,6 +84,7 @@ def figures(root: Path) -> dict[str, Any]:
         "largest_folders": sorted(folders.items(), key=lambda item: -item[1])[:6],
         "longest_modules_by_code": sorted(([m, *s] for m, s in sizes.items()), key=lambda row: -row[1])[:5],
         "modules_over_500_lines": sorted(m for m, (_, total) in sizes.items() if total > 500),
+        "modules_over_code_limit": sorted(m for m, (code, _) in sizes.items() if code > arch.SOFT_MAX_CODE_LINES),
     }
 
 
