@@ -1,4 +1,4 @@
-"""QIF 3.0 (ISO 23952) results documents: the guarded streaming reader, validation; the writer in :mod:`~pcmm_geo.io.cmm.qif.write`.
+"""QIF 3.0 (ISO 23952) results documents: the guarded streaming reader and validation; writing in ``write``.
 
 :mod:`~pcmm_geo.io.cmm.qif.reader` (:func:`read_qif`), :mod:`~pcmm_geo.io.cmm.qif.write.build`
 (:class:`FeatureReport`, :func:`results_document`), :mod:`~pcmm_geo.io.cmm.qif.write.writer`
