@@ -127,7 +127,7 @@ def read_fit_input(args: argparse.Namespace, element: str) -> FitInput:
         if not getattr(args, "qif", None):
             raise InvalidInputError("--feature-name", "--qif OUT.qif as well (the name is written into the QIF)",
                                     "no --qif")
-        from pcmm_geo.io.cmm.qif.build import check_feature_name
+        from pcmm_geo.io.cmm.qif.write.build import check_feature_name
 
         check_feature_name(args.feature_name, "--feature-name")
     limit = max_bytes(args)

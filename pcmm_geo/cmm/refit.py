@@ -326,7 +326,7 @@ def _circle(points: FloatArray, normals: FloatArray | None, radius: float, radiu
 
 def _plane_frame(normal: FloatArray) -> FloatArray:
     """Rows ``(e1, e2, normal)``: an orthonormal frame whose third axis is ``normal``."""
-    from pcmm_geo.fit._kernels._core import rotation_to_z
+    from pcmm_geo.fit import rotation_to_z
 
     return rotation_to_z(normal)
 

@@ -149,7 +149,7 @@ def test_not_proven_is_written_as_indeterminate(written, tmp_path):
 
 def test_an_existing_file_is_refused_and_a_geometric_characteristic_without_definition_too(written, tmp_path):
     from pcmm_geo.io.cmm import read_qif, write_qif
-    from pcmm_geo.io.cmm.qif.gdt_out import GdtRecords
+    from pcmm_geo.io.cmm.qif.write.gdt_out import GdtRecords
 
     result, _, path = written
     before = path.read_bytes()

@@ -237,7 +237,7 @@ def inspection_to_qif(result: InspectionResult, path: str | Path, *, overwrite: 
     from pcmm_geo.io.cmm.qif.characteristic_definitions import CharacteristicDefinition, CharacteristicNominal
     from pcmm_geo.io.cmm.qif.datums import DatumDefinition, DrfDatum
     from pcmm_geo.io.cmm.qif.datums import DatumReferenceFrame as QifFrame
-    from pcmm_geo.io.cmm.qif.gdt_out import GdtRecords
+    from pcmm_geo.io.cmm.qif.write.gdt_out import GdtRecords
 
     plan = result.plan
     # the file's coordinates: the part frame; without one, the frame of the most datums the plan uses

@@ -29,7 +29,7 @@ from pcmm_geo.io.cmm.model import (
     MeasuredFeature,
     MeasuredPointSet,
 )
-from pcmm_geo.io.cmm.qif._xml_out import ALGORITHMS, QifText, camel
+from pcmm_geo.io.cmm.qif.write._xml_out import ALGORITHMS, QifText, camel
 
 __all__ = ["check_feature_links", "write_features", "write_measured_features", "write_point_sets"]
 

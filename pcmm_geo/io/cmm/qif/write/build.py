@@ -46,7 +46,7 @@ from pcmm_geo.io.cmm.model import (
     PointSetReference,
     Units,
 )
-from pcmm_geo.io.cmm.qif._xml_out import check_xml_text
+from pcmm_geo.io.cmm.qif.write._xml_out import check_xml_text
 
 __all__ = ["INTERNAL_EXTERNAL", "NOMINAL_NEEDS", "FeatureReport", "check_feature_name", "results_document"]
 

@@ -23,7 +23,7 @@ from pcmm_geo.cli._output import (
     add_report_flag,
     refuse_renamed_options,
 )
-from pcmm_geo.cli.measurement_commands.fit import add_axis_region_options
+from pcmm_geo.cli.measure.fit import add_axis_region_options
 
 ELEMENTS = ("line", "plane", "circle", "sphere", "cylinder", "cone")
 
@@ -58,7 +58,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
 def handle(args: argparse.Namespace) -> Report:
     import dataclasses
 
-    from pcmm_geo.cli.measurement_commands.fit import axis_search_options
+    from pcmm_geo.cli.measure.fit import axis_search_options
     from pcmm_geo.fit.zone.form import evaluate_form
 
     source = read_fit_input(args, args.element)
