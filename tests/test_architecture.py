@@ -397,11 +397,7 @@ def test_fit_kernels_and_zone_solvers_sit_below_the_element_modules() -> None:
 #: ceiling of :func:`private_cross_imports` (issue 33: 31 in its review, 11 by layer the round after, 0 now)
 MAX_PRIVATE_CROSS_IMPORTS = 0
 #: statements not counted yet, each with its reason; the set can only shrink
-PENDING_PRIVATE_IMPORTS: dict[str, str] = {
-    # the lead is editing cad_distance.py (speed) in the same round; the line becomes ``from pcmm_geo.fit import
-    # as_points`` when the two are merged, and this entry goes
-    "pcmm_geo.artefacts.cad_distance": "from pcmm_geo.fit._kernels._core import as_points -> from pcmm_geo.fit",
-}
+PENDING_PRIVATE_IMPORTS: dict[str, str] = {}
 
 
 def _owner(target: list[str], modules: dict[str, Path]) -> str | None:

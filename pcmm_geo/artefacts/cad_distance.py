@@ -77,7 +77,7 @@ from pcmm_geo.artefacts._triangle import (
     within_reach,
 )
 from pcmm_geo.errors import InvalidInputError
-from pcmm_geo.fit._kernels._core import as_points
+from pcmm_geo.fit import as_points
 from pcmm_geo.fit.scale import is_dask_array
 
 if TYPE_CHECKING:
