@@ -108,13 +108,17 @@ class ProbeResult:
     retract_position: FloatArray = field(repr=False, default_factory=lambda: np.zeros(3))
 
     def to_dict(self) -> dict[str, Any]:
-        return {
+        """JSON-ready fields; ``true_tip_mm`` only where the truth is known (the simulated machine)."""
+        out = {
             "point_mm": self.point.tolist(), "tip_mm": self.tip.tolist(), "ijk": self.direction.tolist(),
             "lasers_mm": self.lasers.tolist(), "heights_mm": self.heights.tolist(),
             "effective_radius_mm": self.effective_radius, "tip_uncertainty_mm": self.tip_uncertainty,
             "laser_only_tip_uncertainty_mm": self.laser_only_tip_uncertainty,
-            "poorly_resolved": self.poorly_resolved, "true_tip_mm": self.true_tip.tolist(),
+            "poorly_resolved": self.poorly_resolved,
         }
+        if np.all(np.isfinite(self.true_tip)):
+            out["true_tip_mm"] = self.true_tip.tolist()
+        return out
 
 
 class MachineBackend(abc.ABC):
