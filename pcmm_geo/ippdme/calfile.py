@@ -1,4 +1,4 @@
-"""The server's calibrated machine: the demo's, or one read from a ``pcmm calibrate --out`` file.
+"""The server's calibrated machine read from a ``pcmm calibrate --out`` file (``pcmm serve --calibration``).
 
 A calibration file (:mod:`pcmm_geo.machine.calibration.calfile`) gives the calibrated
 tetrahedron and tip radius; its ``machine`` entry (written with column lines) gives the whole
@@ -20,7 +20,7 @@ from numpy.typing import NDArray
 
 from pcmm_geo.ippdme.machine import MachineModel
 
-__all__ = ["ServedCalibration", "demo_model", "model_from_calibration"]
+__all__ = ["ServedCalibration", "model_from_calibration"]
 
 
 @dataclass(frozen=True)
@@ -42,17 +42,6 @@ class ServedCalibration:
     center: NDArray[np.float64]
     source: str
     has_covariance: bool
-
-
-def demo_model(*, laser_sigma: float = 0.0005, encoder_sigma: float = 0.0002) -> ServedCalibration:
-    """The demo's calibrated machine and calibration covariance (:func:`pcmm_geo.demo.demo_calibrated_machine`)."""
-    from pcmm_geo.demo import demo_calibrated_machine
-
-    machine, radius, covariance, center = demo_calibrated_machine()
-    model = MachineModel(machine, radius, covariance.model_covariance()[1], laser_sigma=laser_sigma,
-                         encoder_sigma=encoder_sigma)
-    return ServedCalibration(model, np.asarray(center, dtype=float),
-                             "the demo's calibrated model and calibration covariance", True)
 
 
 def model_from_calibration(path: str | os.PathLike[str], *, laser_sigma: float = 0.0005,

@@ -56,7 +56,7 @@ from typing import Any, TypeVar
 import numpy as np
 from numpy.typing import NDArray
 
-from pcmm_geo.errors import DeviceError, DeviceTimeoutError, InvalidInputError, PcmmGeoError
+from pcmm_geo.errors import DeviceError, DeviceProtocolError, DeviceTimeoutError, InvalidInputError, PcmmGeoError
 from pcmm_geo.ippdme.machine import (
     HOME_RAISE_MM,
     MachineBackend,
@@ -73,6 +73,15 @@ FloatArray = NDArray[np.float64]
 T = TypeVar("T")
 #: the seed's start count (Appendix A step 20): the columns at the model's reference heights
 REFERENCE_POSITION_USTEPS = 247_500
+
+
+def _transient(error: DeviceError) -> bool:
+    """Whether repeating a device call may succeed: a timeout, a garbled reply, a busy stage (Zaber 255), a laser's
+    momentary error value (ILD1302 16370-16383, ILD1420 262075-262082); not a failed port or a refused command."""
+    if isinstance(error, (DeviceTimeoutError, DeviceProtocolError)):
+        return True
+    code = getattr(error, "code", None)
+    return code is not None and (code == 255 or 16370 <= code <= 16383 or 262075 <= code <= 262082)
 
 
 class _Stopped(Exception):
@@ -190,13 +199,11 @@ class DriverMachine(MachineBackend):
     # ------------------------------------------------------------------ device calls
     def _call(self, function: Callable[..., T], *args: Any) -> T:
         """``function(*args)``, retried on transient faults with a doubling wait (10 ms .. 0.32 s)."""
-        from pcmm_geo.acquisition.drivers._port import is_transient
-
         for attempt in range(self.settings.max_retries + 1):
             try:
                 return function(*args)
             except DeviceError as exc:
-                if not is_transient(exc) or attempt == self.settings.max_retries:
+                if not _transient(exc) or attempt == self.settings.max_retries:
                     raise
                 self._sleep(min(0.01 * 2 ** attempt, 0.32))
         raise AssertionError("unreachable")  # pragma: no cover

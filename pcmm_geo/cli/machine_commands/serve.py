@@ -179,7 +179,7 @@ def _handle(args: argparse.Namespace) -> Report:
 
     import numpy as np
 
-    from pcmm_geo.ippdme.calfile import demo_model, model_from_calibration
+    from pcmm_geo.ippdme.calfile import ServedCalibration, model_from_calibration
     from pcmm_geo.ippdme.machine import SimulatedMachine
     from pcmm_geo.ippdme.server import DmeServer
     from pcmm_geo.ippdme.session import ServerState
@@ -188,7 +188,14 @@ def _handle(args: argparse.Namespace) -> Report:
     if args.calibration:
         served = model_from_calibration(args.calibration, laser_sigma=args.laser_u, encoder_sigma=args.encoder_u)
     else:
-        served = demo_model(laser_sigma=args.laser_u, encoder_sigma=args.encoder_u)
+        from pcmm_geo.demo import demo_calibrated_machine
+        from pcmm_geo.ippdme.machine import MachineModel
+
+        machine, radius, covariance, center = demo_calibrated_machine()
+        model = MachineModel(machine, radius, covariance.model_covariance()[1], laser_sigma=args.laser_u,
+                             encoder_sigma=args.encoder_u)
+        served = ServedCalibration(model, np.asarray(center, dtype=float),
+                                   "the demo's calibrated model and calibration covariance", True)
     stack = contextlib.ExitStack()
     lines = []
     if args.simulate:
