@@ -143,6 +143,7 @@ def test_client_server_drivers_pty_sphere(model: Any, center: np.ndarray, tmp_pa
     # each point's error against the sphere within 4 standard deviations of the calibration and the readings
     # (the simulated stages stop at the contact microstep: no trigger lag to add)
     bound = 4.0 * np.hypot(spread, u_tip)
+    print("sphere errors um", np.round(errors * 1e3, 3), "bounds um", np.round(bound * 1e3, 3))
     assert np.all(np.abs(errors) <= bound), (errors, bound)
     assert np.all(spread > 0) and np.all(u_tip > 0)
     back = measured_points(records)
