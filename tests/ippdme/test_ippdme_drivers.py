@@ -14,6 +14,7 @@ import json
 import subprocess
 import sys
 import threading
+import time
 from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
@@ -63,8 +64,6 @@ def driver_server(model: Any, *, transport: str, transcript: Any = None) -> Iter
 
 def _reconnect(port: int) -> IppClient:
     """A new client with a session, once the server has seen the previous one go (one client at a time)."""
-    import time
-
     for _ in range(50):
         client = IppClient(port)
         try:
@@ -298,8 +297,6 @@ def test_abort_stops_a_driver_move_between_steps(model: Any) -> None:
         target = machine.home_position - [0.0, 0.0, 60.0]
         client.raw(f"00100 GoTo(X({num(target[0])}), Y({num(target[1])}), Z({num(target[2])}))\r\n".encode())
         assert client.readline() == "00100 &"
-        import time
-
         time.sleep(0.2)
         abort = client.send("AbortE()", event=True)
         assert abort.complete
@@ -311,8 +308,22 @@ def test_abort_stops_a_driver_move_between_steps(model: Any) -> None:
         np.testing.assert_allclose(rig.cmm.tip, stopped, atol=0.01)  # where the stages are (to calibration)
         assert client.send("ClearAllErrors()").errors == []
         assert client.send("IsHomed()").data == ["IsHomed(1)"]
-        client.send("EndSession()")
+        # a client that vanishes mid-move: the move stops after its step, the next client finds the state consistent
+        client.raw(f"00200 GoTo(X({num(target[0])}), Y({num(target[1])}), Z({num(target[2])}))\r\n".encode())
+        time.sleep(0.2)
         client.close()
+        again = _reconnect(server.port)
+        assert again.send("IsHomed()").data == ["IsHomed(1)"]
+        got = again.send("Get(X(), Y(), Z())").values()  # waits for the device lock: the stopped move's step is done
+        np.testing.assert_allclose(rig.cmm.tip, machine.position, atol=0.01)
+        np.testing.assert_allclose([got["X"][0], got["Y"][0], got["Z"][0]], rig.cmm.tip, atol=0.01)
+        assert np.linalg.norm(machine.position - target) > 1.0  # it did not finish the move
+        home = machine.home_position
+        assert again.send(f"GoTo(X({num(home[0])}), Y({num(home[1])}), Z({num(home[2])}))").errors == []
+        assert [rig.zaber.positions[d] for d in (1, 2, 3)] == machine.counts_of(
+            model.machine.reference_heights + 40.0).tolist()
+        again.send("EndSession()")
+        again.close()
 
 
 def test_pcmm_serve_on_ports(tmp_path: Path) -> None:
