@@ -295,6 +295,9 @@ def test_abort_stops_a_driver_move_between_steps(model: Any) -> None:
 
         rig.zaber.mover = held
         target = machine.home_position - [0.0, 0.0, 60.0]
+        daemon = client.send("OnMoveReportE(Time(0.1), X(), Y(), Z())", event=True)
+        assert daemon.errors == []
+        report_tag = daemon.lines[0].split()[0]
         client.raw(f"00100 GoTo(X({num(target[0])}), Y({num(target[1])}), Z({num(target[2])}))\r\n".encode())
         assert client.readline() == "00100 &"
         time.sleep(0.2)
@@ -304,6 +307,10 @@ def test_abort_stops_a_driver_move_between_steps(model: Any) -> None:
         assert goto == ['00100 ! Error(2, 0006, "GoTo", "Transaction aborted (Use ClearAllErrors to Continue)")',
                         "00100 %"]
         stopped = machine.position.copy()
+        reports = [line for line in client.other if line.startswith(report_tag + " # ")]
+        assert reports, client.other  # the daemon reported the stepped move's position while it ran
+        z = [float(line.split("Z(")[1].rstrip(")")) for line in reports]
+        assert all(target[2] - 1e-6 <= value <= machine.home_position[2] + 1e-6 for value in z)
         assert 1.0 < np.linalg.norm(stopped - machine.home_position) < 59.0  # stopped on the way
         np.testing.assert_allclose(rig.cmm.tip, stopped, atol=0.01)  # where the stages are (to calibration)
         assert client.send("ClearAllErrors()").errors == []
