@@ -87,22 +87,6 @@ def test_torn_and_foreign_transcripts_are_refused(tmp_path) -> None:
         Transcript(path, {})
 
 
-@pytest.fixture(scope="module")
-def calibration_file(tmp_path_factory) -> object:
-    """A calibration file as ``pcmm calibrate --out`` writes it, with its covariance (demo probings, seed 7)."""
-    import numpy as np
-
-    from pcmm_geo.demo import CALIBRATION_LASERS, DemoSettings, simulate_probings, true_machine
-    from pcmm_geo.machine.calibration import calibrate_tetrahedron, save_calibration
-    from pcmm_geo.uncertainty.calibration import calibration_covariance
-
-    settings = DemoSettings(seed=7)
-    probings = simulate_probings(true_machine(settings), settings, np.random.default_rng(7))
-    cal = calibrate_tetrahedron(probings, CALIBRATION_LASERS)
-    covariance = calibration_covariance(probings, CALIBRATION_LASERS, probing_sigma=0.0005, laser_sigma=0.0005)
-    return save_calibration(cal, tmp_path_factory.mktemp("cal") / "cal.json", covariance=covariance)
-
-
 def test_calibration_file_is_the_served_machine(calibration_file, tmp_path) -> None:
     import numpy as np
 

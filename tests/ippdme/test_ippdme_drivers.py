@@ -333,8 +333,9 @@ def test_abort_stops_a_driver_move_between_steps(model: Any) -> None:
         again.close()
 
 
-def test_pcmm_serve_on_ports(tmp_path: Path) -> None:
-    """``pcmm serve --port-zaber ...`` (pcmm acquire's option names) serves the devices of a pty rig."""
+def test_pcmm_serve_on_ports(tmp_path: Path, calibration_file: Path) -> None:
+    """``pcmm serve --port-zaber ...`` (pcmm acquire's option names) serves the devices of a pty rig, on the
+    machine of a calibration file."""
     from pcmm_geo.acquisition.simulators.cmm import SimulatedMicroCMM, SimulatedRig
     from pcmm_geo.demo import DemoSettings, true_machine
 
@@ -343,7 +344,7 @@ def test_pcmm_serve_on_ports(tmp_path: Path) -> None:
                 "--transcript", str(tmp_path / "t.jsonl"), "--timeout", "0.2", "--move-step-mm", "5",
                 "--port-zaber", rig.ports["zaber"], "--port-laser-a", rig.ports["laser_a"],
                 "--port-laser-b", rig.ports["laser_b"], "--port-laser-c", rig.ports["laser_c"],
-                "--port-probe", rig.ports["probe"]]
+                "--port-probe", rig.ports["probe"], "--calibration", str(calibration_file)]
         process = subprocess.Popen(args, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
         try:
             line = process.stderr.readline()
@@ -361,3 +362,4 @@ def test_pcmm_serve_on_ports(tmp_path: Path) -> None:
     header = json.loads((tmp_path / "t.jsonl").read_text().splitlines()[0])
     assert header["settings"]["backend"]["backend"] == "drivers"
     assert header["settings"]["ports"]["zaber"] == rig.ports["zaber"]
+    assert header["settings"]["calibration"].startswith(str(calibration_file))
