@@ -275,6 +275,8 @@ class DriverMachine(MachineBackend):
                 if target == int(self.counts[motor]):
                     continue
                 final = self._call(self.devices.motors.move_absolute, motor + 1, target)
+                if final != target:  # a stop short of the target, or a garbled reply: ask until two answers agree
+                    final = self.devices.confirmed_position(motor + 1)
                 self.counts[motor] = final
                 if final != target:
                     stalled = True
