@@ -34,7 +34,8 @@ def register(subparsers: Any) -> None:
         ),
     )
     parser.add_argument("--simulate", action="store_true",
-                        help="serve the simulated micro-CMM (else give the five device ports)")
+                        help="serve the simulated micro-CMM (else give the five device ports; --seed, --time-scale, "
+                             "--workpiece and its shape options apply to the simulation only)")
     parser.add_argument("--port-zaber", help="port of the Zaber chain (the real machine; thesis COM11)")
     for arm in "abc":
         parser.add_argument(f"--port-laser-{arm}", help=f"port of laser {arm}")
