@@ -52,6 +52,7 @@ EXTRAS_NEEDED = {
     "io/test_meshes.py": "cad",
     "gdt/test_gdt_profile_mesh.py": "cad",
     "ippdme/test_ippdme_workpieces.py::test_mesh_workpiece_matches_the_box": "cad",
+    "ippdme/test_ippdme_drivers.py": "acquire",
     "io/test_lazy_points.py": "dask",
     "cli/test_signals.py::test_an_interrupted_acquisition_keeps_its_rows_and_resumes": "acquire",
     "cli/test_signals.py::test_acquire_overwrite_interrupted_puts_the_old_log_back_beside_the_new_one": "acquire",
