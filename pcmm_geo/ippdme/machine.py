@@ -188,7 +188,7 @@ def tip_uncertainties(model: MachineModel, lasers: FloatArray, heights: FloatArr
     with np.errstate(divide="ignore"):
         alone = model.laser_sigma * np.sqrt(np.sum(1.0 / singular ** 2, axis=-1))
     ok = np.isfinite(alone)
-    return np.sqrt(total), np.where(ok, np.sqrt(alone), np.inf)
+    return np.sqrt(total), np.where(ok, alone, np.inf)
 
 
 def reported_tip(model: MachineModel, lasers: FloatArray, heights: FloatArray) -> FloatArray:
