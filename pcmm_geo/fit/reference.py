@@ -45,6 +45,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from pcmm_geo.elements import ELEMENTS as FIT_ELEMENTS
 from pcmm_geo.errors import ConvergenceError, DegenerateGeometryError, InvalidInputError, TooFewPointsError
 from pcmm_geo.fit._reference.elements import (
     ELEMENTS,
@@ -232,8 +233,7 @@ def data_kind(element: str, dims: int | None = None, method: str = "gaussian") -
         if dims is not None and dims != (2 if element.endswith("2d") else 3):
             raise InvalidInputError("dims", f"{2 if element.endswith('2d') else 3} for {element}", repr(dims))
     else:
-        names = ("line", "plane", "circle", "sphere", "cylinder", "cone", "torus")
-        raise InvalidInputError("element", f"one of {', '.join(names)} (or a kind: {', '.join(ELEMENTS)})",
+        raise InvalidInputError("element", f"one of {', '.join(FIT_ELEMENTS)} (or a kind: {', '.join(ELEMENTS)})",
                                 repr(element))
     if method == "projected":
         if kind != "circle3d":
