@@ -160,6 +160,21 @@ class ElementSpec:
         """Its orientation is an axis of revolution (cylinder, cone, torus)."""
         return self.axis_field == "axis"
 
+    @property
+    def placement_fields(self) -> tuple[str, ...]:
+        """The QIF placement of a feature of this type: ``location`` and its ``normal`` or ``direction``."""
+        return ("location",) if self.orientation is None else ("location", self.orientation)
+
+    @property
+    def nominal_fields(self) -> tuple[str, ...]:
+        """What a QIF nominal of this type must give: its placement, a diameter if sized, its angles.
+
+        >>> spec("cone").nominal_fields
+        ('location', 'direction', 'diameter', 'half_angle')
+        """
+        sized = ("diameter",) if self.size is not None else ()
+        return (*self.placement_fields, *sized, *(p.name for p in self.parameters if p.kind == "angle"))
+
 
 def _p(name: str, kind: ParameterKind) -> Parameter:
     return Parameter(name, kind)

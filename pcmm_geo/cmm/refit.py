@@ -28,6 +28,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from pcmm_geo.cmm.compensation import FILE_COMPENSATED, Compensation, plan_compensation, side_arguments
+from pcmm_geo.elements import FEATURE_TYPES, Criterion
 from pcmm_geo.errors import InvalidInputError, NotRefittedError
 from pcmm_geo.io.cmm import SpellSetting, python_setting
 
@@ -40,7 +41,7 @@ __all__ = ["CRITERIA_BY_ALGORITHM", "Compensation", "Refit", "refit_feature"]
 FloatArray = NDArray[np.float64]
 
 #: QIF SubstituteFeatureAlgorithmEnum -> fit criterion
-CRITERIA_BY_ALGORITHM = {
+CRITERIA_BY_ALGORITHM: dict[str, Criterion] = {
     "LEASTSQUARES": "gaussian",
     "MINMAX": "chebyshev",
     "MINCIRCUMSCRIBED": "mcc",
@@ -48,7 +49,7 @@ CRITERIA_BY_ALGORITHM = {
 }
 #: algorithms that name no particular criterion: the default (Gaussian) applies
 _DEFAULT_ALGORITHMS = ("DEFAULT", "UNDEFINED", "")
-REFITTED_TYPES = ("circle", "cylinder", "sphere", "plane", "line", "point", "cone")
+REFITTED_TYPES = FEATURE_TYPES  # every feature type of pcmm_geo.elements the QIF writer knows
 CIRCLE_PLANES = ("least-squares", "reported")
 
 
@@ -153,7 +154,7 @@ def refit_feature(
     document: CmmDocument,
     feature: MeasuredFeature,
     *,
-    criterion: str | None = None,
+    criterion: Criterion | None = None,
     circle_plane: str = "least-squares",
     compensated: bool | None = None,
     probe_radius: float | None = None,
