@@ -17,6 +17,7 @@ from contextlib import contextmanager
 from typing import Any
 
 from pcmm_geo.cli._output import declare_output, refuse_renamed_options
+from pcmm_geo.elements import Element
 
 #: library parameter -> the option that sets it (:func:`cli_setting`), where the two are not spelled alike
 READER_OPTIONS = {"units": "--units", "angle_unit": "--angle-unit", "size_values": "--size-values",
@@ -117,7 +118,7 @@ class FitInput:
     radius_source: str
 
 
-def read_fit_input(args: argparse.Namespace, element: str) -> FitInput:
+def read_fit_input(args: argparse.Namespace, element: Element) -> FitInput:
     """Read FILE for ``element`` (QIF feature, XYZIJK or point file) and decide the probe radius to apply."""
     from pcmm_geo.cmm.files import detect_format
     from pcmm_geo.cmm.points import load_feature_points, probe_radius_to_apply
@@ -150,7 +151,7 @@ def read_fit_input(args: argparse.Namespace, element: str) -> FitInput:
     return FitInput(data, data.points, radius, source)
 
 
-def write_qif_result(args: argparse.Namespace, fit: Any, element: str, source: Any, *, radius: float,
+def write_qif_result(args: argparse.Namespace, fit: Any, element: Element, source: Any, *, radius: float,
                      compensation: Any = None, evaluation: Any = None) -> tuple[str, list[str]]:
     """Write the fit (and form evaluation) as a QIF document to ``args.qif``.
 

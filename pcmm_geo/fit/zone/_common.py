@@ -95,7 +95,7 @@ def shared_fields(
     residuals: FloatArray,
     solution: ZoneSolution,
     *,
-    criterion: str,
+    criterion: Criterion,
     parameter_names: tuple[str, ...],
     parameters: FloatArray,
     form: float,

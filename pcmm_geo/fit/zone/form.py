@@ -115,7 +115,7 @@ class FormEvaluation:
         The elements the scope refers to (e.g. ``"all planes"``).
     """
 
-    element: str
+    element: Element
     characteristic: str
     deviation: float
     tolerance: float | None
