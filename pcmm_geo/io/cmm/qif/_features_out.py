@@ -37,10 +37,11 @@ __all__ = ["check_feature_links", "write_features", "write_measured_features", "
 _BLOCK = 4096  # points formatted at a time
 #: feature types whose definition holds InternalExternal and a diameter
 SIZED = SIZED_FEATURES
-_PLACEMENT = {kind: SPECS[kind].placement_fields for kind in FEATURE_TYPES}
+_PLACEMENT: dict[str, tuple[str, ...]] = {kind: SPECS[kind].placement_fields for kind in FEATURE_TYPES}
 #: measured sizes of a sized feature (a cylinder also states its length)
-_SIZES = {kind: ("diameter", *(("length",) if kind == "cylinder" else ()), "diameter_min", "diameter_max")
-          for kind in SIZED_FEATURES}
+_SIZES: dict[str, tuple[str, ...]] = {
+    kind: ("diameter", *(("length",) if kind == "cylinder" else ()), "diameter_min", "diameter_max")
+    for kind in SIZED_FEATURES}
 
 
 def check_type(kind: str, what: str) -> None:
