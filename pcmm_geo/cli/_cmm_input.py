@@ -17,7 +17,7 @@ from contextlib import contextmanager
 from typing import Any
 
 from pcmm_geo.cli._output import declare_output, refuse_renamed_options
-from pcmm_geo.elements import Element
+from pcmm_geo.elements import SPECS, Element
 
 #: library parameter -> the option that sets it (:func:`cli_setting`), where the two are not spelled alike
 READER_OPTIONS = {"units": "--units", "angle_unit": "--angle-unit", "size_values": "--size-values",
@@ -143,7 +143,7 @@ def read_fit_input(args: argparse.Namespace, element: Element) -> FitInput:
         raise InvalidInputError("--material-side", "a probe radius to apply (--probe-radius-mm or probe centres in the "
                                 "file)", "surface points")
     if getattr(args, "two_d", False):
-        if element not in ("line", "circle"):
+        if 2 not in SPECS[element].dims:  # the planar elements: line, circle
             raise InvalidInputError("--two-d", "element line or circle", element)
         data = dataclasses.replace(data, points=data.points[:, :2],
                                    normals=None if data.normals is None else data.normals[:, :2],

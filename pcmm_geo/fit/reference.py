@@ -46,6 +46,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from pcmm_geo.elements import ELEMENTS as FIT_ELEMENTS
+from pcmm_geo.elements import SPECS
 from pcmm_geo.errors import ConvergenceError, DegenerateGeometryError, InvalidInputError, TooFewPointsError
 from pcmm_geo.fit._reference.elements import (
     ELEMENTS,
@@ -226,7 +227,7 @@ def data_kind(element: str, dims: int | None = None, method: str = "gaussian") -
         raise InvalidInputError("dims", "2 or 3", repr(dims))
     if method not in ("gaussian", "projected"):
         raise InvalidInputError("method", "'gaussian' or 'projected'", repr(method))
-    if element in ("line", "circle"):
+    if element in FIT_ELEMENTS and 2 in SPECS[element].dims:  # line, circle: planar or spatial
         kind = _SHARED_NAMES[(element, dims or 3)]
     elif element in MIN_POINTS:
         kind = element
