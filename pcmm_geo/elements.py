@@ -33,8 +33,9 @@ Examples
 
 from __future__ import annotations
 
-from collections.abc import Iterable
+from collections.abc import Iterable, Mapping
 from dataclasses import dataclass
+from types import MappingProxyType
 from typing import Literal, cast, get_args
 
 from pcmm_geo.errors import InvalidInputError
@@ -182,28 +183,41 @@ def _p(name: str, kind: ParameterKind) -> Parameter:
 
 _ALL: tuple[Criterion, ...] = ("gaussian", "chebyshev", "mcc", "mic")
 _ZONE: tuple[Criterion, ...] = ("gaussian", "chebyshev")
+_POINT: ParameterKind = "position"
+_DIRECTION: ParameterKind = "direction"
+_LENGTH: ParameterKind = "length"
+_ANGLE: ParameterKind = "angle"
 
-#: every element, by name (the seven fitted elements in :data:`ELEMENTS` order, then the QIF point)
-SPECS: dict[str, ElementSpec] = {s.name: s for s in (
-    ElementSpec("line", "LineFit", (_p("point", "position"), _p("direction", "direction")), (2, 3), None,
-                "normal", "direction", "point", "direction", _ZONE, "straightness", True),
-    ElementSpec("plane", "PlaneFit", (_p("point", "position"), _p("normal", "direction")), (3,), None,
-                "normal", "normal", "point", "normal", _ZONE, "flatness", True),
-    ElementSpec("circle", "CircleFit", (_p("center", "position"), _p("radius", "length"), _p("normal", "direction")),
-                (2, 3), "radius", "radial", "normal", "center", "normal", _ALL, "roundness", True),
-    ElementSpec("sphere", "SphereFit", (_p("center", "position"), _p("radius", "length")), (3,), "radius",
-                "radial", None, "center", None, _ALL, "sphericity", True),
-    ElementSpec("cylinder", "CylinderFit", (_p("point", "position"), _p("axis", "direction"), _p("radius", "length")),
-                (3,), "radius", "radial", "axis", "point", "direction", _ALL, "cylindricity", True),
-    ElementSpec("cone", "ConeFit", (_p("apex", "position"), _p("axis", "direction"), _p("half_angle", "angle"),
-                                    _p("point", "position"), _p("radius_at_point", "length")),
-                (3,), "radius_at_point", "conical", "axis", "point", "direction", _ZONE, "conicity", True),
-    ElementSpec("torus", "TorusFit", (_p("center", "position"), _p("axis", "direction"),
-                                      _p("major_radius", "length"), _p("minor_radius", "length")),
-                (3,), None, "none", "axis", "center", "direction", ("gaussian",), None, False),
-    ElementSpec("point", None, (_p("location", "position"),), (3,), None, "points", None, None, None, (), None,
-                True),
-)}
+_ROWS = (
+    ElementSpec("line", "LineFit", (_p("point", _POINT), _p("direction", _DIRECTION)), dims=(2, 3),
+                size=None, offset="normal", axis_field="direction", location_field="point",
+                orientation="direction", criteria=_ZONE, form="straightness", qif=True),
+    ElementSpec("plane", "PlaneFit", (_p("point", _POINT), _p("normal", _DIRECTION)), dims=(3,),
+                size=None, offset="normal", axis_field="normal", location_field="point",
+                orientation="normal", criteria=_ZONE, form="flatness", qif=True),
+    ElementSpec("circle", "CircleFit", (_p("center", _POINT), _p("radius", _LENGTH), _p("normal", _DIRECTION)),
+                dims=(2, 3), size="radius", offset="radial", axis_field="normal", location_field="center",
+                orientation="normal", criteria=_ALL, form="roundness", qif=True),
+    ElementSpec("sphere", "SphereFit", (_p("center", _POINT), _p("radius", _LENGTH)), dims=(3,),
+                size="radius", offset="radial", axis_field=None, location_field="center",
+                orientation=None, criteria=_ALL, form="sphericity", qif=True),
+    ElementSpec("cylinder", "CylinderFit", (_p("point", _POINT), _p("axis", _DIRECTION), _p("radius", _LENGTH)),
+                dims=(3,), size="radius", offset="radial", axis_field="axis", location_field="point",
+                orientation="direction", criteria=_ALL, form="cylindricity", qif=True),
+    ElementSpec("cone", "ConeFit", (_p("apex", _POINT), _p("axis", _DIRECTION), _p("half_angle", _ANGLE),
+                                    _p("point", _POINT), _p("radius_at_point", _LENGTH)),
+                dims=(3,), size="radius_at_point", offset="conical", axis_field="axis", location_field="point",
+                orientation="direction", criteria=_ZONE, form="conicity", qif=True),
+    ElementSpec("torus", "TorusFit", (_p("center", _POINT), _p("axis", _DIRECTION), _p("major_radius", _LENGTH),
+                                      _p("minor_radius", _LENGTH)),
+                dims=(3,), size=None, offset="none", axis_field="axis", location_field="center",
+                orientation="direction", criteria=("gaussian",), form=None, qif=False),
+    ElementSpec("point", None, (_p("location", _POINT),), dims=(3,),
+                size=None, offset="points", axis_field=None, location_field=None,
+                orientation=None, criteria=(), form=None, qif=True),
+)
+#: every element, by name (the seven fitted elements in :data:`ELEMENTS` order, then the QIF point); read-only
+SPECS: Mapping[str, ElementSpec] = MappingProxyType({row.name: row for row in _ROWS})
 
 #: the fitted elements (``fit_<name>``), in the order the fits, the reference generator and ``pcmm fit`` list them
 ELEMENTS: tuple[Element, ...] = cast("tuple[Element, ...]", tuple(s.name for s in SPECS.values() if s.fitted))
