@@ -184,7 +184,7 @@ def write_qif_result(args: argparse.Namespace, fit: Any, element: Element, sourc
     return path, notes
 
 
-def _kept_lines(document: Any, kept: Any, element: str) -> list[str]:
+def _kept_lines(document: Any, kept: Any, element: Element) -> list[str]:
     """One line on what of the file's feature the QIF written keeps."""
     if kept.type != element:
         return [f"QIF: only the name is kept from the file's {kept.type} feature (fitted as a {element})"]

@@ -19,7 +19,7 @@ from typing import Any, TypeVar
 
 import numpy as np
 
-from pcmm_geo.elements import Criterion
+from pcmm_geo.elements import Criterion, Element
 from pcmm_geo.errors import DegenerateGeometryError
 from pcmm_geo.fit._kernels._core import FitResult
 from pcmm_geo.fit._kernels._linear import frozen, sign_convention
@@ -30,7 +30,7 @@ from pcmm_geo.fit.zone._solver import ZoneSolution
 ResultT = TypeVar("ResultT", bound=FitResult)
 
 
-def domain_of(criterion: Criterion, element: str, *, in_plane: bool = False) -> str:
+def domain_of(criterion: Criterion, element: Element, *, in_plane: bool = False) -> str:
     """The set of elements a round optimum is global over, in words."""
     shape = "circle" if element == "circle" else "sphere"
     where = " in the least-squares plane of the points" if in_plane else ""
@@ -39,7 +39,9 @@ def domain_of(criterion: Criterion, element: str, *, in_plane: bool = False) -> 
     return f"all {shape}s{where}"
 
 
-def solve_round(points: FloatArray, criterion: Criterion, *, element: str) -> tuple[FloatArray, ZoneSolution, Proof]:
+def solve_round(
+    points: FloatArray, criterion: Criterion, *, element: Element
+) -> tuple[FloatArray, ZoneSolution, Proof]:
     """Solve the minimax problem of a circle (2-D points) or sphere (3-D points), globally.
 
     Returns the centre (machine frame), the solver outcome (distances, levels, contacts) and
