@@ -35,6 +35,7 @@ PACKAGE_ROOT = Path(__file__).resolve().parents[1] / "pcmm_geo"
 LAYERS: dict[str, int] = {
     "pcmm_geo.errors": 0,  # the exception tree; imports nothing of the package
     "pcmm_geo": 1,  # the top-level __init__: version and the exception names
+    "pcmm_geo.elements": 1,  # the element / criterion spec every layer reads (imports errors only)
     "pcmm_geo.fit": 2,  # geometric fits, skew lines, reference data; no I/O, knows no machine
     "pcmm_geo.io": 2,  # point-cloud, mesh, NIST file formats (fit and io do not import each other)
     "pcmm_geo.thermal": 3,  # expansion, sensors, 20 degC correction (may use fit, io)

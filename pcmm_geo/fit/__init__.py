@@ -27,6 +27,7 @@ Examples
 from __future__ import annotations
 
 from pcmm_geo._lazy import attach
+from pcmm_geo.elements import ELEMENTS
 from pcmm_geo.fit._kernels._core import TOL, FitResult, Tolerances, as_points, rotation_to_z
 
 # public name -> submodule that defines it; loaded on first access (PEP 562) so that
@@ -71,9 +72,6 @@ _LAZY = {
     "AxisRegion": "zone.axial.region",
     "SearchBudget": "zone.axial.region",
 }
-
-#: the element names the fits (``fit_<name>``), the reference generator and ``pcmm fit`` share
-ELEMENTS = ("line", "plane", "circle", "sphere", "cylinder", "cone", "torus")
 
 __getattr__, __dir__, _LAZY_ALL = attach(__name__, _LAZY)
 

@@ -16,6 +16,7 @@ from pcmm_geo.cli._output import (
     add_report_flag,
     refuse_renamed_options,
 )
+from pcmm_geo.elements import CRITERIA
 
 
 def register(subparsers: Any) -> None:
@@ -54,7 +55,7 @@ def register(subparsers: Any) -> None:
     verify.add_argument("file", help="QIF results file")
     verify.add_argument("--tolerance-mm", type=float, metavar="MM", default=None,
                         help="largest difference that agrees, mm (default 0.0001); angles by MM / feature size")
-    verify.add_argument("--criterion", choices=("gaussian", "chebyshev", "mcc", "mic"),
+    verify.add_argument("--criterion", choices=CRITERIA,
                         help="refit with this criterion instead of the file's (least squares, minimum zone, "
                              "minimum circumscribed, maximum inscribed)")
     verify.add_argument("--circle-plane", choices=("least-squares", "reported"), default="least-squares",

@@ -24,8 +24,11 @@ from pcmm_geo.cli._output import (
     refuse_renamed_options,
 )
 from pcmm_geo.cli.measure.fit import add_axis_region_options
+from pcmm_geo.elements import ELEMENTS as FIT_ELEMENTS
+from pcmm_geo.elements import SPECS
 
-ELEMENTS = ("line", "plane", "circle", "sphere", "cylinder", "cone")
+#: the elements with a minimum-zone form characteristic (pcmm_geo.elements)
+ELEMENTS = tuple(name for name in FIT_ELEMENTS if SPECS[name].form is not None)
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:

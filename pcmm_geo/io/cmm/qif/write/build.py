@@ -31,6 +31,7 @@ from __future__ import annotations
 from collections.abc import Sequence
 from dataclasses import dataclass, replace
 
+from pcmm_geo.elements import SIZED_FEATURES, SPECS
 from pcmm_geo.errors import InvalidInputError
 from pcmm_geo.io.cmm.document import CmmDocument
 from pcmm_geo.io.cmm.model import (
@@ -53,16 +54,8 @@ __all__ = ["INTERNAL_EXTERNAL", "NOMINAL_NEEDS", "FeatureReport", "check_feature
 #: the values of QIF ``InternalExternal``
 INTERNAL_EXTERNAL = ("INTERNAL", "EXTERNAL", "NOT_APPLICABLE")
 #: what a nominal of each type must give (QIF 3.0 feature nominal and definition)
-NOMINAL_NEEDS = {
-    "circle": ("location", "normal", "diameter"),
-    "cylinder": ("location", "direction", "diameter"),
-    "sphere": ("location", "diameter"),
-    "plane": ("location", "normal"),
-    "line": ("location", "direction"),
-    "point": ("location",),
-    "cone": ("location", "direction", "diameter", "half_angle"),
-}
-_SIZED = ("circle", "cylinder", "sphere", "cone")
+NOMINAL_NEEDS: dict[str, tuple[str, ...]] = {kind: SPECS[kind].nominal_fields for kind in FEATURE_TYPES}
+_SIZED = SIZED_FEATURES
 
 
 @dataclass(frozen=True, eq=False)
