@@ -237,7 +237,7 @@ QIF_NOMINAL_NEEDS = {
 def test_the_qif_writer_and_the_cmm_refit_read_the_spec() -> None:
     from pcmm_geo.cmm import export, refit, verify
     from pcmm_geo.io.cmm import FEATURE_TYPES as IO_FEATURE_TYPES
-    from pcmm_geo.io.cmm.qif import _features_out, build
+    from pcmm_geo.io.cmm.qif.write import _features_out, build
 
     assert IO_FEATURE_TYPES == FEATURE_TYPES == ("circle", "cylinder", "sphere", "plane", "line", "point", "cone")
     assert build.NOMINAL_NEEDS == QIF_NOMINAL_NEEDS
