@@ -2,6 +2,8 @@
 
 Sub-packages (data flows down, nothing below imports from above; docs/architecture.md):
 
+- :mod:`pcmm_geo.elements` -- the one table of the geometric elements and fit criteria
+  (``Element``, ``Criterion``) that every other layer reads.
 - :mod:`pcmm_geo.fit` -- Gaussian least-squares fits of geometric elements, skew lines,
   reference-data generator (pure numpy/scipy).
 - :mod:`pcmm_geo.thermal` -- expansion model, RTD / thermistor conversions, 20 degC correction.

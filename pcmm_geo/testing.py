@@ -241,5 +241,4 @@ def fit_nist_pair(pair: NistPair) -> Any:
         return fit.fit_line(pair.points)
     if pair.element in ("circle2d", "circle3d"):
         return fit.fit_circle(pair.points, method="projected")
-    names = {"plane": "fit_plane", "sphere": "fit_sphere", "cylinder": "fit_cylinder", "cone": "fit_cone"}
-    return getattr(fit, names[pair.element])(pair.points)
+    return getattr(fit, f"fit_{pair.element}")(pair.points)  # plane, sphere, cylinder, cone

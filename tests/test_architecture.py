@@ -21,6 +21,8 @@ from __future__ import annotations
 
 import ast
 import functools
+import io
+import tokenize
 import warnings
 from collections.abc import Collection
 from pathlib import Path
@@ -33,6 +35,7 @@ PACKAGE_ROOT = Path(__file__).resolve().parents[1] / "pcmm_geo"
 LAYERS: dict[str, int] = {
     "pcmm_geo.errors": 0,  # the exception tree; imports nothing of the package
     "pcmm_geo": 1,  # the top-level __init__: version and the exception names
+    "pcmm_geo.elements": 1,  # the element / criterion spec every layer reads (imports errors only)
     "pcmm_geo.fit": 2,  # geometric fits, skew lines, reference data; no I/O, knows no machine
     "pcmm_geo.io": 2,  # point-cloud, mesh, NIST file formats (fit and io do not import each other)
     "pcmm_geo.thermal": 3,  # expansion, sensors, 20 degC correction (may use fit, io)
@@ -61,7 +64,10 @@ SHIMS: frozenset[str] = frozenset({"pcmm_geo.machine._moved"})
 
 #: at most this many modules (.py files other than __init__) directly inside any folder of the package (BRIEF)
 MAX_MODULES = 12
-SOFT_MAX_LINES = 500
+#: soft limit on a module's code lines: lines holding code, not docstrings, comments or blank lines
+#: (docs/architecture.md "Size rules"); at the usual share of documentation this is the BRIEF's ~500 lines,
+#: without pushing code out of the module it belongs to when its docstrings grow (References, equations, examples)
+SOFT_MAX_CODE_LINES = 400
 
 
 def module_files(root: Path) -> dict[str, Path]:
@@ -311,15 +317,54 @@ def test_every_folder_holds_at_most_a_dozen_modules() -> None:
     assert crowded == {}, f"folders over {MAX_MODULES} modules: {crowded}"
 
 
+def code_lines(text: str) -> int:
+    """How many lines of a module's source hold code: not blank, not only a comment, not in a docstring.
+
+    A docstring is the first statement of the module, a class or a function when it is a string;
+    any other string (a table, a message) is code.  A statement spread over several lines counts
+    each of them.
+    """
+    docstrings: set[int] = set()
+    for node in ast.walk(ast.parse(text)):
+        if isinstance(node, ast.Module | ast.ClassDef | ast.FunctionDef | ast.AsyncFunctionDef) and node.body:
+            first = node.body[0]
+            if isinstance(first, ast.Expr) and isinstance(first.value, ast.Constant) and isinstance(first.value.value,
+                                                                                                    str):
+                docstrings.update(range(first.lineno, (first.end_lineno or first.lineno) + 1))
+    layout = {tokenize.COMMENT, tokenize.NL, tokenize.NEWLINE, tokenize.INDENT, tokenize.DEDENT, tokenize.ENDMARKER,
+              tokenize.ENCODING}
+    code: set[int] = set()
+    for token in tokenize.generate_tokens(io.StringIO(text).readline):
+        if token.type not in layout:
+            code.update(line for line in range(token.start[0], token.end[0] + 1) if line not in docstrings)
+    return len(code)
+
+
+def test_code_lines_counts_code_only() -> None:
+    text = ('"""Module docstring,\n\ntwo paragraphs."""\n\nimport math  # a comment\n\n# a comment line\n'
+            'TABLE = """a string that is data,\nnot a docstring"""\n\n\nclass A:\n    """Doc."""\n\n'
+            '    def f(self, x: float) -> float:\n        """Doc\n        on two lines."""\n'
+            '        return math.sqrt(\n            x)\n')
+    # code: import, TABLE (2 lines), class A, def f, return (2 lines)
+    assert code_lines(text) == 7
+    assert len(text.splitlines()) == 19
+
+
 def test_report_long_modules() -> None:
-    """Soft target (BRIEF): modules under ~500 lines; reported as a warning, not enforced."""
+    """Soft target (BRIEF ~500 lines): modules over :data:`SOFT_MAX_CODE_LINES` code lines; a warning, not enforced.
+
+    Code lines, not all lines: a module's documentation (numpydoc sections, References, equations,
+    examples) is for reading and must not push code out of the module it belongs to.  A module
+    over the limit is a place to look for two ideas to split by meaning (docs/architecture.md).
+    """
     long_modules = []
     for module, path in module_files(PACKAGE_ROOT).items():
-        lines = len(path.read_text(encoding="utf-8").splitlines())
-        if lines > SOFT_MAX_LINES:
-            long_modules.append(f"{module} ({lines} lines)")
+        text = path.read_text(encoding="utf-8")
+        code = code_lines(text)
+        if code > SOFT_MAX_CODE_LINES:
+            long_modules.append(f"{module} ({code} code lines of {len(text.splitlines())})")
     if long_modules:
-        warnings.warn(f"modules over {SOFT_MAX_LINES} lines: {long_modules}", UserWarning, stacklevel=1)
+        warnings.warn(f"modules over {SOFT_MAX_CODE_LINES} code lines: {long_modules}", UserWarning, stacklevel=1)
 
 
 FIT_ELEMENT_MODULES = frozenset(
@@ -350,8 +395,10 @@ def test_fit_kernels_and_zone_solvers_sit_below_the_element_modules() -> None:
     assert {"pcmm_geo.fit.zone._linear", "pcmm_geo.fit.zone._round", "pcmm_geo.fit.zone._axial"} <= set(graph)
 
 
-#: ceiling of :func:`private_cross_imports` (issue 33: 57 counted per sub-package before, 11 by layer now; 0 the goal)
-MAX_PRIVATE_CROSS_IMPORTS = 11
+#: ceiling of :func:`private_cross_imports` (issue 33: 31 in its review, 11 by layer the round after, 0 now)
+MAX_PRIVATE_CROSS_IMPORTS = 0
+#: statements not counted yet, each with its reason; the set can only shrink
+PENDING_PRIVATE_IMPORTS: dict[str, str] = {}
 
 
 def _owner(target: list[str], modules: dict[str, Path]) -> str | None:
@@ -402,4 +449,7 @@ def test_private_cross_package_imports_do_not_grow(tmp_path: Path) -> None:
     })
     assert sorted(private_cross_imports(root)) == ["pkg.cmm.refit:1", "pkg.cmm.refit:2", "pkg.fit.line:2"]
     found = private_cross_imports()
-    assert len(found) <= MAX_PRIVATE_CROSS_IMPORTS, found
+    counted = [entry for entry in found if entry.partition(":")[0] not in PENDING_PRIVATE_IMPORTS]
+    assert len(counted) <= MAX_PRIVATE_CROSS_IMPORTS, counted
+    stale = set(PENDING_PRIVATE_IMPORTS) - {entry.partition(":")[0] for entry in found}
+    assert stale == set(), f"no private import left in {stale}: drop them from PENDING_PRIVATE_IMPORTS"

@@ -10,6 +10,8 @@ What lives here:
   pre-sequence, moves with start/stop rows (thesis 3.5-3.6), retries of transient faults;
 - :mod:`~pcmm_geo.acquisition.acqlog` -- the durable (fsync'ed, checksummed) acquisition log and
   its export to the seed's Table 3.2 view;
+- :mod:`~pcmm_geo.acquisition.loglock` -- one session at a time on a log (``check_unlocked``:
+  ``pcmm acquire`` refuses a busy log before any device moves);
 - :mod:`~pcmm_geo.acquisition.programme` -- the library side of ``pcmm acquire``: the five
   devices opened as one session, the seeded move programme.
 

@@ -17,7 +17,7 @@ the rest keep the raw values (Zaber microsteps, laser counts), a sequence number
 time, so a run can be re-processed later.  Values are written as read, before any correction.
 
 One session at a time: an open log holds an exclusive ``flock``
-(:mod:`pcmm_geo.acquisition._loglock`); a second session on it is refused at once. Durability: every
+(:mod:`pcmm_geo.acquisition.loglock`); a second session on it is refused at once. Durability: every
 row is one ``write``, ``flush``, ``os.fsync``, with Ctrl-C, SIGTERM and SIGHUP held until it is on
 disk (:func:`pcmm_geo._signals.deferred`): an interrupted run keeps each row whole. A new file is
 created exclusively (never overwriting unless asked), its directory fsync'ed. Reopening
@@ -47,7 +47,7 @@ from typing import IO, Any
 
 from pcmm_geo._atomic import current_transaction, fsync_folder
 from pcmm_geo._signals import deferred
-from pcmm_geo.acquisition._loglock import check_unlocked, lock_handle
+from pcmm_geo.acquisition.loglock import check_unlocked, lock_handle
 from pcmm_geo.errors import InvalidInputError, LogIntegrityError, OutputExistsError
 
 __all__ = [
@@ -359,7 +359,7 @@ class AcquisitionLog:
             handle = open(path, "w" if overwrite else "x", encoding="utf-8", newline="")
         except FileExistsError as exc:
             raise OutputExistsError(str(path)) from exc
-        lock_handle(handle, path)  # held until close: one session per log (pcmm_geo.acquisition._loglock)
+        lock_handle(handle, path)  # held until close: one session per log (pcmm_geo.acquisition.loglock)
         log = cls(path, handle, LogRecovery(str(path), 0, False, 0, ""))
         log._write(header)
         if transaction is not None:  # measured rows are a record: a failing (or killed) command keeps them

@@ -32,7 +32,7 @@ from pcmm_geo._optional import require
 from pcmm_geo.artefacts.cad_distance import surface_distances
 from pcmm_geo.artefacts.cad_register import DEFAULT_SAMPLE_COUNT, Registration, as_mesh, register_to_mesh
 from pcmm_geo.errors import InvalidInputError
-from pcmm_geo.fit._kernels._core import as_points
+from pcmm_geo.fit import as_points
 
 if TYPE_CHECKING:
     trimesh = require("trimesh")

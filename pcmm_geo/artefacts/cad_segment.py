@@ -42,7 +42,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from pcmm_geo._optional import require
 from pcmm_geo.errors import InvalidInputError, PcmmGeoError
-from pcmm_geo.fit._kernels._core import as_points
+from pcmm_geo.fit import as_points
 
 if TYPE_CHECKING:
     from pcmm_geo.fit import CylinderFit, PlaneFit

@@ -50,7 +50,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from pcmm_geo._deprecation import renamed_fields
 from pcmm_geo.errors import DegenerateGeometryError, FileFormatError, InvalidInputError
-from pcmm_geo.fit._kernels._core import as_points
+from pcmm_geo.fit import as_points
 
 __all__ = [
     "FACE_LABELS",

@@ -36,7 +36,7 @@ from pathlib import Path
 
 import numpy as np
 
-from pcmm_geo.artefacts._table import cell_float, cell_int, cell_text, read_rows
+from pcmm_geo.artefacts.table import cell_float, cell_int, cell_text, read_rows
 from pcmm_geo.errors import FileFormatError, InvalidInputError
 
 __all__ = [

@@ -25,7 +25,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from pcmm_geo._deprecation import renamed_fields, renamed_parameters, warn_deprecated
 from pcmm_geo.errors import InvalidInputError
-from pcmm_geo.fit._kernels._core import as_points
+from pcmm_geo.fit import as_points
 
 __all__ = [
     "PATTERN_RINGS",

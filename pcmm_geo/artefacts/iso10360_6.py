@@ -34,6 +34,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from pcmm_geo.elements import Element
 from pcmm_geo.errors import InvalidInputError
 from pcmm_geo.fit import ELEMENTS as _FIT_ELEMENTS
 
@@ -62,7 +63,7 @@ _CIRCLE_METHODS = {"projected": "projected", "geometric": "gaussian"}
 class ElementParameters:
     """Geometry of a fitted element in the harness's common schema (mm, rad)."""
 
-    element: str
+    element: Element
     location: FloatArray
     direction: FloatArray | None = None
     size: float = math.nan
@@ -131,7 +132,7 @@ class CaseDeviation:
     """Deviations of one case (NaN where not applicable) and its verdict."""
 
     name: str
-    element: str
+    element: Element
     position: float
     orientation: float
     size: float
@@ -286,7 +287,7 @@ def compare_results(
     return HarnessReport(cases=tuple(rows), mpe=limits, passed=n_failed == 0, n_failed=n_failed)
 
 
-def _params_from_fit(element: str, fit: Any) -> ElementParameters:
+def _params_from_fit(element: Element, fit: Any) -> ElementParameters:
     def vec(name: str) -> FloatArray:
         return _three(getattr(fit, name))
 

@@ -24,8 +24,8 @@ from pathlib import Path
 import numpy as np
 from numpy.typing import NDArray
 
-from pcmm_geo.artefacts._table import cell_float, cell_text, read_rows
 from pcmm_geo.artefacts.iso10360_6 import ElementParameters, ReferenceCase
+from pcmm_geo.artefacts.table import cell_float, cell_text, read_rows
 from pcmm_geo.errors import FileFormatError, InvalidInputError
 from pcmm_geo.io.nist import NistPair, iter_nist_pairs
 

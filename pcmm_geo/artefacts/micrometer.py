@@ -26,9 +26,9 @@ from pathlib import Path
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from pcmm_geo.artefacts._table import cell_float, cell_text, read_rows
+from pcmm_geo.artefacts.table import cell_float, cell_text, read_rows
 from pcmm_geo.errors import FileFormatError, InvalidInputError
-from pcmm_geo.fit._kernels._core import as_points
+from pcmm_geo.fit import as_points
 
 __all__ = ["PairError", "StageTestResult", "evaluate_stage_test", "read_micrometer_csv", "stage_pairs"]
 

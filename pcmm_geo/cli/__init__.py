@@ -1,7 +1,8 @@
 """The ``pcmm`` command: wiring only; the work happens in the library.
 
-Each sub-command lives in its own module (``demo`` here, the others in
-:mod:`~pcmm_geo.cli.machine_commands` and :mod:`~pcmm_geo.cli.measurement_commands`) and exposes
+Each sub-command lives in its own module (``demo`` here, the others in one folder per task group of
+``pcmm --help``: :mod:`~pcmm_geo.cli.measure`, :mod:`~pcmm_geo.cli.cmm_files`,
+:mod:`~pcmm_geo.cli.standards`, :mod:`~pcmm_geo.cli.machine`, :mod:`~pcmm_geo.cli.acquisition`) and exposes
 ``register(subparsers)``; modules must import numpy and heavier libraries inside
 their handlers so that ``pcmm --help`` stays fast.  A handler returns a
 :class:`pcmm_geo.cli._output.Report`; ``main`` prints it as aligned text or, with
@@ -18,27 +19,27 @@ from collections.abc import Sequence
 # sub-command modules relative to pcmm_geo.cli (``pcmm --help`` groups them: pcmm_geo.cli._help.COMMAND_GROUPS)
 COMMAND_MODULES = (
     "demo",
-    "measurement_commands.fit",
-    "measurement_commands.form",
-    "machine_commands.calibrate",
-    "machine_commands.kinematics",
-    "machine_commands.process_log",
-    "machine_commands.numcal",
-    "machine_commands.sensitivity",
-    "machine_commands.repeatability", "machine_commands.laser_ratio",
-    "measurement_commands.gauge_block",
-    "measurement_commands.iso10360",
-    "measurement_commands.micrometer",
-    "measurement_commands.thermal",
-    "machine_commands.acquire",
-    "machine_commands.serve",
-    "measurement_commands.compare",
-    "measurement_commands.segment",
-    "measurement_commands.convert",
-    "measurement_commands.uncertainty",
-    "measurement_commands.batch",
-    "measurement_commands.qif",
-    "inspection_commands.inspect",
+    "measure.fit",
+    "measure.form",
+    "machine.calibrate",
+    "machine.kinematics",
+    "acquisition.process_log",
+    "machine.numcal",
+    "machine.sensitivity",
+    "machine.repeatability", "machine.laser_ratio",
+    "standards.gauge_block",
+    "standards.iso10360",
+    "standards.micrometer",
+    "measure.thermal",
+    "acquisition.acquire",
+    "acquisition.serve",
+    "measure.compare",
+    "measure.segment",
+    "cmm_files.convert",
+    "standards.uncertainty",
+    "measure.batch",
+    "cmm_files.qif",
+    "cmm_files.inspect",
 )
 
 

@@ -17,6 +17,7 @@ from contextlib import contextmanager
 from typing import Any
 
 from pcmm_geo.cli._output import declare_output, refuse_renamed_options
+from pcmm_geo.elements import SPECS, Element
 
 #: library parameter -> the option that sets it (:func:`cli_setting`), where the two are not spelled alike
 READER_OPTIONS = {"units": "--units", "angle_unit": "--angle-unit", "size_values": "--size-values",
@@ -117,7 +118,7 @@ class FitInput:
     radius_source: str
 
 
-def read_fit_input(args: argparse.Namespace, element: str) -> FitInput:
+def read_fit_input(args: argparse.Namespace, element: Element) -> FitInput:
     """Read FILE for ``element`` (QIF feature, XYZIJK or point file) and decide the probe radius to apply."""
     from pcmm_geo.cmm.files import detect_format
     from pcmm_geo.cmm.points import load_feature_points, probe_radius_to_apply
@@ -127,7 +128,7 @@ def read_fit_input(args: argparse.Namespace, element: str) -> FitInput:
         if not getattr(args, "qif", None):
             raise InvalidInputError("--feature-name", "--qif OUT.qif as well (the name is written into the QIF)",
                                     "no --qif")
-        from pcmm_geo.io.cmm.qif.build import check_feature_name
+        from pcmm_geo.io.cmm.qif.write.build import check_feature_name
 
         check_feature_name(args.feature_name, "--feature-name")
     limit = max_bytes(args)
@@ -142,7 +143,7 @@ def read_fit_input(args: argparse.Namespace, element: str) -> FitInput:
         raise InvalidInputError("--material-side", "a probe radius to apply (--probe-radius-mm or probe centres in the "
                                 "file)", "surface points")
     if getattr(args, "two_d", False):
-        if element not in ("line", "circle"):
+        if 2 not in SPECS[element].dims:  # the planar elements: line, circle
             raise InvalidInputError("--two-d", "element line or circle", element)
         data = dataclasses.replace(data, points=data.points[:, :2],
                                    normals=None if data.normals is None else data.normals[:, :2],
@@ -150,7 +151,7 @@ def read_fit_input(args: argparse.Namespace, element: str) -> FitInput:
     return FitInput(data, data.points, radius, source)
 
 
-def write_qif_result(args: argparse.Namespace, fit: Any, element: str, source: Any, *, radius: float,
+def write_qif_result(args: argparse.Namespace, fit: Any, element: Element, source: Any, *, radius: float,
                      compensation: Any = None, evaluation: Any = None) -> tuple[str, list[str]]:
     """Write the fit (and form evaluation) as a QIF document to ``args.qif``.
 
@@ -183,7 +184,7 @@ def write_qif_result(args: argparse.Namespace, fit: Any, element: str, source: A
     return path, notes
 
 
-def _kept_lines(document: Any, kept: Any, element: str) -> list[str]:
+def _kept_lines(document: Any, kept: Any, element: Element) -> list[str]:
     """One line on what of the file's feature the QIF written keeps."""
     if kept.type != element:
         return [f"QIF: only the name is kept from the file's {kept.type} feature (fitted as a {element})"]

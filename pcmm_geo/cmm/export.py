@@ -43,6 +43,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from pcmm_geo.elements import FEATURE_TYPES, SIZED_FEATURES, SPECS, Element, FeatureType
 from pcmm_geo.errors import InvalidInputError
 
 if TYPE_CHECKING:
@@ -61,15 +62,14 @@ FloatArray = NDArray[np.float64]
 #: fit criterion -> QIF SubstituteFeatureAlgorithmEnum
 ALGORITHMS = {"gaussian": "LEASTSQUARES", "chebyshev": "MINMAX", "mcc": "MINCIRCUMSCRIBED", "mic": "MAXINSCRIBED"}
 #: element -> QIF form characteristic (written with a tolerance; without one the form is the feature's ``Form``)
-FORM_CHARACTERISTICS = {"circle": "circularity", "plane": "flatness", "cylinder": "cylindricity",
-                        "sphere": "sphericity", "line": "straightness", "cone": "conicity"}
+#: (QIF names the ISO roundness circularity)
+FORM_CHARACTERISTICS = {kind: "circularity" if SPECS[kind].form == "roundness" else str(SPECS[kind].form)
+                        for kind in FEATURE_TYPES if SPECS[kind].form is not None}
 _SIZE_CHARACTERISTICS = {"circle": "diameter", "cylinder": "diameter", "sphere": "spherical_diameter"}
-ELEMENTS = ("circle", "cylinder", "sphere", "plane", "line", "cone")
+#: the fitted elements the QIF writer has a feature record for (pcmm_geo.elements)
+ELEMENTS: tuple[FeatureType, ...] = tuple(kind for kind in FEATURE_TYPES if SPECS[kind].fitted)
 #: what a nominal of each element must give to be written (QIF 3.0 feature nominal and definition)
-_NOMINAL_NEEDS = {"circle": ("location", "normal", "diameter"), "cylinder": ("location", "direction", "diameter"),
-                  "sphere": ("location", "diameter"), "plane": ("location", "normal"),
-                  "line": ("location", "direction"), "cone": ("location", "direction", "diameter", "half_angle"),
-                  "point": ("location",)}
+_NOMINAL_NEEDS = {kind: SPECS[kind].nominal_fields for kind in FEATURE_TYPES}
 
 
 @dataclass(frozen=True, eq=False)
@@ -161,35 +161,29 @@ def _std(fit: FitResult, names: tuple[str, ...]) -> float | None:
     return float(max(values))
 
 
-def _geometry(fit: FitResult, element: str, form: float | None, outward: FloatArray | None) -> FeatureGeometry:
+def _geometry(fit: FitResult, element: Element, form: float | None, outward: FloatArray | None) -> FeatureGeometry:
+    """The QIF actuals of ``fit``: the spec's location, orientation, size and angles (pcmm_geo.elements)."""
     from pcmm_geo.io.cmm import FeatureGeometry
 
+    row = SPECS[element]
     uncertainty: dict[str, float] = {}
     radius_u = _std(fit, ("radius", "radius_at_point"))
-    if radius_u is not None and element in ("circle", "cylinder", "sphere", "cone"):
+    if radius_u is not None and row.size is not None:
         uncertainty["diameter"] = 2.0 * radius_u
     location_u = _std(fit, ("center_x", "center_y", "center_z", "point_x", "point_y", "point_z"))
     if location_u is not None:
         uncertainty["location"] = location_u
-    if element in ("circle", "sphere"):
-        normal = None if element == "sphere" else (
-            np.array([0.0, 0.0, 1.0]) if fit.normal is None else np.asarray(fit.normal, dtype=float))
-        return FeatureGeometry(location=_three(fit.center), normal=normal, diameter=2.0 * fit.radius, form=form,
-                               uncertainty=uncertainty)
-    if element == "cylinder":
-        return FeatureGeometry(location=_three(fit.point), direction=np.asarray(fit.axis, dtype=float),
-                               diameter=2.0 * fit.radius, form=form, uncertainty=uncertainty)
-    if element == "cone":
-        return FeatureGeometry(location=_three(fit.point), direction=np.asarray(fit.axis, dtype=float),
-                               diameter=2.0 * fit.radius_at_point, half_angle=float(fit.half_angle), form=form,
-                               uncertainty=uncertainty)
-    if element == "plane":
-        normal = np.asarray(fit.normal, dtype=float)
-        if outward is not None and float(normal @ outward) < 0:
-            normal = -normal  # QIF: a plane's normal points out of the material
-        return FeatureGeometry(location=_three(fit.point), normal=normal, form=form, uncertainty=uncertainty)
-    return FeatureGeometry(location=_three(fit.point), direction=_three(fit.direction), form=form,
-                           uncertainty=uncertainty)
+    values: dict[str, Any] = {"location": _three(getattr(fit, str(row.location_field)))}
+    if row.size is not None:
+        values["diameter"] = 2.0 * float(getattr(fit, row.size))
+    values.update({p.name: float(getattr(fit, p.name)) for p in row.parameters if p.kind == "angle"})
+    if row.orientation is not None:
+        axis = getattr(fit, str(row.axis_field))
+        axis = np.array([0.0, 0.0, 1.0]) if axis is None else _three(axis)  # a planar circle: the z axis
+        if element == "plane" and outward is not None and float(axis @ outward) < 0:
+            axis = -axis  # QIF: a plane's normal points out of the material
+        values[row.orientation] = axis
+    return FeatureGeometry(**values, form=form, uncertainty=uncertainty)
 
 
 def _status(evaluation: FormEvaluation) -> str:
@@ -198,7 +192,7 @@ def _status(evaluation: FormEvaluation) -> str:
 
 def feature_report(
     fit: FitResult,
-    element: str,
+    element: Element,
     *,
     points: ArrayLike | None = None,
     normals: ArrayLike | None = None,
@@ -300,7 +294,7 @@ def feature_report(
                                               tolerance=Tolerance(value=float(evaluation.tolerance)),
                                               status=_status(evaluation), zone_shape=zone))
     if internal_external is None and nominal is not None and compensation is not None \
-            and element in ("circle", "cylinder", "sphere", "cone"):
+            and element in SIZED_FEATURES:
         internal_external = compensation.side.upper()  # the side applied to the numbers written
     if internal_external is None and nominal is not None and kept is not None:
         internal_external = kept.internal_external
@@ -310,7 +304,7 @@ def feature_report(
                          substitute_algorithm=ALGORITHMS.get(fit.criterion, "LEASTSQUARES"))
 
 
-def fit_results_document(fit: FitResult, element: str, *, source: str = "", **options: Any) -> CmmDocument:
+def fit_results_document(fit: FitResult, element: Element, *, source: str = "", **options: Any) -> CmmDocument:
     """A QIF results document holding one fitted feature (:func:`feature_report` options).
 
     Examples
@@ -367,12 +361,13 @@ def refit_report(document: CmmDocument, feature: MeasuredFeature, refit: Refit, 
     direction = None if refit.direction is None else np.asarray(refit.direction, dtype=float)
     if kind == "plane" and direction is not None and outward is not None and float(direction @ outward) < 0:
         direction = -direction  # QIF: a plane's normal points out of the material
-    normal = direction if kind in ("circle", "plane") else (outward if kind == "point" else None)
+    orientation = SPECS[kind].orientation
+    normal = direction if orientation == "normal" else (outward if kind == "point" else None)
     actual = FeatureGeometry(location=refit.location, normal=normal,
-                             direction=direction if kind in ("cylinder", "cone", "line") else None,
+                             direction=direction if orientation == "direction" else None,
                              diameter=refit.diameter, half_angle=refit.half_angle, uncertainty=uncertainty)
     side = {"internal": "INTERNAL", "external": "EXTERNAL"}.get(refit.compensation.side) \
-        if kind in ("circle", "cylinder", "sphere", "cone") else None
+        if kind in SIZED_FEATURES else None
     nominal = kept.nominal
     characteristics = []
     size_type = _SIZE_CHARACTERISTICS.get(kind)

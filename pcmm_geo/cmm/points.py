@@ -28,6 +28,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from pcmm_geo.cmm.compensation import Compensation, plan_compensation, side_arguments
+from pcmm_geo.elements import SPECS, Element
 from pcmm_geo.errors import FileFormatError, InvalidInputError
 from pcmm_geo.io.cmm import SpellSetting, python_setting
 
@@ -95,7 +96,7 @@ class FeaturePoints:
         return f"{self.source} feature {self.feature.id} ({self.feature.name or 'unnamed'}, {self.feature.type})"
 
 
-def load_feature_points(path: str | Path, *, element: str | None = None, feature: str | None = None,
+def load_feature_points(path: str | Path, *, element: Element | None = None, feature: str | None = None,
                         decimal: str | None = None, max_bytes: int | None = None,
                         spell_setting: SpellSetting = python_setting) -> FeaturePoints:
     """Read the points of one feature from a QIF document, a PC-DMIS XYZIJK export or a point file.
@@ -156,7 +157,7 @@ def load_feature_points(path: str | Path, *, element: str | None = None, feature
     return FeaturePoints(read_points(file, decimal=decimal), "points", str(file))
 
 
-def _choose(document: CmmDocument, element: str | None, key: str | None,
+def _choose(document: CmmDocument, element: Element | None, key: str | None,
             spell_setting: SpellSetting) -> MeasuredFeature:
     features = document.measured_features
     if key is not None:
@@ -174,7 +175,7 @@ def _choose(document: CmmDocument, element: str | None, key: str | None,
                             f"{listed}{more}", "none")
 
 
-def _from_document(document: CmmDocument, *, element: str | None, feature: str | None,
+def _from_document(document: CmmDocument, *, element: Element | None, feature: str | None,
                    spell_setting: SpellSetting) -> FeaturePoints:
     from pcmm_geo.cmm.export import file_feature
     from pcmm_geo.cmm.refit import _context
@@ -244,7 +245,7 @@ def probe_radius_to_apply(data: FeaturePoints, *, compensated: bool | str | None
 
 
 def _side_kwargs(data: FeaturePoints, material_side: str | None, spell_setting: SpellSetting,
-                 element: str | None = None) -> tuple[dict[str, Any], str]:
+                 element: Element | None = None) -> tuple[dict[str, Any], str]:
     """The material side (:func:`~pcmm_geo.cmm.compensation.side_arguments`); required with ``element``."""
     return side_arguments(material_side, file_side=data.material_side,
                           internal_external=None if data.feature is None else data.feature.internal_external,
@@ -253,7 +254,7 @@ def _side_kwargs(data: FeaturePoints, material_side: str | None, spell_setting: 
                           required=element is not None, spell_setting=spell_setting)
 
 
-def side_before_fit(data: FeaturePoints, element: str, radius: float, material_side: str | None,
+def side_before_fit(data: FeaturePoints, element: Element, radius: float, material_side: str | None,
                     fit: Any, *, spell_setting: SpellSetting = python_setting) -> str:
     """Material side of a feature of size, known before a fixed-radius fit (``fit(points)`` is a free fit).
 
@@ -268,7 +269,7 @@ def side_before_fit(data: FeaturePoints, element: str, radius: float, material_s
     return _compensate(fit(data.points), radius, kwargs, data, spell_setting).side
 
 
-def compensate_fit(fit: FitResult, element: str, data: FeaturePoints, radius: float, *,
+def compensate_fit(fit: FitResult, element: Element, data: FeaturePoints, radius: float, *,
                    material_side: str | None = None, radius_source: str = "",
                    spell_setting: SpellSetting = python_setting) -> tuple[ProbeCompensation, Compensation]:
     """Offset a fit of probe centres onto the surface; returns the compensation and its record.
@@ -300,7 +301,7 @@ def compensate_fit(fit: FitResult, element: str, data: FeaturePoints, radius: fl
     """
     from pcmm_geo.fit.probe import compensate_probe
 
-    if element in ("plane", "line"):
+    if SPECS[element].offset == "normal":  # plane, line
         if material_side is not None:
             raise InvalidInputError(spell_setting("material_side"), f"nothing for a {element}: its side is the "
                                     "surface normal (point normals or the file's reported normal)", material_side)
@@ -311,7 +312,7 @@ def compensate_fit(fit: FitResult, element: str, data: FeaturePoints, radius: fl
         source = "the point normals" if data.normals is not None else "the file's reported normal"
         result = compensate_probe(fit, radius, outward=outward)
         return result, Compensation.from_probe(result, radius_source, source)
-    if element not in ("circle", "sphere", "cylinder", "cone"):
+    if SPECS[element].offset not in ("radial", "conical"):  # no offset surface of its own
         raise InvalidInputError(spell_setting("probe_radius"), "an element with an offset surface (line, plane, "
                                 "circle, sphere, cylinder, cone)", element)
     kwargs, source = _side_kwargs(data, material_side, spell_setting, element)

@@ -28,6 +28,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from pcmm_geo.cmm.compensation import FILE_COMPENSATED, Compensation, plan_compensation, side_arguments
+from pcmm_geo.elements import FEATURE_TYPES, Criterion, FeatureType
 from pcmm_geo.errors import InvalidInputError, NotRefittedError
 from pcmm_geo.io.cmm import SpellSetting, python_setting
 
@@ -40,7 +41,7 @@ __all__ = ["CRITERIA_BY_ALGORITHM", "Compensation", "Refit", "refit_feature"]
 FloatArray = NDArray[np.float64]
 
 #: QIF SubstituteFeatureAlgorithmEnum -> fit criterion
-CRITERIA_BY_ALGORITHM = {
+CRITERIA_BY_ALGORITHM: dict[str, Criterion] = {
     "LEASTSQUARES": "gaussian",
     "MINMAX": "chebyshev",
     "MINCIRCUMSCRIBED": "mcc",
@@ -48,7 +49,7 @@ CRITERIA_BY_ALGORITHM = {
 }
 #: algorithms that name no particular criterion: the default (Gaussian) applies
 _DEFAULT_ALGORITHMS = ("DEFAULT", "UNDEFINED", "")
-REFITTED_TYPES = ("circle", "cylinder", "sphere", "plane", "line", "point", "cone")
+REFITTED_TYPES = FEATURE_TYPES  # every feature type of pcmm_geo.elements the QIF writer knows
 CIRCLE_PLANES = ("least-squares", "reported")
 
 
@@ -82,9 +83,9 @@ class Refit:
         The points used (surface points for point features; as read otherwise), common frame.
     """
 
-    type: str
+    type: FeatureType
     n_points: int
-    method: str
+    method: Criterion
     method_source: str
     compensation: Compensation
     points: FloatArray
@@ -96,7 +97,7 @@ class Refit:
     fit: FitResult | None = None
 
 
-def _criterion(feature: MeasuredFeature, requested: str | None, spell: SpellSetting) -> tuple[str, str]:
+def _criterion(feature: MeasuredFeature, requested: Criterion | None, spell: SpellSetting) -> tuple[Criterion, str]:
     if requested is not None:
         return requested, "requested"
     algorithm = (feature.substitute_algorithm or "").strip().upper()
@@ -153,7 +154,7 @@ def refit_feature(
     document: CmmDocument,
     feature: MeasuredFeature,
     *,
-    criterion: str | None = None,
+    criterion: Criterion | None = None,
     circle_plane: str = "least-squares",
     compensated: bool | None = None,
     probe_radius: float | None = None,
@@ -250,7 +251,7 @@ def _round_compensation(fit: FitResult, radius: float, radius_source: str, conte
 
 
 def _sphere(points: FloatArray, normals: FloatArray | None, radius: float, radius_source: str, context: _Context,
-            method: str, method_source: str, **options: Any) -> Refit:
+            method: Criterion, method_source: str, **options: Any) -> Refit:
     from pcmm_geo.fit import fit_sphere
 
     fit, comp = _round_compensation(fit_sphere(points, criterion=method), radius, radius_source, context,
@@ -261,7 +262,7 @@ def _sphere(points: FloatArray, normals: FloatArray | None, radius: float, radiu
 
 
 def _cylinder(points: FloatArray, normals: FloatArray | None, radius: float, radius_source: str, context: _Context,
-              method: str, method_source: str, **options: Any) -> Refit:
+              method: Criterion, method_source: str, **options: Any) -> Refit:
     from pcmm_geo.fit import fit_cylinder
 
     hint = _first(context.actual.direction, None if context.nominal is None else context.nominal.direction)
@@ -274,7 +275,7 @@ def _cylinder(points: FloatArray, normals: FloatArray | None, radius: float, rad
 
 
 def _cone(points: FloatArray, normals: FloatArray | None, radius: float, radius_source: str, context: _Context,
-          method: str, method_source: str, **options: Any) -> Refit:
+          method: Criterion, method_source: str, **options: Any) -> Refit:
     from pcmm_geo.fit import fit_cone
 
     nominal = context.nominal
@@ -295,7 +296,7 @@ def _cone(points: FloatArray, normals: FloatArray | None, radius: float, radius_
 
 
 def _circle(points: FloatArray, normals: FloatArray | None, radius: float, radius_source: str, context: _Context,
-            method: str, method_source: str, **options: Any) -> Refit:
+            method: Criterion, method_source: str, **options: Any) -> Refit:
     from pcmm_geo.fit import fit_circle
 
     plane = options["circle_plane"]
@@ -326,7 +327,7 @@ def _circle(points: FloatArray, normals: FloatArray | None, radius: float, radiu
 
 def _plane_frame(normal: FloatArray) -> FloatArray:
     """Rows ``(e1, e2, normal)``: an orthonormal frame whose third axis is ``normal``."""
-    from pcmm_geo.fit._kernels._core import rotation_to_z
+    from pcmm_geo.fit import rotation_to_z
 
     return rotation_to_z(normal)
 
@@ -364,7 +365,7 @@ def _flat_compensation(fit: FitResult, kind: str, radius: float, radius_source: 
 
 
 def _plane(points: FloatArray, normals: FloatArray | None, radius: float, radius_source: str, context: _Context,
-           method: str, method_source: str, **options: Any) -> Refit:
+           method: Criterion, method_source: str, **options: Any) -> Refit:
     from pcmm_geo.fit import fit_plane
 
     fit, comp = _flat_compensation(fit_plane(points, criterion=method), "plane", radius, radius_source, context,
@@ -374,7 +375,7 @@ def _plane(points: FloatArray, normals: FloatArray | None, radius: float, radius
 
 
 def _line(points: FloatArray, normals: FloatArray | None, radius: float, radius_source: str, context: _Context,
-          method: str, method_source: str, **options: Any) -> Refit:
+          method: Criterion, method_source: str, **options: Any) -> Refit:
     from pcmm_geo.fit import fit_line
 
     fit, comp = _flat_compensation(fit_line(points, criterion=method), "line", radius, radius_source, context,
@@ -384,7 +385,7 @@ def _line(points: FloatArray, normals: FloatArray | None, radius: float, radius_
 
 
 def _point(points: FloatArray, normals: FloatArray | None, radius: float, radius_source: str, context: _Context,
-           method: str, method_source: str, **options: Any) -> Refit:
+           method: Criterion, method_source: str, **options: Any) -> Refit:
     from pcmm_geo.fit.probe import compensate_points
 
     if method != "gaussian":

@@ -43,6 +43,7 @@ from numpy.typing import NDArray
 
 from pcmm_geo.cmm.compensation import Compensation
 from pcmm_geo.cmm.refit import Refit, refit_feature
+from pcmm_geo.elements import SIZED_FEATURES, SPECS, Criterion
 from pcmm_geo.errors import InvalidInputError, NotRefittedError
 from pcmm_geo.io.cmm import SpellSetting, python_setting
 
@@ -178,7 +179,7 @@ def verify_document(
     document: CmmDocument,
     *,
     tolerance_mm: float = DEFAULT_TOLERANCE_MM,
-    criterion: str | None = None,
+    criterion: Criterion | None = None,
     circle_plane: str = "least-squares",
     compensated: bool | None = None,
     probe_radius: float | None = None,
@@ -260,12 +261,14 @@ def _vector(value: Any) -> FloatArray | None:
 
 def _reported(kind: str, actual: FeatureGeometry) -> dict[str, Any]:
     out: dict[str, Any] = {}
-    if kind in ("circle", "cylinder", "sphere", "cone") and actual.diameter is not None:
+    if kind in SIZED_FEATURES and actual.diameter is not None:
         out["diameter_mm"] = float(actual.diameter)
     if actual.location is not None:
         out["location_mm"] = np.asarray(actual.location, dtype=float).tolist()
-    direction = actual.normal if kind in ("circle", "plane") else actual.direction if kind != "point" else None
-    if direction is not None and kind != "sphere":
+    row = SPECS.get(kind)  # a circle and a plane by their normal, axes and lines by their direction
+    orientation = "direction" if row is None else row.orientation
+    direction = None if orientation is None else getattr(actual, orientation)
+    if direction is not None:
         out["direction"] = np.asarray(direction, dtype=float).tolist()
     if kind == "cone" and actual.half_angle is not None:
         out["half_angle_rad"] = float(actual.half_angle)
@@ -293,7 +296,7 @@ def _size(refit: Refit) -> float | None:
         centred = points - points.mean(axis=0)
         in_plane = centred - np.outer(centred @ refit.direction, refit.direction)
         return float(2.0 * np.max(np.linalg.norm(in_plane, axis=1)))
-    if refit.type in ("line", "cylinder", "cone"):
+    if SPECS[refit.type].orientation == "direction":  # line, cylinder, cone
         extent = float(np.ptp(points @ refit.direction))
         return extent if extent > 0 else refit.diameter
     return None
@@ -315,7 +318,7 @@ def _compare(document: CmmDocument, feature: MeasuredFeature, refit: Refit, tole
     location = refit.location
     direction = None if refit.direction is None else _oriented(refit.direction, reported_direction)
     diameter = refit.diameter
-    if kind in ("cylinder", "cone", "line") and reported_location is not None:
+    if SPECS[kind].orientation == "direction" and reported_location is not None:
         # the refitted axis point nearest the reported one (an axis point is any point on the axis)
         location = refit.location + float((reported_location - refit.location) @ refit.direction) * refit.direction
         if kind == "cone":
@@ -428,6 +431,6 @@ def _diagnose(refit: Refit, difference: dict[str, Any], tolerance: float) -> str
         if abs(abs(diameter) - 4 * radius * k) <= tolerance:
             return "the reported diameter is compensated toward the other material side"
     distance = difference.get("location_distance_mm")
-    if distance is not None and refit.type in ("point", "plane", "line") and abs(distance - radius) <= tolerance:
+    if distance is not None and SPECS[refit.type].size is None and abs(distance - radius) <= tolerance:
         return "the reported location is the probe centre's (not compensated by the CMM)"
     return ""

@@ -8,6 +8,10 @@ convergence information.  Algebraic fits are used only as starting values.
 
 This sub-package knows nothing of machines or files: pure numpy/scipy.
 
+Two helpers of every fit are public for the layers above (artefacts, cmm, calibration) that take
+points the same way: :func:`as_points` (an ``(N, 3)`` float64 array from user input, with the
+typed errors of the fits) and :func:`rotation_to_z` (the rotation taking a direction to +z).
+
 Examples
 --------
 >>> import numpy as np
@@ -23,7 +27,8 @@ Examples
 from __future__ import annotations
 
 from pcmm_geo._lazy import attach
-from pcmm_geo.fit._kernels._core import TOL, FitResult, Tolerances
+from pcmm_geo.elements import ELEMENTS
+from pcmm_geo.fit._kernels._core import TOL, FitResult, Tolerances, as_points, rotation_to_z
 
 # public name -> submodule that defines it; loaded on first access (PEP 562) so that
 # ``import pcmm_geo.fit`` stays fast and independent of scipy until a fit runs.
@@ -68,9 +73,6 @@ _LAZY = {
     "SearchBudget": "zone.axial.region",
 }
 
-#: the element names the fits (``fit_<name>``), the reference generator and ``pcmm fit`` share
-ELEMENTS = ("line", "plane", "circle", "sphere", "cylinder", "cone", "torus")
-
 __getattr__, __dir__, _LAZY_ALL = attach(__name__, _LAZY)
 
-__all__ = ["ELEMENTS", "FitResult", "Tolerances", "TOL", *_LAZY_ALL]
+__all__ = ["ELEMENTS", "FitResult", "Tolerances", "TOL", "as_points", "rotation_to_z", *_LAZY_ALL]

@@ -4,6 +4,8 @@ from . import reference as reference
 from ._kernels._core import TOL as TOL
 from ._kernels._core import FitResult as FitResult
 from ._kernels._core import Tolerances as Tolerances
+from ._kernels._core import as_points as as_points
+from ._kernels._core import rotation_to_z as rotation_to_z
 from .batch import BatchFit as BatchFit
 from .batch import CircleBatchFit as CircleBatchFit
 from .batch import LineBatchFit as LineBatchFit

@@ -15,6 +15,7 @@ from typing import Literal
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from pcmm_geo.elements import Criterion
 from pcmm_geo.errors import DegenerateGeometryError, InvalidInputError
 from pcmm_geo.fit._kernels._core import FitResult, as_points, as_weights, residual_stats, solve_least_squares
 from pcmm_geo.fit._kernels._inputs import positive_length
@@ -104,7 +105,7 @@ def fit_circle(
     radius: float | None = None,
     weights: ArrayLike | None = None,
     method: Literal["gaussian", "projected"] = "gaussian",
-    criterion: str = "gaussian",
+    criterion: Criterion = "gaussian",
 ) -> CircleFit:
     """Fit a circle minimising the (weighted) sum of squared orthogonal distances.
 

@@ -17,6 +17,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike
 
+from pcmm_geo.elements import Criterion
 from pcmm_geo.errors import ConvergenceError
 from pcmm_geo.fit._kernels._axial import (
     AxialSolution,
@@ -164,7 +165,7 @@ def fit_cone(
     *,
     weights: ArrayLike | None = None,
     axis_hint: ArrayLike | None = None,
-    criterion: str = "gaussian",
+    criterion: Criterion = "gaussian",
 ) -> ConeFit:
     """Fit a cone to 3-D points by orthogonal-distance least squares.
 

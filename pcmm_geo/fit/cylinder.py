@@ -12,6 +12,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike
 
+from pcmm_geo.elements import Criterion
 from pcmm_geo.errors import InvalidInputError, PcmmGeoError
 from pcmm_geo.fit._kernels import _tall
 from pcmm_geo.fit._kernels._axial import (
@@ -176,7 +177,7 @@ def fit_cylinder(
     radius: float | None = None,
     weights: ArrayLike | None = None,
     axis_hint: ArrayLike | None = None,
-    criterion: str = "gaussian",
+    criterion: Criterion = "gaussian",
     axis_region: AxisRegion | None = None,
     search_budget: SearchBudget | None = None,
 ) -> CylinderFit:

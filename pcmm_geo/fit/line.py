@@ -11,6 +11,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from pcmm_geo.elements import Criterion
 from pcmm_geo.errors import DegenerateGeometryError, InvalidInputError
 from pcmm_geo.fit._kernels import _tall
 from pcmm_geo.fit._kernels._core import FitResult, as_weights, check_points, residual_stats
@@ -64,7 +65,7 @@ def fit_line(
     points: ArrayLike,
     *,
     weights: ArrayLike | None = None,
-    criterion: str = "gaussian",
+    criterion: Criterion = "gaussian",
     search_budget: SearchBudget | None = None,
 ) -> LineFit:
     """Fit a straight line minimising the (weighted) sum of squared orthogonal distances.

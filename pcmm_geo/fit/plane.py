@@ -12,6 +12,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from pcmm_geo.elements import Criterion
 from pcmm_geo.errors import DegenerateGeometryError, InvalidInputError
 from pcmm_geo.fit._kernels import _tall
 from pcmm_geo.fit._kernels._core import TOL, FitResult, as_weights, check_points, residual_stats
@@ -51,7 +52,7 @@ class PlaneFit(FitResult):
         return pts - self.distance(pts)[..., None] * self.normal
 
 
-def fit_plane(points: ArrayLike, *, weights: ArrayLike | None = None, criterion: str = "gaussian") -> PlaneFit:
+def fit_plane(points: ArrayLike, *, weights: ArrayLike | None = None, criterion: Criterion = "gaussian") -> PlaneFit:
     """Fit a plane minimising the (weighted) sum of squared orthogonal distances.
 
     Parameters

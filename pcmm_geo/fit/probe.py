@@ -46,6 +46,7 @@ from typing import Literal
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from pcmm_geo.elements import SPECS, Element, element_of
 from pcmm_geo.errors import InvalidInputError
 from pcmm_geo.fit._kernels._core import FitResult, as_points
 from pcmm_geo.fit._kernels._inputs import positive_length, real_array
@@ -131,7 +132,7 @@ class ProbeCompensation:
         if self.outward is not None:
             return compensate_points(pts, self.outward, self.probe_radius)
         away = _radial_directions(self.probe_center, element, pts)
-        if element == "cone":
+        if SPECS[element].offset == "conical":
             alpha = float(self.probe_center.half_angle)
             away = np.cos(alpha) * away - np.sin(alpha) * self.probe_center.axis
         outward = -away if self.side == "internal" else away
@@ -147,13 +148,11 @@ class ProbeCompensation:
         return f"ProbeCompensation({', '.join(parts)})"
 
 
-def _element(fit: FitResult) -> str:
-    name = type(fit).__name__
-    kinds = {"SphereFit": "sphere", "CircleFit": "circle", "CylinderFit": "cylinder", "ConeFit": "cone",
-             "PlaneFit": "plane", "LineFit": "line"}
-    if name not in kinds:
-        raise InvalidInputError("element", "a sphere, circle, cylinder, cone, plane or line fit", name)
-    return kinds[name]
+def _element(fit: FitResult) -> Element:
+    element = element_of(fit)  # the elements with an offset surface of their own (pcmm_geo.elements)
+    if element is None or SPECS[element].offset not in ("radial", "conical", "normal"):
+        raise InvalidInputError("element", "a sphere, circle, cylinder, cone, plane or line fit", type(fit).__name__)
+    return element
 
 
 def _unit_rows(vectors: ArrayLike, name: str, dims: int) -> FloatArray:
@@ -168,17 +167,13 @@ def _unit_rows(vectors: ArrayLike, name: str, dims: int) -> FloatArray:
     return arr / norms[:, None]
 
 
-def _radial_directions(fit: FitResult, element: str, points: FloatArray) -> FloatArray:
-    """Unit vectors from the centre / axis of ``fit`` to ``points``, perpendicular to the axis."""
-    if element == "sphere":
-        rel = points - fit.center
-    elif element == "circle":
-        rel = points - fit.center
-        if fit.normal is not None:
-            rel = rel - np.outer(rel @ fit.normal, fit.normal)
-    else:  # cylinder, cone
-        rel = points - fit.point
-        rel = rel - np.outer(rel @ fit.axis, fit.axis)
+def _radial_directions(fit: FitResult, element: Element, points: FloatArray) -> FloatArray:
+    """Unit vectors from the centre / axis of ``fit`` to ``points``, perpendicular to the axis (or normal)."""
+    row = SPECS[element]  # sphere: no axis; a 2-D circle: its normal is None
+    rel = points - getattr(fit, str(row.location_field))
+    axis = None if row.axis_field is None else getattr(fit, row.axis_field)
+    if axis is not None:
+        rel = rel - np.outer(rel @ axis, axis)
     norms = np.linalg.norm(rel, axis=1)
     if np.any(norms == 0):
         raise InvalidInputError("points", f"points off the {element}'s centre / axis",
@@ -229,7 +224,7 @@ def material_side_from_normals(fit: FitResult, points: ArrayLike, outward: Array
 def _side_shown(fit: FitResult, points: ArrayLike, outward: ArrayLike) -> tuple[Side | None, str]:
     """The side every outward normal shows (None when they point both ways) and their counts, in words."""
     element = _element(fit)
-    if element in ("plane", "line"):
+    if SPECS[element].offset == "normal":
         raise InvalidInputError("element", "a feature of size (sphere, circle, cylinder, cone)", element)
     dims = 3 if element != "circle" or fit.normal is not None else 2
     pts = as_points(points, element=element, dims=(dims,))
@@ -291,7 +286,7 @@ def material_side_from_nominal(
     )
 
 
-def _outward_direction(outward: ArrayLike | None, fit: FitResult, element: str) -> FloatArray:
+def _outward_direction(outward: ArrayLike | None, fit: FitResult, element: Element) -> FloatArray:
     """The one unit outward normal of a plane or line (mean of per-point normals, checked)."""
     dims = fit.point.size
     if outward is None:
@@ -302,8 +297,8 @@ def _outward_direction(outward: ArrayLike | None, fit: FitResult, element: str) 
     mean = normals.mean(axis=0)
     if np.any(normals @ mean <= 0) or np.linalg.norm(mean) == 0:
         raise InvalidInputError("outward normal", "normals on one side of the element", "opposing normals")
-    direction = fit.normal if element == "plane" else fit.direction
-    if element == "plane":
+    direction = getattr(fit, str(SPECS[element].axis_field))
+    if SPECS[element].axis_field == "normal":  # a plane; a line's direction lies in the surface
         along = float(mean @ direction)
         if abs(along) < 1e-3 * np.linalg.norm(mean):
             raise InvalidInputError("outward normal", "a normal not parallel to the plane", mean.tolist())
@@ -379,7 +374,7 @@ def compensate_probe(
         raise InvalidInputError("probe_radius_u", "a non-negative finite number (mm)", repr(probe_radius_u))
     if side is not None and side not in SIDES:
         raise InvalidInputError("side", "'internal' or 'external'", repr(side))
-    if element in ("plane", "line"):
+    if SPECS[element].offset == "normal":
         if side == "internal":
             raise InvalidInputError("side", f"none for a {element} (its outward normal says the side)", "'internal'")
         normal = _outward_direction(outward, fit, element)
@@ -397,8 +392,8 @@ def compensate_probe(
         if outward is not None:
             side, source = material_side_from_normals(fit, points, outward), "normals"
         elif nominal_diameter is not None:
-            half = float(fit.half_angle) if element == "cone" else 0.0
-            size = 2.0 * (fit.radius_at_point if element == "cone" else fit.radius)
+            half = float(fit.half_angle) if SPECS[element].offset == "conical" else 0.0
+            size = 2.0 * getattr(fit, str(SPECS[element].size))
             side, source = material_side_from_nominal(size, float(nominal_diameter), radius, cone_half_angle=half), \
                 "nominal size"
         else:
@@ -428,9 +423,9 @@ def _with_parameters(fit: FitResult, changes: dict[str, object], values: dict[st
     return dataclasses.replace(fit, parameters=parameters, covariance=covariance, **changes)
 
 
-def _offset_round(fit: FitResult, element: str, offset: float, u: float) -> FitResult:
+def _offset_round(fit: FitResult, element: Element, offset: float, u: float) -> FitResult:
     """Sphere, circle, cylinder: radius (and zone radii) + offset; cone: the parallel cone."""
-    if element == "cone":
+    if SPECS[element].offset == "conical":
         alpha = float(fit.half_angle)
         radius_at_point = fit.radius_at_point + offset / np.cos(alpha)
         with np.errstate(divide="ignore", invalid="ignore"):
@@ -444,7 +439,7 @@ def _offset_round(fit: FitResult, element: str, offset: float, u: float) -> FitR
     return _with_parameters(fit, changes, {"radius": fit.radius + offset}, {"radius": u**2})
 
 
-def _offset_flat(fit: FitResult, element: str, shift: FloatArray, u: float, normal: FloatArray) -> FitResult:
+def _offset_flat(fit: FitResult, element: Element, shift: FloatArray, u: float, normal: FloatArray) -> FitResult:
     """Plane or line moved by ``shift`` (its direction / normal unchanged)."""
     point = np.asarray(fit.point, dtype=float) + shift
     names = [f"point_{axis}" for axis in "xyz"[: point.size]]

@@ -45,6 +45,8 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from pcmm_geo.elements import ELEMENTS as FIT_ELEMENTS
+from pcmm_geo.elements import SPECS
 from pcmm_geo.errors import ConvergenceError, DegenerateGeometryError, InvalidInputError, TooFewPointsError
 from pcmm_geo.fit._reference.elements import (
     ELEMENTS,
@@ -225,15 +227,14 @@ def data_kind(element: str, dims: int | None = None, method: str = "gaussian") -
         raise InvalidInputError("dims", "2 or 3", repr(dims))
     if method not in ("gaussian", "projected"):
         raise InvalidInputError("method", "'gaussian' or 'projected'", repr(method))
-    if element in ("line", "circle"):
+    if element in FIT_ELEMENTS and 2 in SPECS[element].dims:  # line, circle: planar or spatial
         kind = _SHARED_NAMES[(element, dims or 3)]
     elif element in MIN_POINTS:
         kind = element
         if dims is not None and dims != (2 if element.endswith("2d") else 3):
             raise InvalidInputError("dims", f"{2 if element.endswith('2d') else 3} for {element}", repr(dims))
     else:
-        names = ("line", "plane", "circle", "sphere", "cylinder", "cone", "torus")
-        raise InvalidInputError("element", f"one of {', '.join(names)} (or a kind: {', '.join(ELEMENTS)})",
+        raise InvalidInputError("element", f"one of {', '.join(FIT_ELEMENTS)} (or a kind: {', '.join(ELEMENTS)})",
                                 repr(element))
     if method == "projected":
         if kind != "circle3d":

@@ -8,6 +8,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from pcmm_geo.elements import Criterion
 from pcmm_geo.errors import InvalidInputError
 from pcmm_geo.fit._kernels import _tall
 from pcmm_geo.fit._kernels._core import TOL, FitResult, as_weights, check_points, residual_stats
@@ -75,7 +76,7 @@ def fit_sphere(
     *,
     radius: float | None = None,
     weights: ArrayLike | None = None,
-    criterion: str = "gaussian",
+    criterion: Criterion = "gaussian",
 ) -> SphereFit:
     """Fit a sphere minimising the (weighted) sum of squared orthogonal distances.
 

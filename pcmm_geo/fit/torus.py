@@ -14,6 +14,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike
 
+from pcmm_geo.elements import Criterion
 from pcmm_geo.errors import UnassuredMinimumWarning
 from pcmm_geo.fit._kernels._axial import (
     AxialSolution,
@@ -204,7 +205,7 @@ def fit_torus(
     *,
     weights: ArrayLike | None = None,
     axis_hint: ArrayLike | None = None,
-    criterion: str = "gaussian",
+    criterion: Criterion = "gaussian",
 ) -> TorusFit:
     """Fit a torus to 3-D points by orthogonal-distance least squares.
 

@@ -303,9 +303,9 @@ def evaluate_planned(planned: Any, plan: Any, drf: DatumReferenceFrame) -> Chara
         faces = [plan.features[f] for f in planned.extra["faces"]]
         return evaluate_symmetry(faces[0], faces[1], drf, spec.tolerance_mm, name=planned.name)
     feature = plan.features[planned.feature]
-    if feature.element != "surface":
+    if feature.element != "surface" or feature.nominal_points is None:
         raise FileFormatError(plan.path, f"{planned.name}: profile of a line needs a feature of element \"surface\" "
-                              "(nominal_points, nominal_normals)", planned.line)
+                              "with nominal_points and nominal_normals (not a nominal mesh)", planned.line)
     return evaluate_line_profile(feature.points, drf, spec.tolerance_mm, feature.nominal_points,
                                  feature.nominal_normals, section_normal=planned.extra["section_normal"],
                                  name=planned.name)

@@ -129,8 +129,7 @@ async def is_user_enabled(s: Session, cmd: Command) -> None:
 async def home(s: Session, cmd: Command) -> None:
     _no_args(cmd)
     s.user_enabled = False
-    await s.travel(s.machine.home_position, s.tools.tool.goto.values["Speed"].act, check=False)
-    s.machine.homed = True
+    await s.machine.home(s, s.tools.tool.goto.values["Speed"].act)
 
 
 async def is_homed(s: Session, cmd: Command) -> None:
@@ -180,7 +179,7 @@ async def get(s: Session, cmd: Command) -> None:
         names.append(arg.name)
     if not names:
         raise CommandError(509, "Get needs at least one item")
-    await s.data(cmd, format_position(s, names, s.machine.position))
+    await s.data(cmd, format_position(s, names, await s.machine.read_position(s)))
 
 
 async def on_move_report(s: Session, cmd: Command) -> None:
@@ -241,12 +240,12 @@ async def ptmeas(s: Session, cmd: Command) -> None:
     start = nominal + n * (tool.radius + p["Approach"].act)
     await s.travel(start, tool.goto.values["Speed"].act)
     try:
-        result = s.machine.probe(nominal, n, p["Approach"].act, p["Search"].act, p["Retract"].act)
+        result = await s.machine.measure(s, nominal, n, approach=p["Approach"].act, search=p["Search"].act,
+                                         retract=p["Retract"].act, speed=p["Speed"].act)
     except MoveRefused as exc:
         s.record_probe(cmd, None, exc)
         raise CommandError(exc.number, exc.detail) from None
     s.record_probe(cmd, result, None)
-    await s.wait(float(np.linalg.norm(s.machine.position - start)) / p["Speed"].act)
     parts = []
     for item in s.report_items:
         if item in ("X", "Y", "Z"):

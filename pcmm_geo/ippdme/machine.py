@@ -28,6 +28,7 @@ lasers (``pcmm process-log``) could not cross-check the columns there.
 
 from __future__ import annotations
 
+import abc
 from dataclasses import dataclass, field, replace
 from typing import Any
 
@@ -38,7 +39,8 @@ from pcmm_geo.acquisition.drivers.zaber import T_LSR450B_MICROSTEP_MM
 from pcmm_geo.errors import InvalidInputError, PcmmGeoError
 from pcmm_geo.ippdme.workpieces import first_contact
 
-__all__ = ["HOME_RAISE_MM", "MachineModel", "MoveRefused", "ProbeResult", "SimulatedMachine"]
+__all__ = ["HOME_RAISE_MM", "MachineBackend", "MachineModel", "MoveRefused", "ProbeResult", "SimulatedMachine",
+           "tip_uncertainties"]
 
 FloatArray = NDArray[np.float64]
 #: the home pose: every column this far above the model's reference (level) heights, mm
@@ -49,7 +51,7 @@ _ARMS = ("a", "b", "c")
 
 
 class MoveRefused(Exception):
-    """A move or probing the machine does not make: ``number`` is the I++ error (2500, 2504, 1006, 1010)."""
+    """A move or probing the machine does not make: ``number`` is the I++ error (2500, 2504, 1006, 1010, 0503...)."""
 
     def __init__(self, number: int, detail: str, position: FloatArray | None = None) -> None:
         super().__init__(detail)
@@ -106,13 +108,96 @@ class ProbeResult:
     retract_position: FloatArray = field(repr=False, default_factory=lambda: np.zeros(3))
 
     def to_dict(self) -> dict[str, Any]:
-        return {
+        """JSON-ready fields; ``true_tip_mm`` only where the truth is known (the simulated machine)."""
+        out = {
             "point_mm": self.point.tolist(), "tip_mm": self.tip.tolist(), "ijk": self.direction.tolist(),
             "lasers_mm": self.lasers.tolist(), "heights_mm": self.heights.tolist(),
             "effective_radius_mm": self.effective_radius, "tip_uncertainty_mm": self.tip_uncertainty,
             "laser_only_tip_uncertainty_mm": self.laser_only_tip_uncertainty,
-            "poorly_resolved": self.poorly_resolved, "true_tip_mm": self.true_tip.tolist(),
+            "poorly_resolved": self.poorly_resolved,
         }
+        if np.all(np.isfinite(self.true_tip)):
+            out["true_tip_mm"] = self.true_tip.tolist()
+        return out
+
+
+class MachineBackend(abc.ABC):
+    """The machine an I++ session drives: the simulated micro-CMM or the real one on its drivers.
+
+    The session and command code (:mod:`pcmm_geo.ippdme.session`, :mod:`pcmm_geo.ippdme.commands`)
+    is one protocol implementation for both; it reads ``position`` (the commanded tip centre,
+    machine frame, mm), ``homed``, ``home_position`` and ``model`` and calls the coroutines below,
+    which receive the session for its motion hooks (``session.motion``, ``session.run_blocking``)
+    and its transcript (``session.record``).  Refusals are :class:`MoveRefused` with the spec's
+    error number; the session answers them.
+    """
+
+    model: MachineModel
+    position: FloatArray
+    home_position: FloatArray
+    homed: bool
+
+    @abc.abstractmethod
+    async def home(self, session: Any, speed: float) -> None:
+        """Home the machine and bring the tip to :attr:`home_position`; ``homed`` is then True."""
+
+    @abc.abstractmethod
+    async def travel(self, session: Any, target: FloatArray, speed: float, *, check: bool = True) -> None:
+        """Move the tip centre in a straight line to ``target`` at ``speed`` mm/s (2500 / 2504 refusals)."""
+
+    @abc.abstractmethod
+    async def measure(self, session: Any, nominal: FloatArray, direction: FloatArray, *, approach: float,
+                      search: float, retract: float, speed: float) -> ProbeResult:
+        """Single-point probing from the approach point (spec §6.3.2.13); 1006 when no surface is found."""
+
+    async def read_position(self, session: Any) -> FloatArray:
+        """The tip centre as the machine reports it now (machine frame, mm)."""
+        return np.asarray(self.position, dtype=float).copy()
+
+    def describe(self) -> dict[str, Any]:
+        """JSON-ready description for the transcript header."""
+        return {"backend": type(self).__name__}
+
+
+def tip_uncertainties(model: MachineModel, lasers: FloatArray, heights: FloatArray, tips: FloatArray
+                      ) -> tuple[FloatArray, FloatArray]:
+    """``(N,)`` tip standard uncertainty from all readings; the lasers' resolution of the relative heights (mm).
+
+    The first is the calibrated forward kinematics' propagation of the reading uncertainties
+    (``laser_sigma``, :attr:`MachineModel.height_sigma`, central differences of the reported tip);
+    the second is ``laser_sigma`` times the root sum of the inverse squared non-trivial singular
+    values of d lasers / d heights (the common height is invisible to the lasers: parallel
+    columns), infinite where the lasers do not see the relative heights at all.
+    """
+    step = 1e-4
+    total = np.zeros(len(tips))
+    for j in range(6):
+        dl, dh = lasers.copy(), heights.copy()
+        (dl if j < 3 else dh)[:, j % 3] += step
+        sigma = model.laser_sigma if j < 3 else model.height_sigma
+        total += np.sum(((reported_tip(model, dl, dh) - tips) / step * sigma) ** 2, axis=-1)
+    base = np.asarray(model.machine.forward(heights=heights, lasers_hint=lasers, check_limits=False).lasers)
+    jac = np.empty((len(tips), 3, 3))
+    for j in range(3):
+        dh = heights.copy()
+        dh[:, j] += step
+        moved = model.machine.forward(heights=dh, lasers_hint=lasers, check_limits=False).lasers
+        jac[:, :, j] = (np.asarray(moved) - base) / step
+    relative = np.eye(3) - 1.0 / 3.0
+    singular = np.linalg.svd(jac @ relative, compute_uv=False)[:, :2]
+    with np.errstate(divide="ignore"):
+        alone = model.laser_sigma * np.sqrt(np.sum(1.0 / singular ** 2, axis=-1))
+    ok = np.isfinite(alone)
+    return np.sqrt(total), np.where(ok, alone, np.inf)
+
+
+def reported_tip(model: MachineModel, lasers: FloatArray, heights: FloatArray) -> FloatArray:
+    """Tip centres ``(N, 3)`` from readings ``(N, 3)``, ``(N, 3)``: calibrated forward kinematics (2500 if unsolved)."""
+    solution = model.machine.forward(lasers=lasers, heights=heights, laser_sigma=model.laser_sigma,
+                                     height_sigma=model.height_sigma, check_limits=False)
+    if not np.all(solution.converged):
+        raise MoveRefused(2500, "the readings do not solve the kinematics")
+    return np.asarray(solution.tip, dtype=float)
 
 
 def _perturbed(machine: Any, delta: FloatArray) -> Any:
@@ -130,7 +215,7 @@ def _perturbed(machine: Any, delta: FloatArray) -> Any:
     return type(machine).from_dict(data)
 
 
-class SimulatedMachine:
+class SimulatedMachine(MachineBackend):
     """The micro-CMM an I++ client drives: commanded tip centre, homing, moves and probings.
 
     Parameters
@@ -306,39 +391,50 @@ class SimulatedMachine:
         return np.asarray(solution.tip, dtype=float), np.asarray(solution.lasers, dtype=float)
 
     def _reported_tip(self, lasers: FloatArray, heights: FloatArray) -> FloatArray:
-        m = self.model
-        solution = m.machine.forward(lasers=lasers, heights=heights, laser_sigma=m.laser_sigma,
-                                     height_sigma=m.height_sigma, check_limits=False)
-        if not np.all(solution.converged):
-            raise MoveRefused(2500, "the readings at contact do not solve the kinematics")
-        return np.asarray(solution.tip, dtype=float)
+        return reported_tip(self.model, lasers, heights)
 
     def _tip_uncertainties(self, lasers: FloatArray, heights: FloatArray, tips: FloatArray
                            ) -> tuple[FloatArray, FloatArray]:
-        """``(N,)`` tip standard uncertainty from all readings; the lasers' resolution of the relative heights (mm)."""
-        m = self.model
-        step = 1e-4
-        total = np.zeros(len(tips))
-        for j in range(6):
-            dl, dh = lasers.copy(), heights.copy()
-            (dl if j < 3 else dh)[:, j % 3] += step
-            sigma = m.laser_sigma if j < 3 else m.height_sigma
-            total += np.sum(((self._reported_tip(dl, dh) - tips) / step * sigma) ** 2, axis=-1)
-        # the lasers' view of the relative column heights (the common height is invisible to them:
-        # parallel columns); near the level pose the smallest non-trivial singular value is small
-        base = np.asarray(m.machine.forward(heights=heights, lasers_hint=lasers, check_limits=False).lasers)
-        jac = np.empty((len(tips), 3, 3))
-        for j in range(3):
-            dh = heights.copy()
-            dh[:, j] += step
-            moved = m.machine.forward(heights=dh, lasers_hint=lasers, check_limits=False).lasers
-            jac[:, :, j] = (np.asarray(moved) - base) / step
-        relative = np.eye(3) - 1.0 / 3.0
-        singular = np.linalg.svd(jac @ relative, compute_uv=False)[:, :2]
-        with np.errstate(divide="ignore"):
-            alone = m.laser_sigma * np.sqrt(np.sum(1.0 / singular ** 2, axis=-1))
-        ok = np.isfinite(alone)
-        return np.sqrt(total), np.where(ok, np.sqrt(alone), np.inf)
+        return tip_uncertainties(self.model, lasers, heights, tips)
+
+    # ------------------------------------------------------------------ the backend interface
+    async def home(self, session: Any, speed: float) -> None:
+        """Travel to the home pose (no workspace or collision check: the machine's own homing path)."""
+        await self.travel(session, self.home_position, speed, check=False)
+        self.homed = True
+
+    async def travel(self, session: Any, target: FloatArray, speed: float, *, check: bool = True) -> None:
+        """Straight move in simulated time; ``check``: refuse a path leaving the workspace (2500, no motion), stop at
+        the first contact with a workpiece (2504 Collision)."""
+        start = self.position.copy()
+        target = np.asarray(target, dtype=float)
+        hit = None
+        heights = None
+        if check:
+            heights = self.check_path(start, target)
+            hit = self.collision(start, target)
+        end = target if hit is None else hit
+        await session.motion(start, end, speed)
+        try:  # the readings after the move, as a Table 3.2 row of the acquisition log would hold them
+            lasers, read = self.readings(end, heights if hit is None else None)
+            readings = {"lasers_mm": lasers.tolist(), "heights_mm": read.tolist()}
+        except MoveRefused:
+            readings = {}
+        session.record("move", from_mm=start.tolist(), to_mm=end.tolist(), collision=hit is not None, **readings)
+        if hit is not None:
+            raise MoveRefused(2504, "the probe touched the workpiece during the move")
+
+    async def measure(self, session: Any, nominal: FloatArray, direction: FloatArray, *, approach: float,
+                      search: float, retract: float, speed: float) -> ProbeResult:
+        """:meth:`probe`, then the search's time at the probing speed passes (abortable)."""
+        start = self.position.copy()
+        result = self.probe(nominal, direction, approach, search, retract)
+        await session.wait(float(np.linalg.norm(self.position - start)) / speed)
+        return result
+
+    def describe(self) -> dict[str, Any]:
+        return {"backend": "simulated", "workpieces": [w.describe() for w in self.workpieces],
+                "max_tip_uncertainty_mm": self.max_tip_uncertainty}
 
 
 @dataclass(frozen=True)

@@ -47,6 +47,7 @@ ERRORS: dict[int, tuple[int, str]] = {
     8: (3, "Protocol error"),
     501: (3, "Unsupported command"),
     502: (3, "Incorrect arguments"),
+    503: (9, "Controller communications failure"),
     504: (1, "Argument out of range"),
     505: (3, "Argument not recognized"),
     506: (3, "Argument not supported"),
@@ -64,10 +65,13 @@ ERRORS: dict[int, tuple[int, str]] = {
     1007: (3, "Theta out of range"),
     1008: (3, "Target position out of machine volume"),
     1010: (2, "Vector has no norm"),
+    1011: (2, "Unable to move"),
     1502: (3, "Tool not found"),
     2002: (3, "Type of probe does not allow this operation"),
     1503: (3, "Tool not defined"),
     2500: (3, "Machine limit encountered [Move Out Of Limits]"),
+    2502: (3, "Axis position error"),
+    2503: (9, "Scale read head failure"),
     2504: (3, "Collision"),
 }
 

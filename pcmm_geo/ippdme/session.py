@@ -10,7 +10,9 @@ Error state (spec §6.2.5, §6.3.1.5): after an error of severity >= 2, or after
 ClearAllErrors, GetErrStatusE, GetXtdErrStatus and EndSession run; anything else is refused
 with 0514.  Outside a session only StartSession and EndSession run (0508 otherwise).
 
-Motion takes ``length / speed * time_scale`` seconds of wall time (``time_scale`` 0: instant)
+The machine is a :class:`~pcmm_geo.ippdme.machine.MachineBackend` (the simulated micro-CMM or
+the real one on its drivers, :mod:`pcmm_geo.ippdme.drivers`).  Simulated motion takes
+``length / speed * time_scale`` seconds of wall time (``time_scale`` 0: instant)
 in steps of at most 50 ms, during which OnMoveReportE daemons report and AbortE stops the
 machine where it is.  A client that vanishes mid-move leaves the machine where it stopped.
 """
@@ -19,14 +21,15 @@ from __future__ import annotations
 
 import asyncio
 import math
+import threading
 from collections.abc import Awaitable, Callable
 from dataclasses import dataclass
-from typing import Any
+from typing import Any, TypeVar
 
 import numpy as np
 
 from pcmm_geo.ippdme.commands import HANDLERS, KNOWN_METHODS, CommandError
-from pcmm_geo.ippdme.machine import MoveRefused, SimulatedMachine
+from pcmm_geo.ippdme.machine import MachineBackend, MoveRefused
 from pcmm_geo.ippdme.protocol import ERRORS, SERVER_TAG, Command, ProtocolError, format_error, parse_command
 from pcmm_geo.ippdme.state import CoordinateSystems, ToolSet
 
@@ -38,6 +41,7 @@ FAST_METHODS = frozenset({"AbortE", "GetErrStatusE", "OnMoveReportE", "GetPropE"
 QUEUE_LIMIT = 64
 _ALLOWED_IN_ERROR = frozenset({"ClearAllErrors", "GetErrStatusE", "GetXtdErrStatus", "EndSession", "AbortE"})
 _STEP_S = 0.05
+T = TypeVar("T")
 _ERROR_MEMORY = 20
 
 
@@ -49,12 +53,12 @@ class Aborted(Exception):
 class ServerState:
     """What outlives a session: the machine, the tools, the coordinate systems."""
 
-    machine: SimulatedMachine
+    machine: MachineBackend
     tools: ToolSet
     csy: CoordinateSystems
 
     @classmethod
-    def create(cls, machine: SimulatedMachine) -> ServerState:
+    def create(cls, machine: MachineBackend) -> ServerState:
         return cls(machine, ToolSet(float(machine.model.tip_radius)), CoordinateSystems())
 
 
@@ -214,38 +218,20 @@ class Session:
 
     # ------------------------------------------------------------------ motion
     async def travel(self, target: np.ndarray, speed: float, *, check: bool = True) -> None:
-        """Move the tip centre in a straight line to ``target`` (machine frame) at ``speed`` mm/s.
+        """Move the tip centre in a straight line to ``target`` (machine frame) at ``speed`` mm/s (the backend's move).
 
         With ``check``: refuse a path that leaves the workspace (2500, no motion) and stop at
         the first contact with a workpiece (2504 Collision).
         """
-        start = self.machine.position.copy()
-        target = np.asarray(target, dtype=float)
-        hit = None
-        heights = None
-        if check:
-            try:
-                heights = self.machine.check_path(start, target)
-            except MoveRefused as exc:
-                raise CommandError(exc.number, exc.detail) from None
-            hit = self.machine.collision(start, target)
-        end = target if hit is None else hit
-        await self._motion(start, end, speed)
-        try:  # the readings after the move, as a Table 3.2 row of the acquisition log would hold them
-            lasers, read = self.machine.readings(end, heights if hit is None else None)
-            readings = {"lasers_mm": lasers.tolist(), "heights_mm": read.tolist()}
-        except MoveRefused:
-            readings = {}
-        self.record("move", from_mm=start.tolist(), to_mm=end.tolist(), collision=hit is not None, **readings)
-        if hit is not None:
-            raise CommandError(2504, "the probe touched the workpiece during the move")
+        await self.machine.travel(self, np.asarray(target, dtype=float), speed, check=check)
 
     async def wait(self, seconds: float) -> None:
         """Let ``seconds`` of machine time pass (probing search), abortable."""
         here = self.machine.position.copy()
-        await self._motion(here, here, 1.0, duration=seconds)
+        await self.motion(here, here, 1.0, duration=seconds)
 
-    async def _motion(self, start: np.ndarray, end: np.ndarray, speed: float, duration: float | None = None) -> None:
+    async def motion(self, start: np.ndarray, end: np.ndarray, speed: float, duration: float | None = None) -> None:
+        """Simulated motion from ``start`` to ``end`` in ``time_scale``-scaled time: reports, abortable (Aborted)."""
         length = float(np.linalg.norm(end - start))
         if duration is None:
             duration = length / speed if speed > 0 else 0.0
@@ -263,6 +249,33 @@ class Session:
             if self._abort.is_set():
                 raise Aborted
             await asyncio.sleep(min(_STEP_S, max(duration - elapsed, 0.0)))
+
+    async def run_blocking(self, function: Callable[[threading.Event], T], *, poll_s: float = 0.02) -> T:
+        """Run ``function(stop)`` (blocking device I/O) in a worker thread while the session stays responsive.
+
+        OnMoveReportE daemons report the machine's position meanwhile; AbortE sets ``stop`` (the
+        function ends at its next safe point, e.g. after the current step of a stepped move) and
+        raises :class:`Aborted` once it has returned; a cancelled session (client gone) sets
+        ``stop`` too and leaves the thread to finish its step (the backend's lock keeps the next
+        command waiting until it has).
+        """
+        stop = threading.Event()
+        loop = asyncio.get_running_loop()
+        self._daemon_marks = {tag: (loop.time(), self.machine.position.copy()) for tag in self.daemons}
+        future = asyncio.ensure_future(asyncio.to_thread(function, stop))
+        try:
+            while not future.done():
+                await asyncio.wait({future}, timeout=poll_s)
+                await self._report(loop.time())
+                if self._abort.is_set() and not stop.is_set():
+                    stop.set()
+        except asyncio.CancelledError:
+            stop.set()
+            raise
+        result = future.result()
+        if stop.is_set():
+            raise Aborted
+        return result
 
     async def _report(self, now: float) -> None:
         for tag, (interval, distance, items) in list(self.daemons.items()):

@@ -22,6 +22,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from pcmm_geo.elements import AXIAL, Element, element_of
 from pcmm_geo.plots._figure import (
     check_plot_path,
     length_unit,
@@ -35,9 +36,6 @@ if TYPE_CHECKING:
     from pcmm_geo.fit import FitResult
 
 __all__ = ["draw_sphere_map", "plot_fit_residuals"]
-
-_ELEMENTS = {"LineFit": "line", "PlaneFit": "plane", "CircleFit": "circle", "SphereFit": "sphere",
-             "CylinderFit": "cylinder", "ConeFit": "cone", "TorusFit": "torus"}
 
 
 def _frame(axis: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -113,7 +111,7 @@ def _draw_circle(figure: Any, result: Any, points: np.ndarray, shown: np.ndarray
 
 
 def plot_fit_residuals(
-    result: FitResult, path: str | Path, *, points: Any, element: str | None = None, overwrite: bool = False
+    result: FitResult, path: str | Path, *, points: Any, element: Element | None = None, overwrite: bool = False
 ) -> Path:
     """Write the residual plot of a fit, laid out by element (see the module docstring).
 
@@ -162,7 +160,7 @@ def plot_fit_residuals(
     if cloud.ndim != 2 or cloud.shape[1] not in (2, 3) or len(cloud) != len(residuals):
         raise InvalidInputError("points", f"shape ({len(residuals)}, 3) matching the residuals",
                                 f"shape {cloud.shape}")
-    kind = element or _ELEMENTS.get(type(result).__name__, "element")
+    kind = element or element_of(result) or "element"
     factor, unit = length_unit(residuals)
     shown = factor * residuals
     cloud3 = _as_3d(cloud)
@@ -189,7 +187,7 @@ def plot_fit_residuals(
         axes.set_ylabel("in-plane v / mm")
     elif kind == "sphere":
         draw_sphere_map(figure, figure.add_subplot(), cloud3, _vector3(result.center), shown, unit)
-    elif kind in ("cylinder", "cone", "torus"):
+    elif kind in AXIAL:  # cylinder, cone, torus: unrolled around the axis
         origin = _vector3(result.apex if kind == "cone" else (result.center if kind == "torus" else result.point))
         axis = _vector3(result.axis)
         angle, height = _angles_heights(cloud3, origin, axis)

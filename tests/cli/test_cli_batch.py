@@ -12,7 +12,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from pcmm_geo.cli.measurement_commands.batch import evaluate_file
+from pcmm_geo.cli.measure.batch import evaluate_file
 
 PCMM = str(Path(sys.executable).with_name("pcmm"))
 EXAMPLES = files("pcmm_geo") / "data/examples"

@@ -98,6 +98,6 @@ def test_pcmm_alone_prints_usage_on_stderr_and_exits_2() -> None:
 
 def test_pcmm_fit_takes_the_element_names_of_the_fits() -> None:
     from pcmm_geo import fit
-    from pcmm_geo.cli.measurement_commands.fit import ELEMENTS
+    from pcmm_geo.cli.measure.fit import ELEMENTS
 
     assert ELEMENTS == fit.ELEMENTS and all(callable(getattr(fit, f"fit_{name}")) for name in ELEMENTS)

@@ -87,8 +87,8 @@ def _assert_interrupted(done: subprocess.CompletedProcess[str]) -> None:
 
 
 @pytest.mark.parametrize("point", [
-    "pcmm_geo.cli.measurement_commands.fit",  # the first sub-commands main registers
-    "pcmm_geo.cli.machine_commands.acquire",  # further on
+    "pcmm_geo.cli.measure.fit",  # the first sub-commands main registers
+    "pcmm_geo.cli.acquisition.acquire",  # further on
     "pcmm_geo.cli._run",  # after parsing, before the command's own handling
 ])
 def test_ctrl_c_while_the_command_starts_is_one_line(tmp_path: Path, point: str) -> None:

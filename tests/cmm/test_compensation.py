@@ -119,7 +119,7 @@ def test_one_record_for_every_route() -> None:
 
 def test_calibration_balls_use_the_same_plan() -> None:
     from pcmm_geo.fit import fit_sphere
-    from pcmm_geo.machine.calibration.qif_probings import _ball_points
+    from pcmm_geo.machine.calibration.inputs import _ball_points
 
     radii = np.where(np.arange(len(DIRECTIONS)) % 2 == 0, 1.0, 2.5)  # one radius per point: not one ball radius
     mixed = MeasuredPointSet(id=1, points=_centres(radii), normals=DIRECTIONS, compensated=False, probe_radii=radii)

@@ -46,3 +46,19 @@ def running_server(model: Any, workpieces: list[Any], *, seed: int = 0, transcri
                       write_timeout=write_timeout) as server:
         server.machine = machine
         yield server
+
+
+@pytest.fixture(scope="session")
+def calibration_file(tmp_path_factory) -> object:
+    """A calibration file as ``pcmm calibrate --out`` writes it, with its covariance (demo probings, seed 7)."""
+    import numpy as np
+
+    from pcmm_geo.demo import CALIBRATION_LASERS, DemoSettings, simulate_probings, true_machine
+    from pcmm_geo.machine.calibration import calibrate_tetrahedron, save_calibration
+    from pcmm_geo.uncertainty.calibration import calibration_covariance
+
+    settings = DemoSettings(seed=7)
+    probings = simulate_probings(true_machine(settings), settings, np.random.default_rng(7))
+    cal = calibrate_tetrahedron(probings, CALIBRATION_LASERS)
+    covariance = calibration_covariance(probings, CALIBRATION_LASERS, probing_sigma=0.0005, laser_sigma=0.0005)
+    return save_calibration(cal, tmp_path_factory.mktemp("cal") / "cal.json", covariance=covariance)

@@ -18,7 +18,7 @@ from pcmm_runner import run_pcmm
 from scipy import stats
 
 from pcmm_geo.fit import fit_sphere
-from pcmm_geo.ippdme.machine import SimulatedMachine
+from pcmm_geo.ippdme.machine import MachineModel, SimulatedMachine
 from pcmm_geo.ippdme.transcript import Transcript, measured_points, read_transcript, write_points_csv
 from pcmm_geo.ippdme.workpieces import BoxWorkpiece, SphereWorkpiece
 from pcmm_geo.uncertainty.tasks import MeasurementTask, gauge_block_central_lengths, sphere_task
@@ -177,3 +177,33 @@ def test_same_seed_same_points(model, center, seed) -> None:
     np.testing.assert_allclose(pa, pb, atol=1e-12)
     assert np.max(np.abs(np.asarray(pa) - np.asarray(pc))) > 1e-6
     assert write_points_csv  # exported helper used by pcmm serve --replay
+
+
+def test_laser_only_tip_uncertainty_is_in_millimetres(model: MachineModel) -> None:
+    """The laser-only figure is laser_sigma times the root sum of 1/s^2 of the relative-height Jacobian: linear
+    in laser_sigma (a square root of it, as once returned, would grow by sqrt(2) only), and equal to the spread
+    of the least-squares relative heights under laser noise computed here from the forward kinematics."""
+    import dataclasses
+
+    from pcmm_geo.ippdme.machine import reported_tip, tip_uncertainties
+
+    machine = model.machine
+    heights = np.array([[5.0, -3.0, 2.0], [0.5, 0.0, -0.5]])
+    lasers = np.asarray(machine.forward(heights=heights, lasers_hint=machine.reference_lasers,
+                                        check_limits=False).lasers)
+    tips = reported_tip(model, lasers, heights)
+    _, alone = tip_uncertainties(model, lasers, heights, tips)
+    _, doubled = tip_uncertainties(dataclasses.replace(model, laser_sigma=2 * model.laser_sigma), lasers, heights, tips)
+    np.testing.assert_allclose(doubled, 2 * alone, rtol=1e-12)
+    step = 1e-4
+    for k in range(len(heights)):
+        jac = np.empty((3, 3))
+        for j in range(3):
+            moved = heights[k].copy()
+            moved[j] += step
+            jac[:, j] = (np.asarray(machine.forward(heights=moved[None], lasers_hint=lasers[k][None],
+                                                    check_limits=False).lasers)[0] - lasers[k]) / step
+        relative = np.eye(3) - 1.0 / 3.0
+        pinv = np.linalg.pinv(jac @ relative, rcond=1e-12)  # least-squares relative heights from the lasers
+        expected = model.laser_sigma * np.sqrt(np.sum(pinv ** 2))
+        assert alone[k] == pytest.approx(expected, rel=1e-3)

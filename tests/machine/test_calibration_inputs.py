@@ -1,4 +1,4 @@
-"""Typed calibration inputs: ProbedFeatures.from_csv / from_points (and read_qif_probings), LaserTable.from_*."""
+"""Typed calibration inputs: ProbedFeatures.from_csv / from_qif / from_points (read_qif_probings), LaserTable.from_*."""
 
 from __future__ import annotations
 
@@ -7,7 +7,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from pcmm_geo.errors import InvalidInputError
+from pcmm_geo.errors import FileFormatError, InvalidInputError
 from pcmm_geo.machine.calibration import calibrate_tetrahedron
 from pcmm_geo.machine.calibration.probings import LaserTable, ProbedFeatures, write_probings_csv
 from pcmm_geo.machine.calibration.qif_probings import read_qif_probings, write_qif_probings
@@ -52,6 +52,26 @@ def test_from_csv_and_the_qif_route_give_the_same_balls(tmp_path: Path) -> None:
                                        atol=1e-9)
             # the QIF file says its points are probe centres of radius 0.5: the ball is 0.5 smaller
             assert from_qif.joints[arm][position].radius == pytest.approx(6.35 - 0.5, abs=1e-9)
+    # the typed constructor takes the same route: the balls built on CENTRE, to the fit's accuracy
+    typed = ProbedFeatures.from_qif(qif)
+    assert typed.positions == (1, 2) and typed.source == str(qif)
+    for k, arm in enumerate("abc"):
+        for position in (1, 2):
+            np.testing.assert_allclose(typed.joints[arm][position].center,
+                                       CENTRE + np.array([10.0 * k, 5.0 * position, 0.0]), atol=1e-9)
+            assert typed.joints[arm][position].radius == pytest.approx(6.35 - 0.5, abs=1e-9)
+    np.testing.assert_allclose(typed.tip.center, CENTRE, atol=1e-9)
+    assert typed.tip.radius == pytest.approx(1.0 - 0.5, abs=1e-9)
+    assert sorted(typed.points) == sorted(from_csv.points)
+
+
+def test_from_qif_names_the_file_and_feature_it_refuses(tmp_path: Path) -> None:
+    qif = write_qif_probings(ProbedFeatures.from_points(_arrays()), tmp_path / "balls.qif")
+    with pytest.raises(FileFormatError, match=r"balls\.qif.*'SPH_9' \(tip\), which the file does not hold"):
+        ProbedFeatures.from_qif(qif, feature_map={"SPH_9": ("tip", None)})
+    mapped = ProbedFeatures.from_qif(qif, feature_map={"tip": ("tip", None), **{
+        f"joint_{arm}_{position}": (f"joint_{arm}", position) for arm in "abc" for position in (1, 2)}})
+    assert mapped.tip.radius == pytest.approx(1.0, abs=1e-9)  # points on the ball's surface: no probe radius
 
 
 def test_laser_tables_from_readings() -> None:
@@ -74,5 +94,5 @@ def test_typed_inputs_calibrate_as_the_paths_do() -> None:
         assert typed.beta_deg[pair] == pytest.approx(beta, abs=1e-12)
     for arm, d in by_path.dead_distance.items():
         assert typed.dead_distance[arm] == pytest.approx(d, abs=1e-12)
-    with pytest.raises(InvalidInputError, match="from_csv, from_points, read_qif_probings"):
+    with pytest.raises(InvalidInputError, match="from_csv, from_qif, from_points"):
         calibrate_tetrahedron(42, lasers)  # type: ignore[arg-type]

@@ -198,7 +198,7 @@ def test_max_bound_leaves_points_out_and_the_cli_reports_r_and_the_bound(clean, 
 
 def test_cli_takes_the_calibration_files_covariance_into_every_point(tmp_path: Path) -> None:
     """``pcmm calibrate --probing-u-mm --laser-u-mm --out CAL.json``, then ``pcmm process-log --calibration``."""
-    from pcmm_geo.cli.machine_commands.kinematics import load_machine_file
+    from pcmm_geo.cli.machine.kinematics import load_machine_file
     from pcmm_geo.demo import CALIBRATION_LASERS, DemoSettings, simulate_probings, true_machine
     from pcmm_geo.machine.calibration.probings import write_lasers_csv, write_probings_csv
 

@@ -100,6 +100,26 @@ def as_points(
 ) -> FloatArray:
     """Validate a point array and return it as a C-contiguous float64 ``(N, D)`` array.
 
+    Public as :func:`pcmm_geo.fit.as_points`: the layers above the fits take points the same
+    way, with the same typed errors.
+
+    Parameters
+    ----------
+    points : array_like, shape (N, D)
+        Coordinates (mm).
+    element : str
+        What the points are for, named in the errors (``"sphere"``, ``"gauge block"``).
+    dims : tuple of int
+        Accepted numbers of columns ``D`` (default 3).
+    min_points : int
+        Fewest rows accepted.
+    name : str
+        The parameter named in the errors.
+
+    Returns
+    -------
+    ndarray, shape (N, D)
+
     Raises
     ------
     InvalidInputError
@@ -160,7 +180,24 @@ def rotation_to_z(direction: ArrayLike) -> FloatArray:
     """Proper rotation matrix ``R`` with ``R @ direction_unit = (0, 0, 1)``.
 
     Built with a Householder-free two-step construction that is exact for
-    ``direction = ±z`` (no singular axis).
+    ``direction = ±z`` (no singular axis).  Public as :func:`pcmm_geo.fit.rotation_to_z`.
+
+    Parameters
+    ----------
+    direction : array_like, shape (3,)
+        Any non-zero direction (normalised here).
+
+    Returns
+    -------
+    ndarray, shape (3, 3)
+        Rows: two unit vectors perpendicular to ``direction``, then its unit vector.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> r = rotation_to_z([0.0, 3.0, 4.0])
+    >>> bool(np.allclose(r @ [0.0, 0.6, 0.8], [0.0, 0.0, 1.0])), bool(np.isclose(np.linalg.det(r), 1.0))
+    (True, True)
     """
     d = unit(direction)
     # pick the coordinate axis least aligned with d to build an orthonormal frame

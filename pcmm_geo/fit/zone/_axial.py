@@ -21,6 +21,7 @@ from typing import Any, TypeVar
 
 import numpy as np
 
+from pcmm_geo.elements import Criterion
 from pcmm_geo.errors import DegenerateGeometryError
 from pcmm_geo.fit._kernels._axial import canonical_axis
 from pcmm_geo.fit._kernels._core import FitResult, rotation_to_z
@@ -74,7 +75,7 @@ def _axial_fields(
 
 def cylinder_minimax(
     points: FloatArray,
-    criterion: str,
+    criterion: Criterion,
     *,
     gauss: Any,
     result_type: type[ResultT],
@@ -168,7 +169,7 @@ def _region_coordinates(optimum: AxialOptimum, region: Any) -> FloatArray:
 
 def line3d_minimax(
     points: FloatArray,
-    criterion: str,
+    criterion: Criterion,
     *,
     gauss: Any,
     result_type: type[ResultT],
@@ -216,7 +217,7 @@ def line3d_minimax(
     return result_type(point=frozen(point), direction=frozen(direction), **fields)
 
 
-def cone_minimax(points: FloatArray, criterion: str, *, gauss: Any, result_type: type[ResultT]) -> ResultT:
+def cone_minimax(points: FloatArray, criterion: Criterion, *, gauss: Any, result_type: type[ResultT]) -> ResultT:
     """Minimum-zone cone of validated ``(N, 3)`` points.
 
     ``gauss`` is the least-squares cone of the points (the start), ``result_type`` the

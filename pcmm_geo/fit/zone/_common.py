@@ -8,6 +8,9 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from pcmm_geo.elements import CRITERIA as CRITERIA
+from pcmm_geo.elements import SPECS, Criterion, Element
+from pcmm_geo.elements import check_criterion as check_criterion_name
 from pcmm_geo.errors import InvalidInputError
 from pcmm_geo.fit._kernels._core import Certificate
 from pcmm_geo.fit._kernels._linear import frozen
@@ -15,17 +18,8 @@ from pcmm_geo.fit.zone._solver import ZoneSolution
 
 FloatArray = NDArray[np.float64]
 
-CRITERIA = ("gaussian", "chebyshev", "mcc", "mic")
-#: criteria each element supports
-SUPPORTED = {
-    "line": ("gaussian", "chebyshev"),
-    "plane": ("gaussian", "chebyshev"),
-    "circle": CRITERIA,
-    "sphere": CRITERIA,
-    "cylinder": CRITERIA,
-    "cone": ("gaussian", "chebyshev"),
-    "torus": ("gaussian",),
-}
+#: criteria each element supports (pcmm_geo.elements)
+SUPPORTED: dict[str, tuple[Criterion, ...]] = {name: row.criteria for name, row in SPECS.items() if row.fitted}
 _MODE = {"chebyshev": "zone", "mcc": "mcc", "mic": "mic"}
 METHOD = "slp+kkt-newton"
 #: ``FitResult.method`` of an answer found by an exact global method (then polished by the KKT system)
@@ -70,7 +64,7 @@ class Proof:
         return "global" if self.gap_mm <= GLOBAL_GAP_MM else "local"
 
 
-def check_criterion(criterion: object, element: str, **gaussian_only: object) -> str:
+def check_criterion(criterion: object, element: Element, **gaussian_only: object) -> Criterion:
     """Validate ``criterion`` for ``element``; options that only a Gaussian fit takes must be None.
 
     Raises
@@ -79,10 +73,9 @@ def check_criterion(criterion: object, element: str, **gaussian_only: object) ->
         Unknown criterion, a criterion the element does not support, or a Gaussian-only
         option (weights, fixed radius, ...) combined with another criterion.
     """
-    if not isinstance(criterion, str) or criterion not in CRITERIA:
-        raise InvalidInputError("criterion", "one of " + ", ".join(repr(c) for c in CRITERIA), repr(criterion))
+    checked = check_criterion_name(criterion)
     allowed = SUPPORTED[element]
-    if criterion not in allowed:
+    if checked not in allowed:
         raise InvalidInputError(
             "criterion", f"one of {', '.join(repr(c) for c in allowed)} for a {element}", repr(criterion)
         )
@@ -90,10 +83,10 @@ def check_criterion(criterion: object, element: str, **gaussian_only: object) ->
         for name, value in gaussian_only.items():
             if value is not None and value is not False:
                 raise InvalidInputError(name, f"None with criterion={criterion!r} (Gaussian fits only)", repr(value))
-    return criterion
+    return checked
 
 
-def mode_of(criterion: str) -> str:
+def mode_of(criterion: Criterion) -> str:
     """Solver mode (``zone``, ``mcc``, ``mic``) of a non-Gaussian criterion."""
     return _MODE[criterion]
 
@@ -102,7 +95,7 @@ def shared_fields(
     residuals: FloatArray,
     solution: ZoneSolution,
     *,
-    criterion: str,
+    criterion: Criterion,
     parameter_names: tuple[str, ...],
     parameters: FloatArray,
     form: float,

@@ -14,6 +14,7 @@ from typing import Any, TypeVar
 
 import numpy as np
 
+from pcmm_geo.elements import Criterion
 from pcmm_geo.fit._kernels._core import FitResult, rotation_to_z
 from pcmm_geo.fit._kernels._linear import frozen, sign_convention
 from pcmm_geo.fit.zone._common import Proof, shared_fields
@@ -26,7 +27,7 @@ def _size(local: FloatArray) -> float:
     return max(float(np.sqrt(np.mean(np.einsum("ij,ij->i", local, local)))), 1e-300)
 
 
-def plane_minimax(points: FloatArray, criterion: str, *, gauss: Any, result_type: type[ResultT]) -> ResultT:
+def plane_minimax(points: FloatArray, criterion: Criterion, *, gauss: Any, result_type: type[ResultT]) -> ResultT:
     """Minimum-zone plane (narrowest slab) of validated ``(N, 3)`` points.
 
     ``gauss`` is the least-squares plane of the points (the start), ``result_type`` the
@@ -61,7 +62,7 @@ def plane_minimax(points: FloatArray, criterion: str, *, gauss: Any, result_type
     return result_type(point=frozen(point), normal=frozen(normal), **fields)
 
 
-def line_minimax(points: FloatArray, criterion: str, *, gauss: Any, result_type: type[ResultT]) -> ResultT:
+def line_minimax(points: FloatArray, criterion: Criterion, *, gauss: Any, result_type: type[ResultT]) -> ResultT:
     """Minimum-zone 2-D line: the narrowest strip (a 3-D line is :func:`pcmm_geo.fit.zone._axial.line3d_minimax`).
 
     ``gauss`` is the least-squares line of the points (the start), ``result_type`` the

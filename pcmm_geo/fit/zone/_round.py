@@ -19,6 +19,7 @@ from typing import Any, TypeVar
 
 import numpy as np
 
+from pcmm_geo.elements import Criterion, Element
 from pcmm_geo.errors import DegenerateGeometryError
 from pcmm_geo.fit._kernels._core import FitResult
 from pcmm_geo.fit._kernels._linear import frozen, sign_convention
@@ -29,7 +30,7 @@ from pcmm_geo.fit.zone._solver import ZoneSolution
 ResultT = TypeVar("ResultT", bound=FitResult)
 
 
-def domain_of(criterion: str, element: str, *, in_plane: bool = False) -> str:
+def domain_of(criterion: Criterion, element: Element, *, in_plane: bool = False) -> str:
     """The set of elements a round optimum is global over, in words."""
     shape = "circle" if element == "circle" else "sphere"
     where = " in the least-squares plane of the points" if in_plane else ""
@@ -38,7 +39,9 @@ def domain_of(criterion: str, element: str, *, in_plane: bool = False) -> str:
     return f"all {shape}s{where}"
 
 
-def solve_round(points: FloatArray, criterion: str, *, element: str) -> tuple[FloatArray, ZoneSolution, Proof]:
+def solve_round(
+    points: FloatArray, criterion: Criterion, *, element: Element
+) -> tuple[FloatArray, ZoneSolution, Proof]:
     """Solve the minimax problem of a circle (2-D points) or sphere (3-D points), globally.
 
     Returns the centre (machine frame), the solver outcome (distances, levels, contacts) and
@@ -78,7 +81,7 @@ def solve_round(points: FloatArray, criterion: str, *, element: str) -> tuple[Fl
     return origin + solution.x, solution, proof
 
 
-def _radii(solution: ZoneSolution, criterion: str) -> tuple[float, float, float, float]:
+def _radii(solution: ZoneSolution, criterion: Criterion) -> tuple[float, float, float, float]:
     """(reported radius, r_in, r_out, form)."""
     d = solution.distances
     if criterion == "chebyshev":
@@ -96,7 +99,7 @@ def _radii(solution: ZoneSolution, criterion: str) -> tuple[float, float, float,
 def circle_from_solution(
     origin: FloatArray,
     solution: ZoneSolution,
-    criterion: str,
+    criterion: Criterion,
     *,
     result_type: type[ResultT],
     proof: Proof | None = None,
@@ -130,7 +133,7 @@ def circle_from_solution(
 
 
 def circle_minimax(
-    points: FloatArray, criterion: str, *, result_type: type[ResultT], fit_plane: Callable[[FloatArray], Any]
+    points: FloatArray, criterion: Criterion, *, result_type: type[ResultT], fit_plane: Callable[[FloatArray], Any]
 ) -> ResultT:
     """Chebyshev / MCC / MIC circle of validated ``(N, 2)`` or ``(N, 3)`` points.
 
@@ -179,7 +182,7 @@ def circle_minimax(
     )
 
 
-def sphere_minimax(points: FloatArray, criterion: str, *, result_type: type[ResultT]) -> ResultT:
+def sphere_minimax(points: FloatArray, criterion: Criterion, *, result_type: type[ResultT]) -> ResultT:
     """Chebyshev / MCC / MIC sphere of validated ``(N, 3)`` points (``result_type``: the ``SphereFit`` class)."""
     centre, solution, proof = solve_round(points, criterion, element="sphere")
     radius, r_in, r_out, form = _radii(solution, criterion)

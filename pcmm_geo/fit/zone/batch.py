@@ -13,6 +13,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from pcmm_geo.elements import Criterion
 from pcmm_geo.errors import InvalidInputError, PcmmGeoError
 
 __all__ = ["RoundnessBatch", "roundness_profiles"]
@@ -47,7 +48,7 @@ class RoundnessBatch:
         Solver message, or the error of a profile that could not be fitted.
     """
 
-    criterion: str
+    criterion: Criterion
     center: FloatArray
     radius: FloatArray
     r_in: FloatArray
@@ -60,7 +61,7 @@ class RoundnessBatch:
     bound: FloatArray
 
 
-def roundness_profiles(profiles: ArrayLike, *, criterion: str = "chebyshev") -> RoundnessBatch:
+def roundness_profiles(profiles: ArrayLike, *, criterion: Criterion = "chebyshev") -> RoundnessBatch:
     """Minimum-zone (or MCC / MIC) circles of a stack of profiles.
 
     Parameters

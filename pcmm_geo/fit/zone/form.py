@@ -22,6 +22,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 from numpy.typing import ArrayLike
 
+from pcmm_geo.elements import SPECS, Element
 from pcmm_geo.errors import InvalidInputError
 from pcmm_geo.fit._kernels._core import FitResult
 
@@ -30,15 +31,8 @@ if TYPE_CHECKING:
 
 __all__ = ["CHARACTERISTICS", "FORM_DECISION_RULE", "FormEvaluation", "decide_form", "evaluate_form"]
 
-#: element -> ISO characteristic evaluated by its minimum zone
-CHARACTERISTICS = {
-    "line": "straightness",
-    "plane": "flatness",
-    "circle": "roundness",
-    "sphere": "sphericity",
-    "cylinder": "cylindricity",
-    "cone": "conicity",
-}
+#: element -> ISO characteristic evaluated by its minimum zone (pcmm_geo.elements)
+CHARACTERISTICS: dict[str, str] = {name: row.form for name, row in SPECS.items() if row.fitted and row.form}
 
 #: the decision rule of :func:`decide_form`, in words (reports print it beside the verdict)
 FORM_DECISION_RULE = (
@@ -121,7 +115,7 @@ class FormEvaluation:
         The elements the scope refers to (e.g. ``"all planes"``).
     """
 
-    element: str
+    element: Element
     characteristic: str
     deviation: float
     tolerance: float | None
@@ -169,7 +163,7 @@ class FormEvaluation:
 
 def evaluate_form(
     points: ArrayLike,
-    element: str,
+    element: Element,
     tolerance: float | None = None,
     *,
     axis_region: AxisRegion | None = None,

@@ -41,6 +41,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from pcmm_geo.elements import Criterion
 from pcmm_geo.errors import InvalidInputError, TooFewPointsError
 
 __all__ = ["ELEMENTS", "MinimaxReference", "make_minimax_reference"]
@@ -84,7 +85,7 @@ class MinimaxReference:
     """
 
     element: str
-    criterion: str
+    criterion: Criterion
     points: FloatArray
     contacts: NDArray[np.intp]
     multipliers: FloatArray
@@ -112,7 +113,7 @@ def _multipliers(gradients: FloatArray, signs: FloatArray) -> FloatArray | None:
     return lam
 
 
-def _signs(criterion: str, n_upper_zone: int, total: int) -> FloatArray:
+def _signs(criterion: Criterion, n_upper_zone: int, total: int) -> FloatArray:
     if criterion == "mcc":
         return np.ones(total)
     if criterion == "mic":
@@ -149,7 +150,7 @@ def _axial_gradients(units: FloatArray, heights: FloatArray, radii: FloatArray, 
 
 def make_minimax_reference(
     element: str,
-    criterion: str = "chebyshev",
+    criterion: Criterion = "chebyshev",
     *,
     n_points: int = 50,
     size: float = 10.0,
@@ -227,7 +228,7 @@ def _fill_band(rng: np.random.Generator, count: int, low: float, high: float) ->
     return rng.uniform(low + _MARGIN * span, high - _MARGIN * span, count)
 
 
-def _levels(criterion: str, size: float, form: float) -> tuple[float, float, float]:
+def _levels(criterion: Criterion, size: float, form: float) -> tuple[float, float, float]:
     """(r_in, r_out, reported radius) of a round element; the fill lies in [r_in, r_out]."""
     if criterion == "chebyshev":
         return size - form / 2, size + form / 2, size

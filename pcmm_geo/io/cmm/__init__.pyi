@@ -22,8 +22,6 @@ from .model import Units as Units
 from .pcdmis import read_pcdmis_xyzijk as read_pcdmis_xyzijk
 from .qif._xml import DEFAULT_MAX_BYTES as DEFAULT_MAX_BYTES
 from .qif._xml import DEFAULT_MAX_DEPTH as DEFAULT_MAX_DEPTH
-from .qif.build import FeatureReport as FeatureReport
-from .qif.build import results_document as results_document
 from .qif.characteristic_definitions import CharacteristicDefinition as CharacteristicDefinition
 from .qif.characteristic_definitions import CharacteristicItem as CharacteristicItem
 from .qif.characteristic_definitions import CharacteristicNominal as CharacteristicNominal
@@ -34,6 +32,8 @@ from .qif.datums import DatumReferenceFrame as DatumReferenceFrame
 from .qif.datums import DrfDatum as DrfDatum
 from .qif.reader import read_qif as read_qif
 from .qif.schema import validate_qif as validate_qif
-from .qif.writer import write_qif as write_qif
+from .qif.write.build import FeatureReport as FeatureReport
+from .qif.write.build import results_document as results_document
+from .qif.write.writer import write_qif as write_qif
 from .settings import SpellSetting as SpellSetting
 from .settings import python_setting as python_setting

@@ -45,6 +45,8 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from pcmm_geo.elements import FEATURE_TYPES as ELEMENT_FEATURE_TYPES
+from pcmm_geo.elements import FeatureType
 from pcmm_geo.errors import InvalidInputError
 
 __all__ = [
@@ -68,7 +70,7 @@ FloatArray = NDArray[np.float64]
 
 #: feature types with a geometry pcmm_geo refits; other QIF types keep their snake_case name
 #: (``EdgePointFeatureMeasurement`` -> ``"edge_point"``)
-FEATURE_TYPES = ("circle", "cylinder", "sphere", "plane", "line", "point", "cone")
+FEATURE_TYPES: tuple[FeatureType, ...] = ELEMENT_FEATURE_TYPES  # pcmm_geo.elements
 
 
 def frozen_array(values: Any, shape: tuple[int | None, ...], what: str, dtype: Any = np.float64) -> NDArray[Any]:

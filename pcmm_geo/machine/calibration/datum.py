@@ -135,8 +135,7 @@ def datum_frame(plane_points: ArrayLike, hole_points: ArrayLike, *, x_towards: A
     --------
     See the module docstring.
     """
-    from pcmm_geo.fit import fit_cylinder
-    from pcmm_geo.fit._kernels._core import as_points
+    from pcmm_geo.fit import as_points, fit_cylinder
 
     plane = as_points(plane_points, element="datum plane", min_points=3, name="datum_plane")
     centroid = plane.mean(axis=0)

@@ -15,6 +15,9 @@ Three CSV formats:
 * **laser readings** -- header ``position,laser_a,laser_b,laser_c`` (mm), one row per
   slider position.
 
+A QIF 3.0 results file of the probed balls is read by :meth:`ProbedFeatures.from_qif`
+(:mod:`pcmm_geo.machine.calibration.qif_probings`).
+
 Blank lines and lines starting with ``#`` are ignored.  Any other deviation raises
 :class:`~pcmm_geo.errors.FileFormatError` naming the file and the 1-based line.
 
@@ -45,7 +48,7 @@ from pcmm_geo._deprecation import renamed_fields, renamed_parameters
 from pcmm_geo.errors import FileFormatError, PcmmGeoError
 from pcmm_geo.io.text import excerpt, parse_decimal
 from pcmm_geo.machine.calibration.geometry import FittedSphere, fit_probed_sphere
-from pcmm_geo.machine.calibration.inputs import check_readings, points_by_role
+from pcmm_geo.machine.calibration.inputs import check_readings, points_by_role, read_qif_balls
 
 __all__ = [
     "ARMS",
@@ -104,6 +107,16 @@ class ProbedFeatures:
     def from_csv(cls, path: str | Path) -> ProbedFeatures:
         """Read a probings CSV: raw ``feature,position,x,y,z`` or the ``x,y,z,d,r`` export (:func:`read_probings`)."""
         return read_probings(path)
+
+    @classmethod
+    def from_qif(cls, path: str | Path, *, feature_map: Mapping[str, tuple[str, int | None]] | str | Path | None = None,
+                 max_bytes: int | None = None) -> ProbedFeatures:
+        """Read the balls from a QIF 3.0 results file: sphere features ``joint_a_1`` ... ``joint_c_K``, ``tip``
+        (or named by ``feature_map``), refitted where the file has their points
+        (:func:`~pcmm_geo.machine.calibration.inputs.read_qif_balls`; what was refitted, reported
+        and ignored: :func:`~pcmm_geo.machine.calibration.qif_probings.read_qif_probings`)."""
+        balls = read_qif_balls(path, feature_map=feature_map, max_bytes=max_bytes)
+        return _assemble(balls.spheres, balls.points, balls.source)
 
     @classmethod
     def from_points(cls, points: Mapping[Any, Any]) -> ProbedFeatures:

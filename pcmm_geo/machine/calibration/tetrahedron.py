@@ -94,7 +94,7 @@ def as_probed_features(probings: ProbedFeatures | str | Path | Mapping[Any, Any]
     if isinstance(probings, Mapping):
         return ProbedFeatures.from_points(probings)
     raise InvalidInputError(
-        "probings", "ProbedFeatures (from_csv, from_points, read_qif_probings), a CSV path or a mapping of probed "
+        "probings", "ProbedFeatures (from_csv, from_qif, from_points), a CSV path or a mapping of probed "
         "points", type(probings).__name__
     )
 
@@ -231,7 +231,8 @@ def calibrate_tetrahedron(
         ``feature,position,x,y,z`` or the seed's ``x,y,z,d,r`` export, see
         :mod:`pcmm_geo.machine.calibration.probings`), :meth:`ProbedFeatures.from_points`
         (``{"joint_a": [(N, 3) per position] or {position: (N, 3)}, ..., "tip": (N, 3)}``) or
-        :func:`~pcmm_geo.machine.calibration.qif_probings.read_qif_probings` (its ``.features``).
+        :meth:`ProbedFeatures.from_qif` (a QIF 3.0 results file; with what was refitted:
+        :func:`~pcmm_geo.machine.calibration.qif_probings.read_qif_probings`, its ``.features``).
         A CSV path or such a mapping is still read with them (:func:`as_probed_features`).
     lasers : LaserTable
         Laser readings per slider position (mm, arms a, b, c), made by

@@ -22,6 +22,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from pcmm_geo.elements import Criterion
 from pcmm_geo.errors import InvalidInputError
 from pcmm_geo.fit._kernels._axial import as_axis_hint
 from pcmm_geo.fit._kernels._core import rotation_to_z
@@ -208,7 +209,7 @@ def as_budget(budget: SearchBudget | None) -> SearchBudget:
     return budget
 
 
-def check_minimax_only(criterion: str, **options: object) -> None:
+def check_minimax_only(criterion: Criterion, **options: object) -> None:
     """Raise :class:`InvalidInputError` for a minimax-only option (region, budget) given to a Gaussian fit."""
     if criterion == "gaussian":
         for name, value in options.items():

@@ -17,7 +17,7 @@ from pcmm_geo.cli._output import (
 
 
 def register(subparsers: Any) -> None:
-    from pcmm_geo.cli.machine_commands.kinematics import add_machine_argument
+    from pcmm_geo.cli.machine.kinematics import add_machine_argument
 
     parser = subparsers.add_parser(
         "laser-ratio",
@@ -45,7 +45,7 @@ def register(subparsers: Any) -> None:
 
 
 def _handle(args: argparse.Namespace) -> Report:
-    from pcmm_geo.cli.machine_commands.kinematics import load_machine_file
+    from pcmm_geo.cli.machine.kinematics import load_machine_file
     from pcmm_geo.errors import InvalidInputError
 
     if bool(args.file) == bool(args.ratios):

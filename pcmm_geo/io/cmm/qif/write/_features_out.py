@@ -18,6 +18,7 @@ from collections.abc import Callable, Mapping
 
 import numpy as np
 
+from pcmm_geo.elements import SIZED_FEATURES, SPECS
 from pcmm_geo.errors import InvalidInputError
 from pcmm_geo.io.cmm.document import CmmDocument
 from pcmm_geo.io.cmm.model import (
@@ -29,20 +30,18 @@ from pcmm_geo.io.cmm.model import (
     MeasuredFeature,
     MeasuredPointSet,
 )
-from pcmm_geo.io.cmm.qif._xml_out import ALGORITHMS, QifText, camel
+from pcmm_geo.io.cmm.qif.write._xml_out import ALGORITHMS, QifText, camel
 
 __all__ = ["check_feature_links", "write_features", "write_measured_features", "write_point_sets"]
 
 _BLOCK = 4096  # points formatted at a time
 #: feature types whose definition holds InternalExternal and a diameter
-SIZED = ("circle", "cylinder", "sphere", "cone")
-_PLACEMENT = {"circle": ("location", "normal"), "cylinder": ("location", "direction"), "sphere": ("location",),
-              "plane": ("location", "normal"), "line": ("location", "direction"), "point": ("location",),
-              "cone": ("location", "direction")}
-_SIZES = {"circle": ("diameter", "diameter_min", "diameter_max"),
-          "cylinder": ("diameter", "length", "diameter_min", "diameter_max"),
-          "sphere": ("diameter", "diameter_min", "diameter_max"),
-          "cone": ("diameter", "diameter_min", "diameter_max")}
+SIZED = SIZED_FEATURES
+_PLACEMENT: dict[str, tuple[str, ...]] = {kind: SPECS[kind].placement_fields for kind in FEATURE_TYPES}
+#: measured sizes of a sized feature (a cylinder also states its length)
+_SIZES: dict[str, tuple[str, ...]] = {
+    kind: ("diameter", *(("length",) if kind == "cylinder" else ()), "diameter_min", "diameter_max")
+    for kind in SIZED_FEATURES}
 
 
 def check_type(kind: str, what: str) -> None:

@@ -1,4 +1,8 @@
-"""Small CSV reader shared by the artefact evaluations: named columns, typed cells, precise errors."""
+"""Small CSV reader shared by the artefact evaluations: named columns, typed cells, precise errors.
+
+Public (not ``_table``) because the CLI reads its small tables the same way (``pcmm thermal
+thermistor --calibration``): one reader, one wording of its errors (file, line, column).
+"""
 
 from __future__ import annotations
 

@@ -7,13 +7,13 @@ form, ``combinedUncertainty``), the measured point sets (points, normals, ``Comp
 ``Compensations``, ``ProbeRadius`` or ``ProbeRadii``), the characteristic measurements (status,
 value, uncertainty) and the inspection status.
 
-Numbers read back exactly (:mod:`~pcmm_geo.io.cmm.qif._xml_out`); point lists are written in blocks.
+Numbers read back exactly (:mod:`~pcmm_geo.io.cmm.qif.write._xml_out`); point lists are written in blocks.
 
-Layout: one function per section, each taking the output (:class:`~pcmm_geo.io.cmm.qif._xml_out.QifText`,
+Layout: one function per section, each taking the output (:class:`~pcmm_geo.io.cmm.qif.write._xml_out.QifText`,
 which converts mm and rad to the file's units) and the records.  The features part -- the
-``Features`` section (:func:`~pcmm_geo.io.cmm.qif._features_out.write_features`, ids checked to
+``Features`` section (:func:`~pcmm_geo.io.cmm.qif.write._features_out.write_features`, ids checked to
 link first), the feature measurements and the point sets -- is
-:mod:`~pcmm_geo.io.cmm.qif._features_out`.  The characteristics part is here:
+:mod:`~pcmm_geo.io.cmm.qif.write._features_out`.  The characteristics part is here:
 :func:`characteristics_to_write` (checks, one record per item), :func:`write_characteristics`
 (the ``Characteristics`` section, after ``Features``) and
 :func:`write_characteristic_measurements` (``MeasuredCharacteristics`` of each results set, after
@@ -26,10 +26,10 @@ written: diameter, spherical_diameter, radius, spherical_radius, length, width (
 ``MaxValue``/``MinValue`` or ``NonTolerance``) and flatness, circularity, cylindricity,
 sphericity, straightness, conicity (form: ``ToleranceValue``, required by QIF -- a form value
 without a tolerance belongs in the feature's ``actual.form``).  With ``gdt``
-(:class:`~pcmm_geo.io.cmm.qif.gdt_out.GdtRecords`) also ``DatumDefinitions``,
+(:class:`~pcmm_geo.io.cmm.qif.write.gdt_out.GdtRecords`) also ``DatumDefinitions``,
 ``DatumReferenceFrames`` and the geometric characteristics (position, orientation, runout,
 profile, coaxiality: their definitions and the ``Bonus``) and linear coordinates, distances and
-angles between (their nominals): :mod:`~pcmm_geo.io.cmm.qif.gdt_out`.
+angles between (their nominals): :mod:`~pcmm_geo.io.cmm.qif.write.gdt_out`.
 
 Examples
 --------
@@ -52,14 +52,20 @@ from pcmm_geo._atomic import write_atomic
 from pcmm_geo.errors import InvalidInputError
 from pcmm_geo.io.cmm.document import CmmDocument
 from pcmm_geo.io.cmm.model import Characteristic, MeasurementResults
-from pcmm_geo.io.cmm.qif._features_out import (
+from pcmm_geo.io.cmm.qif.write._features_out import (
     check_feature_links,
     write_features,
     write_measured_features,
     write_point_sets,
 )
-from pcmm_geo.io.cmm.qif._xml_out import CHARACTERISTIC_STATUSES, INSPECTION_STATUSES, QifText, camel, decimal_text
-from pcmm_geo.io.cmm.qif.gdt_out import (
+from pcmm_geo.io.cmm.qif.write._xml_out import (
+    CHARACTERISTIC_STATUSES,
+    INSPECTION_STATUSES,
+    QifText,
+    camel,
+    decimal_text,
+)
+from pcmm_geo.io.cmm.qif.write.gdt_out import (
     DIMENSION_CHARACTERISTICS,
     GDT_CHARACTERISTICS,
     GdtRecords,
@@ -82,7 +88,7 @@ _LINEAR_UNITS = {"mm": ("mm", 1.0), "inch": ("inch", 25.4)}
 class _Writer:
     """The document in schema order; each section is one function of ``out`` and the document.
 
-    Sections: header, standards, units, :func:`~pcmm_geo.io.cmm.qif._features_out.write_features`,
+    Sections: header, standards, units, :func:`~pcmm_geo.io.cmm.qif.write._features_out.write_features`,
     :func:`write_characteristics`, then per results set the feature measurements, point sets,
     :func:`write_characteristic_measurements` and the inspection status.
     """
@@ -179,8 +185,9 @@ class _Writer:
 def characteristics_to_write(document: CmmDocument, gdt: GdtRecords | None = None) -> list[Characteristic]:
     """One record per characteristic item (checked), in document order: what the section holds.
 
-    ``gdt``: the definitions of geometric characteristics (:data:`~pcmm_geo.io.cmm.qif.gdt_out.GDT_CHARACTERISTICS`)
-    and their datums; without it only size and form characteristics are written.
+    ``gdt``: the definitions of geometric characteristics
+    (:data:`~pcmm_geo.io.cmm.qif.write.gdt_out.GDT_CHARACTERISTICS`) and their datums; without it
+    only size and form characteristics are written.
     """
     seen: set[int] = set()
     unique = []
@@ -326,7 +333,7 @@ def write_qif(document: CmmDocument, path: str | Path, *, overwrite: bool = Fals
         The document's QIF persistent id (a UUID); default a new random UUID.
     gdt : GdtRecords or None
         Datum definitions, datum reference frames and the definitions (and bonuses) of the document's
-        geometric characteristics (:mod:`~pcmm_geo.io.cmm.qif.gdt_out`).
+        geometric characteristics (:mod:`~pcmm_geo.io.cmm.qif.write.gdt_out`).
 
     Returns
     -------

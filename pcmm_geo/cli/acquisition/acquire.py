@@ -13,7 +13,7 @@ from pcmm_geo.cli._output import (
     declare_output,
     refuse_renamed_options,
 )
-from pcmm_geo.cli.machine_commands._acquire_plan import (
+from pcmm_geo.cli.acquisition._acquire_plan import (
     add_start_arguments,
     check_start_arguments,
     enforce_limit,
@@ -139,7 +139,7 @@ def _handle(args: argparse.Namespace) -> Report:
     from pcmm_geo.acquisition.session import SessionConfig
 
     _check_args(args)
-    from pcmm_geo.acquisition._loglock import check_unlocked
+    from pcmm_geo.acquisition.loglock import check_unlocked
 
     if not args.plan_only:
         check_unlocked(args.out)  # a log another session holds is refused at once, before any device is touched

@@ -17,7 +17,7 @@ from pcmm_geo.cli._output import (
 
 
 def register(subparsers: Any) -> None:
-    from pcmm_geo.cli.machine_commands.kinematics import add_machine_argument
+    from pcmm_geo.cli.machine.kinematics import add_machine_argument
 
     parser = subparsers.add_parser(
         "process-log",
@@ -82,7 +82,7 @@ def _handle(args: argparse.Namespace) -> Report:
     import numpy as np
 
     from pcmm_geo.cli._progress import progress_bar, progress_wanted
-    from pcmm_geo.cli.machine_commands.kinematics import load_machine_file
+    from pcmm_geo.cli.machine.kinematics import load_machine_file
     from pcmm_geo.errors import ConvergenceError, InconsistentMeasurementError, OutOfRangeError
     from pcmm_geo.machine.analysis.logproc import (
         DEFAULT_ALPHA,

@@ -30,8 +30,9 @@ from typing import Any
 
 from pcmm_geo._optional import require
 from pcmm_geo.cli._output import EXIT_FAILURE, EXIT_OK, Report, refuse_renamed_options, to_jsonable
+from pcmm_geo.elements import ELEMENTS
 
-FIT_ELEMENTS = ("line", "plane", "circle", "sphere", "cylinder", "cone", "torus")
+FIT_ELEMENTS = ELEMENTS
 TASKS = (*(f"fit-{element}" for element in FIT_ELEMENTS), "gauge-block", "compare")
 
 

@@ -79,7 +79,7 @@ def _finite(value: float) -> float | None:
 
 def add_start_arguments(parser: argparse.ArgumentParser) -> None:
     """``--start``, ``--calibration``, ``--max-tip-u-mm``, ``--plan-only``."""
-    from pcmm_geo.cli.machine_commands.kinematics import add_machine_argument
+    from pcmm_geo.cli.machine.kinematics import add_machine_argument
 
     parser.add_argument("--start", choices=START_NAMES, default=None,
                         help="start pose, commanded after homing: 'conditioned' (default) moves the pivots to the "
@@ -140,7 +140,7 @@ def plan_start(args: argparse.Namespace, start_position: int, span: int) -> Star
 
     from pcmm_geo.acquisition.drivers.zaber import T_LSR450B_MICROSTEP_MM
     from pcmm_geo.acquisition.programme import plan_random_programme, start_offsets_usteps
-    from pcmm_geo.cli.machine_commands.kinematics import load_machine_file
+    from pcmm_geo.cli.machine.kinematics import load_machine_file
     from pcmm_geo.errors import InvalidInputError
     from pcmm_geo.machine.analysis.conditioning_maps import CONDITIONED_START_OFFSETS, choose_start, start_map
     from pcmm_geo.machine.analysis.logproc import DEFAULT_MAX_TIP_UNCERTAINTY

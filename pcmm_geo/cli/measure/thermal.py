@@ -117,7 +117,7 @@ def _handle_rtd(args: argparse.Namespace) -> Report:
 
 
 def _read_calibration(path: str) -> tuple[list[float], list[float]]:
-    from pcmm_geo.artefacts._table import cell_float, read_rows
+    from pcmm_geo.artefacts.table import cell_float, read_rows
 
     rows = read_rows(path, ("temperature", "resistance"))
     return ([cell_float(path, line, row, "temperature") for line, row in rows],

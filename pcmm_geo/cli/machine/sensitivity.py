@@ -17,7 +17,7 @@ from pcmm_geo.cli._output import (
 
 
 def register(subparsers: Any) -> None:
-    from pcmm_geo.cli.machine_commands.kinematics import add_machine_argument
+    from pcmm_geo.cli.machine.kinematics import add_machine_argument
 
     parser = subparsers.add_parser(
         "sensitivity",
@@ -46,7 +46,7 @@ def register(subparsers: Any) -> None:
 
 
 def _handle(args: argparse.Namespace) -> Report:
-    from pcmm_geo.cli.machine_commands.kinematics import load_machine_file
+    from pcmm_geo.cli.machine.kinematics import load_machine_file
     from pcmm_geo.machine.analysis.sensitivity import sensitivity_over_cube
     from pcmm_geo.plots import plot_sensitivity
 

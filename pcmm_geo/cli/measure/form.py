@@ -23,9 +23,12 @@ from pcmm_geo.cli._output import (
     add_report_flag,
     refuse_renamed_options,
 )
-from pcmm_geo.cli.measurement_commands.fit import add_axis_region_options
+from pcmm_geo.cli.measure.fit import add_axis_region_options
+from pcmm_geo.elements import ELEMENTS as FIT_ELEMENTS
+from pcmm_geo.elements import SPECS
 
-ELEMENTS = ("line", "plane", "circle", "sphere", "cylinder", "cone")
+#: the elements with a minimum-zone form characteristic (pcmm_geo.elements)
+ELEMENTS = tuple(name for name in FIT_ELEMENTS if SPECS[name].form is not None)
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
@@ -58,7 +61,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
 def handle(args: argparse.Namespace) -> Report:
     import dataclasses
 
-    from pcmm_geo.cli.measurement_commands.fit import axis_search_options
+    from pcmm_geo.cli.measure.fit import axis_search_options
     from pcmm_geo.fit.zone.form import evaluate_form
 
     source = read_fit_input(args, args.element)

@@ -40,9 +40,9 @@ from dataclasses import dataclass, field
 
 from pcmm_geo.errors import InvalidInputError
 from pcmm_geo.io.cmm.model import Characteristic
-from pcmm_geo.io.cmm.qif._xml_out import QifText, camel
 from pcmm_geo.io.cmm.qif.characteristic_definitions import CharacteristicDefinition, CharacteristicNominal
 from pcmm_geo.io.cmm.qif.datums import DatumDefinition, DatumReferenceFrame
+from pcmm_geo.io.cmm.qif.write._xml_out import QifText, camel
 
 __all__ = ["DIMENSION_CHARACTERISTICS", "GDT_CHARACTERISTICS", "CompositeSegment", "GdtRecords", "check_gdt_definition",
            "write_bonus", "write_datums", "write_dimension_nominal", "write_frames", "write_gdt_definition",

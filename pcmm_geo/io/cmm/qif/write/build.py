@@ -31,6 +31,7 @@ from __future__ import annotations
 from collections.abc import Sequence
 from dataclasses import dataclass, replace
 
+from pcmm_geo.elements import SIZED_FEATURES, SPECS
 from pcmm_geo.errors import InvalidInputError
 from pcmm_geo.io.cmm.document import CmmDocument
 from pcmm_geo.io.cmm.model import (
@@ -46,23 +47,15 @@ from pcmm_geo.io.cmm.model import (
     PointSetReference,
     Units,
 )
-from pcmm_geo.io.cmm.qif._xml_out import check_xml_text
+from pcmm_geo.io.cmm.qif.write._xml_out import check_xml_text
 
 __all__ = ["INTERNAL_EXTERNAL", "NOMINAL_NEEDS", "FeatureReport", "check_feature_name", "results_document"]
 
 #: the values of QIF ``InternalExternal``
 INTERNAL_EXTERNAL = ("INTERNAL", "EXTERNAL", "NOT_APPLICABLE")
 #: what a nominal of each type must give (QIF 3.0 feature nominal and definition)
-NOMINAL_NEEDS = {
-    "circle": ("location", "normal", "diameter"),
-    "cylinder": ("location", "direction", "diameter"),
-    "sphere": ("location", "diameter"),
-    "plane": ("location", "normal"),
-    "line": ("location", "direction"),
-    "point": ("location",),
-    "cone": ("location", "direction", "diameter", "half_angle"),
-}
-_SIZED = ("circle", "cylinder", "sphere", "cone")
+NOMINAL_NEEDS: dict[str, tuple[str, ...]] = {kind: SPECS[kind].nominal_fields for kind in FEATURE_TYPES}
+_SIZED = SIZED_FEATURES
 
 
 @dataclass(frozen=True, eq=False)

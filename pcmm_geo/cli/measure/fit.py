@@ -24,6 +24,7 @@ from pcmm_geo.cli._output import (
     refuse_renamed_options,
 )
 from pcmm_geo.cli._record import CovarianceBlock
+from pcmm_geo.elements import AXIAL, CRITERIA, ELEMENTS, SPECS, Criterion, Element
 
 _CRITERION_TITLES = {
     "gaussian": "Gaussian least squares",
@@ -31,7 +32,8 @@ _CRITERION_TITLES = {
     "mcc": "minimum circumscribed",
     "mic": "maximum inscribed",
 }
-ELEMENTS = ("line", "plane", "circle", "sphere", "cylinder", "cone", "torus")  # = pcmm_geo.fit.ELEMENTS (tested)
+#: fits taking a fixed ``radius=`` (the size parameter is the radius itself)
+_FIXED_RADIUS = tuple(name for name in ELEMENTS if SPECS[name].size == "radius")
 _DIRECTIONS = ("direction", "normal", "axis")
 _UNITS = {"radius": "mm", "r_in": "mm", "r_out": "mm", "major_radius": "mm", "minor_radius": "mm", "half_angle": "rad"}
 
@@ -56,7 +58,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     )
     parser.add_argument(
         "--criterion",
-        choices=("gaussian", "chebyshev", "mcc", "mic"),
+        choices=CRITERIA,
         default="gaussian",
         help="least squares (default), minimum zone, minimum circumscribed or maximum inscribed",
     )
@@ -87,12 +89,13 @@ def handle(args: argparse.Namespace) -> Report:
     points = source.points
     kwargs: dict[str, Any] = {}
     if args.radius is not None:
-        if args.element not in ("circle", "sphere", "cylinder"):
-            raise InvalidInputError("--radius-mm", "element circle, sphere or cylinder", args.element)
+        if args.element not in _FIXED_RADIUS:
+            raise InvalidInputError("--radius-mm", f"element {', '.join(_FIXED_RADIUS[:-1])} or {_FIXED_RADIUS[-1]}",
+                                    args.element)
         kwargs["radius"] = args.radius
     if args.axis_hint is not None:
-        if args.element not in ("cylinder", "cone", "torus"):
-            raise InvalidInputError("--axis-hint", "element cylinder, cone or torus", args.element)
+        if args.element not in AXIAL:
+            raise InvalidInputError("--axis-hint", f"element {', '.join(AXIAL[:-1])} or {AXIAL[-1]}", args.element)
         kwargs["axis_hint"] = np.asarray(args.axis_hint, dtype=float)
     if args.element == "circle" and args.criterion == "gaussian":
         kwargs["method"] = args.method
@@ -198,7 +201,7 @@ def add_axis_region_options(parser: argparse.ArgumentParser) -> None:
                        help="cell budget of the global search (default 2000000; repeatable where seconds are not)")
 
 
-def axis_search_options(args: argparse.Namespace, element: str, criterion: str, dim: int) -> dict[str, Any]:
+def axis_search_options(args: argparse.Namespace, element: Element, criterion: Criterion, dim: int) -> dict[str, Any]:
     """``axis_region`` / ``search_budget`` keyword arguments from the axis options (errors for other elements)."""
     from pcmm_geo.errors import InvalidInputError
     from pcmm_geo.fit import AxisRegion, SearchBudget
@@ -236,7 +239,7 @@ def axis_search_options(args: argparse.Namespace, element: str, criterion: str, 
     return out
 
 
-def _diameter(element: str, result: Any, uncertainty: dict[str, float], rows: list[list[Any]],
+def _diameter(element: Element, result: Any, uncertainty: dict[str, float], rows: list[list[Any]],
               data: dict[str, Any]) -> str:
     """The diameter ``d = 2 r`` of a circle, sphere or cylinder with ``u(d) = 2 u(r)`` (type A, k = 1).
 
@@ -245,7 +248,7 @@ def _diameter(element: str, result: Any, uncertainty: dict[str, float], rows: li
     """
     import math
 
-    if element not in ("circle", "sphere", "cylinder") or not hasattr(result, "radius"):
+    if element not in _FIXED_RADIUS or not hasattr(result, "radius"):
         return ""
     diameter = 2.0 * float(result.radius)
     u_radius = uncertainty.get("radius", float("nan"))
