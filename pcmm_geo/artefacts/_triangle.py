@@ -22,11 +22,12 @@ passes over the mesh few and cheap.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
+
+from pcmm_geo._records import record
 
 FloatArray = NDArray[np.float64]
 IntArray = NDArray[np.int64]
@@ -290,7 +291,7 @@ def corner_angles(triangles: FloatArray) -> FloatArray:
     return angles
 
 
-@dataclass(frozen=True)
+@record
 class NeighbourLists:
     """Per triangle, the other triangles whose centroids lie nearest to its own centroid.
 
@@ -317,7 +318,7 @@ class NeighbourLists:
     listed_near: NDArray[np.float32]
 
 
-@dataclass(frozen=True)
+@record
 class SizeClass:
     """Triangles of similar size: a k-d tree over their centroids and their largest centroid-to-corner distance."""
 

@@ -17,13 +17,13 @@ first is turned 22.5° in azimuth relative to the ring before it.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from pcmm_geo._deprecation import renamed_fields, renamed_parameters, warn_deprecated
+from pcmm_geo._records import record
 from pcmm_geo.errors import InvalidInputError
 from pcmm_geo.fit._kernels._core import as_points
 
@@ -108,7 +108,7 @@ def sphere_probing_pattern(
 
 
 @renamed_fields(centre="center")
-@dataclass(frozen=True)
+@record
 class ProbingResult:
     """ISO 10360-5 probing errors.
 

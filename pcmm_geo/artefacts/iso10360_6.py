@@ -34,6 +34,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from pcmm_geo._records import record
 from pcmm_geo.errors import InvalidInputError
 from pcmm_geo.fit import ELEMENTS as _FIT_ELEMENTS
 
@@ -58,7 +59,7 @@ _CENTRED = {"circle", "sphere", "torus"}
 _CIRCLE_METHODS = {"projected": "projected", "geometric": "gaussian"}
 
 
-@dataclass(frozen=True)
+@record
 class ElementParameters:
     """Geometry of a fitted element in the harness's common schema (mm, rad)."""
 
@@ -91,7 +92,7 @@ class ElementParameters:
                 raise InvalidInputError(name, f"a number for a {self.element}", "empty")
 
 
-@dataclass(frozen=True)
+@record
 class ReferenceCase:
     """A reference data set: name, reference solution and (optionally) the points.
 

@@ -9,12 +9,12 @@ circle in that plane -- the convention of NIST's reference pairs.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
 from typing import Literal
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from pcmm_geo._records import record
 from pcmm_geo.errors import DegenerateGeometryError, InvalidInputError
 from pcmm_geo.fit._kernels._core import FitResult, as_points, as_weights, residual_stats, solve_least_squares
 from pcmm_geo.fit._kernels._inputs import positive_length
@@ -30,7 +30,7 @@ FloatArray = NDArray[np.float64]
 _ELEMENT = "circle"
 
 
-@dataclass(frozen=True, kw_only=True, eq=False, repr=False)
+@record(kw_only=True)
 class CircleFit(FitResult):
     """Result of :func:`fit_circle`.
 

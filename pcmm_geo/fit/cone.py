@@ -12,11 +12,10 @@ infinity; the apex is derived only at the end (``apex = a - r / tan(alpha) d``).
 
 from __future__ import annotations
 
-from dataclasses import dataclass
-
 import numpy as np
 from numpy.typing import ArrayLike
 
+from pcmm_geo._records import record
 from pcmm_geo.errors import ConvergenceError
 from pcmm_geo.fit._kernels._axial import (
     AxialSolution,
@@ -43,7 +42,7 @@ _ELEMENT = "cone"
 _CYLINDER_START_BUDGET = 40
 
 
-@dataclass(frozen=True, kw_only=True, eq=False, repr=False)
+@record(kw_only=True)
 class ConeFit(FitResult):
     """Least-squares cone.
 

@@ -7,11 +7,10 @@ over the axis and the radius (or over the axis alone when the radius is fixed).
 
 from __future__ import annotations
 
-from dataclasses import dataclass
-
 import numpy as np
 from numpy.typing import ArrayLike
 
+from pcmm_geo._records import record
 from pcmm_geo.errors import InvalidInputError, PcmmGeoError
 from pcmm_geo.fit._kernels import _tall
 from pcmm_geo.fit._kernels._axial import (
@@ -43,7 +42,7 @@ __all__ = ["CylinderFit", "fit_cylinder"]
 _ELEMENT = "cylinder"
 
 
-@dataclass(frozen=True, kw_only=True, eq=False, repr=False)
+@record(kw_only=True)
 class CylinderFit(FitResult):
     """Least-squares cylinder.
 

@@ -7,11 +7,10 @@ the centred data: a closed form, no iteration.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
-
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from pcmm_geo._records import record
 from pcmm_geo.errors import DegenerateGeometryError, InvalidInputError
 from pcmm_geo.fit._kernels import _tall
 from pcmm_geo.fit._kernels._core import TOL, FitResult, as_weights, check_points, residual_stats
@@ -26,7 +25,7 @@ FloatArray = NDArray[np.float64]
 _ELEMENT = "plane"
 
 
-@dataclass(frozen=True, kw_only=True, eq=False, repr=False)
+@record(kw_only=True)
 class PlaneFit(FitResult):
     """Result of :func:`fit_plane`.
 

@@ -12,11 +12,10 @@
 
 from __future__ import annotations
 
-from dataclasses import dataclass
-
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from pcmm_geo._records import record
 from pcmm_geo.errors import DegenerateGeometryError, InvalidInputError, TooFewPointsError
 from pcmm_geo.fit._kernels._core import as_weights
 from pcmm_geo.fit._kernels._inputs import check_magnitude, real_array, weighted_centroid
@@ -35,7 +34,7 @@ __all__ = [
 FloatArray = NDArray[np.float64]
 
 
-@dataclass(frozen=True, eq=False)
+@record
 class LinePair:
     """Closest points of two lines (all arrays share the batch shape ``...``).
 
@@ -253,7 +252,7 @@ def closest_points(point_a: ArrayLike, direction_a: ArrayLike, point_b: ArrayLik
     )
 
 
-@dataclass(frozen=True, eq=False)
+@record
 class LinesNearestPoint:
     """Least-squares point nearest to several lines.
 

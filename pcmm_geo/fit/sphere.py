@@ -2,12 +2,12 @@
 
 from __future__ import annotations
 
-from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from pcmm_geo._records import record
 from pcmm_geo.errors import InvalidInputError
 from pcmm_geo.fit._kernels import _tall
 from pcmm_geo.fit._kernels._core import TOL, FitResult, as_weights, check_points, residual_stats
@@ -24,7 +24,7 @@ FloatArray = NDArray[np.float64]
 _ELEMENT = "sphere"
 
 
-@dataclass(frozen=True, kw_only=True, eq=False, repr=False)
+@record(kw_only=True)
 class SphereFit(FitResult):
     """Result of :func:`fit_sphere`.
 

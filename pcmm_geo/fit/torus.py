@@ -9,11 +9,11 @@ residual is ``e = sqrt((rho - R)^2 + h^2) - r`` (positive outside the tube).
 from __future__ import annotations
 
 import warnings
-from dataclasses import dataclass
 
 import numpy as np
 from numpy.typing import ArrayLike
 
+from pcmm_geo._records import record
 from pcmm_geo.errors import UnassuredMinimumWarning
 from pcmm_geo.fit._kernels._axial import (
     AxialSolution,
@@ -44,7 +44,7 @@ ASSURED_POINTS = 20
 _INVALID_COST = 1e300
 
 
-@dataclass(frozen=True, kw_only=True, eq=False, repr=False)
+@record(kw_only=True)
 class TorusFit(FitResult):
     """Least-squares torus.
 

@@ -28,12 +28,13 @@ lasers (``pcmm process-log``) could not cross-check the columns there.
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field, replace
+from dataclasses import field, replace
 from typing import Any
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from pcmm_geo._records import record
 from pcmm_geo.acquisition.drivers.zaber import T_LSR450B_MICROSTEP_MM
 from pcmm_geo.errors import InvalidInputError, PcmmGeoError
 from pcmm_geo.ippdme.workpieces import first_contact
@@ -58,7 +59,7 @@ class MoveRefused(Exception):
         self.position = position
 
 
-@dataclass(frozen=True)
+@record
 class MachineModel:
     """What the server knows about its micro-CMM and what it knows of its errors.
 
@@ -89,7 +90,7 @@ class MachineModel:
         return float(np.hypot(self.encoder_sigma, self.microstep_mm / np.sqrt(12.0)))
 
 
-@dataclass(frozen=True)
+@record
 class ProbeResult:
     """One probing: reported surface point and tip (calibrated model), readings, truth and flags (mm)."""
 
@@ -341,7 +342,7 @@ class SimulatedMachine:
         return np.sqrt(total), np.where(ok, np.sqrt(alone), np.inf)
 
 
-@dataclass(frozen=True)
+@record
 class _Probed:
     result: ProbeResult
     tip_commanded: FloatArray

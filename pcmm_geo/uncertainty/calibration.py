@@ -28,12 +28,12 @@ from __future__ import annotations
 import dataclasses
 import math
 from collections.abc import Mapping
-from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
 
+from pcmm_geo._records import record
 from pcmm_geo.errors import InvalidInputError
 
 __all__ = [
@@ -117,7 +117,7 @@ def sphere_fit_covariance(points: Any, center: Any, sigma: float) -> FloatArray:
     return sigma**2 * np.linalg.inv(jac.T @ jac)
 
 
-@dataclass(frozen=True)
+@record
 class CalibrationCovariance:
     """Calibrated parameters with their covariance.
 

@@ -50,6 +50,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from pcmm_geo._records import record
 from pcmm_geo.errors import ConvergenceError, InvalidInputError
 from pcmm_geo.thermal.expansion import ALPHA_ALUMINIUM, ALPHA_GAUGE_BLOCK_STEEL, REFERENCE_TEMPERATURE
 from pcmm_geo.uncertainty.kinematics import BatchGeometry, forward_batch
@@ -163,7 +164,7 @@ class TaskUncertainty:
         }
 
 
-@dataclass(frozen=True)
+@record
 class VirtualCMM:
     """The calibrated micro-CMM with what is known about its errors.
 

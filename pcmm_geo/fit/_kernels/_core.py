@@ -17,6 +17,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from pcmm_geo._records import record
 from pcmm_geo.errors import (
     ConvergenceError,
     DegenerateGeometryError,
@@ -171,7 +172,7 @@ def rotation_to_z(direction: ArrayLike) -> FloatArray:
     return np.vstack([e1, e2, d])
 
 
-@dataclass(frozen=True)
+@record
 class SolverOutcome:
     """What :func:`solve_least_squares` found (internal, in standard position)."""
 
@@ -314,7 +315,7 @@ def covariance_from_jacobian(
     return cov, cond
 
 
-@dataclass(frozen=True, eq=False)
+@record
 class Certificate:
     """Optimality certificate of a minimum-zone, minimum-circumscribed or maximum-inscribed fit.
 
@@ -368,7 +369,7 @@ class Certificate:
     check: str = ""
 
 
-@dataclass(frozen=True, kw_only=True, eq=False)
+@record(kw_only=True)
 class FitResult:
     """Fields shared by every fit result (element parameters are added by subclasses).
 

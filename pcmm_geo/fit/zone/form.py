@@ -16,12 +16,12 @@ The measurement uncertainty is not part of this rule (a zone of measured points,
 
 from __future__ import annotations
 
-from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
 from numpy.typing import ArrayLike
 
+from pcmm_geo._records import record
 from pcmm_geo.errors import InvalidInputError
 from pcmm_geo.fit._kernels._core import FitResult
 
@@ -88,7 +88,7 @@ def decide_form(value_mm: float, bound_mm: float, tolerance_mm: float) -> str:
     return "NOT PROVEN"
 
 
-@dataclass(frozen=True, eq=False)
+@record
 class FormEvaluation:
     """Result of :func:`evaluate_form`.
 

@@ -24,13 +24,13 @@ Examples
 from __future__ import annotations
 
 from collections.abc import Mapping
-from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
 from numpy.typing import NDArray
 
 from pcmm_geo._deprecation import renamed_fields
+from pcmm_geo._records import record
 from pcmm_geo.errors import CalibrationError, InvalidInputError
 from pcmm_geo.machine.calibration.geometry import fit_probed_sphere
 
@@ -44,7 +44,7 @@ ARMS = ("a", "b", "c")
 
 
 @renamed_fields(centres="centers")
-@dataclass(frozen=True)
+@record
 class ColumnCalibration:
     """Result of :func:`calibrate_columns` (machine frame, mm).
 

@@ -34,12 +34,12 @@ Examples
 from __future__ import annotations
 
 from collections.abc import Mapping
-from dataclasses import dataclass
 from typing import Literal
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from pcmm_geo._records import record
 from pcmm_geo.errors import DegenerateGeometryError, InvalidInputError, NoRealSolutionError
 from pcmm_geo.machine.kinematics.limits import LASER_MEASURING_RANGE, check_readings
 from pcmm_geo.machine.kinematics.model_parts import ARMS, ColumnLine, SliderLine, Tetrahedron, as_readings
@@ -102,7 +102,7 @@ def _appendix_e_inputs() -> dict[str, FloatArray]:
 APPENDIX_E: Mapping[str, FloatArray] = _appendix_e_inputs()
 
 
-@dataclass(frozen=True)
+@record
 class DpkmProbe:
     """Probe point from eqs 2.9-2.18 (corrected), leading shape ``...``.
 

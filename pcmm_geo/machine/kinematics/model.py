@@ -33,12 +33,13 @@ from __future__ import annotations
 
 import dataclasses
 from collections.abc import Mapping
-from dataclasses import dataclass, field
+from dataclasses import field
 from typing import Any
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from pcmm_geo._records import record
 from pcmm_geo.errors import InvalidInputError
 from pcmm_geo.machine.kinematics import _pose_solver as solver
 from pcmm_geo.machine.kinematics.dpkm import START_OF_RANGE, seed_parts
@@ -76,7 +77,7 @@ FloatArray = NDArray[np.float64]
 MODEL_SCHEMA = "pcmm_geo.machine.rigid_body/1"
 
 
-@dataclass(frozen=True)
+@record
 class RigidBodyMachine:
     """The rigid-body machine: tetrahedron plus column lines.
 

@@ -25,13 +25,13 @@ Examples
 
 from __future__ import annotations
 
-from dataclasses import dataclass
 from typing import Literal
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from pcmm_geo._deprecation import renamed_parameters
+from pcmm_geo._records import record
 from pcmm_geo.errors import DegenerateGeometryError, InvalidInputError, NoRealSolutionError
 
 __all__ = ["Trilateration", "trilaterate"]
@@ -39,7 +39,7 @@ __all__ = ["Trilateration", "trilaterate"]
 FloatArray = NDArray[np.float64]
 
 
-@dataclass(frozen=True)
+@record
 class Trilateration:
     """Both intersections of three spheres (leading shape ``...`` of the input).
 
