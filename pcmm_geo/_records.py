@@ -31,11 +31,11 @@ import dataclasses
 import inspect
 import math
 from collections.abc import Callable, Mapping
-from typing import Any, TypeVar, dataclass_transform, overload
+from typing import Any, NamedTuple, TypeVar, dataclass_transform, overload
 
 import numpy as np
 
-__all__ = ["SHOWN_VALUES", "is_record", "record", "record_repr", "short_value"]
+__all__ = ["SHOWN_VALUES", "SummaryRow", "is_record", "record", "record_repr", "short_value"]
 
 T = TypeVar("T", bound=type)
 
@@ -45,6 +45,38 @@ SHOWN_VALUES = 4
 SHOWN_ITEMS = 4
 #: characters of a string shown before ``...``
 SHOWN_CHARS = 80
+
+
+class SummaryRow(NamedTuple):
+    """One displayed parameter of a result: a row of its ``summary()`` (plain data any layer can pass on).
+
+    The rows are the one choice of what a result shows: the ``pcmm fit`` table prints them, the
+    QIF export takes the location, direction, size and their uncertainties from them, and the
+    fit results' repr shows them grouped by ``quantity``.
+
+    Attributes
+    ----------
+    name : str
+        Row name, a component spelled ``quantity_x`` (``"center_x"``, ``"radius"``, ``"apex_angle_deg"``).
+    value : float
+        In ``unit``.
+    u : float
+        Standard uncertainty (k = 1) in ``unit``; NaN when the result gives none.
+    unit : str
+        ``"mm"``, ``"rad"``, ``"deg"`` or ``"1"`` (a unit vector's component).
+    quantity : str
+        The field the row shows (``"center"`` for ``center_x``; the name itself for a scalar).
+    derived : bool
+        Computed from other rows for reading (a diameter from its radius, an apex angle in degrees),
+        not a field of the result.
+    """
+
+    name: str
+    value: float
+    u: float
+    unit: str
+    quantity: str
+    derived: bool = False
 
 
 @overload

@@ -46,6 +46,7 @@ from numpy.typing import ArrayLike, NDArray
 from pcmm_geo.errors import InvalidInputError
 
 if TYPE_CHECKING:
+    from pcmm_geo._records import SummaryRow
     from pcmm_geo.cmm.refit import Refit
     from pcmm_geo.cmm.verify import Verification
     from pcmm_geo.fit import FitResult
@@ -153,43 +154,72 @@ def _three(vector: Any, fill: float = 0.0) -> FloatArray:
     return arr if arr.size == 3 else np.append(arr, [fill] * (3 - arr.size))
 
 
-def _std(fit: FitResult, names: tuple[str, ...]) -> float | None:
-    errors = dict(zip(fit.parameter_names, np.asarray(fit.std_errors).tolist(), strict=True))
-    values = [errors[name] for name in names if name in errors]
+def _stated(values: list[float]) -> float | None:
+    """The largest of standard uncertainties, or None when one is missing (NaN) or all are zero."""
     if not values or not all(np.isfinite(values)) or max(values) == 0:
         return None
     return float(max(values))
 
 
-def _geometry(fit: FitResult, element: str, form: float | None, outward: FloatArray | None) -> FeatureGeometry:
-    from pcmm_geo.io.cmm import FeatureGeometry
+def _shown(fit: FitResult) -> dict[str, list[SummaryRow]]:
+    """The fit's :meth:`~pcmm_geo.fit.FitResult.summary` rows by quantity (``"center"``: its x, y, z rows)."""
+    shown: dict[str, list[SummaryRow]] = {}
+    for row in fit.summary():
+        shown.setdefault(row.quantity, []).append(row)
+    return shown
 
+
+def _size(fit: FitResult, element: str, shown: dict[str, list[SummaryRow]]) -> tuple[float | None, float | None]:
+    """Diameter (mm) and its standard uncertainty: the summary's ``diameter`` row; a cone's at its point."""
+    if "diameter" in shown:  # circle, sphere, cylinder: d = 2 r, u(d) = 2 u(r)
+        return shown["diameter"][0].value, _stated([shown["diameter"][0].u])
+    if element == "cone":  # the cone's size at its point: a fitted parameter the summary does not show
+        u = dict(zip(fit.parameter_names, np.asarray(fit.std_errors).tolist(), strict=True))
+        at_point = float(fit.radius_at_point)  # type: ignore[attr-defined]
+        return 2.0 * at_point, _stated([2.0 * u.get("radius_at_point", float("nan"))])
+    return None, None
+
+
+def _uncertainty(fit: FitResult, element: str, shown: dict[str, list[SummaryRow]]) -> dict[str, float]:
+    """QIF ``combinedUncertainty`` of the diameter and the location (k = 1), where the fit gives them."""
     uncertainty: dict[str, float] = {}
-    radius_u = _std(fit, ("radius", "radius_at_point"))
-    if radius_u is not None and element in ("circle", "cylinder", "sphere", "cone"):
-        uncertainty["diameter"] = 2.0 * radius_u
-    location_u = _std(fit, ("center_x", "center_y", "center_z", "point_x", "point_y", "point_z"))
+    diameter_u = _size(fit, element, shown)[1]
+    if diameter_u is not None:
+        uncertainty["diameter"] = diameter_u
+    location_u = _stated([row.u for row in shown.get("center", shown.get("point", []))])
     if location_u is not None:
         uncertainty["location"] = location_u
+    return uncertainty
+
+
+def _geometry(fit: FitResult, element: str, form: float | None, outward: FloatArray | None) -> FeatureGeometry:
+    """The actuals written to QIF, taken from the fit's summary rows."""
+    from pcmm_geo.io.cmm import FeatureGeometry
+
+    shown = _shown(fit)
+
+    def vector(quantity: str) -> FloatArray | None:
+        return None if quantity not in shown else _three([row.value for row in shown[quantity]])
+
+    location = _three([row.value for row in shown.get("center", shown.get("point", []))])
+    diameter = _size(fit, element, shown)[0]
+    uncertainty = _uncertainty(fit, element, shown)
     if element in ("circle", "sphere"):
-        normal = None if element == "sphere" else (
-            np.array([0.0, 0.0, 1.0]) if fit.normal is None else np.asarray(fit.normal, dtype=float))
-        return FeatureGeometry(location=_three(fit.center), normal=normal, diameter=2.0 * fit.radius, form=form,
+        normal = None if element == "sphere" else vector("normal")
+        if element == "circle" and normal is None:
+            normal = np.array([0.0, 0.0, 1.0])  # a 2-D circle lies in the plane z = 0
+        return FeatureGeometry(location=location, normal=normal, diameter=diameter, form=form,
                                uncertainty=uncertainty)
-    if element == "cylinder":
-        return FeatureGeometry(location=_three(fit.point), direction=np.asarray(fit.axis, dtype=float),
-                               diameter=2.0 * fit.radius, form=form, uncertainty=uncertainty)
-    if element == "cone":
-        return FeatureGeometry(location=_three(fit.point), direction=np.asarray(fit.axis, dtype=float),
-                               diameter=2.0 * fit.radius_at_point, half_angle=float(fit.half_angle), form=form,
-                               uncertainty=uncertainty)
+    if element in ("cylinder", "cone"):
+        half_angle = shown["half_angle"][0].value if element == "cone" else None
+        return FeatureGeometry(location=location, direction=vector("axis"), diameter=diameter, half_angle=half_angle,
+                               form=form, uncertainty=uncertainty)
     if element == "plane":
-        normal = np.asarray(fit.normal, dtype=float)
-        if outward is not None and float(normal @ outward) < 0:
+        normal = vector("normal")
+        if outward is not None and normal is not None and float(normal @ outward) < 0:
             normal = -normal  # QIF: a plane's normal points out of the material
-        return FeatureGeometry(location=_three(fit.point), normal=normal, form=form, uncertainty=uncertainty)
-    return FeatureGeometry(location=_three(fit.point), direction=_three(fit.direction), form=form,
-                           uncertainty=uncertainty)
+        return FeatureGeometry(location=location, normal=normal, form=form, uncertainty=uncertainty)
+    return FeatureGeometry(location=location, direction=vector("direction"), form=form, uncertainty=uncertainty)
 
 
 def _status(evaluation: FormEvaluation) -> str:
@@ -355,14 +385,9 @@ def refit_report(document: CmmDocument, feature: MeasuredFeature, refit: Refit, 
 
     kept = file_feature(document, feature)
     kind = refit.type
-    uncertainty: dict[str, float] = {}
-    if refit.fit is not None:
-        radius_u = _std(refit.fit, ("radius", "radius_at_point"))
-        if radius_u is not None and refit.diameter is not None:
-            uncertainty["diameter"] = 2.0 * radius_u
-        location_u = _std(refit.fit, ("center_x", "center_y", "center_z", "point_x", "point_y", "point_z"))
-        if location_u is not None:
-            uncertainty["location"] = location_u
+    uncertainty = {} if refit.fit is None else _uncertainty(refit.fit, kind, _shown(refit.fit))
+    if refit.diameter is None:
+        uncertainty.pop("diameter", None)
     outward = refit.compensation.outward
     direction = None if refit.direction is None else np.asarray(refit.direction, dtype=float)
     if kind == "plane" and direction is not None and outward is not None and float(direction @ outward) < 0:
