@@ -263,6 +263,29 @@ def compare_results(
     InvalidInputError
         No cases.
 
+    See Also
+    --------
+    cases_from_reference_data : reference cases from the generator of :mod:`pcmm_geo.fit.reference`
+    fit_with_pcmm_geo : pcmm_geo's own answers to the cases
+
+    Notes
+    -----
+    ISO 10360-6 [1]_: the software's Gaussian elements are compared with reference results
+    parameter by parameter -- the distance of the reported location from the reference element,
+    the angle between the directions, the size difference -- each against its maximum
+    permissible error.  Reference cases with known Gaussian solutions can be made by
+    :mod:`pcmm_geo.fit.reference` (foot points on the element moved along its normals by
+    residuals that leave the solution unchanged), in the manner of the NIST algorithm testing
+    system [2]_.
+
+    References
+    ----------
+    .. [1] ISO 10360-6:2001, *Geometrical Product Specifications (GPS) -- Acceptance and reverification tests
+           for coordinate measuring machines (CMM) -- Part 6: Estimation of errors in computing Gaussian
+           associated features*.
+    .. [2] C. M. Shakarji, "Least-squares fitting algorithms of the NIST algorithm testing system", *J. Res.
+           Natl. Inst. Stand. Technol.* 103(6), 633-641 (1998).
+
     Examples
     --------
     >>> ref = ElementParameters("sphere", np.zeros(3), size=5.0)
