@@ -11,9 +11,10 @@ It is a frozen dataclass with two differences from the default:
 
 * **identity equality and hash** (``eq=False``): ``a == b`` is ``a is b`` and ``hash(a)`` is the
   object's identity.  The generated ``==`` compares the fields as a tuple, which for two records
-  holding equal-shaped arrays raises ``ValueError`` ("truth value of an array ... is ambiguous")
-  and for one-element arrays silently answers element-wise; records are results, compared by the
-  numbers a caller picks (``np.allclose(a.center, b.center)``), as numpy arrays themselves are.
+  holding distinct arrays of more than one element raises ``ValueError`` ("truth value of an
+  array ... is ambiguous"), answers by exact float equality for one-element arrays and ``True``
+  for arrays shared by identity; records are results, compared by the numbers a caller picks
+  (``np.allclose(a.center, b.center)``).
 * **a bounded repr** (:func:`record_repr`) that shows only the fields that apply, in the manner of
   lmfit's and shapely's reprs: ``None``, ``NaN`` placeholders, empty containers and unchanged
   scalar defaults are left out; an array of more than :data:`SHOWN_VALUES` values is shown by

@@ -58,13 +58,25 @@ def _fake(annotation: str, rows: int) -> Any:
         value = np.ones((rows, 3), dtype=dtype)
         return {"x": value} if annotation.startswith(("Mapping", "dict")) else \
             [value] if annotation.startswith("list") else value
-    for prefix, value in (("float", 1.5), ("int", 2), ("bool", True), ("str", "text"), ("tuple[str", ("a", "b"))):
+    for prefix, value in (("float", 1.5), ("int", 2), ("bool", True), ("str", "text"), ("tuple[str", ("a", "b", "c"))):
         if annotation.startswith(prefix):
             return value
     return None
 
 
+#: fit results: their repr reads the fit's summary (vectors of 2 or 3 values), so real fits of N points
+_FITS = {"CircleFit": ("circle3d", "fit_circle"), "ConeFit": ("cone", "fit_cone"),
+         "CylinderFit": ("cylinder", "fit_cylinder"), "LineFit": ("line3d", "fit_line"),
+         "PlaneFit": ("plane", "fit_plane"), "SphereFit": ("sphere", "fit_sphere"), "TorusFit": ("torus", "fit_torus")}
+
+
 def _instance(cls: type, rows: int) -> Any:
+    if cls.__name__ in _FITS and cls.__module__.startswith("pcmm_geo.fit."):
+        from pcmm_geo import fit
+        from pcmm_geo.fit.reference import make_reference_data
+
+        element, fitter = _FITS[cls.__name__]
+        return getattr(fit, fitter)(make_reference_data(element, n_points=rows, form=0.01, rng=3).points)
     obj = object.__new__(cls)
     for item in dataclasses.fields(cls):
         object.__setattr__(obj, item.name, _fake(str(item.type), rows))
