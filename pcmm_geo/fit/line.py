@@ -130,9 +130,9 @@ def fit_line(
     centroid and :math:`\mathbf{u}` the right singular vector of the centred data with the
     largest singular value [1]_ [2]_.
 
-    The other criteria minimise the largest distance instead (Chebyshev, minimum zone, as in
-    the reference software of [4]_) or the circumscribed / inscribed radius (MCC, MIC): the
-    form zone of ISO 1101 [3]_; such a result carries an optimality certificate.
+    ``criterion="chebyshev"`` minimises the largest distance instead (minimum zone, as in the
+    reference software of [4]_): the form zone of ISO 1101 [3]_; such a result carries an
+    optimality certificate.
     :mod:`pcmm_geo.artefacts.iso10360_6` tests fitting software, these fits included, in the
     manner of ISO 10360-6 [5]_.
 
