@@ -36,6 +36,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from pcmm_geo._deprecation import renamed_parameters
+from pcmm_geo._records import record
 
 FloatArray = NDArray[np.float64]
 
@@ -69,7 +70,7 @@ class DemoSettings:
     uncertainty_budget: bool = True
 
 
-@dataclass(frozen=True)
+@record
 class DemoResult:
     """What :func:`run_demo` found; ``to_dict()`` is JSON-ready."""
 

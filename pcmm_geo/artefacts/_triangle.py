@@ -22,11 +22,12 @@ passes over the mesh few and cheap.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
+
+from pcmm_geo._records import record
 
 FloatArray = NDArray[np.float64]
 IntArray = NDArray[np.int64]
@@ -85,9 +86,11 @@ class CentroidTree:
                 np.asarray(index, dtype=np.int64).reshape(len(points), k))
 
 
-@dataclass(frozen=True)
 class _ScipyTree:
-    tree: Any
+    """scipy's tree, where pykdtree is not installed."""
+
+    def __init__(self, tree: Any) -> None:
+        self.tree = tree
 
 
 def _new_tree(centroids: FloatArray) -> Any:
@@ -362,7 +365,7 @@ def corner_angles(triangles: FloatArray) -> FloatArray:
     return angles
 
 
-@dataclass(frozen=True)
+@record
 class NeighbourLists:
     """Per triangle, the other triangles whose centroids lie nearest to its own centroid.
 
@@ -389,7 +392,7 @@ class NeighbourLists:
     listed_near: NDArray[np.float32]
 
 
-@dataclass(frozen=True)
+@record
 class SizeClass:
     """Triangles of similar size: a k-d tree over their centroids and their largest centroid-to-corner distance."""
 

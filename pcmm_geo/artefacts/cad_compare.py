@@ -29,6 +29,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from pcmm_geo._optional import require
+from pcmm_geo._records import record
 from pcmm_geo.artefacts.cad_distance import surface_distances
 from pcmm_geo.artefacts.cad_register import DEFAULT_SAMPLE_COUNT, Registration, as_mesh, register_to_mesh
 from pcmm_geo.errors import InvalidInputError
@@ -82,7 +83,7 @@ class DeviationSummary:
         }
 
 
-@dataclass(frozen=True)
+@record
 class MeshDeviations:
     """Signed deviations of points from a nominal mesh.
 

@@ -52,13 +52,14 @@ import itertools
 import numbers
 import os
 import threading
-from dataclasses import dataclass, field
+from dataclasses import field
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from pcmm_geo._optional import require
+from pcmm_geo._records import record
 from pcmm_geo.artefacts._triangle import (
     ROUNDING,
     SLACK,
@@ -102,7 +103,7 @@ _ORDERED_FROM = 4096
 _PAIRS_PER_BLOCK = 1_000_000
 #: held while a part of an index is built on first use
 _BUILDING = threading.Lock()
-@dataclass(frozen=True)
+@record
 class SurfaceDistances:
     """Nearest surface points and signed distances of points from a mesh.
 
@@ -235,7 +236,7 @@ def surface_distances(points: ArrayLike, mesh: trimesh.Trimesh, *, require_close
     return index.distances(points, workers=workers)
 
 
-@dataclass(frozen=True, eq=False)
+@record
 class SurfaceIndex:
     """A mesh prepared for repeated exact distance queries (build once with :meth:`SurfaceIndex.build`).
 

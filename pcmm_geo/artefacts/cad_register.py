@@ -27,13 +27,13 @@ from __future__ import annotations
 
 import os
 import warnings
-from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from pcmm_geo._optional import require
+from pcmm_geo._records import record
 from pcmm_geo.artefacts.cad_distance import SurfaceIndex
 from pcmm_geo.errors import ConvergenceError, IllConditionedWarning, InvalidInputError
 from pcmm_geo.fit import as_points
@@ -67,7 +67,7 @@ _RESELECT_ITERATIONS = 5
 _ILL_CONDITIONED = 1e8
 
 
-@dataclass(frozen=True)
+@record
 class Registration:
     """Rigid transform taking measured points into the frame of the nominal mesh.
 

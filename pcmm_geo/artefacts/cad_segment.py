@@ -34,13 +34,13 @@ Examples
 
 from __future__ import annotations
 
-from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from pcmm_geo._optional import require
+from pcmm_geo._records import record
 from pcmm_geo.errors import InvalidInputError, PcmmGeoError
 from pcmm_geo.fit import as_points
 
@@ -63,7 +63,7 @@ _LOCAL_NEIGHBOURS = 48
 _ASSIGNMENT_PASSES = 4
 
 
-@dataclass(frozen=True)
+@record
 class Segment:
     """One surface found in a scan.
 
@@ -82,7 +82,7 @@ class Segment:
     fit: PlaneFit | CylinderFit
 
 
-@dataclass(frozen=True)
+@record
 class Segmentation:
     """Result of :func:`segment_scan`.
 
@@ -150,7 +150,7 @@ def estimate_normals(points: ArrayLike, *, neighbours: int = 16) -> FloatArray:
     return np.asarray(cloud.normals, dtype=float).copy()
 
 
-@dataclass(frozen=True)
+@record
 class _Candidate:
     kind: str
     inliers: IntArray  # rows of the full point array

@@ -49,6 +49,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from pcmm_geo._deprecation import renamed_fields
+from pcmm_geo._records import record
 from pcmm_geo.errors import DegenerateGeometryError, FileFormatError, InvalidInputError
 from pcmm_geo.fit import as_points
 
@@ -93,7 +94,7 @@ class SeedGaugeBlockLength:
 
 
 @renamed_fields(face_centres="face_centers")
-@dataclass(frozen=True)
+@record
 class GaugeBlockMeasurement:
     """Gauge block evaluation by the ISO 3650 method, with the seed's and the projection method.
 

@@ -240,7 +240,7 @@ def evaluate_length_test(
     mpl_r0: float | None = None,
     allow_incomplete: bool = False,
 ) -> LengthTestResult:
-    """Evaluate an ISO 10360-2 length test.
+    r"""Evaluate an ISO 10360-2 length test.
 
     Parameters
     ----------
@@ -269,6 +269,30 @@ def evaluate_length_test(
         between measurements of the same ``length_id``, or a length/position/repetition twice.
     IncompleteTestError
         Not the standard's 5 x 7 x 3 values and ``allow_incomplete`` is False.
+
+    See Also
+    --------
+    pcmm_geo.uncertainty.conformity : the ISO 14253-1 decision rule
+    pcmm_geo.artefacts.iso10360_5.evaluate_probing : the probing test of ISO 10360-5
+
+    Notes
+    -----
+    ISO 10360-2 [1]_ (and ASME B89.4.10360.2 [2]_): each length measurement error is
+    :math:`E_0 = L_\mathrm{measured} - L_\mathrm{calibrated}`, compared with the maximum
+    permissible error, commonly stated as :math:`\mathrm{MPE}_{E_0} = \pm (A + L / K)`; the
+    repeatability range :math:`R_0` is the range of the three repeated measurements of one
+    length in one position.  ``decision_rule="iso14253"`` decides with the guard bands of
+    ISO 14253-1 [3]_.
+
+    References
+    ----------
+    .. [1] ISO 10360-2:2009, *Geometrical product specifications (GPS) -- Acceptance and reverification tests
+           for coordinate measuring machines (CMM) -- Part 2: CMMs used for measuring linear dimensions*.
+    .. [2] ASME B89.4.10360.2-2008, *Acceptance Test and Reverification Test for Coordinate Measuring Machines
+           (CMMs) -- Part 2: CMMs Used for Measuring Linear Dimensions*.
+    .. [3] ISO 14253-1:2017, *Geometrical product specifications (GPS) -- Inspection by measurement of
+           workpieces and measuring equipment -- Part 1: Decision rules for verifying conformity or
+           nonconformity with specifications*.
 
     Examples
     --------

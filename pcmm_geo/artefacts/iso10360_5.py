@@ -17,13 +17,13 @@ first is turned 22.5° in azimuth relative to the ring before it.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from pcmm_geo._deprecation import renamed_fields, renamed_parameters, warn_deprecated
+from pcmm_geo._records import record
 from pcmm_geo.errors import InvalidInputError
 from pcmm_geo.fit import as_points
 
@@ -108,7 +108,7 @@ def sphere_probing_pattern(
 
 
 @renamed_fields(centre="center")
-@dataclass(frozen=True)
+@record
 class ProbingResult:
     """ISO 10360-5 probing errors.
 
@@ -199,7 +199,7 @@ def evaluate_probing(
     test_uncertainty: tuple[float, float] | None = None,
     allow_incomplete: bool = False,
 ) -> ProbingResult:
-    """P_FTU and P_STU from points probed on a calibrated sphere (Gaussian sphere fit).
+    r"""P_FTU and P_STU from points probed on a calibrated sphere (Gaussian sphere fit).
 
     Parameters
     ----------
@@ -228,6 +228,33 @@ def evaluate_probing(
         Not 25 points and ``allow_incomplete`` is False.
     TooFewPointsError, DegenerateGeometryError, ConvergenceError
         From the sphere fit.
+
+    See Also
+    --------
+    sphere_probing_pattern : the standard's 25 points
+    pcmm_geo.fit.fit_sphere : the Gaussian sphere fit used
+
+    Notes
+    -----
+    ISO 10360-5 [1]_: a Gaussian (least-squares) sphere is fitted to the points; the probing
+    form error is the range of the radial distances and the probing size error the fitted
+    diameter less the calibrated one,
+
+    .. math::
+
+        P_\mathrm{FTU} = \max_i r_i - \min_i r_i , \qquad
+        P_\mathrm{STU} = D_\mathrm{fitted} - D_\mathrm{calibrated} .
+
+    With ``test_uncertainty`` the verdicts follow ISO 14253-1 [2]_.
+
+    References
+    ----------
+    .. [1] ISO 10360-5:2010, *Geometrical product specifications (GPS) -- Acceptance and reverification tests
+           for coordinate measuring machines (CMM) -- Part 5: CMMs using single and multiple stylus contacting
+           probing systems*.
+    .. [2] ISO 14253-1:2017, *Geometrical product specifications (GPS) -- Inspection by measurement of
+           workpieces and measuring equipment -- Part 1: Decision rules for verifying conformity or
+           nonconformity with specifications*.
 
     Examples
     --------

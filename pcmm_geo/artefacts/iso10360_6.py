@@ -34,6 +34,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from pcmm_geo._records import record
 from pcmm_geo.elements import Element
 from pcmm_geo.errors import InvalidInputError
 from pcmm_geo.fit import ELEMENTS as _FIT_ELEMENTS
@@ -59,7 +60,7 @@ _CENTRED = {"circle", "sphere", "torus"}
 _CIRCLE_METHODS = {"projected": "projected", "geometric": "gaussian"}
 
 
-@dataclass(frozen=True)
+@record
 class ElementParameters:
     """Geometry of a fitted element in the harness's common schema (mm, rad)."""
 
@@ -92,7 +93,7 @@ class ElementParameters:
                 raise InvalidInputError(name, f"a number for a {self.element}", "empty")
 
 
-@dataclass(frozen=True)
+@record
 class ReferenceCase:
     """A reference data set: name, reference solution and (optionally) the points.
 
@@ -262,6 +263,29 @@ def compare_results(
     ------
     InvalidInputError
         No cases.
+
+    See Also
+    --------
+    cases_from_reference_data : reference cases from the generator of :mod:`pcmm_geo.fit.reference`
+    fit_with_pcmm_geo : pcmm_geo's own answers to the cases
+
+    Notes
+    -----
+    ISO 10360-6 [1]_: the software's Gaussian elements are compared with reference results
+    parameter by parameter -- the distance of the reported location from the reference element,
+    the angle between the directions, the size difference -- each against its maximum
+    permissible error.  Reference cases with known Gaussian solutions can be made by
+    :mod:`pcmm_geo.fit.reference` (foot points on the element moved along its normals by
+    residuals that leave the solution unchanged), in the manner of the NIST algorithm testing
+    system [2]_.
+
+    References
+    ----------
+    .. [1] ISO 10360-6:2001, *Geometrical Product Specifications (GPS) -- Acceptance and reverification tests
+           for coordinate measuring machines (CMM) -- Part 6: Estimation of errors in computing Gaussian
+           associated features*.
+    .. [2] C. M. Shakarji, "Least-squares fitting algorithms of the NIST algorithm testing system", *J. Res.
+           Natl. Inst. Stand. Technol.* 103(6), 633-641 (1998).
 
     Examples
     --------

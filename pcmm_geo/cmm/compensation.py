@@ -37,12 +37,12 @@ Examples
 
 from __future__ import annotations
 
-from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any, Literal
 
 import numpy as np
 from numpy.typing import NDArray
 
+from pcmm_geo._records import record
 from pcmm_geo.errors import InvalidInputError
 from pcmm_geo.io.cmm import SpellSetting, python_setting
 
@@ -71,7 +71,7 @@ def spell_value(spell_setting: SpellSetting, parameter: str, value: Any) -> str:
     return spelled[len(name):].lstrip("= ") if spelled.startswith(name) else spelled
 
 
-@dataclass(frozen=True, eq=False)
+@record
 class Compensation:
     """How the probe radius was handled for one fitted element: the one record of every route.
 
@@ -137,7 +137,7 @@ class Compensation:
                 "the element fitted to the probe centres is offset onto the surface")
 
 
-@dataclass(frozen=True, eq=False)
+@record
 class CompensationPlan:
     """What is to be done with the probe radius of one set of points.
 

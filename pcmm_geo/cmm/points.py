@@ -20,13 +20,13 @@ or the nominal size (reported as inferred).  Both decisions are those of
 
 from __future__ import annotations
 
-from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
 from numpy.typing import NDArray
 
+from pcmm_geo._records import record
 from pcmm_geo.cmm.compensation import Compensation, plan_compensation, side_arguments
 from pcmm_geo.elements import SPECS, Element
 from pcmm_geo.errors import FileFormatError, InvalidInputError
@@ -46,7 +46,7 @@ FloatArray = NDArray[np.float64]
 UNFLAGGED_FORMATS = ("pcdmis", "dmis")
 
 
-@dataclass(frozen=True, eq=False)
+@record
 class FeaturePoints:
     """Points of one feature from a file, and what the file says about them.
 

@@ -27,6 +27,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 from numpy.typing import NDArray
 
+from pcmm_geo._records import record
 from pcmm_geo.cmm.compensation import FILE_COMPENSATED, Compensation, plan_compensation, side_arguments
 from pcmm_geo.elements import FEATURE_TYPES, Criterion, FeatureType
 from pcmm_geo.errors import InvalidInputError, NotRefittedError
@@ -56,7 +57,7 @@ CIRCLE_PLANES = ("least-squares", "reported")
 NO_COMPENSATION_NEEDED = FILE_COMPENSATED
 
 
-@dataclass(frozen=True, eq=False)
+@record
 class Refit:
     """A refitted feature (surface element, in the document's common frame).
 

@@ -9,11 +9,12 @@ fit's to rounding.  Every set is centred before fitting, so offsets cost no accu
 
 from __future__ import annotations
 
-from dataclasses import dataclass, fields
+from dataclasses import fields
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from pcmm_geo._records import record
 from pcmm_geo.errors import ConvergenceError, DegenerateGeometryError, InvalidInputError, TooFewPointsError
 from pcmm_geo.fit._kernels._batch_cov import (
     line_covariance,
@@ -40,7 +41,7 @@ __all__ = [
 FloatArray = NDArray[np.float64]
 
 
-@dataclass(frozen=True, kw_only=True, eq=False)
+@record(kw_only=True)
 class BatchFit:
     """Fields shared by every batch result (K sets of N points).
 
@@ -117,7 +118,7 @@ def _describe(value: object) -> str:
 _BATCH_FIELDS = {f.name for f in fields(BatchFit)}
 
 
-@dataclass(frozen=True, kw_only=True, eq=False, repr=False)
+@record(kw_only=True)
 class SphereBatchFit(BatchFit):
     """:func:`fit_spheres` result: ``centers`` (K, 3), ``radii`` (K,)."""
 
@@ -125,7 +126,7 @@ class SphereBatchFit(BatchFit):
     radii: FloatArray
 
 
-@dataclass(frozen=True, kw_only=True, eq=False, repr=False)
+@record(kw_only=True)
 class CircleBatchFit(BatchFit):
     """:func:`fit_circles` result: ``centers`` (K, D), ``radii`` (K,), ``normals`` (K, 3) or None (2-D)."""
 
@@ -134,7 +135,7 @@ class CircleBatchFit(BatchFit):
     normals: FloatArray | None
 
 
-@dataclass(frozen=True, kw_only=True, eq=False, repr=False)
+@record(kw_only=True)
 class PlaneBatchFit(BatchFit):
     """:func:`fit_planes` result: ``points`` (K, 3) centroids, unit ``normals`` (K, 3)."""
 
@@ -142,7 +143,7 @@ class PlaneBatchFit(BatchFit):
     normals: FloatArray
 
 
-@dataclass(frozen=True, kw_only=True, eq=False, repr=False)
+@record(kw_only=True)
 class LineBatchFit(BatchFit):
     """:func:`fit_lines` result: ``points`` (K, D) centroids, unit ``directions`` (K, D).
 

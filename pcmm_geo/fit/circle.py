@@ -9,12 +9,12 @@ circle in that plane -- the convention of NIST's reference pairs.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
 from typing import Literal
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from pcmm_geo._records import record
 from pcmm_geo.elements import Criterion
 from pcmm_geo.errors import DegenerateGeometryError, InvalidInputError
 from pcmm_geo.fit._kernels._core import FitResult, as_points, as_weights, residual_stats, solve_least_squares
@@ -31,7 +31,7 @@ FloatArray = NDArray[np.float64]
 _ELEMENT = "circle"
 
 
-@dataclass(frozen=True, kw_only=True, eq=False, repr=False)
+@record(kw_only=True)
 class CircleFit(FitResult):
     """Result of :func:`fit_circle`.
 
@@ -107,7 +107,7 @@ def fit_circle(
     method: Literal["gaussian", "projected"] = "gaussian",
     criterion: Criterion = "gaussian",
 ) -> CircleFit:
-    """Fit a circle minimising the (weighted) sum of squared orthogonal distances.
+    r"""Fit a circle minimising the (weighted) sum of squared orthogonal distances.
 
     Parameters
     ----------
@@ -151,6 +151,60 @@ def fit_circle(
         (field ``candidates``: both centres).
     ConvergenceError
         The iteration did not converge.
+
+    See Also
+    --------
+    fit_sphere : the same distance in 3-D
+    fit_cylinder : a circle swept along an axis
+    pcmm_geo.fit.zone.form.evaluate_form : minimum-zone form deviation and its verdict
+    pcmm_geo.fit.probe.compensate_probe : probe-ball centres onto the touched surface
+
+    Notes
+    -----
+    The Gaussian (least-squares) element minimises the weighted sum of squared orthogonal
+    distances [1]_ [2]_
+
+    .. math::
+
+        \min_{\mathbf{a}} \; \sum_{i=1}^{N} w_i \, d_i(\mathbf{a})^2 ,
+
+    where :math:`\mathbf{a}` are the element's parameters and :math:`d_i` the signed distance
+    of point :math:`\mathbf{x}_i`, here
+
+    .. math::
+
+        d_i = \lVert \mathbf{x}_i - \mathbf{c} \rVert - r
+
+    in 2-D.  In 3-D (``method="gaussian"``) :math:`d_i` is the distance to the circle curve of
+    centre :math:`\mathbf{c}`, unit normal :math:`\mathbf{n}` and radius :math:`r`, with the two
+    components :math:`(\mathbf{x}_i - \mathbf{c}) \cdot \mathbf{n}` and
+    :math:`\lVert (\mathbf{x}_i - \mathbf{c}) \times \mathbf{n} \rVert - r`;
+    ``method="projected"`` fits the least-squares plane first and the 2-D circle in it, as the
+    NIST algorithm testing system does [1]_.  The iteration starts from the algebraic circle of
+    Kasa [6]_, which is never returned.
+
+    The other criteria minimise the largest distance instead (Chebyshev, minimum zone, as in
+    the reference software of [4]_) or the circumscribed / inscribed radius (MCC, MIC): the
+    form zone of ISO 1101 [3]_; such a result carries an optimality certificate.
+    :mod:`pcmm_geo.artefacts.iso10360_6` tests fitting software, these fits included, in the
+    manner of ISO 10360-6 [5]_.
+
+    References
+    ----------
+    .. [1] C. M. Shakarji, "Least-squares fitting algorithms of the NIST algorithm testing system", *J. Res.
+           Natl. Inst. Stand. Technol.* 103(6), 633-641 (1998).
+    .. [2] A. B. Forbes, "Least-squares best-fit geometric elements", NPL Report DITC 140/89, National
+           Physical Laboratory, Teddington (1989).
+    .. [3] ISO 1101:2017, *Geometrical product specifications (GPS) -- Geometrical tolerancing -- Tolerances
+           of form, orientation, location and run-out* (the form zone is the smallest one containing the
+           feature).
+    .. [4] G. T. Anthony et al., "Reference software for finding Chebyshev best-fit geometric elements",
+           *Precision Engineering* 19(1), 28-36 (1996).
+    .. [5] ISO 10360-6:2001, *Geometrical Product Specifications (GPS) -- Acceptance and reverification tests
+           for coordinate measuring machines (CMM) -- Part 6: Estimation of errors in computing Gaussian
+           associated features*.
+    .. [6] I. Kasa, "A circle fitting procedure and its error analysis", *IEEE Trans. Instrum. Meas.*
+           IM-25(1), 8-14 (1976).
 
     Examples
     --------

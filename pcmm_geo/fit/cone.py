@@ -12,11 +12,10 @@ infinity; the apex is derived only at the end (``apex = a - r / tan(alpha) d``).
 
 from __future__ import annotations
 
-from dataclasses import dataclass
-
 import numpy as np
 from numpy.typing import ArrayLike
 
+from pcmm_geo._records import record
 from pcmm_geo.elements import Criterion
 from pcmm_geo.errors import ConvergenceError
 from pcmm_geo.fit._kernels._axial import (
@@ -44,7 +43,7 @@ _ELEMENT = "cone"
 _CYLINDER_START_BUDGET = 40
 
 
-@dataclass(frozen=True, kw_only=True, eq=False, repr=False)
+@record(kw_only=True)
 class ConeFit(FitResult):
     """Least-squares cone.
 
@@ -167,7 +166,7 @@ def fit_cone(
     axis_hint: ArrayLike | None = None,
     criterion: Criterion = "gaussian",
 ) -> ConeFit:
-    """Fit a cone to 3-D points by orthogonal-distance least squares.
+    r"""Fit a cone to 3-D points by orthogonal-distance least squares.
 
     Levenberg-Marquardt with an analytic Jacobian in standard position (data centred at
     the centroid, current axis along +z).  Local parameters: the axis crossing ``x0, y0``
@@ -206,6 +205,54 @@ def fit_cone(
         All points on a line or in a plane.
     ConvergenceError
         No starting value led to a converged solution.
+
+    See Also
+    --------
+    fit_cylinder : the cone of half angle zero
+    pcmm_geo.fit.zone.form.evaluate_form : minimum-zone form deviation and its verdict
+    pcmm_geo.fit.probe.compensate_probe : probe-ball centres onto the touched surface
+
+    Notes
+    -----
+    The Gaussian (least-squares) element minimises the weighted sum of squared orthogonal
+    distances [1]_ [2]_
+
+    .. math::
+
+        \min_{\mathbf{a}} \; \sum_{i=1}^{N} w_i \, d_i(\mathbf{a})^2 ,
+
+    where :math:`\mathbf{a}` are the element's parameters and :math:`d_i` the signed distance
+    of point :math:`\mathbf{x}_i`, here
+
+    .. math::
+
+        d_i = \rho_i \cos\psi - h_i \sin\psi , \qquad
+        h_i = (\mathbf{x}_i - \mathbf{p}) \cdot \mathbf{u} , \quad
+        \rho_i = \lVert (\mathbf{x}_i - \mathbf{p}) \times \mathbf{u} \rVert
+
+    for the cone of apex :math:`\mathbf{p}`, unit axis :math:`\mathbf{u}` (apex to opening)
+    and half angle :math:`\psi` (positive outside) [1]_.
+
+    ``criterion="chebyshev"`` minimises the largest distance instead (minimum zone, as in the
+    reference software of [4]_): the form zone of ISO 1101 [3]_; such a result carries an
+    optimality certificate.
+    :mod:`pcmm_geo.artefacts.iso10360_6` tests fitting software, these fits included, in the
+    manner of ISO 10360-6 [5]_.
+
+    References
+    ----------
+    .. [1] C. M. Shakarji, "Least-squares fitting algorithms of the NIST algorithm testing system", *J. Res.
+           Natl. Inst. Stand. Technol.* 103(6), 633-641 (1998).
+    .. [2] A. B. Forbes, "Least-squares best-fit geometric elements", NPL Report DITC 140/89, National
+           Physical Laboratory, Teddington (1989).
+    .. [3] ISO 1101:2017, *Geometrical product specifications (GPS) -- Geometrical tolerancing -- Tolerances
+           of form, orientation, location and run-out* (the form zone is the smallest one containing the
+           feature).
+    .. [4] G. T. Anthony et al., "Reference software for finding Chebyshev best-fit geometric elements",
+           *Precision Engineering* 19(1), 28-36 (1996).
+    .. [5] ISO 10360-6:2001, *Geometrical Product Specifications (GPS) -- Acceptance and reverification tests
+           for coordinate measuring machines (CMM) -- Part 6: Estimation of errors in computing Gaussian
+           associated features*.
 
     Examples
     --------

@@ -7,11 +7,10 @@ over the axis and the radius (or over the axis alone when the radius is fixed).
 
 from __future__ import annotations
 
-from dataclasses import dataclass
-
 import numpy as np
 from numpy.typing import ArrayLike
 
+from pcmm_geo._records import record
 from pcmm_geo.elements import Criterion
 from pcmm_geo.errors import InvalidInputError, PcmmGeoError
 from pcmm_geo.fit._kernels import _tall
@@ -44,7 +43,7 @@ __all__ = ["CylinderFit", "fit_cylinder"]
 _ELEMENT = "cylinder"
 
 
-@dataclass(frozen=True, kw_only=True, eq=False, repr=False)
+@record(kw_only=True)
 class CylinderFit(FitResult):
     """Least-squares cylinder.
 
@@ -181,7 +180,7 @@ def fit_cylinder(
     axis_region: AxisRegion | None = None,
     search_budget: SearchBudget | None = None,
 ) -> CylinderFit:
-    """Fit a cylinder to 3-D points by orthogonal-distance least squares.
+    r"""Fit a cylinder to 3-D points by orthogonal-distance least squares.
 
     Gauss-Newton / Levenberg-Marquardt with an analytic Jacobian in standard position
     (data centred at the centroid, current axis rotated to +z; local parameters are the
@@ -235,6 +234,54 @@ def fit_cylinder(
         All points on a line or in a plane.
     ConvergenceError
         No starting value led to a converged solution.
+
+    See Also
+    --------
+    fit_line : the axis of thin data
+    fit_cone : a cylinder whose radius changes along the axis
+    pcmm_geo.fit.zone.form.evaluate_form : minimum-zone form deviation and its verdict
+    pcmm_geo.fit.probe.compensate_probe : probe-ball centres onto the touched surface
+    pcmm_geo.fit.zone.axial.region.AxisRegion : the axes searched by the minimax criteria
+
+    Notes
+    -----
+    The Gaussian (least-squares) element minimises the weighted sum of squared orthogonal
+    distances [1]_ [2]_
+
+    .. math::
+
+        \min_{\mathbf{a}} \; \sum_{i=1}^{N} w_i \, d_i(\mathbf{a})^2 ,
+
+    where :math:`\mathbf{a}` are the element's parameters and :math:`d_i` the signed distance
+    of point :math:`\mathbf{x}_i`, here
+
+    .. math::
+
+        d_i = \lVert (\mathbf{x}_i - \mathbf{x}_0) \times \mathbf{u} \rVert - r
+
+    for the cylinder of axis point :math:`\mathbf{x}_0`, unit axis :math:`\mathbf{u}` and
+    radius :math:`r` [1]_ [2]_.
+
+    The other criteria minimise the largest distance instead (Chebyshev, minimum zone, as in
+    the reference software of [4]_) or the circumscribed / inscribed radius (MCC, MIC): the
+    form zone of ISO 1101 [3]_; such a result carries an optimality certificate.
+    :mod:`pcmm_geo.artefacts.iso10360_6` tests fitting software, these fits included, in the
+    manner of ISO 10360-6 [5]_.
+
+    References
+    ----------
+    .. [1] C. M. Shakarji, "Least-squares fitting algorithms of the NIST algorithm testing system", *J. Res.
+           Natl. Inst. Stand. Technol.* 103(6), 633-641 (1998).
+    .. [2] A. B. Forbes, "Least-squares best-fit geometric elements", NPL Report DITC 140/89, National
+           Physical Laboratory, Teddington (1989).
+    .. [3] ISO 1101:2017, *Geometrical product specifications (GPS) -- Geometrical tolerancing -- Tolerances
+           of form, orientation, location and run-out* (the form zone is the smallest one containing the
+           feature).
+    .. [4] G. T. Anthony et al., "Reference software for finding Chebyshev best-fit geometric elements",
+           *Precision Engineering* 19(1), 28-36 (1996).
+    .. [5] ISO 10360-6:2001, *Geometrical Product Specifications (GPS) -- Acceptance and reverification tests
+           for coordinate measuring machines (CMM) -- Part 6: Estimation of errors in computing Gaussian
+           associated features*.
 
     Examples
     --------

@@ -6,11 +6,10 @@ along the right singular vector of the largest singular value of the centred dat
 
 from __future__ import annotations
 
-from dataclasses import dataclass
-
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from pcmm_geo._records import record
 from pcmm_geo.elements import Criterion
 from pcmm_geo.errors import DegenerateGeometryError, InvalidInputError
 from pcmm_geo.fit._kernels import _tall
@@ -27,7 +26,7 @@ FloatArray = NDArray[np.float64]
 _ELEMENT = "line"
 
 
-@dataclass(frozen=True, kw_only=True, eq=False, repr=False)
+@record(kw_only=True)
 class LineFit(FitResult):
     """Result of :func:`fit_line`.
 
@@ -68,7 +67,7 @@ def fit_line(
     criterion: Criterion = "gaussian",
     search_budget: SearchBudget | None = None,
 ) -> LineFit:
-    """Fit a straight line minimising the (weighted) sum of squared orthogonal distances.
+    r"""Fit a straight line minimising the (weighted) sum of squared orthogonal distances.
 
     Parameters
     ----------
@@ -104,6 +103,54 @@ def fit_line(
         Fewer than 2 points.
     DegenerateGeometryError
         All points identical.
+
+    See Also
+    --------
+    fit_plane : the plane through the same centroid, normal along the smallest singular vector
+    pcmm_geo.fit.skew.closest_points : closest points of two 3-D lines
+    pcmm_geo.fit.zone.form.evaluate_form : minimum-zone form deviation and its verdict
+
+    Notes
+    -----
+    The Gaussian (least-squares) element minimises the weighted sum of squared orthogonal
+    distances [1]_ [2]_
+
+    .. math::
+
+        \min_{\mathbf{a}} \; \sum_{i=1}^{N} w_i \, d_i(\mathbf{a})^2 ,
+
+    where :math:`\mathbf{a}` are the element's parameters and :math:`d_i` the signed distance
+    of point :math:`\mathbf{x}_i`, here
+
+    .. math::
+
+        d_i = \lVert (\mathbf{x}_i - \mathbf{x}_0) \times \mathbf{u} \rVert
+
+    (signed in 2-D) for a line through :math:`\mathbf{x}_0` with unit direction
+    :math:`\mathbf{u}`.  The solution is closed-form: :math:`\mathbf{x}_0` is the weighted
+    centroid and :math:`\mathbf{u}` the right singular vector of the centred data with the
+    largest singular value [1]_ [2]_.
+
+    ``criterion="chebyshev"`` minimises the largest distance instead (minimum zone, as in the
+    reference software of [4]_): the form zone of ISO 1101 [3]_; such a result carries an
+    optimality certificate.
+    :mod:`pcmm_geo.artefacts.iso10360_6` tests fitting software, these fits included, in the
+    manner of ISO 10360-6 [5]_.
+
+    References
+    ----------
+    .. [1] C. M. Shakarji, "Least-squares fitting algorithms of the NIST algorithm testing system", *J. Res.
+           Natl. Inst. Stand. Technol.* 103(6), 633-641 (1998).
+    .. [2] A. B. Forbes, "Least-squares best-fit geometric elements", NPL Report DITC 140/89, National
+           Physical Laboratory, Teddington (1989).
+    .. [3] ISO 1101:2017, *Geometrical product specifications (GPS) -- Geometrical tolerancing -- Tolerances
+           of form, orientation, location and run-out* (the form zone is the smallest one containing the
+           feature).
+    .. [4] G. T. Anthony et al., "Reference software for finding Chebyshev best-fit geometric elements",
+           *Precision Engineering* 19(1), 28-36 (1996).
+    .. [5] ISO 10360-6:2001, *Geometrical Product Specifications (GPS) -- Acceptance and reverification tests
+           for coordinate measuring machines (CMM) -- Part 6: Estimation of errors in computing Gaussian
+           associated features*.
 
     Examples
     --------

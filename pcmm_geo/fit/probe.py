@@ -40,12 +40,12 @@ Centres of a 5 mm probe ball touching a Ø 20 mm hole lie on a Ø 15 mm circle:
 from __future__ import annotations
 
 import dataclasses
-from dataclasses import dataclass
 from typing import Literal
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from pcmm_geo._records import record, short_value
 from pcmm_geo.elements import SPECS, Element, element_of
 from pcmm_geo.errors import InvalidInputError
 from pcmm_geo.fit._kernels._core import FitResult, as_points
@@ -67,7 +67,7 @@ SIDES = ("internal", "external")
 INFERENCE_MARGIN = 0.25
 
 
-@dataclass(frozen=True, eq=False)
+@record
 class ProbeCompensation:
     """Result of :func:`compensate_probe`.
 
@@ -142,7 +142,7 @@ class ProbeCompensation:
         parts = [f"surface={self.surface!r}", f"probe_radius={self.probe_radius:.12g}", f"side={self.side!r}",
                  f"side_source={self.side_source!r}", f"inferred={self.inferred}"]
         if self.outward is not None:
-            parts.append(f"outward={np.array2string(self.outward, precision=9, separator=', ')}")
+            parts.append(f"outward={short_value(self.outward)}")
         if self.probe_radius_u:
             parts.append(f"probe_radius_u={self.probe_radius_u:.6g}")
         return f"ProbeCompensation({', '.join(parts)})"

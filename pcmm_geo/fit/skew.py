@@ -12,11 +12,10 @@
 
 from __future__ import annotations
 
-from dataclasses import dataclass
-
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from pcmm_geo._records import record
 from pcmm_geo.errors import DegenerateGeometryError, InvalidInputError, TooFewPointsError
 from pcmm_geo.fit._kernels._core import as_weights
 from pcmm_geo.fit._kernels._inputs import check_magnitude, real_array, weighted_centroid
@@ -35,7 +34,7 @@ __all__ = [
 FloatArray = NDArray[np.float64]
 
 
-@dataclass(frozen=True, eq=False)
+@record
 class LinePair:
     """Closest points of two lines (all arrays share the batch shape ``...``).
 
@@ -173,7 +172,7 @@ _PARALLEL_SINE = 8.0 * float(np.finfo(float).eps)
 
 
 def closest_points(point_a: ArrayLike, direction_a: ArrayLike, point_b: ArrayLike, direction_b: ArrayLike) -> LinePair:
-    """Closest points of line a (``point_a + t * direction_a``) and line b.
+    r"""Closest points of line a (``point_a + t * direction_a``) and line b.
 
     Parameters
     ----------
@@ -190,6 +189,11 @@ def closest_points(point_a: ArrayLike, direction_a: ArrayLike, point_b: ArrayLik
         Wrong or non-broadcasting shapes, complex or non-numeric values, NaN/inf, or a zero
         direction.
 
+    See Also
+    --------
+    nearest_point_to_lines : the least-squares point of several lines
+    pairwise_closest_points : many pairs at once
+
     Notes
     -----
     With ``n = d_a x d_b`` (unit directions), ``t_a = ((p_b - p_a) x d_b) . n / |n|^2`` and
@@ -201,6 +205,22 @@ def closest_points(point_a: ArrayLike, direction_a: ArrayLike, point_b: ArrayLik
     is the rounding of ``p_b - p_a``, about ``|p| eps / angle`` (1e-5 mm for points 500 mm
     from the origin at 1e-8 rad; see ``tests/fit/test_skew_precision.py``).  Lines are
     parallel only when ``n`` is exactly zero.
+
+    In formulas, with :math:`\mathbf{n} = \mathbf{d}_a \times \mathbf{d}_b`,
+
+    .. math::
+
+        t_a = \frac{((\mathbf{p}_b - \mathbf{p}_a) \times \mathbf{d}_b) \cdot \mathbf{n}}{\lVert \mathbf{n} \rVert^2} ,
+        \qquad
+        t_b = \frac{((\mathbf{p}_b - \mathbf{p}_a) \times \mathbf{d}_a) \cdot \mathbf{n}}{\lVert \mathbf{n} \rVert^2} ,
+
+    the minimiser of the squared distance between the two lines, eq 7.2 of the thesis [1]_.
+
+    References
+    ----------
+    .. [1] *A critical investigation into the accuracy of a parallel mechanism coordinate measuring machine*,
+           MEng (Mechatronic) thesis, Faculty of Engineering, Stellenbosch University ("the thesis"; the copy
+           the project works from names neither author nor year). Section 7.2, eq 7.2.
 
     Examples
     --------
@@ -253,7 +273,7 @@ def closest_points(point_a: ArrayLike, direction_a: ArrayLike, point_b: ArrayLik
     )
 
 
-@dataclass(frozen=True, eq=False)
+@record
 class LinesNearestPoint:
     """Least-squares point nearest to several lines.
 
@@ -282,7 +302,7 @@ class LinesNearestPoint:
 def nearest_point_to_lines(
     points: ArrayLike, directions: ArrayLike, weights: ArrayLike | None = None
 ) -> LinesNearestPoint:
-    """Point with the least (weighted) sum of squared distances to K >= 2 lines.
+    r"""Point with the least (weighted) sum of squared distances to K >= 2 lines.
 
     Minimises ``sum_k w_k |(I - d_k d_k^T)(x - p_k)|^2`` (thesis eq 7.2 generalised from line
     pairs to all lines at once).  The normal equations ``sum_k w_k (I - d_k d_k^T) x = ...``
@@ -314,6 +334,29 @@ def nearest_point_to_lines(
     DegenerateGeometryError
         All lines parallel within float64 resolution, or fewer than two lines with positive
         weight: the point is not unique.
+
+    See Also
+    --------
+    closest_points : the closest points of two lines
+    pcmm_geo.machine.calibration.tetrahedron.calibrate_tetrahedron : the probe point of the slider lines
+
+    Notes
+    -----
+    The point minimises
+
+    .. math::
+
+        \sum_{k=1}^{K} w_k \, \lVert (I - \mathbf{d}_k \mathbf{d}_k^\mathsf{T})
+        (\mathbf{x} - \mathbf{p}_k) \rVert^2 ,
+
+    the sum over all lines of what eq 7.2 of the thesis [1]_ minimises for one pair of slider
+    lines (the squared distance between points of the two lines).
+
+    References
+    ----------
+    .. [1] *A critical investigation into the accuracy of a parallel mechanism coordinate measuring machine*,
+           MEng (Mechatronic) thesis, Faculty of Engineering, Stellenbosch University ("the thesis"; the copy
+           the project works from names neither author nor year). Section 7.2, eq 7.2.
 
     Examples
     --------

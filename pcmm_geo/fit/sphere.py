@@ -2,12 +2,12 @@
 
 from __future__ import annotations
 
-from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from pcmm_geo._records import record
 from pcmm_geo.elements import Criterion
 from pcmm_geo.errors import InvalidInputError
 from pcmm_geo.fit._kernels import _tall
@@ -25,7 +25,7 @@ FloatArray = NDArray[np.float64]
 _ELEMENT = "sphere"
 
 
-@dataclass(frozen=True, kw_only=True, eq=False, repr=False)
+@record(kw_only=True)
 class SphereFit(FitResult):
     """Result of :func:`fit_sphere`.
 
@@ -78,7 +78,7 @@ def fit_sphere(
     weights: ArrayLike | None = None,
     criterion: Criterion = "gaussian",
 ) -> SphereFit:
-    """Fit a sphere minimising the (weighted) sum of squared orthogonal distances.
+    r"""Fit a sphere minimising the (weighted) sum of squared orthogonal distances.
 
     Gauss-Newton / Levenberg-Marquardt on centred data from an algebraic (Kasa)
     starting value; the algebraic fit is never returned.  From ``pcmm_geo.fit._kernels._tall.TALL_ROWS``
@@ -123,6 +123,56 @@ def fit_sphere(
         Fixed radius, coplanar points, two mirror-image centres (field ``candidates``).
     ConvergenceError
         The iteration did not converge.
+
+    See Also
+    --------
+    fit_circle : the same distance in a plane
+    pcmm_geo.artefacts.iso10360_5.evaluate_probing : ISO 10360-5 probing error from a sphere fit
+    pcmm_geo.fit.zone.form.evaluate_form : minimum-zone form deviation and its verdict
+    pcmm_geo.fit.probe.compensate_probe : probe-ball centres onto the touched surface
+
+    Notes
+    -----
+    The Gaussian (least-squares) element minimises the weighted sum of squared orthogonal
+    distances [1]_ [2]_
+
+    .. math::
+
+        \min_{\mathbf{a}} \; \sum_{i=1}^{N} w_i \, d_i(\mathbf{a})^2 ,
+
+    where :math:`\mathbf{a}` are the element's parameters and :math:`d_i` the signed distance
+    of point :math:`\mathbf{x}_i`, here
+
+    .. math::
+
+        d_i = \lVert \mathbf{x}_i - \mathbf{c} \rVert - r
+
+    for the sphere of centre :math:`\mathbf{c}` and radius :math:`r` (positive outside).
+    The Gauss-Newton iteration starts from the algebraic (Kasa) fit [6]_, which is never
+    returned.
+
+    The other criteria minimise the largest distance instead (Chebyshev, minimum zone, as in
+    the reference software of [4]_) or the circumscribed / inscribed radius (MCC, MIC): the
+    form zone of ISO 1101 [3]_; such a result carries an optimality certificate.
+    :mod:`pcmm_geo.artefacts.iso10360_6` tests fitting software, these fits included, in the
+    manner of ISO 10360-6 [5]_.
+
+    References
+    ----------
+    .. [1] C. M. Shakarji, "Least-squares fitting algorithms of the NIST algorithm testing system", *J. Res.
+           Natl. Inst. Stand. Technol.* 103(6), 633-641 (1998).
+    .. [2] A. B. Forbes, "Least-squares best-fit geometric elements", NPL Report DITC 140/89, National
+           Physical Laboratory, Teddington (1989).
+    .. [3] ISO 1101:2017, *Geometrical product specifications (GPS) -- Geometrical tolerancing -- Tolerances
+           of form, orientation, location and run-out* (the form zone is the smallest one containing the
+           feature).
+    .. [4] G. T. Anthony et al., "Reference software for finding Chebyshev best-fit geometric elements",
+           *Precision Engineering* 19(1), 28-36 (1996).
+    .. [5] ISO 10360-6:2001, *Geometrical Product Specifications (GPS) -- Acceptance and reverification tests
+           for coordinate measuring machines (CMM) -- Part 6: Estimation of errors in computing Gaussian
+           associated features*.
+    .. [6] I. Kasa, "A circle fitting procedure and its error analysis", *IEEE Trans. Instrum. Meas.*
+           IM-25(1), 8-14 (1976).
 
     Examples
     --------

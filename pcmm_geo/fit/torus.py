@@ -9,11 +9,11 @@ residual is ``e = sqrt((rho - R)^2 + h^2) - r`` (positive outside the tube).
 from __future__ import annotations
 
 import warnings
-from dataclasses import dataclass
 
 import numpy as np
 from numpy.typing import ArrayLike
 
+from pcmm_geo._records import record
 from pcmm_geo.elements import Criterion
 from pcmm_geo.errors import UnassuredMinimumWarning
 from pcmm_geo.fit._kernels._axial import (
@@ -45,7 +45,7 @@ ASSURED_POINTS = 20
 _INVALID_COST = 1e300
 
 
-@dataclass(frozen=True, kw_only=True, eq=False, repr=False)
+@record(kw_only=True)
 class TorusFit(FitResult):
     """Least-squares torus.
 
@@ -207,7 +207,7 @@ def fit_torus(
     axis_hint: ArrayLike | None = None,
     criterion: Criterion = "gaussian",
 ) -> TorusFit:
-    """Fit a torus to 3-D points by orthogonal-distance least squares.
+    r"""Fit a torus to 3-D points by orthogonal-distance least squares.
 
     Levenberg-Marquardt with an analytic Jacobian in standard position (data centred at
     the centroid, current axis along +z).  Local parameters: the centre ``x0, y0, z0``,
@@ -217,6 +217,11 @@ def fit_torus(
     For each axis the axis position comes from a coarse-to-fine grid search with ``z0, R, r``
     projected out (a circle in the ``(rho, z)`` half-plane), polished by Nelder-Mead.  The converged solution of least
     cost is returned.
+
+    See Also
+    --------
+    fit_circle : the torus' tube centre line is a circle
+    fit_sphere
 
     Notes
     -----
@@ -231,6 +236,25 @@ def fit_torus(
     ``docs/fit-robustness.md``), so a fit of fewer than ``ASSURED_POINTS`` (20) points without
     ``axis_hint`` always warns with :class:`~pcmm_geo.errors.UnassuredMinimumWarning`; pass the
     nominal axis, or measure more points.
+
+    The Gaussian (least-squares) element minimises the weighted sum of squared orthogonal
+    distances [1]_ [2]_
+
+    .. math::
+
+        \min_{\mathbf{a}} \; \sum_{i=1}^{N} w_i \, d_i(\mathbf{a})^2 ,
+
+    where :math:`\mathbf{a}` are the element's parameters and :math:`d_i` the signed distance
+    of point :math:`\mathbf{x}_i`, here
+
+    .. math::
+
+        d_i = \sqrt{(\rho_i - R)^2 + h_i^2} - r , \qquad
+        h_i = (\mathbf{x}_i - \mathbf{c}) \cdot \mathbf{u} , \quad
+        \rho_i = \lVert (\mathbf{x}_i - \mathbf{c}) \times \mathbf{u} \rVert
+
+    for the torus of centre :math:`\mathbf{c}`, unit axis :math:`\mathbf{u}`, major radius
+    :math:`R` and minor radius :math:`r` [1]_ [2]_.
 
     Parameters
     ----------
@@ -259,6 +283,13 @@ def fit_torus(
         All points on a line or in a plane.
     ConvergenceError
         No starting value led to a converged solution.
+
+    References
+    ----------
+    .. [1] C. M. Shakarji, "Least-squares fitting algorithms of the NIST algorithm testing system", *J. Res.
+           Natl. Inst. Stand. Technol.* 103(6), 633-641 (1998).
+    .. [2] A. B. Forbes, "Least-squares best-fit geometric elements", NPL Report DITC 140/89, National
+           Physical Laboratory, Teddington (1989).
 
     Examples
     --------

@@ -33,6 +33,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from pcmm_geo._records import record
 from pcmm_geo.errors import InvalidInputError
 from pcmm_geo.gdt._sizes import size_evaluation
 from pcmm_geo.gdt.reference._floating import float_position, minimise_angle
@@ -54,7 +55,7 @@ FloatArray = NDArray[np.float64]
 _UNIT = {"x": np.array([1.0, 0, 0]), "y": np.array([0, 1.0, 0]), "z": np.array([0, 0, 1.0])}
 
 
-@dataclass(frozen=True)
+@record
 class FeatureData:
     """A toleranced feature: its points (measurement coordinates) and nominal (DRF coordinates).
 

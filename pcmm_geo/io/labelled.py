@@ -24,12 +24,12 @@ Examples
 from __future__ import annotations
 
 import re
-from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 from numpy.typing import NDArray
 
+from pcmm_geo._records import record
 from pcmm_geo.errors import FileFormatError
 from pcmm_geo.io._text import excerpt, iter_text_lines, parse_decimal
 
@@ -42,7 +42,7 @@ LABEL_COLUMNS = ("name", "label", "face", "feature", "point", "id")
 _DELIMITED = re.compile(r"[,;\t]")
 
 
-@dataclass(frozen=True)
+@record
 class LabelledPoints:
     """Points with one label each, in file order.
 

@@ -47,13 +47,13 @@ from __future__ import annotations
 import math
 import re
 from collections.abc import Iterator
-from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
 
+from pcmm_geo._records import record
 from pcmm_geo.errors import FileFormatError, InvalidInputError
 from pcmm_geo.io._text import excerpt, parse_decimal
 
@@ -77,7 +77,7 @@ NIST_ELEMENTS: dict[str, tuple[str, int]] = {
 _DATA_SUFFIXES = (".ds", ".txt")
 
 
-@dataclass(frozen=True, eq=False)
+@record
 class NistPair:
     """One NIST reference pair.
 

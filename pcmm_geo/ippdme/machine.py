@@ -29,12 +29,13 @@ lasers (``pcmm process-log``) could not cross-check the columns there.
 from __future__ import annotations
 
 import abc
-from dataclasses import dataclass, field, replace
+from dataclasses import field, replace
 from typing import Any
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from pcmm_geo._records import record
 from pcmm_geo.acquisition.drivers.zaber import T_LSR450B_MICROSTEP_MM
 from pcmm_geo.errors import InvalidInputError, PcmmGeoError
 from pcmm_geo.ippdme.workpieces import first_contact
@@ -60,7 +61,7 @@ class MoveRefused(Exception):
         self.position = position
 
 
-@dataclass(frozen=True)
+@record
 class MachineModel:
     """What the server knows about its micro-CMM and what it knows of its errors.
 
@@ -91,7 +92,7 @@ class MachineModel:
         return float(np.hypot(self.encoder_sigma, self.microstep_mm / np.sqrt(12.0)))
 
 
-@dataclass(frozen=True)
+@record
 class ProbeResult:
     """One probing: reported surface point and tip (calibrated model), readings, truth and flags (mm)."""
 
@@ -437,7 +438,7 @@ class SimulatedMachine(MachineBackend):
                 "max_tip_uncertainty_mm": self.max_tip_uncertainty}
 
 
-@dataclass(frozen=True)
+@record
 class _Probed:
     result: ProbeResult
     tip_commanded: FloatArray

@@ -37,7 +37,6 @@ import json
 import os
 import time
 from collections.abc import Mapping
-from dataclasses import dataclass
 from datetime import UTC, datetime
 from pathlib import Path
 from typing import IO, Any
@@ -46,6 +45,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from pcmm_geo._atomic import fsync_folder
+from pcmm_geo._records import record
 from pcmm_geo._signals import deferred
 from pcmm_geo.errors import FileFormatError, LogIntegrityError, OutputExistsError
 
@@ -166,7 +166,7 @@ def read_transcript(path: str | os.PathLike[str], *, allow_partial: bool = False
     return header, records
 
 
-@dataclass(frozen=True)
+@record
 class MeasuredPoints:
     """Points probed in a transcript: ``points`` (N, 3) mm as reported, with ``tags``, ``csy``, ``poorly_resolved``."""
 

@@ -14,12 +14,13 @@ its surface; the probe ball of radius ``r`` touches when the distance of its cen
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import field
 from typing import Any, Protocol
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from pcmm_geo._records import record
 from pcmm_geo.errors import InvalidInputError
 
 __all__ = [
@@ -61,7 +62,7 @@ def _positive(value: float, name: str) -> float:
     return float(value)
 
 
-@dataclass(frozen=True)
+@record
 class SphereWorkpiece:
     """Reference sphere: ``center`` (3,) mm, ``diameter`` mm."""
 
@@ -79,7 +80,7 @@ class SphereWorkpiece:
         return {"type": "sphere", "center_mm": self.center.tolist(), "diameter_mm": self.diameter}
 
 
-@dataclass(frozen=True)
+@record
 class PlaneWorkpiece:
     """Material below a plane through ``point`` with outward ``normal``."""
 
@@ -97,7 +98,7 @@ class PlaneWorkpiece:
         return {"type": "plane", "point_mm": self.point.tolist(), "normal": self.normal.tolist()}
 
 
-@dataclass(frozen=True)
+@record
 class BoxWorkpiece:
     """Gauge block: ``center`` (3,), ``size`` (3,) mm along the rows of ``axes`` (3, 3) (default machine axes)."""
 
@@ -127,7 +128,7 @@ class BoxWorkpiece:
                 "axes": self.axes.tolist()}
 
 
-@dataclass(frozen=True)
+@record
 class CylinderWorkpiece:
     """Solid cylinder: axis through ``center`` along ``axis``, ``diameter`` and ``length`` mm (flat ends)."""
 

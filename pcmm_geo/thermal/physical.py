@@ -16,12 +16,13 @@ same expansion applied to the rigid-body machine model is in
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
+from dataclasses import field
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from pcmm_geo._deprecation import renamed_fields
+from pcmm_geo._records import record
 from pcmm_geo.errors import InvalidInputError
 from pcmm_geo.thermal.expansion import ALPHA_ALUMINIUM, REFERENCE_TEMPERATURE
 from pcmm_geo.thermal.probe_error import fixed_shape_array, trilaterate
@@ -43,7 +44,7 @@ MEMBERS = ("frame_ab", "frame_ac", "frame_bc", "column_a", "column_b", "column_c
 
 
 @renamed_fields(working_volume_centre="working_volume_center")
-@dataclass(frozen=True)
+@record
 class ThermalMachineGeometry:
     """Nominal (20 °C) geometry of the micro-CMM for the physical thermal model.
 
@@ -193,7 +194,7 @@ def physical_tip_displacement(
     return physical_tip(geometry, tip, pivot_heights, **temperatures) - fixed_shape_array(tip, "tip", (3,))
 
 
-@dataclass(frozen=True)
+@record
 class ThermalSensitivityTable:
     """Tip displacement per kelvin of each member over a grid in the working volume.
 

@@ -35,12 +35,12 @@ The physical model (expanded members, exact re-solution) is in
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from pcmm_geo._deprecation import renamed_parameters
+from pcmm_geo._records import record
 from pcmm_geo.errors import DegenerateGeometryError, InvalidInputError, NoRealSolutionError
 from pcmm_geo.thermal.expansion import ALPHA_ALUMINIUM, REFERENCE_TEMPERATURE
 
@@ -60,7 +60,7 @@ def fixed_shape_array(value: ArrayLike, name: str, shape: tuple[int, ...]) -> Fl
     return arr
 
 
-@dataclass(frozen=True)
+@record
 class SeedProbeError:
     """Result of the seed's simple thermal probe model (eqs 4.10-4.17).
 

@@ -27,11 +27,11 @@ A (−375.278, 0), B (187.639, 325), C (187.639, −325) (the table truncates to
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from pcmm_geo._records import record
 from pcmm_geo.errors import InvalidInputError, NoRealSolutionError
 from pcmm_geo.thermal.expansion import ALPHA_ALUMINIUM, REFERENCE_TEMPERATURE
 
@@ -50,7 +50,7 @@ FloatArray = NDArray[np.float64]
 NOMINAL_SIDE = 650.0
 
 
-@dataclass(frozen=True)
+@record
 class FrameTriangle:
     """Corners of the frame triangle and the angles of eqs 4.5-4.7.
 

@@ -28,12 +28,12 @@ from __future__ import annotations
 import dataclasses
 import math
 from collections.abc import Mapping
-from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
 
+from pcmm_geo._records import record
 from pcmm_geo.errors import InvalidInputError
 
 __all__ = [
@@ -117,7 +117,7 @@ def sphere_fit_covariance(points: Any, center: Any, sigma: float) -> FloatArray:
     return sigma**2 * np.linalg.inv(jac.T @ jac)
 
 
-@dataclass(frozen=True)
+@record
 class CalibrationCovariance:
     """Calibrated parameters with their covariance.
 
@@ -283,7 +283,7 @@ def calibration_covariance(
     laser_sigma: float,
     **calibrate_options: Any,
 ) -> CalibrationCovariance:
-    """Covariance of the calibrated parameters by the GUM's linear law through the whole calibration.
+    r"""Covariance of the calibrated parameters by the GUM's linear law through the whole calibration.
 
     Parameters
     ----------
@@ -302,6 +302,31 @@ def calibration_covariance(
     -------
     CalibrationCovariance
         ``method = "GUM linear"``, with the Jacobian and the input covariance.
+
+    See Also
+    --------
+    calibration_covariance_monte_carlo : the same covariance by re-noising and recalibrating
+    pcmm_geo.uncertainty.gum.propagate_covariance : the linear law for vector outputs
+    pcmm_geo.machine.calibration.tetrahedron.calibrate_tetrahedron
+
+    Notes
+    -----
+    The law of propagation of uncertainty for a vector output (GUM 5.2 [1]_, JCGM 102 [2]_):
+
+    .. math::
+
+        U_\theta = J \, U_x \, J^\mathsf{T} , \qquad J = \frac{\partial \theta}{\partial x} ,
+
+    with :math:`\theta` the calibrated parameters, :math:`x` the ball centres (their covariance
+    from the sphere fits of the raw probed points) and the laser readings, and :math:`J` by
+    central differences through the whole calibration.
+
+    References
+    ----------
+    .. [1] JCGM 100:2008, *Evaluation of measurement data -- Guide to the expression of uncertainty in
+           measurement* (GUM).
+    .. [2] JCGM 102:2011, *Evaluation of measurement data -- Supplement 2 to the GUM -- Extension to any
+           number of output quantities*.
 
     Examples
     --------
@@ -353,7 +378,7 @@ def calibration_covariance_monte_carlo(
     seed: int | np.random.Generator = 0,
     **calibrate_options: Any,
 ) -> CalibrationCovariance:
-    """Covariance of the calibrated parameters by re-noising the raw points and lasers and recalibrating.
+    r"""Covariance of the calibrated parameters by re-noising the raw points and lasers and recalibrating.
 
     Every trial adds ``N(0, probing_sigma^2)`` to each coordinate of every probed point and
     ``N(0, laser_sigma^2)`` to each laser reading, refits all balls (batched sphere fits) and
@@ -363,6 +388,32 @@ def calibration_covariance_monte_carlo(
     ------
     InvalidInputError
         Element-level probings (no raw points to re-noise), or fewer than 10 trials.
+
+    See Also
+    --------
+    calibration_covariance : the GUM linear evaluation
+
+
+    Notes
+    -----
+    Propagation of distributions (JCGM 101 [1]_): the sample covariance of the recalibrated
+    parameters :math:`\theta^{(k)}`, :math:`k = 1 \ldots M`,
+
+    .. math::
+
+        U_\theta = \frac{1}{M - 1} \sum_{k=1}^{M}
+                   (\theta^{(k)} - \bar\theta)(\theta^{(k)} - \bar\theta)^\mathsf{T} ,
+
+    which also holds where the calibration is not linear within the input uncertainties
+    (JCGM 102 [2]_, section 7).
+
+
+    References
+    ----------
+    .. [1] JCGM 101:2008, *Evaluation of measurement data -- Supplement 1 to the GUM -- Propagation of
+           distributions using a Monte Carlo method*.
+    .. [2] JCGM 102:2011, *Evaluation of measurement data -- Supplement 2 to the GUM -- Extension to any
+           number of output quantities*.
     """
     from pcmm_geo.fit.batch import fit_spheres
     from pcmm_geo.machine.calibration import calibrate_tetrahedron

@@ -146,7 +146,7 @@ def propagate(
     quantity: str = "y",
     unit: str = "",
 ) -> UncertaintyResult:
-    """Standard and expanded uncertainty of a scalar ``y = func(x)`` by the GUM's linear law.
+    r"""Standard and expanded uncertainty of a scalar ``y = func(x)`` by the GUM's linear law.
 
     Parameters
     ----------
@@ -183,6 +183,30 @@ def propagate(
     ------
     InvalidInputError
         Mismatched shapes, negative uncertainties, a covariance that is not symmetric PSD.
+
+    See Also
+    --------
+    propagate_covariance : vector outputs
+    pcmm_geo.uncertainty.montecarlo.adaptive_monte_carlo : the Monte Carlo evaluation (JCGM 101)
+    welch_satterthwaite
+    coverage_factor
+
+    Notes
+    -----
+    The law of propagation of uncertainty (GUM eq. (13) [1]_):
+
+    .. math::
+
+        u_c^2(y) = \sum_{i,j} \frac{\partial f}{\partial x_i} \frac{\partial f}{\partial x_j}
+                   u(x_i, x_j) ,
+
+    the expanded uncertainty :math:`U = k \, u_c(y)` with :math:`k` the Student-t quantile for the
+    Welch-Satterthwaite effective degrees of freedom (GUM annex G, eq. (G.2b)).
+
+    References
+    ----------
+    .. [1] JCGM 100:2008, *Evaluation of measurement data -- Guide to the expression of uncertainty in
+           measurement* (GUM).
 
     Examples
     --------

@@ -22,11 +22,10 @@ The three height increments then minimise
 
 from __future__ import annotations
 
-from dataclasses import dataclass
-
 import numpy as np
 from numpy.typing import NDArray
 
+from pcmm_geo._records import record
 from pcmm_geo.errors import InvalidInputError
 
 __all__ = ["BatchForward", "BatchGeometry", "forward_batch", "rotation_from_vector"]
@@ -34,7 +33,7 @@ __all__ = ["BatchForward", "BatchGeometry", "forward_batch", "rotation_from_vect
 FloatArray = NDArray[np.float64]
 
 
-@dataclass(frozen=True)
+@record
 class BatchGeometry:
     """Machine geometry per trial (leading axis ``T``; arm order a, b, c; mm).
 
@@ -71,7 +70,7 @@ class BatchGeometry:
         )
 
 
-@dataclass(frozen=True)
+@record
 class BatchForward:
     """Result of :func:`forward_batch`: ``tip`` (T, P, 3) mm, ``converged`` (T, P), ``iterations``."""
 

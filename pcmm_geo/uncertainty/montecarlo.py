@@ -147,7 +147,7 @@ def adaptive_monte_carlo(
     progress: Callable[..., None] | None = None,
     keep_values: bool = False,
 ) -> UncertaintyResult:
-    """Monte Carlo evaluation of ``y`` with the adaptive procedure of JCGM 101 §7.9.
+    r"""Monte Carlo evaluation of ``y`` with the adaptive procedure of JCGM 101 §7.9.
 
     Parameters
     ----------
@@ -190,6 +190,25 @@ def adaptive_monte_carlo(
         The model returned non-finite values.
     InvalidInputError
         Bad settings.
+
+    See Also
+    --------
+    validate_gum : compare a GUM result with this one (JCGM 101 section 8)
+    coverage_interval
+    pcmm_geo.uncertainty.gum.propagate : the GUM linear evaluation
+
+    Notes
+    -----
+    JCGM 101 [1]_, section 7.9: batches of trials are drawn until twice the standard deviation
+    :math:`s` of the batch averages of :math:`y`, of :math:`u(y)` and of both ends of the
+    coverage interval is below the numerical tolerance :math:`\delta` of :math:`u(y)` stated to
+    ``significant_digits`` significant digits (:math:`2 s < \delta` for all four).  The coverage
+    interval is the shortest or the probabilistically symmetric one (section 7.7).
+
+    References
+    ----------
+    .. [1] JCGM 101:2008, *Evaluation of measurement data -- Supplement 1 to the GUM -- Propagation of
+           distributions using a Monte Carlo method*.
 
     Examples
     --------

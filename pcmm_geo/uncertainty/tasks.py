@@ -17,11 +17,11 @@ All lengths in mm.
 from __future__ import annotations
 
 from collections.abc import Callable
-from dataclasses import dataclass
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from pcmm_geo._records import record
 from pcmm_geo.errors import InvalidInputError
 
 __all__ = [
@@ -40,7 +40,7 @@ GAUGE_FACE_OFFSETS = np.array(
 )
 
 
-@dataclass(frozen=True)
+@record
 class MeasurementTask:
     """One measurement of the virtual CMM.
 

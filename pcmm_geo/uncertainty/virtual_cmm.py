@@ -50,6 +50,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from pcmm_geo._records import record
 from pcmm_geo.errors import ConvergenceError, InvalidInputError
 from pcmm_geo.thermal.expansion import ALPHA_ALUMINIUM, ALPHA_GAUGE_BLOCK_STEEL, REFERENCE_TEMPERATURE
 from pcmm_geo.uncertainty.kinematics import BatchGeometry, forward_batch
@@ -163,7 +164,7 @@ class TaskUncertainty:
         }
 
 
-@dataclass(frozen=True)
+@record
 class VirtualCMM:
     """The calibrated micro-CMM with what is known about its errors.
 
@@ -398,6 +399,29 @@ class VirtualCMM:
         Returns
         -------
         TaskUncertainty
+
+        See Also
+        --------
+        pcmm_geo.uncertainty.montecarlo.adaptive_monte_carlo : the adaptive Monte Carlo procedure
+        pcmm_geo.uncertainty.montecarlo.validate_gum : the GUM check
+        VirtualCMM.gum : the GUM linear evaluation of the same task
+
+
+        Notes
+        -----
+        A simulation ("virtual CMM") evaluation of task-specific uncertainty in the sense of
+        ISO/TS 15530-4 [1]_: every trial draws the inputs of each group (calibrated geometry,
+        reading noise, probing, thermal state), measures the task on the simulated machine and
+        evaluates it; the distribution of the results is propagated as JCGM 101 [2]_ describes.
+
+
+        References
+        ----------
+        .. [1] ISO/TS 15530-4:2008, *Geometrical Product Specifications (GPS) -- Coordinate measuring machines
+               (CMM): Technique for determining the uncertainty of measurement -- Part 4: Evaluating task-
+               specific measurement uncertainty using simulation*.
+        .. [2] JCGM 101:2008, *Evaluation of measurement data -- Supplement 1 to the GUM -- Propagation of
+               distributions using a Monte Carlo method*.
         """
         from pcmm_geo.uncertainty.montecarlo import adaptive_monte_carlo, validate_gum
 

@@ -23,7 +23,6 @@ probe Arduino on pseudo-terminals, each with its own seeded fault plan.
 from __future__ import annotations
 
 from collections.abc import Sequence
-from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
@@ -31,6 +30,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from pcmm_geo._deprecation import renamed_fields, renamed_parameters
+from pcmm_geo._records import record
 from pcmm_geo.acquisition.drivers.zaber import T_LSR450B_MICROSTEP_MM
 from pcmm_geo.acquisition.simulators.devices import LaserStreamSim, ProbeSim, ZaberChainSim
 from pcmm_geo.acquisition.simulators.faults import RECOVERABLE_FAULTS, FaultPlan
@@ -50,7 +50,7 @@ _PATH_STEP_USTEPS = 200  # sampling of a move's path for contact, ~0.1 mm of piv
 
 
 @renamed_fields(centre="center")
-@dataclass(frozen=True)
+@record
 class GaugeBlock:
     """A rectangular block: ``center`` (3,) mm, ``size`` (3,) mm along its own axes, ``axes`` (3, 3) rows.
 

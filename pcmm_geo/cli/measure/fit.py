@@ -34,8 +34,6 @@ _CRITERION_TITLES = {
 }
 #: fits taking a fixed ``radius=`` (the size parameter is the radius itself)
 _FIXED_RADIUS = tuple(name for name in ELEMENTS if SPECS[name].size == "radius")
-_DIRECTIONS = ("direction", "normal", "axis")
-_UNITS = {"radius": "mm", "r_in": "mm", "r_out": "mm", "major_radius": "mm", "minor_radius": "mm", "half_angle": "rad"}
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
@@ -117,22 +115,9 @@ def handle(args: argparse.Namespace) -> Report:
         data.get("extra", {}).pop("residual_components", None)
         data.pop("residual_components", None)
     data["file"] = str(args.file)
-    geometry = _geometry_rows(result)
-    uncertainty = dict(zip(result.parameter_names, np.asarray(result.std_errors).tolist(), strict=True))
-    rows = [
-        [name, value, uncertainty.get(name, float("nan")), "1" if name.split("_")[0] in _DIRECTIONS else "mm"]
-        for name, value in geometry
-    ]
-    for name in ("radius", "r_in", "r_out", "major_radius", "minor_radius", "half_angle"):
-        if hasattr(result, name):
-            value = float(getattr(result, name))
-            if name in ("r_in", "r_out") and value != value:  # NaN: Gaussian fits have no zone radii
-                continue
-            unit = _UNITS[name]
-            rows.append([name, value, uncertainty.get(name, float("nan")), unit])
-    diameter_line = _diameter(args.element, result, uncertainty, rows, data)
-    if hasattr(result, "half_angle"):
-        rows.append(["apex_angle_deg", float(np.degrees(2 * result.half_angle)), float("nan"), "deg"])
+    summary = result.summary()  # the rows every display of a fit shares (FitResult.summary)
+    rows = [[row.name, row.value, row.u, row.unit] for row in summary]
+    diameter_line = _diameter(summary, data)
     tables = [
         Table(
             f"{args.element} fit of {args.file} ({_CRITERION_TITLES[args.criterion]})",
@@ -239,21 +224,17 @@ def axis_search_options(args: argparse.Namespace, element: Element, criterion: C
     return out
 
 
-def _diameter(element: Element, result: Any, uncertainty: dict[str, float], rows: list[list[Any]],
-              data: dict[str, Any]) -> str:
-    """The diameter ``d = 2 r`` of a circle, sphere or cylinder with ``u(d) = 2 u(r)`` (type A, k = 1).
+def _diameter(summary: Any, data: dict[str, Any]) -> str:
+    """The line the terminal prints for a diameter row of the summary (circle, sphere, cylinder; "" otherwise).
 
-    Adds the row to ``rows`` and ``diameter_mm`` / ``u_diameter_mm`` to ``data``; returns the line
-    the terminal prints ("" for other elements).
+    Adds ``diameter_mm`` / ``u_diameter_mm`` to ``data`` (``u(d) = 2 u(r)``, type A, k = 1).
     """
     import math
 
-    if element not in _FIXED_RADIUS or not hasattr(result, "radius"):
+    found = [row for row in summary if row.name == "diameter"]
+    if not found:
         return ""
-    diameter = 2.0 * float(result.radius)
-    u_radius = uncertainty.get("radius", float("nan"))
-    u_diameter = 2.0 * u_radius  # d = 2 r exactly, so u(d) = 2 u(r)
-    rows.append(["diameter", diameter, u_diameter, "mm"])
+    diameter, u_diameter = found[0].value, found[0].u
     data["diameter_mm"] = diameter
     data["u_diameter_mm"] = None if math.isnan(u_diameter) else u_diameter
     if math.isnan(u_diameter) or u_diameter <= 0:
@@ -261,18 +242,6 @@ def _diameter(element: Element, result: Any, uncertainty: dict[str, float], rows
     return (f"diameter d = {diameter:.6f} mm, standard uncertainty u(d) = {1000 * u_diameter:.3f} µm "
             "(type A, from the fit residuals; k = 1, not an expanded uncertainty)")
 
-
-def _geometry_rows(result: Any) -> list[tuple[str, float]]:
-    import numpy as np
-
-    rows: list[tuple[str, float]] = []
-    for name in ("center", "point", "apex", "direction", "normal", "axis"):
-        value = getattr(result, name, None)
-        if value is None:
-            continue
-        vector = np.asarray(value, dtype=float)
-        rows.extend((f"{name}_{axis}", float(v)) for axis, v in zip("xyz", vector, strict=False))
-    return rows
 
 def _fit(args: argparse.Namespace, source: Any, fit_element: Any,
          kwargs: dict[str, Any]) -> tuple[Any, Any, list[str], dict[str, Any]]:

@@ -20,11 +20,11 @@ from __future__ import annotations
 import dataclasses
 import warnings
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from pcmm_geo._records import record
 from pcmm_geo.errors import AmbiguousFitWarning, ConvergenceError, DegenerateGeometryError, InvalidInputError
 from pcmm_geo.fit._kernels import _core
 from pcmm_geo.fit._kernels._axial_lm import levenberg_marquardt
@@ -44,7 +44,7 @@ LocalCost = Callable[[FloatArray, FloatArray], float]
 _EXACT_FIT = 1e-12
 
 
-@dataclass(frozen=True)
+@record
 class AxialTerms:
     """Axial height and radial distance of local points, with their parameter derivatives.
 
@@ -191,7 +191,7 @@ def algebraic_circle(xy: FloatArray) -> tuple[float, float, float]:
     return float(x0), float(y0), float(np.sqrt(max(radius_sq, 0.0)))
 
 
-@dataclass(frozen=True)
+@record
 class AxialSolution:
     """Converged fit of an axial element in its final standard position.
 

@@ -17,6 +17,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from pcmm_geo._records import SummaryRow, record
 from pcmm_geo.errors import (
     ConvergenceError,
     DegenerateGeometryError,
@@ -208,7 +209,7 @@ def rotation_to_z(direction: ArrayLike) -> FloatArray:
     return np.vstack([e1, e2, d])
 
 
-@dataclass(frozen=True)
+@record
 class SolverOutcome:
     """What :func:`solve_least_squares` found (internal, in standard position)."""
 
@@ -351,7 +352,7 @@ def covariance_from_jacobian(
     return cov, cond
 
 
-@dataclass(frozen=True, eq=False)
+@record
 class Certificate:
     """Optimality certificate of a minimum-zone, minimum-circumscribed or maximum-inscribed fit.
 
@@ -405,7 +406,7 @@ class Certificate:
     check: str = ""
 
 
-@dataclass(frozen=True, kw_only=True, eq=False)
+@record(kw_only=True)
 class FitResult:
     """Fields shared by every fit result (element parameters are added by subclasses).
 
@@ -485,35 +486,67 @@ class FitResult:
         out["std_errors"] = np.asarray(self.std_errors).tolist()
         return out
 
+    def summary(self) -> tuple[SummaryRow, ...]:
+        """The displayed parameters, one :class:`~pcmm_geo._records.SummaryRow` per row (name, value, u, unit).
+
+        The one choice of what a fit shows: the location and direction vectors by component
+        (``center``, ``point``, ``apex``; ``direction``, ``normal``, ``axis``: unit ``"1"``), the
+        sizes (``radius``, the zone radii ``r_in`` / ``r_out`` of a minimax fit, the torus radii,
+        ``half_angle`` in rad), then, derived for reading, a circle's, sphere's or cylinder's
+        ``diameter`` ``d = 2 r`` with ``u(d) = 2 u(r)`` and a cone's ``apex_angle_deg``.  ``u`` is
+        the standard uncertainty from :attr:`std_errors` (NaN where the row is not a fitted
+        parameter).  ``pcmm fit`` prints these rows, the QIF export
+        (:func:`pcmm_geo.cmm.export.feature_report`) takes its values from them and the repr
+        shows them.
+
+        Returns
+        -------
+        tuple of SummaryRow
+        """
+        u = dict(zip(self.parameter_names, np.asarray(self.std_errors).tolist(), strict=True))
+        rows = []
+        for name in _VECTORS:
+            value = getattr(self, name, None)
+            if value is not None:
+                unit = "1" if name in _DIRECTIONS else "mm"
+                rows += [SummaryRow(f"{name}_{axis}", float(v), u.get(f"{name}_{axis}", math.nan), unit, name)
+                         for axis, v in zip("xyz", np.asarray(value, dtype=float), strict=False)]
+        for name, unit in _SIZES.items():
+            value = float(getattr(self, name, math.nan))
+            if hasattr(self, name) and not (name in ("r_in", "r_out") and math.isnan(value)):  # no zone radii: Gauss
+                rows.append(SummaryRow(name, value, u.get(name, math.nan), unit, name))
+        if hasattr(self, "radius"):  # circle, sphere, cylinder (a cone's size is its half angle)
+            radius = float(self.radius)  # type: ignore[attr-defined]
+            rows.append(SummaryRow("diameter", 2.0 * radius, 2.0 * u.get("radius", math.nan), "mm", "diameter", True))
+        if hasattr(self, "half_angle"):
+            angle = math.degrees(2.0 * float(self.half_angle))  # type: ignore[attr-defined]
+            rows.append(SummaryRow("apex_angle_deg", angle, math.nan, "deg", "apex_angle_deg", True))
+        return tuple(rows)
+
     def __repr__(self) -> str:
-        """Compact: the fields that apply (no NaN / None placeholders such as a Gaussian fit's ``r_in``)."""
-        geometry = [f"{f.name}={_short(getattr(self, f.name))}" for f in dataclasses.fields(self)
-                    if f.name not in _BASE_FIELDS and _applies(getattr(self, f.name), self.n)]
-        geometry += [f"criterion={self.criterion!r}"] if self.criterion != "gaussian" else []
+        """Compact: the :meth:`summary` quantities (not derived ones), the criterion unless Gaussian, statistics."""
+        quantities: dict[str, list[float]] = {}
+        for row in self.summary():
+            if not row.derived:
+                quantities.setdefault(row.quantity, []).append(row.value)
+        shown = [f"{name}={_short(values)}" for name, values in quantities.items()]
+        shown += [f"criterion={self.criterion!r}"] if self.criterion != "gaussian" else []
         return (
-            f"{type(self).__name__}({', '.join(geometry)}, n={self.n}, rms={self.rms:.6g}, form={self.form:.6g}, "
+            f"{type(self).__name__}({', '.join(shown)}, n={self.n}, rms={self.rms:.6g}, form={self.form:.6g}, "
             f"converged={self.converged})"
         )
 
 
-_BASE_FIELDS = {f.name for f in dataclasses.fields(FitResult)}
+#: summary rows: vectors by component (in this order), then sizes with their units
+_VECTORS = ("center", "point", "apex", "direction", "normal", "axis")
+_DIRECTIONS = ("direction", "normal", "axis")
+_SIZES = {"radius": "mm", "r_in": "mm", "r_out": "mm", "major_radius": "mm", "minor_radius": "mm", "half_angle": "rad"}
 
 
-def _applies(value: Any, n: int) -> bool:
-    """False for placeholders of fields that do not apply (None, NaN) and for per-point arrays (N, ...)."""
-    if isinstance(value, np.ndarray) and value.ndim and value.shape[0] == n and value.size > 3:
-        return False
-    return value is not None and not (isinstance(value, float) and math.isnan(value))
-
-
-def _short(value: Any) -> str:
-    if isinstance(value, np.ndarray):
-        if value.size > 3:  # per-point arrays (residual components...): the shape, not N numbers
-            return f"<{value.shape}>"
-        return np.array2string(value, precision=9, separator=", ")
-    if isinstance(value, float):
-        return f"{value:.12g}"
-    return repr(value)
+def _short(values: list[float]) -> str:
+    if len(values) == 1 and values[0] is not None:
+        return f"{values[0]:.12g}"
+    return "[" + ", ".join(f"{v:.10g}" for v in values) + "]"
 
 
 def _jsonable(value: Any) -> Any:

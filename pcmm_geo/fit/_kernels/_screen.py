@@ -25,12 +25,12 @@ screened directions too.  Private to :mod:`pcmm_geo.fit`.
 from __future__ import annotations
 
 from collections.abc import Callable
-from dataclasses import dataclass
 from functools import lru_cache
 
 import numpy as np
 from numpy.typing import NDArray
 
+from pcmm_geo._records import record
 from pcmm_geo.fit._kernels._axial import SCREEN_POINTS
 
 FloatArray = NDArray[np.float64]
@@ -91,7 +91,7 @@ def _tilted(directions: FloatArray, step: float) -> FloatArray:
     return np.einsum("ti,kij->ktj", local, frames(directions))
 
 
-@dataclass(frozen=True)
+@record
 class ScreenedAxis:
     """A polished local minimum of the reduced cost: its direction and cost (on the screening subset)."""
 

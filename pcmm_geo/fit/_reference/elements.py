@@ -37,12 +37,13 @@ moved points, which is why the generator iterates for them.
 from __future__ import annotations
 
 from collections.abc import Callable
-from dataclasses import dataclass, field
+from dataclasses import field
 from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
 
+from pcmm_geo._records import record
 from pcmm_geo.errors import InvalidInputError
 
 FloatArray = NDArray[np.float64]
@@ -65,7 +66,7 @@ MIN_POINTS: dict[str, int] = {
 ELEMENTS = tuple(MIN_POINTS)
 
 
-@dataclass(frozen=True, eq=False)
+@record
 class ReferenceDataSet:
     """A data set whose Gaussian (least-squares) solution is known.
 
@@ -110,7 +111,7 @@ class ReferenceDataSet:
         return int(self.points.shape[0])
 
 
-@dataclass(frozen=True, eq=False)
+@record
 class StandardElement:
     """Foot points, move directions and Jacobian of one element in standard position.
 

@@ -17,11 +17,11 @@ so its accuracy does not depend on how accurately each step is solved.
 from __future__ import annotations
 
 from collections.abc import Callable
-from dataclasses import dataclass
 
 import numpy as np
 from numpy.typing import NDArray
 
+from pcmm_geo._records import record
 from pcmm_geo.errors import ConvergenceError
 from pcmm_geo.fit._kernels._core import TOL
 
@@ -33,7 +33,7 @@ CHUNK_ROWS = 32_768
 GRAM_CONDITION = 1e14
 
 
-@dataclass(frozen=True)
+@record
 class Sums:
     """What a pass returns: ``total`` is added over chunks, ``low`` and ``high`` are running extremes."""
 
@@ -101,7 +101,7 @@ def moments_kernel(chunk: FloatArray, shift: FloatArray, *, out: FloatArray | No
     return Sums(np.matmul(block, block.T).ravel(), relative.min(axis=1) + shift, relative.max(axis=1) + shift)
 
 
-@dataclass(frozen=True)
+@record
 class Moments:
     """Moments of a point cloud from one pass (see :func:`moments`).
 
@@ -159,7 +159,7 @@ def moments(reduce: Reducer, shift: FloatArray) -> Moments:
 # ---------------------------------------------------------------------- normal equations
 
 
-@dataclass(frozen=True)
+@record
 class NormalEquations:
     """One Gauss-Newton pass: ``gram = J^T J``, ``rhs = -J^T r``, ``cost = r.r``, residual extremes."""
 
@@ -208,7 +208,7 @@ def solve_scaled(gram: FloatArray, rhs: FloatArray) -> FloatArray | None:
     return np.linalg.solve(scaled, rhs / norms) / norms
 
 
-@dataclass(frozen=True)
+@record
 class PassOutcome:
     """Where :func:`gauss_newton` stopped: parameters, the pass at them, convergence."""
 

@@ -15,11 +15,10 @@ small or ill-conditioned problems.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
-
 import numpy as np
 from numpy.typing import NDArray
 
+from pcmm_geo._records import record
 from pcmm_geo.errors import DegenerateGeometryError
 from pcmm_geo.fit.scale.chunked import (
     IllConditionedSteps,
@@ -63,7 +62,7 @@ def sphere_kernel(chunk: FloatArray, center: FloatArray, radius: float, fixed: b
     return gram_sums(block)
 
 
-@dataclass(frozen=True)
+@record
 class SphereSolution:
     """A chunked n-sphere fit: the element, its statistics and where the iteration stopped."""
 

@@ -27,12 +27,12 @@ from __future__ import annotations
 
 import dataclasses
 from collections.abc import Callable
-from dataclasses import dataclass
 from typing import TypeVar
 
 import numpy as np
 from numpy.typing import NDArray
 
+from pcmm_geo._records import record
 from pcmm_geo.errors import DegenerateGeometryError
 from pcmm_geo.fit._kernels._core import FitResult
 
@@ -60,7 +60,7 @@ def merge_tolerance(points: FloatArray) -> float:
     return MERGE_RELATIVE * extent_of(points) + MERGE_ULPS * float(np.finfo(float).eps) * magnitude
 
 
-@dataclass(frozen=True)
+@record
 class Distinct:
     """The distinct points of a point set.
 

@@ -26,11 +26,12 @@ squares solve of the stationarity equations: a small residual certifies the opti
 from __future__ import annotations
 
 from collections.abc import Callable
-from dataclasses import dataclass
 from typing import Literal
 
 import numpy as np
 from numpy.typing import NDArray
+
+from pcmm_geo._records import record
 
 FloatArray = NDArray[np.float64]
 IndexArray = NDArray[np.intp]
@@ -46,7 +47,7 @@ _MAX_SLP = 200
 _MAX_EXCHANGE = 40
 
 
-@dataclass(frozen=True)
+@record
 class ZoneSolution:
     """Outcome of :func:`solve_minimax` (parameters in the model's own coordinates)."""
 

@@ -8,11 +8,10 @@ stop the others.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
-
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from pcmm_geo._records import record
 from pcmm_geo.elements import Criterion
 from pcmm_geo.errors import InvalidInputError, PcmmGeoError
 
@@ -21,7 +20,7 @@ __all__ = ["RoundnessBatch", "roundness_profiles"]
 FloatArray = NDArray[np.float64]
 
 
-@dataclass(frozen=True, eq=False)
+@record
 class RoundnessBatch:
     """Minimax circles of ``K`` profiles.
 

@@ -16,12 +16,12 @@ The measurement uncertainty is not part of this rule (a zone of measured points,
 
 from __future__ import annotations
 
-from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
 from numpy.typing import ArrayLike
 
+from pcmm_geo._records import record
 from pcmm_geo.elements import SPECS, Element
 from pcmm_geo.errors import InvalidInputError
 from pcmm_geo.fit._kernels._core import FitResult
@@ -82,7 +82,7 @@ def decide_form(value_mm: float, bound_mm: float, tolerance_mm: float) -> str:
     return "NOT PROVEN"
 
 
-@dataclass(frozen=True, eq=False)
+@record
 class FormEvaluation:
     """Result of :func:`evaluate_form`.
 
@@ -169,7 +169,7 @@ def evaluate_form(
     axis_region: AxisRegion | None = None,
     search_budget: SearchBudget | None = None,
 ) -> FormEvaluation:
-    """Evaluate the form deviation of ``points`` by the minimum zone of ``element``.
+    r"""Evaluate the form deviation of ``points`` by the minimum zone of ``element``.
 
     Parameters
     ----------
@@ -193,6 +193,39 @@ def evaluate_form(
         Unknown element, bad tolerance, bad points.
     TooFewPointsError, DegenerateGeometryError
         As the element's fit.
+
+    See Also
+    --------
+    decide_form : the verdict of a value and its proven bound against a tolerance
+    pcmm_geo.fit.fit_cylinder : the fits with ``criterion='chebyshev'``
+    pcmm_geo.fit.zone.check_answer : the independent check of a minimax answer
+
+    Notes
+    -----
+    The form deviation is the width of the minimum zone (Chebyshev criterion) of ISO 1101 [1]_,
+
+    .. math::
+
+        t = \min_{\mathbf{a}} \Bigl( \max_i d_i(\mathbf{a}) - \min_i d_i(\mathbf{a}) \Bigr) ,
+
+    with :math:`d_i` the signed distance of the element fitted by :func:`pcmm_geo.fit.fit_sphere`
+    and the other fits (for a circle, sphere or cylinder the zone between two concentric
+    surfaces; for a line or plane between two parallel ones).  At the optimum the support points
+    satisfy the Karush-Kuhn-Tucker conditions; the certificate reports their residual and, where
+    the optimum is proven over the whole domain, a bound [2]_.  The Gaussian form
+    (``max - min`` of least-squares residuals) is never smaller.  A verdict (:func:`decide_form`) is
+    given in the words of the ISO 14253-1 decision rules [3]_: PASS, FAIL or NOT PROVEN.
+
+    References
+    ----------
+    .. [1] ISO 1101:2017, *Geometrical product specifications (GPS) -- Geometrical tolerancing -- Tolerances
+           of form, orientation, location and run-out* (the form zone is the smallest one containing the
+           feature).
+    .. [2] G. T. Anthony et al., "Reference software for finding Chebyshev best-fit geometric elements",
+           *Precision Engineering* 19(1), 28-36 (1996).
+    .. [3] ISO 14253-1:2017, *Geometrical product specifications (GPS) -- Inspection by measurement of
+           workpieces and measuring equipment -- Part 1: Decision rules for verifying conformity or
+           nonconformity with specifications*.
 
     Examples
     --------

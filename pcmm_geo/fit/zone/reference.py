@@ -35,12 +35,13 @@ Examples
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import field
 from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
 
+from pcmm_geo._records import record
 from pcmm_geo.elements import Criterion
 from pcmm_geo.errors import InvalidInputError, TooFewPointsError
 
@@ -64,7 +65,7 @@ _MAX_DRAWS = 20000
 _MARGIN = 0.05
 
 
-@dataclass(frozen=True, eq=False)
+@record
 class MinimaxReference:
     """A data set with a known minimax solution.
 

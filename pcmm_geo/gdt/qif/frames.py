@@ -35,6 +35,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
+from pcmm_geo._records import record
 from pcmm_geo.errors import InvalidInputError
 
 __all__ = ["AXIS_TYPES", "PLANE_TYPES", "POINT_TYPES", "DatumFeatureGeometry", "DatumFrame", "FrameMap",
@@ -55,7 +56,7 @@ _PARALLEL = 1e-3
 _RANK = 1e-6
 
 
-@dataclass(frozen=True)
+@record
 class DatumFeatureGeometry:
     """A datum feature's substitute: ``kind`` ``"plane"``, ``"axis"`` or ``"point"``, a point on it, its direction."""
 
@@ -65,7 +66,7 @@ class DatumFeatureGeometry:
     label: str = ""
 
 
-@dataclass(frozen=True)
+@record
 class DatumFrame:
     """A datum reference frame: columns of ``rotation`` are its x, y, z in the file's coordinates.
 

@@ -25,11 +25,10 @@ Every association carries a :class:`DatumCertificate`: the contact points, their
 
 from __future__ import annotations
 
-from dataclasses import dataclass
-
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from pcmm_geo._records import record
 from pcmm_geo.errors import DegenerateGeometryError, InvalidInputError, TooFewPointsError
 
 __all__ = [
@@ -51,7 +50,7 @@ DATUM_CRITERIA = {
 }
 
 
-@dataclass(frozen=True)
+@record
 class DatumCertificate:
     """Evidence of a datum association.
 
@@ -86,7 +85,7 @@ class DatumCertificate:
     method: str
 
 
-@dataclass(frozen=True)
+@record
 class DatumAssociation:
     """One associated datum (situation feature) in measurement coordinates.
 

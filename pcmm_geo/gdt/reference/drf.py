@@ -16,11 +16,10 @@ predecessors left free is refused, by name.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
-
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from pcmm_geo._records import record
 from pcmm_geo.errors import InvalidInputError
 from pcmm_geo.gdt.reference.datums import DatumAssociation
 from pcmm_geo.gdt.reference.frame import DatumReferenceFrame
@@ -31,7 +30,7 @@ FloatArray = NDArray[np.float64]
 _AXES = ("x", "y", "z")
 
 
-@dataclass(frozen=True)
+@record
 class DatumNominal:
     """A datum feature's nominal in the DRF.
 

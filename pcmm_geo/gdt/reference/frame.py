@@ -15,11 +15,12 @@ tolerance zone floats in them.
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import field
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from pcmm_geo._records import record
 from pcmm_geo.errors import InvalidInputError
 
 __all__ = ["DEGREES_OF_FREEDOM", "DatumReferenceFrame"]
@@ -30,7 +31,7 @@ FloatArray = NDArray[np.float64]
 DEGREES_OF_FREEDOM = ("tx", "ty", "tz", "rx", "ry", "rz")
 
 
-@dataclass(frozen=True)
+@record
 class DatumReferenceFrame:
     """A datum reference frame in measurement coordinates.
 

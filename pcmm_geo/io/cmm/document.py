@@ -3,10 +3,11 @@
 from __future__ import annotations
 
 from collections.abc import Mapping
-from dataclasses import dataclass, field
+from dataclasses import field
 
 import numpy as np
 
+from pcmm_geo._records import record
 from pcmm_geo.errors import InvalidInputError, QifError
 from pcmm_geo.io.cmm.model import (
     Characteristic,
@@ -19,14 +20,13 @@ from pcmm_geo.io.cmm.model import (
     MeasurementResults,
     Transform,
     Units,
-    _Record,
 )
 
 __all__ = ["CmmDocument", "feature_points", "transform_of_point_set"]
 
 
-@dataclass(frozen=True, eq=False, repr=False)
-class CmmDocument(_Record):
+@record
+class CmmDocument:
     """A CMM results file (QIF document, DMIS output, CALYPSO table) in mm and rad.
 
     Attributes

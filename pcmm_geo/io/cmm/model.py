@@ -37,14 +37,14 @@ FeatureGeometry(location=[1.0, 2.0, 0.0], normal=[0.0, 0.0, 1.0], diameter=12.0)
 
 from __future__ import annotations
 
-import dataclasses
 from collections.abc import Mapping
-from dataclasses import dataclass, field
+from dataclasses import field
 from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
 
+from pcmm_geo._records import record
 from pcmm_geo.elements import FEATURE_TYPES as ELEMENT_FEATURE_TYPES
 from pcmm_geo.elements import FeatureType
 from pcmm_geo.errors import InvalidInputError
@@ -85,32 +85,8 @@ def frozen_array(values: Any, shape: tuple[int | None, ...], what: str, dtype: A
     return array
 
 
-def _shown(value: Any) -> str:
-    if isinstance(value, np.ndarray):
-        if value.ndim == 1 and value.size <= 4:
-            return repr([float(v) for v in value]) if value.dtype.kind == "f" else repr(value.tolist())
-        return f"<array {'x'.join(map(str, value.shape))}>"
-    return repr(value)
-
-
-class _Record:
-    """repr showing only the fields that apply (not None, not empty), arrays by shape."""
-
-    def __repr__(self) -> str:
-        shown = []
-        for item in dataclasses.fields(self):  # type: ignore[arg-type]
-            value = getattr(self, item.name)
-            if value is None or (isinstance(value, tuple | dict) and not value) or not item.repr:
-                continue
-            if isinstance(value, bool | str | int | float) and value == item.default and type(value) is type(
-                    item.default):
-                continue  # an unchanged default (quantity="linear", defined_as_limit=False, ...)
-            shown.append(f"{item.name}={_shown(value)}")
-        return f"{type(self).__name__}({', '.join(shown)})"
-
-
-@dataclass(frozen=True, eq=False, repr=False)
-class Units(_Record):
+@record
+class Units:
     """Units a file stated; values in the dataclasses are already converted to mm and rad.
 
     Attributes
@@ -134,8 +110,8 @@ class Units(_Record):
     stated: bool = True
 
 
-@dataclass(frozen=True, eq=False, repr=False)
-class FeatureGeometry(_Record):
+@record
+class FeatureGeometry:
     """Geometry of a feature as a file states it (nominal or actual); absent quantities are None.
 
     Attributes
@@ -175,8 +151,8 @@ class FeatureGeometry(_Record):
                 object.__setattr__(self, name, frozen_array(value, (3,), name))
 
 
-@dataclass(frozen=True, eq=False, repr=False)
-class FeatureDefinition(_Record):
+@record
+class FeatureDefinition:
     """What a feature is, independent of where: QIF ``<Type>FeatureDefinition``.
 
     ``internal_external`` is the QIF ``InternalExternal`` value verbatim (``"INTERNAL"``,
@@ -193,8 +169,8 @@ class FeatureDefinition(_Record):
     half_angle: float | None = None
 
 
-@dataclass(frozen=True, eq=False, repr=False)
-class FeatureNominal(_Record):
+@record
+class FeatureNominal:
     """Nominal placement of a feature: QIF ``<Type>FeatureNominal``."""
 
     id: int
@@ -204,8 +180,8 @@ class FeatureNominal(_Record):
     qif_element: str = ""
 
 
-@dataclass(frozen=True, eq=False, repr=False)
-class FeatureItem(_Record):
+@record
+class FeatureItem:
     """A feature of the part to be inspected, with its name: QIF ``<Type>FeatureItem``."""
 
     id: int
@@ -215,8 +191,8 @@ class FeatureItem(_Record):
     qif_element: str = ""
 
 
-@dataclass(frozen=True, eq=False, repr=False)
-class PointSetReference(_Record):
+@record
+class PointSetReference:
     """Which points of a :class:`MeasuredPointSet` a feature used, as a 0-based half-open slice.
 
     QIF ``WholePointSetId`` is ``start=0, stop=None``; ``RangePointSetId range="a b"`` (1-based,
@@ -232,8 +208,8 @@ class PointSetReference(_Record):
         return slice(self.start, count if self.stop is None else self.stop)
 
 
-@dataclass(frozen=True, eq=False, repr=False)
-class MeasuredPointSet(_Record):
+@record
+class MeasuredPointSet:
     """Measured points of one set: QIF ``MeasuredPointSet`` (or a PC-DMIS XYZIJK file).
 
     Attributes
@@ -285,8 +261,8 @@ class MeasuredPointSet(_Record):
         return len(self.points)
 
 
-@dataclass(frozen=True, eq=False, repr=False)
-class MeasuredFeature(_Record):
+@record
+class MeasuredFeature:
     """A feature as the CMM measured it: QIF ``<Type>FeatureMeasurement`` (DMIS ``FA(label)``).
 
     Attributes
@@ -337,8 +313,8 @@ class MeasuredFeature(_Record):
         return {"INTERNAL": "internal", "EXTERNAL": "external"}.get(self.internal_external or "")
 
 
-@dataclass(frozen=True, eq=False, repr=False)
-class Tolerance(_Record):
+@record
+class Tolerance:
     """A characteristic's tolerance as the file states it (mm or rad).
 
     ``max_value`` / ``min_value`` are deviations from the nominal (QIF ``DefinedAsLimit`` false)
@@ -362,8 +338,8 @@ class Tolerance(_Record):
                 None if self.max_value is None else nominal + self.max_value)
 
 
-@dataclass(frozen=True, eq=False, repr=False)
-class Characteristic(_Record):
+@record
+class Characteristic:
     """One measured characteristic: QIF definition, nominal, item and measurement in one record.
 
     Attributes
@@ -417,8 +393,8 @@ class Characteristic(_Record):
     results_id: int | None = None
 
 
-@dataclass(frozen=True, eq=False, repr=False)
-class Transform(_Record):
+@record
+class Transform:
     """A rigid transform ``X = rotation @ x + translation`` (QIF ``TransformMatrixType``).
 
     QIF states it as the rows-turned-columns ``XDirection``, ``YDirection``, ``ZDirection``
@@ -464,8 +440,8 @@ class Transform(_Record):
         return np.asarray(vectors, dtype=np.float64) @ self.rotation.T
 
 
-@dataclass(frozen=True, eq=False, repr=False)
-class CoordinateSystem(_Record):
+@record
+class CoordinateSystem:
     """A QIF ``CoordinateSystem``: its nominal transform and the actual transform associated with it."""
 
     id: int
@@ -474,8 +450,8 @@ class CoordinateSystem(_Record):
     actual_transform_id: int | None = None
 
 
-@dataclass(frozen=True, eq=False, repr=False)
-class MeasurementResults(_Record):
+@record
+class MeasurementResults:
     """One QIF ``MeasurementResults`` (one measured part / run).
 
     ``serial_numbers`` are those of the ``ActualComponent`` s it names (``ActualComponentIds``):

@@ -45,11 +45,10 @@ Examples
 
 from __future__ import annotations
 
-from dataclasses import dataclass
-
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from pcmm_geo._records import record
 from pcmm_geo.errors import InvalidInputError
 from pcmm_geo.machine.analysis.logproc.gate import (
     DEFAULT_ALPHA,
@@ -68,7 +67,7 @@ FloatArray = NDArray[np.float64]
 
 
 
-@dataclass(frozen=True)
+@record
 class PoseConditioning:
     """Predicted uncertainty of ``N`` poses (:func:`pose_conditioning`; lengths in mm).
 

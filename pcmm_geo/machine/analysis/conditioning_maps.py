@@ -8,11 +8,10 @@ horizontal plane of tip positions.  ``docs/machine.md`` ("The start pose") plots
 
 from __future__ import annotations
 
-from dataclasses import dataclass
-
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from pcmm_geo._records import record
 from pcmm_geo.errors import InvalidInputError
 from pcmm_geo.machine.analysis.conditioning import pose_conditioning, reachable_poses
 from pcmm_geo.machine.analysis.logproc.gate import SEED_LASER_SIGMA, SEED_LASER_STEPS
@@ -49,7 +48,7 @@ MIN_SEPARATION = 20.0
 CONDITIONED_START_OFFSETS: tuple[float, float, float] = (70.0, -70.0, 0.0)
 
 
-@dataclass(frozen=True)
+@record
 class StartMap:
     """Predicted conditioning of sessions by their start pose (:func:`start_map`; lengths in mm).
 
@@ -197,7 +196,7 @@ def choose_start(found: StartMap, target_tip_u: float = DEFAULT_TARGET_TIP_U) ->
     return found.offsets[index].copy()
 
 
-@dataclass(frozen=True)
+@record
 class WorkspaceMap:
     """Predicted tip uncertainty over a horizontal plane of tip positions (:func:`workspace_map`; mm).
 

@@ -30,6 +30,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from pcmm_geo._records import record
 from pcmm_geo.errors import InvalidInputError, NoRealSolutionError
 from pcmm_geo.machine.analysis.repeatability import ARMS, ArmStatistics, arm_statistics, read_arm_table_csv
 from pcmm_geo.machine.kinematics.model import RigidBodyMachine
@@ -53,7 +54,7 @@ RATIO_TABLE_HEADER = ("test", "ratio_a", "ratio_b", "ratio_c")
 DEFAULT_MODEL_NAME = "thesis geometry (Table 3.1 / Appendix D, RigidBodyMachine.from_dpkm)"
 
 
-@dataclass(frozen=True)
+@record
 class SimpleRecord:
     """A height-gauge record in memory: ``moved`` (M,), ``lasers`` (M, 3) mm, ``heights`` (M,) mm."""
 
@@ -164,7 +165,7 @@ def predict_arm(machine: RigidBodyMachine, arm: str, height_start: float, height
                          -ratio / delta_l)
 
 
-@dataclass(frozen=True)
+@record
 class RatioTableSummary:
     """Per-arm statistics of a printed table of ratios (Table 6.8) and the model's expectation.
 

@@ -65,6 +65,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from pcmm_geo._records import record
 from pcmm_geo.errors import ConvergenceError, InvalidInputError
 from pcmm_geo.fit.skew import angle_between
 from pcmm_geo.machine.analysis.logproc.rows import MeasurementLog
@@ -219,7 +220,7 @@ class DpkmParameterLaws:
         return dead, beta
 
 
-@dataclass(frozen=True)
+@record
 class ParameterLawFit:
     """Result of :func:`fit_parameter_laws`.
 

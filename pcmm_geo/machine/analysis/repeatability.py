@@ -41,6 +41,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from pcmm_geo._records import record
 from pcmm_geo.errors import FileFormatError, InvalidInputError, TooFewPointsError
 from pcmm_geo.machine.analysis.sensitivity import SEED_LASER_ACCURACY
 
@@ -167,7 +168,7 @@ class FlaggedReading:
     deviation: float
 
 
-@dataclass(frozen=True)
+@record
 class StartRepeatability:
     """Repeatability of the start readings over ``K`` tests.
 
@@ -264,7 +265,7 @@ def start_repeatability(readings: ArrayLike, labels: Sequence[str] | None = None
     return StartRepeatability(data, names, arms, float(laser_accuracy), limit, tuple(flagged))
 
 
-@dataclass(frozen=True)
+@record
 class StartReadings:
     """Start readings gathered from files.
 

@@ -32,13 +32,13 @@ Examples
 
 from __future__ import annotations
 
-from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from pcmm_geo._deprecation import renamed_fields, renamed_parameters
+from pcmm_geo._records import record
 from pcmm_geo.errors import InvalidInputError
 from pcmm_geo.machine.kinematics.model import RigidBodyMachine, as_readings, as_vector3
 
@@ -53,7 +53,7 @@ BLIND = 1e-6
 
 
 @renamed_fields(centre="center")
-@dataclass(frozen=True)
+@record
 class Sensitivity:
     """Sensitivities on a grid of ``N`` tip positions.
 

@@ -29,11 +29,11 @@ from __future__ import annotations
 
 import warnings
 from collections.abc import Sequence
-from dataclasses import dataclass
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from pcmm_geo._records import record
 from pcmm_geo.errors import ConvergenceError, InvalidInputError, PcmmGeoWarning
 from pcmm_geo.machine.analysis.conditioning import pose_conditioning
 from pcmm_geo.machine.analysis.logproc.gate import SEED_LASER_SIGMA, SEED_LASER_STEPS
@@ -46,7 +46,7 @@ __all__ = ["SessionPrediction", "predict_session"]
 FloatArray = NDArray[np.float64]
 
 
-@dataclass(frozen=True)
+@record
 class SessionPrediction:
     """Predicted statement of a planned session (:func:`predict_session`; ``R = 2 x moves`` log rows, mm).
 

@@ -24,13 +24,13 @@ Examples
 from __future__ import annotations
 
 from collections.abc import Mapping
-from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
 from numpy.typing import NDArray
 
 from pcmm_geo._deprecation import renamed_fields
+from pcmm_geo._records import record
 from pcmm_geo.errors import CalibrationError, InvalidInputError
 from pcmm_geo.machine.calibration.geometry import fit_probed_sphere
 
@@ -44,7 +44,7 @@ ARMS = ("a", "b", "c")
 
 
 @renamed_fields(centres="centers")
-@dataclass(frozen=True)
+@record
 class ColumnCalibration:
     """Result of :func:`calibrate_columns` (machine frame, mm).
 
@@ -112,7 +112,7 @@ def _centres(arm: str, value: Any) -> FloatArray:
 
 
 def calibrate_columns(pivots: Mapping[str, Any], heights: Any) -> ColumnCalibration:
-    """Fit the three column lines (eqs 2.19-2.20) and their encoder scales.
+    r"""Fit the three column lines (eqs 2.19-2.20) and their encoder scales.
 
     Parameters
     ----------
@@ -132,6 +132,28 @@ def calibrate_columns(pivots: Mapping[str, Any], heights: Any) -> ColumnCalibrat
         Missing arms, shapes that do not match, non-finite values.
     CalibrationError
         Fewer than two heights, or heights / z coordinates that do not vary.
+
+    See Also
+    --------
+    pcmm_geo.machine.calibration.tetrahedron.calibrate_tetrahedron : the tetrahedron parameters (thesis ch. 7)
+
+    Notes
+    -----
+    Each pivot travels on a straight column line, thesis eqs 2.19-2.20 [1]_:
+
+    .. math::
+
+        x_i = g_i + h_i z_i , \qquad y_i = m_i + n_i z_i ,
+
+    fitted by least squares of the pivot centres' :math:`x` and :math:`y` on their :math:`z`;
+    the encoder scale and offset by regressing the distance along that line on the height
+    reading.
+
+    References
+    ----------
+    .. [1] *A critical investigation into the accuracy of a parallel mechanism coordinate measuring machine*,
+           MEng (Mechatronic) thesis, Faculty of Engineering, Stellenbosch University ("the thesis"; the copy
+           the project works from names neither author nor year). Section 2.6.4, eqs 2.19-2.20.
 
     Examples
     --------

@@ -26,12 +26,12 @@ Examples
 from __future__ import annotations
 
 from collections.abc import Mapping
-from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from pcmm_geo._records import record
 from pcmm_geo.errors import DegenerateGeometryError, InvalidInputError
 from pcmm_geo.machine.calibration.geometry import FittedSphere
 from pcmm_geo.machine.calibration.probings import ProbedFeatures
@@ -41,7 +41,7 @@ __all__ = ["DatumFrame", "datum_frame"]
 FloatArray = NDArray[np.float64]
 
 
-@dataclass(frozen=True)
+@record
 class DatumFrame:
     """Rigid transform CMM₁ frame -> datum frame: ``p_datum = rotation @ (p - origin)``.
 

@@ -22,12 +22,11 @@ Examples
 
 from __future__ import annotations
 
-from dataclasses import dataclass
-
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from pcmm_geo._deprecation import module_aliases, renamed_fields, renamed_parameters
+from pcmm_geo._records import record
 from pcmm_geo.errors import DegenerateGeometryError, InvalidInputError, TooFewPointsError
 from pcmm_geo.fit.skew import angle_between as skew_angle_between
 
@@ -45,7 +44,7 @@ FloatArray = NDArray[np.float64]
 
 
 @renamed_fields(centre="center")
-@dataclass(frozen=True)
+@record
 class FittedSphere:
     """A probed sphere (joint or tip) as the external CMM reports it.
 
@@ -67,7 +66,7 @@ class FittedSphere:
     n_points: int
 
 
-@dataclass(frozen=True)
+@record
 class FittedLine:
     """Least-squares 3-D line through sphere centers.
 

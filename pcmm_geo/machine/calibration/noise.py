@@ -39,6 +39,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from pcmm_geo._deprecation import renamed_fields
+from pcmm_geo._records import record
 from pcmm_geo.errors import InvalidInputError
 from pcmm_geo.machine.calibration.geometry import angle_between
 from pcmm_geo.machine.calibration.probings import ARMS
@@ -259,7 +260,7 @@ class NoiseGrowthRow:
     beta_deg: float
 
 
-@dataclass(frozen=True)
+@record
 class NoiseGrowth:
     """Result of :func:`noise_growth_study`.
 

@@ -36,7 +36,6 @@ from __future__ import annotations
 import math
 import re
 from collections.abc import Callable, Mapping
-from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
@@ -45,6 +44,7 @@ from numpy.typing import NDArray
 
 from pcmm_geo._atomic import write_atomic
 from pcmm_geo._deprecation import renamed_fields, renamed_parameters
+from pcmm_geo._records import record
 from pcmm_geo.errors import FileFormatError, PcmmGeoError
 from pcmm_geo.io.text import excerpt, parse_decimal
 from pcmm_geo.machine.calibration.geometry import FittedSphere, fit_probed_sphere
@@ -71,7 +71,7 @@ FEATURES = ("joint_a", "joint_b", "joint_c", "tip")
 
 
 @renamed_fields(centres="centers")
-@dataclass(frozen=True)
+@record
 class ProbedFeatures:
     """Spheres measured by the external CMM: joints per arm and slider position, and the tip.
 
@@ -125,7 +125,7 @@ class ProbedFeatures:
         return probed_features_from_points(points_by_role(points))
 
 
-@dataclass(frozen=True)
+@record
 class LaserTable:
     """Laser readings per slider position: ``positions`` (K,) and ``readings`` (K, 3) mm, arms a, b, c."""
 

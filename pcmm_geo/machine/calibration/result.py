@@ -7,13 +7,14 @@ method.  Lengths in mm; angles in degrees where the name or docstring says so.
 from __future__ import annotations
 
 from collections.abc import Mapping
-from dataclasses import dataclass, field
+from dataclasses import field
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from pcmm_geo._deprecation import renamed_fields, warn_deprecated
+from pcmm_geo._records import record
 from pcmm_geo.machine.calibration.geometry import FittedSphere
 from pcmm_geo.machine.calibration.probings import ARMS
 
@@ -28,7 +29,7 @@ FloatArray = NDArray[np.float64]
 PAIRS: tuple[str, str, str] = ("ab", "bc", "ca")
 
 
-@dataclass(frozen=True)
+@record
 class SliderLineCalibration:
     """One arm's calibrated slider line (CMM₁ or datum frame).
 
@@ -75,7 +76,7 @@ class SliderLineCalibration:
 
 
 @renamed_fields(tip_centre="tip_center", joint_centres="joint_centers")
-@dataclass(frozen=True)
+@record
 class TetrahedronCalibration:
     """Result of :func:`calibrate_tetrahedron` (lengths mm, angles rad; degrees only where a name ends in ``_deg``).
 

@@ -83,7 +83,6 @@ True
 
 from __future__ import annotations
 
-from dataclasses import dataclass
 from importlib import resources
 from pathlib import Path
 
@@ -91,6 +90,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from pcmm_geo._deprecation import renamed_fields
+from pcmm_geo._records import record
 
 __all__ = [
     "APPENDIX_C",
@@ -159,7 +159,7 @@ TABLE_6_2 = {
 
 
 @renamed_fields(centres="centers")
-@dataclass(frozen=True)
+@record
 class AppendixReconstruction:
     """Sphere centers rebuilt from Appendices C and D (tip at the origin, machine axes, mm).
 

@@ -222,7 +222,7 @@ def calibrate_tetrahedron(
     datum_plane: ArrayLike | None = None,
     datum_hole: ArrayLike | None = None,
 ) -> TetrahedronCalibration:
-    """Calibrate the tetrahedron from external-CMM probings (thesis ch. 7).
+    r"""Calibrate the tetrahedron from external-CMM probings (thesis ch. 7).
 
     Parameters
     ----------
@@ -267,6 +267,50 @@ def calibrate_tetrahedron(
         Arrays of the wrong shape or type.
     DegenerateGeometryError
         Joint centres that coincide, parallel slider lines.
+
+    See Also
+    --------
+    pcmm_geo.uncertainty.calibration.calibration_covariance : the covariance of the calibrated parameters
+    pcmm_geo.machine.calibration.columns.calibrate_columns : the column lines (eqs 2.19-2.20)
+    pcmm_geo.fit.skew.nearest_point_to_lines : the probe point nearest the slider lines (eq 7.2)
+
+    Notes
+    -----
+    Thesis chapter 7 [1]_: each slider line is fitted through the probed joint centres
+    (eq 7.1 takes two of them),
+
+    .. math::
+
+        \mathbf{r}_i(t) = \mathbf{P}_{i1} + t \, \mathbf{w}_i , \qquad i = a, b, c ,
+
+    the theoretical probe point is the point nearest the three lines (eq 7.2 minimises the
+    squared distance between pairs of lines; here the least-squares point of all three), and
+    each arm's overall length is the laser reading plus the dead distance (eq 7.3, with the
+    60 mm start of range, finding F10 of [2]_),
+
+    .. math::
+
+        L_i = l_i + 60\ \mathrm{mm} + d_i .
+
+    The angle between arms uses the product of the lengths (eq 7.4 corrected, erratum 6 of
+    [2]_),
+
+    .. math::
+
+        \beta_{in} = \cos^{-1} \frac{\mathbf{P}_i \cdot \mathbf{P}_{in}}
+                                    {\lVert \mathbf{P}_i \rVert \, \lVert \mathbf{P}_{in} \rVert} ,
+
+    and the pivot distance follows from the cosine rule (eq 7.5),
+    :math:`b_{in}^2 = l_i^2 + l_{in}^2 - 2 l_i l_{in} \cos\beta_{in}`.  Because the slider lines
+    do not meet at the tip the dead distance depends on the slider position (erratum 9); both
+    the per-position values and their means are reported.
+
+    References
+    ----------
+    .. [1] *A critical investigation into the accuracy of a parallel mechanism coordinate measuring machine*,
+           MEng (Mechatronic) thesis, Faculty of Engineering, Stellenbosch University ("the thesis"; the copy
+           the project works from names neither author nor year). Chapter 7, eqs 7.1-7.5; Table 7.1.
+    .. [2] The project's errata of the thesis, :doc:`/errata` (numbered as there).
 
     Examples
     --------

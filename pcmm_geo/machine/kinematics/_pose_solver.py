@@ -21,10 +21,10 @@ linear least-squares step computed with the null-space method (SVD of the constr
 
 from __future__ import annotations
 
-from dataclasses import dataclass
-
 import numpy as np
 from numpy.typing import NDArray
+
+from pcmm_geo._records import record
 
 FloatArray = NDArray[np.float64]
 
@@ -42,7 +42,7 @@ MAX_ROTATION_STEP = 0.1
 MAX_LINEAR_STEP = 50.0
 
 
-@dataclass(frozen=True)
+@record
 class Geometry:
     """Machine geometry as stacked arrays (arm order a, b, c)."""
 
@@ -56,7 +56,7 @@ class Geometry:
     encoder_scale: FloatArray  # (3,)
 
 
-@dataclass(frozen=True)
+@record
 class PoseState:
     """Solution of a batch: rotation (K,3,3), translation (K,3), lasers (K,3), heights (K,3)."""
 

@@ -34,12 +34,12 @@ Examples
 from __future__ import annotations
 
 from collections.abc import Mapping
-from dataclasses import dataclass
 from typing import Literal
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from pcmm_geo._records import record
 from pcmm_geo.errors import DegenerateGeometryError, InvalidInputError, NoRealSolutionError
 from pcmm_geo.machine.kinematics.limits import LASER_MEASURING_RANGE, check_readings
 from pcmm_geo.machine.kinematics.model_parts import ARMS, ColumnLine, SliderLine, Tetrahedron, as_readings
@@ -102,7 +102,7 @@ def _appendix_e_inputs() -> dict[str, FloatArray]:
 APPENDIX_E: Mapping[str, FloatArray] = _appendix_e_inputs()
 
 
-@dataclass(frozen=True)
+@record
 class DpkmProbe:
     """Probe point from eqs 2.9-2.18 (corrected), leading shape ``...``.
 
@@ -210,7 +210,7 @@ def relative_pivot_heights(
     base_distance: Mapping[str, float],
     signs: ArrayLike,
 ) -> tuple[FloatArray, FloatArray]:
-    """Pivot heights relative to pivot a from arm lengths (eqs 2.3-2.8).
+    r"""Pivot heights relative to pivot a from arm lengths (eqs 2.3-2.8).
 
     ``z_a = 0``, ``z_b = z_a + sign_ab |dz_ab|`` (eq 2.3), ``z_c = z_a - sign_ca |dz_ca|``
     (eq 2.4 seen from c).  The pair b-c is redundant and returned as a closure error.
@@ -234,6 +234,33 @@ def relative_pivot_heights(
     ------
     NoRealSolutionError
         See :func:`height_difference`.
+
+    See Also
+    --------
+    height_difference : one pair's height difference (eqs 2.5-2.8)
+    dpkm_probe : the probe point from the pivots (eqs 2.9-2.21)
+
+    Notes
+    -----
+    Thesis section 2.6.4 [1]_: the distance between two pivots follows from the arm lengths and
+    the angle between the arms by the cosine rule (eqs 2.7-2.8), and its vertical part from the
+    horizontal base distance :math:`b_{in}` (eqs 2.5-2.6),
+
+    .. math::
+
+        d_{in}^2 = l_i^2 + l_{in}^2 - 2 l_i l_{in} \cos\beta_{in} , \qquad
+        dz_{in}^2 = d_{in}^2 - b_{in}^2 , \qquad
+        z_{in} = z_i + dz_{in}
+
+    (eq 2.3; eq 2.4 for the previous pivot).  Heights are relative to pivot a (erratum 4 of
+    [2]_).
+
+    References
+    ----------
+    .. [1] *A critical investigation into the accuracy of a parallel mechanism coordinate measuring machine*,
+           MEng (Mechatronic) thesis, Faculty of Engineering, Stellenbosch University ("the thesis"; the copy
+           the project works from names neither author nor year). Section 2.6.4, eqs 2.3-2.8.
+    .. [2] The project's errata of the thesis, :doc:`/errata` (numbered as there).
 
     Examples
     --------
@@ -316,7 +343,7 @@ def _eliminate(pivots: FloatArray, lengths: FloatArray, c_sign: float) -> tuple[
 def dpkm_probe(
     pivots: ArrayLike, lengths: ArrayLike, *, root: Literal["lower", "upper"] = "lower"
 ) -> DpkmProbe:
-    """Probe point from pivots and arm lengths, eqs 2.9-2.18 with errata 1-4 corrected.
+    r"""Probe point from pivots and arm lengths, eqs 2.9-2.18 with errata 1-4 corrected.
 
     Heights are made relative to pivot a (erratum 4) before the elimination and the
     result is shifted back; ``v`` uses ``-2 y_a`` (erratum 1), ``c_i`` the sphere
@@ -345,6 +372,41 @@ def dpkm_probe(
         :func:`pcmm_geo.machine.kinematics.trilateration.trilaterate` there).
     NoRealSolutionError
         ``v^2 - 4uw < 0``; the error carries the discriminant.
+
+    See Also
+    --------
+    pcmm_geo.machine.kinematics.trilateration.trilaterate : the same point without the seed's special cases
+    relative_pivot_heights : pivot heights from a motor move (eqs 2.3-2.8)
+    pcmm_geo.machine.kinematics.model.RigidBodyMachine.forward : the calibrated rigid-body model
+
+    Notes
+    -----
+    The probe point :math:`\mathbf{x}` is the point at distance :math:`L_i` from the three
+    pivots :math:`\mathbf{p}_i` (thesis section 2.6.4 [1]_):
+
+    .. math::
+
+        \lVert \mathbf{x} - \mathbf{p}_i \rVert^2 = L_i^2 , \qquad i = a, b, c .
+
+    Subtracting pivot a's equation from those of b and c leaves two linear equations that give
+    :math:`x` and :math:`z` as linear functions of :math:`y` (eqs 2.9 and 2.11, coefficients
+    eqs 2.12-2.15); pivot a's sphere then gives the quadratic :math:`u y^2 + v y + w = 0`
+    (eqs 2.16-2.18) with the roots of eq 2.10,
+
+    .. math::
+
+        y = \frac{-v \pm \sqrt{v^2 - 4 u w}}{2 u} ,
+
+    and :math:`c_i = L_i^2 - x_i^2 - y_i^2 - z_i^2` (eq 2.21 as the sphere equation gives it,
+    erratum 2 of [2]_).  A negative discriminant means the spheres do not meet and is an error,
+    never a real part (erratum 4).
+
+    References
+    ----------
+    .. [1] *A critical investigation into the accuracy of a parallel mechanism coordinate measuring machine*,
+           MEng (Mechatronic) thesis, Faculty of Engineering, Stellenbosch University ("the thesis"; the copy
+           the project works from names neither author nor year). Section 2.6.4, eqs 2.3-2.21; Appendix E.
+    .. [2] The project's errata of the thesis, :doc:`/errata` (numbered as there).
 
     Examples
     --------

@@ -46,12 +46,13 @@ lasers[1, 1] (laser b measuring range) 200.0 (1, 1)
 from __future__ import annotations
 
 from collections.abc import Mapping
-from dataclasses import dataclass, field
+from dataclasses import field
 from typing import Any
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from pcmm_geo._records import record
 from pcmm_geo.errors import InconsistentMeasurementError, InvalidInputError, NoRealSolutionError, OutOfRangeError
 
 __all__ = [
@@ -112,7 +113,7 @@ def _interval_rows(value: ArrayLike, name: str) -> FloatArray:
     return arr
 
 
-@dataclass(frozen=True)
+@record
 class MachineLimits:
     """What the machine can physically read: column travel, laser range, closure tolerance.
 

@@ -33,12 +33,13 @@ from __future__ import annotations
 
 import dataclasses
 from collections.abc import Mapping
-from dataclasses import dataclass, field
+from dataclasses import field
 from typing import Any
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from pcmm_geo._records import record
 from pcmm_geo.errors import InvalidInputError
 from pcmm_geo.machine.kinematics import _pose_solver as solver
 from pcmm_geo.machine.kinematics.dpkm import START_OF_RANGE, seed_parts
@@ -76,7 +77,7 @@ FloatArray = NDArray[np.float64]
 MODEL_SCHEMA = "pcmm_geo.machine.rigid_body/1"
 
 
-@dataclass(frozen=True)
+@record
 class RigidBodyMachine:
     """The rigid-body machine: tetrahedron plus column lines.
 
@@ -192,6 +193,11 @@ class RigidBodyMachine:
             ``limits.closure_tolerance`` (lasers and heights disagree, or no pose realises
             the lasers, e.g. 200, 200, 200).  Fields ``residual``, ``tolerance``, ``index``.
 
+        See Also
+        --------
+        pcmm_geo.machine.kinematics.dpkm.dpkm_probe : the thesis' DPKM (slider lines that meet at the tip)
+        RigidBodyMachine.inverse : the readings of a tip position
+
         Notes
         -----
         *What the readings determine.*  The machine has three degrees of freedom (the
@@ -205,6 +211,12 @@ class RigidBodyMachine:
         *Noise* grows linearly, as the Jacobian predicts (:mod:`pcmm_geo.machine.analysis.sensitivity`):
         seed geometry, 100 mm cube, about ``1.5 sigma`` RMS tip error for height noise, laser
         noise amplified about 4x (median, lasers only) and without bound near level pivots.
+
+        The model generalises the thesis' DPKM [1]_: there the three slider lines meet at the tip.
+
+        References
+        ----------
+        .. [1] The thesis (see :doc:`/errata`): section 2.6.4, the DPKM; chapter 7, the slider lines.
 
         Examples
         --------

@@ -12,13 +12,13 @@ Examples
 from __future__ import annotations
 
 from collections.abc import Mapping
-from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from pcmm_geo._deprecation import renamed_fields
+from pcmm_geo._records import record
 from pcmm_geo.errors import InvalidInputError
 
 __all__ = [
@@ -85,7 +85,7 @@ def check_arm_keys(mapping: Mapping[str, Any], name: str) -> None:
         raise InvalidInputError(name, "keys 'a', 'b', 'c'", f"keys {sorted(mapping)}")
 
 
-@dataclass(frozen=True)
+@record
 class SliderLine:
     """Line of one arm's slider in the tetrahedron frame.
 
@@ -127,7 +127,7 @@ class SliderLine:
 
 
 @renamed_fields(tip_centre="tip_center")
-@dataclass(frozen=True)
+@record
 class Tetrahedron:
     """The rigid tetrahedron: three slider lines and the probe-tip centre (tetrahedron frame)."""
 
@@ -150,7 +150,7 @@ class Tetrahedron:
         return np.linalg.norm(joints - self.tip_center, axis=-1)
 
 
-@dataclass(frozen=True)
+@record
 class ColumnLine:
     """Line of one pivot (spherical joint) in the machine frame (seed eqs 2.19-2.20).
 
@@ -186,7 +186,7 @@ class ColumnLine:
         return self.point + along[..., None] * self.direction
 
 
-@dataclass(frozen=True)
+@record
 class ForwardSolution:
     """Result of :meth:`RigidBodyMachine.forward` (leading shape ``...`` of the input).
 
@@ -219,7 +219,7 @@ class ForwardSolution:
     iterations: int
 
 
-@dataclass(frozen=True)
+@record
 class InverseSolution:
     """Result of :meth:`RigidBodyMachine.inverse`: readings that put the tip at the target.
 

@@ -25,13 +25,13 @@ Examples
 
 from __future__ import annotations
 
-from dataclasses import dataclass
 from typing import Literal
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from pcmm_geo._deprecation import renamed_parameters
+from pcmm_geo._records import record
 from pcmm_geo.errors import DegenerateGeometryError, InvalidInputError, NoRealSolutionError
 
 __all__ = ["Trilateration", "trilaterate"]
@@ -39,7 +39,7 @@ __all__ = ["Trilateration", "trilaterate"]
 FloatArray = NDArray[np.float64]
 
 
-@dataclass(frozen=True)
+@record
 class Trilateration:
     """Both intersections of three spheres (leading shape ``...`` of the input).
 
@@ -68,7 +68,7 @@ def trilaterate(
     root: Literal["lower", "upper"] = "lower",
     tolerance: float = 1e-9,
 ) -> Trilateration:
-    """Intersect three spheres.
+    r"""Intersect three spheres.
 
     Parameters
     ----------
@@ -94,6 +94,33 @@ def trilaterate(
         Two centers coincide or the three centers are collinear.
     NoRealSolutionError
         The spheres do not meet; ``discriminant`` holds ``height_squared`` (mm^2).
+
+    See Also
+    --------
+    pcmm_geo.machine.kinematics.dpkm.dpkm_probe : the thesis' elimination (eqs 2.9-2.18)
+
+    Notes
+    -----
+    In the frame erected on the centres -- :math:`\mathbf{e}_x` from centre a to b at distance
+    :math:`d`, :math:`\mathbf{e}_y` towards c in their plane (c at :math:`(i, j, 0)`),
+    :math:`\mathbf{e}_z = \mathbf{e}_x \times \mathbf{e}_y` -- the intersections are
+
+    .. math::
+
+        x = \frac{r_a^2 - r_b^2 + d^2}{2 d} , \qquad
+        y = \frac{r_a^2 - r_c^2 + i^2 + j^2 - 2 i x}{2 j} , \qquad
+        z = \pm \sqrt{r_a^2 - x^2 - y^2} ,
+
+    the point of the thesis' DPKM (section 2.6.4, eqs 2.9-2.18 [1]_) without its division by
+    pivot height differences (errata 1-4 of [2]_).  ``height_squared`` is
+    :math:`r_a^2 - x^2 - y^2`.
+
+    References
+    ----------
+    .. [1] *A critical investigation into the accuracy of a parallel mechanism coordinate measuring machine*,
+           MEng (Mechatronic) thesis, Faculty of Engineering, Stellenbosch University ("the thesis"; the copy
+           the project works from names neither author nor year). Section 2.6.4.
+    .. [2] The project's errata of the thesis, :doc:`/errata` (numbered as there).
 
     Examples
     --------

@@ -27,10 +27,11 @@ linear terms can cancel: :mod:`~pcmm_geo.fit.zone.axial.lagrange`.
 from __future__ import annotations
 
 import dataclasses
-from dataclasses import dataclass
 
 import numpy as np
 from numpy.typing import NDArray
+
+from pcmm_geo._records import record
 
 FloatArray = NDArray[np.float64]
 
@@ -79,7 +80,7 @@ def plane_basis(axis: FloatArray) -> tuple[FloatArray, FloatArray]:
     return first, _cross(axis, first)
 
 
-@dataclass(frozen=True)
+@record
 class CellTerms:
     """Distances of points from the centre axes of cells and the cells' sizes.
 
@@ -131,7 +132,7 @@ class CellTerms:
         return np.abs(self.height) * self.sin_phi[:, None] + self.rho * self.chord[:, None] + constant
 
 
-@dataclass(frozen=True)
+@record
 class CellShape:
     """Centre axes and sizes of cells (K,): what the bounds need besides the points."""
 

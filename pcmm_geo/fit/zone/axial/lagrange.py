@@ -23,17 +23,16 @@ per cell, from a least-squares balance of the most extreme points at the cell's 
 
 from __future__ import annotations
 
-from dataclasses import dataclass
-
 import numpy as np
 from numpy.typing import NDArray
 
+from pcmm_geo._records import record
 from pcmm_geo.fit.zone.axial.bounds import CellShape, CellTerms
 
 FloatArray = NDArray[np.float64]
 
 
-@dataclass(frozen=True)
+@record
 class Multipliers:
     """Weights of contact points and of the region's active edges.
 

@@ -22,6 +22,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from pcmm_geo._records import record
 from pcmm_geo.elements import Criterion
 from pcmm_geo.errors import InvalidInputError
 from pcmm_geo.fit._kernels._axial import as_axis_hint
@@ -37,7 +38,7 @@ DEFAULT_CONE_DEG = 45.0
 DEFAULT_OFFSET_RADII = 2.0
 
 
-@dataclass(frozen=True)
+@record
 class AxisRegion:
     """Axes searched by a minimum-zone, MCC or MIC cylinder fit.
 
@@ -64,7 +65,7 @@ class AxisRegion:
     Examples
     --------
     >>> AxisRegion(cone_deg=10.0, offset_mm=0.5)
-    AxisRegion(cone_deg=10.0, offset_mm=0.5, axis=None, point=None)
+    AxisRegion(cone_deg=10.0, offset_mm=0.5)
     """
 
     cone_deg: float = DEFAULT_CONE_DEG
@@ -91,15 +92,6 @@ class AxisRegion:
             if point is None or point.shape != (3,) or not np.all(np.isfinite(point)):
                 raise InvalidInputError("axis_region.point", "3 finite coordinates in mm", repr(self.point))
             object.__setattr__(self, "point", point)
-
-    def __repr__(self) -> str:
-        def show(value: FloatArray | None) -> str:
-            return "None" if value is None else repr([float(v) for v in value])
-
-        return (
-            f"AxisRegion(cone_deg={self.cone_deg!r}, offset_mm={self.offset_mm!r}, "
-            f"axis={show(self.axis)}, point={show(self.point)})"
-        )
 
 
 @dataclass(frozen=True)
@@ -138,7 +130,7 @@ class SearchBudget:
             object.__setattr__(self, "max_seconds", seconds)
 
 
-@dataclass(frozen=True)
+@record
 class ResolvedRegion:
     """An :class:`AxisRegion` made concrete for one data set (internal).
 

@@ -26,6 +26,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
+from pcmm_geo._records import record
 from pcmm_geo.fit.zone._solver import ZoneSolution
 from pcmm_geo.fit.zone.axial.bounds import CellShape, CellTerms, axis_distances, cell_terms, center_values, point_bounds
 from pcmm_geo.fit.zone.axial.lagrange import Multipliers, balanced_bound, multiplier_bound
@@ -44,7 +45,7 @@ _EXPLORE_LIVE = 32  # more live cells than this: polish from the lowest-bound on
 _MAX_KNOWN = 12  # local solutions whose multipliers bound the cells
 
 
-@dataclass(frozen=True)
+@record
 class Incumbent:
     """A feasible axis and its objective value (on all points).
 
@@ -60,7 +61,7 @@ class Incumbent:
     polished: ZoneSolution | None = None
 
 
-@dataclass(frozen=True)
+@record
 class Domain:
     """Where the search runs.
 
@@ -76,7 +77,7 @@ class Domain:
     hull: IndexArray | None = None  # convex-hull vertices (suffice for maxima of convex distances)
 
 
-@dataclass(frozen=True)
+@record
 class Cells:
     """A batch of axis cells: ``chart`` (K,), ``centre`` / ``half`` (K, 4) as ``(x0, y0, a, b)``;
     ``inside`` (K,): every axis of the cell is surrounded by the data (MIC)."""

@@ -2,11 +2,10 @@
 
 from __future__ import annotations
 
-from dataclasses import dataclass
-
 import numpy as np
 from numpy.typing import NDArray
 
+from pcmm_geo._records import record
 from pcmm_geo.fit.zone._common import GLOBAL_GAP_MM
 from pcmm_geo.fit.zone._models import axis_distance
 from pcmm_geo.fit.zone._solver import ZoneSolution, assess
@@ -20,7 +19,7 @@ FloatArray = NDArray[np.float64]
 
 
 
-@dataclass(frozen=True)
+@record
 class AxialOptimum:
     """Best axis of an axial minimax search, in the machine frame, with its proof.
 

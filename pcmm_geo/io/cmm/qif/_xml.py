@@ -34,6 +34,7 @@ from typing import BinaryIO
 import numpy as np
 
 from pcmm_geo._optional import require
+from pcmm_geo._records import record_repr
 from pcmm_geo.errors import FileFormatError, UnsafeXmlError
 from pcmm_geo.io._lines import open_regular
 from pcmm_geo.io.cmm.settings import SpellSetting, python_setting
@@ -65,7 +66,7 @@ class NumberListError(ValueError):
         self.line = line
 
 
-@dataclass
+@dataclass(eq=False, repr=False)  # a mutable accumulator, compared by identity and shown bounded like a record
 class NumberList:
     """Numbers of one element's text, parsed while the file streams by.
 
@@ -82,6 +83,8 @@ class NumberList:
     _tail: str = ""
     _newlines: int = 0
     _parts: list[np.ndarray] = field(default_factory=list)
+
+    __repr__ = record_repr
 
     def __post_init__(self) -> None:
         self.values = np.empty(self.expected if self.expected is not None else 0, dtype=np.float64)

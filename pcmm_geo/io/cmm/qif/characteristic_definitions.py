@@ -27,6 +27,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from pcmm_geo._records import record
 from pcmm_geo.io.cmm.model import Tolerance
 from pcmm_geo.io.cmm.qif._characteristics import _tolerance, quantity_of
 from pcmm_geo.io.cmm.qif._values import QifContext, snake_type
@@ -84,7 +85,7 @@ class CharacteristicDefinition:
     qif_element: str = ""
 
 
-@dataclass(frozen=True)
+@record
 class CharacteristicNominal:
     """A QIF ``<Type>CharacteristicNominal``: the definition it refines and its target (mm or rad).
 

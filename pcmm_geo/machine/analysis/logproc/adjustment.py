@@ -51,12 +51,12 @@ Examples
 
 from __future__ import annotations
 
-from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
 
+from pcmm_geo._records import record
 from pcmm_geo.machine.analysis.logproc.geometry import RowKinematics, row_kinematics
 from pcmm_geo.machine.analysis.logproc.rows import MeasurementLog
 from pcmm_geo.machine.analysis.logproc.segments import LogSegments
@@ -80,7 +80,7 @@ _MAX_STEP = 20.0  # mm per iteration: a trust region for starts far off
 _DENSE_LIMIT = 4_000_000  # entries of the design matrix up to which it is held dense
 
 
-@dataclass(frozen=True)
+@record
 class Adjustment:
     """Result of :func:`adjust` (``R`` observed rows, ``S`` segments, the first three fixed).
 

@@ -31,11 +31,11 @@ gate still tests every reading.
 from __future__ import annotations
 
 from collections.abc import Callable
-from dataclasses import dataclass
 
 import numpy as np
 from numpy.typing import NDArray
 
+from pcmm_geo._records import record
 from pcmm_geo.machine.analysis.logproc.geometry import joint_distances
 from pcmm_geo.machine.analysis.logproc.rows import MeasurementLog
 from pcmm_geo.machine.analysis.logproc.segments import (
@@ -67,7 +67,7 @@ SAME_STATE = 1e-6
 GROSS = 1e4
 
 
-@dataclass(frozen=True)
+@record
 class Hypothesis:
     """One set of branches: segment heights ``values`` (S,), its ``score`` and ``violations`` (moves against their
     recorded direction); ``agrees`` (S,) marks the segments whose move agrees with its direction."""

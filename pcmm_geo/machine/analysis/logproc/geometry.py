@@ -38,11 +38,10 @@ Examples
 
 from __future__ import annotations
 
-from dataclasses import dataclass
-
 import numpy as np
 from numpy.typing import NDArray
 
+from pcmm_geo._records import record
 from pcmm_geo.machine.kinematics import pose_solver as solver
 
 __all__ = [
@@ -141,7 +140,7 @@ def lasers_for_heights(
     return lasers, converged
 
 
-@dataclass(frozen=True)
+@record
 class RowKinematics:
     """Consistent lasers, pose and tip of ``N`` rows and their derivatives (:func:`row_kinematics`).
 

@@ -29,11 +29,11 @@ from __future__ import annotations
 
 import warnings
 from collections.abc import Callable
-from dataclasses import dataclass
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from pcmm_geo._records import record
 from pcmm_geo.errors import ConvergenceError, InvalidInputError
 from pcmm_geo.machine.analysis.logproc.adjustment import Adjustment, adjust
 from pcmm_geo.machine.analysis.logproc.ambiguity import competing_fits, find_ambiguities
@@ -70,7 +70,7 @@ IntArray = NDArray[np.int64]
 BoolArray = NDArray[np.bool_]
 
 
-@dataclass(frozen=True, repr=False)
+@record
 class ProcessedLog:
     """Result of :func:`process_log` (``N`` rows; lengths in mm).
 

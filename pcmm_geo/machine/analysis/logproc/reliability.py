@@ -50,11 +50,11 @@ Cost: one sparse solve per reading, in chunks; ``O(N R)`` for ``N`` rows and ``R
 from __future__ import annotations
 
 import warnings
-from dataclasses import dataclass
 
 import numpy as np
 from numpy.typing import NDArray
 
+from pcmm_geo._records import record
 from pcmm_geo.errors import IllConditionedWarning
 from pcmm_geo.machine.analysis.logproc.adjustment import Adjustment
 from pcmm_geo.machine.analysis.logproc.gate import GateLimits
@@ -76,7 +76,7 @@ SETTLING_PLAY = 4.0
 _CHUNK_FLOATS = 4_000_000
 
 
-@dataclass(frozen=True)
+@record
 class Influence:
     """What :func:`reading_influence` returns (``R`` observed rows, ``N`` log rows).
 

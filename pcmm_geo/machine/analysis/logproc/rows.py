@@ -24,12 +24,12 @@ Examples
 from __future__ import annotations
 
 import csv
-from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 from numpy.typing import NDArray
 
+from pcmm_geo._records import record
 from pcmm_geo.errors import FileFormatError, InvalidInputError
 from pcmm_geo.machine.kinematics.model_parts import as_readings
 
@@ -42,7 +42,7 @@ IntArray = NDArray[np.int64]
 LOG_COLUMNS: tuple[str, ...] = ("start_stop", "probe", "motor", "direction", "laser_a", "laser_b", "laser_c")
 
 
-@dataclass(frozen=True)
+@record
 class MeasurementLog:
     """Rows of a Table 3.2 log as arrays (``N`` rows).
 

@@ -37,11 +37,11 @@ Examples
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
 
 import numpy as np
 from numpy.typing import NDArray
 
+from pcmm_geo._records import record
 from pcmm_geo.machine.analysis.logproc.geometry import PAIRS
 from pcmm_geo.machine.analysis.logproc.rows import MeasurementLog
 from pcmm_geo.machine.kinematics import pose_solver as solver
@@ -56,7 +56,7 @@ IntArray = NDArray[np.int64]
 STILL = 1e-3
 
 
-@dataclass(frozen=True)
+@record
 class LogSegments:
     """Which unknown height stands at each pivot on each row (:func:`segment_log`).
 

@@ -35,6 +35,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from pcmm_geo._records import record
 from pcmm_geo.errors import InvalidInputError
 
 __all__ = ["Identifiability", "PoseSelection", "WeakCombination", "analyse_identifiability", "condition_number",
@@ -71,7 +72,7 @@ class WeakCombination:
     parameter_direction: dict[str, float]
 
 
-@dataclass(frozen=True)
+@record
 class Identifiability:
     """Result of :func:`analyse_identifiability`.
 

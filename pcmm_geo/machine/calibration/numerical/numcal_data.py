@@ -23,6 +23,7 @@ from pathlib import Path
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from pcmm_geo._records import record
 from pcmm_geo.errors import FileFormatError, InvalidInputError
 from pcmm_geo.io.text import excerpt, parse_decimal
 
@@ -100,7 +101,7 @@ class NumcalParameters:
         )
 
 
-@dataclass(frozen=True)
+@record
 class NumcalData:
     """Height-gauge experiment (thesis 6.2): per sample the moved arm, three lasers and the heights.
 

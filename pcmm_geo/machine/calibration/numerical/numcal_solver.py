@@ -25,12 +25,12 @@ from __future__ import annotations
 
 import warnings
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
 
+from pcmm_geo._records import record
 from pcmm_geo.errors import CalibrationNotConvergedWarning
 
 __all__ = ["MAX_CONDITION", "MAX_ROUNDS", "STEP_TOLERANCE", "UNCERTAINTY_FRACTION", "LocalSolution",
@@ -54,7 +54,7 @@ UNCERTAINTY_FRACTION = 1e-3
 MAX_ROUNDS = 40
 
 
-@dataclass(frozen=True)
+@record
 class LocalSolution:
     """Outcome of :func:`refine`: the point, evaluations used, whether the step test was met, why."""
 
@@ -193,7 +193,7 @@ def refine(
     )
 
 
-@dataclass(frozen=True)
+@record
 class NumericalCalibration:
     """Result of a numerical calibration (``calibrate_numerically``, ``calibrate_single_arm``).
 
