@@ -35,6 +35,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from pcmm_geo._records import record
 from pcmm_geo.errors import InvalidInputError
 from pcmm_geo.gdt.characteristics import CharacteristicResult, FeatureData, _position_targets, size_evaluation
 from pcmm_geo.gdt.reference._floating import float_position, float_solve
@@ -74,7 +75,7 @@ class PositionSegment:
     label: str = "segment 1"
 
 
-@dataclass(frozen=True)
+@record
 class FloatCertificate:
     """The float of a group of zones: value, proven lower bound and placement.
 

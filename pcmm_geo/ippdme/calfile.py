@@ -12,18 +12,18 @@ calibrated model (no calibration error), and says so.
 from __future__ import annotations
 
 import os
-from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
 
+from pcmm_geo._records import record
 from pcmm_geo.ippdme.machine import MachineModel
 
 __all__ = ["ServedCalibration", "model_from_calibration"]
 
 
-@dataclass(frozen=True)
+@record
 class ServedCalibration:
     """The calibrated machine a server runs on.
 

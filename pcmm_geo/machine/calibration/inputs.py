@@ -25,13 +25,13 @@ import json
 import math
 import re
 from collections.abc import Callable, Mapping
-from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
 
+from pcmm_geo._records import record
 from pcmm_geo.errors import FileFormatError, InvalidInputError, PcmmGeoError
 from pcmm_geo.machine.calibration.geometry import FittedSphere, fit_probed_sphere
 
@@ -145,7 +145,7 @@ def _text(role: Role) -> str:
     return role[0] if role[1] is None else f"{role[0]} position {role[1]}"
 
 
-@dataclass(frozen=True, eq=False)
+@record
 class QifBalls:
     """The calibration balls of a QIF file by role, before they are assembled into probed features.
 

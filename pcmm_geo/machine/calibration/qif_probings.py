@@ -34,11 +34,12 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable, Mapping
-from dataclasses import dataclass, fields
+from dataclasses import fields
 from pathlib import Path
 
 import numpy as np
 
+from pcmm_geo._records import record
 from pcmm_geo.machine.calibration.geometry import FittedSphere
 from pcmm_geo.machine.calibration.inputs import QifBalls, Role, read_feature_map, read_qif_balls, role_of
 from pcmm_geo.machine.calibration.probings import ProbedFeatures, _assemble
@@ -46,7 +47,7 @@ from pcmm_geo.machine.calibration.probings import ProbedFeatures, _assemble
 __all__ = ["QifProbings", "read_feature_map", "read_qif_probings", "role_of", "write_qif_probings"]
 
 
-@dataclass(frozen=True, eq=False, kw_only=True)
+@record(kw_only=True)
 class QifProbings(QifBalls):
     """Probed calibration balls read from a QIF file: what was read of each ball, and the balls assembled.
 
