@@ -7,7 +7,7 @@
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
@@ -63,6 +63,9 @@ class InspectionPlan:
     characteristics : tuple of PlannedCharacteristic
     lines : dict
         The plan's line index (:func:`pcmm_geo.gdt.plan.locate_lines`).
+    datum_options : dict of str to dict
+        Per datum label: ``boundary_diameter`` (a datum at MMB / LMB), ``features`` (a common datum ``A-B``),
+        ``targets`` (datum targets).
     """
 
     path: str
@@ -72,6 +75,7 @@ class InspectionPlan:
     datums: dict[str, tuple[str, str]]
     characteristics: tuple[PlannedCharacteristic, ...]
     lines: dict[tuple[Any, ...], int]
+    datum_options: dict[str, dict[str, Any]] = field(default_factory=dict)
 
 
 @dataclass(frozen=True)
@@ -198,6 +202,7 @@ def load_plan(path: str | Path) -> InspectionPlan:
                                      (float(tol[0]), float(tol[1])), surface.get("nominal_points"),
                                      surface.get("nominal_normals"))
     datums: dict[str, tuple[str, str]] = {}
+    datum_options: dict[str, dict[str, Any]] = {}
     for label, spec in doc.get("datums", {}).items():
         def dfail(reason: str, label: str = label) -> FileFormatError:
             return error(("datums", label), f"datums.{label}: {reason}")
@@ -210,6 +215,11 @@ def load_plan(path: str | Path) -> InspectionPlan:
         if criterion not in DATUM_CRITERIA[feature.element]:
             raise dfail(f"criterion {criterion!r}: expected one of {DATUM_CRITERIA[feature.element]}")
         datums[label] = (entry["feature"], criterion)
+        boundary = entry.get("boundary_diameter")
+        if boundary is not None:
+            if not isinstance(boundary, (int, float)) or isinstance(boundary, bool) or not 0 < boundary < float("inf"):
+                raise dfail(f"boundary_diameter = {boundary!r}: expected the MMB / LMB boundary's diameter in mm")
+            datum_options.setdefault(label, {})["boundary_diameter"] = float(boundary)
     frame_text = doc.get("part", {}).get("frame", "")
     part_frame = tuple(p.strip() for p in frame_text.split("|") if p.strip()) if isinstance(frame_text, str) else ()
     for label in part_frame:
@@ -250,10 +260,11 @@ def load_plan(path: str | Path) -> InspectionPlan:
             raise error((*keys, "pattern"), f"{name}: pattern = \"NAME\" groups position frames only")
         if pattern is None and standard == "ASME" and spec.characteristic == "position" and spec.datums \
                 and not entry.get("separate", False):
-            pattern = "simultaneous " + "|".join(spec.datums)  # ASME Y14.5-2018 7.19: the default
+            pattern = "simultaneous " + "|".join(  # ASME Y14.5-2018 7.19: the default
+                d if m == "RMB" else f"{d}({m[0]})" for d, m in zip(spec.datums, spec.modifiers_of_datums, strict=True))
         planned.append(PlannedCharacteristic(name, entry["feature"], spec, line, None, pattern,
                                              None if u is None else float(u)))
-    return InspectionPlan(where, standard, part_frame, features, datums, tuple(planned), lines)
+    return InspectionPlan(where, standard, part_frame, features, datums, tuple(planned), lines, datum_options)
 
 
 def _evaluate_dimension(planned: PlannedCharacteristic, frames: _Frames) -> CharacteristicResult:
@@ -286,8 +297,8 @@ class _Frames:
         if sequence in self.assoc:
             return self.assoc[sequence]
         label = sequence[-1]
-        name, criterion = self.plan.datums[label]
-        feature = self.plan.features[name]
+        criterion = self.plan.datums[label][1]
+        feature = self.datum_feature(label)
         before = [self.association(sequence[:k]) for k in range(1, len(sequence))]
         inward = -feature.direction if feature.element == "plane" else feature.direction
         perpendicular, parallel = [], None
@@ -316,15 +327,21 @@ class _Frames:
         return assoc
 
     def _nominal_direction(self, label: str) -> np.ndarray:
-        feature = self.plan.features[self.plan.datums[label][0]]
+        feature = self.datum_feature(label)
         return -feature.direction if feature.element == "plane" else feature.direction
+
+    nominal_direction = _nominal_direction
+
+    def datum_feature(self, label: str) -> FeatureData:
+        """The datum feature of ``label``."""
+        return self.plan.features[self.plan.datums[label][0]]
 
     def drf(self, datums: tuple[str, ...]) -> DatumReferenceFrame:
         if datums not in self.frames:
             pairs = []
             for k in range(1, len(datums) + 1):
                 assoc = self.association(datums[:k])
-                feature = self.plan.features[self.plan.datums[datums[k - 1]][0]]
+                feature = self.datum_feature(datums[k - 1])
                 direction = None if feature.element in ("sphere", "point") else self._nominal_direction(datums[k - 1])
                 pairs.append((assoc, nominal_of(feature.point, direction)))
             self.frames[datums] = build_drf(pairs, standard=self.plan.standard)
@@ -342,6 +359,16 @@ def _evaluate(planned: PlannedCharacteristic, frames: _Frames) -> Characteristic
         if spec.datums:
             raise FileFormatError(plan.path, f"{planned.name}: flatness takes no datums", planned.line)
         return evaluate_flatness(feature, spec.tolerance_mm, name=planned.name)
+    mobile = any(m != "RMB" for m in spec.modifiers_of_datums)
+    if mobile:
+        if kind != "position":
+            raise FileFormatError(plan.path, f"{planned.name}: {kind} with a datum at MMB / LMB is not supported "
+                                  "(datum mobility is evaluated for position only)", planned.line)
+        from pcmm_geo.gdt.reference.shift import evaluate_position_mobility, frame_mobility
+
+        drf, domain = frame_mobility(frames, spec.datums, spec.modifiers_of_datums)
+        return evaluate_position_mobility([feature], drf, domain, [spec.tolerance_mm], names=[planned.name],
+                                          modifiers=[spec.modifier], datum_modifiers=spec.modifiers_of_datums)[0]
     drf = frames.drf(spec.datums) if spec.datums else DatumReferenceFrame.measurement()
     if kind == "position":
         return evaluate_position(feature, drf, spec.tolerance_mm, name=planned.name, modifier=spec.modifier,
@@ -411,12 +438,23 @@ def _evaluate_pattern(pattern: str, members: list[PlannedCharacteristic],
     first = members[0]
     for member in members:
         assert member.frame is not None
-        if member.frame.datums != first.frame.datums:  # type: ignore[union-attr]
+        if (member.frame.datums, member.frame.modifiers_of_datums) != (  # type: ignore[union-attr]
+                first.frame.datums, first.frame.modifiers_of_datums):  # type: ignore[union-attr]
             raise FileFormatError(plan.path, f"{member.name}: pattern {pattern!r} mixes datum references "
                                   f"({'|'.join(member.frame.datums)} and {'|'.join(first.frame.datums)})",  # type: ignore[union-attr]
                                   member.line)
     datums = first.frame.datums  # type: ignore[union-attr]
+    datum_modifiers = first.frame.modifiers_of_datums  # type: ignore[union-attr]
     try:
+        if any(m != "RMB" for m in datum_modifiers):
+            from pcmm_geo.gdt.reference.shift import evaluate_position_mobility, frame_mobility
+
+            drf, domain = frame_mobility(frames, datums, datum_modifiers)
+            return evaluate_position_mobility([plan.features[m.feature] for m in members], drf, domain,
+                                              [m.frame.tolerance_mm for m in members],  # type: ignore[union-attr]
+                                              names=[m.name for m in members],
+                                              modifiers=[m.frame.modifier for m in members],  # type: ignore[union-attr]
+                                              pattern=pattern, datum_modifiers=datum_modifiers)
         drf = frames.drf(datums) if datums else DatumReferenceFrame.measurement()
         return evaluate_position_pattern([plan.features[m.feature] for m in members], drf,
                                          [m.frame.tolerance_mm for m in members],  # type: ignore[union-attr]
