@@ -301,7 +301,7 @@ class _Frames:
         feature = self.datum_feature(label)
         before = [self.association(sequence[:k]) for k in range(1, len(sequence))]
         inward = -feature.direction if feature.element == "plane" else feature.direction
-        perpendicular, parallel = [], None
+        perpendicular, parallel, angle = [], None, None
         names = []
         for prior in before:
             if prior.element not in ("plane", "cylinder"):
@@ -319,12 +319,30 @@ class _Frames:
             elif feature.element == "cylinder" and cos > 1 - 1e-9 and parallel is None:
                 parallel = prior.direction
                 names.append(f"parallel to {prior.label}")
+            elif feature.element == "plane" and prior.element == "plane" and cos < 1 - 1e-9 and angle is None:
+                # a plane at another angle: its normal keeps the nominal angle to the higher datum's
+                angle = (prior.direction, float(nominal @ inward))
+                names.append(f"at {np.degrees(np.arccos(float(nominal @ inward))):.6g} deg to {prior.label}")
+        if angle is not None and (perpendicular or len(names) > 1):
+            # two higher directions fix the normal: the nominal carried by their measured frame
+            angle, perpendicular = None, self._fixed_normal(before, inward)
         assoc = associate_datum(feature.points, feature.element, label=label, criterion=criterion, side=feature.side,
                                 nominal_direction=inward if feature.element in ("plane", "cylinder") else None,
                                 perpendicular_to=tuple(perpendicular), parallel_to=parallel,
-                                constraint_names=tuple(names))
+                                constraint_names=tuple(names), angle_to=angle)
         self.assoc[sequence] = assoc
         return assoc
+
+    def _fixed_normal(self, before: list[DatumAssociation], inward: np.ndarray) -> list[np.ndarray]:
+        """Two directions perpendicular to ``inward`` as the first two direction datums of ``before`` carry it."""
+        from pcmm_geo.gdt.reference.drf import _frame_of
+
+        directed = [b for b in before if b.element in ("plane", "cylinder")][:2]
+        nominal = [self._nominal_direction(b.label) for b in directed]
+        rotation = _frame_of(directed[0].direction, directed[1].direction) @ _frame_of(*nominal).T
+        normal = rotation @ inward
+        u, _, _ = np.linalg.svd(np.eye(3) - np.outer(normal, normal))
+        return [u[:, 0], u[:, 1]]
 
     def _nominal_direction(self, label: str) -> np.ndarray:
         feature = self.datum_feature(label)

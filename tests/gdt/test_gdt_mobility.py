@@ -226,3 +226,52 @@ def test_refused_by_name(maker, tmp_path):
     plan, _, _ = _part(maker, tmp_path, frames=("perpendicularity dia 0.1 | A | D(M)",))
     with pytest.raises(FileFormatError, match="position only"):
         inspect_plan(plan)
+
+
+def _disks_nearest(p, c1, r1, c2, r2):
+    """Nearest point to ``p`` in the intersection of two disks (exact: the candidates are p itself, its
+    projections onto each disk, and the circles' intersection points); None when they do not meet."""
+    cands = [p]
+    for c, r in ((c1, r1), (c2, r2)):
+        d = p - c
+        n = np.linalg.norm(d)
+        cands.append(c + d * (r / n) if n > r else p)
+    d = np.linalg.norm(c2 - c1)
+    if abs(r1 - r2) <= d <= r1 + r2:
+        a = (r1 ** 2 - r2 ** 2 + d ** 2) / (2 * d)
+        h = np.sqrt(max(r1 ** 2 - a ** 2, 0.0))
+        u = (c2 - c1) / d
+        mid = c1 + a * u
+        cands += [mid + h * np.array([-u[1], u[0]]), mid - h * np.array([-u[1], u[0]])]
+    ok = [c for c in cands if np.linalg.norm(c - c1) <= r1 + 1e-15 and np.linalg.norm(c - c2) <= r2 + 1e-15]
+    return min(ok, key=lambda c: np.linalg.norm(c - p)) if ok else None
+
+
+def test_two_datum_holes_at_mmb_let_the_part_turn(maker, tmp_path):
+    """A | D(M) | F(M): the part may shift and turn.  Truth: for each rotation the best translation is the
+    nearest point of the two boundaries' disks (exact), minimised over the rotation (grid, then Brent)."""
+    from scipy.optimize import minimize_scalar
+
+    plan, _, _ = _part(maker, tmp_path, datum=("internal", (30.0, 25.0), (0.0, 0.0), 10.06),
+                       tertiary_hole=((90.0, 25.0), (0.0, 0.0), 8.04), holes=(((110.0, 25.0), (0.0, 0.2)),),
+                       frames=("position dia 0.1 | A | D(M) | F(M)", "position dia 0.1 | A | D | F"))
+    mobile, rmb = inspect_plan(plan).characteristics
+    assert abs(rmb.value_mm - 0.4) < 1e-9
+    c_d, c_f, h, n_h = np.array([30.0, 25.0]), np.array([90.0, 25.0]), np.array([110.0, 25.2]), np.array([110.0, 25])
+
+    def best(theta):
+        r = np.array([[np.cos(theta), -np.sin(theta)], [np.sin(theta), np.cos(theta)]])
+        a = r @ h - n_h
+        t = _disks_nearest(-a, c_d - r @ c_d, 0.03, c_f - r @ c_f, 0.02)
+        return np.inf if t is None else 2 * np.linalg.norm(a + t)
+
+    grid = np.linspace(-1e-3, 1e-3, 4001)
+    k = int(np.argmin([best(t) for t in grid]))
+    truth = minimize_scalar(best, bounds=(grid[max(k - 1, 0)], grid[min(k + 1, 4000)]), method="bounded",
+                            options={"xatol": 1e-15}).fun
+    assert truth < 0.4 - 0.05  # the turn is worth more than the shifts alone
+    assert abs(mobile.value_mm - truth) < 1e-9
+    d = mobile.details
+    assert d["scope"] == "local" and d["mobility_proven"] == "NOT PROVEN"
+    assert d["datum_rotation_rad"] != 0.0 and 0 <= mobile.bound_mm <= mobile.value_mm
+    assert [b["label"] for b in d["datum_boundaries"]] == ["D", "F"]
