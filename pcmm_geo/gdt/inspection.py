@@ -208,6 +208,13 @@ def load_plan(path: str | Path) -> InspectionPlan:
             return error(("datums", label), f"datums.{label}: {reason}")
 
         entry = {"feature": spec} if isinstance(spec, str) else spec
+        if isinstance(entry, dict) and "targets" in entry:  # datum targets: a stand-in plane feature
+            from pcmm_geo.gdt.reference.common import targets_entry
+
+            datum_options[label] = {"feature": targets_entry(label, entry, features, dfail),
+                                    "targets": list(entry["targets"])}
+            datums[label] = (entry["targets"][0], "targets")
+            continue
         if not isinstance(entry, dict) or entry.get("feature") not in features:
             raise dfail(f"unknown feature {entry.get('feature') if isinstance(entry, dict) else spec!r}")
         feature = features[entry["feature"]]
@@ -223,7 +230,7 @@ def load_plan(path: str | Path) -> InspectionPlan:
     frame_text = doc.get("part", {}).get("frame", "")
     part_frame = tuple(p.strip() for p in frame_text.split("|") if p.strip()) if isinstance(frame_text, str) else ()
     for label in part_frame:
-        if label not in datums:
+        if not all(part in datums for part in label.split("-")):
             raise error(("part", "frame"), f"part.frame: unknown datum {label!r}")
     planned = []
     for index, entry in enumerate(doc.get("characteristics", [])):
@@ -247,7 +254,7 @@ def load_plan(path: str | Path) -> InspectionPlan:
         if entry.get("feature") not in features:
             raise error((*keys, "feature"), f"{name}: unknown feature {entry.get('feature')!r}")
         for label in spec.datums:
-            if label not in datums:
+            if not all(part in datums for part in label.split("-")):
                 raise FileFormatError(where, f"{name}: unknown datum {label!r} in frame {spec.text!r}", line)
         if spec.characteristic not in _SUPPORTED:
             if spec.characteristic in ("concentricity", "symmetry") and standard == "ASME":
@@ -297,7 +304,7 @@ class _Frames:
         if sequence in self.assoc:
             return self.assoc[sequence]
         label = sequence[-1]
-        criterion = self.plan.datums[label][1]
+        criterion = self.plan.datums[label.split("-")[0]][1]
         feature = self.datum_feature(label)
         before = [self.association(sequence[:k]) for k in range(1, len(sequence))]
         inward = -feature.direction if feature.element == "plane" else feature.direction
@@ -326,7 +333,10 @@ class _Frames:
         if angle is not None and (perpendicular or len(names) > 1):
             # two higher directions fix the normal: the nominal carried by their measured frame
             angle, perpendicular = None, self._fixed_normal(before, inward)
-        assoc = associate_datum(feature.points, feature.element, label=label, criterion=criterion, side=feature.side,
+        from pcmm_geo.gdt.reference.common import associate_special
+
+        assoc = associate_special(self, label, feature, inward, perpendicular, parallel, tuple(names)) or \
+            associate_datum(feature.points, feature.element, label=label, criterion=criterion, side=feature.side,
                                 nominal_direction=inward if feature.element in ("plane", "cylinder") else None,
                                 perpendicular_to=tuple(perpendicular), parallel_to=parallel,
                                 constraint_names=tuple(names), angle_to=angle)
@@ -351,7 +361,14 @@ class _Frames:
     nominal_direction = _nominal_direction
 
     def datum_feature(self, label: str) -> FeatureData:
-        """The datum feature of ``label``."""
+        """The datum feature of ``label`` (a common datum's and a target datum's stand-in feature)."""
+        options = self.plan.datum_options.get(label, {})
+        if "feature" in options:
+            return options["feature"]
+        if "-" in label:
+            from pcmm_geo.gdt.reference.common import common_feature
+
+            return common_feature(label, [self.datum_feature(p) for p in label.split("-")])  # type: ignore[return-value]
         return self.plan.features[self.plan.datums[label][0]]
 
     def drf(self, datums: tuple[str, ...]) -> DatumReferenceFrame:
@@ -394,7 +411,7 @@ def _evaluate(planned: PlannedCharacteristic, frames: _Frames) -> Characteristic
     if spec.modifier != "RFS" and kind != "position":
         raise FileFormatError(plan.path, f"{planned.name}: {spec.modifier} on {kind} is not supported", planned.line)
     if kind == "concentricity":
-        return _concentricity(planned, plan, feature, drf)
+        return _concentricity(planned, frames, feature, drf)
     if kind == "profile of a surface":
         if feature.element != "surface":
             raise FileFormatError(plan.path, f"{planned.name}: profile needs a feature of element \"surface\" "
@@ -406,14 +423,14 @@ def _evaluate(planned: PlannedCharacteristic, frames: _Frames) -> Characteristic
     if kind in ("perpendicularity", "parallelism", "angularity"):
         if not spec.datums:
             raise FileFormatError(plan.path, f"{planned.name}: {kind} needs a datum", planned.line)
-        primary = plan.features[plan.datums[spec.datums[0]][0]]
+        primary = frames.datum_feature(spec.datums[0])
         normal = None
         if primary.element == "plane" and feature.element == "cylinder" and \
                 abs(float(primary.direction @ feature.direction)) < 1e-9:
             normal = primary.direction
         return evaluate_orientation(feature, drf, spec.tolerance_mm, characteristic=kind, name=planned.name,
                                     zone="dia" if spec.zone == "dia" else "width", zone_normal=normal)
-    primary = plan.features[plan.datums[spec.datums[0]][0]] if spec.datums else None
+    primary = frames.datum_feature(spec.datums[0]) if spec.datums else None
     if primary is None or primary.element != "cylinder":
         raise FileFormatError(plan.path, f"{planned.name}: runout needs a cylinder as its primary datum",
                               planned.line)
@@ -421,7 +438,7 @@ def _evaluate(planned: PlannedCharacteristic, frames: _Frames) -> Characteristic
                            axis_point=primary.point, axis_direction=primary.direction)
 
 
-def _concentricity(planned: PlannedCharacteristic, plan: InspectionPlan, feature: FeatureData,
+def _concentricity(planned: PlannedCharacteristic, frames: _Frames, feature: FeatureData,
                    drf: DatumReferenceFrame) -> CharacteristicResult:
     """ISO 1101 18.13: coaxiality of an axis (concentricity of a centre) to the primary datum's axis (centre).
 
@@ -430,13 +447,13 @@ def _concentricity(planned: PlannedCharacteristic, plan: InspectionPlan, feature
     """
     import dataclasses
 
-    spec = planned.frame
+    spec, plan = planned.frame, frames.plan
     if plan.standard != "ISO":
         raise FileFormatError(plan.path, f"{planned.name}: concentricity was removed in ASME Y14.5-2018",
                               planned.line)
     if not spec.datums or spec.zone == "width":
         raise FileFormatError(plan.path, f"{planned.name}: concentricity needs dia and a datum", planned.line)
-    datum = plan.features[plan.datums[spec.datums[0]][0]]
+    datum = frames.datum_feature(spec.datums[0])
     if datum.element not in ("cylinder", "sphere", "point") or feature.element not in ("cylinder", "sphere", "point"):
         raise FileFormatError(plan.path, f"{planned.name}: concentricity relates an axis or a centre to a datum "
                               "axis or centre", planned.line)
