@@ -332,7 +332,10 @@ class _Frames:
                 names.append(f"at {np.degrees(np.arccos(float(nominal @ inward))):.6g} deg to {prior.label}")
         if angle is not None and (perpendicular or len(names) > 1):
             # two higher directions fix the normal: the nominal carried by their measured frame
-            angle, perpendicular = None, self._fixed_normal(before, inward)
+            from pcmm_geo.gdt.reference.constrained import fixed_normal
+
+            nominals = [self._nominal_direction(b.label) for b in before]
+            angle, perpendicular = None, fixed_normal(before, nominals, inward)
         from pcmm_geo.gdt.reference.common import associate_special
 
         assoc = associate_special(self, label, feature, inward, perpendicular, parallel, tuple(names)) or \
@@ -343,17 +346,6 @@ class _Frames:
         self.assoc[sequence] = assoc
         return assoc
 
-    def _fixed_normal(self, before: list[DatumAssociation], inward: np.ndarray) -> list[np.ndarray]:
-        """Two directions perpendicular to ``inward`` as the first two direction datums of ``before`` carry it."""
-        from pcmm_geo.gdt.reference.drf import _frame_of
-
-        directed = [b for b in before if b.element in ("plane", "cylinder")][:2]
-        nominal = [self._nominal_direction(b.label) for b in directed]
-        rotation = _frame_of(directed[0].direction, directed[1].direction) @ _frame_of(*nominal).T
-        normal = rotation @ inward
-        u, _, _ = np.linalg.svd(np.eye(3) - np.outer(normal, normal))
-        return [u[:, 0], u[:, 1]]
-
     def _nominal_direction(self, label: str) -> np.ndarray:
         feature = self.datum_feature(label)
         return -feature.direction if feature.element == "plane" else feature.direction
@@ -362,13 +354,10 @@ class _Frames:
 
     def datum_feature(self, label: str) -> FeatureData:
         """The datum feature of ``label`` (a common datum's and a target datum's stand-in feature)."""
-        options = self.plan.datum_options.get(label, {})
-        if "feature" in options:
-            return options["feature"]
-        if "-" in label:
-            from pcmm_geo.gdt.reference.common import common_feature
+        if "feature" in self.plan.datum_options.get(label, {}) or "-" in label:
+            from pcmm_geo.gdt.reference.common import stand_in_feature
 
-            return common_feature(label, [self.datum_feature(p) for p in label.split("-")])  # type: ignore[return-value]
+            return stand_in_feature(self, label)  # type: ignore[return-value]
         return self.plan.features[self.plan.datums[label][0]]
 
     def drf(self, datums: tuple[str, ...]) -> DatumReferenceFrame:
@@ -399,11 +388,9 @@ def _evaluate(planned: PlannedCharacteristic, frames: _Frames) -> Characteristic
         if kind != "position":
             raise FileFormatError(plan.path, f"{planned.name}: {kind} with a datum at MMB / LMB is not supported "
                                   "(datum mobility is evaluated for position only)", planned.line)
-        from pcmm_geo.gdt.reference.shift import evaluate_position_mobility, frame_mobility
+        from pcmm_geo.gdt.reference.shift import mobility_results
 
-        drf, domain = frame_mobility(frames, spec.datums, spec.modifiers_of_datums)
-        return evaluate_position_mobility([feature], drf, domain, [spec.tolerance_mm], names=[planned.name],
-                                          modifiers=[spec.modifier], datum_modifiers=spec.modifiers_of_datums)[0]
+        return mobility_results(frames, [planned], None)[0]
     drf = frames.drf(spec.datums) if spec.datums else DatumReferenceFrame.measurement()
     if kind == "position":
         return evaluate_position(feature, drf, spec.tolerance_mm, name=planned.name, modifier=spec.modifier,
@@ -482,14 +469,9 @@ def _evaluate_pattern(pattern: str, members: list[PlannedCharacteristic],
     datum_modifiers = first.frame.modifiers_of_datums  # type: ignore[union-attr]
     try:
         if any(m != "RMB" for m in datum_modifiers):
-            from pcmm_geo.gdt.reference.shift import evaluate_position_mobility, frame_mobility
+            from pcmm_geo.gdt.reference.shift import mobility_results
 
-            drf, domain = frame_mobility(frames, datums, datum_modifiers)
-            return evaluate_position_mobility([plan.features[m.feature] for m in members], drf, domain,
-                                              [m.frame.tolerance_mm for m in members],  # type: ignore[union-attr]
-                                              names=[m.name for m in members],
-                                              modifiers=[m.frame.modifier for m in members],  # type: ignore[union-attr]
-                                              pattern=pattern, datum_modifiers=datum_modifiers)
+            return mobility_results(frames, members, pattern)
         drf = frames.drf(datums) if datums else DatumReferenceFrame.measurement()
         return evaluate_position_pattern([plan.features[m.feature] for m in members], drf,
                                          [m.frame.tolerance_mm for m in members],  # type: ignore[union-attr]

@@ -27,7 +27,8 @@ from numpy.typing import NDArray
 
 from pcmm_geo.errors import InvalidInputError
 
-__all__ = ["associate_common_axis", "associate_targets", "common_feature"]
+__all__ = ["associate_common_axis", "associate_special", "associate_targets", "common_feature", "stand_in_feature",
+           "targets_entry"]
 
 FloatArray = NDArray[np.float64]
 
@@ -217,3 +218,11 @@ def associate_special(frames: object, label: str, feature: object, inward: Float
     return associate_common_axis([(p.points, p.diameter / 2) for p in parts], label=label, side=parts[0].side,
                                  nominal_direction=inward, start=(singles[0].point, direction),
                                  parallel_to=parallel, constraint_names=names)
+
+
+def stand_in_feature(frames: object, label: str) -> object:
+    """The feature standing for a target datum or a common datum ``A-B`` of a plan (``frames``: its DRF cache)."""
+    options = frames.plan.datum_options.get(label, {})  # type: ignore[attr-defined]
+    if "feature" in options:
+        return options["feature"]
+    return common_feature(label, [frames.datum_feature(p) for p in label.split("-")])  # type: ignore[attr-defined]

@@ -21,7 +21,7 @@ from numpy.typing import NDArray
 
 from pcmm_geo.errors import InvalidInputError
 
-__all__ = ["cone_normal", "cone_plane"]
+__all__ = ["cone_normal", "cone_plane", "fixed_normal"]
 
 FloatArray = NDArray[np.float64]
 
@@ -140,3 +140,16 @@ def _exact(rel: FloatArray, axis: FloatArray, cos_angle: float, phi: float, lips
     near = [(c + np.pi - phi) % (2 * np.pi) - np.pi + phi for c in candidates]
     near = [c for c in near if abs(c - phi) <= 1e-3]
     return float(min(near, key=lambda c: _width(rel, axis, cos_angle, c)))
+
+
+def fixed_normal(before: list[object], nominals: list[FloatArray], inward: FloatArray) -> list[FloatArray]:
+    """Two directions perpendicular to the nominal ``inward`` as carried by the measured frame of the first two
+    direction datums of ``before`` (associations, with their nominal directions ``nominals``): a plane whose
+    normal two higher datums fix (a tertiary after a secondary at an angle)."""
+    from pcmm_geo.gdt.reference.drf import _frame_of
+
+    pairs = [(b, n) for b, n in zip(before, nominals, strict=True) if b.element in ("plane", "cylinder")][:2]  # type: ignore[attr-defined]
+    rotation = _frame_of(pairs[0][0].direction, pairs[1][0].direction) @ _frame_of(pairs[0][1], pairs[1][1]).T  # type: ignore[attr-defined]
+    normal = rotation @ inward
+    u, _, _ = np.linalg.svd(np.eye(3) - np.outer(normal, normal))
+    return [u[:, 0], u[:, 1]]

@@ -19,7 +19,8 @@ from pcmm_geo.errors import InvalidInputError
 from pcmm_geo.gdt.reference.frame import DatumReferenceFrame
 from pcmm_geo.gdt.reference.mobility import DatumBoundary, MobilityDomain, _across
 
-__all__ = ["DatumInFrame", "datum_boundary", "evaluate_position_mobility", "frame_mobility", "mobility_domain"]
+__all__ = ["DatumInFrame", "datum_boundary", "evaluate_position_mobility", "frame_mobility", "mobility_domain",
+           "mobility_results"]
 
 FloatArray = NDArray[np.float64]
 _UNIT = {"x": np.array([1.0, 0, 0]), "y": np.array([0, 1.0, 0]), "z": np.array([0, 0, 1.0])}
@@ -276,3 +277,15 @@ def frame_mobility(frames: Any, datums: tuple[str, ...], datum_modifiers: tuple[
                                     np.asarray(feature.point, dtype=float), direction, feature.side, limits,
                                     plan.datum_options.get(label, {}).get("boundary_diameter"), before, after))
     return drf, mobility_domain(drf, entries)
+
+
+def mobility_results(frames: Any, members: list[Any], pattern: str | None) -> tuple[Any, ...]:
+    """Position frames of a plan (``PlannedCharacteristic``, the same datums and modifiers) over their datum
+    mobility: one simultaneous requirement when ``pattern`` is given, else each on its own."""
+    plan = frames.plan
+    spec = members[0].frame
+    drf, domain = frame_mobility(frames, spec.datums, spec.modifiers_of_datums)
+    return evaluate_position_mobility([plan.features[m.feature] for m in members], drf, domain,
+                                      [m.frame.tolerance_mm for m in members], names=[m.name for m in members],
+                                      modifiers=[m.frame.modifier for m in members], pattern=pattern,
+                                      datum_modifiers=spec.modifiers_of_datums)
