@@ -275,3 +275,19 @@ def test_two_datum_holes_at_mmb_let_the_part_turn(maker, tmp_path):
     assert d["scope"] == "local" and d["mobility_proven"] == "NOT PROVEN"
     assert d["datum_rotation_rad"] != 0.0 and 0 <= mobile.bound_mm <= mobile.value_mm
     assert [b["label"] for b in d["datum_boundaries"]] == ["D", "F"]
+
+
+def test_pcmm_inspect_shows_the_modifier_and_the_datum_shift(maker, tmp_path):
+    import json
+
+    from pcmm_runner import run_pcmm
+
+    plan, _, _ = _part(maker, tmp_path, holes=(((90.0, 25.0), (0.13, -0.02)),))
+    done = run_pcmm("inspect", plan)
+    assert done.returncode == 1, done.stderr  # 2 (0.12 - 0.03) = 0.18 > 0.1: FAIL
+    row = next(line for line in done.stdout.splitlines() if line.startswith("pos H1 0"))
+    assert "A|D(M)|E" in row and "FAIL" in row and "180.000000" in row
+    data = json.loads(run_pcmm("inspect", plan, "--json").stdout)
+    (c,) = data["characteristics"]
+    assert c["datum_modifiers"] == ["RMB", "MMB", "RMB"] and c["mobility_proven"] == "PROVEN"
+    assert np.allclose(c["datum_shift_mm"][:2], [-0.03, 0.0], atol=1e-9)

@@ -66,7 +66,9 @@ def handle(args: argparse.Namespace) -> Report:
         else:
             value, tolerance, unit = 1000.0 * c.value_mm, 1000.0 * c.tolerance_mm, "µm"
         rows.append([c.name, c.characteristic, value, tolerance, "-" if c.bonus_mm is None else 1000.0 * c.bonus_mm,
-                     unit, "|".join(c.datums) or "-", c.verdict])
+                     unit, "|".join(d if m == "RMB" else f"{d}({m[0]})" for d, m in zip(
+                         c.datums, c.details.get("datum_modifiers") or ["RMB"] * len(c.datums), strict=True)) or "-",
+                     c.verdict])
     tables = [Table(f"characteristics of {args.plan} ({result.plan.standard})",
                     ["name", "characteristic", "value", "tolerance", "bonus", "unit", "datums", "verdict"], rows)]
     datum_rows = []
