@@ -342,3 +342,29 @@ def test_a_wrong_number_of_targets_is_refused_by_name(tmp_path, maker):
     plan.write_text(plan.read_text().replace('targets = ["B1", "B2", "C1"]', 'targets = ["B1", "H"]'))
     with pytest.raises(FileFormatError, match="target 'H': expected a feature of element \"point\""):
         inspect_plan(plan)
+
+
+def test_tertiary_plane_at_an_angle_to_the_angled_secondary_has_its_normal_fixed(maker, tmp_path):
+    pts, rot, t = _angled_part(maker, 9)
+    beta = np.radians(20.0)
+    n_c = np.array([np.sin(beta), np.cos(beta), 0.0])  # perpendicular to A, not to B
+    along = np.cross([0.0, 0.0, 1.0], n_c)
+    rng = np.random.default_rng(9)
+    uv = rng.uniform(5, 60, (150, 2))
+    w = rng.uniform(0.2, 0.8, 150) * maker.DATUM_FORM_MM
+    w[0] = 0.0
+    pts["C"] = uv[:, :1] * along + uv[:, 1:] * [0.0, 0.0, 0.5] + w[:, None] * n_c
+    _write(tmp_path, {k: p @ rot.T + t for k, p in pts.items()})
+    b_out = ", ".join(f"{-v:.17g}" for v in N_B)
+    c_out = ", ".join(f"{-v:.17g}" for v in n_c)
+    features = ('[features.A]\nelement = "plane"\npoints = "A.csv"\nnormal = [0, 0, -1]\n'
+                f'[features.B]\nelement = "plane"\npoints = "B.csv"\nnormal = [{b_out}]\n'
+                f'[features.C]\nelement = "plane"\npoints = "C.csv"\nnormal = [{c_out}]\n')
+    chars = '[[characteristics]]\nname = "flat A"\nfeature = "A"\nframe = "flatness 0.01"\n'
+    (tmp_path / "plan.toml").write_text(_plan_text(features, 'A = "A"\nB = "B"\nC = "C"', chars) +
+                                        '\n[part]\nframe = "A|B|C"\n', encoding="utf-8")
+    result = inspect_plan(tmp_path / "plan.toml")
+    c = result.datums["C"]
+    assert np.allclose(c.direction, rot @ n_c, atol=1e-12) and c.certificate.contacts[0] == 0
+    drf = result.frames["A|B|C"]
+    assert np.allclose(drf.rotation, rot.T, atol=1e-11) and np.allclose(drf.origin, t, atol=1e-9)

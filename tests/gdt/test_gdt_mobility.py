@@ -291,3 +291,23 @@ def test_pcmm_inspect_shows_the_modifier_and_the_datum_shift(maker, tmp_path):
     (c,) = data["characteristics"]
     assert c["datum_modifiers"] == ["RMB", "MMB", "RMB"] and c["mobility_proven"] == "PROVEN"
     assert np.allclose(c["datum_shift_mm"][:2], [-0.03, 0.0], atol=1e-9)
+
+
+def test_datum_holes_too_far_apart_for_their_boundaries_fail(maker, tmp_path):
+    # D and F 60.1 apart against 60 nominal: their boundaries' clearances (0.03 + 0.02) cannot take it up
+    plan, _, _ = _part(maker, tmp_path, datum=("internal", (30.0, 25.0), (0.0, 0.0), 10.06),
+                       tertiary_hole=((90.0, 25.0), (0.1, 0.0), 8.04), holes=(((110.0, 25.0), (0.0, 0.0)),),
+                       frames=("position dia 0.1 | A | D(M) | F(M)",))
+    (c,) = inspect_plan(plan).characteristics
+    assert c.verdict == "FAIL" and c.details["reason"] == "no motion fits every datum boundary at once"
+    assert c.details["feasible"] is False
+
+
+def test_a_free_rotation_stays_free_with_a_secondary_at_mmb(maker, tmp_path):
+    # A | D(M): the part may also turn about D; the best is no worse than with E holding the rotation
+    plan, _, _ = _part(maker, tmp_path, holes=(((90.0, 25.0), (0.01, 0.06)),),
+                       frames=("position dia 0.1 | A | D(M)", "position dia 0.1 | A | D(M) | E"))
+    free, held = inspect_plan(plan).characteristics
+    assert free.details["scope"] == "local" and free.value_mm <= held.value_mm + 1e-12
+    # the deviation (0, 0.08) from D's axis is across the line D-H: turning about D removes it
+    assert free.value_mm < 1e-6 and free.verdict == "PASS"

@@ -146,7 +146,11 @@ def fixed_normal(before: list[object], nominals: list[FloatArray], inward: Float
     """Two directions perpendicular to the nominal ``inward`` as carried by the measured frame of the first two
     direction datums of ``before`` (associations, with their nominal directions ``nominals``): a plane whose
     normal two higher datums fix (a tertiary after a secondary at an angle)."""
-    from pcmm_geo.gdt.reference.drf import _frame_of
+    def _frame_of(first: FloatArray, second: FloatArray) -> FloatArray:
+        e1 = first / np.linalg.norm(first)
+        e2 = second - (second @ e1) * e1
+        e2 /= np.linalg.norm(e2)
+        return np.column_stack([e1, e2, np.cross(e1, e2)])
 
     pairs = [(b, n) for b, n in zip(before, nominals, strict=True) if b.element in ("plane", "cylinder")][:2]  # type: ignore[attr-defined]
     rotation = _frame_of(pairs[0][0].direction, pairs[1][0].direction) @ _frame_of(pairs[0][1], pairs[1][1]).T  # type: ignore[attr-defined]
