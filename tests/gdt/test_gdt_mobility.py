@@ -311,3 +311,15 @@ def test_a_free_rotation_stays_free_with_a_secondary_at_mmb(maker, tmp_path):
     assert free.details["scope"] == "local" and free.value_mm <= held.value_mm + 1e-12
     # the deviation (0, 0.08) from D's axis is across the line D-H: turning about D removes it
     assert free.value_mm < 1e-6 and free.verdict == "PASS"
+
+
+def test_tertiary_hole_at_mmb_after_a_secondary_face_moves_along_the_face_only(maker, tmp_path):
+    # A | E | D(M): E holds y and the rotation, D's boundary lets x move.  D's actual axis is 0.02 off
+    # across E (y), so of its 0.03 clearance only sqrt(0.03^2 - 0.02^2) is left along x
+    plan, _, _ = _part(maker, tmp_path, holes=(((90.0, 25.0), (0.05, 0.0)),),
+                       frames=("position dia 0.1 | A | E | D(M)",))
+    (c,) = inspect_plan(plan).characteristics
+    travel = np.sqrt(0.03 ** 2 - 0.02 ** 2)
+    assert abs(c.value_mm - 2 * (0.04 - travel)) < 1e-9
+    assert np.allclose(c.details["datum_shift_mm"][:2], [-travel, 0.0], atol=1e-9)
+    assert c.details["mobility_proven"] == "PROVEN"
