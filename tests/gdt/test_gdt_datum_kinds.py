@@ -329,8 +329,19 @@ def test_datum_targets_give_the_frame_and_the_checker_rejects_wrong_planes(tmp_p
     assert not check_target_plane(measured, wrong / np.linalg.norm(wrong), rot[:, 2])
     assert not check_target_plane(measured, -assoc.direction, rot[:, 2])
     assert not check_target_plane(b_pts, b_assoc.direction, rot[:, 0], fixed=(rot[:, 0],))
+    # the exact DRF of the targets (part coordinates): z the A targets' normal, x the B targets' plane normal
+    # perpendicular to z, the origin where the three target planes meet; the hole's ring centres in it
+    n_b = np.cross(n_a, np.subtract(targets["B2"], targets["B1"]))
+    n_b = n_b if n_b[0] > 0 else -n_b
+    n_b /= np.linalg.norm(n_b)
+    axes = np.array([n_b, np.cross(n_a, n_b), n_a])
+    origin = np.linalg.solve(axes, [n_b @ targets["B1"], axes[1] @ targets["C1"], n_a @ targets["A1"]])
+    ends = (np.array([[60.02, 40.0, 2.0], [60.02, 40.0, 20.0]]) - origin) @ axes.T
+    expected = 2 * np.linalg.norm(ends[:, :2] - [60.0, 40.0], axis=1).max()
     (pos,) = result.characteristics
-    assert pos.verdict == "PASS" and pos.value_mm > 0
+    assert abs(pos.value_mm - expected) < 1e-9 and pos.verdict == "PASS"
+    assert np.allclose(drf.to_frame(np.array([targets["A1"]]) @ rot.T + t), [(targets["A1"] - origin) @ axes.T],
+                       atol=1e-9)
 
 
 def test_a_wrong_number_of_targets_is_refused_by_name(tmp_path, maker):
