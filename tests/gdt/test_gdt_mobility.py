@@ -323,3 +323,12 @@ def test_tertiary_hole_at_mmb_after_a_secondary_face_moves_along_the_face_only(m
     assert abs(c.value_mm - 2 * (0.04 - travel)) < 1e-9
     assert np.allclose(c.details["datum_shift_mm"][:2], [-travel, 0.0], atol=1e-9)
     assert c.details["mobility_proven"] == "PROVEN"
+
+
+def test_bonus_and_datum_shift_together(maker, tmp_path):
+    # hole at MMC (its 10.05 mating size gives 0.05 bonus) to a datum at MMB (0.03 clearance): 0.12 <= 0.15
+    plan, _, _ = _part(maker, tmp_path, holes=(((90.0, 25.0), (0.10, -0.02)),),
+                       frames=("position dia 0.1 MMC | A | D(M) | E", "position dia 0.1 MMC | A | D | E"))
+    shifted, fixed = inspect_plan(plan).characteristics
+    assert abs(shifted.value_mm - 0.12) < 1e-9 and abs(shifted.bonus_mm - 0.05) < 1e-8
+    assert shifted.verdict == "PASS" and fixed.verdict == "FAIL" and abs(fixed.value_mm - 0.18) < 1e-9
