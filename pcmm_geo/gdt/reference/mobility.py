@@ -249,6 +249,14 @@ def solve_mobility(targets: FloatArray, nominals: FloatArray, projections: Float
         cons.append({"type": "eq", "fun": lambda x: np.array([f(x) for f in eqs])})
     x0 = np.r_[0.0, 0.0, 0.0, 1.0]
     bounds = [(None, None), (None, None), (None, None) if rotating else (0.0, 0.0), (0.0, None)]
+    if len(gaps):  # start from a motion that fits every boundary (the least largest excess over them)
+        fit_cons = [{"type": "ineq", "fun": lambda x: x[3] - (boundary_terms(x) - gaps) * 1e3}]
+        fit_cons += [c for c in cons if c["type"] == "eq"]
+        fit = minimize(lambda x: x[3], np.r_[0.0, 0.0, 0.0, float((boundary_terms(x0) - gaps).max()) * 1e3],
+                       jac=lambda x: np.r_[0.0, 0.0, 0.0, 1.0], method="SLSQP",
+                       bounds=[*bounds[:3], (None, None)], constraints=fit_cons,
+                       options={"ftol": 1e-16, "maxiter": 500})
+        x0 = np.r_[fit.x[:3], float(objective_terms(fit.x).max()) / sigma]
     res = minimize(lambda x: x[3], x0, jac=lambda x: np.r_[0.0, 0.0, 0.0, 1.0], method="SLSQP", bounds=bounds,
                    constraints=cons, options={"ftol": 1e-16, "maxiter": 500})
     x = np.asarray(res.x, dtype=float)
@@ -281,7 +289,10 @@ def solve_mobility(targets: FloatArray, nominals: FloatArray, projections: Float
                     and all(abs(f(x)) <= 1e-9 for f in eqs))
     r, t = motion(x)
     cert = _certificate(x, value, terms, touched, gaps, residuals(x), q, proj, w, domain, span, axis, lever, r)
-    scope = "global" if not rotating and cert.kkt_residual <= 1e-7 else "local"
+    if feasible:
+        scope = "global" if not rotating and cert.kkt_residual <= 1e-7 else "local"
+    else:  # no motion fits: proven by convexity (translations only) or by the boundaries' distances
+        scope = "global" if (not rotating and float((touched - gaps).max()) > 1e-6) or _apart(domain) else "local"
     cert = MobilityCertificate(cert.targets, cert.target_multipliers, cert.boundaries, cert.boundary_multipliers,
                                cert.kkt_residual, scope)
     if scope == "global":  # convexity: f(t) >= value - |stationarity residual| |t - t*| over the mobility
@@ -300,6 +311,20 @@ def _gradient(fun: Any, p: FloatArray, h: float = 1e-7) -> FloatArray:
         step[i] = h
         cols.append((np.atleast_1d(fun(p + step)) - np.atleast_1d(fun(p - step))) / (2 * h))
     return np.array(cols).T
+
+
+def _apart(domain: MobilityDomain) -> bool:
+    """True when two boundaries' envelope centres are farther from (or nearer to) each other than their
+    nominal centres by more than both clearances: no rigid motion changes that distance."""
+    axis = np.asarray(domain.axis, dtype=float)
+    b = domain.boundaries
+    for i in range(len(b)):
+        for j in range(i + 1, len(b)):
+            actual = np.cross(axis, b[j].envelope_centre - b[i].envelope_centre)
+            nominal = np.cross(axis, b[j].nominal_centre - b[i].nominal_centre)
+            if abs(np.linalg.norm(actual) - np.linalg.norm(nominal)) > max(b[i].gap_mm, 0) + max(b[j].gap_mm, 0) + 1e-9:
+                return True
+    return False
 
 
 def _held_equation(motion: Any, c: FloatArray, e: FloatArray) -> Any:

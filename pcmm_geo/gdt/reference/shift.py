@@ -244,9 +244,12 @@ def evaluate_position_mobility(features: list[Any], drf: DatumReferenceFrame, do
                 verdict, bound = "FAIL", float("nan")
                 details["reason"] = f"datum feature(s) {', '.join(violated)} violate their boundary (the part does " \
                                     "not fit the datum feature simulator)"
-            elif not best.feasible:
+            elif not best.feasible and best.certificate.scope == "global":  # convex: no motion exists
                 verdict = "FAIL"
                 details["reason"] = "no motion fits every datum boundary at once"
+            elif not best.feasible:
+                verdict = "NOT PROVEN"
+                details["reason"] = "no motion found that fits every datum boundary at once (a local search)"
             if not ok:
                 verdict, bonus = "FAIL", 0.0
                 details["reason"] = "size outside its limits"
