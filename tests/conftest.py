@@ -50,6 +50,7 @@ EXTRAS_NEEDED = {
     "fit/test_zone.py::test_mcc_matches_trimesh_minimum_nsphere": "cad",
     "plots/test_fit_residual_maps.py": "plots",
     "io/test_meshes.py": "cad",
+    "gdt/test_gdt_profile_mesh.py": "cad",
     "ippdme/test_ippdme_workpieces.py::test_mesh_workpiece_matches_the_box": "cad",
     "io/test_lazy_points.py": "dask",
     "cli/test_signals.py::test_an_interrupted_acquisition_keeps_its_rows_and_resumes": "acquire",
@@ -82,6 +83,7 @@ EXTRAS_NEEDED = {
     "io/cmm/test_qif_strict.py": "qif",
     "io/cmm/test_qif_definitions.py": "qif",
     "io/cmm/test_reader_fuzz.py::test_a_mutated_file_is_read_or_refused_with_a_typed_error[qif": "qif",
+    "gdt/test_qif_second_opinion.py": "qif",  # the plot test also draws (plots): the full run has every extra
     "gdt/test_qif_characteristics.py::test_counts_on_the_public_samples": "qif",
     "gdt/test_qif_characteristics.py::test_values_recomputed_from_the_actuals": "qif",
     "gdt/test_qif_characteristics.py::test_a_reported_value_changed_by_hand_is_caught": "qif",

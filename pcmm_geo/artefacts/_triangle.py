@@ -47,6 +47,78 @@ _LISTED_REACH = 3.0
 _LISTED_POINTS_PER_BLOCK = 8192
 
 
+class CentroidTree:
+    """A k-d tree over triangle centroids, asked as scipy's ``cKDTree.query`` is asked.
+
+    pykdtree, where installed (the ``cad`` extra), answers the same nearest-neighbour questions
+    in about two thirds of scipy's time; its OpenMP threads are limited per call (threadpoolctl)
+    to the ``workers`` asked.  Without it scipy's tree is used.  Either gives the exact nearest
+    neighbours in double precision (ties may come in another order); missing neighbours are
+    reported as scipy does: index ``n`` (the number of centroids) at infinite distance.  The
+    tree itself is not pickled (pykdtree's cannot be): a copy rebuilds it on first use.
+    """
+
+    def __init__(self, centroids: FloatArray) -> None:
+        self.centroids = np.ascontiguousarray(centroids, dtype=np.float64)
+        self._tree: Any = None
+
+    def __getstate__(self) -> dict[str, Any]:
+        return {"centroids": self.centroids, "_tree": None}
+
+    def __len__(self) -> int:
+        return len(self.centroids)
+
+    def query(self, points: FloatArray, *, k: int, distance_upper_bound: float = np.inf,
+              workers: int = -1) -> tuple[FloatArray, IntArray]:
+        """Distances (P, k) and indices (P, k) of the ``k`` nearest centroids of each point, within the bound."""
+        tree = self._tree
+        if tree is None:
+            tree = self._tree = _new_tree(self.centroids)
+        if isinstance(tree, _ScipyTree):
+            distance, index = tree.tree.query(points, k=k, distance_upper_bound=distance_upper_bound, workers=workers)
+        else:
+            with _openmp_threads(workers):
+                distance, index = tree.query(np.ascontiguousarray(points, dtype=np.float64), k=k,
+                                             distance_upper_bound=None if np.isinf(distance_upper_bound)
+                                             else float(distance_upper_bound))
+        return (np.asarray(distance, dtype=np.float64).reshape(len(points), k),
+                np.asarray(index, dtype=np.int64).reshape(len(points), k))
+
+
+@dataclass(frozen=True)
+class _ScipyTree:
+    tree: Any
+
+
+def _new_tree(centroids: FloatArray) -> Any:
+    try:
+        from pykdtree.kdtree import KDTree
+    except ImportError:
+        from scipy.spatial import cKDTree
+
+        return _ScipyTree(cKDTree(centroids, balanced_tree=False))  # sliding midpoint: quicker to build
+    return KDTree(centroids, leafsize=16)
+
+
+def _openmp_threads(workers: int) -> Any:
+    """A context that limits OpenMP to ``workers`` threads in this thread (-1: no limit)."""
+    import contextlib
+
+    if workers < 0:
+        return contextlib.nullcontext()
+    try:
+        from threadpoolctl import ThreadpoolController
+    except ImportError:  # pykdtree then uses every core; the answers are the same
+        return contextlib.nullcontext()
+    global _CONTROLLER
+    if _CONTROLLER is None:
+        _CONTROLLER = ThreadpoolController()
+    return _CONTROLLER.limit(limits=workers, user_api="openmp")
+
+
+_CONTROLLER: Any = None
+
+
 def closest_on_triangles(points: FloatArray, corners: FloatArray) -> tuple[FloatArray, FloatArray, FloatArray]:
     """Nearest points of triangles to points, pair by pair.
 
@@ -335,8 +407,6 @@ def size_classes(lists: NeighbourLists) -> tuple[SizeClass, ...]:
     that radius.  Centroids and radii come from the neighbour lists; a single class (a mesh of
     similar triangles) reuses their tree.
     """
-    from scipy.spatial import cKDTree
-
     centroids, radius = lists.centroids, lists.radius
     largest = max(float(radius.max()), 1e-300)
     with np.errstate(divide="ignore"):
@@ -345,7 +415,7 @@ def size_classes(lists: NeighbourLists) -> tuple[SizeClass, ...]:
     groups = []
     for value in np.unique(level):
         members = np.flatnonzero(level == value)
-        tree = lists.tree if len(members) == len(centroids) else cKDTree(centroids[members])
+        tree = lists.tree if len(members) == len(centroids) else CentroidTree(centroids[members])
         groups.append(SizeClass(members=members, tree=tree, reach=float(radius[members].max()),
                                 member_reach=radius[members]))
     return tuple(groups)
@@ -362,7 +432,6 @@ def pairs_within(group: SizeClass, query: FloatArray, reach: FloatArray) -> tupl
         asked = min(asked, count)
         distance, neighbour = group.tree.query(query[rows], k=asked, distance_upper_bound=float(radius[rows].max()),
                                                workers=-1)
-        distance, neighbour = distance.reshape(len(rows), -1), neighbour.reshape(len(rows), -1)
         complete = ~(distance[:, -1] <= radius[rows]) | (asked == count)
         member = np.minimum(neighbour, count - 1)
         close = (distance <= reach[rows, None] + group.member_reach[member]) & complete[:, None]
@@ -376,8 +445,6 @@ def pairs_within(group: SizeClass, query: FloatArray, reach: FloatArray) -> tupl
 
 def neighbour_lists(triangles: FloatArray, workers: int = -1) -> NeighbourLists:
     """The centroid neighbour lists of every triangle (see :func:`listed_pairs`); ``workers``: threads (-1: all)."""
-    from scipy.spatial import cKDTree
-
     corners = _by_axis(triangles)
     count = corners.shape[2]
     centroid_rows = corners[0] + corners[1]
@@ -388,9 +455,8 @@ def neighbour_lists(triangles: FloatArray, workers: int = -1) -> NeighbourLists:
     centroids = np.ascontiguousarray(centroid_rows.T)
     asked = min(_LISTED_NEIGHBOURS, count)
     bound = _LISTED_REACH * float(radius.max())
-    tree = cKDTree(centroids, balanced_tree=False)  # sliding midpoint: quicker to build, as quick to ask
+    tree = CentroidTree(centroids)
     distance, listed = tree.query(centroids, k=asked, distance_upper_bound=bound, workers=workers)
-    distance, listed = distance.reshape(count, asked), listed.reshape(count, asked)
     # a full list is complete only below its last distance; rounding of the distances is allowed for
     within = np.where(np.isfinite(distance[:, -1]), distance[:, -1], bound)
     size = np.maximum(np.maximum(np.abs(centroid_rows[0]), np.abs(centroid_rows[1])), np.abs(centroid_rows[2]))

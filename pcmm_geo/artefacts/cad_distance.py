@@ -3,8 +3,9 @@
 The nearest surface point of every query point is found in three steps
 (:class:`SurfaceIndex`, built once per mesh and reused):
 
-1. **candidate** -- the triangle whose centroid is nearest to the point (a scipy k-d tree over
-   the centroids, :meth:`SurfaceIndex.nearby`); for a point farther than three triangle radii
+1. **candidate** -- the triangle whose centroid is nearest to the point (a k-d tree over the
+   centroids, ``_triangle.CentroidTree``: pykdtree where installed, else
+   scipy's; :meth:`SurfaceIndex.nearby`); for a point farther than three triangle radii
    from every centroid, the triangle open3d's float32 ray-casting scene (Embree,
    ``compute_closest_points``) finds nearest, which keeps the search of step 3 tight;
 2. **upper bound** -- the distance ``d0`` from the point to that triangle, in double precision.
@@ -16,9 +17,13 @@ The nearest surface point of every query point is found in three steps
    triangles with the nearest centroids: when ``d0`` plus the largest radius plus the
    point's distance from the candidate's centroid stays below the radius up to which that
    list is complete, the list holds every such triangle (triangle inequality), so no search
-   is needed.  The other points search scipy k-d trees over the centroids (one per size
+   is needed.  The other points search k-d trees over the centroids (one per size
    class).  A lower bound from the triangle's plane and its three edge planes (exact except
    in corner regions) discards nearly all pairs before the exact evaluation.
+
+The points are taken in the order of a coarse grid over their box (the answers are put back in
+the caller's order): neighbouring points share candidates and list entries, which keeps the
+trees' and the gathers' memory reads in cache.
 
 Correctness relies on no float32 bound: step 3 only uses ``d0``, the double precision distance
 to a real triangle.  The result is that of a brute-force double-precision search.
@@ -89,6 +94,10 @@ _ON_BOUNDARY = 1e-9
 _POINTS_PER_BLOCK = 65_536
 #: a point farther than this many largest triangle radii from every centroid takes open3d's candidate
 _NEARBY_REACH = 3.0
+#: grid cells per axis of the spatial order of the points (32^3 keys fit in 16 bits)
+_GRID_CELLS = 32
+#: from this many points on, the query is taken in spatial order
+_ORDERED_FROM = 4096
 #: point-triangle pairs evaluated at once
 _PAIRS_PER_BLOCK = 1_000_000
 #: held while a part of an index is built on first use
@@ -353,6 +362,9 @@ class SurfaceIndex:
         if is_dask_array(points):
             return self._lazy_distances(points)
         query = as_points(points, element="mesh distance", min_points=1)
+        order = _spatial_order(query)
+        if order is not None:  # nearby points together: the tree and the gathers then hit the cache
+            query = np.take(query, order, axis=0)
         pieces = max(threads, -(-len(query) // _POINTS_PER_BLOCK))
         pieces = min(-(-pieces // threads) * threads, len(query))  # equal shares for the threads
         bounds = np.linspace(0, len(query), pieces + 1).astype(np.int64)
@@ -368,10 +380,13 @@ class SurfaceIndex:
 
             with ThreadPoolExecutor(min(threads, len(blocks))) as pool:  # numpy releases the GIL in its loops
                 parts = list(pool.map(block_distances, blocks))
-        if len(parts) == 1:
-            return parts[0]
-        return SurfaceDistances(*(np.concatenate([getattr(part, name) for part in parts])
-                                  for name in ("closest", "signed_distance", "face_index", "direction")))
+        fields = [np.concatenate([getattr(part, name) for part in parts]) if len(parts) > 1 else getattr(parts[0], name)
+                  for name in ("closest", "signed_distance", "face_index", "direction")]
+        if order is not None:
+            for k, values in enumerate(fields):
+                fields[k] = np.empty_like(values)
+                fields[k][order] = values
+        return SurfaceDistances(*fields)
 
     def _lazy_distances(self, points: Any) -> SurfaceDistances:
         """Block-wise distances of a dask array of points; every field a lazy dask array."""
@@ -421,7 +436,7 @@ class SurfaceIndex:
         lists = self.neighbours
         _, nearest = lists.tree.query(query, k=1, distance_upper_bound=_NEARBY_REACH * float(lists.radius.max()),
                                       workers=threads)
-        nearest = np.asarray(nearest, dtype=np.int64)
+        nearest = nearest[:, 0]
         nearest[nearest >= len(self.triangles)] = -1  # nothing within reach
         return nearest
 
@@ -499,6 +514,22 @@ def _thread_count(workers: int | None) -> int:
     if isinstance(workers, bool) or not isinstance(workers, numbers.Integral) or workers < 1:
         raise InvalidInputError("workers", "a positive integer (threads) or None (every core)", repr(workers))
     return int(workers)
+
+
+def _spatial_order(points: FloatArray) -> IntArray | None:
+    """An order of ``points`` (N, 3) cell by cell of a 32 x 32 x 32 grid over their box; None for few points.
+
+    The order changes no result (every point is answered on its own); it only makes points
+    that share candidates and list entries follow each other in memory.  The cell key fits
+    in 16 bits, for which numpy's stable sort is a radix sort.
+    """
+    if len(points) < _ORDERED_FROM:
+        return None
+    low, high = points.min(axis=0), points.max(axis=0)
+    scale = (_GRID_CELLS - 1e-9) / np.maximum(high - low, 1e-300)
+    cell = ((points - low) * scale).astype(np.int16)
+    key = (cell[:, 0] * _GRID_CELLS + cell[:, 1]) * _GRID_CELLS + cell[:, 2]
+    return np.argsort(key.astype(np.int16), kind="stable").astype(np.int64)
 
 
 def _packed_distances(block: FloatArray, index: SurfaceIndex) -> FloatArray:

@@ -135,11 +135,33 @@ def add_completion_option(parser: argparse.ArgumentParser) -> None:
                         help="print a shell completion script for pcmm (needs the completion extra: shtab)")
 
 
+def _renamed(parser: argparse.ArgumentParser, name: str, alias: str) -> argparse.ArgumentParser:
+    """A copy of a command's parser whose usage, help and errors say ``pcmm ALIAS`` (its actions' too)."""
+    import copy
+
+    renamed = copy.deepcopy(parser)
+    old, new = parser.prog, parser.prog[: len(parser.prog) - len(name)] + alias
+    stack = [renamed]
+    while stack:
+        current = stack.pop()
+        if current.prog == old or current.prog.startswith(old + " "):
+            current.prog = new + current.prog[len(old):]
+        for action in current._actions:
+            if isinstance(action, argparse._SubParsersAction):
+                action._prog_prefix = new + action._prog_prefix[len(old):] if action._prog_prefix.startswith(
+                    old) else action._prog_prefix
+                stack.extend(action.choices.values())
+    return renamed
+
+
 def install_grouped_help(parser: argparse.ArgumentParser, subparsers: argparse._SubParsersAction) -> None:
     """Add the aliases and make ``parser``'s help list the commands by group (:data:`COMMAND_GROUPS`)."""
     for alias, target in ALIASES.items():
         if target in subparsers.choices and alias not in subparsers.choices:
-            subparsers.choices[alias] = subparsers.choices[target]
+            subparsers.choices[alias] = _renamed(subparsers.choices[target], target, alias)
+            # a command of its own for completion (shtab lists the choices that have an entry here)
+            subparsers._choices_actions.append(
+                subparsers._ChoicesPseudoAction(alias, (), ALIAS_HELP.get(alias, "")))  # type: ignore[attr-defined]
     parser.epilog = grouped_help_text(subparsers)
     # set after the sub-parsers took their prog from the default usage
     parser.usage = f"{parser.prog} [-h] [--version] [--print-completion SHELL] COMMAND ..."

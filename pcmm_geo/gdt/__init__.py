@@ -16,7 +16,9 @@ Public API (names load on first use):
 - :class:`FeatureData`, :class:`CharacteristicResult`, :func:`evaluate_position`,
   :func:`evaluate_position_pattern`, :func:`evaluate_orientation`, :func:`evaluate_flatness`, :func:`evaluate_runout`,
   :func:`toleranced_axis`, :func:`size_evaluation`, :func:`apply_uncertainty` (:mod:`~pcmm_geo.gdt.characteristics`);
-  :func:`evaluate_profile` (:mod:`~pcmm_geo.gdt.profile`); :func:`evaluate_coordinate`,
+  :func:`evaluate_profile`, :func:`read_nominal_mesh` (:mod:`~pcmm_geo.gdt.profile`);
+  :func:`propagate_point_uncertainty`, :class:`PropagatedUncertainty` (:mod:`~pcmm_geo.gdt.propagation`: U
+  from the points' ``point_u_mm``); :func:`evaluate_coordinate`,
   :func:`evaluate_distance`, :func:`evaluate_angle`, :func:`feature_location` (:mod:`~pcmm_geo.gdt.dimensions`);
 - :func:`parse_frame`, :class:`FrameSpec` (:mod:`~pcmm_geo.gdt.plan`); :func:`load_plan`,
   :func:`inspect_plan`, :class:`InspectionPlan`, :class:`InspectionResult` (:mod:`~pcmm_geo.gdt.inspection`);
@@ -58,6 +60,9 @@ _LAZY = {
     "size_evaluation": "characteristics",
     "toleranced_axis": "characteristics",
     "evaluate_profile": "profile",
+    "read_nominal_mesh": "profile",
+    "PropagatedUncertainty": "propagation",
+    "propagate_point_uncertainty": "propagation",
     "evaluate_angle": "dimensions",
     "evaluate_coordinate": "dimensions",
     "evaluate_distance": "dimensions",

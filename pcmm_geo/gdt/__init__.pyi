@@ -23,6 +23,9 @@ from .plan import SYMBOLS as SYMBOLS
 from .plan import FrameSpec as FrameSpec
 from .plan import parse_frame as parse_frame
 from .profile import evaluate_profile as evaluate_profile
+from .profile import read_nominal_mesh as read_nominal_mesh
+from .propagation import PropagatedUncertainty as PropagatedUncertainty
+from .propagation import propagate_point_uncertainty as propagate_point_uncertainty
 from .qif.characteristics import AGREES as AGREES
 from .qif.characteristics import DEFAULT_FRACTION as DEFAULT_FRACTION
 from .qif.characteristics import DISAGREES as DISAGREES

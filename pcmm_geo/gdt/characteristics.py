@@ -76,6 +76,12 @@ class FeatureData:
         Lower and upper deviations of the size, mm.
     nominal_points, nominal_normals : ndarray, shape (M, 3), optional
         A ``"surface"`` (profile): the nominal surface's points and outward normals, DRF coordinates.
+    nominal_mesh : SurfaceIndex, optional
+        A ``"surface"`` (profile) given by a closed mesh instead, DRF coordinates
+        (:func:`pcmm_geo.gdt.profile.read_nominal_mesh`).
+    point_u_mm : float or ndarray of shape (N,), optional
+        Standard uncertainty of each point's coordinates (mm, per axis, uncorrelated), when known: the
+        characteristics' U is then propagated from it (:mod:`pcmm_geo.gdt.propagation`).
     """
 
     name: str
@@ -88,6 +94,8 @@ class FeatureData:
     size_tolerance: tuple[float, float] = (0.0, 0.0)
     nominal_points: FloatArray | None = None
     nominal_normals: FloatArray | None = None
+    nominal_mesh: Any = None
+    point_u_mm: float | FloatArray | None = None
 
 
 @dataclass(frozen=True)

@@ -63,9 +63,12 @@ class InspectionPlan:
     characteristics : tuple of PlannedCharacteristic
     lines : dict
         The plan's line index (:func:`pcmm_geo.gdt.plan.locate_lines`).
+    point_u_trials, point_u_seed : int
+        Monte Carlo trials and seed of the U propagated from the features' ``point_u_mm``
+        (:mod:`pcmm_geo.gdt.propagation`).
     datum_options : dict of str to dict
-        Per datum label: ``boundary_diameter`` (a datum at MMB / LMB), ``features`` (a common datum ``A-B``),
-        ``targets`` (datum targets).
+        Per datum label: ``boundary_diameter`` (a datum at MMB / LMB); ``feature`` and ``targets`` (a datum
+        from point targets: its stand-in plane feature and the target names).
     """
 
     path: str
@@ -75,6 +78,8 @@ class InspectionPlan:
     datums: dict[str, tuple[str, str]]
     characteristics: tuple[PlannedCharacteristic, ...]
     lines: dict[tuple[Any, ...], int]
+    point_u_trials: int = 100
+    point_u_seed: int = 0
     datum_options: dict[str, dict[str, Any]] = field(default_factory=dict)
 
 
@@ -122,6 +127,10 @@ def _unit(v: np.ndarray, key: str, fail: Any) -> np.ndarray:
 
 def load_plan(path: str | Path) -> InspectionPlan:
     """Read and check a TOML inspection plan and load its points files (relative to the plan).
+
+    Beyond :mod:`pcmm_geo.gdt.plan`'s keys: a ``surface`` feature's ``nominal_mesh = "FILE"``
+    (:func:`pcmm_geo.gdt.profile.surface_nominal`); ``point_u_mm`` (top level, or a feature's, there also a
+    file of one value per point), ``point_u_trials`` and ``point_u_seed`` (:mod:`pcmm_geo.gdt.propagation`).
 
     Raises
     ------
@@ -177,20 +186,11 @@ def load_plan(path: str | Path) -> InspectionPlan:
             direction = _unit(_vector(table, "normal", fail), "normal", fail)
         elif element == "cylinder":
             direction = _unit(_vector(table, "axis", fail), "axis", fail)
-        surface: dict[str, np.ndarray] = {}
+        surface: dict[str, Any] = {}
         if element == "surface":
-            for key in ("nominal_points", "nominal_normals"):
-                if not isinstance(table.get(key), str):
-                    raise fail(key, f"{key} = \"FILE\" is required for a surface")
-                nominal_file = (path.parent / table[key]).resolve()
-                if not nominal_file.is_file():
-                    raise fail(key, f"{key} file {table[key]!r} not found (looked for {nominal_file})")
-                try:
-                    surface[key] = read_points(nominal_file)
-                except PcmmGeoError as exc:
-                    raise fail(key, f"{key} file {table[key]!r}: {exc}") from None
-            if surface["nominal_points"].shape != surface["nominal_normals"].shape:
-                raise fail("nominal_normals", "nominal_points and nominal_normals differ in length")
+            from pcmm_geo.gdt.profile import surface_nominal
+
+            surface = surface_nominal(table, path.parent, fail)
         diameter = table.get("diameter", float("nan"))
         if not isinstance(diameter, (int, float)) or (diameter == diameter and diameter <= 0):
             raise fail("diameter", f"diameter = {diameter!r}: expected a positive number of mm")
@@ -198,9 +198,12 @@ def load_plan(path: str | Path) -> InspectionPlan:
         if (not isinstance(tol, list) or len(tol) != 2 or not all(isinstance(t, (int, float)) for t in tol)
                 or tol[0] > tol[1]):
             raise fail("size_tolerance", f"size_tolerance = {tol!r}: expected [lower, upper] deviations in mm")
+        from pcmm_geo.gdt.propagation import plan_point_u
+
+        u = plan_point_u(table, doc, path.parent, len(pts), fail if "point_u_mm" in table else
+                         lambda key, reason: error((key,), reason))
         features[name] = FeatureData(name, element, pts, point, direction, side, float(diameter),
-                                     (float(tol[0]), float(tol[1])), surface.get("nominal_points"),
-                                     surface.get("nominal_normals"))
+                                     (float(tol[0]), float(tol[1])), **surface, point_u_mm=u)
     datums: dict[str, tuple[str, str]] = {}
     datum_options: dict[str, dict[str, Any]] = {}
     for label, spec in doc.get("datums", {}).items():
@@ -271,7 +274,14 @@ def load_plan(path: str | Path) -> InspectionPlan:
                 d if m == "RMB" else f"{d}({m[0]})" for d, m in zip(spec.datums, spec.modifiers_of_datums, strict=True))
         planned.append(PlannedCharacteristic(name, entry["feature"], spec, line, None, pattern,
                                              None if u is None else float(u)))
-    return InspectionPlan(where, standard, part_frame, features, datums, tuple(planned), lines, datum_options)
+    monte_carlo = []
+    for key, default, least in (("point_u_trials", 100, 10), ("point_u_seed", 0, 0)):
+        value = doc.get(key, default)
+        if not isinstance(value, int) or isinstance(value, bool) or value < least:
+            raise error((key,), f"{key} = {value!r}: expected an integer >= {least}")
+        monte_carlo.append(value)
+    return InspectionPlan(where, standard, part_frame, features, datums, tuple(planned), lines, *monte_carlo,
+                          datum_options=datum_options)
 
 
 def _evaluate_dimension(planned: PlannedCharacteristic, frames: _Frames) -> CharacteristicResult:
@@ -402,11 +412,11 @@ def _evaluate(planned: PlannedCharacteristic, frames: _Frames) -> Characteristic
     if kind == "profile of a surface":
         if feature.element != "surface":
             raise FileFormatError(plan.path, f"{planned.name}: profile needs a feature of element \"surface\" "
-                                  "(nominal_points, nominal_normals)", planned.line)
+                                  "(nominal_points and nominal_normals, or nominal_mesh)", planned.line)
         from pcmm_geo.gdt.profile import evaluate_profile
 
         return evaluate_profile(feature.points, drf, spec.tolerance_mm, feature.nominal_points,
-                                feature.nominal_normals, name=planned.name)
+                                feature.nominal_normals, nominal_mesh=feature.nominal_mesh, name=planned.name)
     if kind in ("perpendicularity", "parallelism", "angularity"):
         if not spec.datums:
             raise FileFormatError(plan.path, f"{planned.name}: {kind} needs a datum", planned.line)
@@ -502,6 +512,29 @@ def inspect_plan(plan: str | Path | InspectionPlan) -> InspectionResult:
     """
     if not isinstance(plan, InspectionPlan):
         plan = load_plan(plan)
+    results, frames = _evaluate_all(plan)
+    datums: dict[str, DatumAssociation] = {}
+    named: dict[str, DatumReferenceFrame] = {}
+    try:
+        if plan.part_frame:
+            named["|".join(plan.part_frame)] = frames.drf(plan.part_frame)
+            for k in range(1, len(plan.part_frame) + 1):
+                datums[plan.part_frame[k - 1]] = frames.association(plan.part_frame[:k])
+    except PcmmGeoError as exc:
+        raise FileFormatError(plan.path, f"part.frame: {exc}", plan.lines.get(("part", "frame"))) from None
+    for key, drf in frames.frames.items():
+        named.setdefault("|".join(key), drf)
+    ordered = tuple(results[i] for i in range(len(plan.characteristics)))
+    if any(f.point_u_mm is not None for f in plan.features.values()):  # U from the points (opt-in)
+        from pcmm_geo.gdt.propagation import propagate_plan
+
+        ordered = propagate_plan(plan, ordered, lambda trial: _evaluate_all(trial)[0])
+    ordered = tuple(apply_uncertainty(r, p.uncertainty_mm) for r, p in zip(ordered, plan.characteristics, strict=True))
+    return InspectionResult(plan, ordered, datums, named)
+
+
+def _evaluate_all(plan: InspectionPlan) -> tuple[dict[int, CharacteristicResult], _Frames]:
+    """Every characteristic of ``plan`` (by index; no uncertainty applied) and the frames built for them."""
     frames = _Frames(plan)
     results: dict[int, CharacteristicResult] = {}
     groups: dict[str, list[int]] = {}
@@ -518,17 +551,4 @@ def inspect_plan(plan: str | Path | InspectionPlan) -> InspectionResult:
     for pattern, members in groups.items():
         results.update(zip(members, _evaluate_pattern(pattern, [plan.characteristics[i] for i in members], frames),
                            strict=True))
-    datums: dict[str, DatumAssociation] = {}
-    named: dict[str, DatumReferenceFrame] = {}
-    try:
-        if plan.part_frame:
-            named["|".join(plan.part_frame)] = frames.drf(plan.part_frame)
-            for k in range(1, len(plan.part_frame) + 1):
-                datums[plan.part_frame[k - 1]] = frames.association(plan.part_frame[:k])
-    except PcmmGeoError as exc:
-        raise FileFormatError(plan.path, f"part.frame: {exc}", plan.lines.get(("part", "frame"))) from None
-    for key, drf in frames.frames.items():
-        named.setdefault("|".join(key), drf)
-    ordered = tuple(apply_uncertainty(results[i], plan.characteristics[i].uncertainty_mm)
-                    for i in range(len(plan.characteristics)))
-    return InspectionResult(plan, ordered, datums, named)
+    return results, frames

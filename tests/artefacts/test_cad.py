@@ -585,3 +585,31 @@ def test_nearest_centroid_candidates_agree_with_open3d_candidates(offsets: list[
     truth = _brute_force_distances(points, sphere)
     np.testing.assert_allclose(np.abs(found.signed_distance), np.sqrt(squared), rtol=0, atol=1e-12)
     np.testing.assert_allclose(np.abs(found.signed_distance), truth, rtol=0, atol=1e-12)
+
+
+@pytest.mark.parametrize("backend", ["scipy", "default"])
+def test_ordered_queries_on_either_tree_equal_a_search_over_every_triangle(monkeypatch: pytest.MonkeyPatch,
+                                                                         backend: str) -> None:
+    """Enough points for the spatial order (>= 4096), answered in their own order, on scipy's tree and on the
+    default one (pykdtree where installed): every distance that of a search over every triangle."""
+    import trimesh
+
+    from pcmm_geo.artefacts import _triangle
+
+    if backend == "scipy":
+        from scipy.spatial import cKDTree
+
+        monkeypatch.setattr(_triangle, "_new_tree", lambda centroids: _triangle._ScipyTree(cKDTree(centroids)))
+    mesh = _fine_meshes()[1]
+    rng = np.random.default_rng(77)
+    near_surface, _ = trimesh.sample.sample_surface(mesh, 4500, seed=7)
+    points = np.vstack([near_surface + 0.05 * rng.standard_normal((4500, 3)),
+                        rng.uniform(mesh.bounds[0] - 5.0, mesh.bounds[1] + 5.0, (200, 3))])
+    found = SurfaceIndex.build(mesh).distances(points, workers=2)
+    every_eighth = slice(3, None, 8)  # the brute force on a share: each point is answered on its own
+    np.testing.assert_allclose(np.abs(found.signed_distance[every_eighth]),
+                               _brute_force_distances(points[every_eighth], mesh), rtol=0, atol=1e-12)
+    np.testing.assert_allclose(np.linalg.norm(points - found.closest, axis=1), np.abs(found.signed_distance),
+                               rtol=0, atol=1e-12)
+    on_face = trimesh.triangles.closest_point(mesh.triangles[found.face_index], found.closest)
+    np.testing.assert_allclose(on_face, found.closest, rtol=0, atol=1e-12)

@@ -111,8 +111,8 @@ def scope_statement(document: Any, result: Any, characteristics: dict[str, int] 
     return f"{read} Checked: {'; '.join(checked)}. Not checked: {', '.join(not_checked)}."
 
 
-def plot(result: Any, path: str, overwrite: bool) -> str:
-    """Draw :func:`pcmm_geo.plots.cmm_verify.plot_verification` (``--plot``); returns the written path."""
+def plot(result: Any, path: str, overwrite: bool, characteristics: Any = None) -> str:
+    """Draw :func:`pcmm_geo.plots.cmm_verify.plot_verification` (``--plot``): features and characteristics."""
     from pcmm_geo.plots.cmm_verify import plot_verification
 
-    return str(plot_verification(result, path, overwrite=overwrite))
+    return str(plot_verification(result, path, overwrite=overwrite, characteristics=characteristics))

@@ -54,23 +54,32 @@ def register(subparsers: argparse._SubParsersAction) -> None:
 def handle(args: argparse.Namespace) -> Report:
     from pcmm_geo.cli._record import Method, Verdict
     from pcmm_geo.gdt.inspection import inspect_plan
+    from pcmm_geo.uncertainty.conformity import DECISION_RULE_TEXT
 
     result = inspect_plan(args.plan)
     data = result.to_dict()
     rows = []
-    for c in result.characteristics:
+    # U (k = 2), stated or propagated from the points: a column only when some characteristic has one
+    expanded = [c.details.get("expanded_uncertainty_mm", c.details.get("expanded_uncertainty_rad"))
+                for c in result.characteristics]
+    for c, u in zip(result.characteristics, expanded, strict=True):
         if c.details.get("unit") == "rad":  # an angle: degrees at the edge
-            value, tolerance, unit = math.degrees(c.value_mm), math.degrees(c.tolerance_mm), "deg"
+            scale, unit = math.degrees(1.0), "deg"
         elif "limits_mm" in c.details:  # a dimension: millimetres, the tolerance as its limits' width
-            value, tolerance, unit = c.value_mm, c.tolerance_mm, "mm"
+            scale, unit = 1.0, "mm"
         else:
-            value, tolerance, unit = 1000.0 * c.value_mm, 1000.0 * c.tolerance_mm, "µm"
-        rows.append([c.name, c.characteristic, value, tolerance, "-" if c.bonus_mm is None else 1000.0 * c.bonus_mm,
-                     unit, "|".join(d if m == "RMB" else f"{d}({m[0]})" for d, m in zip(
-                         c.datums, c.details.get("datum_modifiers") or ["RMB"] * len(c.datums), strict=True)) or "-",
-                     c.verdict])
-    tables = [Table(f"characteristics of {args.plan} ({result.plan.standard})",
-                    ["name", "characteristic", "value", "tolerance", "bonus", "unit", "datums", "verdict"], rows)]
+            scale, unit = 1000.0, "µm"
+        rows.append([c.name, c.characteristic, scale * c.value_mm, scale * c.tolerance_mm,
+                     "-" if c.bonus_mm is None else 1000.0 * c.bonus_mm, unit, "|".join(
+                         d if m == "RMB" else f"{d}({m[0]})" for d, m in zip(
+                             c.datums, c.details.get("datum_modifiers") or ["RMB"] * len(c.datums), strict=True))
+                     or "-", c.verdict])
+        if any(v is not None for v in expanded):
+            rows[-1].insert(4, "-" if u is None else scale * u)
+    columns = ["name", "characteristic", "value", "tolerance", "bonus", "unit", "datums", "verdict"]
+    if any(v is not None for v in expanded):
+        columns.insert(4, "U (k=2)")
+    tables = [Table(f"characteristics of {args.plan} ({result.plan.standard})", columns, rows)]
     datum_rows = []
     for label, d in result.datums.items():
         cert = d.certificate
@@ -86,9 +95,14 @@ def handle(args: argparse.Namespace) -> Report:
     counts = {v: sum(c.verdict == v for c in result.characteristics) for v in ("PASS", "FAIL", "NOT PROVEN")}
     summary = ", ".join(f"{n} {v}" for v, n in counts.items() if n)
     passed = True if result.passed else (False if counts["FAIL"] else None)
-    verdict = Verdict(passed, f"{len(result.characteristics)} characteristics: {summary or 'none'}", DECISION_RULE,
-                      basis="zones of the points as measured in the DRFs of their datums; the points' measurement "
-                            "uncertainty is not taken into account")
+    with_u = sum(v is not None for v in expanded)
+    verdict = Verdict(passed, f"{len(result.characteristics)} characteristics: {summary or 'none'}", DECISION_RULE
+                      if not with_u else DECISION_RULE.replace("(measurement uncertainty not included)",
+                                                               f"(with U: {DECISION_RULE_TEXT})"),
+                      basis="zones of the points as measured in the DRFs of their datums; " + (
+                          "the points' measurement uncertainty is not taken into account" if not with_u else
+                          f"{with_u} characteristic(s) decided with their U (stated, or propagated from the points' "
+                          "point_u_mm by Monte Carlo re-evaluation)"))
     exit_code = 0 if result.passed else EXIT_FAILURE
     if result.plan.standard == "ASME":
         method = Method("ASME Y14.5-2018, ASME Y14.5.1-2019", "datums (7), tolerances of form, orientation, "

@@ -42,8 +42,9 @@ def register(subparsers: Any) -> None:
                     "least squares; a 3-D circle in the least-squares plane of its points), compensate the probe "
                     "radius, bring points and actuals into the file's common frame and compare diameter, location "
                     "and direction with what the CMM reported. Then recompute every characteristic the file holds "
-                    "the inputs for (sizes, position in the datum reference frame of the datum features' actuals, "
-                    "point profiles, linear coordinates, distances, angles, form from points) and compare it with "
+                    "the inputs for (sizes, position in the datum reference frame of the datum features' actuals, with "
+                    "the datum shift of datums at MMB, point profiles, linear coordinates, distances, angles, form, "
+                    "orientation, runout, coaxiality and profile from points) and compare it with "
                     "the reported value (agrees within --characteristic-fraction of its tolerance, at least 1 µm). "
                     "Exit status 0 when at least one feature or characteristic was compared and none disagrees; 1 "
                     "when a feature or a characteristic disagrees or when nothing could be compared (no feature "
@@ -73,7 +74,8 @@ def register(subparsers: Any) -> None:
     refuse_renamed_options(verify, {"--probe-radius": "--probe-radius-mm"})
     _add_limits(verify)
     _add_qif_output(verify)
-    add_plot_flag(verify, "each compared difference against its agreement tolerance, per feature")
+    add_plot_flag(verify, "each compared difference against its agreement tolerance, per feature, and each "
+                          "recomputed characteristic against its agreement bound")
     add_report_flag(verify)
     add_overwrite_flag(verify)
     add_json_flag(verify)
@@ -85,10 +87,12 @@ def register(subparsers: Any) -> None:
         description="Validate a QIF file against the QIF 3.0 XML schema (ISO 23952; the schema ships with pcmm_geo) "
                     "with lxml. Exit status 0 when the file is valid, 1 when it is not (the first errors are listed "
                     "with their line numbers), 2 when it cannot be read, is not well-formed XML or is refused as "
-                    "hostile (a DTD, entities, nesting deeper than 2048, larger than --max-mb).",
+                    "hostile (a DTD, entities, nesting deeper than 2048, larger than --max-mb, more elements than "
+                    "--max-elements).",
     )
     validate.add_argument("file", help="QIF file")
     add_max_mb_option(validate, "QIF file checked")
+    _add_max_elements(validate)
     validate.add_argument("--errors", type=int, metavar="N", default=10,
                           help="how many schema errors to list (default 10; --json lists all)")
     add_json_flag(validate)
@@ -97,6 +101,7 @@ def register(subparsers: Any) -> None:
 
 def _add_limits(parser: argparse.ArgumentParser) -> None:
     add_max_mb_option(parser, "file read (QIF; DMIS output and CALYPSO tables: default 32 MiB)")
+    _add_max_elements(parser)
     parser.add_argument("--format", choices=("qif", "dmis", "calypso"),
                         help="the file's format (default: told by its content, e.g. a GEOPAK report saved as .txt)")
     text = parser.add_argument_group("files that may not state their units (DMIS output, CALYPSO tables, QIF "
@@ -109,12 +114,37 @@ def _add_limits(parser: argparse.ArgumentParser) -> None:
     text.add_argument("--encoding", default="utf-8", help="text encoding (Windows software: often cp1252)")
 
 
-def _read(args: argparse.Namespace) -> Any:
-    from pcmm_geo.cmm.files import read_cmm_document
+def _add_max_elements(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("--max-elements", metavar="N", default=None,
+                        help="QIF: most XML elements read (default 1000000, some 250 MB of tree; a file with more "
+                             "is refused before it fills the memory)")
 
-    return read_cmm_document(args.file, units=args.units, angle_unit=args.angle_unit, size_values=args.size_values,
-                             encoding=args.encoding, max_bytes=max_bytes(args), spell_setting=cli_setting,
-                             format=args.format)
+
+def _max_elements(args: argparse.Namespace) -> int | None:
+    """``--max-elements`` checked (None: the reader's default)."""
+    from pcmm_geo.errors import InvalidInputError
+
+    text = getattr(args, "max_elements", None)
+    if text is None:
+        return None
+    try:
+        value = int(str(text).strip())
+    except ValueError:
+        value = 0
+    if not 0 < value <= 10**9:
+        raise InvalidInputError("--max-elements", "a positive whole number of XML elements (at most 10^9)", repr(text))
+    return value
+
+
+def _read(args: argparse.Namespace, definitions: bool = False) -> Any:
+    """The file's document and, with ``definitions`` and a QIF file, its characteristic definitions: one parse."""
+    from pcmm_geo.cmm.files import read_cmm_document_and_definitions
+
+    document, read = read_cmm_document_and_definitions(
+        args.file, units=args.units, angle_unit=args.angle_unit, size_values=args.size_values,
+        encoding=args.encoding, max_bytes=max_bytes(args), spell_setting=cli_setting, format=args.format,
+        max_elements=_max_elements(args), definitions=definitions)
+    return (document, read) if definitions else document
 
 
 def _vector(value: Any) -> list[float]:
@@ -291,12 +321,12 @@ def _handle_verify(args: argparse.Namespace) -> Report:
     tolerance = DEFAULT_TOLERANCE_MM if args.tolerance_mm is None else args.tolerance_mm
     if args.probe_radius is not None and not (math.isfinite(args.probe_radius) and args.probe_radius > 0):
         raise InvalidInputError("--probe-radius-mm", "a positive probe radius (mm)", repr(args.probe_radius))
-    document = _read(args)
+    document, definitions = _read(args, definitions=True)
     compensated = None if args.compensated is None else args.compensated == "yes"
     result = verify_document(document, tolerance_mm=tolerance, criterion=args.criterion,
                              circle_plane=args.circle_plane, compensated=compensated, probe_radius=args.probe_radius,
                              material_side=args.material_side, spell_setting=cli_setting)
-    characteristics = _verify_characteristics(args, document, compensated)
+    characteristics = _verify_characteristics(args, document, definitions, compensated)
     rows = []
     for check in result.features:
         compensation = check.compensation
@@ -351,7 +381,7 @@ def _handle_verify(args: argparse.Namespace) -> Report:
     verdict = Verdict(verdict.passed, verdict.statement, verdict.decision_rule, basis=verdict.basis,
                       conformity_text=second_opinion.AGREEMENT)
     scope = second_opinion.scope_statement(document, result, counts)
-    plots = [second_opinion.plot(result, args.plot, args.overwrite)] if args.plot else []
+    plots = [second_opinion.plot(result, args.plot, args.overwrite, characteristics)] if args.plot else []
     tables = [t for t in (table, _characteristic_table(characteristics)) if t.rows]
     return Report(data=data, tables=tables, lines=[*lines, scope] if agrees is None else lines,
                   exit_code=0 if agrees is True else EXIT_FAILURE, verdict=verdict, plots=plots,
@@ -360,21 +390,18 @@ def _handle_verify(args: argparse.Namespace) -> Report:
                   environment=[second_opinion.NO_TEMPERATURE])
 
 
-def _verify_characteristics(args: argparse.Namespace, document: Any, compensated: bool | None) -> Any:
-    """Second opinion on the characteristics (:func:`pcmm_geo.gdt.qif.characteristics.verify_characteristics`)."""
+def _verify_characteristics(args: argparse.Namespace, document: Any, definitions: Any,
+                            compensated: bool | None) -> Any:
+    """Second opinion on the characteristics (:func:`pcmm_geo.gdt.qif.characteristics.verify_characteristics`).
+
+    ``definitions`` come from the same parse as ``document`` (None: not a QIF file).
+    """
     from pcmm_geo.errors import InvalidInputError
     from pcmm_geo.gdt.qif.characteristics import DEFAULT_FRACTION, verify_characteristics
 
     fraction = DEFAULT_FRACTION if args.characteristic_fraction is None else args.characteristic_fraction
     if not 0.0 < fraction <= 1.0:  # also refuses nan
         raise InvalidInputError("--characteristic-fraction", "a fraction of the tolerance in (0, 1]", repr(fraction))
-    definitions = None
-    if document.format == "qif":
-        from pcmm_geo.io.cmm import DEFAULT_MAX_BYTES
-        from pcmm_geo.io.cmm.qif.characteristic_definitions import read_qif_definitions
-
-        definitions = read_qif_definitions(args.file, max_bytes=max_bytes(args) or DEFAULT_MAX_BYTES,
-                                           spell_setting=cli_setting)
     return verify_characteristics(document, definitions, fraction=fraction, compensated=compensated,
                                   probe_radius=args.probe_radius)
 
@@ -397,9 +424,11 @@ def _handle_validate(args: argparse.Namespace) -> Report:
         raise InvalidInputError("--errors", "a positive number of errors to list", repr(args.errors))
     limit = max_bytes(args)
     namespace = "{" + QIF3_NAMESPACE + "}"  # element names are all in it: shown without it
+    elements = _max_elements(args)
+    bounds = {} if elements is None else {"max_elements": elements}
     errors = tuple(error.replace(namespace, "") for error in
                    validate_qif(args.file, max_bytes=DEFAULT_MAX_BYTES if limit is None else limit,
-                                spell_setting=cli_setting))
+                                spell_setting=cli_setting, **bounds))
     listed = []
     for error in errors:
         match = re.match(r"line (\d+): (.*)", error, re.DOTALL)

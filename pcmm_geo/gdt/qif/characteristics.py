@@ -28,7 +28,13 @@ Definitions (mm and rad; ISO 1101 / ASME Y14.5 where a zone is involved):
   ``pi - theta`` nearer the nominal);
 - form (flatness, circularity, cylindricity, straightness, sphericity): the actual's ``Form``
   where the file reports one; else, with points, the range of the compensated points about the
-  refit (:func:`pcmm_geo.cmm.refit.refit_feature`) by minimum zone and by the file's criterion.
+  refit (:func:`pcmm_geo.cmm.refit.refit_feature`) by minimum zone and by the file's criterion;
+- perpendicularity, parallelism, angularity to one datum or to datums that fix every rotation
+  (:mod:`pcmm_geo.gdt.qif.orientation`); concentricity and coaxiality (ISO 1101's
+  definition), circular and total runout, surface and line profile of plane, cylinder, circle
+  and sphere nominals to datums (:mod:`pcmm_geo.gdt.qif.axial`);
+- a position to datums at MMB / LMB: with the datums fixed at their actual features, the datum
+  shift bounding how far it may come down (:mod:`pcmm_geo.gdt.qif.shift`).
 
 Agreement rule: ``|reported - recomputed| <= max(floor, fraction * tolerance width)`` with the
 tolerance width the zone (``ToleranceValue``) or the limits' span, ``fraction`` 1 % by default
@@ -48,6 +54,7 @@ from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any
 
 from pcmm_geo.errors import InvalidInputError, PcmmGeoError
+from pcmm_geo.gdt.qif.axial import coaxiality, profile, runout
 from pcmm_geo.gdt.qif.measures import Recomputation, recompute
 from pcmm_geo.gdt.qif.orientation import orientation
 
@@ -64,6 +71,10 @@ DEFAULT_FRACTION = 0.01
 #: default smallest bound (mm; rad for angles)
 DEFAULT_FLOOR_MM = 1e-3
 DEFAULT_FLOOR_RAD = 1e-6
+#: the characteristic types recomputed beyond sizes, positions, point profiles, coordinates, distances, angles, form
+HANDLERS = {"perpendicularity": orientation, "parallelism": orientation, "angularity": orientation,
+            "concentricity": coaxiality, "coaxiality": coaxiality, "circular_runout": runout,
+            "total_runout": runout, "surface_profile": profile, "line_profile": profile}
 
 
 @dataclass(frozen=True)
@@ -238,7 +249,7 @@ def verify_characteristics(
         try:
             result = recompute(document, definitions, characteristic, features, use_points=use_points,
                                options={"compensated": compensated, "probe_radius": probe_radius},
-                               handlers={"perpendicularity": orientation, "parallelism": orientation})
+                               handlers=HANDLERS)
         except PcmmGeoError as exc:  # a frame or refit that fails: that characteristic only
             result = Recomputation(None, "could not be recomputed: " + " ".join(str(exc).split()))
         checks.append(_judge(characteristic, result, bound, repeats))
@@ -266,6 +277,15 @@ def _judge(characteristic: Characteristic, result: Recomputation, bound: float,
     difference = abs(reported - result.value)
     if difference <= bound:
         return CharacteristicCheck(**base, recomputed=result.value, status=AGREES, reason=result.reason)
+    if result.accepted_range is not None and \
+            result.accepted_range[0] - bound <= reported <= result.accepted_range[1] + bound:
+        low, high = result.accepted_range
+        return CharacteristicCheck(**base, recomputed=result.value, status=AGREES,
+                                   reason=f"{result.reason}; the reported value lies in [{low:.6g}, {high:.6g}], "
+                                          "the values the datum shift allows")
+    if result.below is not None and reported < result.value:
+        return CharacteristicCheck(**base, recomputed=result.value, status=NOT_COMPUTABLE,
+                                   reason=f"{result.reason}; the reported value is below it, which {result.below}")
     alternatives = [(name, accepted) for name, value, accepted in result.alternatives
                     if abs(reported - value) <= bound]
     if alternatives:

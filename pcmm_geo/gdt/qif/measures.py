@@ -15,7 +15,15 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from pcmm_geo.gdt.qif.frames import AXIS_TYPES, PLANE_TYPES, POINT_TYPES, DatumFeatureGeometry, FrameMap, frame_map
+from pcmm_geo.gdt.qif.frames import (
+    AXIS_TYPES,
+    PLANE_TYPES,
+    POINT_TYPES,
+    DatumFeatureGeometry,
+    FrameMap,
+    datum_frame,
+    frame_map,
+)
 
 if TYPE_CHECKING:
     from pcmm_geo.io.cmm import Characteristic, CmmDocument, FeatureGeometry, MeasuredFeature
@@ -41,12 +49,16 @@ class Recomputation:
 
     ``alternatives``: ``(description, value, accepted)``; a reported value matching an accepted
     one agrees (another standard definition), an unaccepted one still disagrees (the reason names it).
+    ``accepted_range``: ``(low, high)``, every value between which is right (a datum shift's range);
+    ``below``: why a reported value below ``value`` cannot be judged (an unbounded datum shift).
     """
 
     value: float | None
     reason: str
     source: str | None = None
     alternatives: tuple[tuple[str, float, bool], ...] = ()
+    accepted_range: tuple[float, float] | None = None
+    below: str | None = None
 
 
 class NotComputable(Exception):
@@ -91,12 +103,15 @@ def _datum_feature(document: CmmDocument, definitions: QifDefinitions, definitio
     return found[0], f"{datum.label} (the feature named {found[0].name}: the file links none)"
 
 
-def datum_substitutes(document: CmmDocument, definitions: QifDefinitions | None, characteristic: Characteristic
+def datum_substitutes(document: CmmDocument, definitions: QifDefinitions | None, characteristic: Characteristic,
+                      shifts: list[Any] | None = None,
                       ) -> tuple[list[DatumFeatureGeometry], list[DatumFeatureGeometry], list[str], str]:
     """Nominal and actual substitutes of the datums of the characteristic's frame, their labels, and the frame's words.
 
     Empty lists: no frame or an empty one (the file's coordinates).  Raises ``NotComputable``
-    with the reason when a datum cannot be placed.
+    with the reason when a datum cannot be placed.  A datum at MMB / LMB is refused, unless
+    ``shifts`` is a list: then it is fixed at its actual feature and its
+    :class:`~pcmm_geo.gdt.qif.shift.DatumShift` is appended to ``shifts``.
     """
     if definitions is None:
         return [], [], [], f"in the file's coordinates ({document.format} datum reference frames are not read)"
@@ -107,13 +122,13 @@ def datum_substitutes(document: CmmDocument, definitions: QifDefinitions | None,
     if frame is None or not frame.datums:
         return [], [], [], "in the file's coordinates (an empty datum reference frame)"
     nominal, actual, labels = [], [], []
-    for datum in frame.datums:
+    for index, datum in enumerate(frame.datums):
         if datum.kind == "compound":
             raise NotComputable("a compound datum (common datum) is not evaluated")
         modifiers = [m for m in datum.material_modifiers if m not in ("NONE", "REGARDLESS")]
-        if modifiers:
+        if modifiers and shifts is None:
             raise NotComputable(f"a datum at {modifiers[0]} material boundary (datum feature shift) is not "
-                                 "evaluated")
+                                 f"evaluated for a {characteristic.type.replace('_', ' ')}")
         if datum.kind == "simple":
             feature, label = _datum_feature(document, definitions, datum.datum_definition_ids[0],  # type: ignore[arg-type]
                                             characteristic.results_id)
@@ -129,16 +144,24 @@ def datum_substitutes(document: CmmDocument, definitions: QifDefinitions | None,
         nominal.append(_substitute(feature.type, nominal_feature.geometry, label, "nominal"))
         actual.append(_substitute(feature.type, feature.actual, label, "actual"))
         labels.append(label)
+        if modifiers and shifts is not None:
+            from pcmm_geo.gdt.qif.shift import ShiftNotBounded, boundary_shift
+
+            try:
+                shifts.append(boundary_shift(document, feature, modifiers[0], label.split(" ")[0], index))
+            except ShiftNotBounded as exc:
+                raise NotComputable(str(exc)) from None
     return nominal, actual, labels, f"in the frame {' | '.join(labels)} built from the datum features' actuals"
 
 
 def alignment(document: CmmDocument, definitions: QifDefinitions | None,
-              characteristic: Characteristic) -> tuple[FrameMap | None, str]:
+              characteristic: Characteristic, shifts: list[Any] | None = None) -> tuple[FrameMap | None, str]:
     """The measured-to-part map of the characteristic's datum reference frame (None: the file's coordinates).
 
-    Raises ``NotComputable`` with the reason when the frame cannot be built.
+    Raises ``NotComputable`` with the reason when the frame cannot be built; ``shifts`` as for
+    :func:`datum_substitutes`.
     """
-    nominal, actual, _, words = datum_substitutes(document, definitions, characteristic)
+    nominal, actual, _, words = datum_substitutes(document, definitions, characteristic, shifts)
     return (frame_map(nominal, actual) if nominal else None), words
 
 
@@ -186,7 +209,9 @@ def _position(document: CmmDocument, definitions: QifDefinitions | None, charact
     nominal = _nominal_geometry(document, feature)
     if feature.actual.location is None or nominal.location is None:
         raise NotComputable(f"feature {feature.name or feature.id} has no actual or nominal location")
-    frame, where = alignment(document, definitions, characteristic)
+    shifts: list[Any] = []
+    substitutes, actual_substitutes, _, where = datum_substitutes(document, definitions, characteristic, shifts)
+    frame = frame_map(substitutes, actual_substitutes) if substitutes else None
     definition = None if definitions is None else definitions.definition_of(characteristic.definition_id)
     zone = characteristic.zone_shape or (None if definition is None else definition.zone_shape)
 
@@ -219,7 +244,23 @@ def _position(document: CmmDocument, definitions: QifDefinitions | None, charact
         how += f"; {_bonus(document, characteristic, feature, condition)}"
     if frame is not None:
         alternatives.append((_RAW, value(feature.actual.location - nominal.location), False))
+    if shifts and frame is not None:
+        from pcmm_geo.gdt.qif.shift import ShiftNotBounded, position_reduction
+
+        try:
+            reduction, bounded = position_reduction(
+                shifts, [len(datum_frame(actual_substitutes[:shift.precedence]).free_translations) > 0
+                         for shift in shifts], frame.actual.origin,
+                frame.actual.rotation[:, 2] if frame.actual.z_defined else None, feature.actual.location)
+        except ShiftNotBounded as exc:
+            how += f"; with the datums fixed at their actual features ({'; '.join(s.words for s in shifts)})"
+            return Recomputation(recomputed, how, source, tuple(alternatives), below=str(exc))
+        how += (f"; with the datums fixed at their actual features ({'; '.join(s.words for s in shifts)}: the "
+                f"shift may lower the value by at most {bounded})")
+        return Recomputation(recomputed, how, source, tuple(alternatives),
+                             accepted_range=(max(0.0, recomputed - reduction), recomputed))
     return Recomputation(recomputed, how, source, tuple(alternatives))
+
 
 
 def _bonus(document: CmmDocument, characteristic: Characteristic, feature: MeasuredFeature, condition: str) -> str:

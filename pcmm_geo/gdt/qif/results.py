@@ -31,6 +31,9 @@ plain records of :mod:`pcmm_geo.io.cmm` (``io`` does not know ``gdt``) and write
   their nominal and limits.  Profile of a surface (its feature has no QIF feature type the writer
   writes) and a coordinate or distance in another frame are reported as not written, by name.
 
+A characteristic with an expanded uncertainty U (stated ``uncertainty_mm``, or propagated from the points'
+``point_u_mm``) has its measured value's ``combinedUncertainty`` written as U / 2 (a standard uncertainty).
+
 Status: ``PASS`` and ``FAIL`` as the verdict; ``NOT PROVEN`` is written as QIF
 ``INDETERMINATE`` (the ``CharacteristicStatusEnum`` value for "the measurement does not decide";
 ``NOT_ANALYZED`` would claim it was not evaluated).
@@ -190,7 +193,13 @@ def _dimension(outcome: CharacteristicResult, dimension: dict[str, Any], kind: s
     return Characteristic(id=0, type=kind, name=outcome.name, value=outcome.value_mm,
                           nominal=scale * float(dimension["nominal"]),
                           tolerance=Tolerance(max_value=high, min_value=low), status=STATUS_OF_VERDICT[ok],
-                          quantity="angular" if kind == "angle_between" else "linear")
+                          quantity="angular" if kind == "angle_between" else "linear", uncertainty=_standard_u(outcome))
+
+
+def _standard_u(outcome: CharacteristicResult) -> float | None:
+    """QIF ``combinedUncertainty`` (a combined standard uncertainty): U / 2 of the stated or propagated U (k = 2)."""
+    expanded = outcome.details.get("expanded_uncertainty_mm", outcome.details.get("expanded_uncertainty_rad"))
+    return None if expanded is None else float(expanded) / 2.0
 
 
 def _link_second_features(document: CmmDocument, result: InspectionResult,
@@ -314,7 +323,7 @@ def inspection_to_qif(result: InspectionResult, path: str | Path, *, overwrite: 
             characteristics.append(Characteristic(
                 id=0, type=kind, name=outcome.name, value=outcome.value_mm,
                 tolerance=Tolerance(value=outcome.tolerance_mm),
-                status=STATUS_OF_VERDICT[outcome.verdict], zone_shape=zone))
+                status=STATUS_OF_VERDICT[outcome.verdict], zone_shape=zone, uncertainty=_standard_u(outcome)))
         reports.append(FeatureReport(
             type=_FEATURE_TYPES[feature.element], name=name, actual=actual["actual"], nominal=nominal,
             internal_external=("INTERNAL" if feature.side == "internal" else "EXTERNAL") if sized else None,

@@ -228,8 +228,9 @@ class _Target:
     """Parser target building :class:`Node` objects, streaming marked number lists."""
 
     def __init__(self, path: str, max_depth: int, stream_rule: StreamRule,
-                 max_elements: int = DEFAULT_MAX_ELEMENTS) -> None:
+                 max_elements: int = DEFAULT_MAX_ELEMENTS, elements_setting: str = "max_elements") -> None:
         self.path = path
+        self.elements_setting = elements_setting
         self.max_depth = max_depth
         self.max_elements = max_elements
         self.elements = 0
@@ -247,8 +248,8 @@ class _Target:
         self.elements += 1
         if self.elements > self.max_elements:
             raise UnsafeXmlError(self.path, f"more than {self.max_elements} elements (the tree would need some "
-                                 f"{self.max_elements * 250 >> 20} MiB); refused (the limit is the readers' "
-                                 "max_elements)", self.line(), limit=self.max_elements)
+                                 f"{self.max_elements * 250 >> 20} MiB); refused (raise {self.elements_setting} for "
+                                 "larger files)", self.line(), limit=self.max_elements)
         self.depth += 1
         if self.depth > self.max_depth:
             raise UnsafeXmlError(self.path, f"elements nested deeper than {self.max_depth}", self.line(),
@@ -336,7 +337,7 @@ def parse_xml(path: str | Path, *, max_bytes: int = DEFAULT_MAX_BYTES, max_depth
         ``rule(node) -> NumberList | None``, called at each element's start: a :class:`NumberList`
         makes that element's text a streamed number list.
     spell_setting : callable
-        How the size refusal names ``max_bytes`` (:mod:`pcmm_geo.io.cmm.settings`).
+        How the refusals name ``max_bytes`` and ``max_elements`` (:mod:`pcmm_geo.io.cmm.settings`).
 
     Returns
     -------
@@ -363,7 +364,7 @@ def parse_xml(path: str | Path, *, max_bytes: int = DEFAULT_MAX_BYTES, max_depth
                 yield chunk
 
     return parse_xml_chunks(name, chunks(), max_bytes=max_bytes, max_depth=max_depth, stream_rule=stream_rule,
-                            max_elements=max_elements)
+                            max_elements=max_elements, spell_setting=spell_setting)
 
 
 def open_xml(path: str | Path, max_bytes: int, spell_setting: SpellSetting = python_setting) -> BinaryIO:
@@ -391,7 +392,8 @@ def open_xml(path: str | Path, max_bytes: int, spell_setting: SpellSetting = pyt
 
 def parse_xml_chunks(name: str, chunks: Iterable[bytes], *, max_bytes: int = DEFAULT_MAX_BYTES,
                      max_depth: int = DEFAULT_MAX_DEPTH, stream_rule: StreamRule = lambda node: None,
-                     max_elements: int = DEFAULT_MAX_ELEMENTS) -> tuple[Node, str | None]:
+                     max_elements: int = DEFAULT_MAX_ELEMENTS, spell_setting: SpellSetting = python_setting,
+                     ) -> tuple[Node, str | None]:
     """Parse untrusted XML arriving as byte chunks (e.g. the XML section of an E57 file) as :func:`parse_xml` does.
 
     ``name`` is the file named in errors; ``chunks`` are read one by one, never joined, and
@@ -412,7 +414,7 @@ def parse_xml_chunks(name: str, chunks: Iterable[bytes], *, max_bytes: int = DEF
     """
     defused = require("defusedxml.ElementTree", purpose="reading XML files from CMMs and scanners")
     defused_common = require("defusedxml.common", purpose="reading XML files from CMMs and scanners")
-    target = _Target(name, max_depth, stream_rule, max_elements)
+    target = _Target(name, max_depth, stream_rule, max_elements, spell_setting("max_elements"))
     parser = defused.DefusedXMLParser(target=target, forbid_dtd=True, forbid_entities=True, forbid_external=True)
     target.expat = parser.parser
     parser.parser.buffer_size = _READ_CHUNK

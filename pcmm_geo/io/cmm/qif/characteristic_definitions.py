@@ -23,6 +23,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -44,8 +45,11 @@ from pcmm_geo.io.cmm.qif.datums import (
 )
 from pcmm_geo.io.cmm.settings import SpellSetting, python_setting
 
+if TYPE_CHECKING:
+    from pcmm_geo.io.cmm.document import CmmDocument
+
 __all__ = ["CharacteristicDefinition", "CharacteristicItem", "CharacteristicNominal", "QifDefinitions",
-           "read_qif_definitions"]
+           "read_qif_definitions", "read_qif_with_definitions"]
 
 
 @dataclass(frozen=True)
@@ -242,8 +246,37 @@ def read_qif_definitions(
         raise context.error(exc.second, str(exc)) from None
 
 
-def _read_definitions(context: QifContext, root: Node) -> QifDefinitions:
-    context.read_units(root)
+def read_qif_with_definitions(
+    path: str | Path, *, max_bytes: int = DEFAULT_MAX_BYTES, max_depth: int = DEFAULT_MAX_DEPTH,
+    max_elements: int = DEFAULT_MAX_ELEMENTS, units: str | None = None, angle_unit: str | None = None,
+    spell_setting: SpellSetting = python_setting,
+) -> tuple[CmmDocument, QifDefinitions]:
+    """:func:`~pcmm_geo.io.cmm.read_qif` and :func:`read_qif_definitions` from one bounded parse of the file.
+
+    Parameters and errors as :func:`~pcmm_geo.io.cmm.read_qif` (``units`` / ``angle_unit`` for a
+    file without ``FileUnits`` apply to both: the definitions' tolerances are converted alike).
+
+    Returns
+    -------
+    (CmmDocument, QifDefinitions)
+        ``definitions.problems`` holds only what reading the definitions added.
+    """
+    from pcmm_geo.io.cmm.qif.reader import _read_document, check_units, parse_qif_tree
+
+    check_units(units, angle_unit, spell_setting)
+    context, root, namespace = parse_qif_tree(path, max_bytes=max_bytes, max_depth=max_depth,
+                                              max_elements=max_elements, spell_setting=spell_setting)
+    try:
+        document = _read_document(context, root, namespace, units, angle_unit)
+        return document, _read_definitions(context, root, units_read=True)
+    except DuplicateElementError as exc:
+        raise context.error(exc.second, str(exc)) from None
+
+
+def _read_definitions(context: QifContext, root: Node, *, units_read: bool = False) -> QifDefinitions:
+    first_problem = len(context.problems)
+    if not units_read:
+        context.read_units(root)
     characteristics = root.child("Characteristics")
 
     def group(tag: str) -> Node | None:
@@ -254,4 +287,5 @@ def _read_definitions(context: QifContext, root: Node) -> QifDefinitions:
         characteristic_nominals=_nominals(context, group("CharacteristicNominals")),
         characteristic_items=_items(context, group("CharacteristicItems")),
         datum_definitions=read_datum_definitions(context, root),
-        datum_reference_frames=read_datum_reference_frames(context, root), problems=tuple(context.problems))
+        datum_reference_frames=read_datum_reference_frames(context, root),
+        problems=tuple(context.problems[first_problem:]))

@@ -136,15 +136,20 @@ def read_qif(
     MissingDependencyError
         defusedxml is not installed (``pip install 'pcmm_geo[qif]'``).
     """
-    for value, allowed, what in ((units, QIF_LENGTH_UNITS, "units"), (angle_unit, QIF_ANGLE_UNITS, "angle_unit")):
-        if value is not None and value not in allowed:
-            raise InvalidInputError(spell_setting(what), f"one of {', '.join(allowed)}", repr(value))
+    check_units(units, angle_unit, spell_setting)
     context, root, namespace = parse_qif_tree(path, max_bytes=max_bytes, max_depth=max_depth,
                                               max_elements=max_elements, spell_setting=spell_setting)
     try:
         return _read_document(context, root, namespace, units, angle_unit)
     except DuplicateElementError as exc:
         raise context.error(exc.second, str(exc)) from None
+
+
+def check_units(units: str | None, angle_unit: str | None, spell_setting: SpellSetting) -> None:
+    """Refuse a ``units`` / ``angle_unit`` QIF does not know (:class:`~pcmm_geo.errors.InvalidInputError`)."""
+    for value, allowed, what in ((units, QIF_LENGTH_UNITS, "units"), (angle_unit, QIF_ANGLE_UNITS, "angle_unit")):
+        if value is not None and value not in allowed:
+            raise InvalidInputError(spell_setting(what), f"one of {', '.join(allowed)}", repr(value))
 
 
 def parse_qif_tree(path: str | Path, *, max_bytes: int, max_depth: int, max_elements: int,

@@ -22,7 +22,7 @@ from typing import Any, BinaryIO
 
 from pcmm_geo._optional import require
 from pcmm_geo.errors import FileFormatError, InvalidInputError, UnsafeXmlError
-from pcmm_geo.io.cmm.qif._xml import DEFAULT_MAX_BYTES, open_xml
+from pcmm_geo.io.cmm.qif._xml import DEFAULT_MAX_BYTES, DEFAULT_MAX_ELEMENTS, open_xml
 from pcmm_geo.io.cmm.settings import SpellSetting, python_setting
 
 __all__ = ["bundled_schema_dir", "validate_qif"]
@@ -61,7 +61,8 @@ def _schema(entry: str) -> Any:
 
 
 def validate_qif(path: str | Path, schema_dir: str | Path | None = None, *,
-                 max_bytes: int = DEFAULT_MAX_BYTES, spell_setting: SpellSetting = python_setting) -> tuple[str, ...]:
+                 max_bytes: int = DEFAULT_MAX_BYTES, spell_setting: SpellSetting = python_setting,
+                 max_elements: int = DEFAULT_MAX_ELEMENTS) -> tuple[str, ...]:
     """Schema errors of a QIF file (empty when it is valid QIF 3.0).
 
     Parameters
@@ -73,6 +74,8 @@ def validate_qif(path: str | Path, schema_dir: str | Path | None = None, *,
         with pcmm_geo (:func:`bundled_schema_dir`).
     max_bytes : int
         Largest file accepted.
+    max_elements : int
+        Most elements accepted (counted by the screening pass before libxml2 builds its tree).
     spell_setting : callable
         How a size refusal names ``max_bytes`` (:mod:`pcmm_geo.io.cmm.settings`).
 
@@ -110,7 +113,7 @@ def validate_qif(path: str | Path, schema_dir: str | Path | None = None, *,
     # the bytes are read here from a regular file and handed over as a stream: neither the screen
     # (xml.sax) nor libxml2 ever sees a path, which they could take for a URL and fetch
     with open_xml(path, max_bytes, spell_setting) as stream:
-        _screen(name, stream)
+        _screen(name, stream, max_elements, spell_setting("max_elements"))
         stream.seek(0)
         parser = etree.XMLParser(resolve_entities=False, no_network=True, load_dtd=False, huge_tree=True)
         try:
@@ -127,12 +130,13 @@ def validate_qif(path: str | Path, schema_dir: str | Path | None = None, *,
     return tuple(f"line {error.line}: {error.message}" for error in schema.error_log)
 
 
-def _screen(name: str, stream: BinaryIO) -> None:
+def _screen(name: str, stream: BinaryIO, max_elements: int = DEFAULT_MAX_ELEMENTS,
+            elements_setting: str = "max_elements") -> None:
     """Read the file once with defusedxml's expat parser before libxml2 sees it.
 
     A document type declaration (so any entity or external reference), nesting deeper than
-    libxml2 accepts, or XML that is not well formed is refused here with its line; the element
-    events are counted, nothing is kept.
+    libxml2 accepts, more than ``max_elements`` elements, or XML that is not well formed is refused
+    here with its line; the element events are counted, nothing is kept.
     """
     expatreader = require("defusedxml.expatreader", purpose="reading untrusted QIF files safely")
     defused = require("defusedxml", purpose="reading untrusted QIF files safely")
@@ -144,9 +148,14 @@ def _screen(name: str, stream: BinaryIO) -> None:
 
     class Depth(ContentHandler):
         level = 0
+        elements = 0
 
         def startElementNS(self, element: object, qualified: object, attributes: object) -> None:
             self.level += 1
+            self.elements += 1
+            if self.elements > max_elements:
+                raise UnsafeXmlError(name, f"more than {max_elements} elements; refused (raise {elements_setting} "
+                                     "for larger files)", line=parser.getLineNumber(), limit=max_elements)
             if self.level > _LIBXML2_MAX_DEPTH:
                 raise UnsafeXmlError(name, f"elements nested deeper than {_LIBXML2_MAX_DEPTH}; refused",
                                      line=parser.getLineNumber(), limit=_LIBXML2_MAX_DEPTH)
