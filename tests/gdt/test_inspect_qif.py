@@ -381,6 +381,14 @@ def test_datum_modifiers_are_written_and_common_datums_listed_by_name(maker, tmp
     assert export.frames == ("A|D(M)|E", "A|D|E") and export.not_written == ()
     xml = (tmp_path / "out.qif").read_text(encoding="utf-8")
     assert xml.count("<MaterialModifier>MAXIMUM</MaterialModifier>") == 1
+    # the second opinion (independent: the datums fixed at their actuals, the shift as an interval) agrees,
+    # and the best over the mobility is its interval's lower end here (the whole clearance along the deviation)
+    from pcmm_geo.gdt.qif.characteristics import verify_characteristics
+    from pcmm_geo.io.cmm import read_qif
+
+    checks = {c.name: c for c in verify_characteristics(read_qif(tmp_path / "out.qif")).checks}
+    assert checks["pos H1 0"].status == "agrees" and checks["pos H1 1"].status == "agrees"
+    assert "[0.0294427, 0.0894427]" in checks["pos H1 0"].reason
     # characteristics to a common datum: listed by name with the reason, the file still valid
     common = tmp_path / "common"
     common.mkdir()
