@@ -24,7 +24,7 @@ from pcmm_geo.gdt.characteristics import (
     evaluate_runout,
 )
 from pcmm_geo.gdt.plan import FrameSpec, dimension_entry, parse_frame, read_plan_text
-from pcmm_geo.gdt.reference.datums import DATUM_CRITERIA, DatumAssociation, associate_datum, default_criterion
+from pcmm_geo.gdt.reference.datums import DATUM_CRITERIA, DatumAssociation, default_criterion
 from pcmm_geo.gdt.reference.drf import build_drf, nominal_of
 from pcmm_geo.gdt.reference.frame import DatumReferenceFrame
 
@@ -313,46 +313,10 @@ class _Frames:
         """The last datum of ``sequence`` associated under the constraints of those before it."""
         if sequence in self.assoc:
             return self.assoc[sequence]
-        label = sequence[-1]
-        criterion = self.plan.datums[label.split("-")[0]][1]
-        feature = self.datum_feature(label)
+        from pcmm_geo.gdt.reference.common import associate_in_sequence
+
         before = [self.association(sequence[:k]) for k in range(1, len(sequence))]
-        inward = -feature.direction if feature.element == "plane" else feature.direction
-        perpendicular, parallel, angle = [], None, None
-        names = []
-        for prior in before:
-            if prior.element not in ("plane", "cylinder"):
-                continue
-            nominal = self._nominal_direction(prior.label)
-            cos = abs(float(nominal @ inward)) if feature.element in ("plane", "cylinder") else 1.0
-            if feature.element == "plane" and cos < 1e-9:
-                perpendicular.append(prior.direction)
-                names.append(f"perpendicular to {prior.label}")
-            elif feature.element == "plane" and prior.element == "cylinder" and cos > 1 - 1e-9:
-                # a face perpendicular to a datum axis (a shoulder): its normal is the axis
-                u, _, _ = np.linalg.svd(np.eye(3) - np.outer(prior.direction, prior.direction))
-                perpendicular += [u[:, 0], u[:, 1]]
-                names.append(f"perpendicular to the axis {prior.label}")
-            elif feature.element == "cylinder" and cos > 1 - 1e-9 and parallel is None:
-                parallel = prior.direction
-                names.append(f"parallel to {prior.label}")
-            elif feature.element == "plane" and prior.element == "plane" and cos < 1 - 1e-9 and angle is None:
-                # a plane at another angle: its normal keeps the nominal angle to the higher datum's
-                angle = (prior.direction, float(nominal @ inward))
-                names.append(f"at {np.degrees(np.arccos(float(nominal @ inward))):.6g} deg to {prior.label}")
-        if angle is not None and (perpendicular or len(names) > 1):
-            # two higher directions fix the normal: the nominal carried by their measured frame
-            from pcmm_geo.gdt.reference.constrained import fixed_normal
-
-            nominals = [self._nominal_direction(b.label) for b in before]
-            angle, perpendicular = None, fixed_normal(before, nominals, inward)
-        from pcmm_geo.gdt.reference.common import associate_special
-
-        assoc = associate_special(self, label, feature, inward, perpendicular, parallel, tuple(names)) or \
-            associate_datum(feature.points, feature.element, label=label, criterion=criterion, side=feature.side,
-                                nominal_direction=inward if feature.element in ("plane", "cylinder") else None,
-                                perpendicular_to=tuple(perpendicular), parallel_to=parallel,
-                                constraint_names=tuple(names), angle_to=angle)
+        assoc = associate_in_sequence(self, sequence[-1], before)  # type: ignore[assignment]
         self.assoc[sequence] = assoc
         return assoc
 

@@ -22,13 +22,15 @@ its points is the contact).
 
 from __future__ import annotations
 
+from typing import Any
+
 import numpy as np
 from numpy.typing import NDArray
 
 from pcmm_geo.errors import InvalidInputError
 
-__all__ = ["associate_common_axis", "associate_special", "associate_targets", "common_feature", "stand_in_feature",
-           "targets_entry"]
+__all__ = ["associate_common_axis", "associate_in_sequence", "associate_special", "associate_targets",
+           "common_feature", "stand_in_feature", "targets_entry"]
 
 FloatArray = NDArray[np.float64]
 
@@ -226,3 +228,51 @@ def stand_in_feature(frames: object, label: str) -> object:
     if "feature" in options:
         return options["feature"]
     return common_feature(label, [frames.datum_feature(p) for p in label.split("-")])  # type: ignore[attr-defined]
+
+
+def associate_in_sequence(frames: Any, label: str, before: list[Any]) -> object:
+    """Datum ``label`` associated under the constraints of the datums ``before`` it in a frame (their
+    associations), for a plan's DRF cache ``frames``: a plane perpendicular to a higher plane or axis, or at
+    its nominal angle to a higher plane; a cylinder parallel to a higher direction; a plane whose normal two
+    higher directions fix; common datums and datums from targets (:func:`associate_special`)."""
+    from pcmm_geo.gdt.reference.datums import associate_datum
+
+    criterion = frames.plan.datums[label.split("-")[0]][1]
+    feature = frames.datum_feature(label)
+    inward = -feature.direction if feature.element == "plane" else feature.direction
+    perpendicular: list[FloatArray] = []
+    parallel, angle = None, None
+    names: list[str] = []
+    for prior in before:
+        if prior.element not in ("plane", "cylinder"):
+            continue
+        nominal = frames.nominal_direction(prior.label)
+        cos = abs(float(nominal @ inward)) if feature.element in ("plane", "cylinder") else 1.0
+        if feature.element == "plane" and cos < 1e-9:
+            perpendicular.append(prior.direction)
+            names.append(f"perpendicular to {prior.label}")
+        elif feature.element == "plane" and prior.element == "cylinder" and cos > 1 - 1e-9:
+            # a face perpendicular to a datum axis (a shoulder): its normal is the axis
+            u, _, _ = np.linalg.svd(np.eye(3) - np.outer(prior.direction, prior.direction))
+            perpendicular += [u[:, 0], u[:, 1]]
+            names.append(f"perpendicular to the axis {prior.label}")
+        elif feature.element == "cylinder" and cos > 1 - 1e-9 and parallel is None:
+            parallel = prior.direction
+            names.append(f"parallel to {prior.label}")
+        elif feature.element == "plane" and prior.element == "plane" and cos < 1 - 1e-9 and angle is None:
+            # a plane at another angle: its normal keeps the nominal angle to the higher datum's
+            angle = (prior.direction, float(nominal @ inward))
+            names.append(f"at {np.degrees(np.arccos(float(nominal @ inward))):.6g} deg to {prior.label}")
+    if angle is not None and (perpendicular or len(names) > 1):
+        # two higher directions fix the normal: the nominal carried by their measured frame
+        from pcmm_geo.gdt.reference.constrained import fixed_normal
+
+        nominals = [frames.nominal_direction(b.label) for b in before]
+        angle, perpendicular = None, fixed_normal(before, nominals, inward)
+    special = associate_special(frames, label, feature, inward, perpendicular, parallel, tuple(names))
+    if special is not None:
+        return special
+    return associate_datum(feature.points, feature.element, label=label, criterion=criterion, side=feature.side,
+                           nominal_direction=inward if feature.element in ("plane", "cylinder") else None,
+                           perpendicular_to=tuple(perpendicular), parallel_to=parallel,
+                           constraint_names=tuple(names), angle_to=angle)
