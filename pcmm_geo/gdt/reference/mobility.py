@@ -295,8 +295,15 @@ def solve_mobility(targets: FloatArray, nominals: FloatArray, projections: Float
         scope = "global" if (not rotating and float((touched - gaps).max()) > 1e-6) or _apart(domain) else "local"
     cert = MobilityCertificate(cert.targets, cert.target_multipliers, cert.boundaries, cert.boundary_multipliers,
                                cert.kkt_residual, scope)
-    if scope == "global":  # convexity: f(t) >= value - |stationarity residual| |t - t*| over the mobility
-        bound = max(0.0, value - cert.kkt_residual * 2.0 * float(np.max(np.abs(gaps), initial=0.0)))
+    if scope == "global" and len(cert.targets):
+        # convexity: for any admissible t, max_k f_k(t) >= sum mu_k f_k(t*) - |residual| |t - t*| - sum nu_j slack_j
+        # (|t - t*| <= 2 gap: both lie in a boundary's disk; slack_j = gap_j - |s_j(t*)| of a touched boundary)
+        slack = np.maximum(gaps[cert.boundaries] - touched[cert.boundaries], 0.0) if len(cert.boundaries) else 0.0
+        lagrangian = float(cert.target_multipliers @ terms[cert.targets]) - float(np.sum(
+            cert.boundary_multipliers * slack))
+        bound = max(0.0, min(value, lagrangian) - cert.kkt_residual * 2.0 * float(np.max(np.abs(gaps), initial=0.0)))
+    elif scope == "global":
+        bound = value  # zero: its own lower bound
     else:
         bound = _lipschitz_bound(value, q, w, domain, axis)
     return MobilityResult(value, bound if feasible else float("nan"), t, float(x[2] / lever) if rotating else 0.0,
