@@ -379,3 +379,22 @@ def test_tertiary_plane_at_an_angle_to_the_angled_secondary_has_its_normal_fixed
     assert np.allclose(c.direction, rot @ n_c, atol=1e-12) and c.certificate.contacts[0] == 0
     drf = result.frames["A|B|C"]
     assert np.allclose(drf.rotation, rot.T, atol=1e-11) and np.allclose(drf.origin, t, atol=1e-9)
+
+
+def test_asme_constrained_least_squares_at_the_angle_is_a_local_minimum_on_the_cone(maker):
+    pts, _, _ = _angled_part(maker, 4)
+    b = pts["B"]
+    axis = np.array([0.0, 0.0, 1.0])
+    assoc = associate_datum(b, "plane", label="B", criterion="constrained-lsq", nominal_direction=N_B,
+                            angle_to=(axis, np.cos(ALPHA)))
+    n = assoc.direction
+    assert abs(n @ axis - np.cos(ALPHA)) < 1e-12 and assoc.certificate.scope == "local"
+    heights = (b - assoc.point) @ n
+    assert heights.min() > -1e-9  # tangent: every point on the material side
+
+    def cost(phi):  # the constrained least squares over the cone, independently: tangent offset, sum of squares
+        h = b @ np.array([np.sin(ALPHA) * np.cos(phi), np.sin(ALPHA) * np.sin(phi), np.cos(ALPHA)])
+        return float(np.sum((h - h.min()) ** 2))
+
+    phi = float(np.arctan2(n[1], n[0]))
+    assert cost(phi) <= min(cost(phi - 1e-5), cost(phi + 1e-5))
