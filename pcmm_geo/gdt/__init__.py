@@ -10,7 +10,9 @@ Public API (names load on first use):
   measurement coordinates, origin, free degrees of freedom;
 - :func:`associate_datum`, :class:`DatumAssociation`, :class:`DatumCertificate`, :data:`DATUM_CRITERIA`
   (:mod:`~pcmm_geo.gdt.reference.datums`); :func:`build_drf`, :class:`DatumNominal`
-  (:mod:`~pcmm_geo.gdt.reference.drf`);
+  (:mod:`~pcmm_geo.gdt.reference.drf`); :func:`associate_common_axis`, :func:`associate_targets`
+  (:mod:`~pcmm_geo.gdt.reference.common`); datum mobility (MMB / LMB): :func:`evaluate_position_mobility`,
+  :class:`DatumBoundary`, :class:`MobilityResult` (:mod:`~pcmm_geo.gdt.reference.shift`, ``.mobility``);
 - :class:`FeatureData`, :class:`CharacteristicResult`, :func:`evaluate_position`,
   :func:`evaluate_position_pattern`, :func:`evaluate_orientation`, :func:`evaluate_flatness`, :func:`evaluate_runout`,
   :func:`toleranced_axis`, :func:`size_evaluation`, :func:`apply_uncertainty` (:mod:`~pcmm_geo.gdt.characteristics`);
@@ -44,6 +46,11 @@ _LAZY = {
     "default_criterion": "reference.datums",
     "DatumNominal": "reference.drf",
     "build_drf": "reference.drf",
+    "DatumBoundary": "reference.mobility",
+    "MobilityResult": "reference.mobility",
+    "evaluate_position_mobility": "reference.shift",
+    "associate_common_axis": "reference.common",
+    "associate_targets": "reference.common",
     "CharacteristicResult": "characteristics",
     "apply_uncertainty": "characteristics",
     "FeatureData": "characteristics",

@@ -44,6 +44,8 @@ from .qif.frames import datum_frame as datum_frame
 from .qif.frames import frame_map as frame_map
 from .qif.results import QifExport as QifExport
 from .qif.results import inspection_to_qif as inspection_to_qif
+from .reference.common import associate_common_axis as associate_common_axis
+from .reference.common import associate_targets as associate_targets
 from .reference.datums import DATUM_CRITERIA as DATUM_CRITERIA
 from .reference.datums import DatumAssociation as DatumAssociation
 from .reference.datums import DatumCertificate as DatumCertificate
@@ -53,3 +55,6 @@ from .reference.drf import DatumNominal as DatumNominal
 from .reference.drf import build_drf as build_drf
 from .reference.frame import DEGREES_OF_FREEDOM as DEGREES_OF_FREEDOM
 from .reference.frame import DatumReferenceFrame as DatumReferenceFrame
+from .reference.mobility import DatumBoundary as DatumBoundary
+from .reference.mobility import MobilityResult as MobilityResult
+from .reference.shift import evaluate_position_mobility as evaluate_position_mobility

@@ -7,7 +7,7 @@
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
@@ -24,7 +24,7 @@ from pcmm_geo.gdt.characteristics import (
     evaluate_runout,
 )
 from pcmm_geo.gdt.plan import FrameSpec, dimension_entry, frame_extras, parse_frame, read_plan_text, segment_entries
-from pcmm_geo.gdt.reference.datums import DATUM_CRITERIA, DatumAssociation, associate_datum, default_criterion
+from pcmm_geo.gdt.reference.datums import DATUM_CRITERIA, DatumAssociation, default_criterion
 from pcmm_geo.gdt.reference.drf import build_drf, nominal_of
 from pcmm_geo.gdt.reference.frame import DatumReferenceFrame
 
@@ -67,6 +67,9 @@ class InspectionPlan:
     point_u_trials, point_u_seed : int
         Monte Carlo trials and seed of the U propagated from the features' ``point_u_mm``
         (:mod:`pcmm_geo.gdt.propagation`).
+    datum_options : dict of str to dict
+        Per datum label: ``boundary_diameter`` (a datum at MMB / LMB); ``feature`` and ``targets`` (a datum
+        from point targets: its stand-in plane feature and the target names).
     """
 
     path: str
@@ -78,6 +81,7 @@ class InspectionPlan:
     lines: dict[tuple[Any, ...], int]
     point_u_trials: int = 100
     point_u_seed: int = 0
+    datum_options: dict[str, dict[str, Any]] = field(default_factory=dict)
 
 
 @dataclass(frozen=True)
@@ -202,11 +206,19 @@ def load_plan(path: str | Path) -> InspectionPlan:
         features[name] = FeatureData(name, element, pts, point, direction, side, float(diameter),
                                      (float(tol[0]), float(tol[1])), **surface, point_u_mm=u)
     datums: dict[str, tuple[str, str]] = {}
+    datum_options: dict[str, dict[str, Any]] = {}
     for label, spec in doc.get("datums", {}).items():
         def dfail(reason: str, label: str = label) -> FileFormatError:
             return error(("datums", label), f"datums.{label}: {reason}")
 
         entry = {"feature": spec} if isinstance(spec, str) else spec
+        if isinstance(entry, dict) and "targets" in entry:  # datum targets: a stand-in plane feature
+            from pcmm_geo.gdt.reference.common import targets_entry
+
+            datum_options[label] = {"feature": targets_entry(label, entry, features, dfail),
+                                    "targets": list(entry["targets"])}
+            datums[label] = (entry["targets"][0], "targets")
+            continue
         if not isinstance(entry, dict) or entry.get("feature") not in features:
             raise dfail(f"unknown feature {entry.get('feature') if isinstance(entry, dict) else spec!r}")
         feature = features[entry["feature"]]
@@ -214,10 +226,15 @@ def load_plan(path: str | Path) -> InspectionPlan:
         if criterion not in DATUM_CRITERIA[feature.element]:
             raise dfail(f"criterion {criterion!r}: expected one of {DATUM_CRITERIA[feature.element]}")
         datums[label] = (entry["feature"], criterion)
+        boundary = entry.get("boundary_diameter")
+        if boundary is not None:
+            if not isinstance(boundary, (int, float)) or isinstance(boundary, bool) or not 0 < boundary < float("inf"):
+                raise dfail(f"boundary_diameter = {boundary!r}: expected the MMB / LMB boundary's diameter in mm")
+            datum_options.setdefault(label, {})["boundary_diameter"] = float(boundary)
     frame_text = doc.get("part", {}).get("frame", "")
     part_frame = tuple(p.strip() for p in frame_text.split("|") if p.strip()) if isinstance(frame_text, str) else ()
     for label in part_frame:
-        if label not in datums:
+        if not all(part in datums for part in label.split("-")):
             raise error(("part", "frame"), f"part.frame: unknown datum {label!r}")
     planned = []
     for index, entry in enumerate(doc.get("characteristics", [])):
@@ -247,7 +264,7 @@ def load_plan(path: str | Path) -> InspectionPlan:
         if toleranced not in features:
             raise error((*keys, "feature"), f"{name}: unknown feature {entry.get('feature')!r}")
         for label in spec.datums:
-            if label not in datums:
+            if not all(part in datums for part in label.split("-")):
                 raise FileFormatError(where, f"{name}: unknown datum {label!r} in frame {spec.text!r}", line)
         if spec.characteristic not in _SUPPORTED or (spec.characteristic == "symmetry" and standard == "ASME"):
             if spec.characteristic in ("concentricity", "symmetry") and standard == "ASME":
@@ -260,7 +277,8 @@ def load_plan(path: str | Path) -> InspectionPlan:
             raise error((*keys, "pattern"), f"{name}: pattern = \"NAME\" groups position frames only")
         if pattern is None and standard == "ASME" and spec.characteristic == "position" and spec.datums \
                 and not entry.get("separate", False):
-            pattern = "simultaneous " + "|".join(spec.datums)  # ASME Y14.5-2018 7.19: the default
+            pattern = "simultaneous " + "|".join(  # ASME Y14.5-2018 7.19: the default
+                d if m == "RMB" else f"{d}({m[0]})" for d, m in zip(spec.datums, spec.modifiers_of_datums, strict=True))
         planned.append(PlannedCharacteristic(name, toleranced, spec, line, None, pattern,
                                              None if u is None else float(u), extra))
     monte_carlo = []
@@ -269,7 +287,8 @@ def load_plan(path: str | Path) -> InspectionPlan:
         if not isinstance(value, int) or isinstance(value, bool) or value < least:
             raise error((key,), f"{key} = {value!r}: expected an integer >= {least}")
         monte_carlo.append(value)
-    return InspectionPlan(where, standard, part_frame, features, datums, tuple(planned), lines, *monte_carlo)
+    return InspectionPlan(where, standard, part_frame, features, datums, tuple(planned), lines, *monte_carlo,
+                          datum_options=datum_options)
 
 
 def _evaluate_dimension(planned: PlannedCharacteristic, frames: _Frames) -> CharacteristicResult:
@@ -301,46 +320,33 @@ class _Frames:
         """The last datum of ``sequence`` associated under the constraints of those before it."""
         if sequence in self.assoc:
             return self.assoc[sequence]
-        label = sequence[-1]
-        name, criterion = self.plan.datums[label]
-        feature = self.plan.features[name]
+        from pcmm_geo.gdt.reference.common import associate_in_sequence
+
         before = [self.association(sequence[:k]) for k in range(1, len(sequence))]
-        inward = -feature.direction if feature.element == "plane" else feature.direction
-        perpendicular, parallel = [], None
-        names = []
-        for prior in before:
-            if prior.element not in ("plane", "cylinder"):
-                continue
-            nominal = self._nominal_direction(prior.label)
-            cos = abs(float(nominal @ inward)) if feature.element in ("plane", "cylinder") else 1.0
-            if feature.element == "plane" and cos < 1e-9:
-                perpendicular.append(prior.direction)
-                names.append(f"perpendicular to {prior.label}")
-            elif feature.element == "plane" and prior.element == "cylinder" and cos > 1 - 1e-9:
-                # a face perpendicular to a datum axis (a shoulder): its normal is the axis
-                u, _, _ = np.linalg.svd(np.eye(3) - np.outer(prior.direction, prior.direction))
-                perpendicular += [u[:, 0], u[:, 1]]
-                names.append(f"perpendicular to the axis {prior.label}")
-            elif feature.element == "cylinder" and cos > 1 - 1e-9 and parallel is None:
-                parallel = prior.direction
-                names.append(f"parallel to {prior.label}")
-        assoc = associate_datum(feature.points, feature.element, label=label, criterion=criterion, side=feature.side,
-                                nominal_direction=inward if feature.element in ("plane", "cylinder") else None,
-                                perpendicular_to=tuple(perpendicular), parallel_to=parallel,
-                                constraint_names=tuple(names))
+        assoc = associate_in_sequence(self, sequence[-1], before)  # type: ignore[assignment]
         self.assoc[sequence] = assoc
         return assoc
 
     def _nominal_direction(self, label: str) -> np.ndarray:
-        feature = self.plan.features[self.plan.datums[label][0]]
+        feature = self.datum_feature(label)
         return -feature.direction if feature.element == "plane" else feature.direction
+
+    nominal_direction = _nominal_direction
+
+    def datum_feature(self, label: str) -> FeatureData:
+        """The datum feature of ``label`` (a common datum's and a target datum's stand-in feature)."""
+        if "feature" in self.plan.datum_options.get(label, {}) or "-" in label:
+            from pcmm_geo.gdt.reference.common import stand_in_feature
+
+            return stand_in_feature(self, label)  # type: ignore[return-value]
+        return self.plan.features[self.plan.datums[label][0]]
 
     def drf(self, datums: tuple[str, ...]) -> DatumReferenceFrame:
         if datums not in self.frames:
             pairs = []
             for k in range(1, len(datums) + 1):
                 assoc = self.association(datums[:k])
-                feature = self.plan.features[self.plan.datums[datums[k - 1]][0]]
+                feature = self.datum_feature(datums[k - 1])
                 direction = None if feature.element in ("sphere", "point") else self._nominal_direction(datums[k - 1])
                 pairs.append((assoc, nominal_of(feature.point, direction)))
             self.frames[datums] = build_drf(pairs, standard=self.plan.standard)
@@ -358,6 +364,14 @@ def _evaluate(planned: PlannedCharacteristic, frames: _Frames) -> Characteristic
         if spec.datums:
             raise FileFormatError(plan.path, f"{planned.name}: flatness takes no datums", planned.line)
         return evaluate_flatness(feature, spec.tolerance_mm, name=planned.name)
+    mobile = any(m != "RMB" for m in spec.modifiers_of_datums)
+    if mobile:
+        if kind != "position":
+            raise FileFormatError(plan.path, f"{planned.name}: {kind} with a datum at MMB / LMB is not supported "
+                                  "(datum mobility is evaluated for position only)", planned.line)
+        from pcmm_geo.gdt.reference.shift import mobility_results
+
+        return mobility_results(frames, [planned], None)[0]
     drf = frames.drf(spec.datums) if spec.datums else DatumReferenceFrame.measurement()
     if kind == "position":
         return evaluate_position(feature, drf, spec.tolerance_mm, name=planned.name, modifier=spec.modifier,
@@ -365,7 +379,7 @@ def _evaluate(planned: PlannedCharacteristic, frames: _Frames) -> Characteristic
     if spec.modifier != "RFS" and kind != "position":
         raise FileFormatError(plan.path, f"{planned.name}: {spec.modifier} on {kind} is not supported", planned.line)
     if kind == "concentricity":
-        return _concentricity(planned, plan, feature, drf)
+        return _concentricity(planned, frames, feature, drf)
     if kind in ("symmetry", "profile of a line"):
         from pcmm_geo.gdt.derived import evaluate_planned
 
@@ -381,14 +395,14 @@ def _evaluate(planned: PlannedCharacteristic, frames: _Frames) -> Characteristic
     if kind in ("perpendicularity", "parallelism", "angularity"):
         if not spec.datums:
             raise FileFormatError(plan.path, f"{planned.name}: {kind} needs a datum", planned.line)
-        primary = plan.features[plan.datums[spec.datums[0]][0]]
+        primary = frames.datum_feature(spec.datums[0])
         normal = None
         if primary.element == "plane" and feature.element == "cylinder" and \
                 abs(float(primary.direction @ feature.direction)) < 1e-9:
             normal = primary.direction
         return evaluate_orientation(feature, drf, spec.tolerance_mm, characteristic=kind, name=planned.name,
                                     zone="dia" if spec.zone == "dia" else "width", zone_normal=normal)
-    primary = plan.features[plan.datums[spec.datums[0]][0]] if spec.datums else None
+    primary = frames.datum_feature(spec.datums[0]) if spec.datums else None
     if primary is None or primary.element != "cylinder":
         raise FileFormatError(plan.path, f"{planned.name}: runout needs a cylinder as its primary datum",
                               planned.line)
@@ -396,7 +410,7 @@ def _evaluate(planned: PlannedCharacteristic, frames: _Frames) -> Characteristic
                            axis_point=primary.point, axis_direction=primary.direction)
 
 
-def _concentricity(planned: PlannedCharacteristic, plan: InspectionPlan, feature: FeatureData,
+def _concentricity(planned: PlannedCharacteristic, frames: _Frames, feature: FeatureData,
                    drf: DatumReferenceFrame) -> CharacteristicResult:
     """ISO 1101 18.13: coaxiality of an axis (concentricity of a centre) to the primary datum's axis (centre).
 
@@ -405,13 +419,13 @@ def _concentricity(planned: PlannedCharacteristic, plan: InspectionPlan, feature
     """
     import dataclasses
 
-    spec = planned.frame
+    spec, plan = planned.frame, frames.plan
     if plan.standard != "ISO":
         raise FileFormatError(plan.path, f"{planned.name}: concentricity was removed in ASME Y14.5-2018",
                               planned.line)
     if not spec.datums or spec.zone == "width":
         raise FileFormatError(plan.path, f"{planned.name}: concentricity needs dia and a datum", planned.line)
-    datum = plan.features[plan.datums[spec.datums[0]][0]]
+    datum = frames.datum_feature(spec.datums[0])
     if datum.element not in ("cylinder", "sphere", "point") or feature.element not in ("cylinder", "sphere", "point"):
         raise FileFormatError(plan.path, f"{planned.name}: concentricity relates an axis or a centre to a datum "
                               "axis or centre", planned.line)
@@ -438,12 +452,18 @@ def _evaluate_pattern(pattern: str, members: list[PlannedCharacteristic],
             raise FileFormatError(plan.path, f"{first.name}: {exc}", first.line) from None
     for member in members:
         assert member.frame is not None
-        if member.frame.datums != first.frame.datums:  # type: ignore[union-attr]
+        if (member.frame.datums, member.frame.modifiers_of_datums) != (  # type: ignore[union-attr]
+                first.frame.datums, first.frame.modifiers_of_datums):  # type: ignore[union-attr]
             raise FileFormatError(plan.path, f"{member.name}: pattern {pattern!r} mixes datum references "
                                   f"({'|'.join(member.frame.datums)} and {'|'.join(first.frame.datums)})",  # type: ignore[union-attr]
                                   member.line)
     datums = first.frame.datums  # type: ignore[union-attr]
+    datum_modifiers = first.frame.modifiers_of_datums  # type: ignore[union-attr]
     try:
+        if any(m != "RMB" for m in datum_modifiers):
+            from pcmm_geo.gdt.reference.shift import mobility_results
+
+            return mobility_results(frames, members, pattern)
         drf = frames.drf(datums) if datums else DatumReferenceFrame.measurement()
         return evaluate_position_pattern([plan.features[m.feature] for m in members], drf,
                                          [m.frame.tolerance_mm for m in members],  # type: ignore[union-attr]

@@ -28,8 +28,9 @@ A plan (UTF-8 TOML, read with :mod:`tomllib`)::
 
 Frames are written as on the drawing, compartments separated by ``|``: the characteristic (a word or
 its ISO symbol), ``dia`` / ``⌀`` / ``Ø`` for a cylindrical zone, the tolerance in mm, an optional
-``MMC`` / ``Ⓜ``, ``LMC`` / ``Ⓛ`` or ``RFS``; then up to three datum letters.  Errors name the plan's
-file and line (:class:`~pcmm_geo.errors.FileFormatError`).
+``MMC`` / ``Ⓜ``, ``LMC`` / ``Ⓛ`` or ``RFS``; then up to three datums, each a letter with an optional
+datum feature modifier (``B(M)``, ``B MMB``, ``BⓂ``; ``B(L)``, ``B LMB``, ``BⓁ``) or a common datum
+``A-B``.  Errors name the plan's file and line (:class:`~pcmm_geo.errors.FileFormatError`).
 
 A position frame of several segments is a list, top segment first, with ``features = [...]`` naming the
 pattern (:func:`segment_entries`): ``frame = ["position dia 0.5 | A | B | C", "dia 0.1 | A"]`` -- a lower
@@ -67,7 +68,6 @@ SYMBOLS = {
 _DIA = {"dia", "⌀", "Ø", "ø"}
 _SDIA = {"sdia", "s⌀", "sø", "sØ"}
 _MODIFIERS = {"MMC": "MMC", "Ⓜ": "MMC", "LMC": "LMC", "Ⓛ": "LMC", "RFS": "RFS", "Ⓢ": "RFS"}
-_DATUM_MODIFIERS = {"MMB", "LMB", "RMB", "Ⓜ", "Ⓛ", "MMC", "LMC"}
 _SPLIT = re.compile(r"(⌖|⊥|∥|∠|⏥|⌓|⌒|↗|⌰|◎|⌯|⌀|Ø|ø|Ⓜ|Ⓛ|Ⓢ)")
 
 
@@ -83,8 +83,12 @@ class FrameSpec:
     tolerance_mm : float
     modifier : {"RFS", "MMC", "LMC"}
     datums : tuple of str
+        Datum labels, primary first; a common datum is one label ``"A-B"``.
     text : str
         The frame as written.
+    datum_modifiers : tuple of str
+        Per datum: ``"RMB"`` (none written), ``"MMB"`` (``B(M)``, ``B MMB``, ``BⓂ``; ISO 2692 MMR on the
+        datum) or ``"LMB"`` (``B(L)``, ``B LMB``, ``BⓁ``).
     """
 
     characteristic: str
@@ -93,6 +97,12 @@ class FrameSpec:
     modifier: str
     datums: tuple[str, ...]
     text: str
+    datum_modifiers: tuple[str, ...] = ()
+
+    @property
+    def modifiers_of_datums(self) -> tuple[str, ...]:
+        """``datum_modifiers``, ``"RMB"`` for each datum when none were given."""
+        return self.datum_modifiers or ("RMB",) * len(self.datums)
 
 
 def parse_frame(text: str, *, path: str = "<plan>", line: int | None = None) -> FrameSpec:
@@ -101,8 +111,8 @@ def parse_frame(text: str, *, path: str = "<plan>", line: int | None = None) -> 
     Raises
     ------
     FileFormatError
-        Unknown characteristic or token, no tolerance, more than three datums, a datum feature modifier
-        (MMB / LMB: datum mobility is not handled), or a common datum (``A-B``); names ``path`` and ``line``.
+        Unknown characteristic or token, no tolerance, more than three datums, an unknown datum feature
+        modifier or one on a common datum; names ``path`` and ``line``.
     """
     def fail(reason: str) -> FileFormatError:
         return FileFormatError(path, f"frame {text!r}: {reason}", line)
@@ -135,24 +145,50 @@ def parse_frame(text: str, *, path: str = "<plan>", line: int | None = None) -> 
     if tolerance is None:
         raise fail("no tolerance value")
     datums: list[str] = []
+    datum_modifiers: list[str] = []
     for compartment in compartments[1:]:
-        parts = _SPLIT.sub(r" \1 ", compartment).split()
-        if not parts:
-            raise fail("an empty datum compartment")
-        if "-" in parts[0]:
-            raise fail(f"common datum {parts[0]!r} is not supported")
-        if len(parts) > 1 or not re.fullmatch(r"[A-Z][A-Z0-9]*", parts[0]):
-            extra = [p for p in parts[1:] if p.upper() in _DATUM_MODIFIERS or p in _DATUM_MODIFIERS]
-            if extra:
-                raise fail(f"datum feature modifier {extra[0]!r} on {parts[0]!r}: datum mobility (MMB/LMB) is not "
-                           "handled")
-            raise fail(f"datum compartment {compartment!r}: expected one datum letter")
-        datums.append(parts[0])
+        label, datum_modifier = _datum_compartment(compartment, fail)
+        datums.append(label)
+        datum_modifiers.append(datum_modifier)
     if len(datums) > 3:
         raise fail("more than three datums")
-    if len(set(datums)) != len(datums):
+    if len(set(datums)) != len(datums) or len({p for d in datums for p in d.split("-")}) != sum(
+            len(d.split("-")) for d in datums):
         raise fail("a datum named twice")
-    return FrameSpec(SYMBOLS[name], zone, tolerance, modifier, tuple(datums), text)
+    return FrameSpec(SYMBOLS[name], zone, tolerance, modifier, tuple(datums), text, tuple(datum_modifiers))
+
+
+#: datum feature modifiers as written after the datum letter -> ASME Y14.5-2018 name (ISO 2692 / 5459: MMR, LMR)
+_DATUM_MODIFIER_NAMES = {"(M)": "MMB", "MMB": "MMB", "Ⓜ": "MMB", "(L)": "LMB", "LMB": "LMB", "Ⓛ": "LMB",
+                         "(S)": "RMB", "RMB": "RMB", "Ⓢ": "RMB", "MMC": "MMB", "LMC": "LMB", "[MMR]": "MMB",
+                         "[LMR]": "LMB"}
+
+
+def _datum_compartment(compartment: str, fail: Any) -> tuple[str, str]:
+    """One datum compartment: (label, ``"RMB"`` / ``"MMB"`` / ``"LMB"``).
+
+    ``B``, ``B(M)``, ``B MMB``, ``BⓂ``, ``B(L)``, ``B LMB``, ``BⓁ``; a common datum ``A-B`` (its modifier
+    refused: a common datum at MMB / LMB is not handled).
+    """
+    text = compartment.strip()
+    if not text:
+        raise fail("an empty datum compartment")
+    match = re.fullmatch(r"([A-Z][A-Z0-9]*(?:\s*-\s*[A-Z][A-Z0-9]*)?)\s*(\([MLS]\)|Ⓜ|Ⓛ|Ⓢ|\[[ML]MR\]|[A-Za-z]+)?",
+                         text)
+    if match is None:
+        raise fail(f"datum compartment {compartment!r}: expected a datum letter, an optional modifier "
+                   "((M), MMB, Ⓜ, (L), LMB, Ⓛ) or a common datum A-B")
+    label = re.sub(r"\s+", "", match.group(1))
+    written = match.group(2)
+    modifier = "RMB"
+    if written is not None:
+        modifier = _DATUM_MODIFIER_NAMES.get(written.upper() if written.isascii() else written, "")
+        if not modifier:
+            raise fail(f"datum compartment {compartment!r}: unknown datum feature modifier {written!r} (known: "
+                       "(M), MMB, Ⓜ, (L), LMB, Ⓛ, RMB)")
+    if "-" in label and modifier != "RMB":
+        raise fail(f"common datum {label!r} at {modifier}: datum mobility of a common datum is not handled")
+    return label, modifier
 
 
 def locate_lines(text: str) -> dict[tuple[Any, ...], int]:

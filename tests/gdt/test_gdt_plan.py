@@ -32,15 +32,30 @@ EXAMPLE_DIR = Path(__file__).parents[2] / "pcmm_geo" / "data" / "examples" / "gd
 def test_frames_in_ascii_and_iso_symbols(text, expected):
     spec = parse_frame(text)
     assert (spec.characteristic, spec.zone, spec.tolerance_mm, spec.modifier, spec.datums) == expected
+    assert spec.modifiers_of_datums == ("RMB",) * len(spec.datums)
+
+
+@pytest.mark.parametrize(("text", "datums", "modifiers"), [
+    ("position dia 0.1 MMC | A | B(M) | C", ("A", "B", "C"), ("RMB", "MMB", "RMB")),
+    ("position dia 0.1 | A | B MMB | C LMB", ("A", "B", "C"), ("RMB", "MMB", "LMB")),
+    ("⌖ ⌀0.1 Ⓜ | A | BⓂ | CⓁ", ("A", "B", "C"), ("RMB", "MMB", "LMB")),
+    ("⌖ ⌀0.1 | A | B(L) | C(S)", ("A", "B", "C"), ("RMB", "LMB", "RMB")),
+    ("position dia 0.1 | A-B | C", ("A-B", "C"), ("RMB", "RMB")),
+    ("◎ ⌀0.02 | A - B", ("A-B",), ("RMB",)),
+])
+def test_datum_feature_modifiers_and_common_datums_are_parsed(text, datums, modifiers):
+    spec = parse_frame(text)
+    assert spec.datums == datums and spec.datum_modifiers == modifiers
 
 
 @pytest.mark.parametrize(("text", "reason"), [
     ("wobble 0.1 | A", "unknown characteristic"),
     ("position dia | A", "no tolerance"),
     ("position dia 0.1 XYZ | A", "unknown token"),
-    ("position dia 0.1 | A MMB", "datum mobility"),
-    ("position dia 0.1 | BⓂ", "datum mobility"),
-    ("position dia 0.1 | A-B", "common datum"),
+    ("position dia 0.1 | A XYZ", "unknown datum feature modifier 'XYZ'"),
+    ("position dia 0.1 | B(Q)", "expected a datum letter, an optional modifier"),
+    ("position dia 0.1 | A-B(M)", "common datum 'A-B' at MMB"),
+    ("position dia 0.1 | A-B | B", "a datum named twice"),
     ("position dia -0.1 | A", "positive tolerance"),
     ("position dia 0.1 | A | B | C | D", "more than three"),
 ])
@@ -121,7 +136,8 @@ def _line_of(text: str, needle: str) -> int:
     (('points = "H2.csv"', 'points = "missing.csv"'), 'points = "missing.csv"', "not found"),
     (("position dia 0.1 MMC | A | B | C", "position dia 0.1 MMC | A | B | Q"), "| Q", "unknown datum 'Q'"),
     (("parallelism 0.05 | A", "wobble 0.05 | A"), "wobble", "unknown characteristic"),
-    (("position dia 0.1 MMC | A | B | C", "position dia 0.1 MMC | A | B MMB | C"), "MMB", "datum mobility"),
+    (("position dia 0.1 MMC | A | B | C", "position dia 0.1 MMC | A | B MMB | C"), "MMB",
+     "datum B: expected a cylinder along the primary A's direction to be referenced at MMB"),
     (('C = "C"', 'C = "TOP"'), "position dia", "constrains"),
     (('element = "cylinder"', 'element = "cone"'), 'element = "cone"', "element"),
     (('type = "distance"', 'type = "volume"'), 'type = "volume"', "expected one of coordinate"),

@@ -367,3 +367,33 @@ def test_characteristics_of_the_same_name_keep_their_own_definitions(written, tm
     assert [s[0] for s in same] == ["flatness", "position"] and same[1][2] == "MAXIMUM" and same[0][2] is None
     assert same[0][1] == pytest.approx(outcomes["flatness A"].value_mm, abs=1e-12)
     assert same[1][1] == pytest.approx(outcomes["position H3"].value_mm, abs=1e-12)
+
+
+def test_datum_modifiers_are_written_and_common_datums_listed_by_name(maker, tmp_path):
+    from test_gdt_datum_kinds import test_common_datum_axis_in_a_plan_coaxiality_and_runout
+    from test_gdt_mobility import _part
+
+    from pcmm_geo.io.cmm.qif.schema import validate_qif
+
+    plan, _, _ = _part(maker, tmp_path, frames=("position dia 0.1 | A | D(M) | E", "position dia 0.1 | A | D | E"))
+    export = inspection_to_qif(inspect_plan(plan), tmp_path / "out.qif")
+    assert validate_qif(tmp_path / "out.qif") == ()
+    assert export.frames == ("A|D(M)|E", "A|D|E") and export.not_written == ()
+    xml = (tmp_path / "out.qif").read_text(encoding="utf-8")
+    assert xml.count("<MaterialModifier>MAXIMUM</MaterialModifier>") == 1
+    # the second opinion (independent: the datums fixed at their actuals, the shift as an interval) agrees,
+    # and the best over the mobility is its interval's lower end here (the whole clearance along the deviation)
+    from pcmm_geo.gdt.qif.characteristics import verify_characteristics
+    from pcmm_geo.io.cmm import read_qif
+
+    checks = {c.name: c for c in verify_characteristics(read_qif(tmp_path / "out.qif")).checks}
+    assert checks["pos H1 0"].status == "agrees" and checks["pos H1 1"].status == "agrees"
+    assert "[0.0294427, 0.0894427]" in checks["pos H1 0"].reason
+    # characteristics to a common datum: listed by name with the reason, the file still valid
+    common = tmp_path / "common"
+    common.mkdir()
+    test_common_datum_axis_in_a_plan_coaxiality_and_runout(common, maker)
+    export = inspection_to_qif(inspect_plan(common / "plan.toml"), common / "out.qif")
+    assert validate_qif(common / "out.qif") == ()
+    assert [n for n, _ in export.not_written] == ["coax M", "runout M"]
+    assert "datum A-B is a common datum" in export.not_written[0][1]

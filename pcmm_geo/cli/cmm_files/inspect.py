@@ -71,7 +71,10 @@ def handle(args: argparse.Namespace) -> Report:
         else:
             scale, unit = 1000.0, "µm"
         rows.append([c.name, c.characteristic, scale * c.value_mm, scale * c.tolerance_mm,
-                     "-" if c.bonus_mm is None else 1000.0 * c.bonus_mm, unit, "|".join(c.datums) or "-", c.verdict])
+                     "-" if c.bonus_mm is None else 1000.0 * c.bonus_mm, unit, "|".join(
+                         d if m == "RMB" else f"{d}({m[0]})" for d, m in zip(
+                             c.datums, c.details.get("datum_modifiers") or ["RMB"] * len(c.datums), strict=True))
+                     or "-", c.verdict])
         if any(v is not None for v in expanded):
             rows[-1].insert(4, "-" if u is None else scale * u)
     columns = ["name", "characteristic", "value", "tolerance", "bonus", "unit", "datums", "verdict"]

@@ -19,7 +19,9 @@ plain records of :mod:`pcmm_geo.io.cmm` (``io`` does not know ``gdt``) and write
 - a ``Diameter`` characteristic for each cylinder with a size tolerance (value: the actual's
   diameter; PASS / FAIL against the limits);
 - ``DatumDefinitions`` (label, the datum feature's nominal) and one ``DatumReferenceFrame`` per
-  datum sequence the frames use (simple datums, RFS: ``MaterialModifier NONE``);
+  datum sequence the frames use (simple datums; ``MaterialModifier`` NONE, or MAXIMUM / LEAST for a datum
+  referenced at MMB / LMB -- one frame per datums and modifiers; the datum shift used is not written; a
+  characteristic to a common datum ``A-B`` or to a datum from targets is listed as not written, by name);
 - the characteristics: position (``DiametricalZone`` / ``SphericalZone`` / ``NonDiametricalZone``,
   ``MaterialCondition`` MAXIMUM / LEAST / NONE and the ``Bonus``), perpendicularity,
   parallelism, angularity (``DiametricalZone`` / ``PlanarZone``), flatness, circular and total
@@ -103,7 +105,7 @@ def _kind(result: CharacteristicResult) -> str | None:
 
 
 def _reason(result: CharacteristicResult, features: list[FeatureData | None],
-            part_frame: tuple[str, ...]) -> str | None:
+            part_frame: tuple[str, ...], targets: frozenset[str] = frozenset()) -> str | None:
     kind = _kind(result)
     if kind is None:
         return f"{result.characteristic}: no QIF characteristic type is written for it"
@@ -120,7 +122,21 @@ def _reason(result: CharacteristicResult, features: list[FeatureData | None],
                 "QIF feature type pcmm_geo's writer writes")
     if not np.isfinite(result.value_mm):
         return "its value is not finite"
+    special = [label for label in result.datums if "-" in label or label in targets]
+    if special:
+        return (f"datum {special[0]} is a common datum or a datum from targets: pcmm_geo's writer writes a datum "
+                "definition from one datum feature only")
     return None
+
+
+#: datum feature modifiers -> QIF MaterialModifierEnum
+_DATUM_MODIFIERS = {"RMB": "NONE", "MMB": "MAXIMUM", "LMB": "LEAST"}
+
+
+def _key(result: CharacteristicResult) -> tuple[tuple[str, ...], tuple[str, ...]]:
+    """A characteristic's datum reference frame: its datums and their modifiers (MMB / LMB)."""
+    modifiers = tuple(result.details.get("datum_modifiers") or ("RMB",) * len(result.datums))
+    return result.datums, modifiers
 
 
 def _at_nominal_height(point: np.ndarray, axis: np.ndarray, feature: FeatureData) -> np.ndarray:
@@ -258,7 +274,8 @@ def inspection_to_qif(result: InspectionResult, path: str | Path, *, overwrite: 
         frames_of_plan = _Frames(plan)
         associations = {file_frame[k - 1]: frames_of_plan.association(file_frame[:k])
                         for k in range(1, len(file_frame) + 1)}
-    datum_of_feature = {feature: label for label, (feature, _) in plan.datums.items()}
+    targets = frozenset(label for label, options in plan.datum_options.items() if "targets" in options)
+    datum_of_feature = {feature: label for label, (feature, _) in plan.datums.items() if label not in targets}
     written: list[str] = []
     not_written: list[tuple[str, str]] = []
     wanted: dict[str, list[int]] = {}
@@ -278,14 +295,14 @@ def inspection_to_qif(result: InspectionResult, path: str | Path, *, overwrite: 
                 not_written.append((outcome.name, "its composite frame's upper segment is not written"))
                 continue
         names = planned.dimension["features"] if planned.dimension is not None else [planned.feature]
-        reason = _reason(outcome, [plan.features.get(n) for n in names], file_frame)
+        reason = _reason(outcome, [plan.features.get(n) for n in names], file_frame, targets)
         if reason is None:
             wanted.setdefault(planned.feature, []).append(index)
             written.append(outcome.name)
         else:
             not_written.append((outcome.name, reason))
-    sequences = sorted({result.characteristics[i].datums for ids in [*wanted.values(), list(second.values())]
-                        for i in ids if result.characteristics[i].datums}, key=lambda s: (len(s), s))
+    sequences = sorted({_key(result.characteristics[i]) for ids in [*wanted.values(), list(second.values())]
+                        for i in ids if result.characteristics[i].datums}, key=lambda s: (len(s[0]), s))
     reports = []
     meta: list[tuple[int, str | None] | None] = []  # per characteristic, in document order: plan index, zone
     for name, feature in plan.features.items():
@@ -343,7 +360,7 @@ def inspection_to_qif(result: InspectionResult, path: str | Path, *, overwrite: 
                                                                 c.definition_id or 0)]
     counter = iter(range(max(used) + 1, 1 << 31))
     nominal_of_feature = {item.name: item.nominal_id for item in document.feature_items.values()}
-    labels = sorted({label for sequence in sequences for label in sequence})
+    labels = sorted({label for sequence, _ in sequences for label in sequence})
     datum_ids = {label: next(counter) for label in labels}
     datum_definitions = {datum_ids[label]: DatumDefinition(
         id=datum_ids[label], label=label, feature_nominal_ids=(nominal_of_feature[plan.datums[label][0]],))
@@ -352,8 +369,8 @@ def inspection_to_qif(result: InspectionResult, path: str | Path, *, overwrite: 
     precedences = ("PRIMARY", "SECONDARY", "TERTIARY")
     frames = {key: QifFrame(id=key, datums=tuple(
         DrfDatum(precedence=precedences[k], kind="simple", datum_definition_ids=(datum_ids[label],),
-                 material_modifiers=("NONE",), referenced_component="ACTUAL") for k, label in enumerate(sequence)))
-        for sequence, key in frame_ids.items()}
+                 material_modifiers=(_DATUM_MODIFIERS[sequence[1][k]],), referenced_component="ACTUAL")
+        for k, label in enumerate(sequence[0]))) for sequence, key in frame_ids.items()}
     definitions, bonuses, nominals, segments = {}, {}, {}, {}
     for characteristic, entry in zip(document.characteristics, meta, strict=True):
         if entry is None:
@@ -374,18 +391,20 @@ def inspection_to_qif(result: InspectionResult, path: str | Path, *, overwrite: 
             tolerance=Tolerance(value=outcome.tolerance_mm),
             material_condition=_CONDITIONS[modifier] if characteristic.type in (
                 "position", "perpendicularity", "parallelism", "angularity") else None,
-            zone_shape=zone, datum_reference_frame_ids=(frame_ids[outcome.datums],) if outcome.datums else ())
+            zone_shape=zone, datum_reference_frame_ids=(frame_ids[_key(outcome)],) if outcome.datums else ())
         if outcome.bonus_mm is not None:
             bonuses[characteristic.id] = float(outcome.bonus_mm)
         if index in second:
             lower = result.characteristics[second[index]]
             lower_frame = plan.characteristics[second[index]].frame
             segments[characteristic.definition_id] = CompositeSegment(
-                frame_ids[lower.datums] if lower.datums else None, lower.tolerance_mm,
+                frame_ids[_key(lower)] if lower.datums else None, lower.tolerance_mm,
                 _CONDITIONS[lower_frame.modifier if lower_frame is not None else "RFS"], lower.value_mm,
                 STATUS_OF_VERDICT[lower.verdict])
     gdt = GdtRecords(composite_segments=segments, datum_definitions=datum_definitions, datum_reference_frames=frames,
                      characteristic_definitions=definitions, bonuses=bonuses, characteristic_nominals=nominals)
     written_path = write_qif(document, path, overwrite=overwrite, gdt=gdt)
     return QifExport(path=written_path, written=tuple(written), not_written=tuple(not_written),
-                     features=tuple(r.name for r in reports), frames=tuple("|".join(s) for s in sequences))
+                     features=tuple(r.name for r in reports),
+                     frames=tuple("|".join(d if m == "RMB" else f"{d}({m[0]})" for d, m in zip(*s, strict=True))
+                                  for s in sequences))

@@ -259,6 +259,7 @@ def associate_datum(
     perpendicular_to: tuple[ArrayLike, ...] = (),
     parallel_to: ArrayLike | None = None,
     constraint_names: tuple[str, ...] = (),
+    angle_to: tuple[ArrayLike, float] | None = None,
 ) -> DatumAssociation:
     """Associate a datum feature to measured points.
 
@@ -283,6 +284,10 @@ def associate_datum(
         perpendicular to a primary plane).
     constraint_names : tuple of str
         Text recorded in :attr:`DatumAssociation.constrained_by`.
+    angle_to : (array_like, float), optional
+        Plane only: ``(a, cos_alpha)`` -- the inward normal keeps the nominal angle ``alpha`` to the
+        direction ``a`` of a higher datum (a secondary at an angle other than 0 or 90 deg;
+        :mod:`~pcmm_geo.gdt.reference.constrained`).
 
     Returns
     -------
@@ -317,7 +322,17 @@ def associate_datum(
             raise InvalidInputError(f"datum {label} nominal_direction", "the nominal inward normal", "None")
         inward = _unit(nominal_direction, f"datum {label} nominal_direction")
         fixed = [_unit(v, f"datum {label} perpendicular_to") for v in perpendicular_to]
-        if criterion == "minimax":
+        free_rows = _basis_perpendicular(fixed)
+        if angle_to is not None:
+            from pcmm_geo.gdt.reference.constrained import cone_plane
+
+            axis = _unit(angle_to[0], f"datum {label} angle_to")
+            normal, turn, scope, bound = cone_plane(pts, inward, axis, float(angle_to[1]), criterion=criterion,
+                                                    label=label)
+            free_rows = (turn / np.linalg.norm(turn))[None, :]
+            method = ("tangent outside-material minimax at the nominal angle (branch and bound, exact contacts)"
+                      if criterion == "minimax" else "constrained least squares at the nominal angle (local)")
+        elif criterion == "minimax":
             normal, scope, bound = _tangent_minimax(pts, inward, fixed)
             method = "tangent outside-material minimax (minimum zone, exact)"
         else:
@@ -330,19 +345,20 @@ def associate_datum(
         lower = np.flatnonzero(heights - low <= tol)
         if criterion == "minimax":
             upper = np.flatnonzero(high - heights <= tol)
-            free_rows = _basis_perpendicular(fixed)
             lam, mu, residual = _plane_multipliers(pts, normal, lower, upper, free_rows)
             contacts, mult = np.r_[lower, upper], np.r_[lam, mu]
             levels = np.r_[np.zeros(len(lower)), np.ones(len(upper))]
             named = ", ".join(constraint_names) or "the given directions"
             domain = "all planes" if not fixed else f"planes whose normal is perpendicular to {named}"
+            if angle_to is not None:
+                domain = (f"planes whose normal keeps the nominal angle to {named} (azimuth within 15 deg of "
+                          "the nominal)")
         else:
             # KKT of sum d^2 with d >= 0: the gradient sum(d_i p_i) balanced by the active contacts
             from scipy.optimize import nnls
 
             d = heights - low
             rel = pts - pts.mean(axis=0)
-            free_rows = _basis_perpendicular(fixed)
             turn = free_rows - np.outer(free_rows @ normal, normal)
             turn = turn[np.linalg.norm(turn, axis=1) > 1e-9]
             scale = max(float(np.ptp(pts, axis=0).max()), 1.0)

@@ -122,10 +122,6 @@ def build_drf(
         d_nom = d_nom / np.linalg.norm(d_nom)
         m = assoc.direction
         if len(pairs) == 0 or (len(pairs) == 1 and np.linalg.norm(np.cross(pairs[0][0], d_nom)) > 1e-6):
-            if len(pairs) == 1 and assoc.element == "plane" and abs(pairs[0][0] @ d_nom) > 1e-6:
-                raise InvalidInputError(f"datum {assoc.label}", "a plane perpendicular or parallel to the "
-                                        f"primary datum {pairs[0][2]} (other angles are not supported)",
-                                        f"{np.degrees(np.arccos(abs(pairs[0][0] @ d_nom))):.6g} deg")
             pairs.append((d_nom, m, assoc.label))
             adds_rotation[assoc.label] = True
     if len(pairs) == 1:
