@@ -33,18 +33,20 @@ rotation is held (translations only: SLSQP on the second-order-cone epigraph wit
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import field
 from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
+
+from pcmm_geo._records import record
 
 __all__ = ["DatumBoundary", "MobilityCertificate", "MobilityDomain", "MobilityResult", "solve_mobility"]
 
 FloatArray = NDArray[np.float64]
 
 
-@dataclass(frozen=True)
+@record
 class DatumBoundary:
     """A datum feature of size referenced at MMB or LMB.
 
@@ -86,7 +88,7 @@ class DatumBoundary:
                 "nominal_centre_mm": self.nominal_centre.tolist(), "gap_mm": self.gap_mm}
 
 
-@dataclass(frozen=True)
+@record
 class MobilityDomain:
     """The motions ``q' = R(theta) q + t`` (DRF coordinates) the datums allow.
 
@@ -108,7 +110,7 @@ class MobilityDomain:
     rotation: str = "held"
 
 
-@dataclass(frozen=True)
+@record
 class MobilityCertificate:
     """KKT evidence of the best placement.
 
@@ -137,7 +139,7 @@ class MobilityCertificate:
     scope: str
 
 
-@dataclass(frozen=True)
+@record
 class MobilityResult:
     """The best placement within the mobility.
 

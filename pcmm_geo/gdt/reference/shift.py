@@ -9,12 +9,12 @@ to a datum feature).  Definitions and scope: :mod:`~pcmm_geo.gdt.reference.mobil
 
 from __future__ import annotations
 
-from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
 
+from pcmm_geo._records import record
 from pcmm_geo.errors import InvalidInputError
 from pcmm_geo.gdt.reference.frame import DatumReferenceFrame
 from pcmm_geo.gdt.reference.mobility import DatumBoundary, MobilityDomain, _across
@@ -26,7 +26,7 @@ FloatArray = NDArray[np.float64]
 _UNIT = {"x": np.array([1.0, 0, 0]), "y": np.array([0, 1.0, 0]), "z": np.array([0, 0, 1.0])}
 
 
-@dataclass(frozen=True)
+@record
 class DatumInFrame:
     """One datum of a frame, as the mobility needs it.
 
