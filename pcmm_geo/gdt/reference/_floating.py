@@ -192,6 +192,8 @@ def minimax_translation(b: ArrayLike, jac: ArrayLike) -> tuple[float, float, Flo
         lam[int(np.argmax(norms))] = 1.0
         return float(norms.max()), float(norms.max()), np.zeros(0), lam
     _, s = _slsqp_minimax(b, jac)
+    if worst(s) == 0.0:  # every target reached exactly: 0 is optimal (norms are non-negative)
+        return 0.0, 0.0, s, np.full(len(b), 1.0 / len(b))
     polished = _kkt_polish(b, jac, s)
     assert polished is not None
     s2, lam = polished
