@@ -107,19 +107,20 @@ def _kkt_polish(b: FloatArray, jac: FloatArray, s: FloatArray,
         return np.r_[np.einsum("kij,ki,k->j", jac[active], rr, lam) / scale, lam.sum() - 1.0,
                      (np.einsum("ki,ki->k", rr, rr) - t) / scale]
 
+    lam = np.zeros(len(b))
+    lam[active] = lam0 / max(lam0.sum(), 1e-300)
     if m > p + 1:  # a degenerate set: the multipliers from NNLS only
-        lam = np.zeros(len(b))
-        lam[active] = lam0 / max(lam0.sum(), 1e-300)
         return s, lam
+    if support is None and np.sqrt(_dual_value(b, jac, lam)[0]) >= np.sqrt(top) * (1 - 1e-12):
+        return s, lam  # already certified optimal by these multipliers: no Newton step needed
     sol = root(system, np.r_[s, top, lam0 / max(lam0.sum(), 1e-300)], method="hybr", options={"xtol": 1e-15})
     settled = sol.success or float(np.abs(sol.fun).max()) < 1e-12  # hybr may stop at xtol on a solved system
-    if not settled or np.any(sol.x[p + 1:] < -1e-12):
-        lam = np.zeros(len(b))
-        lam[active] = lam0 / max(lam0.sum(), 1e-300)
+    newton = np.clip(sol.x[p + 1:], 0.0, None)
+    if not settled or np.any(sol.x[p + 1:] < -1e-12) or newton.sum() <= 0:
         return s, lam
     lam = np.zeros(len(b))
-    lam[active] = np.clip(sol.x[p + 1:], 0.0, None)
-    return sol.x[:p], lam / lam.sum()
+    lam[active] = newton / newton.sum()
+    return sol.x[:p], lam
 
 
 def _dual_ascent(b: FloatArray, jac: FloatArray, s: FloatArray, lam: FloatArray, g: float, *,
@@ -192,14 +193,17 @@ def minimax_translation(b: ArrayLike, jac: ArrayLike) -> tuple[float, float, Flo
         lam[int(np.argmax(norms))] = 1.0
         return float(norms.max()), float(norms.max()), np.zeros(0), lam
     _, s = _slsqp_minimax(b, jac)
-    if worst(s) == 0.0:  # every target reached exactly: 0 is optimal (norms are non-negative)
+    value = worst(s)
+    if value == 0.0:  # every target reached exactly: 0 is optimal (norms are non-negative)
         return 0.0, 0.0, s, np.full(len(b), 1.0 / len(b))
-    polished = _kkt_polish(b, jac, s)
+    polished = _kkt_polish(b, jac, s)  # the NNLS multipliers; a Newton step only when they leave a gap
     assert polished is not None
     s2, lam = polished
-    if worst(s2) < worst(s):
-        s = s2
+    if s2 is not s and worst(s2) < value:
+        s, value = s2, worst(s2)
     g, s_dual = _dual_value(b, jac, lam)
+    if np.sqrt(g) >= value * (1 - 1e-12):  # certified (the common case)
+        return value, min(float(np.sqrt(g)) * (1 - 1e-13), value), s, lam
     if np.sqrt(g) < worst(s) * (1 - 1e-12):  # improve the multipliers: maximise the dual on the near-active set
         g, lam = _dual_ascent(b, jac, s, lam, g)
         g, s_dual = _dual_value(b, jac, lam)
