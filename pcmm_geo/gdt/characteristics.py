@@ -240,7 +240,9 @@ def evaluate_position(
     Returns
     -------
     CharacteristicResult
-        ``details`` hold the end points' deviations and, with a modifier, the sizes.
+        ``details`` hold the end points' deviations and, with a modifier, the sizes.  ``bound_mm`` is the
+        dual certificate of the floating minimax (equal to the value to about 1e-12 relative when proven);
+        FAIL is decided on it, so a gap the solver did not close gives NOT PROVEN.
     """
     if modifier not in ("RFS", "MMC", "LMC"):
         raise InvalidInputError("modifier", "RFS, MMC or LMC", repr(modifier))

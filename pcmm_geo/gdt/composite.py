@@ -16,7 +16,8 @@ A pattern's position may be given by two segments:
 The float is a minimax: ``min over motions of max_k w_k |P_k (a_k - n_k) - motion|`` with ``a_k`` the
 toleranced targets (an axis's end points, a centre), ``n_k`` the true positions, ``P_k`` the projection
 on the zone's cross-section and ``w_k = 2 / allowed_k`` (allowed = tolerance + the hole's proven bonus,
-per hole and per segment).  In the translations it is convex: solved, then polished on its KKT system,
+per hole and per segment).  In the translations it is convex (``minimax_translation``, in
+:mod:`pcmm_geo.gdt.reference._floating`): solved, then polished on its KKT system,
 and certified by Lagrange duality -- for multipliers ``lam`` on the simplex,
 ``min_s sum_k lam_k |b_k - J_k s|^2`` (a weighted least-squares problem, closed form) is a lower bound
 of the squared optimum, tight at the optimum.  One free rotation (the FRTZF to a primary plane): branch and
