@@ -241,7 +241,9 @@ def evaluate_position(
     Returns
     -------
     CharacteristicResult
-        ``details`` hold the end points' deviations and, with a modifier, the sizes.
+        ``details`` hold the end points' deviations and, with a modifier, the sizes.  ``bound_mm`` is the
+        dual certificate of the floating minimax (equal to the value to about 1e-12 relative when proven);
+        FAIL is decided on it, so a gap the solver did not close gives NOT PROVEN.
     """
     if modifier not in ("RFS", "MMC", "LMC"):
         raise InvalidInputError("modifier", "RFS, MMC or LMC", repr(modifier))
@@ -254,9 +256,10 @@ def evaluate_position(
         dev = (targets - feature.point) @ n
         floats = any(abs(t @ n) > 1e-12 for t in trans)
         value = float(np.ptp(dev)) if floats else 2.0 * float(np.abs(dev).max())
-    else:
-        value, vectors = float_position(targets, feature.point, proj, trans, rots, drf.pivot)
-        value *= 2.0
+        bound = value
+    else:  # a FAIL needs the proven (dual) bound: a gap the solver did not close gives NOT PROVEN
+        value, bound, vectors = float_position(targets, feature.point, proj, trans, rots, drf.pivot)
+        value, bound = 2.0 * value, 2.0 * bound
         details["deviations_mm"] = vectors.tolist()
     bonus: float | None = None
     low = high = tolerance_mm
@@ -270,12 +273,12 @@ def evaluate_position(
         details.update(sizes)
         bonus = sizes["bonus_low_mm"]
         low, high = tolerance_mm + sizes["bonus_low_mm"], tolerance_mm + sizes["bonus_high_mm"]
-    verdict = decide(value, value, low, high)
+    verdict = decide(value, bound, low, high)
     if not size_ok:
         verdict = "FAIL"
         details["reason"] = "size outside its limits"
         bonus = 0.0
-    return CharacteristicResult(name or feature.name, "position", value, value, tolerance_mm, bonus, verdict,
+    return CharacteristicResult(name or feature.name, "position", value, bound, tolerance_mm, bonus, verdict,
                                 drf.datums, drf.standard, details)
 
 

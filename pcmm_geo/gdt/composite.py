@@ -16,7 +16,8 @@ A pattern's position may be given by two segments:
 The float is a minimax: ``min over motions of max_k w_k |P_k (a_k - n_k) - motion|`` with ``a_k`` the
 toleranced targets (an axis's end points, a centre), ``n_k`` the true positions, ``P_k`` the projection
 on the zone's cross-section and ``w_k = 2 / allowed_k`` (allowed = tolerance + the hole's proven bonus,
-per hole and per segment).  In the translations it is convex: solved, then polished on its KKT system,
+per hole and per segment).  In the translations it is convex (``minimax_translation``, in
+:mod:`pcmm_geo.gdt.reference._floating`): solved, then polished on its KKT system,
 and certified by Lagrange duality -- for multipliers ``lam`` on the simplex,
 ``min_s sum_k lam_k |b_k - J_k s|^2`` (a weighted least-squares problem, closed form) is a lower bound
 of the squared optimum, tight at the optimum.  One free rotation (the FRTZF to a primary plane): branch and
@@ -33,12 +34,12 @@ from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
-from numpy.typing import ArrayLike, NDArray
+from numpy.typing import NDArray
 
 from pcmm_geo._records import record
 from pcmm_geo.errors import InvalidInputError
 from pcmm_geo.gdt.characteristics import CharacteristicResult, FeatureData, _position_targets, size_evaluation
-from pcmm_geo.gdt.reference._floating import float_position, float_solve
+from pcmm_geo.gdt.reference._floating import float_position, minimax_translation
 from pcmm_geo.gdt.reference.frame import DatumReferenceFrame
 
 __all__ = ["FloatCertificate", "PositionSegment", "evaluate_planned_segments", "evaluate_position_segments",
@@ -105,149 +106,6 @@ class FloatCertificate:
     evaluations: int = 1
 
 
-def _dual_value(b: FloatArray, jac: FloatArray, lam: FloatArray) -> tuple[float, FloatArray]:
-    """``min_s sum_k lam_k |b_k - J_k s|^2`` and its ``s`` (weighted least squares)."""
-    p = jac.shape[2]
-    root = np.sqrt(np.clip(lam, 0.0, None))[:, None]
-    rhs = (b * root).reshape(-1)
-    if p == 0:
-        return float(rhs @ rhs), np.zeros(0)
-    a = (jac * root[:, :, None]).reshape(-1, p)
-    s, *_ = np.linalg.lstsq(a, rhs, rcond=None)
-    r = rhs - a @ s
-    return float(r @ r), np.asarray(s, dtype=np.float64)
-
-
-def _kkt_polish(b: FloatArray, jac: FloatArray, s: FloatArray) -> tuple[FloatArray, FloatArray] | None:
-    """Newton on the KKT system of the active set at ``s``: (s, lam) or None when it does not settle."""
-    from scipy.optimize import nnls, root
-
-    p = jac.shape[2]
-    r = b - np.einsum("kij,j->ki", jac, s)
-    norms = np.einsum("ki,ki->k", r, r)
-    top = float(norms.max())
-    active = np.flatnonzero(norms >= top * (1 - 1e-6) - 1e-300)
-    grads = np.einsum("kij,ki->jk", jac[active], r[active])  # (p, |A|): sum lam_k J_k^T r_k = 0
-    scale = max(top, 1e-300)
-    lam0, _ = nnls(np.vstack([grads, np.full((1, len(active)), scale)]), np.r_[np.zeros(p), scale])
-    m = len(active)
-
-    def system(x: FloatArray) -> FloatArray:
-        ss, t, lam = x[:p], x[p], x[p + 1:]
-        rr = b[active] - np.einsum("kij,j->ki", jac[active], ss)
-        return np.r_[np.einsum("kij,ki,k->j", jac[active], rr, lam) / scale, lam.sum() - 1.0,
-                     (np.einsum("ki,ki->k", rr, rr) - t) / scale]
-
-    if m != p + 1:  # not a square system: the multipliers from NNLS only
-        lam = np.zeros(len(b))
-        lam[active] = lam0 / max(lam0.sum(), 1e-300)
-        return s, lam
-    sol = root(system, np.r_[s, top, lam0 / max(lam0.sum(), 1e-300)], method="hybr", options={"xtol": 1e-15})
-    if not sol.success or np.any(sol.x[p + 1:] < -1e-12):
-        lam = np.zeros(len(b))
-        lam[active] = lam0 / max(lam0.sum(), 1e-300)
-        return s, lam
-    lam = np.zeros(len(b))
-    lam[active] = np.clip(sol.x[p + 1:], 0.0, None)
-    return sol.x[:p], lam / lam.sum()
-
-
-def _dual_ascent(b: FloatArray, jac: FloatArray, s: FloatArray, lam: FloatArray, g: float, *,
-                 fraction: float = 1e-3) -> tuple[float, FloatArray]:
-    """Better multipliers: maximise the concave dual ``g(lam) = min_s sum lam_k |b_k - J_k s|^2`` over the simplex
-    of the targets within ``fraction`` of the largest residual at ``s`` (SLSQP; the gradient is
-    ``|b_k - J_k s(lam)|^2`` by the envelope theorem)."""
-    from scipy.optimize import minimize
-
-    r = b - np.einsum("kij,j->ki", jac, s)
-    norms = np.sqrt(np.einsum("ki,ki->k", r, r))
-    near = np.flatnonzero(norms >= norms.max() * (1 - fraction))
-    start = lam[near] if lam[near].sum() > 0 else np.full(len(near), 1.0 / len(near))
-    start = start / start.sum()
-    scale = max(float(norms.max()) ** 2, 1e-300)
-
-    def full(x: FloatArray) -> FloatArray:
-        out = np.zeros(len(b))
-        out[near] = np.clip(x, 0.0, None)
-        return out
-
-    def negative(x: FloatArray) -> tuple[float, FloatArray]:
-        value, ss = _dual_value(b, jac, full(x))
-        rr = b[near] - np.einsum("kij,j->ki", jac[near], ss)
-        return -value / scale, -np.einsum("ki,ki->k", rr, rr) / scale
-
-    res = minimize(negative, start, jac=True, method="SLSQP", bounds=[(0.0, 1.0)] * len(near),
-                   constraints=[{"type": "eq", "fun": lambda x: x.sum() - 1.0, "jac": lambda x: np.ones_like(x)}],
-                   options={"ftol": 1e-16, "maxiter": 500})
-    x = np.clip(res.x, 0.0, None)
-    candidate = full(x / x.sum())
-    g2 = _dual_value(b, jac, candidate)[0]
-    return (g2, candidate) if g2 > g else (g, lam)
-
-
-def minimax_translation(b: ArrayLike, jac: ArrayLike) -> tuple[float, float, FloatArray, FloatArray]:
-    """``min_s max_k |b_k - J_k s|`` with its dual certificate.
-
-    Parameters
-    ----------
-    b : array_like, shape (K, 3)
-    jac : array_like, shape (K, 3, p)
-
-    Returns
-    -------
-    value : float
-        ``max_k |b_k - J_k s|`` at the returned ``s`` (an upper bound of the optimum).
-    bound : float
-        ``sqrt(min_s sum_k lam_k |b_k - J_k s|^2)``: a lower bound of the optimum (weak duality).
-    s : ndarray, shape (p,)
-    lam : ndarray, shape (K,)
-        Multipliers: non-negative, sum 1, zero off the active set.
-    """
-    b = np.asarray(b, dtype=float)
-    jac = np.asarray(jac, dtype=float)
-
-    def worst(s: FloatArray) -> float:
-        r = b - np.einsum("kij,j->ki", jac, s)
-        return float(np.sqrt(np.einsum("ki,ki->k", r, r).max()))
-
-    if jac.shape[2]:  # the translations that move a projected target at all (a basis of them)
-        _, sv, vt = np.linalg.svd(jac.reshape(-1, jac.shape[2]), full_matrices=False)
-        basis = vt[sv > 1e-12 * max(1.0, float(sv[0]))].T
-        if basis.shape[1] < jac.shape[2]:
-            value, bound, s, lam = minimax_translation(b, jac @ basis)
-            return value, bound, basis @ s, lam
-    if jac.shape[2] == 0:
-        norms = np.linalg.norm(b, axis=1)
-        lam = np.zeros(len(b))
-        lam[int(np.argmax(norms))] = 1.0
-        return float(norms.max()), float(norms.max()), np.zeros(0), lam
-    _, s = float_solve(b, jac)
-    polished = _kkt_polish(b, jac, s)
-    assert polished is not None
-    s2, lam = polished
-    if worst(s2) < worst(s):
-        s = s2
-    g, s_dual = _dual_value(b, jac, lam)
-    if np.sqrt(g) < worst(s) * (1 - 1e-12):  # improve the multipliers: maximise the dual on the near-active set
-        g, lam = _dual_ascent(b, jac, s, lam, g)
-        g, s_dual = _dual_value(b, jac, lam)
-    if np.sqrt(g) < worst(s) * (1 - 1e-9):  # the primal solver stalled: the dual over every target
-        g, lam = _dual_ascent(b, jac, s, lam, g, fraction=1.0)
-        g, s_dual = _dual_value(b, jac, lam)
-        if worst(s_dual) < worst(s):
-            s = s_dual
-        polished = _kkt_polish(b, jac, s)
-        if polished is not None and worst(polished[0]) < worst(s):
-            s = polished[0]
-            g2, _ = _dual_value(b, jac, polished[1])
-            if g2 > g:
-                g, lam = g2, polished[1]
-    if worst(s_dual) < worst(s):
-        s = s_dual
-    value = worst(s)
-    return value, min(float(np.sqrt(g)) * (1 - 1e-13), value), s, lam
-
-
 def _rot(axis: FloatArray, theta: float) -> FloatArray:
     k = np.array([[0, -axis[2], axis[1]], [axis[2], 0, -axis[0]], [-axis[1], axis[0], 0]])
     return np.eye(3) + np.sin(theta) * k + (1 - np.cos(theta)) * k @ k
@@ -304,7 +162,7 @@ def float_group(targets: FloatArray, nominals: FloatArray, projs: FloatArray, we
         value, bound, s, lam, _ = at(targets)
         return FloatCertificate(value, bound, "global", deviations(targets, s), lam)
     if len(kept) > 1:
-        value, dev = float_position(targets, nominals, projs, trans, kept, pivot, w)
+        value, _, dev = float_position(targets, nominals, projs, trans, kept, pivot, w)
         return FloatCertificate(value, float("nan"), "local", dev, np.full(len(targets), np.nan), float("nan"))
     axis = kept[0]
     centre = np.asarray(pivot, dtype=float)

@@ -82,7 +82,7 @@ def evaluate_position_pattern(
     from pcmm_geo.gdt.composite import float_group
 
     if rots:
-        ratio, vectors = float_position(stacked, np.vstack(nominals), np.vstack(projs), trans, rots, drf.pivot,
+        ratio, _, vectors = float_position(stacked, np.vstack(nominals), np.vstack(projs), trans, rots, drf.pivot,
                                         weights)
     else:  # translations only: the certified minimax (Lagrange dual) of gdt.composite
         cert = float_group(stacked, np.vstack(nominals), np.vstack(projs), weights, trans, [], drf.pivot)
