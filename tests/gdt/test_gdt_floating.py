@@ -194,3 +194,18 @@ def test_position_fails_only_on_the_proven_bound(monkeypatch):
                             lambda *a, hb=half_bound, **k: (0.6, hb, np.zeros((1, 3))))
         result = evaluate_position(feature, drf, 1.0)
         assert (result.value_mm, result.bound_mm, result.verdict) == (1.2, 2 * half_bound, verdict)
+
+
+def test_a_free_turn_that_moves_the_targets_proves_no_bound_one_about_the_zone_axis_is_dropped() -> None:
+    """With a turn that matters the minimax is local: the bound is 0, so no FAIL is decided on it.  A turn
+    about the zones' common axis through their nominals (coaxiality to a datum axis) changes no distance:
+    it is dropped and the value keeps its proven bound (the largest radial distance, here exactly 0.05)."""
+    z = np.array([0.0, 0.0, 1.0])
+    radial = np.eye(3) - np.outer(z, z)
+    targets = np.array([[0.03, 0.04, 0.0], [-0.01, 0.02, 10.0]])  # an axis 0.05 and 0.022 off the datum axis
+    value, bound, _ = float_position(targets, np.zeros(3), radial, [], [z], np.zeros(3))
+    assert value == pytest.approx(0.05, abs=1e-15) and bound == pytest.approx(value, rel=1e-12)
+    holes = np.array([[10.0, 0.1, 0.0], [-10.0, 0.0, 0.0], [0.0, 10.0, 0.0]])
+    nominal = np.array([[10.0, 0.0, 0.0], [-10.0, 0.0, 0.0], [0.0, 10.0, 0.0]])
+    value, bound, _ = float_position(holes, nominal, radial, [], [z], np.zeros(3))
+    assert 0.0 < value < 0.1 and bound == 0.0

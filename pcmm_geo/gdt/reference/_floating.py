@@ -253,8 +253,8 @@ def float_position(targets: FloatArray, nominal: FloatArray, proj: FloatArray, t
     minimax); free rotations about ``pivot`` are linearised and the targets turned exactly, repeated until
     the step is below 1e-13 rad (Gauss-Newton on the minimax).  Returns the value (weighted), its lower
     bound and the final deviations (K, 3), unweighted.  Without free rotations the bound is proven (the dual
-    certificate of the convex minimax); with them it bounds the translations at the final turn only (the
-    turn is a local optimum).
+    certificate of the convex minimax); with a free rotation that moves the targets the turn found is a
+    local optimum and no lower bound is proven: the bound is then 0 (a FAIL cannot be decided on it).
     """
     current = np.asarray(targets, dtype=float)
     k = len(current)
@@ -270,7 +270,12 @@ def float_position(targets: FloatArray, nominal: FloatArray, proj: FloatArray, t
     # a rotation whose motion of these targets a free translation already gives adds nothing (an axis
     # parallel to the rotation axis): drop it, so the minimax keeps a unique solution
     kept: list[FloatArray] = []
+    scale = max(1.0, float(np.abs(nominal - pivot).max()))
     for r in rots:
+        # a turn about an axis along every zone's own axis and through every nominal changes no distance to
+        # its zone (coaxiality about its datum axis): it moves nothing the minimax sees
+        if np.abs(proj @ r).max() < 1e-12 and np.abs(np.cross(nominal - pivot, r)).max() < 1e-12 * scale:
+            continue
         base_cols = [c.reshape(-1) for c in columns(current, kept)]
         new = columns(current, [r])[-1].reshape(-1)
         base = np.column_stack(base_cols) if base_cols else np.zeros((len(new), 0))
@@ -295,8 +300,8 @@ def float_position(targets: FloatArray, nominal: FloatArray, proj: FloatArray, t
     vectors = np.einsum("kij,kj->ki", proj, current - nominal)
     cols = columns(current, [])
     jac = np.stack(cols, axis=2) if cols else np.zeros((k, 3, 0))
-    value, bound, step = float_solve(vectors * w[:, None], jac)
-    return value, bound, _shifted(vectors, proj, trans, step)
+    value, _, step = float_solve(vectors * w[:, None], jac)
+    return value, 0.0, _shifted(vectors, proj, trans, step)
 
 
 def _shifted(vectors: FloatArray, proj: FloatArray, trans: list[FloatArray], step: FloatArray) -> FloatArray:
