@@ -22,6 +22,8 @@ passes over the mesh few and cheap.
 
 from __future__ import annotations
 
+import itertools
+import os
 from typing import Any
 
 import numpy as np
@@ -459,17 +461,38 @@ def neighbour_lists(triangles: FloatArray, workers: int = -1) -> NeighbourLists:
     asked = min(_LISTED_NEIGHBOURS, count)
     bound = _LISTED_REACH * float(radius.max())
     tree = CentroidTree(centroids)
-    distance, listed = tree.query(centroids, k=asked, distance_upper_bound=bound, workers=workers)
-    # a full list is complete only below its last distance; rounding of the distances is allowed for
-    within = np.where(np.isfinite(distance[:, -1]), distance[:, -1], bound)
     size = np.maximum(np.maximum(np.abs(centroid_rows[0]), np.abs(centroid_rows[1])), np.abs(centroid_rows[2]))
-    within = within * (1.0 - SLACK) - ROUNDING * (1.0 + size)
-    listed[listed == np.arange(count)[:, None]] = count  # the triangle itself is not listed (padding: count)
-    listed_radius = np.take(np.append(radius, 0.0), listed).max(axis=1)
-    axes = tuple(np.append(values, np.inf) for values in centroid_rows)
+    padded_radius = np.append(radius, 0.0)
     origin = (centroid_rows.min(axis=1) + centroid_rows.max(axis=1)) / 2.0
-    near = np.stack([np.take(np.append(values - centre, np.inf).astype(np.float32), listed)
-                     for values, centre in zip(centroid_rows, origin, strict=True)], axis=1)  # (F, 3, width)
+    near_axes = [np.append(values - centre, np.inf).astype(np.float32)
+                 for values, centre in zip(centroid_rows, origin, strict=True)]
+    listed = np.empty((count, asked), dtype=np.int64)
+    within = np.empty(count)
+    listed_radius = np.empty(count)
+    near = np.empty((count, 3, asked), dtype=np.float32)  # (F, 3, width)
+
+    def fill(rows: slice) -> None:  # the lists of the triangles ``rows``, written in place
+        distance, found = tree.query(centroids[rows], k=asked, distance_upper_bound=bound, workers=1)
+        # a full list is complete only below its last distance; rounding of the distances is allowed for
+        last = np.where(np.isfinite(distance[:, -1]), distance[:, -1], bound)
+        within[rows] = last * (1.0 - SLACK) - ROUNDING * (1.0 + size[rows])
+        found[found == np.arange(rows.start, rows.stop)[:, None]] = count  # not itself (padding: count)
+        listed[rows] = found
+        listed_radius[rows] = np.take(padded_radius, found).max(axis=1)
+        for axis in range(3):
+            near[rows, axis] = np.take(near_axes[axis], found)
+
+    threads = max(1, min(workers if workers > 0 else (os.cpu_count() or 1), count // 4096))
+    bounds = np.linspace(0, count, threads + 1).astype(np.int64)
+    chunks = [slice(int(a), int(b)) for a, b in itertools.pairwise(bounds)]
+    if len(chunks) == 1:
+        fill(chunks[0])
+    else:  # one chunk per thread: the tree's query and numpy's gathers release the GIL
+        from concurrent.futures import ThreadPoolExecutor
+
+        with ThreadPoolExecutor(len(chunks)) as pool:
+            list(pool.map(fill, chunks))
+    axes = tuple(np.append(values, np.inf) for values in centroid_rows)
     return NeighbourLists(listed=listed, complete_within=within, centroids=centroids, radius=radius,
                           listed_radius=listed_radius, centroid_axes=axes, tree=tree, origin=origin,
                           extent=float(np.abs(centroids - origin).max()), listed_near=near)

@@ -232,8 +232,17 @@ def surface_distances(points: ArrayLike, mesh: trimesh.Trimesh, *, require_close
     >>> round(float(near.signed_distance[0]), 12), (np.round(near.closest[0], 12) + 0.0).tolist()
     (0.002, [50.0, 0.0, 0.0])
     """
-    index = SurfaceIndex.build(mesh, require_closed=require_closed, workers=workers)
-    return index.distances(points, workers=workers)
+    threads = _thread_count(workers)
+    if threads == 1 or is_dask_array(points):
+        index = SurfaceIndex.build(mesh, require_closed=require_closed, workers=workers)
+        return index.distances(points, workers=workers)
+    from concurrent.futures import ThreadPoolExecutor
+
+    with ThreadPoolExecutor(1) as pool:  # the points are checked and ordered while the index is built
+        ordered = pool.submit(_ordered_points, points)
+        index = SurfaceIndex.build(mesh, require_closed=require_closed, workers=workers)
+        query, order = ordered.result()
+    return index._ordered_distances(query, order, threads)
 
 
 @record
@@ -298,15 +307,35 @@ class SurfaceIndex:
         if not np.all(np.isfinite(vertices)):
             raise InvalidInputError("mesh", "finite vertex coordinates", "NaN or inf")
         triangles = np.take(vertices, faces, axis=0)
+        if threads == 1:
+            neighbours = neighbour_lists(triangles, 1)
+            return cls._assemble(mesh, vertices, faces, triangles, neighbours, require_closed)
+        from concurrent.futures import ThreadPoolExecutor
+
+        # the neighbour lists (mostly the k-d tree's threaded query) are made while this thread checks the
+        # mesh and makes its planes and normals: numpy and the tree release the GIL in their loops
+        with ThreadPoolExecutor(1) as pool:
+            lists = pool.submit(neighbour_lists, triangles, threads)
+            try:
+                return cls._assemble(mesh, vertices, faces, triangles, lists, require_closed)
+            finally:
+                lists.cancel()
+
+    @classmethod
+    def _assemble(cls, mesh: trimesh.Trimesh, vertices: FloatArray, faces: IntArray, triangles: FloatArray,
+                  neighbours: Any, require_closed: bool) -> SurfaceIndex:
+        """The index of checked arrays; ``neighbours``: the lists, or a future of them (made meanwhile)."""
         twins = twin_edges(faces, len(vertices))
         planes, area_vectors = bounding_planes(triangles)
         if require_closed:
             _check_closed(mesh, twins, enclosed_volume(triangles, area_vectors) if twins is not None else 0.0, "mesh")
         face_normals = np.ascontiguousarray(planes[0:3].T)
-        return cls(triangles=triangles, face_normals=face_normals,
-                   edge_normals=edge_normals(mesh, faces, face_normals, twins), planes=planes,
-                   neighbours=neighbour_lists(triangles, threads),
-                   scene_origin=(vertices.min(axis=0) + vertices.max(axis=0)) / 2, vertices=vertices, faces=faces)
+        normals = edge_normals(mesh, faces, face_normals, twins)
+        if not isinstance(neighbours, NeighbourLists):
+            neighbours = neighbours.result()
+        return cls(triangles=triangles, face_normals=face_normals, edge_normals=normals, planes=planes,
+                   neighbours=neighbours, scene_origin=(vertices.min(axis=0) + vertices.max(axis=0)) / 2,
+                   vertices=vertices, faces=faces)
 
     @property
     def size_classes(self) -> tuple[SizeClass, ...]:
@@ -362,32 +391,33 @@ class SurfaceIndex:
         threads = _thread_count(workers)
         if is_dask_array(points):
             return self._lazy_distances(points)
-        query = as_points(points, element="mesh distance", min_points=1)
-        order = _spatial_order(query)
-        if order is not None:  # nearby points together: the tree and the gathers then hit the cache
-            query = np.take(query, order, axis=0)
+        return self._ordered_distances(*_ordered_points(points), threads)
+
+    def _ordered_distances(self, query: FloatArray, order: IntArray | None, threads: int) -> SurfaceDistances:
+        """Distances of ``query`` (points in spatial order), written back to the caller's order ``order``."""
         pieces = max(threads, -(-len(query) // _POINTS_PER_BLOCK))
         pieces = min(-(-pieces // threads) * threads, len(query))  # equal shares for the threads
         bounds = np.linspace(0, len(query), pieces + 1).astype(np.int64)
         blocks = [slice(int(start), int(stop)) for start, stop in itertools.pairwise(bounds)]
+        count = len(query)
+        found = SurfaceDistances(closest=np.empty((count, 3)), signed_distance=np.empty(count),
+                                 face_index=np.empty(count, dtype=np.int64), direction=np.empty((count, 3)))
 
-        def block_distances(rows: slice) -> SurfaceDistances:  # one thread a block, unless there is one block
-            return self._distances(query[rows], threads if len(blocks) == 1 else 1)
+        def block_distances(rows: slice) -> None:  # one thread a block, unless there is one block; each writes its rows
+            part = self._distances(query[rows], threads if len(blocks) == 1 else 1)
+            target = rows if order is None else order[rows]
+            for name in ("closest", "signed_distance", "face_index", "direction"):
+                getattr(found, name)[target] = getattr(part, name)
 
         if threads == 1 or len(blocks) == 1:
-            parts = [block_distances(rows) for rows in blocks]
+            for rows in blocks:
+                block_distances(rows)
         else:
             from concurrent.futures import ThreadPoolExecutor
 
             with ThreadPoolExecutor(min(threads, len(blocks))) as pool:  # numpy releases the GIL in its loops
-                parts = list(pool.map(block_distances, blocks))
-        fields = [np.concatenate([getattr(part, name) for part in parts]) if len(parts) > 1 else getattr(parts[0], name)
-                  for name in ("closest", "signed_distance", "face_index", "direction")]
-        if order is not None:
-            for k, values in enumerate(fields):
-                fields[k] = np.empty_like(values)
-                fields[k][order] = values
-        return SurfaceDistances(*fields)
+                list(pool.map(block_distances, blocks))
+        return found
 
     def _lazy_distances(self, points: Any) -> SurfaceDistances:
         """Block-wise distances of a dask array of points; every field a lazy dask array."""
@@ -515,6 +545,13 @@ def _thread_count(workers: int | None) -> int:
     if isinstance(workers, bool) or not isinstance(workers, numbers.Integral) or workers < 1:
         raise InvalidInputError("workers", "a positive integer (threads) or None (every core)", repr(workers))
     return int(workers)
+
+
+def _ordered_points(points: ArrayLike) -> tuple[FloatArray, IntArray | None]:
+    """The checked points (N, 3) in spatial order (:func:`_spatial_order`) and that order (None: as given)."""
+    query = as_points(points, element="mesh distance", min_points=1)
+    order = _spatial_order(query)
+    return (query, None) if order is None else (np.take(query, order, axis=0), order)
 
 
 def _spatial_order(points: FloatArray) -> IntArray | None:

@@ -613,3 +613,22 @@ def test_ordered_queries_on_either_tree_equal_a_search_over_every_triangle(monke
                                rtol=0, atol=1e-12)
     on_face = trimesh.triangles.closest_point(mesh.triangles[found.face_index], found.closest)
     np.testing.assert_allclose(on_face, found.closest, rtol=0, atol=1e-12)
+
+
+def test_neighbour_lists_made_in_chunks_on_threads_equal_one_pass() -> None:
+    """Lists made in one chunk per thread (the tree asked for each chunk's rows) are those of one pass, and each
+    list holds every centroid nearer than its completeness radius (brute force on a sample of triangles)."""
+    import trimesh
+
+    from pcmm_geo.artefacts._triangle import neighbour_lists
+
+    mesh = trimesh.creation.icosphere(subdivisions=5, radius=25.0)
+    triangles = np.asarray(mesh.triangles)
+    one, two = neighbour_lists(triangles, 1), neighbour_lists(triangles, 3)
+    assert len(triangles) // 4096 >= 3
+    for name in ("listed", "complete_within", "listed_radius", "listed_near"):
+        np.testing.assert_array_equal(getattr(one, name), getattr(two, name))
+    centroids = triangles.mean(axis=1)
+    for t in np.random.default_rng(5).choice(len(triangles), 40, replace=False):
+        close = np.flatnonzero(np.linalg.norm(centroids - centroids[t], axis=1) < two.complete_within[t])
+        assert set(close) - {t} <= set(two.listed[t])
