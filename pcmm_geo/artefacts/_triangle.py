@@ -478,7 +478,8 @@ def neighbour_lists(triangles: FloatArray, workers: int = -1) -> NeighbourLists:
         within[rows] = last * (1.0 - SLACK) - ROUNDING * (1.0 + size[rows])
         found[found == np.arange(rows.start, rows.stop)[:, None]] = count  # not itself (padding: count)
         listed[rows] = found
-        listed_radius[rows] = np.take(padded_radius, found).max(axis=1)
+        radii = np.take(padded_radius, found)
+        listed_radius[rows] = np.maximum.reduce([radii[:, k] for k in range(asked)])  # faster than axis=1
         for axis in range(3):
             near[rows, axis] = np.take(near_axes[axis], found)
 
