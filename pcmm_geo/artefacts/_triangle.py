@@ -43,7 +43,7 @@ _FIRST_NEIGHBOURS = 6
 #: triangle size classes (half box diagonals within a factor 2 of each other, the last takes the rest)
 _SIZE_CLASSES = 8
 #: centroid neighbours listed per triangle (see :func:`listed_pairs`)
-_LISTED_NEIGHBOURS = 16
+_LISTED_NEIGHBOURS = 14
 #: the neighbour lists reach this many largest triangle radii (fewer when a list is full)
 _LISTED_REACH = 3.0
 #: points tested against their neighbour lists at once
