@@ -195,3 +195,21 @@ def size_evaluation(feature: Any, modifier: str, *, points: FloatArray | None = 
     out.update({"size_limits_mm": [lo, hi], "size_ok": bool(size_ok),
                 "bonus_low_mm": float(bonus[0]), "bonus_high_mm": float(bonus[1])})
     return out
+
+
+def allowed_zone(feature: Any, tolerance_mm: float, modifier: str, details: dict[str, Any],
+                 **fitted: Any) -> tuple[float, float, bool, float | None]:
+    """The position zone a feature is allowed: ``(low, high, size_ok, bonus)`` (mm).
+
+    ``tolerance_mm`` plus the proven range of the bonus of ``modifier`` (ASME Y14.5-2018 / ISO 2692:
+    the departure of the actual size from MMC or LMC; 0 at RFS); ``size_ok`` False when the size is
+    outside its limits (the characteristic then fails, never with a negative bonus).  The size
+    evaluation (:func:`size_evaluation`, ``fitted`` passed on) is added to ``details``.
+    """
+    if modifier == "RFS":
+        return tolerance_mm, tolerance_mm, True, None
+    sizes = size_evaluation(feature, modifier, **fitted)
+    size_ok = bool(sizes.pop("size_ok"))
+    details.update(sizes)
+    return (tolerance_mm + sizes["bonus_low_mm"], tolerance_mm + sizes["bonus_high_mm"], size_ok,
+            sizes["bonus_low_mm"])

@@ -35,7 +35,7 @@ from numpy.typing import NDArray
 
 from pcmm_geo._records import record
 from pcmm_geo.errors import InvalidInputError
-from pcmm_geo.gdt._sizes import size_evaluation
+from pcmm_geo.gdt._sizes import allowed_zone, size_evaluation
 from pcmm_geo.gdt.reference._floating import float_position, minimise_angle
 from pcmm_geo.gdt.reference.frame import DatumReferenceFrame
 
@@ -261,18 +261,10 @@ def evaluate_position(
         value, bound, vectors = float_position(targets, feature.point, proj, trans, rots, drf.pivot)
         value, bound = 2.0 * value, 2.0 * bound
         details["deviations_mm"] = vectors.tolist()
-    bonus: float | None = None
-    low = high = tolerance_mm
-    size_ok = True
-    if modifier != "RFS":
-        if feature.element not in ("cylinder", "sphere") or not np.isfinite(feature.diameter):
-            raise InvalidInputError(f"{name or feature.name}: {modifier}", "a feature of size with a diameter",
-                                    feature.element)
-        sizes = size_evaluation(feature, modifier, **fitted)
-        size_ok = sizes.pop("size_ok")
-        details.update(sizes)
-        bonus = sizes["bonus_low_mm"]
-        low, high = tolerance_mm + sizes["bonus_low_mm"], tolerance_mm + sizes["bonus_high_mm"]
+    if modifier != "RFS" and (feature.element not in ("cylinder", "sphere") or not np.isfinite(feature.diameter)):
+        raise InvalidInputError(f"{name or feature.name}: {modifier}", "a feature of size with a diameter",
+                                feature.element)
+    low, high, size_ok, bonus = allowed_zone(feature, tolerance_mm, modifier, details, **fitted)
     verdict = decide(value, bound, low, high)
     if not size_ok:
         verdict = "FAIL"

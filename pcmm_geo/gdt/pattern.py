@@ -11,12 +11,12 @@ from typing import Any
 import numpy as np
 
 from pcmm_geo.errors import InvalidInputError
+from pcmm_geo.gdt._sizes import allowed_zone
 from pcmm_geo.gdt.characteristics import (
     CharacteristicResult,
     FeatureData,
     _free_axes,
     _position_targets,
-    size_evaluation,
 )
 from pcmm_geo.gdt.reference._floating import float_position
 from pcmm_geo.gdt.reference.frame import DatumReferenceFrame
@@ -63,14 +63,7 @@ def evaluate_position_pattern(
         projs.append(np.repeat(proj[None], len(pts), axis=0))
         owner += [k] * len(pts)
         details: dict[str, Any] = {"pattern": pattern}
-        low = high = tolerance
-        ok, bonus = True, None
-        if modifier != "RFS":
-            sizes = size_evaluation(feature, modifier)
-            ok = sizes.pop("size_ok")
-            details.update(sizes)
-            bonus = sizes["bonus_low_mm"]
-            low, high = tolerance + sizes["bonus_low_mm"], tolerance + sizes["bonus_high_mm"]
+        low, high, ok, bonus = allowed_zone(feature, tolerance, modifier, details)
         details_list.append(details)
         allowed_low.append(low)
         allowed_high.append(high)

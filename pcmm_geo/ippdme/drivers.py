@@ -56,13 +56,14 @@ from typing import Any, TypeVar
 import numpy as np
 from numpy.typing import NDArray
 
-from pcmm_geo.errors import DeviceError, DeviceProtocolError, DeviceTimeoutError, InvalidInputError, PcmmGeoError
+from pcmm_geo.errors import DeviceError, DeviceProtocolError, DeviceTimeoutError, InvalidInputError
 from pcmm_geo.ippdme.machine import (
     HOME_RAISE_MM,
     MachineBackend,
     MachineModel,
     MoveRefused,
     ProbeResult,
+    reachable_heights,
     reported_tip,
     tip_uncertainties,
 )
@@ -188,13 +189,7 @@ class DriverMachine(MachineBackend):
         """Tip centres ``(K, 3)`` every ``step`` mm from ``start`` (excluded) to ``end`` and their motor counts."""
         count = max(1, math.ceil(float(np.linalg.norm(end - start)) / step - 1e-9))
         tips = start + np.arange(1, count + 1)[:, None] / count * (end - start)
-        try:
-            solution = self.model.machine.inverse(tips, check_limits=check)
-        except PcmmGeoError as exc:
-            raise MoveRefused(2500, str(exc).splitlines()[0][:200]) from None
-        if not np.all(solution.converged):
-            raise MoveRefused(2500, "no pose of the machine reaches the target")
-        return tips, self.counts_of(solution.heights)
+        return tips, self.counts_of(reachable_heights(self.model, tips, check=check))
 
     # ------------------------------------------------------------------ device calls
     def _call(self, function: Callable[..., T], *args: Any) -> T:

@@ -41,7 +41,7 @@ from pcmm_geo.errors import InvalidInputError, PcmmGeoError
 from pcmm_geo.ippdme.workpieces import first_contact
 
 __all__ = ["HOME_RAISE_MM", "MachineBackend", "MachineModel", "MoveRefused", "ProbeResult", "SimulatedMachine",
-           "tip_uncertainties"]
+           "reachable_heights", "tip_uncertainties"]
 
 FloatArray = NDArray[np.float64]
 #: the home pose: every column this far above the model's reference (level) heights, mm
@@ -192,6 +192,21 @@ def tip_uncertainties(model: MachineModel, lasers: FloatArray, heights: FloatArr
     return np.sqrt(total), np.where(ok, alone, np.inf)
 
 
+def reachable_heights(model: MachineModel, tips: ArrayLike, *, check: bool = True) -> FloatArray:
+    """Column heights ``(..., 3)`` of tip centres by the calibrated inverse kinematics; unreachable: 2500.
+
+    ``check=False`` solves without the workspace limits (points already checked).  Both machines
+    (simulated and on the drivers) command their moves through it.
+    """
+    try:
+        solution = model.machine.inverse(np.asarray(tips, dtype=float), check_limits=check)
+    except PcmmGeoError as exc:
+        raise MoveRefused(2500, str(exc).splitlines()[0][:200]) from None
+    if not np.all(solution.converged):
+        raise MoveRefused(2500, "no pose of the machine reaches the target")
+    return np.asarray(solution.heights, dtype=float)
+
+
 def reported_tip(model: MachineModel, lasers: FloatArray, heights: FloatArray) -> FloatArray:
     """Tip centres ``(N, 3)`` from readings ``(N, 3)``, ``(N, 3)``: calibrated forward kinematics (2500 if unsolved)."""
     solution = model.machine.forward(lasers=lasers, heights=heights, laser_sigma=model.laser_sigma,
@@ -265,14 +280,7 @@ class SimulatedMachine(MachineBackend):
 
         ``check=False`` solves without the workspace limits (points already checked).
         """
-        tips = np.asarray(tips, dtype=float)
-        try:
-            solution = self.model.machine.inverse(tips, check_limits=check)
-        except PcmmGeoError as exc:
-            raise MoveRefused(2500, str(exc).splitlines()[0][:200]) from None
-        if not np.all(solution.converged):
-            raise MoveRefused(2500, "no pose of the machine reaches the target")
-        return np.asarray(solution.heights, dtype=float)
+        return reachable_heights(self.model, tips, check=check)
 
     def check_path(self, start: FloatArray, end: FloatArray) -> FloatArray:
         """Refuse (2500) a straight move whose path leaves the workspace (checked every 5 mm); the end's heights."""

@@ -190,7 +190,8 @@ def evaluate_position_mobility(features: list[Any], drf: DatumReferenceFrame, do
         whole mobility, global), the boundaries (sizes, envelopes, gaps) and the KKT certificate.  A
         boundary the part does not fit: FAIL with the reason.
     """
-    from pcmm_geo.gdt.characteristics import CharacteristicResult, _position_targets, decide, size_evaluation
+    from pcmm_geo.gdt._sizes import allowed_zone
+    from pcmm_geo.gdt.characteristics import CharacteristicResult, _position_targets, decide
     from pcmm_geo.gdt.reference.mobility import solve_mobility
 
     names = names or [f.name for f in features]
@@ -202,15 +203,8 @@ def evaluate_position_mobility(features: list[Any], drf: DatumReferenceFrame, do
             raise InvalidInputError(f"{names[k]}: element", "an axis, a centre or a point for position with a "
                                     "datum at MMB / LMB", feature.element)
         pts, proj = _position_targets(feature, drf, names[k], "dia")
-        low = high = tolerance
         details: dict[str, Any] = {"datum_modifiers": list(datum_modifiers)} if datum_modifiers else {}
-        ok, bonus = True, None
-        if modifier != "RFS":
-            sizes = size_evaluation(feature, modifier)
-            ok = sizes.pop("size_ok")
-            details.update(sizes)
-            bonus = sizes["bonus_low_mm"]
-            low, high = tolerance + sizes["bonus_low_mm"], tolerance + sizes["bonus_high_mm"]
+        low, high, ok, bonus = allowed_zone(feature, tolerance, modifier, details)
         prepared.append((pts, proj, low, high, ok, bonus, details))
     results: list[Any] = [None] * len(features)
     boundaries = [b.to_dict() for b in domain.boundaries]
