@@ -18,6 +18,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from pcmm_geo._records import SummaryRow, record
+from pcmm_geo.elements import Criterion
 from pcmm_geo.errors import (
     ConvergenceError,
     DegenerateGeometryError,
@@ -437,9 +438,10 @@ class FitResult:
     message : str
     method : str
         ``"gaussian"`` (orthogonal-distance least squares) or a named variant.
-    criterion : str
-        ``"gaussian"`` (least squares, default), ``"chebyshev"`` (minimum zone), ``"mcc"``
-        (minimum circumscribed) or ``"mic"`` (maximum inscribed).
+    criterion : {"gaussian", "chebyshev", "mcc", "mic"}
+        :data:`pcmm_geo.elements.Criterion`: ``"gaussian"`` (least squares, default),
+        ``"chebyshev"`` (minimum zone), ``"mcc"`` (minimum circumscribed) or ``"mic"`` (maximum
+        inscribed).
     contacts : ndarray of int, shape (M,)
         Indices of the support points of a non-Gaussian fit (empty for Gaussian fits).
     certificate : Certificate or None
@@ -460,7 +462,7 @@ class FitResult:
     message: str
     method: str = "gaussian"
     extra: dict[str, Any] = field(default_factory=dict)
-    criterion: str = "gaussian"
+    criterion: Criterion = "gaussian"
     contacts: NDArray[np.intp] = field(default_factory=lambda: np.zeros(0, dtype=np.intp))
     certificate: Certificate | None = None
 
