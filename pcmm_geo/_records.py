@@ -51,9 +51,11 @@ SHOWN_CHARS = 80
 class SummaryRow(NamedTuple):
     """One displayed parameter of a result: a row of its ``summary()`` (plain data any layer can pass on).
 
-    The rows are the one choice of what a result shows: the ``pcmm fit`` table prints them, the
-    QIF export takes the location, direction, size and their uncertainties from them, and the
-    fit results' repr shows them grouped by ``quantity``.
+    The rows render the element spec's parameters (:data:`pcmm_geo.elements.SPECS`), the one
+    choice of what a result shows: the ``pcmm fit`` table prints them, the QIF export takes the
+    location, orientation, diameter, angles and their uncertainties from them (selected by the
+    spec's fields), the fit plots' texts take their values from them, and the fit results' repr
+    shows them grouped by ``quantity``.
 
     Attributes
     ----------

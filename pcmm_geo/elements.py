@@ -83,10 +83,15 @@ class Parameter:
         Field name of the fit result (``center``, ``axis``, ``radius``, ...).
     kind : {"position", "direction", "length", "angle"}
         A point (shape ``(D,)``, mm), a unit vector (shape ``(D,)``), a length (mm) or an angle (rad).
+    shown : bool
+        The fit's summary (:meth:`pcmm_geo.fit.FitResult.summary`, the ``pcmm fit`` table, the
+        repr) displays it.  False only for a cone's ``radius_at_point``, the radius at its
+        reference point, which ``summary(complete=True)`` adds for the QIF writer's diameter.
     """
 
     name: str
     kind: ParameterKind
+    shown: bool = True
 
     @property
     def unit(self) -> str:
@@ -177,8 +182,8 @@ class ElementSpec:
         return (*self.placement_fields, *sized, *(p.name for p in self.parameters if p.kind == "angle"))
 
 
-def _p(name: str, kind: ParameterKind) -> Parameter:
-    return Parameter(name, kind)
+def _p(name: str, kind: ParameterKind, shown: bool = True) -> Parameter:
+    return Parameter(name, kind, shown)
 
 
 _ALL: tuple[Criterion, ...] = ("gaussian", "chebyshev", "mcc", "mic")
@@ -205,7 +210,7 @@ _ROWS = (
                 dims=(3,), size="radius", offset="radial", axis_field="axis", location_field="point",
                 orientation="direction", criteria=_ALL, form="cylindricity", qif=True),
     ElementSpec("cone", "ConeFit", (_p("apex", _POINT), _p("axis", _DIRECTION), _p("half_angle", _ANGLE),
-                                    _p("point", _POINT), _p("radius_at_point", _LENGTH)),
+                                    _p("point", _POINT), _p("radius_at_point", _LENGTH, shown=False)),
                 dims=(3,), size="radius_at_point", offset="conical", axis_field="axis", location_field="point",
                 orientation="direction", criteria=_ZONE, form="conicity", qif=True),
     ElementSpec("torus", "TorusFit", (_p("center", _POINT), _p("axis", _DIRECTION), _p("major_radius", _LENGTH),

@@ -132,6 +132,7 @@ TYPED_USE = '''
 import numpy as np
 import numpy.typing as npt
 
+from pcmm_geo.elements import Criterion
 from pcmm_geo.fit import CylinderFit, PlaneFit, SphereFit, fit_cylinder, fit_plane, fit_sphere
 from pcmm_geo.io import read_points
 from pcmm_geo.machine import RigidBodyMachine, seed_machine, trilaterate
@@ -150,6 +151,10 @@ def tip(lengths: npt.NDArray[np.float64]) -> npt.NDArray[np.float64]:
     machine: RigidBodyMachine = seed_machine()
     del machine
     return trilaterate(np.eye(3), lengths).point
+
+
+def minimum_zone(points: npt.NDArray[np.float64]) -> Criterion:
+    return fit_cylinder(points, criterion="chebyshev").criterion  # a Criterion, not any str
 
 
 radius_as_text: str = fit_sphere(np.zeros((4, 3))).radius  # wrong

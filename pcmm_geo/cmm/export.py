@@ -43,7 +43,8 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from pcmm_geo.elements import FEATURE_TYPES, SIZED_FEATURES, SPECS, Element, FeatureType
+from pcmm_geo._records import SummaryRow
+from pcmm_geo.elements import FEATURE_TYPES, SIZED_FEATURES, SPECS, Element, FeatureType, element_of
 from pcmm_geo.errors import InvalidInputError
 
 if TYPE_CHECKING:
@@ -153,36 +154,56 @@ def _three(vector: Any, fill: float = 0.0) -> FloatArray:
     return arr if arr.size == 3 else np.append(arr, [fill] * (3 - arr.size))
 
 
-def _std(fit: FitResult, names: tuple[str, ...]) -> float | None:
-    errors = dict(zip(fit.parameter_names, np.asarray(fit.std_errors).tolist(), strict=True))
-    values = [errors[name] for name in names if name in errors]
+def _std(values: list[float]) -> float | None:
+    """The largest standard uncertainty of summary rows; None when none has one (NaN: not fitted) or all are 0."""
+    values = [u for u in values if not np.isnan(u)]
     if not values or not all(np.isfinite(values)) or max(values) == 0:
         return None
     return float(max(values))
 
 
-def _geometry(fit: FitResult, element: Element, form: float | None, outward: FloatArray | None) -> FeatureGeometry:
-    """The QIF actuals of ``fit``: the spec's location, orientation, size and angles (pcmm_geo.elements)."""
-    from pcmm_geo.io.cmm import FeatureGeometry
-
-    row = SPECS[element]
+def _rows(fit: FitResult, element: str) -> tuple[dict[str, list[SummaryRow]], dict[str, float]]:
+    """The summary rows of ``fit`` by quantity, and the QIF uncertainties of its location and diameter."""
+    rows: dict[str, list[SummaryRow]] = {}
+    for row in fit.summary(complete=True):  # with the rows the table leaves out (a cone's radius_at_point)
+        rows.setdefault(row.quantity, []).append(row)
+    spec = SPECS[element]
     uncertainty: dict[str, float] = {}
-    radius_u = _std(fit, ("radius", "radius_at_point"))
-    if radius_u is not None and row.size is not None:
-        uncertainty["diameter"] = 2.0 * radius_u
-    location_u = _std(fit, ("center_x", "center_y", "center_z", "point_x", "point_y", "point_z"))
+    diameter_u = _std([row.u for row in rows.get("diameter", [])]) if spec.size is not None else None
+    if diameter_u is not None:
+        uncertainty["diameter"] = diameter_u
+    location_u = _std([row.u for row in rows.get(str(spec.location_field), [])])
     if location_u is not None:
         uncertainty["location"] = location_u
-    values: dict[str, Any] = {"location": _three(getattr(fit, str(row.location_field)))}
-    if row.size is not None:
-        values["diameter"] = 2.0 * float(getattr(fit, row.size))
-    values.update({p.name: float(getattr(fit, p.name)) for p in row.parameters if p.kind == "angle"})
-    if row.orientation is not None:
-        axis = getattr(fit, str(row.axis_field))
-        axis = np.array([0.0, 0.0, 1.0]) if axis is None else _three(axis)  # a planar circle: the z axis
+    return rows, uncertainty
+
+
+def _geometry(fit: FitResult, element: Element, form: float | None, outward: FloatArray | None) -> FeatureGeometry:
+    """The QIF actuals of ``fit``: its summary rows of the spec's location, orientation, size and angles.
+
+    The values and their standard uncertainties are those :meth:`~pcmm_geo.fit.FitResult.summary`
+    shows (``complete=True``), picked by the element spec (:data:`pcmm_geo.elements.SPECS`): the
+    rows of its ``location_field`` and ``axis_field``, its ``diameter`` row when it has a size,
+    the rows of its angle parameters.
+    """
+    from pcmm_geo.io.cmm import FeatureGeometry
+
+    spec = SPECS[element]
+    rows, uncertainty = _rows(fit, element)
+
+    def values_of(quantity: str | None) -> list[float]:
+        return [row.value for row in rows.get(str(quantity), ())]
+
+    values: dict[str, Any] = {"location": _three(values_of(spec.location_field))}
+    if spec.size is not None:
+        values["diameter"] = values_of("diameter")[0]
+    values.update({p.name: values_of(p.name)[0] for p in spec.parameters if p.kind == "angle"})
+    if spec.orientation is not None:
+        components = values_of(spec.axis_field)  # none: a planar circle, whose axis is z
+        axis = np.array([0.0, 0.0, 1.0]) if not components else _three(components)
         if element == "plane" and outward is not None and float(axis @ outward) < 0:
             axis = -axis  # QIF: a plane's normal points out of the material
-        values[row.orientation] = axis
+        values[spec.orientation] = axis
     return FeatureGeometry(**values, form=form, uncertainty=uncertainty)
 
 
@@ -350,13 +371,11 @@ def refit_report(document: CmmDocument, feature: MeasuredFeature, refit: Refit, 
     kept = file_feature(document, feature)
     kind = refit.type
     uncertainty: dict[str, float] = {}
-    if refit.fit is not None:
-        radius_u = _std(refit.fit, ("radius", "radius_at_point"))
-        if radius_u is not None and refit.diameter is not None:
-            uncertainty["diameter"] = 2.0 * radius_u
-        location_u = _std(refit.fit, ("center_x", "center_y", "center_z", "point_x", "point_y", "point_z"))
-        if location_u is not None:
-            uncertainty["location"] = location_u
+    fitted = None if refit.fit is None else element_of(refit.fit)
+    if refit.fit is not None and fitted is not None:
+        uncertainty = _rows(refit.fit, fitted)[1]
+        if refit.diameter is None:
+            uncertainty.pop("diameter", None)
     outward = refit.compensation.outward
     direction = None if refit.direction is None else np.asarray(refit.direction, dtype=float)
     if kind == "plane" and direction is not None and outward is not None and float(direction @ outward) < 0:

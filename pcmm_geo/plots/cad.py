@@ -9,11 +9,13 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from pcmm_geo._optional import require
+from pcmm_geo.elements import SPECS, element_of
 from pcmm_geo.plots._figure import check_plot_path, length_unit, new_figure, save_figure
 
 if TYPE_CHECKING:
     from pcmm_geo.artefacts.cad_compare import MeshDeviations
     from pcmm_geo.artefacts.cad_segment import Segmentation
+    from pcmm_geo.fit import FitResult
 
 __all__ = ["plot_deviations", "plot_segments"]
 
@@ -149,7 +151,7 @@ def plot_segments(
                      label=f"unassigned ({segmentation.unassigned.size})")
     for number, segment in enumerate(segmentation.segments):
         member = cloud[segment.indices]
-        size = f"r {segment.fit.radius:.4f} mm, " if segment.kind == "cylinder" else ""  # type: ignore[union-attr]
+        size = _size_text(segment.fit)
         axes.scatter(member[:, 0], member[:, 1], member[:, 2], color=palette(number % 10), s=4, depthshade=False,
                      label=f"{number + 1} {segment.kind} ({size}n {len(segment.indices)}, "
                            f"rms {1000 * segment.fit.rms:.2g} µm)")
@@ -161,6 +163,21 @@ def plot_segments(
     axes.set_title(f"{len(segmentation.planes)} planes, {len(segmentation.cylinders)} cylinders "
                    f"(threshold {1000 * segmentation.distance_threshold:.3g} µm)", fontsize=9)
     return save_figure(figure, path, overwrite=overwrite)
+
+
+def _size_text(fit: FitResult) -> str:
+    """The legend's size of a segment's fit, its summary row of the spec's size (``"r 4.0000 mm, "``; "" for a plane).
+
+    >>> from pcmm_geo.fit import fit_cylinder
+    >>> theta = np.linspace(0.0, 2 * np.pi, 8, endpoint=False)
+    >>> _size_text(fit_cylinder(np.c_[4 * np.tile(np.cos(theta), 2), 4 * np.tile(np.sin(theta), 2),
+    ...                              np.repeat([0.0, 9.0], 8)]))
+    'r 4.0000 mm, '
+    """
+    element = element_of(fit)
+    size = None if element is None else SPECS[element].size
+    rows = [row for row in fit.summary() if row.name == size]
+    return "".join(f"r {row.value:.4f} {row.unit}, " for row in rows)
 
 
 def _true_proportions(axes: Any, points: FloatArray, margin: float = 0.04) -> None:

@@ -92,3 +92,37 @@ def test_repr_and_qif_export_use_the_rows() -> None:
     assert actual.uncertainty["diameter"] == pytest.approx(rows["diameter"].u, rel=1e-12)
     assert actual.uncertainty["location"] == pytest.approx(max(rows[f"center_{a}"].u for a in "xyz"), rel=1e-12)
     np.testing.assert_allclose(actual.location, [rows[f"center_{a}"].value for a in "xyz"], rtol=0, atol=1e-12)
+
+
+def test_rows_follow_the_element_spec() -> None:
+    """Every row is a spec parameter (by kind and unit), a zone radius or a derived row; a cone's
+    radius_at_point (not shown) only with complete=True, and the QIF diameter is its double."""
+    from pcmm_geo.cmm.export import feature_report
+    from pcmm_geo.elements import SPECS, element_of
+
+    half = math.radians(15.0)
+    theta = np.linspace(0, 2 * np.pi, 12, endpoint=False)
+    height = np.repeat([0.0, 3.0, 6.0], 12)
+    radius = 8.0 - height * math.tan(half)
+    points = np.c_[radius * np.tile(np.cos(theta), 3), radius * np.tile(np.sin(theta), 3), height]
+    rng = np.random.default_rng(3)
+    cone = fit_cone(points + 1e-3 * rng.normal(size=points.shape))
+    spec = SPECS[str(element_of(cone))]
+    units = {p.name: p.unit for p in spec.parameters}
+    shown = cone.summary()
+    assert [row.quantity for row in shown if not row.derived][:3] == ["point"] * 3  # the location field first
+    assert all(row.unit == units[row.quantity] for row in shown if not row.derived)
+    assert "radius_at_point" not in {row.name for row in shown}
+    complete = {row.name: row for row in cone.summary(complete=True)}
+    assert complete["radius_at_point"].value == pytest.approx(cone.radius_at_point, rel=1e-15)
+    assert complete["diameter"].value == pytest.approx(2 * cone.radius_at_point, rel=1e-15)
+    radius_u = float(np.sqrt(np.diag(cone.covariance)[cone.parameter_names.index("radius_at_point")]))
+    assert radius_u > 0 and complete["diameter"].u == pytest.approx(2 * radius_u, rel=1e-12)
+    # the height of the reference point: the exact cone has radius 8 at z = 0, r(z) = 8 - z tan(15 deg)
+    z = complete["point_z"].value
+    assert complete["radius_at_point"].value == pytest.approx(8.0 - z * math.tan(half), abs=5e-3)
+    actual = feature_report(cone, "cone").actual
+    assert actual.diameter == pytest.approx(complete["diameter"].value, rel=1e-15)
+    assert actual.uncertainty["diameter"] == pytest.approx(complete["diameter"].u, rel=1e-12)
+    assert actual.half_angle == pytest.approx(half, abs=1e-3)
+    np.testing.assert_allclose(actual.direction, [complete[f"axis_{a}"].value for a in "xyz"], rtol=0, atol=1e-15)

@@ -18,6 +18,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from pcmm_geo._records import SummaryRow, record
+from pcmm_geo.elements import Criterion
 from pcmm_geo.errors import (
     ConvergenceError,
     DegenerateGeometryError,
@@ -437,9 +438,10 @@ class FitResult:
     message : str
     method : str
         ``"gaussian"`` (orthogonal-distance least squares) or a named variant.
-    criterion : str
-        ``"gaussian"`` (least squares, default), ``"chebyshev"`` (minimum zone), ``"mcc"``
-        (minimum circumscribed) or ``"mic"`` (maximum inscribed).
+    criterion : {"gaussian", "chebyshev", "mcc", "mic"}
+        :data:`pcmm_geo.elements.Criterion`: ``"gaussian"`` (least squares, default),
+        ``"chebyshev"`` (minimum zone), ``"mcc"`` (minimum circumscribed) or ``"mic"`` (maximum
+        inscribed).
     contacts : ndarray of int, shape (M,)
         Indices of the support points of a non-Gaussian fit (empty for Gaussian fits).
     certificate : Certificate or None
@@ -460,7 +462,7 @@ class FitResult:
     message: str
     method: str = "gaussian"
     extra: dict[str, Any] = field(default_factory=dict)
-    criterion: str = "gaussian"
+    criterion: Criterion = "gaussian"
     contacts: NDArray[np.intp] = field(default_factory=lambda: np.zeros(0, dtype=np.intp))
     certificate: Certificate | None = None
 
@@ -486,39 +488,62 @@ class FitResult:
         out["std_errors"] = np.asarray(self.std_errors).tolist()
         return out
 
-    def summary(self) -> tuple[SummaryRow, ...]:
+    def summary(self, *, complete: bool = False) -> tuple[SummaryRow, ...]:
         """The displayed parameters, one :class:`~pcmm_geo._records.SummaryRow` per row (name, value, u, unit).
 
-        The one choice of what a fit shows: the location and direction vectors by component
-        (``center``, ``point``, ``apex``; ``direction``, ``normal``, ``axis``: unit ``"1"``), the
-        sizes (``radius``, the zone radii ``r_in`` / ``r_out`` of a minimax fit, the torus radii,
-        ``half_angle`` in rad), then, derived for reading, a circle's, sphere's or cylinder's
-        ``diameter`` ``d = 2 r`` with ``u(d) = 2 u(r)`` and a cone's ``apex_angle_deg``.  ``u`` is
-        the standard uncertainty from :attr:`std_errors` (NaN where the row is not a fitted
-        parameter).  ``pcmm fit`` prints these rows, the QIF export
-        (:func:`pcmm_geo.cmm.export.feature_report`) takes its values from them and the repr
-        shows them.
+        The element spec (:data:`pcmm_geo.elements.SPECS`, the row of this result's class) says
+        what the parameters are; this renders them, in the order: the positions (the spec's
+        ``location_field`` first; unit ``"mm"``) and the directions (unit ``"1"``) by component,
+        then the lengths (mm) and angles (rad), the size parameter followed by the zone radii
+        ``r_in`` / ``r_out`` of a minimax fit; then, derived for reading, the ``diameter``
+        ``d = 2 r`` of the size parameter with ``u(d) = 2 u(r)`` and a ``half_angle``'s
+        ``apex_angle_deg``.  A vector the result leaves ``None`` (the normal of a 2-D circle) has
+        no rows.  ``u`` is the standard uncertainty from :attr:`std_errors` (NaN where the row is
+        not a fitted parameter).  ``pcmm fit`` prints these rows, the repr shows them and the
+        QIF export (:func:`pcmm_geo.cmm.export.feature_report`) takes its location, orientation,
+        diameter, angles and their uncertainties from ``summary(complete=True)``, selected by the
+        spec's fields.
+
+        Parameters
+        ----------
+        complete : bool
+            Also the rows of the spec's parameters not displayed (:attr:`Parameter.shown
+            <pcmm_geo.elements.Parameter.shown>`: a cone's ``radius_at_point`` and, from it, its
+            ``diameter``).
 
         Returns
         -------
         tuple of SummaryRow
+            Empty for a result class that is no element of the spec.
         """
+        from pcmm_geo.elements import SPECS, element_of
+
+        element = element_of(self)
+        if element is None:
+            return ()
+        spec = SPECS[element]
         u = dict(zip(self.parameter_names, np.asarray(self.std_errors).tolist(), strict=True))
+        shown = [p for p in spec.parameters if complete or p.shown]
+        shown.sort(key=lambda p: (_KIND_ORDER[p.kind], p.name != spec.location_field))  # stable: else spec order
         rows = []
-        for name in _VECTORS:
-            value = getattr(self, name, None)
-            if value is not None:
-                unit = "1" if name in _DIRECTIONS else "mm"
-                rows += [SummaryRow(f"{name}_{axis}", float(v), u.get(f"{name}_{axis}", math.nan), unit, name)
-                         for axis, v in zip("xyz", np.asarray(value, dtype=float), strict=False)]
-        for name, unit in _SIZES.items():
-            value = float(getattr(self, name, math.nan))
-            if hasattr(self, name) and not (name in ("r_in", "r_out") and math.isnan(value)):  # no zone radii: Gauss
-                rows.append(SummaryRow(name, value, u.get(name, math.nan), unit, name))
-        if hasattr(self, "radius"):  # circle, sphere, cylinder (a cone's size is its half angle)
-            radius = float(self.radius)  # type: ignore[attr-defined]
-            rows.append(SummaryRow("diameter", 2.0 * radius, 2.0 * u.get("radius", math.nan), "mm", "diameter", True))
-        if hasattr(self, "half_angle"):
+        for parameter in shown:
+            name, unit = parameter.name, parameter.unit
+            value = getattr(self, name)
+            if parameter.kind in ("position", "direction"):
+                if value is not None:
+                    rows += [SummaryRow(f"{name}_{axis}", float(v), u.get(f"{name}_{axis}", math.nan), unit, name)
+                             for axis, v in zip("xyz", np.asarray(value, dtype=float), strict=False)]
+                continue
+            rows.append(SummaryRow(name, float(value), u.get(name, math.nan), unit, name))
+            if name == spec.size:
+                for zone in ("r_in", "r_out"):  # the zone radii of a minimax fit (NaN for a Gaussian fit)
+                    radius = float(getattr(self, zone, math.nan))
+                    if not math.isnan(radius):
+                        rows.append(SummaryRow(zone, radius, math.nan, "mm", zone))
+        if spec.size is not None and any(p.name == spec.size for p in shown):
+            radius = float(getattr(self, spec.size))
+            rows.append(SummaryRow("diameter", 2.0 * radius, 2.0 * u.get(spec.size, math.nan), "mm", "diameter", True))
+        if any(p.name == "half_angle" for p in shown):
             angle = math.degrees(2.0 * float(self.half_angle))  # type: ignore[attr-defined]
             rows.append(SummaryRow("apex_angle_deg", angle, math.nan, "deg", "apex_angle_deg", True))
         return tuple(rows)
@@ -537,10 +562,8 @@ class FitResult:
         )
 
 
-#: summary rows: vectors by component (in this order), then sizes with their units
-_VECTORS = ("center", "point", "apex", "direction", "normal", "axis")
-_DIRECTIONS = ("direction", "normal", "axis")
-_SIZES = {"radius": "mm", "r_in": "mm", "r_out": "mm", "major_radius": "mm", "minor_radius": "mm", "half_angle": "rad"}
+#: summary rows: positions, directions, lengths, angles (pcmm_geo.elements parameter kinds)
+_KIND_ORDER = {"position": 0, "direction": 1, "length": 2, "angle": 3}
 
 
 def _short(values: list[float]) -> str:
