@@ -62,9 +62,9 @@ class DatumBoundary:
     envelope : {"mic", "mcc"}
         The actual envelope the boundary bears on (constrained parallel to the primary, exact).
     envelope_diameter_mm : float
-    envelope_centre : ndarray, shape (3,)
+    envelope_center : ndarray, shape (3,)
         The envelope's axis point in DRF coordinates (in the plane through the origin across the primary), mm.
-    nominal_centre : ndarray, shape (3,)
+    nominal_center : ndarray, shape (3,)
         The boundary's axis point (the datum's nominal) in the same plane, DRF coordinates, mm.
     gap_mm : float
         Radial clearance between boundary and envelope (negative: the feature violates its boundary), mm.
@@ -76,16 +76,16 @@ class DatumBoundary:
     boundary_diameter_mm: float
     envelope: str
     envelope_diameter_mm: float
-    envelope_centre: FloatArray
-    nominal_centre: FloatArray
+    envelope_center: FloatArray
+    nominal_center: FloatArray
     gap_mm: float
 
     def to_dict(self) -> dict[str, object]:
         """JSON-ready (mm)."""
         return {"label": self.label, "modifier": self.modifier, "side": self.side,
                 "boundary_diameter_mm": self.boundary_diameter_mm, "envelope": self.envelope,
-                "envelope_diameter_mm": self.envelope_diameter_mm, "envelope_centre_mm": self.envelope_centre.tolist(),
-                "nominal_centre_mm": self.nominal_centre.tolist(), "gap_mm": self.gap_mm}
+                "envelope_diameter_mm": self.envelope_diameter_mm, "envelope_center_mm": self.envelope_center.tolist(),
+                "nominal_center_mm": self.nominal_center.tolist(), "gap_mm": self.gap_mm}
 
 
 @record
@@ -218,7 +218,7 @@ def solve_mobility(targets: FloatArray, nominals: FloatArray, projections: Float
     axis = np.asarray(domain.axis, dtype=float) / np.linalg.norm(domain.axis)
     e1, e2 = _across(axis)
     span = np.array([e1, e2])
-    lever = max(1.0, float(np.abs(q).max()), *(float(np.linalg.norm(b.envelope_centre)) for b in domain.boundaries))
+    lever = max(1.0, float(np.abs(q).max()), *(float(np.linalg.norm(b.envelope_center)) for b in domain.boundaries))
     rotating = domain.rotation != "held"
 
     def motion(x: FloatArray) -> tuple[FloatArray, FloatArray]:
@@ -235,7 +235,7 @@ def solve_mobility(targets: FloatArray, nominals: FloatArray, projections: Float
         r, t = motion(x)
         out = []
         for b in domain.boundaries:
-            s = r @ b.envelope_centre + t - b.nominal_centre
+            s = r @ b.envelope_center + t - b.nominal_center
             out.append(float(np.linalg.norm(s - (s @ axis) * axis)))
         return np.array(out)
 
@@ -273,8 +273,8 @@ def solve_mobility(targets: FloatArray, nominals: FloatArray, projections: Float
         g_t = w[:, None] * np.c_[u @ e1, u @ e2, np.einsum("ki,ki->k", u, spin)]
         g_b = []
         for b in domain.boundaries:
-            moved = r @ b.envelope_centre
-            s = moved + t - b.nominal_centre
+            moved = r @ b.envelope_center
+            s = moved + t - b.nominal_center
             s = s - (s @ axis) * axis
             us = s / max(float(np.linalg.norm(s)), 1e-300)
             g_b.append([us @ e1, us @ e2, us @ np.cross(axis, moved) / lever])
@@ -329,8 +329,8 @@ def _apart(domain: MobilityDomain) -> bool:
     b = domain.boundaries
     for i in range(len(b)):
         for j in range(i + 1, len(b)):
-            actual = np.cross(axis, b[j].envelope_centre - b[i].envelope_centre)
-            nominal = np.cross(axis, b[j].nominal_centre - b[i].nominal_centre)
+            actual = np.cross(axis, b[j].envelope_center - b[i].envelope_center)
+            nominal = np.cross(axis, b[j].nominal_center - b[i].nominal_center)
             if abs(np.linalg.norm(actual) - np.linalg.norm(nominal)) > max(b[i].gap_mm, 0) + max(b[j].gap_mm, 0) + 1e-9:
                 return True
     return False
@@ -460,10 +460,10 @@ def _certificate(x: FloatArray, value: float, terms: FloatArray, touched: FloatA
         grads.append(w[k] * np.r_[u, float(u @ np.cross(axis, rq))])
     for j in bactive:
         b = domain.boundaries[j]
-        s = r @ b.envelope_centre + x[:2] @ span - b.nominal_centre
+        s = r @ b.envelope_center + x[:2] @ span - b.nominal_center
         s = s - (s @ axis) * axis
         u = s / max(float(np.linalg.norm(s)), 1e-300)
-        grads.append(np.r_[u, float(u @ np.cross(axis, r @ b.envelope_centre))])
+        grads.append(np.r_[u, float(u @ np.cross(axis, r @ b.envelope_center))])
     m = cols.shape[1]
     if not grads or m == 0:
         return MobilityCertificate(active.astype(np.int64), np.full(len(active), 1.0 / max(len(active), 1)),
@@ -491,7 +491,7 @@ def _lipschitz_bound(value: float, q: FloatArray, w: FloatArray, domain: Mobilit
     """
     if domain.rotation == "free":
         return float("nan")
-    anchors = [(b.envelope_centre, 2.0 * max(b.gap_mm, 0.0)) for b in domain.boundaries]
+    anchors = [(b.envelope_center, 2.0 * max(b.gap_mm, 0.0)) for b in domain.boundaries]
     held: dict[tuple[float, ...], int] = {}
     for c, _ in domain.held:
         key = tuple(np.round(np.asarray(c, float), 12))

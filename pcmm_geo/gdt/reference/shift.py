@@ -142,7 +142,7 @@ def mobility_domain(drf: DatumReferenceFrame, datums: list[DatumInFrame]) -> Mob
             boundaries.append(boundary)
             if gives_rotation:
                 rotation = "mobile"
-            previous_centre = boundary.nominal_centre if previous_centre is None else previous_centre
+            previous_centre = boundary.nominal_center if previous_centre is None else previous_centre
             continue
         centre = np.asarray(d.point, dtype=float) - float(np.asarray(d.point) @ axis) * axis
         if d.element == "plane":
