@@ -436,7 +436,8 @@ class SurfaceIndex:
         far = np.flatnonzero(candidates < 0)
         if len(far):
             candidates[far] = self.candidates(query[far], threads=threads)
-        closest, squared, face_index, barycentric = self._nearest(query, candidates)
+        rounding = ROUNDING * (1.0 + _largest_coordinate(query))
+        closest, squared, face_index, barycentric = self._nearest(query, candidates, rounding)
         offset = query - closest
         distance = np.sqrt(squared)
         pseudo_normal, inside_face = self._pseudo_normals(barycentric, face_index)
@@ -444,7 +445,6 @@ class SurfaceIndex:
         signed = sign * distance
         # nearest point inside a face: the gradient is that face's normal, exactly; at an edge or
         # a vertex it points from the nearest point, unless the distance is down at rounding level
-        rounding = ROUNDING * (1.0 + _largest_coordinate(query))
         from_feature = ~inside_face & (distance > rounding)
         direction = pseudo_normal.copy()
         direction[from_feature] = offset[from_feature] / signed[from_feature, None]
@@ -473,13 +473,18 @@ class SurfaceIndex:
         nearest[nearest >= len(self.triangles)] = -1  # nothing within reach
         return nearest
 
-    def _nearest(self, query: FloatArray, candidates: IntArray) -> tuple[FloatArray, FloatArray, IntArray, FloatArray]:
-        """Nearest surface point, squared distance, triangle and barycentric weights of every point (exact)."""
+    def _nearest(self, query: FloatArray, candidates: IntArray, rounding: FloatArray | None = None,
+                 ) -> tuple[FloatArray, FloatArray, IntArray, FloatArray]:
+        """Nearest surface point, squared distance, triangle and barycentric weights of every point (exact).
+
+        ``rounding`` (N,): the distances below which a difference is rounding (made here when not given).
+        """
         face_index = np.array(candidates, dtype=np.int64)
         coordinates = np.ascontiguousarray(query.T)
         closest, squared, barycentric = closest_on_triangles(query, np.take(self.triangles, face_index, axis=0))
         # every triangle within the candidate's exact distance could be nearer
-        rounding = ROUNDING * (1.0 + _largest_coordinate(query))
+        if rounding is None:
+            rounding = ROUNDING * (1.0 + _largest_coordinate(query))
         reach = np.sqrt(squared) * (1.0 + SLACK) + rounding
         found = [listed_pairs(self.neighbours, coordinates, reach, face_index, rounding)]
         rest = found[0][2]
